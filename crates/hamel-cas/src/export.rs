@@ -1,0 +1,133 @@
+//! From the canonical form back to plain expression trees (for printing, numeric evaluation and
+//! code generation, none of which needs the engine).
+
+use std::cmp::Reverse;
+
+use hamel_expr::{Expr, Func, Rational};
+use num_bigint::BigInt;
+use num_traits::{One, Signed};
+
+use crate::field::{Angle, Ex, FieldInner, Poly, Sym, VarKind, integer_to_big};
+
+fn sym_name(f: &FieldInner, s: Sym) -> String {
+    match s {
+        Sym::Coord(i) => f.coordinates[i].clone(),
+        Sym::Param(i) => f.parameters[i].clone(),
+    }
+}
+
+/// The meaning of field variable `v` as a tree.
+pub(crate) fn var_expr(f: &FieldInner, v: usize) -> Expr {
+    match &f.kinds[v] {
+        VarKind::Coord(i) => Expr::Sym(f.coordinates[*i].clone()),
+        VarKind::Param(i) => Expr::Sym(f.parameters[*i].clone()),
+        VarKind::Velocity(i) => Expr::Der(f.coordinates[*i].clone()),
+        VarKind::Unknown(i) => Expr::Sym(f.unknowns[*i].clone()),
+        VarKind::Sin(a) | VarKind::Cos(a) => {
+            let func = if matches!(f.kinds[v], VarKind::Sin(_)) {
+                Func::Sin
+            } else {
+                Func::Cos
+            };
+            let arg = match &f.angles[*a].angle {
+                Angle::Symbol { sym, denom } => {
+                    let s = Expr::Sym(sym_name(f, *sym));
+                    if *denom == 1 {
+                        s
+                    } else {
+                        Expr::Div(Box::new(s), Box::new(Expr::int(*denom as i64)))
+                    }
+                }
+                Angle::Kernel { arg } => quotient_expr(f, &arg.0, &arg.1, None),
+            };
+            Expr::call(func, arg)
+        }
+        VarKind::Free { func, orders } => {
+            let (name, args) = &f.free[*func];
+            Expr::Free {
+                name: name.clone(),
+                args: args.iter().map(|&i| f.coordinates[i].clone()).collect(),
+                orders: orders.clone(),
+            }
+        }
+        VarKind::Kernel(k) => {
+            let kernel = f.kernels.borrow()[*k].clone();
+            Expr::call(kernel.func, quotient_expr(f, &kernel.arg.0, &kernel.arg.1, None))
+        }
+    }
+}
+
+/// Terms of a polynomial in a deterministic order: higher total degree first, then by exponent
+/// vector (variables in field order), independently of the engine's internal term order.
+pub(crate) fn sorted_terms(p: &Poly) -> Vec<(BigInt, Vec<u16>)> {
+    let mut terms: Vec<(BigInt, Vec<u16>)> = p
+        .into_iter()
+        .map(|t| (integer_to_big(t.coefficient), t.exponents.to_vec()))
+        .collect();
+    terms.sort_by_key(|(_, e)| (Reverse(e.iter().map(|&x| x as u32).sum::<u32>()), Reverse(e.clone())));
+    terms
+}
+
+fn monomial_factors(f: &FieldInner, exps: &[u16], var_cache: &mut Vec<Option<Expr>>) -> Vec<Expr> {
+    let mut out = Vec::new();
+    for (v, &e) in exps.iter().enumerate() {
+        if e == 0 {
+            continue;
+        }
+        let base = var_cache[v].get_or_insert_with(|| var_expr(f, v)).clone();
+        out.push(if e == 1 { base } else { Expr::powi(base, e as i64) });
+    }
+    out
+}
+
+/// `p / scale` as a sum of terms with rational coefficients.
+fn poly_expr(f: &FieldInner, p: &Poly, scale: Option<&BigInt>, cache: &mut Vec<Option<Expr>>) -> Expr {
+    let terms = sorted_terms(p);
+    if terms.is_empty() {
+        return Expr::int(0);
+    }
+    let mut out = Vec::new();
+    for (c, e) in terms {
+        let coef = match scale {
+            Some(s) => Rational::new(c, s.clone()),
+            None => Rational::from_integer(c),
+        };
+        let negative = coef.is_negative();
+        let coef = coef.abs();
+        let mut factors = monomial_factors(f, &e, cache);
+        if !coef.is_one() || factors.is_empty() {
+            factors.insert(0, Expr::Num(coef));
+        }
+        let term = if factors.len() == 1 {
+            factors.pop().unwrap()
+        } else {
+            Expr::Mul(factors)
+        };
+        out.push(if negative { Expr::Neg(Box::new(term)) } else { term });
+    }
+    if out.len() == 1 {
+        out.pop().unwrap()
+    } else {
+        Expr::Add(out)
+    }
+}
+
+fn quotient_expr(f: &FieldInner, n: &Poly, d: &Poly, cache: Option<&mut Vec<Option<Expr>>>) -> Expr {
+    let mut local = vec![None; f.nvars()];
+    let cache = cache.unwrap_or(&mut local);
+    if d.is_constant() {
+        let dc = integer_to_big(&d.lcoeff());
+        let scale = (!dc.is_one()).then_some(dc);
+        return poly_expr(f, n, scale.as_ref(), cache);
+    }
+    let num = poly_expr(f, n, None, cache);
+    let den = poly_expr(f, d, None, cache);
+    Expr::Div(Box::new(num), Box::new(den))
+}
+
+/// The expression as a tree (numerator over denominator, each expanded, terms in the
+/// deterministic order of [`sorted_terms`]).
+pub(crate) fn to_expr(e: &Ex) -> Expr {
+    quotient_expr(&e.f, &e.num, &e.den, None)
+}
+

@@ -1,0 +1,816 @@
+//! The field of expressions and its canonical form.
+//!
+//! An expression is a quotient N/D of polynomials with integer coefficients in the *field
+//! variables*: coordinates q, parameters, velocities der(q), sin and cos of base angles, free
+//! functions and their partial derivatives, kernels (log, exp, sqrt of non-trivial arguments) and
+//! plain unknowns. Some variables satisfy a quadratic relation v² = G (G a polynomial in earlier
+//! variables): every sin(u) satisfies sin(u)² = 1 − cos(u)², every square-root kernel r = √G
+//! satisfies r² = G.
+//!
+//! **Canonical form** (decides zero and equality exactly): after every operation,
+//! 1. N and D are reduced modulo the relations (degree ≤ 1 in every related variable);
+//! 2. D is made free of the related variables by multiplying N and D by conjugates
+//!    (D₀ + D₁v)(D₀ − D₁v) = D₀² − D₁²G, latest relation first;
+//! 3. N and D are divided by their gcd and D gets a positive leading coefficient.
+//!
+//! Over R = Z[unrelated variables], the ring with the relations is a free R-module with basis the
+//! square-free products of related variables (each relation is a genuine quadratic extension:
+//! 1 − c² is not a square, and radicands are assumed not to be squares), so N/D with D ∈ R and
+//! gcd(N, D) = 1 is unique up to the sign fixed in step 3. Hence an expression is zero iff N = 0,
+//! and it is free of a coordinate iff no variable depending on that coordinate occurs in N or D.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::fmt;
+use std::rc::Rc;
+
+use hamel_expr::{Expr, Func};
+use num_bigint::BigInt;
+use symbolica::prelude::*;
+
+use crate::CasError;
+
+/// Polynomials over the integers in the field variables.
+pub(crate) type Poly = MultivariatePolynomial<IntegerRing, u16>;
+
+/// A coordinate or a parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum Sym {
+    Coord(usize),
+    Param(usize),
+}
+
+/// What a field variable stands for.
+#[derive(Clone, Debug)]
+pub(crate) enum VarKind {
+    /// The coordinate itself (when it occurs outside sin/cos).
+    Coord(usize),
+    /// A parameter.
+    Param(usize),
+    /// der(q_i).
+    Velocity(usize),
+    /// sin of angle `a`.
+    Sin(usize),
+    /// cos of angle `a`.
+    Cos(usize),
+    /// A free function (index into `free`) differentiated `orders[j]` times in its j-th argument.
+    Free { func: usize, orders: Vec<u32> },
+    /// log, exp or sqrt of an argument (index into `kernels`).
+    Kernel(usize),
+    /// A plain symbol with no dependence on the coordinates.
+    Unknown(usize),
+}
+
+/// A base angle of the trigonometric variables.
+#[derive(Clone, Debug)]
+pub(crate) enum Angle {
+    /// `symbol / denom`.
+    Symbol { sym: Sym, denom: u32 },
+    /// An argument that is not a rational-linear combination of symbols.
+    Kernel { arg: (Poly, Poly) },
+}
+
+#[derive(Clone, Debug)]
+pub(crate) struct AngleVars {
+    pub angle: Angle,
+    pub sin: usize,
+    pub cos: usize,
+}
+
+/// A transcendental or algebraic kernel.
+#[derive(Clone, Debug)]
+pub(crate) struct Kernel {
+    pub func: Func,
+    /// The argument (for sqrt, the polynomial radicand G, with denominator 1).
+    pub arg: (Poly, Poly),
+}
+
+/// What an expression depends on: the input to [`Field::new`].
+#[derive(Clone, Debug, Default)]
+pub struct FieldSpec {
+    /// Coordinates, in order.
+    pub coordinates: Vec<String>,
+    /// Parameters, in order.
+    pub parameters: Vec<String>,
+    /// Free functions: name and coordinate arguments.
+    pub free_functions: Vec<(String, Vec<String>)>,
+    /// Highest total order of derivatives of free functions that may be needed.
+    pub free_order: u32,
+    /// Extra plain symbols (unknown coefficients, η₁…η_σ, …).
+    pub unknowns: Vec<String>,
+    /// Every expression that will be converted into the field (scanned for sin/cos arguments
+    /// and kernels).
+    pub expressions: Vec<Expr>,
+}
+
+pub(crate) struct FieldInner {
+    pub coordinates: Vec<String>,
+    pub parameters: Vec<String>,
+    pub free: Vec<(String, Vec<usize>)>,
+    pub unknowns: Vec<String>,
+    pub kinds: Vec<VarKind>,
+    pub angles: Vec<AngleVars>,
+    pub kernels: RefCell<Vec<Kernel>>,
+    /// (variable, G) with variable² = G, in creation order.
+    pub relations: RefCell<Vec<(usize, Poly)>>,
+    pub zero: Poly,
+    /// Index of each variable by kind, for lookups.
+    pub coord_var: Vec<Option<usize>>,
+    pub param_var: Vec<Option<usize>>,
+    pub velocity_var: Vec<usize>,
+    pub unknown_var: Vec<usize>,
+    pub free_var: HashMap<(usize, Vec<u32>), usize>,
+    pub kernel_var: Vec<usize>,
+    /// Memo of dv/dq_k.
+    pub dvar: RefCell<HashMap<(usize, usize), Option<(Poly, Poly)>>>,
+}
+
+/// A field of expressions over a fixed set of variables. Cheap to clone (shared).
+#[derive(Clone)]
+pub struct Field(pub(crate) Rc<FieldInner>);
+
+/// An element of a [`Field`], always in canonical form. Not `Send`: it lives on the
+/// computer-algebra thread.
+#[derive(Clone)]
+pub struct Ex {
+    pub(crate) f: Rc<FieldInner>,
+    pub(crate) num: Poly,
+    pub(crate) den: Poly,
+}
+
+fn int(n: i64) -> Integer {
+    Integer::from(n)
+}
+
+pub(crate) fn big_to_integer(b: &BigInt) -> Integer {
+    b.to_string().parse().expect("decimal integer")
+}
+
+pub(crate) fn integer_to_big(i: &Integer) -> BigInt {
+    i.to_string().parse().expect("decimal integer")
+}
+
+impl FieldInner {
+    pub fn nvars(&self) -> usize {
+        self.kinds.len()
+    }
+
+    pub fn var_poly(&self, v: usize) -> Poly {
+        let mut e = vec![0u16; self.nvars()];
+        e[v] = 1;
+        self.zero.monomial(int(1), e)
+    }
+
+    pub fn constant(&self, n: Integer) -> Poly {
+        self.zero.constant(n)
+    }
+
+    pub fn one(&self) -> Poly {
+        self.zero.one()
+    }
+
+    /// The coordinates a variable depends on.
+    pub fn deps(&self, v: usize) -> Vec<usize> {
+        match &self.kinds[v] {
+            VarKind::Coord(i) => vec![*i],
+            VarKind::Sin(a) | VarKind::Cos(a) => match &self.angles[*a].angle {
+                Angle::Symbol {
+                    sym: Sym::Coord(i), ..
+                } => vec![*i],
+                Angle::Symbol { .. } => vec![],
+                Angle::Kernel { arg, .. } => self.deps_of(&arg.0, &arg.1),
+            },
+            VarKind::Free { func, .. } => self.free[*func].1.clone(),
+            VarKind::Kernel(k) => {
+                let kernels = self.kernels.borrow();
+                let arg = &kernels[*k].arg;
+                self.deps_of(&arg.0, &arg.1)
+            }
+            VarKind::Param(_) | VarKind::Velocity(_) | VarKind::Unknown(_) => vec![],
+        }
+    }
+
+    fn deps_of(&self, n: &Poly, d: &Poly) -> Vec<usize> {
+        let mut out = Vec::new();
+        for v in 0..self.nvars() {
+            if n.degree(v) > 0 || d.degree(v) > 0 {
+                for q in self.deps(v) {
+                    if !out.contains(&q) {
+                        out.push(q);
+                    }
+                }
+            }
+        }
+        out.sort();
+        out
+    }
+
+    /// Split `p` by powers of variable `v`: `p = Σ_k parts[k] v^k`, parts free of `v`.
+    pub fn split(&self, p: &Poly, v: usize) -> Vec<Poly> {
+        let deg = p.degree(v) as usize;
+        let mut parts = vec![self.zero.clone(); deg + 1];
+        let mut exps = vec![0u16; self.nvars()];
+        for t in p {
+            exps.copy_from_slice(t.exponents);
+            let k = exps[v] as usize;
+            exps[v] = 0;
+            parts[k].append_monomial(t.coefficient.clone(), &exps);
+        }
+        parts
+    }
+
+    /// Reduce `p` modulo every relation (degree ≤ 1 in each related variable).
+    pub fn reduce(&self, p: Poly) -> Poly {
+        let relations = self.relations.borrow();
+        let mut p = p;
+        for (v, g) in relations.iter().rev() {
+            if p.degree(*v) < 2 {
+                continue;
+            }
+            let parts = self.split(&p, *v);
+            let mut even = self.zero.clone();
+            let mut odd = self.zero.clone();
+            let mut gpow = self.one();
+            for (k, part) in parts.into_iter().enumerate() {
+                if k >= 2 && k % 2 == 0 {
+                    gpow = &gpow * g;
+                }
+                if part.is_zero() {
+                    continue;
+                }
+                let term = &part * &gpow;
+                if k % 2 == 0 {
+                    even = &even + &term;
+                } else {
+                    odd = &odd + &term;
+                }
+            }
+            p = &even + &(&odd * &self.var_poly(*v));
+        }
+        p
+    }
+
+    /// Bring N/D to canonical form.
+    pub fn normalize(&self, num: Poly, den: Poly) -> Result<(Poly, Poly), CasError> {
+        let mut n = self.reduce(num);
+        let mut d = self.reduce(den);
+        let relations: Vec<(usize, Poly)> = self.relations.borrow().clone();
+        for (v, g) in relations.iter().rev() {
+            if d.degree(*v) == 0 {
+                continue;
+            }
+            let parts = self.split(&d, *v);
+            let (d0, d1) = (&parts[0], &parts[1]);
+            let conj = d0 - &(d1 * &self.var_poly(*v));
+            n = self.reduce(&n * &conj);
+            d = self.reduce(&(d0 * d0) - &(&(d1 * d1) * g));
+        }
+        self.finish(n, d)
+    }
+
+    /// Divide by the gcd and fix the sign, for N/D that already satisfy steps 1–2.
+    pub fn finish(&self, n: Poly, d: Poly) -> Result<(Poly, Poly), CasError> {
+        if d.is_zero() {
+            return Err(CasError::DivisionByZero);
+        }
+        if n.is_zero() {
+            return Ok((n, self.one()));
+        }
+        let (mut n, mut d) = if d.is_constant() && d.lcoeff() == int(1) {
+            (n, d)
+        } else {
+            let g = n.gcd(&d);
+            if g.is_one() {
+                (n, d)
+            } else {
+                (n.quot_rem(&g, false).0, d.quot_rem(&g, false).0)
+            }
+        };
+        if d.lcoeff().is_negative() {
+            n = -n;
+            d = -d;
+        }
+        Ok((n, d))
+    }
+}
+
+impl Field {
+    pub(crate) fn inner(&self) -> &FieldInner {
+        &self.0
+    }
+
+    pub(crate) fn ex(&self, num: Poly, den: Poly) -> Result<Ex, CasError> {
+        let (num, den) = self.0.normalize(num, den)?;
+        Ok(Ex {
+            f: self.0.clone(),
+            num,
+            den,
+        })
+    }
+
+    pub(crate) fn ex_poly(&self, num: Poly) -> Ex {
+        let num = self.0.reduce(num);
+        Ex {
+            f: self.0.clone(),
+            den: self.0.one(),
+            num,
+        }
+    }
+
+    /// The integer `n`.
+    pub fn int(&self, n: i64) -> Ex {
+        self.ex_poly(self.0.constant(int(n)))
+    }
+
+    /// The rational `p/q` (q ≠ 0).
+    pub fn rational(&self, p: &BigInt, q: &BigInt) -> Result<Ex, CasError> {
+        self.ex(
+            self.0.constant(big_to_integer(p)),
+            self.0.constant(big_to_integer(q)),
+        )
+    }
+
+    /// Zero.
+    pub fn zero(&self) -> Ex {
+        self.int(0)
+    }
+
+    /// One.
+    pub fn one(&self) -> Ex {
+        self.int(1)
+    }
+
+    fn var(&self, v: usize) -> Ex {
+        self.ex_poly(self.0.var_poly(v))
+    }
+
+    /// The coordinate `q_i` itself.
+    pub fn coord(&self, i: usize) -> Ex {
+        match self.0.coord_var[i] {
+            Some(v) => self.var(v),
+            None => panic!("coordinate {} has no polynomial variable", self.0.coordinates[i]),
+        }
+    }
+
+    /// The velocity der(q_i).
+    pub fn velocity(&self, i: usize) -> Ex {
+        self.var(self.0.velocity_var[i])
+    }
+
+    /// The parameter with this index.
+    pub fn param(&self, i: usize) -> Ex {
+        match self.0.param_var[i] {
+            Some(v) => self.var(v),
+            None => panic!("parameter {} has no polynomial variable", self.0.parameters[i]),
+        }
+    }
+
+    /// The unknown symbol with this name.
+    pub fn unknown(&self, name: &str) -> Option<Ex> {
+        let i = self.0.unknowns.iter().position(|u| u == name)?;
+        Some(self.var(self.0.unknown_var[i]))
+    }
+
+    /// Number of coordinates.
+    pub fn ncoords(&self) -> usize {
+        self.0.coordinates.len()
+    }
+
+    /// Coordinate names.
+    pub fn coordinates(&self) -> &[String] {
+        &self.0.coordinates
+    }
+
+    /// Parameter names.
+    pub fn parameters(&self) -> &[String] {
+        &self.0.parameters
+    }
+
+    /// Index of a coordinate by name.
+    pub fn coord_index(&self, name: &str) -> Option<usize> {
+        self.0.coordinates.iter().position(|c| c == name)
+    }
+
+    /// Number of field variables (a measure of the problem size).
+    pub fn nvars(&self) -> usize {
+        self.0.nvars()
+    }
+}
+
+impl Ex {
+    pub(crate) fn field(&self) -> Field {
+        Field(self.f.clone())
+    }
+
+    fn same_field(&self, other: &Ex) {
+        debug_assert!(Rc::ptr_eq(&self.f, &other.f), "expressions of different fields");
+    }
+
+    /// True when the expression is identically zero (exact).
+    pub fn is_zero(&self) -> bool {
+        self.num.is_zero()
+    }
+
+    /// True when the expression is the number 1.
+    pub fn is_one(&self) -> bool {
+        self.num.is_one() && self.den.is_one()
+    }
+
+    /// True when the expression is a number.
+    pub fn is_number(&self) -> bool {
+        self.num.is_constant() && self.den.is_constant()
+    }
+
+    /// Number of terms of numerator plus denominator (a size measure).
+    pub fn size(&self) -> usize {
+        self.num.nterms() + self.den.nterms()
+    }
+
+    /// The reciprocal.
+    pub fn inv(&self) -> Result<Ex, CasError> {
+        self.field().ex(self.den.clone(), self.num.clone())
+    }
+
+    /// Quotient (error when `other` is zero).
+    pub fn div(&self, other: &Ex) -> Result<Ex, CasError> {
+        self.same_field(other);
+        if other.is_zero() {
+            return Err(CasError::DivisionByZero);
+        }
+        Ok(self * &other.inv()?)
+    }
+
+    /// Integer power (error for a negative power of zero).
+    pub fn pow(&self, n: i64) -> Result<Ex, CasError> {
+        if n < 0 {
+            return self.inv()?.pow(-n);
+        }
+        let mut result = self.field().one();
+        let mut base = self.clone();
+        let mut k = n as u64;
+        while k > 0 {
+            if k & 1 == 1 {
+                result = &result * &base;
+            }
+            k >>= 1;
+            if k > 0 {
+                base = &base * &base;
+            }
+        }
+        Ok(result)
+    }
+
+    /// The numerator as an expression.
+    pub fn numerator(&self) -> Ex {
+        Ex {
+            f: self.f.clone(),
+            num: self.num.clone(),
+            den: self.f.one(),
+        }
+    }
+
+    /// The denominator as an expression.
+    pub fn denominator(&self) -> Ex {
+        Ex {
+            f: self.f.clone(),
+            num: self.den.clone(),
+            den: self.f.one(),
+        }
+    }
+
+    /// True when the expression depends on coordinate `q_i` (exact: by canonicity, an
+    /// expression is free of `q_i` iff no variable depending on `q_i` occurs in it).
+    pub fn depends_on(&self, i: usize) -> bool {
+        (0..self.f.nvars()).any(|v| {
+            (self.num.degree(v) > 0 || self.den.degree(v) > 0) && self.f.deps(v).contains(&i)
+        })
+    }
+
+    /// The coordinates the expression depends on (indices, sorted).
+    pub fn coordinate_dependence(&self) -> Vec<usize> {
+        self.f.deps_of(&self.num, &self.den)
+    }
+
+    /// True when some velocity der(q) occurs.
+    pub fn has_velocities(&self) -> bool {
+        self.f
+            .velocity_var
+            .iter()
+            .any(|&v| self.num.degree(v) > 0 || self.den.degree(v) > 0)
+    }
+
+    /// True when the unknown symbol occurs.
+    pub fn has_unknown(&self, name: &str) -> bool {
+        match self.f.unknowns.iter().position(|u| u == name) {
+            Some(i) => {
+                let v = self.f.unknown_var[i];
+                self.num.degree(v) > 0 || self.den.degree(v) > 0
+            }
+            None => false,
+        }
+    }
+
+    /// True when a free function (or a derivative of it) occurs.
+    pub fn has_free_function(&self, name: &str) -> bool {
+        self.f.free_var.iter().any(|((func, _), &v)| {
+            self.f.free[*func].0 == name && (self.num.degree(v) > 0 || self.den.degree(v) > 0)
+        })
+    }
+
+    /// The partial derivative with respect to der(q_j), the velocities being independent
+    /// variables (the other velocities and all coordinates held fixed).
+    pub fn diff_velocity(&self, j: usize) -> Ex {
+        let v = self.f.velocity_var[j];
+        self.partial_var(v)
+    }
+
+    /// The partial derivative with respect to the unknown symbol `name`.
+    pub fn diff_unknown(&self, name: &str) -> Option<Ex> {
+        let i = self.f.unknowns.iter().position(|u| u == name)?;
+        Some(self.partial_var(self.f.unknown_var[i]))
+    }
+
+    /// ∂/∂v for a variable with no relation and no dependants.
+    fn partial_var(&self, v: usize) -> Ex {
+        let field = self.field();
+        let dn = field.ex_poly(self.num.derivative(v));
+        if self.den.degree(v) == 0 {
+            return &dn * &field.ex(field.0.one(), self.den.clone()).expect("nonzero denominator");
+        }
+        let dd = field.ex_poly(self.den.derivative(v));
+        let n = field.ex_poly(self.num.clone());
+        let d = field.ex_poly(self.den.clone());
+        (&(&dn * &d) - &(&n * &dd))
+            .div(&(&d * &d))
+            .expect("nonzero denominator")
+    }
+
+    /// The total derivative with respect to coordinate `q_i` (through sin, cos, free functions
+    /// and kernels of `q_i`; velocities and other coordinates held fixed).
+    pub fn diff(&self, i: usize) -> Ex {
+        let field = self.field();
+        let dn = field.poly_diff(&self.num, i);
+        if self.den.is_constant() {
+            return &dn * &field.ex(field.0.one(), self.den.clone()).expect("nonzero denominator");
+        }
+        let dd = field.poly_diff(&self.den, i);
+        let n = field.ex_poly(self.num.clone());
+        let d = field.ex_poly(self.den.clone());
+        (&(&dn * &d) - &(&n * &dd))
+            .div(&(&d * &d))
+            .expect("nonzero denominator")
+    }
+
+    /// The expression as a plain tree (numerator over denominator, expanded), for printing,
+    /// numeric evaluation and code generation outside the worker.
+    pub fn to_expr(&self) -> Expr {
+        crate::export::to_expr(self)
+    }
+}
+
+impl Field {
+    /// d(field variable v)/dq_i as a quotient of polynomials, or None if zero.
+    fn dvar(&self, v: usize, i: usize) -> Option<(Poly, Poly)> {
+        if let Some(hit) = self.0.dvar.borrow().get(&(v, i)) {
+            return hit.clone();
+        }
+        let f = &self.0;
+        let one = f.one();
+        let result: Option<(Poly, Poly)> = match &f.kinds[v] {
+            VarKind::Coord(k) => (*k == i).then(|| (one.clone(), one.clone())),
+            VarKind::Sin(a) | VarKind::Cos(a) => {
+                let av = &f.angles[*a];
+                let is_sin = matches!(f.kinds[v], VarKind::Sin(_));
+                let (other, sign) = if is_sin { (av.cos, 1) } else { (av.sin, -1) };
+                let other = &f.var_poly(other) * &f.constant(int(sign));
+                match &av.angle {
+                    Angle::Symbol {
+                        sym: Sym::Coord(k),
+                        denom,
+                    } if *k == i => Some((other, f.constant(int(*denom as i64)))),
+                    Angle::Symbol { .. } => None,
+                    Angle::Kernel { arg, .. } => {
+                        let arg = self.ex(arg.0.clone(), arg.1.clone()).expect("kernel argument");
+                        let d = arg.diff(i);
+                        if d.is_zero() {
+                            None
+                        } else {
+                            let r = &self.ex_poly(other) * &d;
+                            Some((r.num, r.den))
+                        }
+                    }
+                }
+            }
+            VarKind::Free { func, orders } => {
+                let args = &f.free[*func].1;
+                args.iter().position(|&a| a == i).map(|j| {
+                    let mut o = orders.clone();
+                    o[j] += 1;
+                    let w = *f.free_var.get(&(*func, o.clone())).unwrap_or_else(|| {
+                        panic!(
+                            "derivative of free function `{}` beyond the supported order",
+                            f.free[*func].0
+                        )
+                    });
+                    (f.var_poly(w), one.clone())
+                })
+            }
+            VarKind::Kernel(k) => {
+                let kernel = f.kernels.borrow()[*k].clone();
+                let arg = self.ex(kernel.arg.0.clone(), kernel.arg.1.clone()).expect("kernel argument");
+                let da = arg.diff(i);
+                if da.is_zero() {
+                    None
+                } else {
+                    let me = self.var(v);
+                    let r = match kernel.func {
+                        Func::Exp => &me * &da,
+                        Func::Log => da.div(&arg).expect("log of zero"),
+                        // r = √G: dr = G' r / (2 G)
+                        Func::Sqrt => (&da * &me).div(&(&arg * &self.int(2))).expect("sqrt of zero"),
+                        _ => unreachable!("kernel function"),
+                    };
+                    Some((r.num, r.den))
+                }
+            }
+            VarKind::Param(_) | VarKind::Velocity(_) | VarKind::Unknown(_) => None,
+        };
+        self.0.dvar.borrow_mut().insert((v, i), result.clone());
+        result
+    }
+
+    /// Total derivative of a polynomial with respect to q_i.
+    fn poly_diff(&self, p: &Poly, i: usize) -> Ex {
+        let mut acc = self.zero();
+        for v in 0..self.0.nvars() {
+            if p.degree(v) == 0 {
+                continue;
+            }
+            let Some((dn, dd)) = self.dvar(v, i) else {
+                continue;
+            };
+            let pv = p.derivative(v);
+            let term = if dd.is_one() {
+                self.ex_poly(&pv * &dn)
+            } else {
+                self.ex(&pv * &dn, dd).expect("nonzero denominator")
+            };
+            acc = &acc + &term;
+        }
+        acc
+    }
+}
+
+impl PartialEq for Ex {
+    fn eq(&self, other: &Ex) -> bool {
+        self.num == other.num && self.den == other.den
+    }
+}
+
+impl fmt::Display for Ex {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", crate::print::text(self))
+    }
+}
+
+impl fmt::Debug for Ex {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Ex({self})")
+    }
+}
+
+// Arithmetic. The canonical form of a sum or product is rebuilt from the canonical operands.
+impl std::ops::Add for &Ex {
+    type Output = Ex;
+    fn add(self, o: &Ex) -> Ex {
+        self.same_field(o);
+        let f = &self.f;
+        if o.is_zero() {
+            return self.clone();
+        }
+        if self.is_zero() {
+            return o.clone();
+        }
+        // Denominators are free of related variables, numerators reduced: the combination
+        // below keeps both properties, so only the gcd step is needed.
+        let (n, d) = if self.den == o.den {
+            (&self.num + &o.num, self.den.clone())
+        } else if self.den.is_one() {
+            (&(&self.num * &o.den) + &o.num, o.den.clone())
+        } else if o.den.is_one() {
+            (&self.num + &(&o.num * &self.den), self.den.clone())
+        } else {
+            let g = self.den.gcd(&o.den);
+            let a = self.den.quot_rem(&g, false).0;
+            let b = o.den.quot_rem(&g, false).0;
+            (&(&self.num * &b) + &(&o.num * &a), &a * &o.den)
+        };
+        let (num, den) = f.finish(n, d).expect("nonzero denominator");
+        Ex {
+            f: f.clone(),
+            num,
+            den,
+        }
+    }
+}
+
+impl std::ops::Neg for &Ex {
+    type Output = Ex;
+    fn neg(self) -> Ex {
+        Ex {
+            f: self.f.clone(),
+            num: -self.num.clone(),
+            den: self.den.clone(),
+        }
+    }
+}
+
+impl std::ops::Sub for &Ex {
+    type Output = Ex;
+    fn sub(self, o: &Ex) -> Ex {
+        self + &(-o)
+    }
+}
+
+impl std::ops::Mul for &Ex {
+    type Output = Ex;
+    fn mul(self, o: &Ex) -> Ex {
+        self.same_field(o);
+        let f = &self.f;
+        if self.is_zero() || o.is_zero() {
+            return Field(f.clone()).zero();
+        }
+        // Cross-cancel first to keep the product small.
+        let (n1, d2) = cancel(&self.num, &o.den);
+        let (n2, d1) = cancel(&o.num, &self.den);
+        let prod = &n1 * &n2;
+        let needs_reduction = f
+            .relations
+            .borrow()
+            .iter()
+            .any(|(v, _)| prod.degree(*v) >= 2);
+        let den = &d1 * &d2;
+        let (num, den) = if needs_reduction {
+            f.finish(f.reduce(prod), den)
+        } else {
+            let (mut n, mut d) = (prod, den);
+            if d.lcoeff().is_negative() {
+                n = -n;
+                d = -d;
+            }
+            Ok((n, d))
+        }
+        .expect("nonzero denominator");
+        Ex {
+            f: f.clone(),
+            num,
+            den,
+        }
+    }
+}
+
+fn cancel(n: &Poly, d: &Poly) -> (Poly, Poly) {
+    if d.is_one() || n.is_one() {
+        return (n.clone(), d.clone());
+    }
+    let g = n.gcd(d);
+    if g.is_one() {
+        (n.clone(), d.clone())
+    } else {
+        (n.quot_rem(&g, false).0, d.quot_rem(&g, false).0)
+    }
+}
+
+/// Owned-operand conveniences.
+macro_rules! owned_ops {
+    ($tr:ident, $m:ident) => {
+        impl std::ops::$tr<Ex> for Ex {
+            type Output = Ex;
+            fn $m(self, o: Ex) -> Ex {
+                (&self).$m(&o)
+            }
+        }
+        impl std::ops::$tr<&Ex> for Ex {
+            type Output = Ex;
+            fn $m(self, o: &Ex) -> Ex {
+                (&self).$m(o)
+            }
+        }
+        impl std::ops::$tr<Ex> for &Ex {
+            type Output = Ex;
+            fn $m(self, o: Ex) -> Ex {
+                self.$m(&o)
+            }
+        }
+    };
+}
+owned_ops!(Add, add);
+owned_ops!(Sub, sub);
+owned_ops!(Mul, mul);
+
+impl std::ops::Neg for Ex {
+    type Output = Ex;
+    fn neg(self) -> Ex {
+        -&self
+    }
+}

@@ -1,0 +1,48 @@
+//! The symbolic engine.
+//!
+//! **Job**: exact symbolic algebra for the rest of hamel. It is the only crate that depends on
+//! Symbolica. All of its work runs on one long-lived thread ([`run`]): Symbolica, unlicensed,
+//! allows one thread per user at a time, so callers send jobs there and get plain data back.
+//!
+//! **Inputs**: expression trees ([`hamel_expr::Expr`]) and a [`FieldSpec`] naming the symbols.
+//! **Outputs**: canonical expressions [`Ex`] (inside jobs only) and, to leave a job, plain trees
+//! ([`Ex::to_expr`]) and canonical text (`Display`).
+//!
+//! **Invariants**: every [`Ex`] is in the canonical form described in [`field`], so zero tests,
+//! equality and "free of q" are exact decisions, never samples; [`Ex`] is `!Send` and cannot
+//! escape the worker thread.
+#![warn(missing_docs)]
+
+mod convert;
+mod export;
+pub mod field;
+pub mod linalg;
+mod print;
+mod worker;
+
+pub use field::{Ex, Field, FieldSpec};
+pub use linalg::Matrix;
+pub use worker::{on_worker, run};
+
+/// What can go wrong in symbolic work.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CasError {
+    /// Division by an expression that is identically zero.
+    DivisionByZero,
+    /// A construct the engine does not handle (with the reason).
+    Unsupported(String),
+    /// A bug or a failure of the worker thread.
+    Internal(String),
+}
+
+impl std::fmt::Display for CasError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CasError::DivisionByZero => write!(f, "division by an expression that is identically zero"),
+            CasError::Unsupported(m) => write!(f, "{m}"),
+            CasError::Internal(m) => write!(f, "internal error: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for CasError {}

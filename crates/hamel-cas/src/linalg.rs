@@ -1,0 +1,269 @@
+//! Matrices over a field of expressions: products, exact inverse, determinant and rank.
+
+use crate::CasError;
+use crate::field::{Ex, Field};
+
+/// A dense matrix of expressions, row-major.
+#[derive(Clone, PartialEq)]
+pub struct Matrix {
+    rows: usize,
+    cols: usize,
+    data: Vec<Ex>,
+}
+
+impl std::fmt::Debug for Matrix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "Matrix {}x{} [", self.rows, self.cols)?;
+        for i in 0..self.rows {
+            let row: Vec<String> = (0..self.cols).map(|j| self[(i, j)].to_string()).collect();
+            writeln!(f, "  [{}]", row.join(", "))?;
+        }
+        write!(f, "]")
+    }
+}
+
+impl std::ops::Index<(usize, usize)> for Matrix {
+    type Output = Ex;
+    fn index(&self, (i, j): (usize, usize)) -> &Ex {
+        &self.data[i * self.cols + j]
+    }
+}
+
+impl std::ops::IndexMut<(usize, usize)> for Matrix {
+    fn index_mut(&mut self, (i, j): (usize, usize)) -> &mut Ex {
+        &mut self.data[i * self.cols + j]
+    }
+}
+
+impl Matrix {
+    /// Build entry by entry.
+    pub fn from_fn(rows: usize, cols: usize, mut f: impl FnMut(usize, usize) -> Ex) -> Matrix {
+        let mut data = Vec::with_capacity(rows * cols);
+        for i in 0..rows {
+            for j in 0..cols {
+                data.push(f(i, j));
+            }
+        }
+        Matrix { rows, cols, data }
+    }
+
+    /// Build entry by entry, stopping at the first error.
+    pub fn try_from_fn<E>(
+        rows: usize,
+        cols: usize,
+        mut f: impl FnMut(usize, usize) -> Result<Ex, E>,
+    ) -> Result<Matrix, E> {
+        let mut data = Vec::with_capacity(rows * cols);
+        for i in 0..rows {
+            for j in 0..cols {
+                data.push(f(i, j)?);
+            }
+        }
+        Ok(Matrix { rows, cols, data })
+    }
+
+    /// The zero matrix.
+    pub fn zeros(field: &Field, rows: usize, cols: usize) -> Matrix {
+        Matrix::from_fn(rows, cols, |_, _| field.zero())
+    }
+
+    /// The identity matrix.
+    pub fn identity(field: &Field, n: usize) -> Matrix {
+        Matrix::from_fn(n, n, |i, j| if i == j { field.one() } else { field.zero() })
+    }
+
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Number of columns.
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// The transpose.
+    pub fn transpose(&self) -> Matrix {
+        Matrix::from_fn(self.cols, self.rows, |i, j| self[(j, i)].clone())
+    }
+
+    /// Entrywise map.
+    pub fn map(&self, mut f: impl FnMut(&Ex) -> Ex) -> Matrix {
+        Matrix {
+            rows: self.rows,
+            cols: self.cols,
+            data: self.data.iter().map(&mut f).collect(),
+        }
+    }
+
+    /// Entrywise derivative with respect to coordinate `q_i`.
+    pub fn diff(&self, i: usize) -> Matrix {
+        self.map(|e| e.diff(i))
+    }
+
+    /// The product `self · other`.
+    pub fn mul(&self, other: &Matrix) -> Matrix {
+        assert_eq!(self.cols, other.rows, "matrix product dimensions");
+        Matrix::from_fn(self.rows, other.cols, |i, j| {
+            let mut acc: Option<Ex> = None;
+            for k in 0..self.cols {
+                let (a, b) = (&self[(i, k)], &other[(k, j)]);
+                if a.is_zero() || b.is_zero() {
+                    continue;
+                }
+                let t = a * b;
+                acc = Some(match acc {
+                    Some(s) => &s + &t,
+                    None => t,
+                });
+            }
+            acc.unwrap_or_else(|| self.data[0].field().zero())
+        })
+    }
+
+    /// The sum.
+    pub fn add(&self, other: &Matrix) -> Matrix {
+        assert_eq!((self.rows, self.cols), (other.rows, other.cols));
+        Matrix::from_fn(self.rows, self.cols, |i, j| &self[(i, j)] + &other[(i, j)])
+    }
+
+    /// The difference.
+    pub fn sub(&self, other: &Matrix) -> Matrix {
+        assert_eq!((self.rows, self.cols), (other.rows, other.cols));
+        Matrix::from_fn(self.rows, self.cols, |i, j| &self[(i, j)] - &other[(i, j)])
+    }
+
+    /// Every entry times `s`.
+    pub fn scale(&self, s: &Ex) -> Matrix {
+        self.map(|e| e * s)
+    }
+
+    /// `self` stacked above `other`.
+    pub fn vstack(&self, other: &Matrix) -> Matrix {
+        assert_eq!(self.cols, other.cols);
+        let mut data = self.data.clone();
+        data.extend(other.data.iter().cloned());
+        Matrix {
+            rows: self.rows + other.rows,
+            cols: self.cols,
+            data,
+        }
+    }
+
+    /// Columns `from..to`.
+    pub fn columns(&self, from: usize, to: usize) -> Matrix {
+        Matrix::from_fn(self.rows, to - from, |i, j| self[(i, from + j)].clone())
+    }
+
+    /// Rows `from..to`.
+    pub fn row_range(&self, from: usize, to: usize) -> Matrix {
+        Matrix::from_fn(to - from, self.cols, |i, j| self[(from + i, j)].clone())
+    }
+
+    /// Every entry is zero.
+    pub fn is_zero(&self) -> bool {
+        self.data.iter().all(Ex::is_zero)
+    }
+
+    /// Entries in row-major order.
+    pub fn entries(&self) -> &[Ex] {
+        &self.data
+    }
+
+    /// Gaussian elimination on a copy: returns (row echelon form, rank, determinant for square
+    /// matrices). Pivots are chosen among the exactly-nonzero entries of the column, smallest
+    /// first (the fewest terms), to keep intermediate expressions small.
+    fn eliminate(&self, augment: Option<&Matrix>) -> Result<(Matrix, Option<Matrix>, usize, Ex), CasError> {
+        let field = self.data[0].field();
+        let mut a = self.clone();
+        let mut b = augment.cloned();
+        let mut det = field.one();
+        let mut rank = 0;
+        let mut row = 0;
+        for col in 0..a.cols {
+            if row == a.rows {
+                break;
+            }
+            let pivot = (row..a.rows)
+                .filter(|&r| !a[(r, col)].is_zero())
+                .min_by_key(|&r| a[(r, col)].size());
+            let Some(p) = pivot else {
+                det = field.zero();
+                continue;
+            };
+            if p != row {
+                for j in 0..a.cols {
+                    a.data.swap(p * a.cols + j, row * a.cols + j);
+                }
+                if let Some(b) = b.as_mut() {
+                    for j in 0..b.cols {
+                        b.data.swap(p * b.cols + j, row * b.cols + j);
+                    }
+                }
+                det = -det;
+            }
+            let pv = a[(row, col)].clone();
+            det = &det * &pv;
+            let inv = pv.inv()?;
+            for j in 0..a.cols {
+                a[(row, j)] = &a[(row, j)] * &inv;
+            }
+            if let Some(b) = b.as_mut() {
+                for j in 0..b.cols {
+                    b[(row, j)] = &b[(row, j)] * &inv;
+                }
+            }
+            for r in 0..a.rows {
+                if r == row || a[(r, col)].is_zero() {
+                    continue;
+                }
+                let factor = a[(r, col)].clone();
+                for j in 0..a.cols {
+                    if !a[(row, j)].is_zero() {
+                        a[(r, j)] = &a[(r, j)] - &(&factor * &a[(row, j)]);
+                    }
+                }
+                if let Some(b) = b.as_mut() {
+                    for j in 0..b.cols {
+                        if !b[(row, j)].is_zero() {
+                            b[(r, j)] = &b[(r, j)] - &(&factor * &b[(row, j)]);
+                        }
+                    }
+                }
+            }
+            rank += 1;
+            row += 1;
+        }
+        if a.rows != a.cols || rank < a.rows {
+            det = field.zero();
+        }
+        Ok((a, b, rank, det))
+    }
+
+    /// The rank over the field of expressions (exact).
+    pub fn rank(&self) -> Result<usize, CasError> {
+        if self.rows == 0 || self.cols == 0 {
+            return Ok(0);
+        }
+        Ok(self.eliminate(None)?.2)
+    }
+
+    /// The determinant of a square matrix (exact).
+    pub fn det(&self) -> Result<Ex, CasError> {
+        assert_eq!(self.rows, self.cols, "determinant of a non-square matrix");
+        Ok(self.eliminate(None)?.3)
+    }
+
+    /// The inverse and the determinant of a square matrix; `None` when the determinant is
+    /// identically zero.
+    pub fn inverse(&self) -> Result<Option<(Matrix, Ex)>, CasError> {
+        assert_eq!(self.rows, self.cols, "inverse of a non-square matrix");
+        let field = self.data[0].field();
+        let id = Matrix::identity(&field, self.rows);
+        let (_, inv, rank, det) = self.eliminate(Some(&id))?;
+        if rank < self.rows {
+            return Ok(None);
+        }
+        Ok(Some((inv.expect("augmented"), det)))
+    }
+}

@@ -1,0 +1,133 @@
+//! Printing in the model-file syntax (the printed text parses back to the same value).
+
+use std::fmt;
+
+use num_traits::{One, Signed};
+
+use crate::ast::Expr;
+
+// Binding strength: sum 1, product 2, unary minus 3, power 4, atom 5.
+fn prec(e: &Expr) -> u8 {
+    match e {
+        Expr::Add(_) => 1,
+        Expr::Mul(_) | Expr::Div(..) => 2,
+        Expr::Neg(_) => 3,
+        Expr::Num(r) if r.is_negative() || !r.denom().is_one() => 2,
+        Expr::Pow(..) => 4,
+        _ => 5,
+    }
+}
+
+fn write_with(f: &mut fmt::Formatter<'_>, e: &Expr, min: u8) -> fmt::Result {
+    if prec(e) < min {
+        write!(f, "(")?;
+        write!(f, "{e}")?;
+        write!(f, ")")
+    } else {
+        write!(f, "{e}")
+    }
+}
+
+impl fmt::Display for Expr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Expr::Num(r) => {
+                if r.denom().is_one() {
+                    write!(f, "{}", r.numer())
+                } else {
+                    write!(f, "{}/{}", r.numer(), r.denom())
+                }
+            }
+            Expr::Sym(n) => write!(f, "{n}"),
+            Expr::Der(q) => write!(f, "der({q})"),
+            Expr::Free { name, args, orders } => {
+                if orders.iter().all(|&o| o == 0) {
+                    write!(f, "{name}({})", args.join(", "))
+                } else {
+                    // d^k name / d arg^k …, written as a named derivative: name_d<arg><order>
+                    let mut tag = String::new();
+                    for (a, &o) in args.iter().zip(orders) {
+                        for _ in 0..o {
+                            tag.push_str("_d");
+                            tag.push_str(a);
+                        }
+                    }
+                    write!(f, "{name}{tag}({})", args.join(", "))
+                }
+            }
+            Expr::Add(v) => {
+                for (i, t) in v.iter().enumerate() {
+                    match (i, t) {
+                        (0, t) => write_with(f, t, 1)?,
+                        (_, Expr::Neg(inner)) => {
+                            write!(f, " - ")?;
+                            write_with(f, inner, 2)?;
+                        }
+                        (_, Expr::Num(r)) if r.is_negative() => {
+                            write!(f, " - ")?;
+                            write_with(f, &Expr::Num(-r.clone()), 2)?;
+                        }
+                        (_, t) => {
+                            write!(f, " + ")?;
+                            write_with(f, t, 1)?;
+                        }
+                    }
+                }
+                Ok(())
+            }
+            Expr::Mul(v) => {
+                for (i, t) in v.iter().enumerate() {
+                    if i > 0 {
+                        write!(f, "*")?;
+                    }
+                    // a*(b/c) must keep its parentheses only when needed for re-parsing:
+                    // products and quotients associate left, so a factor that is a quotient
+                    // is parenthesised after the first position.
+                    let min = if i == 0 { 2 } else { 3 };
+                    write_with(f, t, min)?;
+                }
+                Ok(())
+            }
+            Expr::Neg(e) => {
+                write!(f, "-")?;
+                write_with(f, e, 3)
+            }
+            Expr::Div(a, b) => {
+                write_with(f, a, 2)?;
+                write!(f, "/")?;
+                write_with(f, b, 3)
+            }
+            Expr::Pow(b, e) => {
+                write_with(f, b, 5)?;
+                write!(f, "^")?;
+                write_with(f, e, 4)
+            }
+            Expr::Call(func, a) => write!(f, "{}({a})", func.name()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::parse;
+
+    #[test]
+    fn printing_round_trips() {
+        for s in [
+            "a - b*c^2",
+            "-x^2 + 1/2*m*der(x)^2",
+            "(a + b)/(c*d)",
+            "a/(b/c)",
+            "2^3^2",
+            "(-2)^2",
+            "z13(phi)*der(theta) - sin(theta + phi)",
+            "a*(b/c)",
+            "-(a - b)",
+        ] {
+            let e = parse(s).unwrap().expr;
+            let printed = e.to_string();
+            let again = parse(&printed).unwrap().expr;
+            assert_eq!(e, again, "{s} printed as {printed}");
+        }
+    }
+}

@@ -1,0 +1,24 @@
+//! Expressions as hamel reads and writes them.
+//!
+//! **Job**: the plain, engine-free representation of a mathematical expression: the abstract
+//! syntax tree [`Expr`] with exact rational literals, the parser for the model-file expression
+//! grammar (with byte spans for error messages), a printer in the same syntax, and numeric
+//! evaluation over any [`Scalar`] (plain `f64`, or the dual numbers [`Dual`] for exact
+//! directional derivatives).
+//!
+//! **Inputs**: expression text (from model files, state files, scenes), or trees built by the
+//! symbolic stage when it exports its canonical results.
+//! **Outputs**: [`Expr`] trees, [`ParseError`]s with spans, numbers.
+//!
+//! **Invariant**: this crate knows nothing of the computer-algebra engine; everything numeric in
+//! hamel (the independent oracle, `hamel eval`, generated code) can be built on it alone.
+#![warn(missing_docs)]
+
+mod ast;
+mod display;
+mod eval;
+mod parse;
+
+pub use ast::{Expr, Func, Rational};
+pub use eval::{Dual, Env, EvalError, Scalar};
+pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};

@@ -1,0 +1,26 @@
+//! Model files.
+//!
+//! **Job**: read a model file (TOML, format in `docs/model-format.md`), parse every expression,
+//! resolve every name (coordinates, parameters, velocities `der(q)`, free functions), and check
+//! what can be checked without computer algebra: counts (ℓ > μ, ℓ − μ quasi-velocities per
+//! choice), names, and positive definiteness of A at the default parameters and at sample
+//! configurations (numerically, from T).
+//!
+//! **Inputs**: a path or a string. **Outputs**: a [`Model`] whose expressions are
+//! [`hamel_expr::Expr`] trees, each with its [`Site`] (key and byte span in the file), or a
+//! [`ModelError`] that names the file, the line and column, and the reason.
+//!
+//! **Invariant**: the algebraic checks (T quadratic in velocities, constraints linear and
+//! homogeneous, rank of α, det[Z; α] not identically zero) are decided exactly downstream by the
+//! symbolic stage, which reports them through [`Model::error_at`] so that every error, whatever
+//! stage finds it, points into the file the same way.
+#![warn(missing_docs)]
+
+mod error;
+mod model;
+mod numeric;
+mod schema;
+
+pub use error::ModelError;
+pub use model::{Item, Kinetic, Model, QuasiVelocityChoice, Site};
+pub use numeric::{NumericModel, sample_configurations};
