@@ -1,1 +1,120 @@
-fn main() {}
+//! `hamel`: the command-line front end.
+//!
+//! Each subcommand is one stage of the pipeline (model → derivation → analysis → code →
+//! simulation) run on a model file. Results go to stdout or to `--output FILE`; errors go to
+//! stderr with the file, the place and the reason, and a non-zero exit status; nothing is
+//! written when a command fails.
+
+mod output;
+mod state;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use hamel_model::{Model, ModelError};
+
+use crate::output::Output;
+
+#[derive(Parser)]
+#[command(
+    name = "hamel",
+    version,
+    about = "Boltzmann–Hamel equations of nonholonomic systems: derive, reduce, generate code, simulate"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Format {
+    Text,
+    Json,
+    Latex,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Derive the Boltzmann–Hamel equations of a model: Γ, Θ, δ, A_Γ, Q (true, paper's,
+    /// correction), the equations, the kinematic equations, the energy and the singular set.
+    Derive {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (a `[quasi_velocities.NAME]` of the model; default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: Format,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
+    /// Evaluate the derived equations at states given as JSON: η̇ (true and paper's), q̇, energy.
+    Eval {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// JSON file with one state object or a list of them (`-` for stdin):
+        /// {"q": {"x": 0.1, …}, "eta": [1.0, 0.5], "params": {"m": 2.0}, "functions": {"z13": "…"}}.
+        #[arg(long)]
+        state: String,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{:?}", miette::Report::new(e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), ModelError> {
+    match cli.command {
+        Command::Derive {
+            model,
+            eta,
+            format,
+            output,
+        } => {
+            let out = Output::new(output)?;
+            let model = Model::load(&model)?;
+            let started = Instant::now();
+            let d = hamel_derive::derive(&model, eta.as_deref())?;
+            eprintln!(
+                "derived {} with quasi-velocities `{}` in {:.3} s",
+                d.model,
+                d.eta_name,
+                started.elapsed().as_secs_f64()
+            );
+            let text = match format {
+                Format::Text => d.to_text(),
+                Format::Latex => d.to_latex(),
+                Format::Json => serde_json::to_string_pretty(&d).expect("serialisable") + "\n",
+            };
+            out.write(&text)
+        }
+        Command::Eval {
+            model,
+            eta,
+            state,
+            output,
+        } => {
+            let out = Output::new(output)?;
+            let model = Model::load(&model)?;
+            let text = state::eval(&model, eta.as_deref(), &state)?;
+            out.write(&text)
+        }
+    }
+}

@@ -4,7 +4,7 @@
 //! exactly into polynomials in sin u, cos u of one *base angle* u = symbol/d per symbol, d being
 //! the least common denominator of that symbol's coefficients across all the expressions. Any
 //! other argument of sin, cos, exp, log or sqrt becomes a *kernel*: one new variable per distinct
-//! canonical argument, with the chain rule for its derivatives (sqrt kernels also carry the
+//! argument (equal arguments, decided exactly, share it), with the chain rule for its derivatives (sqrt kernels also carry the
 //! relation r² = radicand). Kernels inside kernel arguments are not supported.
 
 use std::cell::RefCell;
@@ -19,15 +19,21 @@ use num_traits::{One, Signed, ToPrimitive, Zero};
 use symbolica::prelude::*;
 
 use crate::CasError;
-use crate::field::{Angle, AngleVars, Ex, Field, FieldInner, FieldSpec, Kernel, Poly, Sym, VarKind};
+use crate::field::{
+    Angle, AngleVars, Ex, Field, FieldInner, FieldSpec, Kernel, Poly, Sym, VarKind,
+};
 
 /// A rational constant value of a tree made only of numbers, if it is one.
 fn const_rational(e: &Expr) -> Option<Rational> {
     match e {
         Expr::Num(r) => Some(r.clone()),
         Expr::Neg(x) => const_rational(x).map(|r| -r),
-        Expr::Add(v) => v.iter().try_fold(Rational::zero(), |acc, t| Some(acc + const_rational(t)?)),
-        Expr::Mul(v) => v.iter().try_fold(Rational::one(), |acc, t| Some(acc * const_rational(t)?)),
+        Expr::Add(v) => v
+            .iter()
+            .try_fold(Rational::zero(), |acc, t| Some(acc + const_rational(t)?)),
+        Expr::Mul(v) => v
+            .iter()
+            .try_fold(Rational::one(), |acc, t| Some(acc * const_rational(t)?)),
         Expr::Div(a, b) => {
             let d = const_rational(b)?;
             (!d.is_zero()).then(|| const_rational(a).map(|n| n / d))?
@@ -47,7 +53,11 @@ fn const_rational(e: &Expr) -> Option<Rational> {
 
 /// `Σ r_i · symbol_i` with no constant term, if the tree is one.
 fn linear_form(e: &Expr) -> Option<BTreeMap<String, Rational>> {
-    fn add_into(acc: &mut BTreeMap<String, Rational>, other: BTreeMap<String, Rational>, scale: &Rational) {
+    fn add_into(
+        acc: &mut BTreeMap<String, Rational>,
+        other: BTreeMap<String, Rational>,
+        scale: &Rational,
+    ) {
         for (k, v) in other {
             let slot = acc.entry(k).or_insert_with(Rational::zero);
             *slot = slot.clone() + v * scale.clone();
@@ -99,7 +109,9 @@ fn linear_form(e: &Expr) -> Option<BTreeMap<String, Rational>> {
 /// Half-integer exponent `k/2` (k odd) of a power, if it is one.
 fn half_power(e: &Expr) -> Option<i64> {
     let r = const_rational(e)?;
-    (r.denom() == &BigInt::from(2)).then(|| r.numer().to_i64()).flatten()
+    (r.denom() == &BigInt::from(2))
+        .then(|| r.numer().to_i64())
+        .flatten()
 }
 
 #[derive(Default)]
@@ -124,7 +136,9 @@ impl Scan {
                 }
                 None => self.trig_kernels.push((**arg).clone()),
             },
-            Expr::Call(f @ (Func::Exp | Func::Log | Func::Sqrt), arg) => self.kernels.push((*f, (**arg).clone())),
+            Expr::Call(f @ (Func::Exp | Func::Log | Func::Sqrt), arg) => {
+                self.kernels.push((*f, (**arg).clone()))
+            }
             Expr::Pow(b, x) if x.as_integer().is_none() && half_power(x).is_some() => {
                 self.kernels.push((Func::Sqrt, (**b).clone()))
             }
@@ -218,7 +232,12 @@ fn base_layout(spec: &FieldSpec, scan: &Scan) -> Layout {
     for (fi, (name, args)) in spec.free_functions.iter().enumerate() {
         let idx: Vec<usize> = args
             .iter()
-            .map(|a| spec.coordinates.iter().position(|c| c == a).expect("free function argument is a coordinate"))
+            .map(|a| {
+                spec.coordinates
+                    .iter()
+                    .position(|c| c == a)
+                    .expect("free function argument is a coordinate")
+            })
             .collect();
         l.free.push((name.clone(), idx));
         for orders in multi_indices(args.len(), spec.free_order.max(1)) {
@@ -283,13 +302,16 @@ impl Field {
         for e in &spec.expressions {
             scan.expr(e);
         }
-        // Phase A: the field without kernels, to put kernel arguments in canonical form.
+        // Phase A: the field without kernels, to put kernel arguments in normal form.
         let base = build(spec, base_layout(spec, &scan));
         let mut angle_args: Vec<(Poly, Poly)> = Vec::new();
         let mut kernel_args: Vec<(Func, Poly, Poly)> = Vec::new();
         for arg in &scan.trig_kernels {
             let a = base.convert(arg).map_err(nested)?;
-            if !angle_args.iter().any(|(n, d)| *n == a.num && *d == a.den) {
+            let seen = angle_args
+                .iter()
+                .any(|(n, d)| (&base.ex(n.clone(), d.clone()).expect("argument") - &a).is_zero());
+            if !seen {
                 angle_args.push((a.num, a.den));
             }
         }
@@ -304,7 +326,11 @@ impl Field {
             } else {
                 (a.num, a.den)
             };
-            if !kernel_args.iter().any(|(g, kn, kd)| g == f && *kn == n && *kd == d) {
+            let this = base.ex(n.clone(), d.clone())?;
+            let seen = kernel_args.iter().any(|(g, kn, kd)| {
+                g == f && (&base.ex(kn.clone(), kd.clone()).expect("argument") - &this).is_zero()
+            });
+            if !seen {
                 kernel_args.push((*f, n, d));
             }
         }
@@ -356,7 +382,9 @@ impl Field {
             kernel_list.push(Kernel { func: f, arg });
         }
         // Rebuild the inner with the kernel data filled in.
-        let mut inner = Rc::try_unwrap(field.0).ok().expect("fresh field is not shared");
+        let mut inner = Rc::try_unwrap(field.0)
+            .ok()
+            .expect("fresh field is not shared");
         inner.angles = inner_angles;
         inner.kernels = RefCell::new(kernel_list);
         inner.kernel_var = kernel_vars;
@@ -382,18 +410,19 @@ impl Field {
             }
             Expr::Der(q) => match f.coordinates.iter().position(|c| c == q) {
                 Some(i) => self.velocity(i),
-                None => return Err(CasError::Unsupported(format!("`der({q})` of a non-coordinate"))),
+                None => {
+                    return Err(CasError::Unsupported(format!(
+                        "`der({q})` of a non-coordinate"
+                    )));
+                }
             },
             Expr::Free { name, orders, .. } => {
-                let func = f
-                    .free
-                    .iter()
-                    .position(|(n, _)| n == name)
-                    .ok_or_else(|| CasError::Unsupported(format!("unknown free function `{name}`")))?;
-                let v = f
-                    .free_var
-                    .get(&(func, orders.clone()))
-                    .ok_or_else(|| CasError::Unsupported(format!("derivative order of `{name}` too high")))?;
+                let func = f.free.iter().position(|(n, _)| n == name).ok_or_else(|| {
+                    CasError::Unsupported(format!("unknown free function `{name}`"))
+                })?;
+                let v = f.free_var.get(&(func, orders.clone())).ok_or_else(|| {
+                    CasError::Unsupported(format!("derivative order of `{name}` too high"))
+                })?;
                 self.ex_poly(f.var_poly(*v))
             }
             Expr::Add(v) => {
@@ -414,7 +443,9 @@ impl Field {
             Expr::Div(a, b) => {
                 let d = self.convert(b)?;
                 if d.is_zero() {
-                    return Err(CasError::Unsupported(format!("division by an expression that is identically zero: `{b}`")));
+                    return Err(CasError::Unsupported(format!(
+                        "division by an expression that is identically zero: `{b}`"
+                    )));
                 }
                 self.convert(a)?.div(&d)?
             }
@@ -465,10 +496,20 @@ impl Field {
     fn kernel(&self, func: Func, n: &Poly, d: &Poly) -> Result<Ex, CasError> {
         let f = self.inner();
         let kernels = f.kernels.borrow();
+        let this = self.ex(n.clone(), d.clone())?;
         let k = kernels
             .iter()
-            .position(|k| k.func == func && k.arg.0 == *n && k.arg.1 == *d)
-            .ok_or_else(|| CasError::Unsupported(format!("{}(...) was not declared to the field", func.name())))?;
+            .position(|k| {
+                k.func == func
+                    && (&self.ex(k.arg.0.clone(), k.arg.1.clone()).expect("argument") - &this)
+                        .is_zero()
+            })
+            .ok_or_else(|| {
+                CasError::Unsupported(format!(
+                    "{}(...) was not declared to the field",
+                    func.name()
+                ))
+            })?;
         Ok(self.ex_poly(f.var_poly(f.kernel_var[k])))
     }
 
@@ -487,7 +528,9 @@ impl Field {
                     return self.rational(&rn, &rd);
                 }
             } else {
-                return Err(CasError::Unsupported(format!("square root of the negative number `{arg}`")));
+                return Err(CasError::Unsupported(format!(
+                    "square root of the negative number `{arg}`"
+                )));
             }
         }
         let g = self.inner().reduce(&a.num * &a.den);
@@ -513,8 +556,14 @@ impl Field {
                         .angles
                         .iter()
                         .find(|a| matches!(a.angle, Angle::Symbol { sym: s2, .. } if s2 == sym))
-                        .ok_or_else(|| CasError::Unsupported(format!("sin/cos of `{name}` was not declared to the field")))?;
-                    let Angle::Symbol { denom, .. } = av.angle else { unreachable!() };
+                        .ok_or_else(|| {
+                            CasError::Unsupported(format!(
+                                "sin/cos of `{name}` was not declared to the field"
+                            ))
+                        })?;
+                    let Angle::Symbol { denom, .. } = av.angle else {
+                        unreachable!()
+                    };
                     let n = r * Rational::from_integer(BigInt::from(denom));
                     let n = n
                         .to_integer()
@@ -538,9 +587,12 @@ impl Field {
                 let av = f
                     .angles
                     .iter()
-                    .find(|av| matches!(&av.angle, Angle::Kernel { arg, .. } if arg.0 == a.num && arg.1 == a.den))
+                    .find(|av| matches!(&av.angle, Angle::Kernel { arg } if (&self.ex(arg.0.clone(), arg.1.clone()).expect("argument") - &a).is_zero()))
                     .ok_or_else(|| CasError::Unsupported(format!("sin/cos({arg}) was not declared to the field")))?;
-                Ok((self.ex_poly(f.var_poly(av.cos)), self.ex_poly(f.var_poly(av.sin))))
+                Ok((
+                    self.ex_poly(f.var_poly(av.cos)),
+                    self.ex_poly(f.var_poly(av.sin)),
+                ))
             }
         }
     }

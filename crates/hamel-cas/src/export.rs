@@ -1,4 +1,4 @@
-//! From the canonical form back to plain expression trees (for printing, numeric evaluation and
+//! From the normal form back to plain expression trees (for printing, numeric evaluation and
 //! code generation, none of which needs the engine).
 
 use std::cmp::Reverse;
@@ -6,6 +6,8 @@ use std::cmp::Reverse;
 use hamel_expr::{Expr, Func, Rational};
 use num_bigint::BigInt;
 use num_traits::{One, Signed};
+
+use symbolica::prelude::Factorize;
 
 use crate::field::{Angle, Ex, FieldInner, Poly, Sym, VarKind, integer_to_big};
 
@@ -52,7 +54,10 @@ pub(crate) fn var_expr(f: &FieldInner, v: usize) -> Expr {
         }
         VarKind::Kernel(k) => {
             let kernel = f.kernels.borrow()[*k].clone();
-            Expr::call(kernel.func, quotient_expr(f, &kernel.arg.0, &kernel.arg.1, None))
+            Expr::call(
+                kernel.func,
+                quotient_expr(f, &kernel.arg.0, &kernel.arg.1, None),
+            )
         }
     }
 }
@@ -64,7 +69,12 @@ pub(crate) fn sorted_terms(p: &Poly) -> Vec<(BigInt, Vec<u16>)> {
         .into_iter()
         .map(|t| (integer_to_big(t.coefficient), t.exponents.to_vec()))
         .collect();
-    terms.sort_by_key(|(_, e)| (Reverse(e.iter().map(|&x| x as u32).sum::<u32>()), Reverse(e.clone())));
+    terms.sort_by_key(|(_, e)| {
+        (
+            Reverse(e.iter().map(|&x| x as u32).sum::<u32>()),
+            Reverse(e.clone()),
+        )
+    });
     terms
 }
 
@@ -75,13 +85,22 @@ fn monomial_factors(f: &FieldInner, exps: &[u16], var_cache: &mut Vec<Option<Exp
             continue;
         }
         let base = var_cache[v].get_or_insert_with(|| var_expr(f, v)).clone();
-        out.push(if e == 1 { base } else { Expr::powi(base, e as i64) });
+        out.push(if e == 1 {
+            base
+        } else {
+            Expr::powi(base, e as i64)
+        });
     }
     out
 }
 
 /// `p / scale` as a sum of terms with rational coefficients.
-fn poly_expr(f: &FieldInner, p: &Poly, scale: Option<&BigInt>, cache: &mut Vec<Option<Expr>>) -> Expr {
+fn poly_expr(
+    f: &FieldInner,
+    p: &Poly,
+    scale: Option<&BigInt>,
+    cache: &mut Vec<Option<Expr>>,
+) -> Expr {
     let terms = sorted_terms(p);
     if terms.is_empty() {
         return Expr::int(0);
@@ -103,7 +122,11 @@ fn poly_expr(f: &FieldInner, p: &Poly, scale: Option<&BigInt>, cache: &mut Vec<O
         } else {
             Expr::Mul(factors)
         };
-        out.push(if negative { Expr::Neg(Box::new(term)) } else { term });
+        out.push(if negative {
+            Expr::Neg(Box::new(term))
+        } else {
+            term
+        });
     }
     if out.len() == 1 {
         out.pop().unwrap()
@@ -112,7 +135,12 @@ fn poly_expr(f: &FieldInner, p: &Poly, scale: Option<&BigInt>, cache: &mut Vec<O
     }
 }
 
-fn quotient_expr(f: &FieldInner, n: &Poly, d: &Poly, cache: Option<&mut Vec<Option<Expr>>>) -> Expr {
+fn quotient_expr(
+    f: &FieldInner,
+    n: &Poly,
+    d: &Poly,
+    cache: Option<&mut Vec<Option<Expr>>>,
+) -> Expr {
     let mut local = vec![None; f.nvars()];
     let cache = cache.unwrap_or(&mut local);
     if d.is_constant() {
@@ -125,9 +153,78 @@ fn quotient_expr(f: &FieldInner, n: &Poly, d: &Poly, cache: Option<&mut Vec<Opti
     Expr::Div(Box::new(num), Box::new(den))
 }
 
-/// The expression as a tree (numerator over denominator, each expanded, terms in the
-/// deterministic order of [`sorted_terms`]).
-pub(crate) fn to_expr(e: &Ex) -> Expr {
-    quotient_expr(&e.f, &e.num, &e.den, None)
+/// `num / (c · ∏ fᵢ^eᵢ)` as a tree, the denominator kept as a product of its factors: expanding
+/// powers of a denominator creates huge terms that cancel, which ruins f64 evaluation.
+pub(crate) fn factored_expr(
+    f: &FieldInner,
+    num: &Poly,
+    c: &BigInt,
+    factors: &[(Poly, u32)],
+) -> Expr {
+    let mut cache = vec![None; f.nvars()];
+    let factors: Vec<&(Poly, u32)> = factors.iter().filter(|(_, e)| *e > 0).collect();
+    if factors.is_empty() {
+        let scale = (!c.is_one()).then_some(c.clone());
+        return poly_expr(f, num, scale.as_ref(), &mut cache);
+    }
+    let mut den: Vec<Expr> = Vec::new();
+    if !c.is_one() {
+        den.push(Expr::Num(Rational::from_integer(c.clone())));
+    }
+    let mut sorted: Vec<(Expr, u32)> = factors
+        .iter()
+        .map(|(p, e)| (poly_expr(f, p, None, &mut cache), *e))
+        .collect();
+    sorted.sort_by_cached_key(|(e, _)| e.to_string());
+    for (base, e) in sorted {
+        den.push(if e == 1 {
+            base
+        } else {
+            Expr::powi(base, e as i64)
+        });
+    }
+    let den = if den.len() == 1 {
+        den.pop().unwrap()
+    } else {
+        Expr::Mul(den)
+    };
+    Expr::Div(Box::new(poly_expr(f, num, None, &mut cache)), Box::new(den))
 }
 
+/// The expression as a tree: the numerator expanded (terms in the deterministic order of
+/// [`sorted_terms`]) over the denominator as a product of its irreducible factors.
+pub(crate) fn to_expr(e: &Ex) -> Expr {
+    if e.den.is_constant() {
+        return quotient_expr(&e.f, &e.num, &e.den, None);
+    }
+    let mut c = integer_to_big(&e.den.lcoeff());
+    let mut factors: Vec<(Poly, u32)> = Vec::new();
+    let mut constant = BigInt::one();
+    for (p, k) in e.den.factor() {
+        if p.is_constant() {
+            constant *= num_traits::pow(integer_to_big(&p.lcoeff()), k);
+            continue;
+        }
+        let p = if p.lcoeff().is_negative() {
+            if k % 2 == 1 {
+                constant = -constant;
+            }
+            -p
+        } else {
+            p
+        };
+        factors.push((p, k as u32));
+    }
+    // The leading coefficient of the product is the product of the leading coefficients.
+    let lead: BigInt = factors
+        .iter()
+        .map(|(p, k)| num_traits::pow(integer_to_big(&p.lcoeff()), *k as usize))
+        .product();
+    if &lead * &constant == c {
+        c = constant;
+    } else {
+        // Should not happen; fall back to the expanded denominator.
+        return quotient_expr(&e.f, &e.num, &e.den, None);
+    }
+    factored_expr(&e.f, &e.num, &c, &factors)
+}

@@ -1,23 +1,26 @@
-//! The field of expressions and its canonical form.
+//! The field of expressions and its normal form.
 //!
 //! An expression is a quotient N/D of polynomials with integer coefficients in the *field
 //! variables*: coordinates q, parameters, velocities der(q), sin and cos of base angles, free
 //! functions and their partial derivatives, kernels (log, exp, sqrt of non-trivial arguments) and
 //! plain unknowns. Some variables satisfy a quadratic relation v² = G (G a polynomial in earlier
 //! variables): every sin(u) satisfies sin(u)² = 1 − cos(u)², every square-root kernel r = √G
-//! satisfies r² = G.
+//! satisfies r² = G. The relations {v² − G} are a Gröbner basis (their leading terms v² are
+//! coprime), so every polynomial has a unique *reduced* representative, of degree ≤ 1 in each
+//! related variable.
 //!
-//! **Canonical form** (decides zero and equality exactly): after every operation,
-//! 1. N and D are reduced modulo the relations (degree ≤ 1 in every related variable);
-//! 2. D is made free of the related variables by multiplying N and D by conjugates
-//!    (D₀ + D₁v)(D₀ − D₁v) = D₀² − D₁²G, latest relation first;
-//! 3. N and D are divided by their gcd and D gets a positive leading coefficient.
+//! **Normal form**, kept after every operation: N and D reduced, divided by their gcd, D with a
+//! positive leading coefficient. Consequences, all exact:
+//! * an expression is zero iff its reduced numerator is the zero polynomial (the reduced form of
+//!   an element of the ideal is 0), so `a == b` is decided by `(a − b).is_zero()`;
+//! * if no variable depending on a coordinate q occurs in N or D the expression is free of q;
+//!   when one occurs, the expression is free of q iff its total derivative ∂/∂q is zero
+//!   ([`Ex::depends_on`] does both).
 //!
-//! Over R = Z[unrelated variables], the ring with the relations is a free R-module with basis the
-//! square-free products of related variables (each relation is a genuine quadratic extension:
-//! 1 − c² is not a square, and radicands are assumed not to be squares), so N/D with D ∈ R and
-//! gcd(N, D) = 1 is unique up to the sign fixed in step 3. Hence an expression is zero iff N = 0,
-//! and it is free of a coordinate iff no variable depending on that coordinate occurs in N or D.
+//! Denominators are not rationalized (sin(u) may stay in a denominator): rationalizing makes the
+//! form unique but squares the denominators at every step, which makes the larger models
+//! intractable. The printed form is therefore a deterministic normal form, not a unique one:
+//! s/(1 + c) and (1 − c)/s print differently although their difference is (exactly) zero.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -129,7 +132,7 @@ pub(crate) struct FieldInner {
 #[derive(Clone)]
 pub struct Field(pub(crate) Rc<FieldInner>);
 
-/// An element of a [`Field`], always in canonical form. Not `Send`: it lives on the
+/// An element of a [`Field`], always in normal form. Not `Send`: it lives on the
 /// computer-algebra thread.
 #[derive(Clone)]
 pub struct Ex {
@@ -250,25 +253,14 @@ impl FieldInner {
         p
     }
 
-    /// Bring N/D to canonical form.
+    /// Bring N/D to normal form: reduce both modulo the relations, then divide by the gcd.
     pub fn normalize(&self, num: Poly, den: Poly) -> Result<(Poly, Poly), CasError> {
-        let mut n = self.reduce(num);
-        let mut d = self.reduce(den);
-        let relations: Vec<(usize, Poly)> = self.relations.borrow().clone();
-        for (v, g) in relations.iter().rev() {
-            if d.degree(*v) == 0 {
-                continue;
-            }
-            let parts = self.split(&d, *v);
-            let (d0, d1) = (&parts[0], &parts[1]);
-            let conj = d0 - &(d1 * &self.var_poly(*v));
-            n = self.reduce(&n * &conj);
-            d = self.reduce(&(d0 * d0) - &(&(d1 * d1) * g));
-        }
+        let n = self.reduce(num);
+        let d = self.reduce(den);
         self.finish(n, d)
     }
 
-    /// Divide by the gcd and fix the sign, for N/D that already satisfy steps 1–2.
+    /// Divide by the gcd and fix the sign, for N/D that are already reduced.
     pub fn finish(&self, n: Poly, d: Poly) -> Result<(Poly, Poly), CasError> {
         if d.is_zero() {
             return Err(CasError::DivisionByZero);
@@ -348,7 +340,10 @@ impl Field {
     pub fn coord(&self, i: usize) -> Ex {
         match self.0.coord_var[i] {
             Some(v) => self.var(v),
-            None => panic!("coordinate {} has no polynomial variable", self.0.coordinates[i]),
+            None => panic!(
+                "coordinate {} has no polynomial variable",
+                self.0.coordinates[i]
+            ),
         }
     }
 
@@ -361,7 +356,10 @@ impl Field {
     pub fn param(&self, i: usize) -> Ex {
         match self.0.param_var[i] {
             Some(v) => self.var(v),
-            None => panic!("parameter {} has no polynomial variable", self.0.parameters[i]),
+            None => panic!(
+                "parameter {} has no polynomial variable",
+                self.0.parameters[i]
+            ),
         }
     }
 
@@ -403,7 +401,10 @@ impl Ex {
     }
 
     fn same_field(&self, other: &Ex) {
-        debug_assert!(Rc::ptr_eq(&self.f, &other.f), "expressions of different fields");
+        debug_assert!(
+            Rc::ptr_eq(&self.f, &other.f),
+            "expressions of different fields"
+        );
     }
 
     /// True when the expression is identically zero (exact).
@@ -478,17 +479,64 @@ impl Ex {
         }
     }
 
-    /// True when the expression depends on coordinate `q_i` (exact: by canonicity, an
-    /// expression is free of `q_i` iff no variable depending on `q_i` occurs in it).
+    /// The distinct non-constant irreducible factors of the numerator (factored over the
+    /// integers with the field variables independent), each with a positive leading
+    /// coefficient, sorted by their text.
+    pub fn numerator_factors(&self) -> Vec<Ex> {
+        self.poly_factors(&self.num)
+    }
+
+    /// The distinct non-constant irreducible factors of the denominator, as for
+    /// [`Ex::numerator_factors`].
+    pub fn denominator_factors(&self) -> Vec<Ex> {
+        self.poly_factors(&self.den)
+    }
+
+    fn poly_factors(&self, p: &Poly) -> Vec<Ex> {
+        if p.is_constant() {
+            return Vec::new();
+        }
+        let mut out: Vec<Ex> = p
+            .factor()
+            .into_iter()
+            .filter(|(f, _)| !f.is_constant())
+            .map(|(f, _)| {
+                let f = if f.lcoeff().is_negative() { -f } else { f };
+                Ex {
+                    f: self.f.clone(),
+                    num: f,
+                    den: self.f.one(),
+                }
+            })
+            .collect();
+        out.sort_by_cached_key(|e| e.to_string());
+        out.dedup();
+        out
+    }
+
+    /// True when the expression depends on coordinate `q_i`. Exact: when no variable depending
+    /// on `q_i` occurs it is free of `q_i`; otherwise it depends on `q_i` iff its total
+    /// derivative with respect to `q_i` is not zero.
     pub fn depends_on(&self, i: usize) -> bool {
+        self.mentions(i) && !self.diff(i).is_zero()
+    }
+
+    /// True when a variable depending on `q_i` occurs (syntactic; may be true for an
+    /// expression that is free of `q_i`, never false for one that depends on it).
+    pub fn mentions(&self, i: usize) -> bool {
         (0..self.f.nvars()).any(|v| {
             (self.num.degree(v) > 0 || self.den.degree(v) > 0) && self.f.deps(v).contains(&i)
         })
     }
 
-    /// The coordinates the expression depends on (indices, sorted).
+    /// The coordinates the expression depends on (indices, sorted), decided as in
+    /// [`Ex::depends_on`].
     pub fn coordinate_dependence(&self) -> Vec<usize> {
-        self.f.deps_of(&self.num, &self.den)
+        self.f
+            .deps_of(&self.num, &self.den)
+            .into_iter()
+            .filter(|&i| !self.diff(i).is_zero())
+            .collect()
     }
 
     /// True when some velocity der(q) occurs.
@@ -535,7 +583,10 @@ impl Ex {
         let field = self.field();
         let dn = field.ex_poly(self.num.derivative(v));
         if self.den.degree(v) == 0 {
-            return &dn * &field.ex(field.0.one(), self.den.clone()).expect("nonzero denominator");
+            return &dn
+                * &field
+                    .ex(field.0.one(), self.den.clone())
+                    .expect("nonzero denominator");
         }
         let dd = field.ex_poly(self.den.derivative(v));
         let n = field.ex_poly(self.num.clone());
@@ -551,7 +602,10 @@ impl Ex {
         let field = self.field();
         let dn = field.poly_diff(&self.num, i);
         if self.den.is_constant() {
-            return &dn * &field.ex(field.0.one(), self.den.clone()).expect("nonzero denominator");
+            return &dn
+                * &field
+                    .ex(field.0.one(), self.den.clone())
+                    .expect("nonzero denominator");
         }
         let dd = field.poly_diff(&self.den, i);
         let n = field.ex_poly(self.num.clone());
@@ -590,7 +644,9 @@ impl Field {
                     } if *k == i => Some((other, f.constant(int(*denom as i64)))),
                     Angle::Symbol { .. } => None,
                     Angle::Kernel { arg, .. } => {
-                        let arg = self.ex(arg.0.clone(), arg.1.clone()).expect("kernel argument");
+                        let arg = self
+                            .ex(arg.0.clone(), arg.1.clone())
+                            .expect("kernel argument");
                         let d = arg.diff(i);
                         if d.is_zero() {
                             None
@@ -617,7 +673,9 @@ impl Field {
             }
             VarKind::Kernel(k) => {
                 let kernel = f.kernels.borrow()[*k].clone();
-                let arg = self.ex(kernel.arg.0.clone(), kernel.arg.1.clone()).expect("kernel argument");
+                let arg = self
+                    .ex(kernel.arg.0.clone(), kernel.arg.1.clone())
+                    .expect("kernel argument");
                 let da = arg.diff(i);
                 if da.is_zero() {
                     None
@@ -627,7 +685,9 @@ impl Field {
                         Func::Exp => &me * &da,
                         Func::Log => da.div(&arg).expect("log of zero"),
                         // r = √G: dr = G' r / (2 G)
-                        Func::Sqrt => (&da * &me).div(&(&arg * &self.int(2))).expect("sqrt of zero"),
+                        Func::Sqrt => (&da * &me)
+                            .div(&(&arg * &self.int(2)))
+                            .expect("sqrt of zero"),
                         _ => unreachable!("kernel function"),
                     };
                     Some((r.num, r.den))
@@ -640,7 +700,7 @@ impl Field {
     }
 
     /// Total derivative of a polynomial with respect to q_i.
-    fn poly_diff(&self, p: &Poly, i: usize) -> Ex {
+    pub(crate) fn poly_diff(&self, p: &Poly, i: usize) -> Ex {
         let mut acc = self.zero();
         for v in 0..self.0.nvars() {
             if p.degree(v) == 0 {
@@ -679,7 +739,7 @@ impl fmt::Debug for Ex {
     }
 }
 
-// Arithmetic. The canonical form of a sum or product is rebuilt from the canonical operands.
+// Arithmetic. The normal form of a sum or product is rebuilt from the operands' normal forms.
 impl std::ops::Add for &Ex {
     type Output = Ex;
     fn add(self, o: &Ex) -> Ex {
@@ -691,19 +751,23 @@ impl std::ops::Add for &Ex {
         if self.is_zero() {
             return o.clone();
         }
-        // Denominators are free of related variables, numerators reduced: the combination
-        // below keeps both properties, so only the gcd step is needed.
         let (n, d) = if self.den == o.den {
             (&self.num + &o.num, self.den.clone())
         } else if self.den.is_one() {
-            (&(&self.num * &o.den) + &o.num, o.den.clone())
+            (f.reduce(&(&self.num * &o.den) + &o.num), o.den.clone())
         } else if o.den.is_one() {
-            (&self.num + &(&o.num * &self.den), self.den.clone())
+            (
+                f.reduce(&self.num + &(&o.num * &self.den)),
+                self.den.clone(),
+            )
         } else {
             let g = self.den.gcd(&o.den);
             let a = self.den.quot_rem(&g, false).0;
             let b = o.den.quot_rem(&g, false).0;
-            (&(&self.num * &b) + &(&o.num * &a), &a * &o.den)
+            (
+                f.reduce(&(&self.num * &b) + &(&o.num * &a)),
+                f.reduce(&a * &o.den),
+            )
         };
         let (num, den) = f.finish(n, d).expect("nonzero denominator");
         Ex {
@@ -744,14 +808,15 @@ impl std::ops::Mul for &Ex {
         let (n1, d2) = cancel(&self.num, &o.den);
         let (n2, d1) = cancel(&o.num, &self.den);
         let prod = &n1 * &n2;
+        let den = &d1 * &d2;
         let needs_reduction = f
             .relations
             .borrow()
             .iter()
-            .any(|(v, _)| prod.degree(*v) >= 2);
-        let den = &d1 * &d2;
+            .any(|(v, _)| prod.degree(*v) >= 2 || den.degree(*v) >= 2);
+        // Without reduction the cross-cancelled product is already in lowest terms.
         let (num, den) = if needs_reduction {
-            f.finish(f.reduce(prod), den)
+            f.finish(f.reduce(prod), f.reduce(den))
         } else {
             let (mut n, mut d) = (prod, den);
             if d.lcoeff().is_negative() {

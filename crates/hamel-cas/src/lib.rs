@@ -5,10 +5,10 @@
 //! allows one thread per user at a time, so callers send jobs there and get plain data back.
 //!
 //! **Inputs**: expression trees ([`hamel_expr::Expr`]) and a [`FieldSpec`] naming the symbols.
-//! **Outputs**: canonical expressions [`Ex`] (inside jobs only) and, to leave a job, plain trees
-//! ([`Ex::to_expr`]) and canonical text (`Display`).
+//! **Outputs**: expressions [`Ex`] in normal form (inside jobs only) and, to leave a job, plain
+//! trees ([`Ex::to_expr`]) and their text (`Display`).
 //!
-//! **Invariants**: every [`Ex`] is in the canonical form described in [`field`], so zero tests,
+//! **Invariants**: every [`Ex`] is in the normal form described in [`field`], so zero tests,
 //! equality and "free of q" are exact decisions, never samples; [`Ex`] is `!Send` and cannot
 //! escape the worker thread.
 #![warn(missing_docs)]
@@ -17,11 +17,13 @@ mod convert;
 mod export;
 pub mod field;
 pub mod linalg;
+pub mod over;
 mod print;
 mod worker;
 
 pub use field::{Ex, Field, FieldSpec};
 pub use linalg::Matrix;
+pub use over::{Denominators, OMatrix, Over, sum_over};
 pub use worker::{on_worker, run};
 
 /// What can go wrong in symbolic work.
@@ -38,7 +40,9 @@ pub enum CasError {
 impl std::fmt::Display for CasError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            CasError::DivisionByZero => write!(f, "division by an expression that is identically zero"),
+            CasError::DivisionByZero => {
+                write!(f, "division by an expression that is identically zero")
+            }
             CasError::Unsupported(m) => write!(f, "{m}"),
             CasError::Internal(m) => write!(f, "internal error: {m}"),
         }

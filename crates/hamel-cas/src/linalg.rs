@@ -173,7 +173,10 @@ impl Matrix {
     /// Gaussian elimination on a copy: returns (row echelon form, rank, determinant for square
     /// matrices). Pivots are chosen among the exactly-nonzero entries of the column, smallest
     /// first (the fewest terms), to keep intermediate expressions small.
-    fn eliminate(&self, augment: Option<&Matrix>) -> Result<(Matrix, Option<Matrix>, usize, Ex), CasError> {
+    fn eliminate(
+        &self,
+        augment: Option<&Matrix>,
+    ) -> Result<(Matrix, Option<Matrix>, usize, Ex), CasError> {
         let field = self.data[0].field();
         let mut a = self.clone();
         let mut b = augment.cloned();

@@ -2,7 +2,7 @@
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-use crate::ast::{Expr, Func};
+use crate::ast::{Expr, Func, Rational};
 
 /// A number type expressions can be evaluated in.
 pub trait Scalar:
@@ -15,6 +15,10 @@ pub trait Scalar:
 {
     /// A constant.
     fn constant(v: f64) -> Self;
+    /// An exact rational literal, as accurately as the type allows.
+    fn rational(r: &Rational) -> Self {
+        Self::constant(Expr::rational_to_f64(r))
+    }
     /// The value part (for domain checks).
     fn value(&self) -> f64;
     /// sine
@@ -66,83 +70,148 @@ impl Scalar for f64 {
 }
 
 /// A first-order dual number `v + d ε` with ε² = 0: evaluating `f(x + ε ẋ)` gives `f(x)` and the
-/// exact directional derivative `f'(x) ẋ` (forward-mode automatic differentiation).
+/// exact directional derivative `f'(x) ẋ` (forward-mode automatic differentiation), over any
+/// [`Scalar`] (f64 by default).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Dual {
+pub struct Dual<T = f64> {
     /// Value.
-    pub v: f64,
+    pub v: T,
     /// Derivative part.
-    pub d: f64,
+    pub d: T,
 }
 
-impl Dual {
+impl<T> Dual<T> {
     /// `v + d ε`.
-    pub fn new(v: f64, d: f64) -> Dual {
+    pub fn new(v: T, d: T) -> Dual<T> {
         Dual { v, d }
     }
 }
 
-impl Add for Dual {
-    type Output = Dual;
-    fn add(self, o: Dual) -> Dual {
+impl<T: Scalar> Add for Dual<T> {
+    type Output = Dual<T>;
+    fn add(self, o: Dual<T>) -> Dual<T> {
         Dual::new(self.v + o.v, self.d + o.d)
     }
 }
-impl Sub for Dual {
-    type Output = Dual;
-    fn sub(self, o: Dual) -> Dual {
+impl<T: Scalar> Sub for Dual<T> {
+    type Output = Dual<T>;
+    fn sub(self, o: Dual<T>) -> Dual<T> {
         Dual::new(self.v - o.v, self.d - o.d)
     }
 }
-impl Mul for Dual {
-    type Output = Dual;
-    fn mul(self, o: Dual) -> Dual {
-        Dual::new(self.v * o.v, self.d * o.v + self.v * o.d)
+impl<T: Scalar> Mul for Dual<T> {
+    type Output = Dual<T>;
+    fn mul(self, o: Dual<T>) -> Dual<T> {
+        Dual::new(self.v.clone() * o.v.clone(), self.d * o.v + self.v * o.d)
     }
 }
-impl Div for Dual {
-    type Output = Dual;
-    fn div(self, o: Dual) -> Dual {
-        Dual::new(self.v / o.v, (self.d * o.v - self.v * o.d) / (o.v * o.v))
+impl<T: Scalar> Div for Dual<T> {
+    type Output = Dual<T>;
+    fn div(self, o: Dual<T>) -> Dual<T> {
+        let q = self.v.clone() / o.v.clone();
+        Dual::new(q.clone(), (self.d - q * o.d) / o.v)
     }
 }
-impl Neg for Dual {
-    type Output = Dual;
-    fn neg(self) -> Dual {
+impl<T: Scalar> Neg for Dual<T> {
+    type Output = Dual<T>;
+    fn neg(self) -> Dual<T> {
         Dual::new(-self.v, -self.d)
     }
 }
 
-impl Scalar for Dual {
+impl<T: Scalar> Scalar for Dual<T> {
     fn constant(v: f64) -> Self {
-        Dual::new(v, 0.0)
+        Dual::new(T::constant(v), T::constant(0.0))
+    }
+    fn rational(r: &Rational) -> Self {
+        Dual::new(T::rational(r), T::constant(0.0))
     }
     fn value(&self) -> f64 {
-        self.v
+        self.v.value()
     }
     fn sin(&self) -> Self {
-        Dual::new(self.v.sin(), self.d * self.v.cos())
+        Dual::new(self.v.sin(), self.d.clone() * self.v.cos())
     }
     fn cos(&self) -> Self {
-        Dual::new(self.v.cos(), -self.d * self.v.sin())
+        Dual::new(self.v.cos(), -(self.d.clone() * self.v.sin()))
     }
     fn sqrt(&self) -> Self {
         let s = self.v.sqrt();
-        Dual::new(s, self.d / (2.0 * s))
+        Dual::new(s.clone(), self.d.clone() / (s.clone() + s))
     }
     fn exp(&self) -> Self {
         let e = self.v.exp();
-        Dual::new(e, self.d * e)
+        Dual::new(e.clone(), self.d.clone() * e)
     }
     fn ln(&self) -> Self {
-        Dual::new(self.v.ln(), self.d / self.v)
+        Dual::new(self.v.ln(), self.d.clone() / self.v.clone())
     }
     fn powi(&self, n: i32) -> Self {
         if n == 0 {
             return Dual::constant(1.0);
         }
-        Dual::new(self.v.powi(n), self.d * n as f64 * self.v.powi(n - 1))
+        Dual::new(
+            self.v.powi(n),
+            self.d.clone() * T::constant(n as f64) * self.v.powi(n - 1),
+        )
     }
+}
+
+/// An LU factorisation with partial pivoting over any [`Scalar`] (pivots chosen by the
+/// magnitude of their f64 value).
+#[derive(Clone, Debug)]
+pub struct Lu<S> {
+    lu: Vec<Vec<S>>,
+    perm: Vec<usize>,
+}
+
+impl<S: Scalar> Lu<S> {
+    /// Factor a square matrix; `None` when a pivot is exactly zero (singular).
+    pub fn new(mut a: Vec<Vec<S>>) -> Option<Lu<S>> {
+        let n = a.len();
+        let mut perm: Vec<usize> = (0..n).collect();
+        for col in 0..n {
+            let p = (col..n)
+                .max_by(|&i, &j| a[i][col].value().abs().total_cmp(&a[j][col].value().abs()))?;
+            if a[p][col].value() == 0.0 {
+                return None;
+            }
+            a.swap(p, col);
+            perm.swap(p, col);
+            for r in col + 1..n {
+                let f = a[r][col].clone() / a[col][col].clone();
+                for c in col + 1..n {
+                    let t = a[col][c].clone();
+                    a[r][c] = a[r][c].clone() - f.clone() * t;
+                }
+                a[r][col] = f;
+            }
+        }
+        Some(Lu { lu: a, perm })
+    }
+
+    /// Solve `a x = b`.
+    pub fn solve(&self, b: &[S]) -> Vec<S> {
+        let n = b.len();
+        let mut y: Vec<S> = self.perm.iter().map(|&i| b[i].clone()).collect();
+        for r in 0..n {
+            for c in 0..r {
+                y[r] = y[r].clone() - self.lu[r][c].clone() * y[c].clone();
+            }
+        }
+        for r in (0..n).rev() {
+            for c in r + 1..n {
+                y[r] = y[r].clone() - self.lu[r][c].clone() * y[c].clone();
+            }
+            y[r] = y[r].clone() / self.lu[r][r].clone();
+        }
+        y
+    }
+}
+
+/// Solve the square system `a x = b` (LU with partial pivoting); `None` when singular.
+pub fn solve<S: Scalar>(a: Vec<Vec<S>>, b: Vec<S>) -> Option<Vec<S>> {
+    Lu::new(a).map(|lu| lu.solve(&b))
 }
 
 /// Why an evaluation failed.
@@ -185,23 +254,29 @@ impl<S: Scalar, F: Fn(&str) -> Option<S>> Env<S> for F {
     }
 }
 
+/// The text of an expression for a message: at most 120 characters.
+fn brief(e: &Expr) -> String {
+    let s = e.to_string();
+    if s.chars().count() <= 120 {
+        s
+    } else {
+        format!("{}…", s.chars().take(120).collect::<String>())
+    }
+}
+
 impl Expr {
     /// Evaluate in `env`. Division by zero, `log`/`sqrt` outside their domain and non-finite
     /// results are errors, never NaN.
     pub fn eval<S: Scalar>(&self, env: &dyn Env<S>) -> Result<S, EvalError> {
         let out = match self {
-            Expr::Num(r) => S::constant(Expr::rational_to_f64(r)),
-            Expr::Sym(n) => env
-                .symbol(n)
-                .ok_or_else(|| EvalError::Unbound(n.clone()))?,
+            Expr::Num(r) => S::rational(r),
+            Expr::Sym(n) => env.symbol(n).ok_or_else(|| EvalError::Unbound(n.clone()))?,
             Expr::Der(q) => env
                 .velocity(q)
                 .ok_or_else(|| EvalError::Unbound(format!("der({q})")))?,
-            Expr::Free { name, args, orders } => {
-                env.free(name, args, orders).ok_or_else(|| {
-                    EvalError::Unbound(format!("{name}({}) or its derivative", args.join(", ")))
-                })?
-            }
+            Expr::Free { name, args, orders } => env.free(name, args, orders).ok_or_else(|| {
+                EvalError::Unbound(format!("{name}({}) or its derivative", args.join(", ")))
+            })?,
             Expr::Add(v) => {
                 let mut acc = S::constant(0.0);
                 for t in v {
@@ -220,7 +295,10 @@ impl Expr {
             Expr::Div(a, b) => {
                 let d = b.eval(env)?;
                 if d.value() == 0.0 {
-                    return Err(EvalError::Domain(format!("division by zero in `{self}`")));
+                    return Err(EvalError::Domain(format!(
+                        "division by zero in `{}`",
+                        brief(self)
+                    )));
                 }
                 a.eval(env)? / d
             }
@@ -230,7 +308,8 @@ impl Expr {
                     Some(n) if i32::try_from(n).is_ok() => {
                         if n < 0 && base.value() == 0.0 {
                             return Err(EvalError::Domain(format!(
-                                "zero to a negative power in `{self}`"
+                                "zero to a negative power in `{}`",
+                                brief(self)
                             )));
                         }
                         base.powi(n as i32)
@@ -238,7 +317,8 @@ impl Expr {
                     _ => {
                         if base.value() <= 0.0 {
                             return Err(EvalError::Domain(format!(
-                                "non-integer power of a non-positive number in `{self}`"
+                                "non-integer power of a non-positive number in `{}`",
+                                brief(self)
                             )));
                         }
                         base.powf(&e.eval(env)?)
@@ -253,14 +333,18 @@ impl Expr {
                     Func::Tan => {
                         let c = x.cos();
                         if c.value() == 0.0 {
-                            return Err(EvalError::Domain(format!("tan at a pole in `{self}`")));
+                            return Err(EvalError::Domain(format!(
+                                "tan at a pole in `{}`",
+                                brief(self)
+                            )));
                         }
                         x.sin() / c
                     }
                     Func::Sqrt => {
                         if x.value() < 0.0 {
                             return Err(EvalError::Domain(format!(
-                                "square root of a negative number in `{self}`"
+                                "square root of a negative number in `{}`",
+                                brief(self)
                             )));
                         }
                         x.sqrt()
@@ -269,7 +353,8 @@ impl Expr {
                     Func::Log => {
                         if x.value() <= 0.0 {
                             return Err(EvalError::Domain(format!(
-                                "logarithm of a non-positive number in `{self}`"
+                                "logarithm of a non-positive number in `{}`",
+                                brief(self)
                             )));
                         }
                         x.ln()
@@ -278,7 +363,10 @@ impl Expr {
             }
         };
         if !out.value().is_finite() {
-            return Err(EvalError::Domain(format!("non-finite value of `{self}`")));
+            return Err(EvalError::Domain(format!(
+                "non-finite value of `{}`",
+                brief(self)
+            )));
         }
         Ok(out)
     }
@@ -304,11 +392,30 @@ mod tests {
     fn dual_numbers_give_exact_derivatives() {
         let e = parse("x^3*sin(x)/(1 + x^2)").unwrap().expr;
         let x = 0.7_f64;
-        let f = |n: &str| (n == "x").then_some(Dual::new(x, 1.0));
+        let f = |n: &str| (n == "x").then_some(Dual::new(x, 1.0_f64));
         let d = e.eval(&f).unwrap();
         let exact = (3.0 * x * x * x.sin() + x.powi(3) * x.cos()) / (1.0 + x * x)
             - x.powi(3) * x.sin() * 2.0 * x / (1.0 + x * x).powi(2);
         assert!((d.d - exact).abs() < 1e-14, "{} vs {}", d.d, exact);
+    }
+
+    #[test]
+    fn lu_solves_with_pivoting() {
+        let a = vec![
+            vec![0.0, 2.0, 1.0],
+            vec![1.0, 1.0, 0.0],
+            vec![3.0, 0.0, 1.0],
+        ];
+        let x = [1.0, -2.0, 0.5];
+        let b: Vec<f64> = a
+            .iter()
+            .map(|r| r.iter().zip(&x).map(|(p, q)| p * q).sum())
+            .collect();
+        let got = solve(a, b).unwrap();
+        for (g, e) in got.iter().zip(&x) {
+            assert!((g - e).abs() < 1e-14);
+        }
+        assert!(solve(vec![vec![1.0, 2.0], vec![2.0, 4.0]], vec![1.0, 2.0]).is_none());
     }
 
     #[test]

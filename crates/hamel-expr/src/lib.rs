@@ -15,10 +15,16 @@
 #![warn(missing_docs)]
 
 mod ast;
+mod dd;
 mod display;
 mod eval;
+mod latex;
 mod parse;
+mod tape;
 
 pub use ast::{Expr, Func, Rational};
-pub use eval::{Dual, Env, EvalError, Scalar};
+pub use dd::DD;
+pub use eval::{Dual, Env, EvalError, Lu, Scalar, solve};
+pub use latex::latex_name;
 pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
+pub use tape::{Op, Tape};

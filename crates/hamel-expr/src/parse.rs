@@ -67,7 +67,10 @@ pub fn parse(text: &str) -> Result<Parsed, ParseError> {
     if let Some(t) = p.peek() {
         return Err(ParseError {
             span: t.span.clone(),
-            message: format!("unexpected {} after the end of the expression", t.describe()),
+            message: format!(
+                "unexpected {} after the end of the expression",
+                t.describe()
+            ),
         });
     }
     Ok(Parsed {
@@ -107,7 +110,9 @@ fn lex(text: &str) -> Result<Vec<Token>, ParseError> {
         let c = bytes[i] as char;
         if c.is_ascii_whitespace() {
             i += 1;
-        } else if c.is_ascii_digit() || (c == '.' && i + 1 < bytes.len() && bytes[i + 1].is_ascii_digit()) {
+        } else if c.is_ascii_digit()
+            || (c == '.' && i + 1 < bytes.len() && bytes[i + 1].is_ascii_digit())
+        {
             let start = i;
             while i < bytes.len() && bytes[i].is_ascii_digit() {
                 i += 1;
@@ -436,10 +441,16 @@ mod tests {
         ]);
         assert_eq!(e, expected);
         // -x^2 is -(x^2); 2^3^2 is 2^(3^2)
-        assert_eq!(p("-x^2"), Expr::Neg(Box::new(Expr::powi(Expr::sym("x"), 2))));
+        assert_eq!(
+            p("-x^2"),
+            Expr::Neg(Box::new(Expr::powi(Expr::sym("x"), 2)))
+        );
         assert_eq!(
             p("2^3^2"),
-            Expr::Pow(Box::new(Expr::int(2)), Box::new(Expr::powi(Expr::int(3), 2)))
+            Expr::Pow(
+                Box::new(Expr::int(2)),
+                Box::new(Expr::powi(Expr::int(3), 2))
+            )
         );
     }
 

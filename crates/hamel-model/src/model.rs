@@ -171,7 +171,12 @@ impl Loader<'_> {
     }
 
     /// Parse the text of a `Spanned<String>` value into an [`Item`] and resolve its names.
-    fn item(&mut self, value: &Spanned<String>, key: &str, kind: FieldKind) -> Result<Item, ModelError> {
+    fn item(
+        &mut self,
+        value: &Spanned<String>,
+        key: &str,
+        kind: FieldKind,
+    ) -> Result<Item, ModelError> {
         let span = value.span();
         let text = value.get_ref().clone();
         let text_offset = text_offset(&self.source, span.clone(), &text);
@@ -179,8 +184,13 @@ impl Loader<'_> {
             Some(o) => o + inner.start..o + inner.end.max(inner.start),
             None => span.clone(),
         };
-        let parsed = hamel_expr::parse(&text)
-            .map_err(|e| self.err(at(e.span.clone()), key, format!("syntax error: {}", e.message)))?;
+        let parsed = hamel_expr::parse(&text).map_err(|e| {
+            self.err(
+                at(e.span.clone()),
+                key,
+                format!("syntax error: {}", e.message),
+            )
+        })?;
         for occ in &parsed.occurrences {
             self.resolve(occ, key, kind, at(occ.span.clone()))?;
         }
@@ -196,7 +206,13 @@ impl Loader<'_> {
         })
     }
 
-    fn resolve(&mut self, occ: &Occurrence, key: &str, kind: FieldKind, span: Range<usize>) -> Result<(), ModelError> {
+    fn resolve(
+        &mut self,
+        occ: &Occurrence,
+        key: &str,
+        kind: FieldKind,
+        span: Range<usize>,
+    ) -> Result<(), ModelError> {
         let name = &occ.name;
         let is_coord = self.coordinates.contains(name);
         match &occ.kind {
@@ -221,7 +237,11 @@ impl Loader<'_> {
             }
             OccurrenceKind::Velocity => {
                 if !is_coord {
-                    let mut e = self.err(span, key, format!("`der({name})`: `{name}` is not a coordinate"));
+                    let mut e = self.err(
+                        span,
+                        key,
+                        format!("`der({name})`: `{name}` is not a coordinate"),
+                    );
                     if let Some(c) = closest(name, self.coordinates.iter()) {
                         e = e.with_help(format!("did you mean `der({c})`?"));
                     }
@@ -243,7 +263,11 @@ impl Loader<'_> {
                         .with_help("free functions such as `z13(phi)` are allowed only in quasi-velocity expressions; built-ins are sin cos tan sqrt exp log"));
                 }
                 if is_coord || self.parameters.contains_key(name) || is_reserved(name) {
-                    return Err(self.err(span, key, format!("`{name}` is a symbol, not a function")));
+                    return Err(self.err(
+                        span,
+                        key,
+                        format!("`{name}` is a symbol, not a function"),
+                    ));
                 }
                 for a in args {
                     if !self.coordinates.contains(a) {
@@ -258,7 +282,11 @@ impl Loader<'_> {
                 sorted.sort();
                 sorted.dedup();
                 if sorted.len() != args.len() {
-                    return Err(self.err(span, key, format!("free function `{name}` repeats an argument")));
+                    return Err(self.err(
+                        span,
+                        key,
+                        format!("free function `{name}` repeats an argument"),
+                    ));
                 }
                 match self.free.get(name) {
                     Some((prev, _)) if prev != args => Err(self.err(
@@ -285,9 +313,8 @@ impl Loader<'_> {
         let mut bad = None;
         e.visit(&mut |node| {
             if let Expr::Pow(base, exp) = node {
-                let exp_const = !exp.any(&mut |x| {
-                    matches!(x, Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. })
-                });
+                let exp_const =
+                    !exp.any(&mut |x| matches!(x, Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. }));
                 let base_const = !base.any(&mut |x| {
                     matches!(x, Expr::Sym(s) if self.coordinates.contains(s))
                         || matches!(x, Expr::Der(_) | Expr::Free { .. })
@@ -300,7 +327,11 @@ impl Loader<'_> {
         });
         match bad {
             Some(p) => Err(self
-                .err(span, key, format!("`{p}`: the exponent must be an integer (or the base a constant)"))
+                .err(
+                    span,
+                    key,
+                    format!("`{p}`: the exponent must be an integer (or the base a constant)"),
+                )
                 .with_help("write square roots as sqrt(...)")),
             None => Ok(()),
         }
@@ -335,7 +366,13 @@ impl Model {
         let path = path.as_ref();
         let name = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| {
-            ModelError::new(&name, Arc::new(String::new()), None, None, format!("cannot read the file: {e}"))
+            ModelError::new(
+                &name,
+                Arc::new(String::new()),
+                None,
+                None,
+                format!("cannot read the file: {e}"),
+            )
         })?;
         Model::from_source(&name, &text)
     }
@@ -344,7 +381,13 @@ impl Model {
     pub fn from_source(file: &str, text: &str) -> Result<Model, ModelError> {
         let source = Arc::new(text.to_string());
         let raw: RawModel = toml::from_str(text).map_err(|e| {
-            ModelError::new(file, source.clone(), e.span(), None, e.message().trim().to_string())
+            ModelError::new(
+                file,
+                source.clone(),
+                e.span(),
+                None,
+                e.message().trim().to_string(),
+            )
         })?;
         let err = |span: Range<usize>, key: &str, msg: String| {
             ModelError::new(file, source.clone(), Some(span), Some(key), msg)
@@ -352,43 +395,85 @@ impl Model {
 
         // Name, coordinates, parameters.
         if !is_identifier(raw.name.get_ref()) {
-            return Err(err(raw.name.span(), "name", format!("`{}` is not an identifier (letters, digits, `_`)", raw.name.get_ref())));
+            return Err(err(
+                raw.name.span(),
+                "name",
+                format!(
+                    "`{}` is not an identifier (letters, digits, `_`)",
+                    raw.name.get_ref()
+                ),
+            ));
         }
         let mut coordinates: Vec<String> = Vec::new();
         for c in raw.coordinates.get_ref() {
             let n = c.get_ref();
             if !is_identifier(n) {
-                return Err(err(c.span(), "coordinates", format!("`{n}` is not an identifier")));
+                return Err(err(
+                    c.span(),
+                    "coordinates",
+                    format!("`{n}` is not an identifier"),
+                ));
             }
             if is_reserved(n) || is_eta_name(n) {
-                return Err(err(c.span(), "coordinates", format!("`{n}` is a reserved name")));
+                return Err(err(
+                    c.span(),
+                    "coordinates",
+                    format!("`{n}` is a reserved name"),
+                ));
             }
             if coordinates.contains(n) {
-                return Err(err(c.span(), "coordinates", format!("coordinate `{n}` is listed twice")));
+                return Err(err(
+                    c.span(),
+                    "coordinates",
+                    format!("coordinate `{n}` is listed twice"),
+                ));
             }
             coordinates.push(n.clone());
         }
         if coordinates.is_empty() {
-            return Err(err(raw.coordinates.span(), "coordinates", "the model needs at least one coordinate".into()));
+            return Err(err(
+                raw.coordinates.span(),
+                "coordinates",
+                "the model needs at least one coordinate".into(),
+            ));
         }
         let mut parameters = IndexMap::new();
         for (k, v) in &raw.parameters {
             let key = format!("parameters.{k}");
             if !is_identifier(k) || is_reserved(k) || is_eta_name(k) {
-                return Err(err(v.span(), &key, format!("`{k}` cannot be a parameter name (reserved or not an identifier)")));
+                return Err(err(
+                    v.span(),
+                    &key,
+                    format!("`{k}` cannot be a parameter name (reserved or not an identifier)"),
+                ));
             }
             if coordinates.contains(k) {
-                return Err(err(v.span(), &key, format!("`{k}` is already a coordinate")));
+                return Err(err(
+                    v.span(),
+                    &key,
+                    format!("`{k}` is already a coordinate"),
+                ));
             }
             let value = match v.get_ref() {
                 toml::Value::Float(f) => *f,
                 toml::Value::Integer(i) => *i as f64,
                 other => {
-                    return Err(err(v.span(), &key, format!("a parameter's default must be a number, found {}", other.type_str())));
+                    return Err(err(
+                        v.span(),
+                        &key,
+                        format!(
+                            "a parameter's default must be a number, found {}",
+                            other.type_str()
+                        ),
+                    ));
                 }
             };
             if !value.is_finite() {
-                return Err(err(v.span(), &key, "a parameter's default must be finite".into()));
+                return Err(err(
+                    v.span(),
+                    &key,
+                    "a parameter's default must be finite".into(),
+                ));
             }
             parameters.insert(k.clone(), value);
         }
@@ -409,15 +494,32 @@ impl Model {
             potential,
         } = raw.lagrangian.get_ref();
         let kinetic = match (kinetic, mass_matrix) {
-            (Some(t), None) => Kinetic::Energy(loader.item(t, "lagrangian.kinetic", FieldKind::Kinetic)?),
+            (Some(t), None) => {
+                Kinetic::Energy(loader.item(t, "lagrangian.kinetic", FieldKind::Kinetic)?)
+            }
             (None, Some(m)) => {
                 if m.get_ref().len() != ell {
-                    return Err(err(m.span(), "lagrangian.mass_matrix", format!("the mass matrix must have {ell} rows (one per coordinate), found {}", m.get_ref().len())));
+                    return Err(err(
+                        m.span(),
+                        "lagrangian.mass_matrix",
+                        format!(
+                            "the mass matrix must have {ell} rows (one per coordinate), found {}",
+                            m.get_ref().len()
+                        ),
+                    ));
                 }
                 let mut rows = Vec::new();
                 for (i, row) in m.get_ref().iter().enumerate() {
                     if row.get_ref().len() != ell {
-                        return Err(err(row.span(), "lagrangian.mass_matrix", format!("row {} must have {ell} entries, found {}", i + 1, row.get_ref().len())));
+                        return Err(err(
+                            row.span(),
+                            "lagrangian.mass_matrix",
+                            format!(
+                                "row {} must have {ell} entries, found {}",
+                                i + 1,
+                                row.get_ref().len()
+                            ),
+                        ));
                     }
                     let mut r = Vec::new();
                     for (j, e) in row.get_ref().iter().enumerate() {
@@ -429,10 +531,18 @@ impl Model {
                 Kinetic::MassMatrix(rows)
             }
             (Some(t), Some(_)) => {
-                return Err(err(t.span(), "lagrangian", "give either `kinetic` or `mass_matrix`, not both".into()));
+                return Err(err(
+                    t.span(),
+                    "lagrangian",
+                    "give either `kinetic` or `mass_matrix`, not both".into(),
+                ));
             }
             (None, None) => {
-                return Err(err(raw.lagrangian.span(), "lagrangian", "missing the kinetic energy: give `kinetic` (T) or `mass_matrix` (A)".into()));
+                return Err(err(
+                    raw.lagrangian.span(),
+                    "lagrangian",
+                    "missing the kinetic energy: give `kinetic` (T) or `mass_matrix` (A)".into(),
+                ));
             }
         };
         let potential = match potential {
@@ -446,14 +556,28 @@ impl Model {
             let key = format!("constraints.{k}");
             let item = loader.item(v, &key, FieldKind::Constraint)?;
             if !item.expr.has_velocity() {
-                return Err(err(v.span(), &key, "a constraint must involve the velocities der(q): it is α(q) q̇ = 0".into()));
+                return Err(err(
+                    v.span(),
+                    &key,
+                    "a constraint must involve the velocities der(q): it is α(q) q̇ = 0".into(),
+                ));
             }
             constraints.push((k.clone(), item));
         }
         let mu = constraints.len();
         if mu >= ell {
-            let span = raw.constraints.values().next().map_or(raw.coordinates.span(), |v| v.span());
-            return Err(err(span, "constraints", format!("there are {mu} constraints for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)")));
+            let span = raw
+                .constraints
+                .values()
+                .next()
+                .map_or(raw.coordinates.span(), |v| v.span());
+            return Err(err(
+                span,
+                "constraints",
+                format!(
+                    "there are {mu} constraints for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)"
+                ),
+            ));
         }
         let sigma = ell - mu;
 
@@ -463,19 +587,31 @@ impl Model {
             let RawChoice { eta, description } = choice.get_ref();
             let key = format!("quasi_velocities.{name}");
             if !is_identifier(name) {
-                return Err(err(choice.span(), &key, format!("`{name}` is not an identifier")));
+                return Err(err(
+                    choice.span(),
+                    &key,
+                    format!("`{name}` is not an identifier"),
+                ));
             }
             if eta.get_ref().len() != sigma {
-                return Err(err(eta.span(), &format!("{key}.eta"), format!(
-                    "wrong number of quasi-velocities: need ℓ − μ = {ell} − {mu} = {sigma}, found {}",
-                    eta.get_ref().len()
-                )));
+                return Err(err(
+                    eta.span(),
+                    &format!("{key}.eta"),
+                    format!(
+                        "wrong number of quasi-velocities: need ℓ − μ = {ell} − {mu} = {sigma}, found {}",
+                        eta.get_ref().len()
+                    ),
+                ));
             }
             let mut items = Vec::new();
             for (i, e) in eta.get_ref().iter().enumerate() {
                 let item = loader.item(e, &format!("{key}.eta[{}]", i + 1), FieldKind::Eta)?;
                 if !item.expr.has_velocity() {
-                    return Err(err(e.span(), &format!("{key}.eta[{}]", i + 1), "a quasi-velocity must be linear in the velocities der(q)".into()));
+                    return Err(err(
+                        e.span(),
+                        &format!("{key}.eta[{}]", i + 1),
+                        "a quasi-velocity must be linear in the velocities der(q)".into(),
+                    ));
                 }
                 items.push(item);
             }
@@ -551,7 +687,13 @@ impl Model {
     /// An error located at `site`.
     pub fn error_at(&self, site: &Site, message: impl Into<String>) -> ModelError {
         let span = (site.span.end > site.span.start).then(|| site.span.clone());
-        ModelError::new(&self.file, self.source.clone(), span, Some(&site.key), message)
+        ModelError::new(
+            &self.file,
+            self.source.clone(),
+            span,
+            Some(&site.key),
+            message,
+        )
     }
 
     /// An error about the model as a whole.
@@ -561,7 +703,11 @@ impl Model {
 
     /// A copy whose choice `choice` has its free functions replaced by the given expressions of
     /// their arguments (for numeric evaluation of a parametrised choice).
-    pub fn with_free_functions(&self, choice: &str, defs: &[(String, Expr)]) -> Result<Model, ModelError> {
+    pub fn with_free_functions(
+        &self,
+        choice: &str,
+        defs: &[(String, Expr)],
+    ) -> Result<Model, ModelError> {
         let mut m = self.clone();
         let c = m
             .choices
@@ -574,7 +720,9 @@ impl Model {
             };
             let mut stray = None;
             by.visit(&mut |n| match n {
-                Expr::Sym(s) if !args.contains(s) && !self.parameters.contains_key(s) => stray = Some(s.clone()),
+                Expr::Sym(s) if !args.contains(s) && !self.parameters.contains_key(s) => {
+                    stray = Some(s.clone())
+                }
                 Expr::Der(_) | Expr::Free { .. } => stray = Some(n.to_string()),
                 _ => {}
             });
@@ -585,7 +733,10 @@ impl Model {
                 )));
             }
             for item in &mut c.eta {
-                item.expr = item.expr.substitute_free(name, by).map_err(|e| self.error(e))?;
+                item.expr = item
+                    .expr
+                    .substitute_free(name, by)
+                    .map_err(|e| self.error(e))?;
             }
             c.free_functions.retain(|(f, _)| f != name);
         }
@@ -601,11 +752,19 @@ fn is_eta_name(s: &str) -> bool {
 fn identity_choice(coordinates: &[String]) -> QuasiVelocityChoice {
     QuasiVelocityChoice {
         name: "identity".to_string(),
-        description: Some("Z = I: the quasi-velocities are the generalized velocities (holonomic case)".to_string()),
+        description: Some(
+            "Z = I: the quasi-velocities are the generalized velocities (holonomic case)"
+                .to_string(),
+        ),
         eta: coordinates
             .iter()
             .enumerate()
-            .map(|(i, q)| Item::synthetic(&format!("quasi_velocities.identity.eta[{}]", i + 1), Expr::Der(q.clone())))
+            .map(|(i, q)| {
+                Item::synthetic(
+                    &format!("quasi_velocities.identity.eta[{}]", i + 1),
+                    Expr::Der(q.clone()),
+                )
+            })
             .collect(),
         free_functions: Vec::new(),
     }
@@ -647,7 +806,10 @@ eta = ["cos(theta)*der(x) + sin(theta)*der(y)", "der(theta)"]
     fn unknown_symbol_is_located_with_a_hint() {
         let e = bad(&KNIFE.replace("sin(theta)*der(x) -", "sin(thta)*der(x) -"));
         let s = e.to_string();
-        assert!(s.starts_with("bad.toml:12:16: constraints.no_slip: unknown symbol `thta`"), "{s}");
+        assert!(
+            s.starts_with("bad.toml:12:16: constraints.no_slip: unknown symbol `thta`"),
+            "{s}"
+        );
         assert!(s.contains("did you mean `theta`?"), "{s}");
     }
 
@@ -663,7 +825,11 @@ eta = ["cos(theta)*der(x) + sin(theta)*der(y)", "der(theta)"]
     #[test]
     fn wrong_number_of_quasi_velocities() {
         let e = bad(&KNIFE.replace("\"der(theta)\"]", "\"der(theta)\", \"der(x)\"]"));
-        assert!(e.to_string().contains("wrong number of quasi-velocities: need ℓ − μ = 3 − 1 = 2, found 3"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("wrong number of quasi-velocities: need ℓ − μ = 3 − 1 = 2, found 3"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -672,19 +838,30 @@ eta = ["cos(theta)*der(x) + sin(theta)*der(y)", "der(theta)"]
             "no_slip = \"sin(theta)*der(x) - cos(theta)*der(y)\"",
             "a = \"der(x)\"\nb = \"der(y)\"\nc = \"der(theta)\"",
         );
-        assert!(bad(&text).to_string().contains("need fewer constraints than coordinates"));
+        assert!(
+            bad(&text)
+                .to_string()
+                .contains("need fewer constraints than coordinates")
+        );
     }
 
     #[test]
     fn velocity_in_potential_is_rejected() {
         let e = bad(&KNIFE.replace("potential = \"0\"", "potential = \"m*der(x)\""));
-        assert!(e.to_string().contains("lagrangian.potential: velocity `der(x)` is not allowed here"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("lagrangian.potential: velocity `der(x)` is not allowed here"),
+            "{e}"
+        );
     }
 
     #[test]
     fn free_function_outside_eta_is_rejected() {
         let e = bad(&KNIFE.replace("potential = \"0\"", "potential = \"f(x)\""));
-        assert!(e.to_string().contains("`f` is not a built-in function"), "{e}");
+        assert!(
+            e.to_string().contains("`f` is not a built-in function"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -710,12 +887,21 @@ eta = ["cos(theta)*der(x) + sin(theta)*der(y)", "der(theta)"]
         let m = Model::from_source("k.toml", &text).unwrap();
         assert_eq!(m.choices[0].free_functions.len(), 2);
         let defs = vec![
-            ("z11".to_string(), hamel_expr::parse("cos(theta)").unwrap().expr),
-            ("z12".to_string(), hamel_expr::parse("sin(theta)").unwrap().expr),
+            (
+                "z11".to_string(),
+                hamel_expr::parse("cos(theta)").unwrap().expr,
+            ),
+            (
+                "z12".to_string(),
+                hamel_expr::parse("sin(theta)").unwrap().expr,
+            ),
         ];
         let m2 = m.with_free_functions("general", &defs).unwrap();
         assert!(m2.choices[0].free_functions.is_empty());
-        assert_eq!(m2.choices[0].eta[0].expr.to_string(), "cos(theta)*der(x) + sin(theta)*der(y)");
+        assert_eq!(
+            m2.choices[0].eta[0].expr.to_string(),
+            "cos(theta)*der(x) + sin(theta)*der(y)"
+        );
         let bad_def = vec![("z11".to_string(), hamel_expr::parse("x").unwrap().expr)];
         assert!(m.with_free_functions("general", &bad_def).is_err());
     }

@@ -39,7 +39,10 @@ impl<S: Scalar> Env<S> for Point<'_, S> {
 
 impl<'m> NumericModel<'m> {
     /// The model at its default parameters, with `overrides` applied (unknown names are errors).
-    pub fn new(model: &'m Model, overrides: &IndexMap<String, f64>) -> Result<NumericModel<'m>, ModelError> {
+    pub fn new(
+        model: &'m Model,
+        overrides: &IndexMap<String, f64>,
+    ) -> Result<NumericModel<'m>, ModelError> {
         let mut params = model.parameters.clone();
         for (k, v) in overrides {
             match params.get_mut(k) {
@@ -126,7 +129,11 @@ impl<'m> NumericModel<'m> {
 
     /// Z(q) of a choice: Z_ij is the coefficient of der(q_j) in η_i (free functions must have
     /// been substituted).
-    pub fn quasi_velocity_matrix<S: Scalar>(&self, choice: &str, q: &[S]) -> Result<Vec<Vec<S>>, EvalError> {
+    pub fn quasi_velocity_matrix<S: Scalar>(
+        &self,
+        choice: &str,
+        q: &[S],
+    ) -> Result<Vec<Vec<S>>, EvalError> {
         let ell = self.model.ell();
         let c = self
             .model
@@ -174,7 +181,8 @@ impl Model {
             Kinetic::MassMatrix(rows) => {
                 let mut s = rows[0][0].site.clone();
                 s.key = "lagrangian.mass_matrix".into();
-                s.span = rows[0][0].site.span.start..rows.last().unwrap().last().unwrap().site.span.end;
+                s.span =
+                    rows[0][0].site.span.start..rows.last().unwrap().last().unwrap().site.span.end;
                 s
             }
         };
@@ -189,11 +197,18 @@ impl Model {
             };
             evaluated += 1;
             let m = DMatrix::from_fn(ell, ell, |i, j| a[i][j]);
-            let scale = m.iter().fold(0.0_f64, |s, x| s.max(x.abs())).max(f64::MIN_POSITIVE);
-            let asym = (&m - m.transpose()).iter().fold(0.0_f64, |s, x| s.max(x.abs()));
+            let scale = m
+                .iter()
+                .fold(0.0_f64, |s, x| s.max(x.abs()))
+                .max(f64::MIN_POSITIVE);
+            let asym = (&m - m.transpose())
+                .iter()
+                .fold(0.0_f64, |s, x| s.max(x.abs()));
             let at = format_point(&self.coordinates, &q);
             if asym > 1e-12 * scale {
-                return Err(self.error_at(&site, format!("the mass matrix A is not symmetric at {at}")));
+                return Err(
+                    self.error_at(&site, format!("the mass matrix A is not symmetric at {at}"))
+                );
             }
             let eig = m.clone().symmetric_eigen().eigenvalues;
             let min = eig.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -206,7 +221,10 @@ impl Model {
             }
         }
         if evaluated == 0 {
-            return Err(self.error_at(&site, "A could not be evaluated at any sample configuration"));
+            return Err(self.error_at(
+                &site,
+                "A could not be evaluated at any sample configuration",
+            ));
         }
         Ok(())
     }

@@ -1,0 +1,147 @@
+//! The result of a derivation: plain data (canonical text plus evaluable trees), `Send`.
+
+use hamel_expr::Expr;
+use indexmap::IndexMap;
+use serde::{Serialize, Serializer};
+
+/// One derived expression: its canonical text and its tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Entry {
+    /// Canonical text (model-file syntax; `etaR` are the quasi-velocities, `etaR_dot` their
+    /// rates).
+    pub text: String,
+    /// The same expression as a tree, for numeric evaluation.
+    pub expr: Expr,
+}
+
+impl Serialize for Entry {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.text)
+    }
+}
+
+/// A matrix of derived expressions (row-major; serialised as a list of rows of strings).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mat {
+    /// Number of rows.
+    pub rows: usize,
+    /// Number of columns.
+    pub cols: usize,
+    /// Rows of entries.
+    pub entries: Vec<Vec<Entry>>,
+}
+
+impl Mat {
+    /// Entry (i, j).
+    pub fn at(&self, i: usize, j: usize) -> &Entry {
+        &self.entries[i][j]
+    }
+}
+
+impl Serialize for Mat {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.entries.serialize(s)
+    }
+}
+
+/// Exact checks made on the derived equations.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Checks {
+    /// Q (true) = Q_paper + Q_correction, coefficient by coefficient.
+    pub split_identity: bool,
+    /// dE/dt = 0 identically along the true equations (E = ½ηᵀA_Γη − U).
+    pub energy_conserved: bool,
+    /// dE/dt = 0 identically along the paper's equations too (the correction is gyroscopic).
+    pub energy_conserved_paper: bool,
+    /// Q_correction ≡ 0: the paper's equations (11)/(15) are the true ones for this Z.
+    pub paper_is_exact: bool,
+    /// For holonomic models with Z = I: the equations are the Euler–Lagrange equations
+    /// (Q⁽ⁱ⁾ are the Christoffel symbols of the first kind). `None` when not applicable.
+    pub euler_lagrange: Option<bool>,
+}
+
+/// The Boltzmann–Hamel equations of a model for one choice of quasi-velocities.
+///
+/// The equations are A_Γ η̇ + Q(q, η) − Γᵀ∇U = 0 (11) with Q_i = Σ_rs Q⁽ⁱ⁾_rs η_r η_s, joined
+/// to the kinematic equations q̇ = Γη (6). The coefficient matrices Q⁽ⁱ⁾ are given symmetrised
+/// (a quadratic form determines only its symmetric part).
+#[derive(Clone, Debug, Serialize)]
+pub struct Derivation {
+    /// Model identifier.
+    pub model: String,
+    /// Model title.
+    pub title: String,
+    /// Name of the quasi-velocity choice.
+    pub eta_name: String,
+    /// The quasi-velocities η = Z q̇ as written in the model.
+    pub eta: Vec<String>,
+    /// Free functions of the choice, as `name(args)`.
+    pub free_functions: Vec<String>,
+    /// Coordinates q₁..q_ℓ.
+    pub coordinates: Vec<String>,
+    /// Parameters with their default values.
+    pub parameters: IndexMap<String, f64>,
+    /// ℓ, μ, σ.
+    pub ell: usize,
+    /// Number of constraints.
+    pub mu: usize,
+    /// Number of quasi-velocities.
+    pub sigma: usize,
+    /// Mass matrix A (ℓ×ℓ), T = ½ q̇ᵀAq̇.
+    pub a: Mat,
+    /// Constraint matrix α (μ×ℓ).
+    pub alpha: Mat,
+    /// Z (σ×ℓ).
+    pub z: Mat,
+    /// Γ (ℓ×σ): q̇ = Γη (5)–(6).
+    pub gamma: Mat,
+    /// Θ (ℓ×μ): [Z; α]⁻¹ = [Γ Θ] (5).
+    pub theta: Mat,
+    /// δ = det[Z; α] (4).
+    pub delta: Entry,
+    /// Expressions whose vanishing makes [Z; α] singular or Γ undefined (factors of δ's
+    /// numerator and of Γ's denominators); empty when the map is regular everywhere.
+    pub singular_set: Vec<Entry>,
+    /// A_Γ = ΓᵀAΓ (8).
+    pub a_gamma: Mat,
+    /// ∇U.
+    pub grad_u: Vec<Entry>,
+    /// Γᵀ∇U.
+    pub forcing: Vec<Entry>,
+    /// ΘᵀAΓ (μ×σ): ν = ΘᵀAΓη are the momenta along the constrained directions.
+    pub nu: Mat,
+    /// Q⁽ⁱ⁾ of the true equations, i = 1..σ (each σ×σ, symmetric).
+    pub q: Vec<Mat>,
+    /// Q⁽ⁱ⁾ of the paper's (12)/(15) (with (15)'s second and third terms summed over h only).
+    pub q_paper: Vec<Mat>,
+    /// Q⁽ⁱ⁾ of the correction Σ_m ν_m Γᵀ V_m Γ η, (V_m)_hk = ∂α_mh/∂q_k − ∂α_mk/∂q_h.
+    pub q_correction: Vec<Mat>,
+    /// Kinematic equations: q̇_k = (Γη)_k.
+    pub kinematics: Vec<Entry>,
+    /// Left-hand sides of the true equations (11), each = 0.
+    pub equations: Vec<Entry>,
+    /// Left-hand sides of the paper's equations (11) with (12).
+    pub equations_paper: Vec<Entry>,
+    /// Energy E = T − U = ½ηᵀA_Γη − U.
+    pub energy: Entry,
+    /// Exact checks.
+    pub checks: Checks,
+    /// Ingredients of the structured numeric evaluation (not serialised): U and the exact
+    /// partial derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k, k = 1..ℓ.
+    #[serde(skip)]
+    pub ingredients: Ingredients,
+}
+
+/// Small exact expressions from which the equations are evaluated numerically without
+/// expanding them (see `numeric`).
+#[derive(Clone, Debug, Default)]
+pub struct Ingredients {
+    /// U.
+    pub potential: Option<Entry>,
+    /// ∂A/∂q_k.
+    pub da: Vec<Mat>,
+    /// ∂Z/∂q_k.
+    pub dz: Vec<Mat>,
+    /// ∂α/∂q_k.
+    pub dalpha: Vec<Mat>,
+}

@@ -1,0 +1,41 @@
+//! The Boltzmann–Hamel equations of a model.
+//!
+//! **Job**: given a [`Model`] and one of its quasi-velocity choices, derive exactly Γ, Θ and
+//! δ (4)–(5), A_Γ (8), the forcing Γᵀ∇U, the coefficients Q⁽ⁱ⁾_rs of the *true* equations
+//! (11) obtained from (9), the paper's coefficients (12)/(15) and the correction term that the
+//! paper drops, the kinematic equations (6) and the energy; and check exactly that
+//! Q = Q_paper + Q_correction and that the energy is conserved.
+//!
+//! **Inputs**: a checked [`Model`] and a choice name. **Outputs**: a [`Derivation`] (plain data:
+//! canonical text and evaluable trees), or a located [`ModelError`] for models that fail the
+//! algebraic checks (T not quadratic, constraints not linear and homogeneous, α rank-deficient,
+//! det[Z; α] identically zero).
+//!
+//! **Invariant**: the symbolic work runs as one job on the computer-algebra thread
+//! ([`hamel_cas::run`]); everything returned is engine-free and `Send`.
+#![warn(missing_docs)]
+
+mod derivation;
+mod numeric;
+mod render;
+mod symbolic;
+
+pub use derivation::{Checks, Derivation, Entry, Ingredients, Mat};
+pub use hamel_model::{Model, ModelError};
+pub use numeric::{Compiled, Evaluation, NumericError, Rhs, SymbolicCompiled};
+
+/// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first
+/// choice when `None`).
+pub fn derive(model: &Model, eta: Option<&str>) -> Result<Derivation, ModelError> {
+    let name = model.choice(eta)?.name.clone();
+    let model = model.clone();
+    hamel_cas::run(move || symbolic::derive(&model, &name)).map_err(|e| {
+        hamel_model::ModelError::new(
+            "hamel",
+            std::sync::Arc::new(String::new()),
+            None,
+            None,
+            e.to_string(),
+        )
+    })?
+}

@@ -1,0 +1,205 @@
+//! Human-readable renderings of a derivation: plain text and LaTeX.
+
+use std::fmt::Write;
+
+use hamel_expr::latex_name;
+
+use crate::derivation::{Derivation, Entry, Mat};
+
+fn mat_text(out: &mut String, name: &str, m: &Mat) {
+    if m.rows == 0 || m.cols == 0 {
+        let _ = writeln!(out, "{name} = [] ({}×{})", m.rows, m.cols);
+        return;
+    }
+    let _ = writeln!(out, "{name} =");
+    for row in &m.entries {
+        let cells: Vec<&str> = row.iter().map(|e| e.text.as_str()).collect();
+        let _ = writeln!(out, "  [{}]", cells.join(",  "));
+    }
+}
+
+fn list_text(out: &mut String, name: &str, v: &[Entry]) {
+    let _ = writeln!(out, "{name} =");
+    for (i, e) in v.iter().enumerate() {
+        let _ = writeln!(out, "  ({}) {}", i + 1, e.text);
+    }
+}
+
+fn yes(b: bool) -> &'static str {
+    if b { "verified" } else { "FAILS" }
+}
+
+impl Derivation {
+    /// The derivation as plain text.
+    pub fn to_text(&self) -> String {
+        let mut o = String::new();
+        let _ = writeln!(o, "model {}: {}", self.model, self.title);
+        let _ = writeln!(
+            o,
+            "coordinates q = ({})   ℓ = {}, μ = {}, σ = {}",
+            self.coordinates.join(", "),
+            self.ell,
+            self.mu,
+            self.sigma
+        );
+        let _ = writeln!(o, "quasi-velocities `{}`:", self.eta_name);
+        for (i, e) in self.eta.iter().enumerate() {
+            let _ = writeln!(o, "  eta{} = {}", i + 1, e);
+        }
+        if !self.free_functions.is_empty() {
+            let _ = writeln!(o, "free functions: {}", self.free_functions.join(", "));
+        }
+        o.push('\n');
+        mat_text(&mut o, "A (T = ½ q̇ᵀAq̇)", &self.a);
+        mat_text(&mut o, "α (constraints α q̇ = 0)", &self.alpha);
+        mat_text(&mut o, "Z (η = Z q̇)", &self.z);
+        let _ = writeln!(o, "δ = det[Z; α] = {}", self.delta.text);
+        let _ = writeln!(o, "singular set: {}", self.singular_set_text());
+        mat_text(&mut o, "Γ (q̇ = Γη)", &self.gamma);
+        mat_text(&mut o, "Θ", &self.theta);
+        mat_text(&mut o, "A_Γ = ΓᵀAΓ", &self.a_gamma);
+        list_text(&mut o, "Γᵀ∇U", &self.forcing);
+        mat_text(&mut o, "ΘᵀAΓ (ν = ΘᵀAΓη)", &self.nu);
+        for i in 0..self.sigma {
+            mat_text(
+                &mut o,
+                &format!("Q({}) (true, symmetric)", i + 1),
+                &self.q[i],
+            );
+            mat_text(
+                &mut o,
+                &format!("Q({}) paper (12)/(15)", i + 1),
+                &self.q_paper[i],
+            );
+            mat_text(
+                &mut o,
+                &format!("Q({}) correction", i + 1),
+                &self.q_correction[i],
+            );
+        }
+        o.push('\n');
+        let _ = writeln!(o, "equations of motion (true, from (9)):");
+        for (i, e) in self.equations.iter().enumerate() {
+            let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
+        }
+        let _ = writeln!(o, "equations as printed in the paper (11)/(12):");
+        for (i, e) in self.equations_paper.iter().enumerate() {
+            let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
+        }
+        let _ = writeln!(o, "kinematic equations (6):");
+        for (k, e) in self.kinematics.iter().enumerate() {
+            let _ = writeln!(o, "  der({}) = {}", self.coordinates[k], e.text);
+        }
+        let _ = writeln!(o, "energy E = T − U = {}", self.energy.text);
+        o.push('\n');
+        let c = &self.checks;
+        let _ = writeln!(o, "checks (exact):");
+        let _ = writeln!(o, "  Q = Q_paper + Q_correction: {}", yes(c.split_identity));
+        let _ = writeln!(
+            o,
+            "  dE/dt = 0 along the true equations: {}",
+            yes(c.energy_conserved)
+        );
+        let _ = writeln!(
+            o,
+            "  dE/dt = 0 along the paper's equations: {}",
+            yes(c.energy_conserved_paper)
+        );
+        let _ = writeln!(
+            o,
+            "  paper's equations exact for this Z: {}",
+            if c.paper_is_exact {
+                "yes (Q_correction ≡ 0)"
+            } else {
+                "NO: the paper's (11)/(15) miss Q_correction"
+            }
+        );
+        if let Some(el) = c.euler_lagrange {
+            let _ = writeln!(
+                o,
+                "  holonomic, Z = I: equations are Euler–Lagrange: {}",
+                yes(el)
+            );
+        }
+        o
+    }
+
+    /// The derivation as a LaTeX fragment (an `align*` environment per block).
+    pub fn to_latex(&self) -> String {
+        let mut o = String::new();
+        let tex_mat = |m: &Mat| -> String {
+            if m.rows == 0 || m.cols == 0 {
+                return "\\varnothing".into();
+            }
+            let rows: Vec<String> = m
+                .entries
+                .iter()
+                .map(|r| {
+                    r.iter()
+                        .map(|e| e.expr.to_latex())
+                        .collect::<Vec<_>>()
+                        .join(" & ")
+                })
+                .collect();
+            format!(
+                "\\begin{{pmatrix}} {} \\end{{pmatrix}}",
+                rows.join(" \\\\ ")
+            )
+        };
+        let _ = writeln!(
+            o,
+            "% hamel derive: model {}, quasi-velocities {}",
+            self.model, self.eta_name
+        );
+        let _ = writeln!(o, "\\begin{{align*}}");
+        let q: Vec<String> = self.coordinates.iter().map(|c| latex_name(c)).collect();
+        let _ = writeln!(o, "q &= ({}) \\\\", q.join(", "));
+        let _ = writeln!(o, "A &= {} \\\\", tex_mat(&self.a));
+        let _ = writeln!(o, "\\alpha &= {} \\\\", tex_mat(&self.alpha));
+        let _ = writeln!(o, "Z &= {} \\\\", tex_mat(&self.z));
+        let _ = writeln!(o, "\\delta &= {} \\\\", self.delta.expr.to_latex());
+        let _ = writeln!(o, "\\Gamma &= {} \\\\", tex_mat(&self.gamma));
+        let _ = writeln!(o, "A_\\Gamma &= {}", tex_mat(&self.a_gamma));
+        let _ = writeln!(o, "\\end{{align*}}");
+        let _ = writeln!(o, "% true equations (from (9))");
+        let _ = writeln!(o, "\\begin{{align*}}");
+        for (i, e) in self.equations.iter().enumerate() {
+            let sep = if i + 1 < self.equations.len() {
+                " \\\\"
+            } else {
+                ""
+            };
+            let _ = writeln!(o, "{} &= 0{sep}", e.expr.to_latex());
+        }
+        let _ = writeln!(o, "\\end{{align*}}");
+        let _ = writeln!(o, "% kinematic equations (6)");
+        let _ = writeln!(o, "\\begin{{align*}}");
+        for (k, e) in self.kinematics.iter().enumerate() {
+            let sep = if k + 1 < self.kinematics.len() {
+                " \\\\"
+            } else {
+                ""
+            };
+            let l = latex_name(&self.coordinates[k]);
+            let _ = writeln!(o, "\\dot{{{l}}} &= {}{sep}", e.expr.to_latex());
+        }
+        let _ = writeln!(o, "\\end{{align*}}");
+        if !self.checks.paper_is_exact {
+            let _ = writeln!(
+                o,
+                "% the paper's equations (11)/(15) differ: they miss the correction term"
+            );
+            let _ = writeln!(o, "\\begin{{align*}}");
+            for (i, e) in self.equations_paper.iter().enumerate() {
+                let sep = if i + 1 < self.equations_paper.len() {
+                    " \\\\"
+                } else {
+                    ""
+                };
+                let _ = writeln!(o, "{} &= 0{sep}", e.expr.to_latex());
+            }
+            let _ = writeln!(o, "\\end{{align*}}");
+        }
+        o
+    }
+}

@@ -1,0 +1,289 @@
+//! Compiled expressions: a straight-line program ("tape") with common subexpressions shared.
+//!
+//! Compiling a set of expressions hash-conses every subtree, so a term that occurs in many
+//! outputs (sin θ, δ, a shared factor) is computed once; names are resolved to input slots once.
+//! The tape evaluates over any [`Scalar`] and is also what the code generator prints as Rust.
+
+use std::collections::HashMap;
+
+use crate::ast::{Expr, Func, Rational};
+use crate::eval::{EvalError, Scalar};
+
+/// One instruction; operands are indices of earlier instructions.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Op {
+    /// Input slot.
+    Input(usize),
+    /// Exact constant.
+    Const(Rational),
+    /// Sum of the operands.
+    Add(Vec<usize>),
+    /// Product of the operands.
+    Mul(Vec<usize>),
+    /// Negation.
+    Neg(usize),
+    /// Quotient.
+    Div(usize, usize),
+    /// Integer power.
+    PowI(usize, i32),
+    /// Real power of a positive base.
+    PowF(usize, usize),
+    /// Built-in function.
+    Call(Func, usize),
+}
+
+/// A compiled set of expressions.
+#[derive(Clone, Debug)]
+pub struct Tape {
+    inputs: Vec<String>,
+    ops: Vec<Op>,
+    outputs: Vec<usize>,
+}
+
+struct Builder<'a> {
+    slots: HashMap<&'a str, usize>,
+    ops: Vec<Op>,
+    index: HashMap<Op, usize>,
+}
+
+impl Builder<'_> {
+    fn push(&mut self, op: Op) -> usize {
+        if let Some(&i) = self.index.get(&op) {
+            return i;
+        }
+        self.ops.push(op.clone());
+        self.index.insert(op, self.ops.len() - 1);
+        self.ops.len() - 1
+    }
+
+    fn input(&mut self, name: &str) -> Result<usize, String> {
+        let slot = *self
+            .slots
+            .get(name)
+            .ok_or_else(|| format!("no input named `{name}`"))?;
+        Ok(self.push(Op::Input(slot)))
+    }
+
+    fn expr(&mut self, e: &Expr) -> Result<usize, String> {
+        Ok(match e {
+            Expr::Num(r) => self.push(Op::Const(r.clone())),
+            Expr::Sym(n) => self.input(n)?,
+            Expr::Der(q) => self.input(&format!("der({q})"))?,
+            Expr::Free { .. } => self.input(&e.to_string())?,
+            Expr::Add(v) => {
+                let mut args = v
+                    .iter()
+                    .map(|t| self.expr(t))
+                    .collect::<Result<Vec<_>, _>>()?;
+                args.sort_unstable();
+                self.push(Op::Add(args))
+            }
+            Expr::Mul(v) => {
+                let mut args = v
+                    .iter()
+                    .map(|t| self.expr(t))
+                    .collect::<Result<Vec<_>, _>>()?;
+                args.sort_unstable();
+                self.push(Op::Mul(args))
+            }
+            Expr::Neg(x) => {
+                let a = self.expr(x)?;
+                self.push(Op::Neg(a))
+            }
+            Expr::Div(a, b) => {
+                let (a, b) = (self.expr(a)?, self.expr(b)?);
+                self.push(Op::Div(a, b))
+            }
+            Expr::Pow(b, x) => {
+                let base = self.expr(b)?;
+                match x.as_integer().and_then(|n| i32::try_from(n).ok()) {
+                    Some(n) => self.push(Op::PowI(base, n)),
+                    None => {
+                        let ex = self.expr(x)?;
+                        self.push(Op::PowF(base, ex))
+                    }
+                }
+            }
+            Expr::Call(f, a) => {
+                let a = self.expr(a)?;
+                self.push(Op::Call(*f, a))
+            }
+        })
+    }
+}
+
+impl Tape {
+    /// Compile `exprs`; `inputs` names the input slots (coordinates, parameters, `der(q)`,
+    /// free functions as printed, …). A name not in `inputs` is an error.
+    pub fn compile(exprs: &[&Expr], inputs: &[String]) -> Result<Tape, String> {
+        let mut b = Builder {
+            slots: inputs
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (n.as_str(), i))
+                .collect(),
+            ops: Vec::new(),
+            index: HashMap::new(),
+        };
+        let outputs = exprs
+            .iter()
+            .map(|e| b.expr(e))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Tape {
+            inputs: inputs.to_vec(),
+            ops: b.ops,
+            outputs,
+        })
+    }
+
+    /// Input names, in slot order.
+    pub fn inputs(&self) -> &[String] {
+        &self.inputs
+    }
+
+    /// The instructions.
+    pub fn ops(&self) -> &[Op] {
+        &self.ops
+    }
+
+    /// Instruction index of each output.
+    pub fn outputs(&self) -> &[usize] {
+        &self.outputs
+    }
+
+    /// Number of arithmetic operations (an n-ary sum or product counts n − 1).
+    pub fn operation_count(&self) -> usize {
+        self.ops
+            .iter()
+            .map(|op| match op {
+                Op::Input(_) | Op::Const(_) => 0,
+                Op::Add(v) | Op::Mul(v) => v.len().saturating_sub(1),
+                Op::PowI(_, n) => (n.unsigned_abs() as usize).max(2).ilog2() as usize + 1,
+                _ => 1,
+            })
+            .sum()
+    }
+
+    /// Evaluate every output. Division by zero, domain errors and non-finite values are
+    /// errors, never NaN.
+    pub fn eval<S: Scalar>(&self, inputs: &[S]) -> Result<Vec<S>, EvalError> {
+        assert_eq!(inputs.len(), self.inputs.len(), "tape input count");
+        let mut v: Vec<S> = Vec::with_capacity(self.ops.len());
+        for op in &self.ops {
+            let x = match op {
+                Op::Input(i) => inputs[*i].clone(),
+                Op::Const(r) => S::rational(r),
+                Op::Add(a) => {
+                    let mut acc = v[a[0]].clone();
+                    for &k in &a[1..] {
+                        acc = acc + v[k].clone();
+                    }
+                    acc
+                }
+                Op::Mul(a) => {
+                    let mut acc = v[a[0]].clone();
+                    for &k in &a[1..] {
+                        acc = acc * v[k].clone();
+                    }
+                    acc
+                }
+                Op::Neg(a) => -v[*a].clone(),
+                Op::Div(a, b) => {
+                    if v[*b].value() == 0.0 {
+                        return Err(EvalError::Domain("division by zero".into()));
+                    }
+                    v[*a].clone() / v[*b].clone()
+                }
+                Op::PowI(a, n) => {
+                    if *n < 0 && v[*a].value() == 0.0 {
+                        return Err(EvalError::Domain("zero to a negative power".into()));
+                    }
+                    v[*a].powi(*n)
+                }
+                Op::PowF(a, b) => {
+                    if v[*a].value() <= 0.0 {
+                        return Err(EvalError::Domain(
+                            "non-integer power of a non-positive number".into(),
+                        ));
+                    }
+                    v[*a].powf(&v[*b])
+                }
+                Op::Call(f, a) => {
+                    let x = &v[*a];
+                    match f {
+                        Func::Sin => x.sin(),
+                        Func::Cos => x.cos(),
+                        Func::Tan => {
+                            let c = x.cos();
+                            if c.value() == 0.0 {
+                                return Err(EvalError::Domain("tan at a pole".into()));
+                            }
+                            x.sin() / c
+                        }
+                        Func::Sqrt => {
+                            if x.value() < 0.0 {
+                                return Err(EvalError::Domain(
+                                    "square root of a negative number".into(),
+                                ));
+                            }
+                            x.sqrt()
+                        }
+                        Func::Exp => x.exp(),
+                        Func::Log => {
+                            if x.value() <= 0.0 {
+                                return Err(EvalError::Domain(
+                                    "logarithm of a non-positive number".into(),
+                                ));
+                            }
+                            x.ln()
+                        }
+                    }
+                }
+            };
+            if !x.value().is_finite() {
+                return Err(EvalError::Domain("non-finite intermediate value".into()));
+            }
+            v.push(x);
+        }
+        Ok(self.outputs.iter().map(|&i| v[i].clone()).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse;
+
+    #[test]
+    fn shares_subexpressions_and_agrees_with_the_tree() {
+        let a = parse("sin(x)^2*m + sin(x)^2*l").unwrap().expr;
+        let b = parse("1/(sin(x)^2 + 1)").unwrap().expr;
+        let names: Vec<String> = ["x", "m", "l"].iter().map(|s| s.to_string()).collect();
+        let tape = Tape::compile(&[&a, &b], &names).unwrap();
+        // sin(x) and sin(x)^2 are computed once
+        let sins = tape
+            .ops()
+            .iter()
+            .filter(|o| matches!(o, Op::Call(Func::Sin, _)))
+            .count();
+        assert_eq!(sins, 1);
+        let out = tape.eval(&[0.3, 2.0, 0.5]).unwrap();
+        let env = |n: &str| match n {
+            "x" => Some(0.3),
+            "m" => Some(2.0),
+            "l" => Some(0.5),
+            _ => None,
+        };
+        assert_eq!(out[0], a.eval(&env).unwrap());
+        assert_eq!(out[1], b.eval(&env).unwrap());
+        assert!(Tape::compile(&[&a], &names[..1]).is_err());
+    }
+
+    #[test]
+    fn domain_errors() {
+        let e = parse("1/(x - 1)").unwrap().expr;
+        let t = Tape::compile(&[&e], &["x".to_string()]).unwrap();
+        assert!(t.eval(&[1.0]).is_err());
+        assert!(t.eval(&[2.0]).is_ok());
+    }
+}

@@ -1,0 +1,135 @@
+//! The independent oracle.
+//!
+//! **Job**: compute q̈ for a model at a state by the Lagrange-multiplier (d'Alembert) form
+//!
+//! ```text
+//! [ A  αᵀ ] [ q̈ ]   [ ∇U − (Ȧ q̇ − ∇_q T) ]
+//! [ α  0  ] [ λ ] = [ −α̇ q̇               ]
+//! ```
+//!
+//! solved numerically, with A, α and U evaluated straight from the model file's expressions and
+//! their derivatives taken by forward-mode automatic differentiation (dual numbers). Nothing
+//! here uses quasi-velocities, Γ, Q or the computer-algebra engine, so agreement with hamel's
+//! Boltzmann–Hamel equations is evidence that those are right. It runs in any
+//! [`Scalar`]: f64, or double-double ([`hamel_expr::DD`]) when the reference must be far more
+//! accurate than what it checks.
+//!
+//! **Inputs**: a [`hamel_model::NumericModel`] and a state (q, q̇) with α(q)q̇ = 0.
+//! **Outputs**: q̈ and the multipliers λ; projection of velocities onto the constraints.
+#![warn(missing_docs)]
+
+use hamel_expr::{Dual, Scalar, solve};
+use hamel_model::NumericModel;
+use nalgebra::{DMatrix, DVector};
+
+/// Result of the oracle at one state.
+#[derive(Clone, Debug)]
+pub struct Accelerations<S = f64> {
+    /// q̈.
+    pub q_ddot: Vec<S>,
+    /// Constraint forces' multipliers λ (one per constraint).
+    pub lambda: Vec<S>,
+}
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+fn duals<S: Scalar>(q: &[S], dir: &[S]) -> Vec<Dual<S>> {
+    q.iter()
+        .zip(dir)
+        .map(|(v, d)| Dual::new(v.clone(), d.clone()))
+        .collect()
+}
+
+fn unit<S: Scalar>(ell: usize, j: usize) -> Vec<S> {
+    (0..ell)
+        .map(|k| S::constant(if k == j { 1.0 } else { 0.0 }))
+        .collect()
+}
+
+/// q̈ and λ at (q, q̇) by the Lagrange-multiplier form.
+pub fn accelerations<S: Scalar>(
+    nm: &NumericModel<'_>,
+    q: &[S],
+    qd: &[S],
+) -> Result<Accelerations<S>, String> {
+    let ell = q.len();
+    let zero = || S::constant(0.0);
+    let a = nm.mass_matrix::<S>(q).map_err(err)?;
+    let alpha = nm.constraint_matrix::<S>(q).map_err(err)?;
+    let mu = alpha.len();
+    // Ȧ and α̇ along q̇.
+    let a_dot = nm.mass_matrix::<Dual<S>>(&duals(q, qd)).map_err(err)?;
+    let alpha_dot = nm
+        .constraint_matrix::<Dual<S>>(&duals(q, qd))
+        .map_err(err)?;
+    // ∇_q T = ½ q̇ᵀ (∂A/∂q_j) q̇ and ∇U, one direction at a time.
+    let mut grad_t = Vec::with_capacity(ell);
+    let mut grad_u = Vec::with_capacity(ell);
+    for j in 0..ell {
+        let dq = duals(q, &unit::<S>(ell, j));
+        let daj = nm.mass_matrix::<Dual<S>>(&dq).map_err(err)?;
+        let mut s = zero();
+        for r in 0..ell {
+            for c in 0..ell {
+                s = s + qd[r].clone() * daj[r][c].d.clone() * qd[c].clone();
+            }
+        }
+        grad_t.push(s * S::constant(0.5));
+        grad_u.push(nm.potential::<Dual<S>>(&dq).map_err(err)?.d);
+    }
+    let n = ell + mu;
+    let mut m = vec![vec![zero(); n]; n];
+    let mut rhs = vec![zero(); n];
+    for i in 0..ell {
+        let mut adq = zero();
+        for j in 0..ell {
+            m[i][j] = a[i][j].clone();
+            adq = adq + a_dot[i][j].d.clone() * qd[j].clone();
+        }
+        rhs[i] = grad_u[i].clone() - (adq - grad_t[i].clone());
+    }
+    for (r, row) in alpha.iter().enumerate() {
+        let mut s = zero();
+        for j in 0..ell {
+            m[ell + r][j] = row[j].clone();
+            m[j][ell + r] = row[j].clone();
+            s = s + alpha_dot[r][j].d.clone() * qd[j].clone();
+        }
+        rhs[ell + r] = -s;
+    }
+    let sol = solve(m, rhs)
+        .ok_or_else(|| "the Lagrange-multiplier system is singular at this state".to_string())?;
+    Ok(Accelerations {
+        q_ddot: sol[..ell].to_vec(),
+        lambda: sol[ell..].to_vec(),
+    })
+}
+
+/// Project a velocity onto the constraint manifold: q̇ − α⁺αq̇ with α⁺ = αᵀ(ααᵀ)⁻¹.
+pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, String> {
+    let alpha = nm.constraint_matrix::<f64>(q).map_err(err)?;
+    if alpha.is_empty() {
+        return Ok(v.to_vec());
+    }
+    let ell = q.len();
+    let al = DMatrix::from_fn(alpha.len(), ell, |i, j| alpha[i][j]);
+    let vv = DVector::from_column_slice(v);
+    let gram = &al * al.transpose();
+    let y = gram
+        .lu()
+        .solve(&(&al * &vv))
+        .ok_or_else(|| "α has dependent rows at this configuration".to_string())?;
+    let out = vv - al.transpose() * y;
+    Ok(out.iter().copied().collect())
+}
+
+/// Residual ‖α(q) q̇‖∞.
+pub fn constraint_residual(nm: &NumericModel<'_>, q: &[f64], qd: &[f64]) -> Result<f64, String> {
+    let alpha = nm.constraint_matrix::<f64>(q).map_err(err)?;
+    Ok(alpha
+        .iter()
+        .map(|row| row.iter().zip(qd).map(|(a, v)| a * v).sum::<f64>().abs())
+        .fold(0.0, f64::max))
+}

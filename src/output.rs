@@ -1,0 +1,62 @@
+//! Where results go: stdout or a file, written only once the whole result exists.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use hamel_model::ModelError;
+
+/// The destination of a command's result.
+pub struct Output(Option<PathBuf>);
+
+fn io_error(path: &std::path::Path, what: &str, e: std::io::Error) -> ModelError {
+    ModelError::new(
+        &path.display().to_string(),
+        Arc::new(String::new()),
+        None,
+        None,
+        format!("{what}: {e}"),
+    )
+}
+
+impl Output {
+    /// A destination; checks up front that the file's directory exists, so that a command does
+    /// not compute for minutes and then fail to write.
+    pub fn new(path: Option<PathBuf>) -> Result<Output, ModelError> {
+        if let Some(p) = &path {
+            let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
+            if let Some(d) = dir
+                && !d.is_dir()
+            {
+                return Err(io_error(
+                    p,
+                    "cannot write the output",
+                    std::io::Error::from(std::io::ErrorKind::NotFound),
+                ));
+            }
+        }
+        Ok(Output(path))
+    }
+
+    /// Write the complete result (to a temporary file renamed into place, for files).
+    pub fn write(&self, text: &str) -> Result<(), ModelError> {
+        match &self.0 {
+            None => {
+                let mut stdout = std::io::stdout().lock();
+                stdout
+                    .write_all(text.as_bytes())
+                    .and_then(|_| stdout.flush())
+                    .map_err(|e| io_error(std::path::Path::new("<stdout>"), "cannot write", e))
+            }
+            Some(p) => {
+                let tmp = p.with_extension("hamel-tmp");
+                std::fs::write(&tmp, text)
+                    .and_then(|_| std::fs::rename(&tmp, p))
+                    .map_err(|e| {
+                        let _ = std::fs::remove_file(&tmp);
+                        io_error(p, "cannot write the output", e)
+                    })
+            }
+        }
+    }
+}

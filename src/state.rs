@@ -1,0 +1,178 @@
+//! `hamel eval`: states in, right-hand sides out.
+
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::sync::Arc;
+
+use hamel_model::{Model, ModelError};
+use indexmap::IndexMap;
+use serde::{Deserialize, Serialize};
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawState {
+    q: IndexMap<String, f64>,
+    eta: Vec<f64>,
+    #[serde(default)]
+    params: IndexMap<String, f64>,
+    /// Definitions of the choice's free functions, as expressions of their arguments.
+    #[serde(default)]
+    functions: BTreeMap<String, String>,
+}
+
+#[derive(Serialize)]
+struct Out {
+    eta_dot: Vec<f64>,
+    q_dot: IndexMap<String, f64>,
+    energy: f64,
+    eta_dot_paper: Vec<f64>,
+}
+
+fn read_source(state: &str) -> Result<(String, String), ModelError> {
+    if state == "-" {
+        let mut s = String::new();
+        std::io::stdin().read_to_string(&mut s).map_err(|e| {
+            ModelError::new(
+                "<stdin>",
+                Arc::new(String::new()),
+                None,
+                None,
+                format!("cannot read: {e}"),
+            )
+        })?;
+        Ok(("<stdin>".into(), s))
+    } else {
+        let s = std::fs::read_to_string(state).map_err(|e| {
+            ModelError::new(
+                state,
+                Arc::new(String::new()),
+                None,
+                None,
+                format!("cannot read the file: {e}"),
+            )
+        })?;
+        Ok((state.to_string(), s))
+    }
+}
+
+fn offset_of(text: &str, line: usize, column: usize) -> usize {
+    let mut off = 0;
+    for (i, l) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == line {
+            return off + column.saturating_sub(1).min(l.len());
+        }
+        off += l.len();
+    }
+    text.len()
+}
+
+/// Evaluate every state of the file and return the JSON result.
+pub fn eval(model: &Model, eta: Option<&str>, state: &str) -> Result<String, ModelError> {
+    let (file, text) = read_source(state)?;
+    let source = Arc::new(text.clone());
+    let err = |span: Option<std::ops::Range<usize>>, msg: String| {
+        ModelError::new(&file, source.clone(), span, None, msg)
+    };
+    let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        let off = offset_of(&text, e.line(), e.column());
+        err(Some(off..off + 1), format!("invalid JSON: {e}"))
+    })?;
+    let (list, items) = match value {
+        serde_json::Value::Array(v) => (true, v),
+        v @ serde_json::Value::Object(_) => (false, vec![v]),
+        _ => {
+            return Err(err(
+                None,
+                "expected a state object or a list of state objects".into(),
+            ));
+        }
+    };
+    let choice = model.choice(eta)?.name.clone();
+    let mut states = Vec::new();
+    for (i, v) in items.into_iter().enumerate() {
+        let s: RawState =
+            serde_json::from_value(v).map_err(|e| err(None, format!("state {}: {e}", i + 1)))?;
+        states.push(s);
+    }
+    // One derivation per distinct set of free-function definitions.
+    let mut derivations: BTreeMap<
+        BTreeMap<String, String>,
+        (hamel_derive::Derivation, hamel_derive::Compiled),
+    > = BTreeMap::new();
+    let mut results = Vec::new();
+    for (i, s) in states.iter().enumerate() {
+        let tag = |m: String| err(None, format!("state {}: {m}", i + 1));
+        if !derivations.contains_key(&s.functions) {
+            let mut defs = Vec::new();
+            for (name, body) in &s.functions {
+                let e = hamel_expr::parse(body)
+                    .map_err(|e| tag(format!("functions.{name}: {}", e.message)))?;
+                defs.push((name.clone(), e.expr));
+            }
+            let m = model
+                .with_free_functions(&choice, &defs)
+                .map_err(|e| tag(e.message().to_string()))?;
+            let c = m.choice(Some(&choice))?;
+            if !c.free_functions.is_empty() {
+                let names: Vec<String> = c
+                    .free_functions
+                    .iter()
+                    .map(|(n, a)| format!("{n}({})", a.join(", ")))
+                    .collect();
+                return Err(tag(format!(
+                    "quasi-velocity choice `{choice}` has free functions {}: give them under \"functions\", e.g. {{\"{}\": \"0.5*sin({})\"}}",
+                    names.join(", "),
+                    c.free_functions[0].0,
+                    c.free_functions[0].1[0]
+                )));
+            }
+            let d = hamel_derive::derive(&m, Some(&choice))?;
+            let c = d.compile().map_err(|e| tag(e.to_string()))?;
+            derivations.insert(s.functions.clone(), (d, c));
+        }
+        let (d, compiled) = &derivations[&s.functions];
+        let mut q = Vec::with_capacity(d.ell);
+        for c in &d.coordinates {
+            q.push(
+                *s.q.get(c)
+                    .ok_or_else(|| tag(format!("missing coordinate `{c}` in \"q\"")))?,
+            );
+        }
+        if let Some(extra) = s.q.keys().find(|k| !d.coordinates.contains(k)) {
+            return Err(tag(format!(
+                "`{extra}` in \"q\" is not a coordinate of the model"
+            )));
+        }
+        if s.eta.len() != d.sigma {
+            return Err(tag(format!(
+                "\"eta\" must have σ = {} values, found {}",
+                d.sigma,
+                s.eta.len()
+            )));
+        }
+        let params = d
+            .parameters_with(&s.params)
+            .map_err(|e| tag(e.to_string()))?;
+        let ev = compiled.evaluate(&q, &s.eta, &params).map_err(|e| {
+            let at: Vec<String> = d
+                .coordinates
+                .iter()
+                .zip(&q)
+                .map(|(c, v)| format!("{c} = {v}"))
+                .collect();
+            tag(format!("{e} (at {})", at.join(", ")))
+        })?;
+        results.push(Out {
+            eta_dot: ev.eta_dot,
+            q_dot: d.coordinates.iter().cloned().zip(ev.q_dot).collect(),
+            energy: ev.energy,
+            eta_dot_paper: ev.eta_dot_paper,
+        });
+    }
+    let json = if list {
+        serde_json::to_string_pretty(&results)
+    } else {
+        serde_json::to_string_pretty(&results[0])
+    };
+    Ok(json.expect("serialisable") + "\n")
+}
