@@ -1,0 +1,611 @@
+//! The driver: input checks, the fixed-step and adaptive step loops, outputs and failures.
+
+use serde::Serialize;
+
+use crate::control::{Controller, Tolerances, Verdict, initial_step};
+use crate::dop853::Dop853;
+use crate::dopri5::Dopri5;
+use crate::gauss::Gauss;
+use crate::rk4::Rk4;
+use crate::solution::{ErrorKind, IntegrationError, Solution, Stats};
+use crate::system::{Evaluator, OdeSystem, SystemError};
+
+/// An integration method.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum Method {
+    /// Classical fourth-order Runge–Kutta with a fixed step (the last step before each output
+    /// time is shortened to land on it).
+    Rk4 {
+        /// Step size (positive; the direction comes from the output times).
+        step: f64,
+    },
+    /// Adaptive Dormand–Prince 5(4) with fourth-order dense output (Hairer's dopri5).
+    Dopri5,
+    /// Adaptive Dormand–Prince 8(5,3) with seventh-order dense output (Hairer's dop853).
+    Dop853,
+    /// Implicit Gauss–Legendre collocation: symmetric and symplectic, order `2·stages`.
+    GaussLegendre {
+        /// 2 (order 4) or 3 (order 6).
+        stages: usize,
+        /// Fixed step size, or None for step-doubling error control (steps then end on every
+        /// output time, as the method has no dense output).
+        step: Option<f64>,
+    },
+}
+
+/// Tolerances and step-size limits.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Options {
+    /// Relative tolerance; adaptive methods require `rtol > 10·f64::EPSILON`.
+    pub rtol: f64,
+    /// Absolute tolerance (positive). Fixed-step Gauss–Legendre uses the pair only to scale
+    /// its Newton increments.
+    pub atol: f64,
+    /// Initial step of the adaptive methods (default: Hairer's heuristic).
+    pub h0: Option<f64>,
+    /// Largest step of the adaptive methods (default: the whole interval).
+    pub h_max: Option<f64>,
+    /// Most step attempts (accepted plus rejected).
+    pub max_steps: usize,
+    /// Lund stabilisation parameter β of the DOPRI5/DOP853 controllers, in [0, 0.2] (default:
+    /// Hairer's 0.04 for DOPRI5, 0 for DOP853).
+    pub beta: Option<f64>,
+}
+
+impl Default for Options {
+    /// `rtol = 1e-6`, `atol = 1e-9`, at most 100 000 steps (dopri5.f's `NMAX`).
+    fn default() -> Self {
+        Options {
+            rtol: 1e-6,
+            atol: 1e-9,
+            h0: None,
+            h_max: None,
+            max_steps: 100_000,
+            beta: None,
+        }
+    }
+}
+
+/// Integrates `system` from `(t0, y0)` with `method` and returns the states at `output_times`.
+///
+/// Output times must be finite and ordered away from `t0` (non-decreasing to integrate forward,
+/// non-increasing backward); an output time equal to `t0` yields `y0`. Adaptive methods reach
+/// the outputs by dense output and end their last step on the final one; fixed-step methods
+/// step onto each output time.
+///
+/// # Errors
+/// Invalid input, tolerances below f64 resolution, or a failure during the integration (a
+/// [`SystemError`] no step reduction avoids, step-size underflow, a non-finite state, Newton
+/// non-convergence with a fixed step, more than `max_steps` attempts) return an
+/// [`IntegrationError`] whose `partial` solution holds the outputs reached.
+pub fn integrate(
+    system: &dyn OdeSystem,
+    method: Method,
+    t0: f64,
+    y0: &[f64],
+    output_times: &[f64],
+    options: &Options,
+) -> Result<Solution, IntegrationError> {
+    if let Err((kind, message)) = validate(system, method, t0, y0, output_times, options) {
+        let failure = Failure {
+            kind,
+            time: t0,
+            state: y0.to_vec(),
+            message,
+        };
+        return Err(failure.into_error(Solution::default()));
+    }
+    let mut recorder = Recorder::new(system, t0, y0);
+    let mut ev = Evaluator::new(system);
+    let n = y0.len();
+    let tol = Tolerances {
+        rtol: options.rtol,
+        atol: options.atol,
+    };
+    let start = output_times.iter().take_while(|&&t| t == t0).count();
+    for &t in &output_times[..start] {
+        recorder.push(t, y0);
+    }
+    let outputs = &output_times[start..];
+    let outcome = if outputs.is_empty() {
+        Ok(())
+    } else {
+        let gauss = |stages| Gauss::new(stages, n, tol).expect("stage count validated");
+        let mut run = Run {
+            ev: &mut ev,
+            recorder: &mut recorder,
+            t: t0,
+            y: y0.to_vec(),
+            outputs,
+            options,
+        };
+        match method {
+            Method::Rk4 { step } => run.fixed(&mut Rk4::new(n), step),
+            Method::GaussLegendre {
+                stages,
+                step: Some(step),
+            } => run.fixed(&mut gauss(stages), step),
+            Method::GaussLegendre { stages, step: None } => run.adaptive(&mut gauss(stages), &tol),
+            Method::Dopri5 => run.adaptive(&mut Dopri5::new(n), &tol),
+            Method::Dop853 => run.adaptive(&mut Dop853::new(n), &tol),
+        }
+    };
+    let solution = recorder.finish(ev.stats, outcome.is_ok());
+    match outcome {
+        Ok(()) => Ok(solution),
+        Err(failure) => Err(failure.into_error(solution)),
+    }
+}
+
+/// Why a step could not be completed.
+#[derive(Debug)]
+pub(crate) enum StepFailure {
+    /// The system failed when evaluated at time `t`.
+    System { t: f64, error: SystemError },
+    /// The Newton iteration did not converge (or the iteration matrix was singular).
+    Newton,
+    /// The trial step or its error estimate is NaN or infinite.
+    NonFinite,
+}
+
+/// A one-step method used with a given step.
+pub(crate) trait FixedStep {
+    /// Advances `(t, y)` by `h` into `y_new`.
+    fn step(
+        &mut self,
+        ev: &mut Evaluator<'_>,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &mut [f64],
+    ) -> Result<(), StepFailure>;
+}
+
+/// A method with an error estimate, for the adaptive step loop.
+pub(crate) trait AdaptiveStep {
+    /// Order of the propagated solution (for the initial step heuristic).
+    fn order(&self) -> u32;
+    /// Hairer's step-size controller with this method's parameters.
+    fn controller(&self, beta: Option<f64>, h_max: f64) -> Controller;
+    /// Hands over `f(t0, y0)`.
+    fn start(&mut self, f0: &[f64]);
+    /// Attempts a step of size `h` from `(t, y)`: the candidate goes to `y_new`, the result is
+    /// the error estimate in the tolerance-scaled norm (at most 1 to pass).
+    fn attempt(
+        &mut self,
+        ev: &mut Evaluator<'_>,
+        tol: &Tolerances,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &mut [f64],
+    ) -> Result<f64, StepFailure>;
+    /// Accepts the step just attempted; with `dense`, also prepares the continuous extension
+    /// over it. After a failure the step counts as rejected and the method's state is as
+    /// before the attempt.
+    fn accept(
+        &mut self,
+        ev: &mut Evaluator<'_>,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &[f64],
+        dense: bool,
+    ) -> Result<(), StepFailure>;
+    /// The continuous extension of the last step accepted with `dense`, or None for a method
+    /// without one (the driver then ends a step on every output time).
+    fn interpolant(&self) -> Option<&dyn Interpolant>;
+}
+
+/// A continuous extension over one step.
+pub(crate) trait Interpolant {
+    /// The state at `t_old + theta·h`, `0 ≤ theta ≤ 1`.
+    fn interpolate(&self, theta: f64, out: &mut [f64]);
+}
+
+/// The reason, time and state of a failed integration.
+struct Failure {
+    kind: ErrorKind,
+    time: f64,
+    state: Vec<f64>,
+    message: String,
+}
+
+impl Failure {
+    fn into_error(self, partial: Solution) -> IntegrationError {
+        IntegrationError {
+            kind: self.kind,
+            time: self.time,
+            state: self.state,
+            message: self.message,
+            partial: Box::new(partial),
+        }
+    }
+}
+
+/// One integration in progress: the current point and the outputs still to reach.
+struct Run<'r, 'a> {
+    ev: &'r mut Evaluator<'a>,
+    recorder: &'r mut Recorder<'a>,
+    t: f64,
+    y: Vec<f64>,
+    outputs: &'r [f64],
+    options: &'r Options,
+}
+
+impl Run<'_, '_> {
+    fn fail(&self, kind: ErrorKind, message: String) -> Failure {
+        Failure {
+            kind,
+            time: self.t,
+            state: self.y.clone(),
+            message,
+        }
+    }
+
+    /// The failure a step failure ends a fixed-step integration with.
+    fn step_failure(&self, failure: StepFailure, h: f64) -> Failure {
+        match failure {
+            StepFailure::System { t, error } => self.fail(
+                ErrorKind::System,
+                format!("the system failed at t = {t}: {error}"),
+            ),
+            StepFailure::Newton => self.fail(
+                ErrorKind::NewtonFailure,
+                format!("the stage equations did not converge with step {h}; use a smaller step"),
+            ),
+            StepFailure::NonFinite => self.fail(
+                ErrorKind::NonFiniteState,
+                format!("a step of {h} produced NaN or infinite values"),
+            ),
+        }
+    }
+
+    fn too_many_steps(&self) -> Failure {
+        let max = self.options.max_steps;
+        self.fail(
+            ErrorKind::MaxStepsExceeded,
+            format!("more than max_steps = {max} steps needed"),
+        )
+    }
+
+    /// Fixed steps of size `step`; the step before each output time is shortened to end on it.
+    fn fixed(&mut self, stepper: &mut impl FixedStep, step: f64) -> Result<(), Failure> {
+        let mut y_new = vec![0.0; self.y.len()];
+        for &t_out in self.outputs {
+            let t_start = self.t;
+            let direction = (t_out - t_start).signum();
+            // Step count with the roundoff of the times and of their ratio forgiven, so an
+            // output on the step grid is reached by full steps, not full steps plus a sliver.
+            let slack = 16.0 * f64::EPSILON * t_start.abs().max(t_out.abs());
+            let span = (t_out - t_start).abs();
+            let steps = if span == 0.0 {
+                0
+            } else {
+                (((span - slack) / step * (1.0 - 1e-12)).ceil() as usize).max(1)
+            };
+            for k in 1..=steps {
+                if self.ev.stats.steps >= self.options.max_steps {
+                    return Err(self.too_many_steps());
+                }
+                let t_next = if k == steps {
+                    t_out
+                } else {
+                    t_start + direction * step * k as f64
+                };
+                let h = t_next - self.t;
+                stepper
+                    .step(self.ev, self.t, &self.y, h, &mut y_new)
+                    .map_err(|failure| self.step_failure(failure, h))?;
+                if !y_new.iter().all(|v| v.is_finite()) {
+                    return Err(self.step_failure(StepFailure::NonFinite, h));
+                }
+                self.ev.stats.steps += 1;
+                self.t = t_next;
+                std::mem::swap(&mut self.y, &mut y_new);
+            }
+            self.recorder.push(t_out, &self.y);
+        }
+        Ok(())
+    }
+
+    /// Adaptive steps (dopri5.f/dop853.f step loop). A failed attempt (system error,
+    /// non-finite values, Newton failure) is a rejection with the largest step reduction;
+    /// when the step underflows, the last such failure is reported.
+    fn adaptive(
+        &mut self,
+        stepper: &mut impl AdaptiveStep,
+        tol: &Tolerances,
+    ) -> Result<(), Failure> {
+        let t0 = self.t;
+        let t_end = *self.outputs.last().expect("outputs not empty");
+        let direction = (t_end - t0).signum();
+        let h_max = self.options.h_max.unwrap_or((t_end - t0).abs());
+        let mut controller = stepper.controller(self.options.beta, h_max);
+        let n = self.y.len();
+        let (mut y_new, mut dense_out) = (vec![0.0; n], vec![0.0; n]);
+
+        let mut f0 = vec![0.0; n];
+        self.ev
+            .rhs(t0, &self.y, &mut f0)
+            .map_err(|failure| self.step_failure(failure, 0.0))?;
+        if !f0.iter().all(|v| v.is_finite()) {
+            return Err(self.fail(
+                ErrorKind::NonFiniteState,
+                format!("f(t0, y0) is not finite: {f0:?}"),
+            ));
+        }
+        stepper.start(&f0);
+        let mut h = match self.options.h0 {
+            Some(h0) => h0.abs().min(h_max).copysign(direction),
+            None => initial_step(
+                self.ev,
+                tol,
+                t0,
+                &self.y,
+                &f0,
+                direction,
+                stepper.order(),
+                h_max,
+            ),
+        };
+        let has_dense = stepper.interpolant().is_some();
+        // Hairer's underflow test `0.1|h| ≤ u|t|`, with |t| no smaller than the interval.
+        let time_scale = (t_end - t0).abs();
+        let mut next = 0;
+        let mut after_reject = false;
+        let mut last_failure: Option<StepFailure> = None;
+
+        while next < self.outputs.len() {
+            if self.ev.stats.steps + self.ev.stats.rejected >= self.options.max_steps {
+                return Err(self.too_many_steps());
+            }
+            if 0.1 * h.abs() <= f64::EPSILON * self.t.abs().max(time_scale) {
+                return Err(self.underflow(h, last_failure));
+            }
+            let stop = if has_dense { t_end } else { self.outputs[next] };
+            let hits_stop = (self.t + 1.01 * h - stop) * direction > 0.0;
+            let h_try = if hits_stop { stop - self.t } else { h };
+
+            let attempt = stepper
+                .attempt(self.ev, tol, self.t, &self.y, h_try, &mut y_new)
+                .and_then(|err| {
+                    let finite = err.is_finite() && y_new.iter().all(|v| v.is_finite());
+                    if finite {
+                        Ok(err)
+                    } else {
+                        Err(StepFailure::NonFinite)
+                    }
+                });
+            let err = match attempt {
+                Ok(err) => err,
+                Err(failure) => {
+                    self.ev.stats.rejected += 1;
+                    (h, after_reject, last_failure) =
+                        (h_try * controller.shrink(), true, Some(failure));
+                    continue;
+                }
+            };
+            let h_new = match controller.verdict(h_try, err, after_reject) {
+                Verdict::Accept(h_new) => h_new,
+                Verdict::Reject(h_new) => {
+                    self.ev.stats.rejected += 1;
+                    (h, after_reject, last_failure) = (h_new, true, None);
+                    continue;
+                }
+            };
+            let t_new = if hits_stop { stop } else { self.t + h_try };
+            let dense = has_dense
+                && self
+                    .outputs
+                    .get(next)
+                    .is_some_and(|&t_out| (t_out - t_new) * direction < 0.0);
+            if let Err(failure) = stepper.accept(self.ev, self.t, &self.y, h_try, &y_new, dense) {
+                self.ev.stats.rejected += 1;
+                (h, after_reject, last_failure) =
+                    (h_try * controller.shrink(), true, Some(failure));
+                continue;
+            }
+            controller.accepted(err);
+            self.ev.stats.steps += 1;
+
+            while let Some(&t_out) = self.outputs.get(next) {
+                if (t_out - t_new) * direction > 0.0 {
+                    break;
+                }
+                if t_out == t_new {
+                    self.recorder.push(t_out, &y_new);
+                } else {
+                    let interpolant = stepper.interpolant().expect("dense output prepared");
+                    interpolant.interpolate((t_out - self.t) / h_try, &mut dense_out);
+                    if !dense_out.iter().all(|v| v.is_finite()) {
+                        return Err(self.fail(
+                            ErrorKind::NonFiniteState,
+                            format!("dense output at t = {t_out} is not finite"),
+                        ));
+                    }
+                    self.recorder.push(t_out, &dense_out);
+                }
+                next += 1;
+            }
+            self.t = t_new;
+            std::mem::swap(&mut self.y, &mut y_new);
+            // A step cut short to land on an output says nothing against the step proposed before.
+            h = if hits_stop {
+                h_new.abs().max(h.abs()).min(h_max).copysign(direction)
+            } else {
+                h_new
+            };
+            (after_reject, last_failure) = (false, None);
+        }
+        Ok(())
+    }
+
+    /// The failure reported when the step size underflows, naming the last failed attempt.
+    fn underflow(&self, h: f64, cause: Option<StepFailure>) -> Failure {
+        let t = self.t;
+        match cause {
+            Some(StepFailure::System { t: t_eval, error }) => self.fail(
+                ErrorKind::System,
+                format!("the system failed at t = {t_eval}: {error} (no step from t = {t} avoids it; step {h:e})"),
+            ),
+            Some(StepFailure::NonFinite) => self.fail(
+                ErrorKind::NonFiniteState,
+                format!("every step from t = {t} produces NaN or infinite values, down to step {h:e}"),
+            ),
+            Some(StepFailure::Newton) => self.fail(
+                ErrorKind::NewtonFailure,
+                format!("the stage equations do not converge from t = {t}, down to step {h:e}"),
+            ),
+            None => self.fail(
+                ErrorKind::StepSizeUnderflow,
+                format!("step size {h:e} is negligible at t = {t} (the solution may blow up here)"),
+            ),
+        }
+    }
+}
+
+/// Collects the outputs with their monitored invariants.
+struct Recorder<'a> {
+    system: &'a dyn OdeSystem,
+    energy0: Option<f64>,
+    solution: Solution,
+}
+
+impl<'a> Recorder<'a> {
+    fn new(system: &'a dyn OdeSystem, t0: f64, y0: &[f64]) -> Self {
+        Recorder {
+            system,
+            energy0: finite(system.energy(t0, y0)),
+            solution: Solution::default(),
+        }
+    }
+
+    fn push(&mut self, t: f64, y: &[f64]) {
+        let solution = &mut self.solution;
+        solution.t.push(t);
+        solution.y.push(y.to_vec());
+        solution.energy.push(finite(self.system.energy(t, y)));
+        solution
+            .constraint
+            .push(finite(self.system.constraint_residual(t, y)));
+    }
+
+    /// The solution with `stats` completed by the invariant drift.
+    fn finish(self, mut stats: Stats, complete: bool) -> Solution {
+        let solution = self.solution;
+        stats.energy_drift = self.energy0.and_then(|e0| {
+            let scale = e0.abs().max(f64::MIN_POSITIVE);
+            solution
+                .energy
+                .iter()
+                .flatten()
+                .map(|e| (e - e0).abs() / scale)
+                .reduce(f64::max)
+        });
+        stats.constraint_drift = solution
+            .constraint
+            .iter()
+            .flatten()
+            .map(|r| r.abs())
+            .reduce(f64::max);
+        Solution {
+            stats,
+            complete,
+            ..solution
+        }
+    }
+}
+
+fn finite(value: Option<f64>) -> Option<f64> {
+    value.filter(|v| v.is_finite())
+}
+
+/// Checks the input before anything is evaluated.
+fn validate(
+    system: &dyn OdeSystem,
+    method: Method,
+    t0: f64,
+    y0: &[f64],
+    output_times: &[f64],
+    options: &Options,
+) -> Result<(), (ErrorKind, String)> {
+    let invalid = |message: String| Err((ErrorKind::InvalidInput, message));
+    if system.dim() == 0 {
+        return invalid("the system has no state (dim() = 0)".to_string());
+    }
+    if y0.len() != system.dim() {
+        return invalid(format!(
+            "y0 has {} components, the system {}",
+            y0.len(),
+            system.dim()
+        ));
+    }
+    if !t0.is_finite() {
+        return invalid(format!("t0 = {t0} is not finite"));
+    }
+    if let Some(i) = y0.iter().position(|v| !v.is_finite()) {
+        return invalid(format!("y0[{i}] = {} is not finite", y0[i]));
+    }
+    let direction = output_times
+        .iter()
+        .find(|&&t| t != t0)
+        .map(|&t| (t - t0).signum());
+    let mut previous = t0;
+    for (i, &t) in output_times.iter().enumerate() {
+        if !t.is_finite() {
+            return invalid(format!("output_times[{i}] = {t} is not finite"));
+        }
+        if direction.is_some_and(|d| (t - previous) * d < 0.0) {
+            return invalid(format!(
+                "output_times[{i}] = {t} is out of order: output times must move away from t0 = {t0} monotonically"
+            ));
+        }
+        previous = t;
+    }
+    match method {
+        Method::Rk4 { step }
+        | Method::GaussLegendre {
+            step: Some(step), ..
+        } if !(step.is_finite() && step > 0.0) => {
+            return invalid(format!(
+                "the fixed step must be positive and finite, not {step}"
+            ));
+        }
+        Method::GaussLegendre { stages, .. } if !(2..=3).contains(&stages) => {
+            return invalid(format!(
+                "Gauss–Legendre with {stages} stages: only 2 and 3 are available"
+            ));
+        }
+        _ => {}
+    }
+    let (rtol, atol) = (options.rtol, options.atol);
+    if !(rtol.is_finite() && rtol > 0.0 && atol.is_finite() && atol > 0.0) {
+        return invalid(format!(
+            "rtol = {rtol} and atol = {atol} must be positive and finite"
+        ));
+    }
+    if let Some(h0) = options.h0.filter(|h0| !(h0.is_finite() && *h0 != 0.0)) {
+        return invalid(format!("h0 = {h0} must be finite and non-zero"));
+    }
+    if let Some(h_max) = options.h_max.filter(|h| !(h.is_finite() && *h > 0.0)) {
+        return invalid(format!("h_max = {h_max} must be positive and finite"));
+    }
+    if let Some(beta) = options.beta.filter(|b| !(0.0..=0.2).contains(b)) {
+        return invalid(format!("beta = {beta} must lie in [0, 0.2]"));
+    }
+    let adaptive = matches!(
+        method,
+        Method::Dopri5 | Method::Dop853 | Method::GaussLegendre { step: None, .. }
+    );
+    if adaptive && rtol <= 10.0 * f64::EPSILON {
+        return Err((
+            ErrorKind::ToleranceTooSmall,
+            format!(
+                "rtol = {rtol:e} is below what f64 arithmetic can deliver: it must exceed 10·ε ≈ {:.1e}",
+                10.0 * f64::EPSILON
+            ),
+        ));
+    }
+    Ok(())
+}

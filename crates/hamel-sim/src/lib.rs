@@ -1,0 +1,60 @@
+//! Numeric integration of ordinary differential equations for hamel.
+//!
+//! **Job**: integrate `dy/dt = f(t, y)` and report the state at requested output times, with
+//! work counters and drift of monitored invariants. Methods ([`Method`]): fixed-step classical
+//! RK4; adaptive Dormand–Prince 5(4) and DOP853 with dense output, Hairer's step-size
+//! controllers and published tableaus; implicit Gauss–Legendre collocation (2 or 3 stages,
+//! orders 4 and 6; symmetric and symplectic) with a fixed step or step-doubling control.
+//!
+//! **Inputs**: an [`OdeSystem`] (right-hand side; optionally its Jacobian, energy and
+//! constraint residual), a [`Method`], `t0`, `y0`, output times and [`Options`].
+//! **Outputs**: a [`Solution`] (states, invariants and [`Stats`]), or an [`IntegrationError`]
+//! naming the cause and carrying the partial solution reached before it.
+//!
+//! **Invariant**: outputs never contain NaN or infinities, and no input makes [`integrate`]
+//! panic or run without bound: attempts are capped by `max_steps`, and every step reduction
+//! ends in an underflow error.
+//!
+//! ```
+//! use hamel_sim::{Method, OdeSystem, Options, SystemError, integrate};
+//!
+//! /// The harmonic oscillator `x'' = −x`, state `(x, v)`.
+//! struct Oscillator;
+//!
+//! impl OdeSystem for Oscillator {
+//!     fn dim(&self) -> usize {
+//!         2
+//!     }
+//!     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+//!         dy[0] = y[1];
+//!         dy[1] = -y[0];
+//!         Ok(())
+//!     }
+//!     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
+//!         Some(0.5 * (y[0] * y[0] + y[1] * y[1]))
+//!     }
+//! }
+//!
+//! let options = Options { rtol: 1e-10, atol: 1e-10, ..Options::default() };
+//! let solution = integrate(&Oscillator, Method::Dop853, 0.0, &[1.0, 0.0], &[1.0, 2.0], &options)?;
+//! assert!((solution.y[1][0] - 2f64.cos()).abs() < 1e-8);
+//! assert!(solution.stats.energy_drift.unwrap() < 1e-8);
+//! # Ok::<(), hamel_sim::IntegrationError>(())
+//! ```
+#![warn(missing_docs)]
+
+mod control;
+mod dop853;
+mod dopri5;
+mod driver;
+mod explicit;
+mod gauss;
+mod rk4;
+mod solution;
+mod system;
+#[cfg(test)]
+mod testing;
+
+pub use driver::{Method, Options, integrate};
+pub use solution::{ErrorKind, IntegrationError, Solution, Stats};
+pub use system::{OdeSystem, SystemError};

@@ -1,0 +1,88 @@
+//! What an integration returns: states at the output times, statistics, errors.
+
+use serde::Serialize;
+
+/// States at the requested output times, with monitored invariants and statistics.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Solution {
+    /// Output times reached, in the order requested.
+    pub t: Vec<f64>,
+    /// State at each output time; every entry is finite.
+    pub y: Vec<Vec<f64>>,
+    /// [`OdeSystem::energy`](crate::OdeSystem::energy) at each output (None where the system
+    /// gives no finite value).
+    pub energy: Vec<Option<f64>>,
+    /// [`OdeSystem::constraint_residual`](crate::OdeSystem::constraint_residual) at each output
+    /// (None where the system gives no finite value).
+    pub constraint: Vec<Option<f64>>,
+    /// Counters and invariant drift.
+    pub stats: Stats,
+    /// Whether every requested output time was reached.
+    pub complete: bool,
+}
+
+/// Work counters and invariant drift of one integration.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Stats {
+    /// Accepted steps.
+    pub steps: usize,
+    /// Attempted steps not accepted (error test, Newton failure, system error or non-finite
+    /// values in the trial step); `steps + rejected` is the number of attempts.
+    pub rejected: usize,
+    /// Calls of [`OdeSystem::rhs`](crate::OdeSystem::rhs), including those made for
+    /// finite-difference Jacobians.
+    pub rhs_evals: usize,
+    /// Jacobian evaluations, analytic or by finite differences.
+    pub jacobian_evals: usize,
+    /// Simplified-Newton iterations (implicit methods).
+    pub newton_iterations: usize,
+    /// Newton solves that did not converge.
+    pub newton_failures: usize,
+    /// `max |E(t) − E(t0)| / max(|E(t0)|, f64::MIN_POSITIVE)` over the outputs, if the system
+    /// has an energy.
+    pub energy_drift: Option<f64>,
+    /// `max |residual|` over the outputs, if the system has a constraint residual.
+    pub constraint_drift: Option<f64>,
+}
+
+/// Why an integration stopped early.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
+pub enum ErrorKind {
+    /// Inconsistent input (dimensions, non-finite values, unordered output times, bad step).
+    #[error("invalid input")]
+    InvalidInput,
+    /// Tolerances tighter than f64 arithmetic can deliver.
+    #[error("tolerance too small")]
+    ToleranceTooSmall,
+    /// The system returned a [`SystemError`](crate::SystemError) that no step reduction avoided.
+    #[error("system error")]
+    System,
+    /// The step size became negligible relative to the time.
+    #[error("step size underflow")]
+    StepSizeUnderflow,
+    /// The state became NaN or infinite.
+    #[error("non-finite state")]
+    NonFiniteState,
+    /// The Newton iteration of an implicit method did not converge.
+    #[error("Newton iteration failed")]
+    NewtonFailure,
+    /// More than `max_steps` step attempts were needed.
+    #[error("too many steps")]
+    MaxStepsExceeded,
+}
+
+/// An integration that stopped early: why, where, and everything computed until then.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{kind} at t = {time}: {message}")]
+pub struct IntegrationError {
+    /// The cause.
+    pub kind: ErrorKind,
+    /// Time of the last valid state (the initial time for input errors).
+    pub time: f64,
+    /// The last valid state, at `time`.
+    pub state: Vec<f64>,
+    /// What happened, in words.
+    pub message: String,
+    /// The outputs reached before the failure (`complete == false`), with statistics.
+    pub partial: Box<Solution>,
+}
