@@ -70,6 +70,10 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // One line per message (`file:line:col: key: reason`), then the source snippet.
+    let _ = miette::set_hook(Box::new(|_| {
+        Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())
+    }));
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

@@ -245,7 +245,7 @@ impl Matrix {
 
     /// The rank over the field of expressions (exact).
     pub fn rank(&self) -> Result<usize, CasError> {
-        if self.rows == 0 || self.cols == 0 {
+        if self.data.is_empty() {
             return Ok(0);
         }
         Ok(self.eliminate(None)?.2)

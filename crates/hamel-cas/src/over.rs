@@ -343,6 +343,7 @@ pub fn sum_over(den: &Denominators, terms: impl IntoIterator<Item = Over>) -> Ov
 /// A dense matrix of [`Over`] values, row-major.
 #[derive(Clone)]
 pub struct OMatrix {
+    den: Denominators,
     rows: usize,
     cols: usize,
     data: Vec<Over>,
@@ -363,24 +364,34 @@ impl std::ops::IndexMut<(usize, usize)> for OMatrix {
 
 impl OMatrix {
     /// Build entry by entry.
-    pub fn from_fn(rows: usize, cols: usize, mut f: impl FnMut(usize, usize) -> Over) -> OMatrix {
+    pub fn from_fn(
+        den: &Denominators,
+        rows: usize,
+        cols: usize,
+        mut f: impl FnMut(usize, usize) -> Over,
+    ) -> OMatrix {
         let mut data = Vec::with_capacity(rows * cols);
         for i in 0..rows {
             for j in 0..cols {
                 data.push(f(i, j));
             }
         }
-        OMatrix { rows, cols, data }
+        OMatrix {
+            den: den.clone(),
+            rows,
+            cols,
+            data,
+        }
     }
 
     /// A [`crate::Matrix`] expressed over the denominators.
     pub fn from_matrix(den: &Denominators, m: &crate::Matrix) -> OMatrix {
-        OMatrix::from_fn(m.rows(), m.cols(), |i, j| den.over(&m[(i, j)]))
+        OMatrix::from_fn(den, m.rows(), m.cols(), |i, j| den.over(&m[(i, j)]))
     }
 
     /// The zero matrix.
     pub fn zeros(den: &Denominators, rows: usize, cols: usize) -> OMatrix {
-        OMatrix::from_fn(rows, cols, |_, _| den.int(0))
+        OMatrix::from_fn(den, rows, cols, |_, _| den.int(0))
     }
 
     /// Number of rows.
@@ -395,16 +406,16 @@ impl OMatrix {
 
     /// The transpose.
     pub fn transpose(&self) -> OMatrix {
-        OMatrix::from_fn(self.cols, self.rows, |i, j| self[(j, i)].clone())
+        OMatrix::from_fn(&self.den, self.cols, self.rows, |i, j| self[(j, i)].clone())
     }
 
     /// The product `self · other`.
     pub fn mul(&self, other: &OMatrix) -> OMatrix {
         assert_eq!(self.cols, other.rows, "matrix product dimensions");
-        let den = Denominators(self.data[0].d.clone());
-        OMatrix::from_fn(self.rows, other.cols, |i, j| {
+        let den = &self.den;
+        OMatrix::from_fn(den, self.rows, other.cols, |i, j| {
             sum_over(
-                &den,
+                den,
                 (0..self.cols)
                     .filter(|&k| !self[(i, k)].is_zero() && !other[(k, j)].is_zero())
                     .map(|k| self[(i, k)].mul(&other[(k, j)])),
@@ -414,14 +425,14 @@ impl OMatrix {
 
     /// The difference.
     pub fn sub(&self, other: &OMatrix) -> OMatrix {
-        OMatrix::from_fn(self.rows, self.cols, |i, j| {
+        OMatrix::from_fn(&self.den, self.rows, self.cols, |i, j| {
             self[(i, j)].sub(&other[(i, j)])
         })
     }
 
     /// Entrywise derivative with respect to q_i.
     pub fn diff(&self, i: usize) -> OMatrix {
-        OMatrix::from_fn(self.rows, self.cols, |r, c| self[(r, c)].diff(i))
+        OMatrix::from_fn(&self.den, self.rows, self.cols, |r, c| self[(r, c)].diff(i))
     }
 
     /// Every entry is zero (exact).

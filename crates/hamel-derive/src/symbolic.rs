@@ -59,8 +59,8 @@ fn mat(m: &Matrix) -> Mat {
 }
 
 /// Symmetric part (M + Mᵀ)/2 of a square matrix.
-fn sym(m: &OMatrix, half: &Over) -> OMatrix {
-    OMatrix::from_fn(m.rows(), m.cols(), |r, s| {
+fn sym(den: &Denominators, m: &OMatrix, half: &Over) -> OMatrix {
+    OMatrix::from_fn(den, m.rows(), m.cols(), |r, s| {
         if r == s {
             m[(r, s)].clone()
         } else {
@@ -344,7 +344,7 @@ pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelErr
             }
         }
     }
-    let q_true: Vec<OMatrix> = t1.iter().map(|t| sym(t, &half)).collect();
+    let q_true: Vec<OMatrix> = t1.iter().map(|t| sym(&dens, t, &half)).collect();
 
     // The paper's Q, (12)/(15), with the second and third terms summed over h only.
     let d_agamma: Vec<OMatrix> = (0..ell)
@@ -360,7 +360,7 @@ pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelErr
     let mut qp = vec![OMatrix::zeros(&dens, sigma, sigma); sigma];
     for j in 0..sigma {
         // (C_j)_hk = ∂z_jh/∂q_k − ∂z_jk/∂q_h
-        let c = OMatrix::from_fn(ell, ell, |h, k| dz[k][(j, h)].sub(&dz[h][(j, k)]));
+        let c = OMatrix::from_fn(&dens, ell, ell, |h, k| dz[k][(j, h)].sub(&dz[h][(j, k)]));
         if c.is_zero() {
             continue;
         }
@@ -387,14 +387,16 @@ pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelErr
             }
         }
     }
-    let q_paper: Vec<OMatrix> = qp.iter().map(|t| sym(t, &half)).collect();
+    let q_paper: Vec<OMatrix> = qp.iter().map(|t| sym(&dens, t, &half)).collect();
 
     // The correction Σ_m ν_m ΓᵀV_mΓη, ν = ΘᵀAΓη, (V_m)_hk = ∂α_mh/∂q_k − ∂α_mk/∂q_h.
     let nu = theta_o.transpose().mul(&a_o).mul(&gamma_o);
     let dalpha: Vec<OMatrix> = (0..ell).map(|k| alpha_o.diff(k)).collect();
     let mut qc = vec![OMatrix::zeros(&dens, sigma, sigma); sigma];
     for m_ in 0..mu {
-        let v = OMatrix::from_fn(ell, ell, |h, k| dalpha[k][(m_, h)].sub(&dalpha[h][(m_, k)]));
+        let v = OMatrix::from_fn(&dens, ell, ell, |h, k| {
+            dalpha[k][(m_, h)].sub(&dalpha[h][(m_, k)])
+        });
         if v.is_zero() {
             continue;
         }
@@ -410,7 +412,7 @@ pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelErr
             }
         }
     }
-    let q_correction: Vec<OMatrix> = qc.iter().map(|t| sym(t, &half)).collect();
+    let q_correction: Vec<OMatrix> = qc.iter().map(|t| sym(&dens, t, &half)).collect();
 
     // Exact checks.
     let split_identity =

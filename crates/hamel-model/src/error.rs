@@ -93,7 +93,7 @@ impl std::error::Error for ModelError {}
 
 impl Diagnostic for ModelError {
     fn source_code(&self) -> Option<&dyn SourceCode> {
-        // The file name is part of the message itself (see Display).
+        // The file name and the help are part of the message itself (see Display).
         Some(&*self.source as &dyn SourceCode)
     }
 
@@ -109,11 +109,5 @@ impl Diagnostic for ModelError {
             span.start,
             len,
         ))))
-    }
-
-    fn help<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
-        self.help
-            .as_ref()
-            .map(|h| Box::new(h.clone()) as Box<dyn fmt::Display>)
     }
 }

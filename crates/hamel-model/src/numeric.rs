@@ -102,6 +102,32 @@ impl<'m> NumericModel<'m> {
         }
     }
 
+    /// Numeric pre-screen: T(q, 2v) = 4 T(q, v) and T(q, −v) = T(q, v) at sample points (true
+    /// for every quadratic form; the exact check is made by the symbolic stage).
+    pub fn kinetic_looks_quadratic(&self) -> bool {
+        let Kinetic::Energy(t) = &self.model.kinetic else {
+            return true;
+        };
+        let ell = self.model.ell();
+        let qs = sample_configurations(ell, 4, 11);
+        let vs = sample_configurations(ell, 4, 13);
+        qs.iter().zip(&vs).all(|(q, v)| {
+            let v2: Vec<f64> = v.iter().map(|x| 2.0 * x).collect();
+            let vm: Vec<f64> = v.iter().map(|x| -x).collect();
+            match (
+                self.eval::<f64>(&t.expr, q, Some(v)),
+                self.eval::<f64>(&t.expr, q, Some(&v2)),
+                self.eval::<f64>(&t.expr, q, Some(&vm)),
+            ) {
+                (Ok(a), Ok(b), Ok(c)) => {
+                    let scale = a.abs().max(1e-300);
+                    (b - 4.0 * a).abs() <= 1e-9 * scale * 4.0 && (c - a).abs() <= 1e-9 * scale
+                }
+                _ => true,
+            }
+        })
+    }
+
     /// α(q): α_mj is the coefficient of der(q_j) in constraint m.
     pub fn constraint_matrix<S: Scalar>(&self, q: &[S]) -> Result<Vec<Vec<S>>, EvalError> {
         let ell = self.model.ell();
@@ -188,6 +214,11 @@ impl Model {
         };
         let nm = NumericModel::new(self, &IndexMap::new())?;
         let ell = self.ell();
+        if !nm.kinetic_looks_quadratic() {
+            // Polarisation is meaningless for a T that is not a quadratic form: leave the
+            // verdict to the exact check of the symbolic stage, which names the problem.
+            return Ok(());
+        }
         let mut evaluated = 0;
         for q in sample_configurations(ell, 8, 7) {
             let a = match nm.mass_matrix::<f64>(&q) {

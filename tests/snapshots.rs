@@ -1,0 +1,71 @@
+//! Snapshots of `hamel derive --format json` for every bundled model and quasi-velocity choice.
+//!
+//! The text is the derivation's normal form, which does not depend on the order in which
+//! symbols were created, on test order or on threads. Entries longer than 2000 characters (the
+//! unicycle's and the wheeled bar's Q run to megabytes) are replaced by their length and a
+//! 64-bit FNV-1a digest, so any change still fails the snapshot while the files stay readable.
+//! The CAS runs in-process, on its one worker thread.
+
+use hamel_model::Model;
+
+fn fnv1a(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+fn digest_long_strings(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::String(s) if s.chars().count() > 2000 => {
+            *s = format!(
+                "<{} characters, fnv1a64 {:016x}>",
+                s.chars().count(),
+                fnv1a(s)
+            );
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(digest_long_strings),
+        serde_json::Value::Object(o) => o.values_mut().for_each(digest_long_strings),
+        _ => {}
+    }
+}
+
+fn snapshot_of(model: &Model, choice: &str) -> String {
+    let d = hamel_derive::derive(model, Some(choice)).unwrap();
+    let mut v = serde_json::to_value(&d).unwrap();
+    digest_long_strings(&mut v);
+    serde_json::to_string_pretty(&v).unwrap()
+}
+
+fn models() -> Vec<Model> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/models");
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    paths.iter().map(|p| Model::load(p).unwrap()).collect()
+}
+
+#[test]
+fn derive_json_snapshots() {
+    for model in models() {
+        for choice in &model.choices {
+            let name = format!("derive__{}__{}", model.name, choice.name);
+            insta::assert_snapshot!(name, snapshot_of(&model, &choice.name));
+        }
+    }
+}
+
+#[test]
+fn derivations_do_not_depend_on_what_ran_before() {
+    // The same derivation after other models (other symbols created, other fields built)
+    // prints the same text.
+    let all = models();
+    let knife = all.iter().find(|m| m.name == "knife").unwrap();
+    let first = snapshot_of(knife, "general");
+    for m in all.iter().rev() {
+        let _ = snapshot_of(m, &m.choices[0].name);
+    }
+    assert_eq!(first, snapshot_of(knife, "general"));
+}
