@@ -5,6 +5,7 @@
 //! stderr with the file, the place and the reason, and a non-zero exit status; nothing is
 //! written when a command fails.
 
+mod bench;
 mod output;
 mod state;
 
@@ -67,6 +68,27 @@ enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
+    /// Time the derivation of every model and choice; with --sympy, SymPy does the same
+    /// derivation in the same run as the baseline (bench/sympy_derive.py).
+    Bench {
+        /// Model files (default: every models/*.toml).
+        models: Vec<PathBuf>,
+        /// Derivations per model and choice (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        repeat: usize,
+        /// Also run the SymPy baseline (needs python3 with sympy).
+        #[arg(long)]
+        sympy: bool,
+        /// Time limit for each SymPy derivation, seconds.
+        #[arg(long, default_value_t = 300.0)]
+        timeout: f64,
+        /// Output format: a Markdown table (text) or JSON.
+        #[arg(long, value_enum, default_value = "text")]
+        format: Format,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -120,5 +142,46 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             let text = state::eval(&model, eta.as_deref(), &state)?;
             out.write(&text)
         }
+        Command::Bench {
+            models,
+            repeat,
+            sympy,
+            timeout,
+            format,
+            output,
+        } => {
+            let out = Output::new(output)?;
+            let models = if models.is_empty() {
+                bundled_models()?
+            } else {
+                models
+            };
+            let rows = bench::run(&models, repeat, sympy, timeout)?;
+            let text = match format {
+                Format::Json => serde_json::to_string_pretty(&rows).expect("serialisable") + "\n",
+                _ => bench::table(&rows),
+            };
+            out.write(&text)
+        }
     }
+}
+
+/// Every `models/*.toml` of the repository, sorted.
+fn bundled_models() -> Result<Vec<PathBuf>, ModelError> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(|e| {
+            ModelError::new(
+                &dir.display().to_string(),
+                std::sync::Arc::new(String::new()),
+                None,
+                None,
+                format!("cannot list models: {e}"),
+            )
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    Ok(v)
 }
