@@ -45,6 +45,12 @@ except ImportError:
 BUILTINS = {"sqrt": sp.sqrt, "exp": sp.exp, "log": sp.log}
 
 
+def fail(message):
+    """A bad invocation or model: message on stderr, exit status 2."""
+    print(f"sympy_derive.py: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 class Timeout(BaseException):
     """Raised by the alarm; a BaseException so that SymPy's `except Exception` cannot eat it."""
 
@@ -76,8 +82,8 @@ class Model:
             choices = {"identity": {"eta": ["der(%s)" % c for c in self.coords]}}
         self.eta_name = eta_name or next(iter(choices), None)
         if self.eta_name not in choices:
-            raise SystemExit(f"sympy_derive.py: {self.name} has no quasi-velocity choice "
-                             f"`{self.eta_name}` (choices: {', '.join(choices)})")
+            fail(f"{self.name} has no quasi-velocity choice `{self.eta_name}` "
+                 f"(choices: {', '.join(choices)})")
         self.eta = [self.parse(e) for e in choices[self.eta_name]["eta"]]
 
     def _sin(self, x):
@@ -95,11 +101,11 @@ class Model:
         else:
             ns.update(sin=sp.sin, cos=sp.cos, tan=sp.tan)
         ns.update({str(v): v for v in self.q + self.qd + list(self.p.values())})
-        for name, call in re.findall(r"([A-Za-z_]\w*)\s*(\()?", text):
+        for name, call in re.findall(r"(?<![\w.])([A-Za-z_]\w*)\s*(\()?", text):
             if name in ns:
                 continue
             if not call:
-                raise SystemExit(f"sympy_derive.py: unknown name `{name}` in `{text}`")
+                fail(f"unknown name `{name}` in `{text}`")
             ns[name] = self.functions.setdefault(name, sp.Function(name))   # free function
         return sp.sympify(text, locals=ns, rational=True)
 
@@ -170,7 +176,7 @@ def derive(model):
     M = Z.col_join(alpha)
     delta = al.canon(M.det(method="berkowitz"))
     if delta == 0:
-        raise SystemExit("sympy_derive.py: det[Z; alpha] is identically zero")
+        fail("det[Z; alpha] is identically zero")
     Minv = M.adjugate(method="berkowitz").applyfunc(lambda e: al.canon(e / delta))
     G, Th = Minv[:, :sigma], Minv[:, sigma:]
     Gt = G.T
@@ -249,7 +255,7 @@ def check(model, d, state):
     defs = {}
     for name, fn in model.functions.items():
         if name not in state.get("functions", {}):
-            raise SystemExit(f"sympy_derive.py: give the free function `{name}` under \"functions\"")
+            fail(f"give the free function `{name}` under \"functions\"")
         args = next(a.args for e in model.eta for a in e.atoms(sp.core.function.AppliedUndef)
                     if a.func == fn)
         defs[fn] = sp.Lambda(args, model.parse(state["functions"][name], trig_symbols=False))

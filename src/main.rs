@@ -36,6 +36,14 @@ enum Format {
     Latex,
 }
 
+/// Output of `hamel bench`.
+#[derive(Clone, Copy, ValueEnum)]
+enum TableFormat {
+    /// A Markdown table.
+    Markdown,
+    Json,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Derive the Boltzmann–Hamel equations of a model: Γ, Θ, δ, A_Γ, Q (true, paper's,
@@ -82,9 +90,9 @@ enum Command {
         /// Time limit for each SymPy derivation, seconds.
         #[arg(long, default_value_t = 300.0)]
         timeout: f64,
-        /// Output format: a Markdown table (text) or JSON.
-        #[arg(long, value_enum, default_value = "text")]
-        format: Format,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "markdown")]
+        format: TableFormat,
         /// Write the result to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,
@@ -158,8 +166,10 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             };
             let rows = bench::run(&models, repeat, sympy, timeout)?;
             let text = match format {
-                Format::Json => serde_json::to_string_pretty(&rows).expect("serialisable") + "\n",
-                _ => bench::table(&rows),
+                TableFormat::Json => {
+                    serde_json::to_string_pretty(&rows).expect("serialisable") + "\n"
+                }
+                TableFormat::Markdown => bench::table(&rows),
             };
             out.write(&text)
         }
