@@ -44,6 +44,13 @@ enum TableFormat {
     Json,
 }
 
+/// Output of `hamel reduce` and `hamel search`.
+#[derive(Clone, Copy, ValueEnum)]
+enum ReportFormat {
+    Text,
+    Json,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Derive the Boltzmann–Hamel equations of a model: Γ, Θ, δ, A_Γ, Q (true, paper's,
@@ -57,6 +64,25 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
+    /// Decide which coordinates drop out of the equations: classification (31), block structure
+    /// (17)/(18), Properties 2.1–2.2, hypotheses H0–H6 with witnesses, the ground truth and the
+    /// reduced system.
+    Reduce {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// Coordinates to eliminate, comma-separated (e.g. `x,y,theta`).
+        #[arg(long, value_delimiter = ',', required = true)]
+        eliminate: Vec<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
         /// Write the result to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,
@@ -136,6 +162,31 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                 Format::Text => d.to_text(),
                 Format::Latex => d.to_latex(),
                 Format::Json => serde_json::to_string_pretty(&d).expect("serialisable") + "\n",
+            };
+            out.write(&text)
+        }
+        Command::Reduce {
+            model,
+            eta,
+            eliminate,
+            format,
+            output,
+        } => {
+            let out = Output::new(output)?;
+            let model = Model::load(&model)?;
+            let started = Instant::now();
+            let r = hamel_reduce::reduce(&model, eta.as_deref(), &eliminate)?;
+            eprintln!(
+                "analysed {} with quasi-velocities `{}` in {:.3} s",
+                r.model,
+                r.eta_name,
+                started.elapsed().as_secs_f64()
+            );
+            let text = match format {
+                ReportFormat::Text => r.to_text(),
+                ReportFormat::Json => {
+                    serde_json::to_string_pretty(&r).expect("serialisable") + "\n"
+                }
             };
             out.write(&text)
         }

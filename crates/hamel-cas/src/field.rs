@@ -209,6 +209,27 @@ impl FieldInner {
     }
 
     /// Split `p` by powers of variable `v`: `p = Σ_k parts[k] v^k`, parts free of `v`.
+    /// N/D with variable v set to a/b: both multiplied by b^K (K the larger degree in v), so
+    /// the pair stays polynomial and the ratio is exact.
+    pub fn substitute_pair(&self, n: Poly, d: Poly, v: usize, a: i64, b: i64) -> (Poly, Poly) {
+        let deg = n.degree(v).max(d.degree(v)) as usize;
+        if deg == 0 {
+            return (n, d);
+        }
+        let sub = |p: &Poly| {
+            let mut acc = self.zero.clone();
+            for (j, part) in self.split(p, v).into_iter().enumerate() {
+                if part.is_zero() {
+                    continue;
+                }
+                let c = Integer::from(a).pow(j as u64) * Integer::from(b).pow((deg - j) as u64);
+                acc = &acc + &part.mul_coeff(c);
+            }
+            acc
+        };
+        (sub(&n), sub(&d))
+    }
+
     pub fn split(&self, p: &Poly, v: usize) -> Vec<Poly> {
         let deg = p.degree(v) as usize;
         let mut parts = vec![self.zero.clone(); deg + 1];
@@ -518,7 +539,7 @@ impl Ex {
     /// on `q_i` occurs it is free of `q_i`; otherwise it depends on `q_i` iff its total
     /// derivative with respect to `q_i` is not zero.
     pub fn depends_on(&self, i: usize) -> bool {
-        self.mentions(i) && !self.diff(i).is_zero()
+        self.mentions(i) && self.field().fraction_depends_on(&self.num, &self.den, i)
     }
 
     /// True when a variable depending on `q_i` occurs (syntactic; may be true for an
@@ -529,13 +550,69 @@ impl Ex {
         })
     }
 
+    /// The same value written without q_k, for an expression that does not depend on q_k
+    /// (decided exactly by [`Ex::depends_on`]): its canonical form may still mention q_k, as in
+    /// (1 − cos²θ)/sin θ, so q_k is given a value at which the denominator does not vanish
+    /// (0, 1, 2, … where q_k occurs as itself; for sin and cos the rational points
+    /// (4/5, 3/5), (5/13, 12/13), … of the unit circle). `None` when the expression depends
+    /// on q_k, or q_k occurs inside a free function or kernel, or under two related angles.
+    pub fn without_coordinate(&self, k: usize) -> Option<Ex> {
+        if !self.mentions(k) {
+            return Some(self.clone());
+        }
+        if self.depends_on(k) {
+            return None;
+        }
+        let fi = &self.f;
+        let mut coord = None;
+        let mut angle = None;
+        for v in 0..fi.nvars() {
+            if (self.num.degree(v) == 0 && self.den.degree(v) == 0) || !fi.deps(v).contains(&k) {
+                continue;
+            }
+            match fi.kinds[v] {
+                VarKind::Coord(i) if i == k => coord = Some(v),
+                VarKind::Sin(a) | VarKind::Cos(a) => match angle {
+                    None => angle = Some(a),
+                    Some(b) if b == a => {}
+                    Some(_) => return None,
+                },
+                _ => return None,
+            }
+        }
+        let points: [(i64, i64, i64); 6] = [
+            (4, 3, 5),
+            (5, 12, 13),
+            (8, 15, 17),
+            (3, 4, 5),
+            (12, 5, 13),
+            (20, 21, 29),
+        ];
+        for (t, &(ps, pc, h)) in points.iter().enumerate() {
+            let (mut n, mut d) = (self.num.clone(), self.den.clone());
+            if let Some(v) = coord {
+                (n, d) = fi.substitute_pair(n, d, v, t as i64, 1);
+            }
+            if let Some(a) = angle {
+                let av = &fi.angles[a];
+                (n, d) = fi.substitute_pair(n, d, av.sin, ps, h);
+                (n, d) = fi.substitute_pair(n, d, av.cos, pc, h);
+            }
+            if d.is_zero() {
+                continue;
+            }
+            return self.field().ex(n, d).ok();
+        }
+        None
+    }
+
     /// The coordinates the expression depends on (indices, sorted), decided as in
     /// [`Ex::depends_on`].
     pub fn coordinate_dependence(&self) -> Vec<usize> {
         self.f
             .deps_of(&self.num, &self.den)
             .into_iter()
-            .filter(|&i| !self.diff(i).is_zero())
+            .filter(|&i| self.depends_on(i))
             .collect()
     }
 
@@ -700,6 +777,49 @@ impl Field {
     }
 
     /// Total derivative of a polynomial with respect to q_i.
+    /// Whether N/D (D ≠ 0) depends on q_i, exactly and without gcds: d(N/D)/dq_i = 0 iff
+    /// N'·D − N·D' = 0; with N' = a/da and D' = b/db, iff a·db·D − N·b·da reduces to zero.
+    pub(crate) fn fraction_depends_on(&self, num: &Poly, den: &Poly, i: usize) -> bool {
+        let (a, da) = self.poly_diff_frac(num, i);
+        let test = if den.is_constant() {
+            a
+        } else {
+            let (b, db) = self.poly_diff_frac(den, i);
+            &(&(&a * &db) * den) - &(&(num * &b) * &da)
+        };
+        !self.0.reduce(test).is_zero()
+    }
+
+    /// True when a variable of `p` depends on q_i (syntactic).
+    pub(crate) fn poly_mentions(&self, p: &Poly, i: usize) -> bool {
+        (0..self.0.nvars()).any(|v| p.degree(v) > 0 && self.0.deps(v).contains(&i))
+    }
+
+    /// dp/dq_i as a fraction (numerator, denominator) gathered by cross-multiplication, without
+    /// gcds: for exact zero tests, where lowest terms are not needed.
+    pub(crate) fn poly_diff_frac(&self, p: &Poly, i: usize) -> (Poly, Poly) {
+        let mut num = self.0.zero.clone();
+        let mut den = self.0.one();
+        for v in 0..self.0.nvars() {
+            if p.degree(v) == 0 {
+                continue;
+            }
+            let Some((dn, dd)) = self.dvar(v, i) else {
+                continue;
+            };
+            let t = &p.derivative(v) * &dn;
+            if dd == den {
+                num = &num + &t;
+            } else if dd.is_one() {
+                num = &num + &(&t * &den);
+            } else {
+                num = &(&num * &dd) + &(&t * &den);
+                den = &den * &dd;
+            }
+        }
+        (num, den)
+    }
+
     pub(crate) fn poly_diff(&self, p: &Poly, i: usize) -> Ex {
         let mut acc = self.zero();
         for v in 0..self.0.nvars() {

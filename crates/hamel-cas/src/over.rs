@@ -282,6 +282,22 @@ impl Over {
         }
     }
 
+    /// True when the value depends on coordinate q_i; exact, as [`Ex::depends_on`], and
+    /// without bringing the value to lowest terms.
+    pub fn depends_on(&self, i: usize) -> bool {
+        let field = &self.inner().field;
+        let bases = self.inner().bases.borrow();
+        let mut den = self.cden.clone();
+        let mut mentions = field.poly_mentions(&self.num, i);
+        for (j, &e) in self.exps.iter().enumerate() {
+            for _ in 0..e {
+                den = &den * &bases[j];
+            }
+            mentions |= e > 0 && field.poly_mentions(&bases[j], i);
+        }
+        mentions && field.fraction_depends_on(&self.num, &den, i)
+    }
+
     /// ∂/∂q_i. With w = 1/(c∏bⱼ^eⱼ): ∂(N w) = w (∂N − N Σⱼ eⱼ ∂bⱼ/bⱼ).
     pub fn diff(&self, i: usize) -> Over {
         let field = &self.inner().field;

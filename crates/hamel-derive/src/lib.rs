@@ -18,11 +18,12 @@
 mod derivation;
 mod numeric;
 mod render;
-mod symbolic;
+pub mod symbolic;
 
 pub use derivation::{Checks, Derivation, Entry, Ingredients, Mat};
 pub use hamel_model::{Model, ModelError};
 pub use numeric::{Compiled, Evaluation, NumericError, Rhs, SymbolicCompiled};
+pub use symbolic::{Symbolic, symbolic};
 
 /// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first
 /// choice when `None`).

@@ -193,8 +193,146 @@ fn span_site(key: String, items: &[Item]) -> Site {
     }
 }
 
+/// The exact objects of a derivation, as computer-algebra values. Lives on the CAS thread
+/// only (not `Send`); later stages (reduction, search) analyse it there, and
+/// [`Symbolic::to_derivation`] turns it into plain data.
+pub struct Symbolic {
+    /// The field every expression lives in (coordinates, parameters, free functions, and the
+    /// unknowns `eta1..`, `eta1_dot..`).
+    pub field: Field,
+    /// The common denominators of the [`Over`] values below.
+    pub dens: Denominators,
+    /// Mass matrix A (ℓ×ℓ).
+    pub a: Matrix,
+    /// Constraint matrix α (μ×ℓ).
+    pub alpha: Matrix,
+    /// Z (σ×ℓ).
+    pub z: Matrix,
+    /// Γ (ℓ×σ), (5).
+    pub gamma: Matrix,
+    /// Θ (ℓ×μ), (5).
+    pub theta: Matrix,
+    /// δ = det[Z; α], (4).
+    pub delta: Ex,
+    /// Factors whose vanishing makes the map singular.
+    pub singular: Vec<Ex>,
+    /// U.
+    pub u: Ex,
+    /// A_Γ (8).
+    pub a_gamma: OMatrix,
+    /// ∇U.
+    pub grad_u: Vec<Over>,
+    /// Γᵀ∇U.
+    pub forcing: Vec<Over>,
+    /// ΘᵀAΓ.
+    pub nu: OMatrix,
+    /// Q⁽ⁱ⁾ of the true equations.
+    pub q_true: Vec<OMatrix>,
+    /// Q⁽ⁱ⁾ of the paper's (12)/(15).
+    pub q_paper: Vec<OMatrix>,
+    /// Q⁽ⁱ⁾ of the correction.
+    pub q_correction: Vec<OMatrix>,
+    /// The symbols η₁..η_σ.
+    pub eta: Vec<Over>,
+    /// The symbols η̇₁..η̇_σ.
+    pub eta_dot: Vec<Over>,
+    /// Γη (the right-hand sides of the kinematic equations (6)).
+    pub gamma_eta: Vec<Over>,
+    /// Q_i = ηᵀQ⁽ⁱ⁾η, true equations.
+    pub q_eta: Vec<Over>,
+    /// Q_i of the paper's equations.
+    pub q_eta_paper: Vec<Over>,
+    /// E = ½ηᵀA_Γη − U.
+    pub energy: Over,
+    /// Exact checks.
+    pub checks: Checks,
+    model: Model,
+    choice: hamel_model::QuasiVelocityChoice,
+}
+
+impl Symbolic {
+    /// The model this derivation is of.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The quasi-velocity choice.
+    pub fn choice(&self) -> &hamel_model::QuasiVelocityChoice {
+        &self.choice
+    }
+
+    /// Left-hand sides A_Γη̇ + Q − Γᵀ∇U of (11), for the given Q_i.
+    pub fn lhs(&self, q_eta: &[Over]) -> Vec<Over> {
+        let sigma = self.eta.len();
+        (0..sigma)
+            .map(|i| {
+                let inertia = sum_over(
+                    &self.dens,
+                    (0..sigma).map(|r| self.a_gamma[(i, r)].mul(&self.eta_dot[r])),
+                );
+                inertia.add(&q_eta[i]).sub(&self.forcing[i])
+            })
+            .collect()
+    }
+
+    /// Plain data for output and numeric evaluation.
+    pub fn to_derivation(&self) -> Derivation {
+        let (model, choice) = (&self.model, &self.choice);
+        let (mu, sigma) = (model.mu(), model.sigma());
+        let to_list = |v: &[Over]| -> Vec<Entry> { v.iter().map(entry_over).collect() };
+        let to_mats = |v: &[OMatrix]| -> Vec<Mat> { v.iter().map(mat_over).collect() };
+        Derivation {
+            model: model.name.clone(),
+            title: model.title.clone(),
+            eta_name: choice.name.clone(),
+            eta: choice.eta.iter().map(|e| e.expr.to_string()).collect(),
+            free_functions: choice
+                .free_functions
+                .iter()
+                .map(|(n, a)| format!("{n}({})", a.join(", ")))
+                .collect(),
+            coordinates: model.coordinates.clone(),
+            parameters: model.parameters.clone(),
+            ell: model.ell(),
+            mu,
+            sigma,
+            a: mat(&self.a),
+            alpha: mat(&self.alpha),
+            z: mat(&self.z),
+            gamma: mat(&self.gamma),
+            theta: mat(&self.theta),
+            delta: entry(&self.delta),
+            singular_set: self.singular.iter().map(entry).collect(),
+            a_gamma: mat_over(&self.a_gamma),
+            grad_u: to_list(&self.grad_u),
+            forcing: to_list(&self.forcing),
+            nu: mat_over(&self.nu),
+            q: to_mats(&self.q_true),
+            q_paper: to_mats(&self.q_paper),
+            q_correction: to_mats(&self.q_correction),
+            kinematics: to_list(&self.gamma_eta),
+            equations: to_list(&self.lhs(&self.q_eta)),
+            equations_paper: to_list(&self.lhs(&self.q_eta_paper)),
+            energy: entry_over(&self.energy),
+            checks: self.checks.clone(),
+            ingredients: Ingredients {
+                potential: Some(entry(&self.u)),
+                da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
+                dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
+                dalpha: (0..model.ell()).map(|k| mat(&self.alpha.diff(k))).collect(),
+            },
+        }
+    }
+}
+
 /// Derive the Boltzmann–Hamel equations of `model` for the quasi-velocity choice `choice`.
 pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelError> {
+    Ok(symbolic(model, choice)?.to_derivation())
+}
+
+/// The exact derivation of `model` for the choice `choice`. Must run on the CAS thread
+/// (inside [`hamel_cas::run`]).
+pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
     let choice = model.choice(Some(choice))?.clone();
     let ctx = Ctx { model };
     let (ell, mu, sigma) = (model.ell(), model.mu(), model.sigma());
@@ -458,52 +596,30 @@ pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelErr
     });
 
     let energy = quad(&a_gamma, &eta, &eta).mul(&half).sub(&u_o);
-    let lhs = |qe: &[Over]| -> Vec<Entry> {
-        (0..sigma)
-            .map(|i| {
-                let inertia = sum((0..sigma)
-                    .map(|r| a_gamma[(i, r)].mul(&eta_dot[r]))
-                    .collect());
-                entry_over(&inertia.add(&qe[i]).sub(&forcing[i]))
-            })
-            .collect()
-    };
-    let to_list = |v: &[Over]| -> Vec<Entry> { v.iter().map(entry_over).collect() };
-    let to_mats = |v: &[OMatrix]| -> Vec<Mat> { v.iter().map(mat_over).collect() };
-
-    Ok(Derivation {
-        model: model.name.clone(),
-        title: model.title.clone(),
-        eta_name: choice.name.clone(),
-        eta: choice.eta.iter().map(|e| e.expr.to_string()).collect(),
-        free_functions: choice
-            .free_functions
-            .iter()
-            .map(|(n, a)| format!("{n}({})", a.join(", ")))
-            .collect(),
-        coordinates: model.coordinates.clone(),
-        parameters: model.parameters.clone(),
-        ell,
-        mu,
-        sigma,
-        a: mat(&a),
-        alpha: mat(&alpha),
-        z: mat(&z),
-        gamma: mat(&gamma),
-        theta: mat(&theta),
-        delta: entry(&delta),
-        singular_set: singular.iter().map(entry).collect(),
-        a_gamma: mat_over(&a_gamma),
-        grad_u: to_list(&grad_u),
-        forcing: to_list(&forcing),
-        nu: mat_over(&nu),
-        q: to_mats(&q_true),
-        q_paper: to_mats(&q_paper),
-        q_correction: to_mats(&q_correction),
-        kinematics: to_list(&gamma_eta),
-        equations: lhs(&q_eta),
-        equations_paper: lhs(&q_eta_paper),
-        energy: entry_over(&energy),
+    Ok(Symbolic {
+        field: f.clone(),
+        dens: dens.clone(),
+        a,
+        alpha,
+        z,
+        gamma,
+        theta,
+        delta,
+        singular,
+        u,
+        a_gamma,
+        grad_u,
+        forcing,
+        nu,
+        q_true,
+        q_paper,
+        q_correction,
+        eta,
+        eta_dot,
+        gamma_eta,
+        q_eta,
+        q_eta_paper,
+        energy,
         checks: Checks {
             split_identity,
             energy_conserved,
@@ -511,11 +627,7 @@ pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelErr
             paper_is_exact,
             euler_lagrange,
         },
-        ingredients: Ingredients {
-            potential: Some(entry(&u)),
-            da: (0..ell).map(|k| mat(&a.diff(k))).collect(),
-            dz: (0..ell).map(|k| mat(&z.diff(k))).collect(),
-            dalpha: (0..ell).map(|k| mat(&alpha.diff(k))).collect(),
-        },
+        model: model.clone(),
+        choice,
     })
 }

@@ -1,0 +1,414 @@
+//! Assemble a [`Reduction`]: classification (31), structure (17)/(18), Properties 2.1–2.2,
+//! hypotheses, ground truth and the reduced system. Runs on the CAS thread.
+
+use hamel_cas::{Ex, Matrix};
+use hamel_derive::{Entry, Mat, Symbolic};
+use hamel_model::Model;
+use indexmap::IndexMap;
+
+use crate::hypotheses::{self as hyp, Blocks, Val, scan, witness};
+use crate::report::*;
+
+fn entry(e: &Ex) -> Entry {
+    let expr = e.to_expr();
+    Entry {
+        text: expr.to_string(),
+        expr,
+    }
+}
+
+fn mat(m: &Matrix) -> Mat {
+    Mat {
+        rows: m.rows(),
+        cols: m.cols(),
+        entries: (0..m.rows())
+            .map(|i| (0..m.cols()).map(|j| entry(&m[(i, j)])).collect())
+            .collect(),
+    }
+}
+
+/// The entries of the equations (11): A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ (true or the paper's).
+fn equation_entries(s: &Symbolic, paper: bool) -> Vec<(String, Vec<usize>, Val)> {
+    let sigma = s.eta.len();
+    let mut out = Vec::new();
+    for r in 0..sigma {
+        for c in r..sigma {
+            out.push((
+                "A_Gamma".to_string(),
+                vec![r + 1, c + 1],
+                Val::Over(s.a_gamma[(r, c)].clone()),
+            ));
+        }
+    }
+    for (i, f) in s.forcing.iter().enumerate() {
+        out.push((
+            "Gamma^T grad U".to_string(),
+            vec![i + 1],
+            Val::Over(f.clone()),
+        ));
+    }
+    let q = if paper { &s.q_paper } else { &s.q_true };
+    let name = if paper { "Q_paper" } else { "Q" };
+    for (i, m) in q.iter().enumerate() {
+        for r in 0..sigma {
+            for c in r..sigma {
+                out.push((
+                    format!("{name}({})", i + 1),
+                    vec![r + 1, c + 1],
+                    Val::Over(m[(r, c)].clone()),
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// Which coordinates of `p` occur in the entries, with the first occurrence of each.
+fn occurrences(
+    s: &Symbolic,
+    p: &[usize],
+    entries: &[(String, Vec<usize>, Val)],
+) -> (Vec<usize>, Vec<Witness>) {
+    let mut present = Vec::new();
+    let mut found = Vec::new();
+    for &k in p {
+        if let Some(w) = scan(
+            s,
+            &[k],
+            entries.iter().cloned(),
+            "the equations (11) contain it",
+        ) {
+            present.push(k);
+            found.push(w);
+        }
+    }
+    (present, found)
+}
+
+pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
+    let names = s.field.coordinates().to_vec();
+    let ell = names.len();
+    let sigma = s.eta.len();
+    let blocks = Blocks::of(&s.z);
+
+    // (31)
+    let classification = (0..ell)
+        .map(|k| {
+            let sources = (0..ell)
+                .flat_map(|i| (i..ell).map(move |j| (i, j)))
+                .map(|(i, j)| {
+                    (
+                        "A".to_string(),
+                        vec![i + 1, j + 1],
+                        Val::Ex(s.a[(i, j)].clone()),
+                    )
+                })
+                .chain(std::iter::once((
+                    "U".to_string(),
+                    vec![],
+                    Val::Ex(s.u.clone()),
+                )))
+                .chain((0..s.alpha.rows()).flat_map(|m| {
+                    (0..ell).map(move |j| {
+                        (
+                            "alpha".to_string(),
+                            vec![m + 1, j + 1],
+                            Val::Ex(s.alpha[(m, j)].clone()),
+                        )
+                    })
+                }));
+            let occurs_in = scan(s, &[k], sources, "so it is of type (B)");
+            Classification {
+                coordinate: names[k].clone(),
+                kind: if occurs_in.is_some() {
+                    CoordinateKind::B
+                } else {
+                    CoordinateKind::A
+                },
+                occurs_in,
+                in_z: s.z.entries().iter().any(|e| e.depends_on(k)),
+                asked: p.contains(&k),
+            }
+        })
+        .collect();
+
+    // (17)/(18)
+    let all_mu: Vec<usize> = (0..s.alpha.rows()).collect();
+    let z1 = Blocks::sub(&s.z, &blocks.rows1, &blocks.j1);
+    let z2 = Blocks::sub(&s.z, &blocks.rows1, &blocks.j2);
+    let alpha1 = Blocks::sub(&s.alpha, &all_mu, &blocks.j1);
+    let alpha2 = Blocks::sub(&s.alpha, &all_mu, &blocks.j2);
+    let gamma1 = Blocks::sub(&s.gamma, &blocks.j1, &blocks.rows1);
+    let gamma2 = Blocks::sub(&s.gamma, &blocks.j1, &blocks.rows2);
+    let delta_r = if z1.rows() + alpha1.rows() == 0 {
+        s.field.one()
+    } else if alpha1.rows() == 0 {
+        z1.det().unwrap_or_else(|_| s.field.zero())
+    } else if z1.rows() == 0 {
+        alpha1.det().unwrap_or_else(|_| s.field.zero())
+    } else {
+        z1.vstack(&alpha1).det().unwrap_or_else(|_| s.field.zero())
+    };
+    let structure = BlockStructure {
+        v: blocks.v(),
+        unit_rows: blocks
+            .rows2
+            .iter()
+            .zip(&blocks.j2)
+            .map(|(&i, &j)| (i + 1, names[j].clone()))
+            .collect(),
+        block1: blocks.j1.iter().map(|&j| names[j].clone()).collect(),
+        block2: blocks.j2.iter().map(|&j| names[j].clone()).collect(),
+        z1: mat(&z1),
+        z2: mat(&z2),
+        alpha1: mat(&alpha1),
+        alpha2: mat(&alpha2),
+        gamma1: mat(&gamma1),
+        gamma2: mat(&gamma2),
+        delta_r: entry(&delta_r),
+    };
+
+    // Properties 2.1 and 2.2.
+    let mut properties = IndexMap::new();
+    let h1 = hyp::h1(s, &blocks);
+    let gamma2_nonzero = (0..gamma2.rows())
+        .flat_map(|h| (0..gamma2.cols()).map(move |c| (h, c)))
+        .find(|&(h, c)| !gamma2[(h, c)].is_zero());
+    properties.insert(
+        "2.1".to_string(),
+        Property {
+            statement: "Γ₂ = 0 (26), which holds iff (Z₂; α₂) = 0".to_string(),
+            holds: gamma2_nonzero.is_none(),
+            witness: gamma2_nonzero.map(|(h, c)| {
+                let mut w = witness(
+                    s,
+                    "Gamma2",
+                    vec![h + 1, c + 1],
+                    None,
+                    &Val::Ex(gamma2[(h, c)].clone()),
+                    "Γ₂ ≠ 0".to_string(),
+                );
+                if let Some(hw) = &h1.witness {
+                    w.note = format!("Γ₂ ≠ 0 because {}", hw.note);
+                }
+                w
+            }),
+        },
+    );
+    let a12 = Blocks::sub(&s.a, &blocks.j1, &blocks.j2);
+    let g1a12 = gamma1.transpose().mul(&a12);
+    let p22 = (0..g1a12.rows())
+        .flat_map(|r| (0..g1a12.cols()).map(move |c| (r, c)))
+        .find(|&(r, c)| !g1a12[(r, c)].is_zero());
+    properties.insert(
+        "2.2".to_string(),
+        Property {
+            statement: "Γ₁ᵀA⁽¹'²⁾ = 0 (27), which holds iff the columns of A⁽¹'²⁾ are \
+                        combinations of the rows of α₁"
+                .to_string(),
+            holds: p22.is_none(),
+            witness: p22.map(|(r, c)| {
+                witness(
+                    s,
+                    "Gamma1^T A12",
+                    vec![r + 1, c + 1],
+                    None,
+                    &Val::Ex(g1a12[(r, c)].clone()),
+                    format!(
+                        "the column of A(1,2) for `{}` is not in the row space of α₁",
+                        names[blocks.j2[c]]
+                    ),
+                )
+            }),
+        },
+    );
+
+    // H0–H6.
+    let mut hypotheses = IndexMap::new();
+    hypotheses.insert("H0".to_string(), hyp::h0(s, p));
+    hypotheses.insert("H1".to_string(), h1);
+    let h2 = hyp::h2(s, &blocks).unwrap_or_else(|e| Hypothesis {
+        statement: "(H2)".to_string(),
+        holds: false,
+        witness: Some(Witness {
+            object: "alpha1".to_string(),
+            index: vec![],
+            coordinate: None,
+            expression: String::new(),
+            note: format!("the rank could not be computed: {e}"),
+        }),
+    });
+    hypotheses.insert("H2".to_string(), h2);
+    hypotheses.insert("H3".to_string(), hyp::h3(s, &blocks, p));
+    hypotheses.insert("H4".to_string(), hyp::h4(s, &blocks, p));
+    hypotheses.insert("H5".to_string(), hyp::h5(s, &blocks, p));
+    hypotheses.insert("H6".to_string(), hyp::h6(s, p));
+    let proposition_2_1 = ["H0", "H1", "H2", "H3", "H4", "H5"]
+        .iter()
+        .all(|h| hypotheses[*h].holds);
+
+    // Ground truth.
+    let entries_true = equation_entries(s, false);
+    let (present, occurrences_true) = occurrences(s, p, &entries_true);
+    let (paper_present, _) = occurrences(s, p, &equation_entries(s, true));
+    let lhs = s.lhs(&s.q_eta);
+    // The coordinates the equations (11) need: those their coefficients depend on (exactly).
+    let mut needed: Vec<usize> = Vec::new();
+    for (_, _, e) in &entries_true {
+        for k in e.dependence(ell) {
+            if !needed.contains(&k) {
+                needed.push(k);
+            }
+        }
+    }
+    // Close under the kinematic equations of the needed coordinates.
+    let rates: Vec<Ex> = s.gamma_eta.iter().map(|e| e.to_ex()).collect();
+    let mut kin_witness = None;
+    let mut i = 0;
+    while i < needed.len() {
+        let k = needed[i];
+        for j in rates[k].coordinate_dependence() {
+            if !needed.contains(&j) {
+                if p.contains(&j) && kin_witness.is_none() && !p.contains(&k) {
+                    kin_witness = Some(witness(
+                        s,
+                        "Gamma eta",
+                        vec![k + 1],
+                        Some(j),
+                        &Val::Ex(rates[k].clone()),
+                        format!(
+                            "the kinematic equation of `{}`, needed by the reduced system, \
+                             contains `{}`",
+                            names[k], names[j]
+                        ),
+                    ));
+                }
+                needed.push(j);
+            }
+        }
+        i += 1;
+    }
+    needed.sort_unstable();
+    let kinematics_closed = !needed.iter().any(|k| p.contains(k));
+    let kinematics_witness = if kinematics_closed { None } else { kin_witness };
+    let list = |v: &[usize]| v.iter().map(|&k| names[k].clone()).collect::<Vec<_>>();
+    let absent: Vec<usize> = p.iter().copied().filter(|k| !present.contains(k)).collect();
+    let paper_absent: Vec<usize> = p
+        .iter()
+        .copied()
+        .filter(|k| !paper_present.contains(k))
+        .collect();
+    let ground_truth = GroundTruth {
+        absent: list(&absent),
+        present: list(&present),
+        occurrences: occurrences_true,
+        paper_absent: list(&paper_absent),
+        paper_present: list(&paper_present),
+        kinematics_closed,
+        kinematics_witness,
+    };
+
+    // Findings.
+    let failing: Vec<&str> = ["H0", "H1", "H2", "H3", "H4", "H5"]
+        .into_iter()
+        .filter(|h| !hypotheses[*h].holds)
+        .collect();
+    let eliminated = present.is_empty();
+    let mut findings = Vec::new();
+    let asked = list(p).join(", ");
+    if eliminated && !failing.is_empty() {
+        findings.push(format!(
+            "eliminated although {} fail{}: the true equations (11) are free of {asked}, \
+             but Proposition 2.1 does not apply (its hypotheses are only sufficient)",
+            failing.join(", "),
+            if failing.len() == 1 { "s" } else { "" }
+        ));
+    }
+    if proposition_2_1 && !hypotheses["H6"].holds {
+        findings.push(format!(
+            "hypotheses hold but the paper's equations are not the true ones: H0–H5 hold, so \
+             the paper's (11) are free of {asked}, but H6 fails{}",
+            if eliminated {
+                " (the true equations are free of them all the same)"
+            } else {
+                " and the true equations contain them"
+            }
+        ));
+    }
+    if proposition_2_1 && hypotheses["H6"].holds && !eliminated {
+        findings.push(
+            "H0–H6 hold but the equations contain an eliminated coordinate: this contradicts \
+             Proposition 2.1 and is a bug in hamel; please report it"
+                .to_string(),
+        );
+    }
+    if eliminated && failing.is_empty() {
+        findings.push(format!(
+            "eliminated, as Proposition 2.1 predicts: the true equations (11) are free of {asked}"
+        ));
+    }
+    if !eliminated {
+        findings.push(format!(
+            "not eliminated: the true equations (11) contain {}",
+            list(&present).join(", ")
+        ));
+    }
+    if eliminated && !paper_present.is_empty() {
+        findings.push(format!(
+            "the paper's equations contain {} although the true ones do not",
+            list(&paper_present).join(", ")
+        ));
+    } else if !eliminated && paper_present.is_empty() {
+        findings.push(format!(
+            "the paper's equations are free of {asked}, but they are not the true equations"
+        ));
+    }
+    if eliminated && !kinematics_closed {
+        findings.push(
+            "the kinematic equations still needed (34) contain an eliminated coordinate, so \
+             (11) cannot be solved apart from it"
+                .to_string(),
+        );
+    }
+
+    // The reduced system.
+    let reduced_system = (eliminated && kinematics_closed).then(|| {
+        // Canonical forms may still mention a coordinate they do not depend on (as in
+        // (1 − cos²θ)/sin θ): write the reduced equations without the dropped coordinates.
+        let dropped: Vec<usize> = (0..ell).filter(|k| !needed.contains(k)).collect();
+        let without = |e: Ex| -> Ex {
+            dropped
+                .iter()
+                .fold(e, |e, &k| e.without_coordinate(k).unwrap_or(e))
+        };
+        let kin = |k: usize| KinematicEquation {
+            coordinate: names[k].clone(),
+            rate: entry(&without(rates[k].clone())),
+        };
+        let mut state: Vec<String> = (1..=sigma).map(|i| format!("eta{i}")).collect();
+        state.extend(needed.iter().map(|&k| names[k].clone()));
+        ReducedSystem {
+            state,
+            equations: lhs.iter().map(|e| entry(&without(e.to_ex()))).collect(),
+            kinematics: needed.iter().map(|&k| kin(k)).collect(),
+            reconstruction: (0..ell).filter(|k| !needed.contains(k)).map(kin).collect(),
+        }
+    });
+
+    Reduction {
+        model: model.name.clone(),
+        eta_name: s.choice().name.clone(),
+        eta: s.choice().eta.iter().map(|e| e.expr.to_string()).collect(),
+        coordinates: names.clone(),
+        eliminate: list(p),
+        classification,
+        structure,
+        properties,
+        hypotheses,
+        proposition_2_1,
+        paper_is_exact: s.checks.paper_is_exact,
+        ground_truth,
+        findings,
+        reduced_system,
+    }
+}

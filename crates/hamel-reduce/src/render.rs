@@ -1,0 +1,152 @@
+//! Human-readable report of a [`Reduction`].
+
+use std::fmt::Write;
+
+use crate::report::{CoordinateKind, Reduction, Witness};
+
+fn witness_line(w: &Witness) -> String {
+    let idx: Vec<String> = w.index.iter().map(|i| i.to_string()).collect();
+    format!(
+        "{}[{}] = {}\n        ({})",
+        w.object,
+        idx.join(", "),
+        w.expression,
+        w.note
+    )
+}
+
+impl Reduction {
+    /// The report as text.
+    pub fn to_text(&self) -> String {
+        let mut o = String::new();
+        let _ = writeln!(
+            o,
+            "Reduction of `{}` with quasi-velocities `{}`: eliminate {}",
+            self.model,
+            self.eta_name,
+            self.eliminate.join(", ")
+        );
+        for (i, e) in self.eta.iter().enumerate() {
+            let _ = writeln!(o, "  eta{} = {e}", i + 1);
+        }
+        let _ = writeln!(o, "\nClassification (31):");
+        for c in &self.classification {
+            let kind = match c.kind {
+                CoordinateKind::A => "(A) absent from L and α".to_string(),
+                CoordinateKind::B => format!(
+                    "(B) {}",
+                    c.occurs_in
+                        .as_ref()
+                        .map(|w| {
+                            let idx: Vec<String> = w.index.iter().map(|i| i.to_string()).collect();
+                            format!("occurs in {}[{}]", w.object, idx.join(", "))
+                        })
+                        .unwrap_or_default()
+                ),
+            };
+            let _ = writeln!(
+                o,
+                "  {}{:<10} {kind}{}",
+                if c.asked { "* " } else { "  " },
+                c.coordinate,
+                if c.in_z { "; Z depends on it" } else { "" }
+            );
+        }
+        let st = &self.structure;
+        let _ = writeln!(o, "\nBlock structure (17)/(18): v = {}", st.v);
+        let _ = writeln!(o, "  block 1 (μ + v): {}", st.block1.join(", "));
+        let _ = writeln!(
+            o,
+            "  block 2 (σ − v): {}",
+            if st.block2.is_empty() {
+                "(none)".to_string()
+            } else {
+                st.block2.join(", ")
+            }
+        );
+        for (i, q) in &st.unit_rows {
+            let _ = writeln!(o, "  eta{i} = der({q})");
+        }
+        let _ = writeln!(o, "  δ_R = {}", st.delta_r.text);
+        let _ = writeln!(o, "\nProperties:");
+        for (name, p) in &self.properties {
+            let _ = writeln!(
+                o,
+                "  {name}: {} — {}",
+                if p.holds { "holds" } else { "fails" },
+                p.statement
+            );
+            if let Some(w) = &p.witness {
+                let _ = writeln!(o, "      {}", witness_line(w));
+            }
+        }
+        let _ = writeln!(o, "\nHypotheses:");
+        for (name, h) in &self.hypotheses {
+            let _ = writeln!(
+                o,
+                "  {name}: {:<5}  {}",
+                if h.holds { "holds" } else { "FAILS" },
+                h.statement
+            );
+            if let Some(w) = &h.witness {
+                let _ = writeln!(o, "      {}", witness_line(w));
+            }
+        }
+        let _ = writeln!(
+            o,
+            "\nProposition 2.1 (H0–H5 ⇒ the paper's (11) are free of them): {}",
+            if self.proposition_2_1 {
+                "applies"
+            } else {
+                "does not apply"
+            }
+        );
+        let gt = &self.ground_truth;
+        let _ = writeln!(o, "\nGround truth (decided exactly on the true equations):");
+        let _ = writeln!(o, "  absent:  {}", gt.absent.join(", "));
+        let _ = writeln!(o, "  present: {}", gt.present.join(", "));
+        for w in &gt.occurrences {
+            let _ = writeln!(o, "      {}", witness_line(w));
+        }
+        let _ = writeln!(
+            o,
+            "  in the paper's equations: absent {}; present {}",
+            if gt.paper_absent.is_empty() {
+                "(none)".to_string()
+            } else {
+                gt.paper_absent.join(", ")
+            },
+            if gt.paper_present.is_empty() {
+                "(none)".to_string()
+            } else {
+                gt.paper_present.join(", ")
+            }
+        );
+        if let Some(w) = &gt.kinematics_witness {
+            let _ = writeln!(o, "  kinematics not closed: {}", witness_line(w));
+        }
+        let _ = writeln!(o, "\nFindings:");
+        for f in &self.findings {
+            let _ = writeln!(o, "  - {f}");
+        }
+        match &self.reduced_system {
+            None => {
+                let _ = writeln!(o, "\nNo reduced system.");
+            }
+            Some(r) => {
+                let _ = writeln!(o, "\nReduced system, state ({}):", r.state.join(", "));
+                for (i, e) in r.equations.iter().enumerate() {
+                    let _ = writeln!(o, "  (11.{}) 0 = {}", i + 1, e.text);
+                }
+                for k in &r.kinematics {
+                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, k.rate.text);
+                }
+                let _ = writeln!(o, "Reconstruction:");
+                for k in &r.reconstruction {
+                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, k.rate.text);
+                }
+            }
+        }
+        o
+    }
+}

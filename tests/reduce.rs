@@ -1,0 +1,360 @@
+//! `hamel reduce`: each hypothesis where it holds and where it fails (with its witness), the
+//! ground truth against the paper's claims, and the reduced system checked numerically
+//! against the full true equations.
+//!
+//! The CAS runs in-process on its one worker thread (`hamel_reduce::reduce` sends it a job).
+
+use hamel_derive::derive;
+use hamel_expr::{DD, Env, Expr};
+use hamel_model::Model;
+use hamel_reduce::{Reduction, reduce};
+use indexmap::IndexMap;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn bundled(name: &str) -> Model {
+    Model::load(format!("{}/models/{name}.toml", env!("CARGO_MANIFEST_DIR")))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn inline(name: &str, text: &str) -> Model {
+    Model::from_source(&format!("{name}.toml"), text).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn run(model: &Model, eta: &str, eliminate: &str) -> Reduction {
+    let names: Vec<String> = eliminate.split(',').map(str::to_string).collect();
+    reduce(model, Some(eta), &names).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn holds(r: &Reduction, h: &str) -> bool {
+    r.hypotheses[h].holds
+}
+
+/// The witness of a failed hypothesis: (object, coordinate).
+fn witness(r: &Reduction, h: &str) -> (String, Option<String>, String) {
+    let w = r.hypotheses[h]
+        .witness
+        .as_ref()
+        .unwrap_or_else(|| panic!("{h} has no witness"));
+    (w.object.clone(), w.coordinate.clone(), w.expression.clone())
+}
+
+/// A knife edge whose first quasi-velocity is der(x) + der(y): b₁₁ of (22) = m/(sin θ + cos θ)²
+/// contains θ.
+const KNIFE_CARTESIAN: &str = r#"
+name = "knife_cartesian"
+title = "test model"
+coordinates = ["x", "y", "theta"]
+[parameters]
+m = 1.0
+J = 0.1
+[lagrangian]
+kinetic = "m/2*(der(x)^2 + der(y)^2) + J/2*der(theta)^2"
+[constraints]
+no_slip = "sin(theta)*der(x) - cos(theta)*der(y)"
+[quasi_velocities.cartesian]
+eta = ["der(x) + der(y)", "der(theta)"]
+"#;
+
+/// A knife edge whose moment of inertia about the contact point grows with x: A⁽²'²⁾ = J + m x².
+const KNIFE_GROWING: &str = r#"
+name = "knife_growing"
+title = "test model"
+coordinates = ["x", "y", "theta"]
+[parameters]
+m = 1.0
+J = 0.1
+[lagrangian]
+kinetic = "m/2*(der(x)^2 + der(y)^2) + (J + m*x^2)/2*der(theta)^2"
+[constraints]
+no_slip = "sin(theta)*der(x) - cos(theta)*der(y)"
+[quasi_velocities.paper]
+eta = ["cos(theta)*der(x) + sin(theta)*der(y)", "der(theta)"]
+"#;
+
+/// The Chaplygin sleigh with the Cartesian velocity of the contact point as η₁: the correction
+/// term of the true equations contains θ.
+const SLEIGH_CARTESIAN: &str = r#"
+name = "sleigh_cartesian"
+title = "test model"
+coordinates = ["x", "y", "theta"]
+[parameters]
+m = 2.0
+I = 0.05
+a = 0.2
+[lagrangian]
+kinetic = "m/2*((der(x) - a*sin(theta)*der(theta))^2 + (der(y) + a*cos(theta)*der(theta))^2) + I/2*der(theta)^2"
+[constraints]
+no_slip = "sin(theta)*der(x) - cos(theta)*der(y)"
+[quasi_velocities.cartesian]
+eta = ["der(x)", "der(theta)"]
+"#;
+
+#[test]
+fn the_knife_meets_every_hypothesis_and_loses_every_coordinate() {
+    let r = run(&bundled("knife"), "paper", "x,y,theta");
+    for h in ["H0", "H1", "H2", "H3", "H4", "H5", "H6"] {
+        assert!(holds(&r, h), "{h}: {:?}", r.hypotheses[h].witness);
+        assert!(r.hypotheses[h].witness.is_none());
+    }
+    assert!(r.proposition_2_1);
+    assert_eq!(r.ground_truth.absent, ["x", "y", "theta"]);
+    assert!(r.ground_truth.present.is_empty());
+    assert_eq!(r.structure.v, 1);
+    assert_eq!(r.structure.block2, ["theta"]);
+    let kinds: Vec<_> = r
+        .classification
+        .iter()
+        .map(|c| format!("{:?}", c.kind))
+        .collect();
+    assert_eq!(kinds, ["A", "A", "B"]);
+    let reduced = r.reduced_system.as_ref().expect("reduced system");
+    assert_eq!(reduced.state, ["eta1", "eta2"]);
+    assert_eq!(reduced.reconstruction.len(), 3);
+}
+
+#[test]
+fn h0_fails_for_the_vertical_knife_on_theta_and_for_remark_2_2() {
+    // Gravity along y: Γᵀ∇U = (−m g sin θ, 0) contains θ (Remark 3.1) but not y.
+    let vk = bundled("vertical_knife");
+    let r = run(&vk, "paper", "x,y");
+    assert!(holds(&r, "H0"));
+    assert_eq!(r.ground_truth.absent, ["x", "y"]);
+    let r = run(&vk, "paper", "x,y,theta");
+    assert!(!holds(&r, "H0"));
+    let (object, coordinate, expression) = witness(&r, "H0");
+    assert_eq!(object, "Gamma^T grad U");
+    assert_eq!(coordinate.as_deref(), Some("theta"));
+    assert!(expression.contains("sin(theta)"), "{expression}");
+    assert_eq!(r.ground_truth.present, ["theta"]);
+    assert!(r.reduced_system.is_none());
+
+    // (33): the kept coordinate q2 has a row of Γ containing q1.
+    let r = run(&bundled("remark22"), "paper", "q1");
+    assert!(!holds(&r, "H0"));
+    let (object, coordinate, _) = witness(&r, "H0");
+    assert_eq!(object, "Gamma");
+    assert_eq!(coordinate.as_deref(), Some("q1"));
+}
+
+#[test]
+fn h1_holds_for_the_momenta_and_fails_for_the_velocities_of_the_rolling_disk() {
+    let disk = bundled("rolling_disk");
+    let r = run(&disk, "momenta", "xC,yC,phi,psi");
+    assert!(holds(&r, "H1"));
+    assert!(r.properties["2.1"].holds);
+    let r = run(&disk, "velocities", "xC,yC,phi,psi");
+    assert!(!holds(&r, "H1"));
+    let (object, coordinate, _) = witness(&r, "H1");
+    assert_eq!(object, "alpha2");
+    assert_eq!(coordinate, None);
+    // Property 2.1: Γ₂ ≠ 0 exactly when (Z₂; α₂) ≠ 0.
+    assert!(!r.properties["2.1"].holds);
+    // The hypotheses are only sufficient: φ drops out all the same.
+    assert_eq!(r.ground_truth.absent, ["xC", "yC", "phi", "psi"]);
+    assert!(
+        r.findings
+            .iter()
+            .any(|f| f.starts_with("eliminated although H1"))
+    );
+}
+
+#[test]
+fn h2_fails_for_the_bar_with_a_blade_where_sin_phi_is_not_zero() {
+    // The paper says (H2) holds for φ ≠ π/2; with the blade's inertia it holds only where
+    // sin φ = 0. The witness is the entry of Γ₁ᵀA⁽¹'²⁾ (Property 2.2).
+    let r = run(&bundled("bar_blade"), "paper", "x,y,theta");
+    assert!(!holds(&r, "H2"));
+    let (object, _, expression) = witness(&r, "H2");
+    assert_eq!(object, "Gamma1^T A12");
+    assert!(expression.contains("sin(phi)"), "{expression}");
+    assert!(!r.properties["2.2"].holds);
+    assert!(!r.proposition_2_1);
+    assert_eq!(r.ground_truth.absent, ["x", "y", "theta"]);
+    assert!(
+        r.findings
+            .iter()
+            .any(|f| f.starts_with("eliminated although H2"))
+    );
+    // Where it holds: the knife (no block-2 coupling in A).
+    assert!(holds(&run(&bundled("knife"), "paper", "theta"), "H2"));
+}
+
+#[test]
+fn h3_fails_when_the_first_quasi_velocity_is_not_the_forward_speed() {
+    let r = run(
+        &inline("knife_cartesian", KNIFE_CARTESIAN),
+        "cartesian",
+        "theta",
+    );
+    assert!(!holds(&r, "H3"));
+    let (object, coordinate, expression) = witness(&r, "H3");
+    assert_eq!(object, "b");
+    assert_eq!(coordinate.as_deref(), Some("theta"));
+    assert!(expression.contains("cos(theta)"), "{expression}");
+    assert_eq!(r.ground_truth.present, ["theta"]);
+    assert!(holds(&run(&bundled("knife"), "paper", "theta"), "H3"));
+}
+
+#[test]
+fn h4_fails_when_the_block_2_inertia_contains_the_coordinate() {
+    let r = run(&inline("knife_growing", KNIFE_GROWING), "paper", "x");
+    assert!(!holds(&r, "H4"));
+    let (object, coordinate, expression) = witness(&r, "H4");
+    assert_eq!(object, "A22");
+    assert_eq!(coordinate.as_deref(), Some("x"));
+    assert!(expression.contains("x^2"), "{expression}");
+    assert_eq!(r.ground_truth.present, ["x"]);
+    assert!(holds(&run(&bundled("knife"), "paper", "x"), "H4"));
+}
+
+#[test]
+fn h5_fails_for_remark_2_2_where_a_gamma_is_free_of_q1_and_the_equations_are_not() {
+    let r = run(&bundled("remark22"), "paper", "q1");
+    assert!(!holds(&r, "H5"));
+    let (object, coordinate, _) = witness(&r, "H5");
+    assert!(object.starts_with("(35)"), "{object}");
+    assert_eq!(coordinate.as_deref(), Some("q1"));
+    assert_eq!(r.ground_truth.present, ["q1"]);
+    // The first occurrence is in a Q coefficient: A_Γ itself is free of q1 (Remark 2.2).
+    let w = &r.ground_truth.occurrences[0];
+    assert!(w.object.starts_with("Q("), "{}", w.object);
+    assert!(holds(&run(&bundled("knife"), "paper", "theta"), "H5"));
+}
+
+#[test]
+fn h6_fails_for_the_sleigh_with_a_cartesian_quasi_velocity() {
+    let r = run(
+        &inline("sleigh_cartesian", SLEIGH_CARTESIAN),
+        "cartesian",
+        "theta",
+    );
+    assert!(!holds(&r, "H6"));
+    let (object, coordinate, _) = witness(&r, "H6");
+    assert!(object.starts_with("Q_correction("), "{object}");
+    assert_eq!(coordinate.as_deref(), Some("theta"));
+    // With η₁ the forward speed the correction is free of θ.
+    let r = run(&bundled("chaplygin_sleigh"), "paper_style", "x,y,theta");
+    assert!(holds(&r, "H6"));
+    assert_eq!(r.ground_truth.absent, ["x", "y", "theta"]);
+}
+
+/// The names a reduced equation may use: parameters, the needed coordinates, η, η̇.
+struct ReducedEnv<'a> {
+    values: &'a IndexMap<String, DD>,
+}
+
+impl Env<DD> for ReducedEnv<'_> {
+    fn symbol(&self, name: &str) -> Option<DD> {
+        self.values.get(name).copied()
+    }
+}
+
+/// η̇ from the reduced equations (linear in η̇: M η̇ + c = 0), in double-double; coordinates
+/// outside the reduced state are unbound, so an equation that needs one fails to evaluate.
+fn reduced_eta_dot(equations: &[Expr], values: &IndexMap<String, DD>) -> Vec<DD> {
+    let sigma = equations.len();
+    let eval = |dot: &[DD]| -> Vec<DD> {
+        let mut v = values.clone();
+        for (i, d) in dot.iter().enumerate() {
+            v.insert(format!("eta{}_dot", i + 1), *d);
+        }
+        let env = ReducedEnv { values: &v };
+        equations
+            .iter()
+            .map(|e| e.eval(&env).unwrap_or_else(|err| panic!("{err}")))
+            .collect()
+    };
+    let zero = vec![DD::from_f64(0.0); sigma];
+    let c = eval(&zero);
+    let mut m = vec![vec![DD::from_f64(0.0); sigma]; sigma];
+    for j in 0..sigma {
+        let mut e = zero.clone();
+        e[j] = DD::from_f64(1.0);
+        let col = eval(&e);
+        for i in 0..sigma {
+            m[i][j] = col[i] - c[i];
+        }
+    }
+    let rhs: Vec<DD> = c.iter().map(|x| -*x).collect();
+    hamel_expr::solve(m, rhs).expect("A_Γ is invertible")
+}
+
+#[test]
+fn reduced_systems_agree_with_the_full_true_equations() {
+    let cases = [
+        ("knife", "paper", "x,y,theta"),
+        ("vertical_knife", "paper", "x,y"),
+        ("chaplygin_sleigh", "paper_style", "x,y,theta"),
+        ("bar_blade", "paper", "x,y,theta"),
+        ("bar_wheels", "paper", "x,y,theta,psi1"),
+        ("rolling_disk", "momenta", "xC,yC,phi,psi"),
+        ("rolling_disk", "velocities", "xC,yC,phi,psi"),
+        ("unicycle_rider", "velocities", "xC,yC,phi,psi"),
+        ("unicycle_rider", "momenta", "xC,yC,phi,psi"),
+    ];
+    let mut rng = ChaCha8Rng::seed_from_u64(22);
+    for (name, eta, eliminate) in cases {
+        let model = bundled(name);
+        let r = run(&model, eta, eliminate);
+        let reduced = r
+            .reduced_system
+            .as_ref()
+            .unwrap_or_else(|| panic!("{name}/{eta}: no reduced system: {:?}", r.findings));
+        let compiled = derive(&model, Some(eta)).unwrap().compile().unwrap();
+        let equations: Vec<Expr> = reduced.equations.iter().map(|e| e.expr.clone()).collect();
+        let params = model.parameters.clone();
+        let mut worst = 0.0f64;
+        let mut states = 0;
+        while states < 20 {
+            let q: Vec<f64> = (0..model.ell())
+                .map(|_| rng.random_range(-1.5..1.5))
+                .collect();
+            let eta_v: Vec<f64> = (0..model.sigma())
+                .map(|_| rng.random_range(-2.0..2.0))
+                .collect();
+            let Ok(full) = compiled.evaluate(&q, &eta_v, &params) else {
+                continue;
+            };
+            if full.condition > 1e6 {
+                continue;
+            }
+            states += 1;
+            let mut values: IndexMap<String, DD> = params
+                .iter()
+                .map(|(k, v)| (k.clone(), DD::from_f64(*v)))
+                .collect();
+            for (i, e) in eta_v.iter().enumerate() {
+                values.insert(format!("eta{}", i + 1), DD::from_f64(*e));
+            }
+            for k in &reduced.kinematics {
+                let i = model
+                    .coordinates
+                    .iter()
+                    .position(|c| c == &k.coordinate)
+                    .unwrap();
+                values.insert(k.coordinate.clone(), DD::from_f64(q[i]));
+            }
+            let dot = reduced_eta_dot(&equations, &values);
+            let scale = full.eta_dot.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+            for (a, b) in dot.iter().zip(&full.eta_dot) {
+                worst = worst.max((a.to_f64() - b).abs() / scale);
+            }
+            // The kept kinematic equations give the same rates as the full ones.
+            let env = ReducedEnv { values: &values };
+            for k in &reduced.kinematics {
+                let i = model
+                    .coordinates
+                    .iter()
+                    .position(|c| c == &k.coordinate)
+                    .unwrap();
+                let rate = k.rate.expr.eval(&env).unwrap_or_else(|e| panic!("{e}"));
+                worst = worst.max((rate.to_f64() - full.q_dot[i]).abs() / scale);
+            }
+        }
+        assert!(
+            worst < 1e-10,
+            "{name}/{eta}: reduced vs full η̇ differ by {worst:e}"
+        );
+    }
+}
