@@ -87,6 +87,27 @@ enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
+    /// Search for quasi-velocities that eliminate the given coordinates from the true
+    /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
+    Search {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// Coordinates to eliminate, comma-separated.
+        #[arg(long, value_delimiter = ',', required = true)]
+        eliminate: Vec<String>,
+        /// Time budget in seconds (candidates not tried by then are reported as such).
+        #[arg(long, default_value_t = 60.0)]
+        budget: f64,
+        /// Most reducing choices to collect from the finite ansatz.
+        #[arg(long, default_value_t = 12)]
+        max: usize,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
     /// Evaluate the derived equations at states given as JSON: η̇ (true and paper's), q̇, energy.
     Eval {
         /// The model file (TOML).
@@ -182,6 +203,57 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                 r.eta_name,
                 started.elapsed().as_secs_f64()
             );
+            let text = match format {
+                ReportFormat::Text => r.to_text(),
+                ReportFormat::Json => {
+                    serde_json::to_string_pretty(&r).expect("serialisable") + "\n"
+                }
+            };
+            out.write(&text)
+        }
+        Command::Search {
+            model,
+            eliminate,
+            budget,
+            max,
+            format,
+            output,
+        } => {
+            let out = Output::new(output)?;
+            let model = Model::load(&model)?;
+            if !(budget.is_finite() && budget > 0.0) {
+                return Err(model.error(format!(
+                    "--budget must be a positive number of seconds, got {budget}"
+                )));
+            }
+            let bar = indicatif::ProgressBar::new(0);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:30}] {pos}/{len} candidates",
+                )
+                .expect("valid template"),
+            );
+            // Drawn only for searches that last over a second.
+            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+            let started = Instant::now();
+            let shown = std::sync::atomic::AtomicBool::new(false);
+            let b2 = bar.clone();
+            let progress: hamel_reduce::Progress = Box::new(move |done, total| {
+                b2.set_length(total);
+                b2.set_position(done);
+                if !shown.load(std::sync::atomic::Ordering::Relaxed)
+                    && started.elapsed().as_secs_f64() > 1.0
+                {
+                    shown.store(true, std::sync::atomic::Ordering::Relaxed);
+                    b2.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                }
+            });
+            let options = hamel_reduce::SearchOptions {
+                budget: std::time::Duration::from_secs_f64(budget),
+                max_candidates: max,
+            };
+            let r = hamel_reduce::search(&model, &eliminate, options, progress)?;
+            bar.finish_and_clear();
             let text = match format {
                 ReportFormat::Text => r.to_text(),
                 ReportFormat::Json => {

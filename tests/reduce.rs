@@ -358,3 +358,127 @@ fn reduced_systems_agree_with_the_full_true_equations() {
         );
     }
 }
+
+fn search(model: &str, eliminate: &str) -> hamel_reduce::SearchReport {
+    let names: Vec<String> = eliminate.split(',').map(str::to_string).collect();
+    let options = hamel_reduce::SearchOptions {
+        budget: std::time::Duration::from_secs(60),
+        max_candidates: 12,
+    };
+    hamel_reduce::search(&bundled(model), &names, options, Box::new(|_, _| {}))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn search_rediscovers_the_papers_choices() {
+    // 3.1: z11 = cos θ, z12 = sin θ.
+    let r = search("knife", "x,y,theta");
+    assert!(r.candidates.iter().any(|c| {
+        c.eta
+            .contains(&"cos(theta)*der(x) + sin(theta)*der(y)".to_string())
+    }));
+    // 3.2 and 3.3: θ removed (on the true equations: every candidate is decided on them).
+    for (m, p) in [("bar_blade", "x,y,theta"), ("bar_wheels", "x,y,theta,psi1")] {
+        let r = search(m, p);
+        assert!(r.candidates.iter().any(|c| {
+            c.eta
+                .contains(&"cos(theta)*der(x) + sin(theta)*der(y)".to_string())
+        }));
+    }
+    // 3.4: the family (39)–(40), whose basis contains the rolling direction, φ̇ and ψ̇, so that
+    // the conjugate momenta of Remark 3.2 are members.
+    let r = search("unicycle_rider", "xC,yC,phi,psi");
+    let family = r
+        .candidates
+        .iter()
+        .find(|c| c.family == "functions")
+        .expect("a family with unknown functions");
+    assert_eq!(family.free_functions.len(), 6);
+    for part in [
+        "der(phi)",
+        "der(psi)",
+        "cos(phi)*der(xC) + sin(phi)*der(yC)",
+    ] {
+        assert!(family.eta[0].contains(part), "{}", family.eta[0]);
+    }
+    assert_eq!(family.reduced_state.len(), 6);
+    // Remark 3.1: y is removed, θ is not within the basis.
+    assert!(!search("vertical_knife", "x,y").candidates.is_empty());
+    let r = search("vertical_knife", "x,y,theta");
+    assert!(r.candidates.is_empty());
+    assert!(r.none_found.as_deref().unwrap().contains("theta"));
+    // Remark 2.2: A_Γ is free of q1 while the equations are not.
+    let r = search("remark22", "q1");
+    assert!(r.candidates.is_empty());
+    let why = r.none_found.unwrap();
+    assert!(why.contains("A_Γ and Γᵀ∇U are free of it"), "{why}");
+}
+
+#[test]
+fn reduced_systems_of_search_candidates_agree_with_the_full_equations() {
+    let mut rng = ChaCha8Rng::seed_from_u64(23);
+    let mut checked = 0;
+    for (name, eliminate) in [
+        ("knife", "x,y,theta"),
+        ("chaplygin_sleigh", "x,y,theta"),
+        ("bar_blade", "x,y,theta"),
+        ("rolling_disk", "xC,yC,phi,psi"),
+        ("unicycle_rider", "xC,yC,phi,psi"),
+    ] {
+        let base = bundled(name);
+        for c in search(name, eliminate).candidates {
+            if !c.free_functions.is_empty() {
+                continue;
+            }
+            let text = format!("{}\n{}", base.source, c.toml);
+            let model = inline(name, &text);
+            let r = run(&model, &c.name, eliminate);
+            let reduced = r.reduced_system.expect("a reducing candidate reduces");
+            let compiled = derive(&model, Some(&c.name)).unwrap().compile().unwrap();
+            let equations: Vec<Expr> = reduced.equations.iter().map(|e| e.expr.clone()).collect();
+            let mut states = 0;
+            let mut tries = 0;
+            while states < 5 && tries < 200 {
+                tries += 1;
+                let q: Vec<f64> = (0..model.ell())
+                    .map(|_| rng.random_range(-1.5..1.5))
+                    .collect();
+                let eta: Vec<f64> = (0..model.sigma())
+                    .map(|_| rng.random_range(-2.0..2.0))
+                    .collect();
+                let Ok(full) = compiled.evaluate(&q, &eta, &model.parameters) else {
+                    continue;
+                };
+                if full.condition > 1e6 {
+                    continue;
+                }
+                states += 1;
+                let mut values: IndexMap<String, DD> = model
+                    .parameters
+                    .iter()
+                    .map(|(k, v)| (k.clone(), DD::from_f64(*v)))
+                    .collect();
+                for (i, e) in eta.iter().enumerate() {
+                    values.insert(format!("eta{}", i + 1), DD::from_f64(*e));
+                }
+                for k in &reduced.kinematics {
+                    let i = model
+                        .coordinates
+                        .iter()
+                        .position(|x| x == &k.coordinate)
+                        .unwrap();
+                    values.insert(k.coordinate.clone(), DD::from_f64(q[i]));
+                }
+                let dot = reduced_eta_dot(&equations, &values);
+                let scale = full.eta_dot.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+                for (a, b) in dot.iter().zip(&full.eta_dot) {
+                    let d = (a.to_f64() - b).abs() / scale;
+                    assert!(d < 1e-9, "{name}/{}: {d:e}", c.name);
+                }
+            }
+            assert!(states > 0, "{name}/{}: no regular state", c.name);
+            checked += 1;
+        }
+    }
+    assert!(checked >= 10, "only {checked} candidates checked");
+}

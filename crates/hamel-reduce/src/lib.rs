@@ -20,11 +20,14 @@ mod analysis;
 pub mod hypotheses;
 mod render;
 mod report;
+mod search;
 
 pub use report::{
     BlockStructure, Classification, CoordinateKind, GroundTruth, Hypothesis, KinematicEquation,
     Property, ReducedSystem, Reduction, Witness,
 };
+
+pub use search::{Candidate, FamilyStats, Progress, SearchOptions, SearchReport};
 
 use hamel_model::{Model, ModelError};
 
@@ -42,7 +45,22 @@ pub fn reduce(
         let s = hamel_derive::symbolic(&model, &name)?;
         Ok(analysis::analyse(&model, &s, &p))
     })
-    .map_err(|e| model_error_from_cas(e))?
+    .map_err(model_error_from_cas)?
+}
+
+/// Search for quasi-velocity choices that eliminate `eliminate` from the true equations
+/// (families (c) A-orthogonal, (b) finite ansatz, (a) unknown functions; see [`search`]).
+/// `progress` is called from the CAS thread with (done, total).
+pub fn search(
+    model: &Model,
+    eliminate: &[String],
+    options: SearchOptions,
+    progress: Progress,
+) -> Result<SearchReport, ModelError> {
+    let p = coordinate_indices(model, eliminate)?;
+    let model = model.clone();
+    hamel_cas::run(move || search::search(&model, &p, options, progress))
+        .map_err(model_error_from_cas)?
 }
 
 /// The indices of the named coordinates, or an error naming the unknown one.

@@ -1,0 +1,763 @@
+//! Search for quasi-velocities that eliminate given coordinates from the TRUE equations (11).
+//!
+//! Families (tried in the order b, c, a):
+//! * (c) **A-orthogonal**: Z = Γ'ᵀA for a basis Γ' of ker α (one basis per choice of σ
+//!   independent velocities). The quasi-velocities are momenta of the constrained Lagrangian:
+//!   ν = ΘᵀAΓ ≡ 0, so the paper's equations are exact and H6 holds trivially.
+//! * (b) **finite ansatz**: the velocities of the kept coordinates stay quasi-velocities (block
+//!   2 of (17)); the other v rows are drawn from a basis of rows: plain velocities der(q),
+//!   velocities rotated by an angle of the model (cos a·der(q_i) + sin a·der(q_j) and
+//!   −sin a·der(q_i) + cos a·der(q_j), as the knife's z₁₁ = cos θ, z₁₂ = sin θ), and conjugate
+//!   momenta ∂T/∂der(q_j) (Remark 1.1). Candidates are enumerated simplest first.
+//! * (a) **unknown functions**: the rows found in (b) recombined with coefficients that are
+//!   free functions of the kept coordinates (as the paper's z₁₁(θ), ẑ₁₁(θ, θ₁), …), checked
+//!   with the functions kept symbolic: such a family reduces for every choice of the functions.
+//!
+//! Every candidate with δ = det[Z; α] ≢ 0 is first pre-screened numerically (η̇ from the
+//! Lagrange-multiplier oracle must not change when the eliminated coordinates change), then
+//! decided exactly by [`crate::reduce`]'s ground truth on the true equations. The numeric
+//! screen only rejects; acceptance is always exact.
+
+use std::time::{Duration, Instant};
+
+use hamel_cas::{Ex, Matrix};
+use hamel_derive::Symbolic;
+use hamel_expr::{Dual, parse};
+use hamel_model::{Item, Model, ModelError, NumericModel, QuasiVelocityChoice};
+use indexmap::IndexMap;
+use serde::Serialize;
+
+use crate::analysis::analyse;
+
+/// One reducing choice.
+#[derive(Clone, Debug, Serialize)]
+pub struct Candidate {
+    /// A name for the `[quasi_velocities.NAME]` table.
+    pub name: String,
+    /// Family: `a_orthogonal`, `ansatz` or `functions`.
+    pub family: String,
+    /// The quasi-velocities, in model-file syntax.
+    pub eta: Vec<String>,
+    /// The coordinates it eliminates (all those asked).
+    pub eliminated: Vec<String>,
+    /// Free functions of the family, as `name(args)`.
+    pub free_functions: Vec<String>,
+    /// The state of the reduced system (η and the coordinates still needed).
+    pub reduced_state: Vec<String>,
+    /// Whether the paper's equations are exact for it (ν ≡ 0 or the correction vanishes).
+    pub paper_is_exact: bool,
+    /// Number of nonzero entries of Z (the simplicity measure, with `functions`).
+    pub nonzero: usize,
+    /// The choice as a ready-to-paste TOML table.
+    pub toml: String,
+}
+
+/// Counts for one family.
+#[derive(Clone, Debug, Serialize, Default)]
+pub struct FamilyStats {
+    /// Candidates generated.
+    pub generated: usize,
+    /// Rejected because det[Z; α] vanished at every sample configuration.
+    pub singular: usize,
+    /// Rejected by the numeric pre-screen (η̇ changed with an eliminated coordinate).
+    pub screened_out: usize,
+    /// Decided exactly.
+    pub exact_checks: usize,
+    /// Found to reduce.
+    pub found: usize,
+    /// The same choice as an earlier candidate.
+    pub duplicates: usize,
+    /// Not decided: the choice's expressions exceed the size limit of an exact check.
+    pub too_large: usize,
+}
+
+/// Largest total length (characters) of a candidate's quasi-velocities that is decided exactly.
+const MAX_TEXT: usize = 400;
+
+/// The result of `hamel search`.
+#[derive(Clone, Debug, Serialize)]
+pub struct SearchReport {
+    /// Model identifier.
+    pub model: String,
+    /// The coordinates to eliminate.
+    pub eliminate: Vec<String>,
+    /// Reducing choices, simplest first.
+    pub candidates: Vec<Candidate>,
+    /// Statistics per family.
+    pub families: IndexMap<String, FamilyStats>,
+    /// When nothing was found: why (the condition no candidate could meet).
+    pub none_found: Option<String>,
+    /// Whether the time budget ran out before every candidate was tried.
+    pub budget_exhausted: bool,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// Options of a search.
+#[derive(Clone, Debug)]
+pub struct SearchOptions {
+    /// Time budget.
+    pub budget: Duration,
+    /// Most candidates to report.
+    pub max_candidates: usize,
+}
+
+/// Progress callback: (candidates done, candidates generated so far).
+pub type Progress = Box<dyn Fn(u64, u64) + Send>;
+
+struct Row {
+    text: String,
+    nonzero: usize,
+}
+
+fn unit(names: &[String], j: usize) -> Row {
+    Row {
+        text: format!("der({})", names[j]),
+        nonzero: 1,
+    }
+}
+
+fn row_text(names: &[String], coeffs: &[Ex]) -> Row {
+    let mut terms = Vec::new();
+    let mut nonzero = 0;
+    for (j, c) in coeffs.iter().enumerate() {
+        if c.is_zero() {
+            continue;
+        }
+        nonzero += 1;
+        let t = c.to_expr().to_string();
+        terms.push(if c.is_one() {
+            format!("der({})", names[j])
+        } else {
+            format!("({t})*der({})", names[j])
+        });
+    }
+    Row {
+        text: terms.join(" + "),
+        nonzero,
+    }
+}
+
+/// Coordinates that occur as arguments of sin or cos in the model's kinetic energy or
+/// constraints (the angles that may rotate velocities).
+fn angles(model: &Model) -> Vec<usize> {
+    let mut texts: Vec<String> = model
+        .constraints
+        .iter()
+        .map(|(_, c)| c.text.clone())
+        .collect();
+    match &model.kinetic {
+        hamel_model::Kinetic::Energy(t) => texts.push(t.text.clone()),
+        hamel_model::Kinetic::MassMatrix(rows) => {
+            texts.extend(rows.iter().flatten().map(|i| i.text.clone()))
+        }
+    }
+    let all = texts.join(" ");
+    (0..model.ell())
+        .filter(|&k| {
+            let c = &model.coordinates[k];
+            ["sin(", "cos("].iter().any(|f| {
+                all.match_indices(f).any(|(i, _)| {
+                    let rest = all[i + f.len()..].trim_start();
+                    rest.starts_with(c.as_str())
+                        && !rest[c.len()..]
+                            .chars()
+                            .next()
+                            .is_some_and(|ch| ch.is_alphanumeric() || ch == '_')
+                })
+            })
+        })
+        .collect()
+}
+
+/// The model with one more choice.
+fn with_choice(
+    model: &Model,
+    name: &str,
+    eta: &[String],
+    free: &[(String, Vec<String>)],
+) -> Option<Model> {
+    let mut items = Vec::new();
+    for e in eta {
+        let p = parse(e).ok()?;
+        items.push(Item::synthetic(&format!("quasi_velocities.{name}"), p.expr));
+    }
+    let mut m = model.clone();
+    m.choices.retain(|c| c.name != name);
+    m.choices.push(QuasiVelocityChoice {
+        name: name.to_string(),
+        description: None,
+        eta: items,
+        free_functions: free.to_vec(),
+    });
+    Some(m)
+}
+
+/// η̇ at (q, η) from the Lagrange-multiplier oracle: q̇ = Γη, η̇ = Żq̇ + Zq̈. `None` where
+/// [Z; α] is (nearly) singular.
+fn eta_dot(nm: &NumericModel<'_>, choice: &str, q: &[f64], eta: &[f64]) -> Option<Vec<f64>> {
+    let ell = q.len();
+    let sigma = eta.len();
+    let z = nm.quasi_velocity_matrix::<f64>(choice, q).ok()?;
+    let alpha = nm.constraint_matrix::<f64>(q).ok()?;
+    let m = nalgebra::DMatrix::from_fn(ell, ell, |i, j| {
+        if i < sigma {
+            z[i][j]
+        } else {
+            alpha[i - sigma][j]
+        }
+    });
+    let sv = m.singular_values();
+    if sv.min() < 1e-8 * sv.max().max(1.0) {
+        return None;
+    }
+    let inv = m.try_inverse()?;
+    let qd: Vec<f64> = (0..ell)
+        .map(|i| (0..sigma).map(|s| inv[(i, s)] * eta[s]).sum())
+        .collect();
+    let acc = hamel_oracle::accelerations::<f64>(nm, q, &qd).ok()?;
+    let qdual: Vec<Dual<f64>> = (0..ell).map(|i| Dual::new(q[i], qd[i])).collect();
+    let zd = nm.quasi_velocity_matrix::<Dual<f64>>(choice, &qdual).ok()?;
+    let out: Vec<f64> = (0..sigma)
+        .map(|i| {
+            (0..ell)
+                .map(|j| zd[i][j].d * qd[j] + z[i][j] * acc.q_ddot[j])
+                .sum()
+        })
+        .collect();
+    out.iter().all(|x| x.is_finite()).then_some(out)
+}
+
+enum Screen {
+    Singular,
+    Depends,
+    Pass,
+}
+
+/// Numeric pre-screen: at a few configurations, changing the eliminated coordinates must not
+/// change η̇.
+fn screen(model: &Model, choice: &str, p: &[usize], samples: &[Vec<f64>]) -> Screen {
+    let Ok(nm) = NumericModel::new(model, &IndexMap::new()) else {
+        return Screen::Singular;
+    };
+    let sigma = model.sigma();
+    let mut tested = 0;
+    for (n, q) in samples.iter().enumerate() {
+        let eta: Vec<f64> = (0..sigma)
+            .map(|i| 0.3 + 0.37 * ((n + 2 * i) as f64).sin())
+            .collect();
+        let Some(a) = eta_dot(&nm, choice, q, &eta) else {
+            continue;
+        };
+        let mut q2 = q.clone();
+        for (t, &k) in p.iter().enumerate() {
+            q2[k] += 0.7 + 0.31 * t as f64;
+        }
+        let Some(b) = eta_dot(&nm, choice, &q2, &eta) else {
+            continue;
+        };
+        let scale = a.iter().chain(&b).fold(1.0f64, |m, x| m.max(x.abs()));
+        if a.iter().zip(&b).any(|(x, y)| (x - y).abs() > 1e-7 * scale) {
+            return Screen::Depends;
+        }
+        tested += 1;
+        if tested == 2 {
+            break;
+        }
+    }
+    if tested == 0 {
+        Screen::Singular
+    } else {
+        Screen::Pass
+    }
+}
+
+fn toml_block(name: &str, family: &str, eta: &[String]) -> String {
+    let rows: Vec<String> = eta.iter().map(|e| format!("  \"{e}\",")).collect();
+    format!(
+        "[quasi_velocities.{name}]\neta = [\n{}\n]\ndescription = \"found by hamel search ({family})\"\n",
+        rows.join("\n")
+    )
+}
+
+struct Searcher<'a> {
+    model: &'a Model,
+    p: &'a [usize],
+    samples: Vec<Vec<f64>>,
+    started: Instant,
+    options: SearchOptions,
+    progress: Progress,
+    done: u64,
+    total: u64,
+    families: IndexMap<String, FamilyStats>,
+    found: Vec<Candidate>,
+    failures: IndexMap<String, usize>,
+    exhausted: bool,
+    seen: std::collections::HashSet<String>,
+}
+
+impl Searcher<'_> {
+    fn out_of_time(&mut self) -> bool {
+        if self.started.elapsed() > self.options.budget {
+            self.exhausted = true;
+        }
+        self.exhausted
+    }
+
+    /// Try one candidate; true when it reduces.
+    fn try_candidate(
+        &mut self,
+        family: &str,
+        eta: Vec<String>,
+        free: Vec<(String, Vec<String>)>,
+        nonzero: usize,
+    ) -> bool {
+        self.done += 1;
+        (self.progress)(self.done, self.total);
+        let stats = self.families.entry(family.to_string()).or_default();
+        stats.generated += 1;
+        if !self.seen.insert(eta.join("; ")) {
+            stats.duplicates += 1;
+            return false;
+        }
+        // An exact check cannot be interrupted: choices written with very large expressions
+        // are not decided (their derivation can take minutes), so that the budget holds.
+        if eta.iter().map(String::len).sum::<usize>() > MAX_TEXT {
+            stats.too_large += 1;
+            return false;
+        }
+        let name = format!("{family}_{}", stats.generated);
+        let Some(m2) = with_choice(self.model, &name, &eta, &free) else {
+            return false;
+        };
+        if free.is_empty() {
+            match screen(&m2, &name, self.p, &self.samples) {
+                Screen::Singular => {
+                    self.families[family].singular += 1;
+                    return false;
+                }
+                Screen::Depends => {
+                    self.families[family].screened_out += 1;
+                    *self
+                        .failures
+                        .entry("η̇ changes with an eliminated coordinate (numeric screen)".into())
+                        .or_default() += 1;
+                    return false;
+                }
+                Screen::Pass => {}
+            }
+        }
+        self.families[family].exact_checks += 1;
+        let t0 = Instant::now();
+        let trace = std::env::var_os("HAMEL_SEARCH_TRACE").is_some();
+        if trace {
+            eprintln!("   start  {family}: {}", eta.join(" ; "));
+        }
+        let s: Symbolic = match hamel_derive::symbolic(&m2, &name) {
+            Ok(s) => s,
+            Err(e) => {
+                *self.failures.entry(e.message().to_string()).or_default() += 1;
+                return false;
+            }
+        };
+        let r = analyse(&m2, &s, self.p);
+        if trace {
+            eprintln!("{:>8.3} s  {}", t0.elapsed().as_secs_f64(), eta.join(" ; "));
+        }
+        if !r.ground_truth.present.is_empty() {
+            let w = &r.ground_truth.occurrences[0];
+            let key = format!(
+                "the true equations contain `{}` ({} is the first entry that does)",
+                w.coordinate.clone().unwrap_or_default(),
+                w.object
+            );
+            *self.failures.entry(key).or_default() += 1;
+            return false;
+        }
+        let Some(reduced) = r.reduced_system else {
+            *self
+                .failures
+                .entry(
+                    "the kinematic equations still needed contain an eliminated coordinate".into(),
+                )
+                .or_default() += 1;
+            return false;
+        };
+        self.families[family].found += 1;
+        let cname = format!("{}_{}", family, self.families[family].found);
+        self.found.push(Candidate {
+            toml: toml_block(&cname, family, &eta),
+            name: cname,
+            family: family.to_string(),
+            eliminated: r.eliminate.clone(),
+            free_functions: free
+                .iter()
+                .map(|(n, a)| format!("{n}({})", a.join(", ")))
+                .collect(),
+            reduced_state: reduced.state,
+            paper_is_exact: r.paper_is_exact,
+            nonzero,
+            eta,
+        });
+        true
+    }
+}
+
+/// Combinations of `k` indices out of `n`, in lexicographic order.
+fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
+    let mut out = Vec::new();
+    let mut c: Vec<usize> = (0..k).collect();
+    if k > n {
+        return out;
+    }
+    loop {
+        out.push(c.clone());
+        let mut i = k;
+        loop {
+            if i == 0 {
+                return out;
+            }
+            i -= 1;
+            if c[i] != i + n - k {
+                break;
+            }
+        }
+        c[i] += 1;
+        for j in i + 1..k {
+            c[j] = c[j - 1] + 1;
+        }
+    }
+}
+
+/// Search (runs on the CAS thread).
+pub(crate) fn search(
+    model: &Model,
+    p: &[usize],
+    options: SearchOptions,
+    progress: Progress,
+) -> Result<SearchReport, ModelError> {
+    let started = Instant::now();
+    let names = model.coordinates.clone();
+    let (ell, mu, sigma) = (model.ell(), model.mu(), model.sigma());
+    let base = model.choice(None)?.name.clone();
+    let s0 = hamel_derive::symbolic(model, &base)?;
+    let f = s0.field.clone();
+    let kept: Vec<usize> = (0..ell).filter(|k| !p.contains(k)).collect();
+    let samples = hamel_model::sample_configurations(ell, 6, 2015);
+    let mut se = Searcher {
+        model,
+        p,
+        samples,
+        started,
+        options,
+        progress,
+        done: 0,
+        total: 0,
+        families: IndexMap::new(),
+        found: Vec::new(),
+        failures: IndexMap::new(),
+        exhausted: false,
+        seen: std::collections::HashSet::new(),
+    };
+
+    // (b) finite ansatz: kept coordinates' velocities as unit rows, v rows from the basis.
+    let mut pool: Vec<Row> = Vec::new();
+    for j in 0..ell {
+        if !kept.contains(&j) {
+            pool.push(unit(&names, j));
+        }
+    }
+    let trig = angles(model);
+    for (i, j) in (0..ell).flat_map(|i| (i + 1..ell).map(move |j| (i, j))) {
+        if kept.contains(&i) || kept.contains(&j) {
+            continue;
+        }
+        for &a in &trig {
+            let (qi, qj, qa) = (&names[i], &names[j], &names[a]);
+            pool.push(Row {
+                text: format!("cos({qa})*der({qi}) + sin({qa})*der({qj})"),
+                nonzero: 2,
+            });
+            pool.push(Row {
+                text: format!("-sin({qa})*der({qi}) + cos({qa})*der({qj})"),
+                nonzero: 2,
+            });
+        }
+    }
+    for j in 0..ell {
+        let row = row_text(
+            &names,
+            &(0..ell).map(|k| s0.a[(j, k)].clone()).collect::<Vec<_>>(),
+        );
+        // Momenta with more than four terms are left out: their exact checks can take
+        // minutes and cannot be interrupted (see MAX_TEXT).
+        if row.nonzero > 1 && row.nonzero <= 4 {
+            pool.push(row);
+        }
+    }
+    let units: Vec<usize> = if kept.len() <= sigma {
+        kept.clone()
+    } else {
+        vec![]
+    };
+    let v = sigma - units.len();
+    let mut combos: Vec<(usize, Vec<usize>)> = combinations(pool.len(), v)
+        .into_iter()
+        .map(|c| {
+            (
+                c.iter().map(|&i| pool[i].nonzero).sum::<usize>() + units.len(),
+                c,
+            )
+        })
+        .collect();
+    combos.sort_by_key(|(n, c)| (*n, c.clone()));
+    se.total += combos.len() as u64;
+    let mut ansatz_rows: Vec<usize> = Vec::new();
+    for (nonzero, c) in &combos {
+        if se.out_of_time() || se.found.len() >= se.options.max_candidates {
+            break;
+        }
+        // Rows that span the same velocities twice in the same way are skipped by δ ≡ 0.
+        let mut eta: Vec<String> = c.iter().map(|&i| pool[i].text.clone()).collect();
+        eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
+        if se.try_candidate("ansatz", eta, vec![], *nonzero) {
+            // The basis of family (a): the rows of the simplest reducing choices, v + 1 at most.
+            for &i in c {
+                if !ansatz_rows.contains(&i) && ansatz_rows.len() < v + 1 {
+                    ansatz_rows.push(i);
+                }
+            }
+        }
+    }
+
+    // (c) A-orthogonal: Z = Γ'ᵀA, Γ' a basis of ker α with the identity on σ columns S.
+    // Kernel bases: the Γ of the model's own choices first (momenta along the directions it
+    // already uses), then the basis with the identity on each set S of σ velocities.
+    let mut bases: Vec<Matrix> = Vec::new();
+    for c in &model.choices {
+        if c.free_functions.is_empty() && !se.out_of_time() {
+            if let Ok(sc) = hamel_derive::symbolic(model, &c.name) {
+                bases.push(sc.gamma.clone());
+            }
+        }
+    }
+    let subsets = combinations(ell, sigma);
+    se.total += (bases.len() + subsets.len()) as u64;
+    for g in &bases {
+        if se.out_of_time() {
+            break;
+        }
+        let z = g.transpose().mul(&s0.a);
+        let rows: Vec<Row> = (0..sigma)
+            .map(|i| {
+                row_text(
+                    &names,
+                    &(0..ell).map(|j| z[(i, j)].clone()).collect::<Vec<_>>(),
+                )
+            })
+            .collect();
+        let nonzero = rows.iter().map(|r| r.nonzero).sum();
+        se.try_candidate(
+            "a_orthogonal",
+            rows.into_iter().map(|r| r.text).collect(),
+            vec![],
+            nonzero,
+        );
+    }
+    for sset in &subsets {
+        if se.out_of_time() {
+            break;
+        }
+        let rest: Vec<usize> = (0..ell).filter(|j| !sset.contains(j)).collect();
+        let gamma_p = if mu == 0 {
+            Matrix::identity(&f, ell)
+        } else {
+            let a_rest = Matrix::from_fn(mu, mu, |i, j| s0.alpha[(i, rest[j])].clone());
+            let a_s = Matrix::from_fn(mu, sigma, |i, j| s0.alpha[(i, sset[j])].clone());
+            let Ok(Some((inv, _))) = a_rest.inverse() else {
+                se.done += 1;
+                continue;
+            };
+            let solved = inv.mul(&a_s);
+            Matrix::from_fn(ell, sigma, |i, j| {
+                if let Some(r) = sset.iter().position(|&x| x == i) {
+                    if r == j { f.one() } else { f.zero() }
+                } else {
+                    let r = rest.iter().position(|&x| x == i).expect("partition");
+                    -&solved[(r, j)]
+                }
+            })
+        };
+        // Clear each basis vector of its denominators (the knife's (1, tan θ) becomes
+        // (cos θ, sin θ)): any nonzero multiple spans the same direction of ker α.
+        let gamma_p = Matrix::from_fn(ell, sigma, |i, j| {
+            let mut factors: Vec<Ex> = Vec::new();
+            for r in 0..ell {
+                for d in gamma_p[(r, j)].denominator_factors() {
+                    if !factors.contains(&d) {
+                        factors.push(d);
+                    }
+                }
+            }
+            factors.iter().fold(gamma_p[(i, j)].clone(), |e, d| &e * d)
+        });
+        let z = gamma_p.transpose().mul(&s0.a);
+        let rows: Vec<Row> = (0..sigma)
+            .map(|i| {
+                row_text(
+                    &names,
+                    &(0..ell).map(|j| z[(i, j)].clone()).collect::<Vec<_>>(),
+                )
+            })
+            .collect();
+        let nonzero = rows.iter().map(|r| r.nonzero).sum();
+        se.try_candidate(
+            "a_orthogonal",
+            rows.into_iter().map(|r| r.text).collect(),
+            vec![],
+            nonzero,
+        );
+    }
+
+    // (a) unknown functions of the kept coordinates multiplying the rows found in (b).
+    if !kept.is_empty() && !ansatz_rows.is_empty() && v > 0 && !se.out_of_time() {
+        let args: Vec<String> = kept.iter().map(|&k| names[k].clone()).collect();
+        let mut free = Vec::new();
+        let mut eta = Vec::new();
+        for r in 0..v {
+            let terms: Vec<String> = ansatz_rows
+                .iter()
+                .enumerate()
+                .map(|(b, &i)| {
+                    let fname = format!("z{}{}", r + 1, b + 1);
+                    free.push((fname.clone(), args.clone()));
+                    format!("{fname}({})*({})", args.join(", "), pool[i].text)
+                })
+                .collect();
+            eta.push(terms.join(" + "));
+        }
+        eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
+        let nonzero = v * ansatz_rows.len() + units.len();
+        se.total += 1;
+        se.try_candidate("functions", eta, free, nonzero);
+    }
+
+    // When nothing reduces, say what the model's own choices fail on (exactly).
+    let mut own = Vec::new();
+    if se.found.is_empty() {
+        for c in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
+            let Ok(sc) = hamel_derive::symbolic(model, &c.name) else {
+                continue;
+            };
+            let r = analyse(model, &sc, p);
+            if let Some(w) = r.ground_truth.occurrences.first() {
+                let where_ = if w.object.starts_with('Q') {
+                    "A_Γ and Γᵀ∇U are free of it, but the coefficient".to_string()
+                } else {
+                    "the entry".to_string()
+                };
+                own.push(format!(
+                    "under the model's choice `{}`, {where_} {}{:?} contains `{}`",
+                    c.name,
+                    w.object,
+                    w.index,
+                    w.coordinate.clone().unwrap_or_default()
+                ));
+            }
+        }
+    }
+    let mut candidates = se.found;
+    candidates.sort_by_key(|c| (c.free_functions.len(), c.nonzero));
+    let none_found = candidates.is_empty().then(|| {
+        let mut reasons: Vec<(String, usize)> = se.failures.into_iter().collect();
+        reasons.sort_by(|a, b| b.1.cmp(&a.1));
+        let list: Vec<String> = reasons
+            .iter()
+            .take(3)
+            .map(|(r, n)| format!("{r} ({n} candidate{})", if *n == 1 { "" } else { "s" }))
+            .collect();
+        format!(
+            "no choice in these families eliminates {}: {}",
+            p.iter()
+                .map(|&k| names[k].as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            if list.is_empty() {
+                "no candidate could be tried".to_string()
+            } else {
+                list.join("; ")
+            }
+        ) + own
+            .iter()
+            .map(|o| format!("; {o}"))
+            .collect::<String>()
+            .as_str()
+    });
+    Ok(SearchReport {
+        model: model.name.clone(),
+        eliminate: p.iter().map(|&k| names[k].clone()).collect(),
+        candidates,
+        families: se.families,
+        none_found,
+        budget_exhausted: se.exhausted,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+impl SearchReport {
+    /// The report as text, with ready-to-paste TOML blocks.
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write;
+        let mut o = String::new();
+        let _ = writeln!(
+            o,
+            "Search for quasi-velocities of `{}` eliminating {} ({:.2} s{})",
+            self.model,
+            self.eliminate.join(", "),
+            self.seconds,
+            if self.budget_exhausted {
+                ", budget exhausted"
+            } else {
+                ""
+            }
+        );
+        for (name, s) in &self.families {
+            let _ = writeln!(
+                o,
+                "  {name:<13} {} generated, {} duplicates, {} singular, {} screened out, {} too large, {} decided exactly, {} reduce",
+                s.generated,
+                s.duplicates,
+                s.singular,
+                s.screened_out,
+                s.too_large,
+                s.exact_checks,
+                s.found
+            );
+        }
+        if let Some(why) = &self.none_found {
+            let _ = writeln!(o, "\n{why}");
+        }
+        for c in &self.candidates {
+            let _ = writeln!(
+                o,
+                "\n# {} ({}): reduced state ({}), {} nonzero entries{}{}",
+                c.name,
+                c.family,
+                c.reduced_state.join(", "),
+                c.nonzero,
+                if c.free_functions.is_empty() {
+                    String::new()
+                } else {
+                    format!(", free functions {}", c.free_functions.join(", "))
+                },
+                if c.paper_is_exact {
+                    "; the paper's equations are exact for it"
+                } else {
+                    ""
+                }
+            );
+            o.push_str(&c.toml);
+        }
+        o
+    }
+}
