@@ -22,7 +22,8 @@ use hamel_model::{Item, Kinetic, Model, ModelError, Site};
 
 use crate::derivation::{Checks, Derivation, Entry, Ingredients, Mat};
 
-fn entry(e: &Ex) -> Entry {
+/// An exact value as plain data (canonical text and tree).
+pub fn entry(e: &Ex) -> Entry {
     let expr = e.to_expr();
     Entry {
         text: expr.to_string(),
@@ -48,7 +49,8 @@ fn mat_over(m: &OMatrix) -> Mat {
     }
 }
 
-fn mat(m: &Matrix) -> Mat {
+/// An exact matrix as plain data.
+pub fn mat(m: &Matrix) -> Mat {
     Mat {
         rows: m.rows(),
         cols: m.cols(),

@@ -1,31 +1,14 @@
 //! Assemble a [`Reduction`]: classification (31), structure (17)/(18), Properties 2.1–2.2,
 //! hypotheses, ground truth and the reduced system. Runs on the CAS thread.
 
-use hamel_cas::{Ex, Matrix};
-use hamel_derive::{Entry, Mat, Symbolic};
+use hamel_cas::Ex;
+use hamel_derive::Symbolic;
+use hamel_derive::symbolic::{entry, mat};
 use hamel_model::Model;
 use indexmap::IndexMap;
 
 use crate::hypotheses::{self as hyp, Blocks, Val, scan, witness};
 use crate::report::*;
-
-fn entry(e: &Ex) -> Entry {
-    let expr = e.to_expr();
-    Entry {
-        text: expr.to_string(),
-        expr,
-    }
-}
-
-fn mat(m: &Matrix) -> Mat {
-    Mat {
-        rows: m.rows(),
-        cols: m.cols(),
-        entries: (0..m.rows())
-            .map(|i| (0..m.cols()).map(|j| entry(&m[(i, j)])).collect())
-            .collect(),
-    }
-}
 
 /// The entries of the equations (11): A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ (true or the paper's).
 fn equation_entries(s: &Symbolic, paper: bool) -> Vec<(String, Vec<usize>, Val)> {

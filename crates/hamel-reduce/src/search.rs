@@ -542,28 +542,6 @@ pub(crate) fn search(
         }
     }
     let subsets = combinations(ell, sigma);
-    se.total += (bases.len() + subsets.len()) as u64;
-    for g in &bases {
-        if se.out_of_time() {
-            break;
-        }
-        let z = g.transpose().mul(&s0.a);
-        let rows: Vec<Row> = (0..sigma)
-            .map(|i| {
-                row_text(
-                    &names,
-                    &(0..ell).map(|j| z[(i, j)].clone()).collect::<Vec<_>>(),
-                )
-            })
-            .collect();
-        let nonzero = rows.iter().map(|r| r.nonzero).sum();
-        se.try_candidate(
-            "a_orthogonal",
-            rows.into_iter().map(|r| r.text).collect(),
-            vec![],
-            nonzero,
-        );
-    }
     for sset in &subsets {
         if se.out_of_time() {
             break;
@@ -575,7 +553,6 @@ pub(crate) fn search(
             let a_rest = Matrix::from_fn(mu, mu, |i, j| s0.alpha[(i, rest[j])].clone());
             let a_s = Matrix::from_fn(mu, sigma, |i, j| s0.alpha[(i, sset[j])].clone());
             let Ok(Some((inv, _))) = a_rest.inverse() else {
-                se.done += 1;
                 continue;
             };
             let solved = inv.mul(&a_s);
@@ -601,7 +578,14 @@ pub(crate) fn search(
             }
             factors.iter().fold(gamma_p[(i, j)].clone(), |e, d| &e * d)
         });
-        let z = gamma_p.transpose().mul(&s0.a);
+        bases.push(gamma_p);
+    }
+    se.total += bases.len() as u64;
+    for g in &bases {
+        if se.out_of_time() {
+            break;
+        }
+        let z = g.transpose().mul(&s0.a);
         let rows: Vec<Row> = (0..sigma)
             .map(|i| {
                 row_text(
