@@ -19,7 +19,8 @@
 //!
 //! Denominators are not rationalized (sin(u) may stay in a denominator): rationalizing makes the
 //! form unique but squares the denominators at every step, which makes the larger models
-//! intractable. The printed form is therefore a deterministic normal form, not a unique one:
+//! intractable. Only a bare related variable dividing the denominator is tried for
+//! cancellation ((1 − cos²u)/sin u becomes sin u; [`FieldInner::finish`]). The printed form is therefore a deterministic normal form, not a unique one:
 //! s/(1 + c) and (1 − c)/s print differently although their difference is (exactly) zero.
 
 use std::cell::RefCell;
@@ -299,11 +300,37 @@ impl FieldInner {
                 (n.quot_rem(&g, false).0, d.quot_rem(&g, false).0)
             }
         };
+        (n, d) = self.cancel_related_factors(n, d);
         if d.lcoeff().is_negative() {
             n = -n;
             d = -d;
         }
         Ok((n, d))
+    }
+
+    /// When a related variable v (v² = G, e.g. v = sin u) divides D, N/D = N·v/(D·v) with
+    /// D·v reduced by v² = G may cancel further: (1 − cos²u)/sin u becomes sin u. The rewritten
+    /// pair is kept only when it has fewer terms, so the form stays deterministic and this
+    /// costs one gcd only where a bare sin u divides a denominator.
+    fn cancel_related_factors(&self, mut n: Poly, mut d: Poly) -> (Poly, Poly) {
+        let relations: Vec<usize> = self.relations.borrow().iter().map(|(v, _)| *v).collect();
+        for v in relations {
+            if d.degree(v) == 0 || d.into_iter().any(|t| t.exponents[v] == 0) {
+                continue;
+            }
+            let x = self.var_poly(v);
+            let n2 = self.reduce(&n * &x);
+            let d2 = self.reduce(&d * &x);
+            let g = n2.gcd(&d2);
+            if g.is_one() {
+                continue;
+            }
+            let (n2, d2) = (n2.quot_rem(&g, false).0, d2.quot_rem(&g, false).0);
+            if n2.nterms() + d2.nterms() < n.nterms() + d.nterms() {
+                (n, d) = (n2, d2);
+            }
+        }
+        (n, d)
     }
 }
 
