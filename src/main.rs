@@ -44,6 +44,18 @@ enum TableFormat {
     Json,
 }
 
+/// When `hamel search` shows its progress on stderr.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ProgressMode {
+    /// A bar on a terminal, for searches that last over a second; nothing otherwise.
+    Auto,
+    /// From the start: a bar on a terminal, plain lines (`search: N/M candidates`, at most
+    /// one every 0.2 s, and a last one) when stderr is a file or a pipe.
+    Always,
+    /// Never.
+    Never,
+}
+
 /// Output of `hamel reduce` and `hamel search`.
 #[derive(Clone, Copy, ValueEnum)]
 enum ReportFormat {
@@ -95,12 +107,17 @@ enum Command {
         /// Coordinates to eliminate, comma-separated.
         #[arg(long, value_delimiter = ',', required = true)]
         eliminate: Vec<String>,
-        /// Time budget in seconds (candidates not tried by then are reported as such).
+        /// Time budget in seconds, checked between candidates (an exact check under way is
+        /// finished; deriving A and α comes first). Candidates not tried by then are reported
+        /// as such.
         #[arg(long, default_value_t = 60.0)]
         budget: f64,
         /// Most reducing choices to collect from the finite ansatz.
         #[arg(long, default_value_t = 12)]
         max: usize,
+        /// Progress on stderr.
+        #[arg(long, value_enum, default_value = "auto")]
+        progress: ProgressMode,
         /// Output format.
         #[arg(long, value_enum, default_value = "text")]
         format: ReportFormat,
@@ -216,6 +233,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             eliminate,
             budget,
             max,
+            progress,
             format,
             output,
         } => {
@@ -226,6 +244,8 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                     "--budget must be a positive number of seconds, got {budget}"
                 )));
             }
+            use std::io::IsTerminal;
+            let terminal = std::io::stderr().is_terminal();
             let bar = indicatif::ProgressBar::new(0);
             bar.set_style(
                 indicatif::ProgressStyle::with_template(
@@ -233,19 +253,33 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                 )
                 .expect("valid template"),
             );
-            // Drawn only for searches that last over a second.
+            // Auto: drawn only for searches that last over a second.
             bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
             let started = Instant::now();
             let shown = std::sync::atomic::AtomicBool::new(false);
+            let last_line = std::sync::Mutex::new(None::<Instant>);
             let b2 = bar.clone();
+            let mode = progress;
             let progress: hamel_reduce::Progress = Box::new(move |done, total| {
                 b2.set_length(total);
                 b2.set_position(done);
-                if !shown.load(std::sync::atomic::Ordering::Relaxed)
-                    && started.elapsed().as_secs_f64() > 1.0
-                {
-                    shown.store(true, std::sync::atomic::Ordering::Relaxed);
-                    b2.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                let due = match mode {
+                    ProgressMode::Never => false,
+                    ProgressMode::Always => true,
+                    ProgressMode::Auto => terminal && started.elapsed().as_secs_f64() > 1.0,
+                };
+                if !due {
+                    return;
+                }
+                if terminal {
+                    if !shown.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                        b2.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                    }
+                } else if let Ok(mut last) = last_line.lock() {
+                    if last.is_none_or(|t| t.elapsed().as_secs_f64() >= 0.2) {
+                        eprintln!("search: {done}/{total} candidates");
+                        *last = Some(Instant::now());
+                    }
                 }
             });
             let options = hamel_reduce::SearchOptions {
@@ -254,6 +288,18 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             };
             let r = hamel_reduce::search(&model, &eliminate, options, progress)?;
             bar.finish_and_clear();
+            if mode == ProgressMode::Always && !terminal {
+                let done: usize = r.families.values().map(|f| f.generated).sum();
+                eprintln!(
+                    "search: done, {done} candidates in {:.2} s{}",
+                    r.seconds,
+                    if r.budget_exhausted {
+                        " (budget exhausted)"
+                    } else {
+                        ""
+                    }
+                );
+            }
             let text = match format {
                 ReportFormat::Text => r.to_text(),
                 ReportFormat::Json => {

@@ -322,3 +322,99 @@ fn eval_rejects_bad_states_clearly() {
         assert!(stderr(&o).contains(expect), "{input}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn search_writes_json_candidates_and_reports_progress() {
+    let dir = scratch("search_json");
+    let file = dir.join("knife.json");
+    let o = hamel(
+        &[
+            "search",
+            "models/knife.toml",
+            "--eliminate",
+            "x,y,theta",
+            "--format",
+            "json",
+            "--progress",
+            "always",
+            "--output",
+            file.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Plain progress lines on a non-terminal stderr, ending with a summary.
+    assert!(stderr(&o).contains("search: done,"), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let candidates = v["candidates"].as_array().unwrap();
+    assert!(!candidates.is_empty());
+    for c in candidates {
+        assert!(c["name"].is_string());
+        assert_eq!(c["eliminated"], serde_json::json!(["x", "y", "theta"]));
+        assert!(c["free_functions"].is_array());
+        let eta = c["eta"].as_array().unwrap();
+        assert_eq!(eta.len(), 2);
+        assert!(eta.iter().all(|e| e.as_str().unwrap().contains("der(")));
+        // The TOML block is ready to paste: it parses and names the same rows.
+        let t: toml::Value = toml::from_str(c["toml"].as_str().unwrap()).unwrap();
+        let name = c["name"].as_str().unwrap();
+        assert_eq!(
+            t["quasi_velocities"][name]["eta"].as_array().unwrap().len(),
+            2
+        );
+    }
+    // The knife's z11 = cos θ, z12 = sin θ is among them.
+    assert!(candidates.iter().any(|c| {
+        c["eta"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|e| e == "cos(theta)*der(x) + sin(theta)*der(y)")
+    }));
+    assert_eq!(v["budget_exhausted"], false);
+}
+
+#[test]
+fn search_honours_its_budget_and_rejects_a_bad_one() {
+    let dir = scratch("search_budget");
+    let file = dir.join("out.json");
+    let args = |budget: &'static str| {
+        vec![
+            "search",
+            "models/unicycle_rider.toml",
+            "--eliminate",
+            "xC,yC,phi,psi",
+            "--format",
+            "json",
+            budget,
+        ]
+    };
+    let mut a = args("--budget=0.05");
+    a.extend(["--output", file.to_str().unwrap()]);
+    let o = hamel(&a, None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert_eq!(v["budget_exhausted"], true);
+    // Far fewer candidates generated than the full search (which generates over a hundred).
+    let generated: u64 = v["families"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|f| f["generated"].as_u64().unwrap())
+        .sum();
+    assert!(generated < 50, "{generated}");
+
+    let _ = std::fs::remove_file(&file);
+    let mut a = args("--budget=-1");
+    a.extend(["--output", file.to_str().unwrap()]);
+    let o = hamel(&a, None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--budget must be a positive number"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!file.exists(), "no partial output");
+}

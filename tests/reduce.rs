@@ -415,6 +415,31 @@ fn search_rediscovers_the_papers_choices() {
 }
 
 #[test]
+fn family_a_solves_its_conditions_on_the_unknown_functions() {
+    // 3.2: the ansatz z11(φ)·θ̇ + z12(φ)·(cos θ ẋ + sin θ ẏ) + z13(φ)·ẋ does not remove θ; the
+    // conditions (coefficients of the θ-dependence of the true equations) have the factor
+    // z13(φ), solved by z13 = 0, which leaves the paper's family with z13(φ) (here z11, z12).
+    let r = search("bar_blade", "x,y,theta");
+    assert!(
+        r.families["functions"].exact_checks >= 2,
+        "{:?}",
+        r.families["functions"]
+    );
+    let family = r
+        .candidates
+        .iter()
+        .find(|c| c.family == "functions")
+        .expect("a solved family");
+    assert_eq!(family.free_functions, vec!["z11(phi)", "z12(phi)"]);
+    assert!(!family.eta[0].contains("z13"), "{}", family.eta[0]);
+    assert!(
+        family.eta[0].contains("cos(theta)*der(x) + sin(theta)*der(y)"),
+        "{}",
+        family.eta[0]
+    );
+}
+
+#[test]
 fn reduced_systems_of_search_candidates_agree_with_the_full_equations() {
     let mut rng = ChaCha8Rng::seed_from_u64(23);
     let mut checked = 0;

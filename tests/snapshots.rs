@@ -1,4 +1,6 @@
-//! Snapshots of `hamel derive --format json` for every bundled model and quasi-velocity choice.
+//! Snapshots of `hamel derive`, `hamel reduce` and `hamel search` (their JSON reports) for
+//! every bundled model: derive and reduce for every quasi-velocity choice, reduce and search
+//! for the coordinates the paper eliminates (the table [`ELIMINATE`]).
 //!
 //! The text is the derivation's normal form, which does not depend on the order in which
 //! symbols were created, on test order or on threads. Entries longer than 2000 characters (the
@@ -54,6 +56,62 @@ fn derive_json_snapshots() {
             let name = format!("derive__{}__{}", model.name, choice.name);
             insta::assert_snapshot!(name, snapshot_of(&model, &choice.name));
         }
+    }
+}
+
+/// The coordinates each seed example eliminates in the paper (Remark 3.1 for the vertical knife:
+/// y is removed, θ is not; Remark 2.2: q1 is not).
+const ELIMINATE: &[(&str, &str)] = &[
+    ("bar_blade", "x,y,theta"),
+    ("bar_wheels", "x,y,theta,psi1"),
+    ("chaplygin_sleigh", "x,y,theta"),
+    ("knife", "x,y,theta"),
+    ("remark22", "q1"),
+    ("rolling_disk", "xC,yC,phi"),
+    ("unicycle_rider", "xC,yC,phi,psi"),
+    ("vertical_knife", "x,y,theta"),
+];
+
+fn eliminate(model: &Model) -> Vec<String> {
+    let (_, p) = ELIMINATE
+        .iter()
+        .find(|(m, _)| *m == model.name)
+        .unwrap_or_else(|| panic!("add the model `{}` to ELIMINATE", model.name));
+    p.split(',').map(str::to_string).collect()
+}
+
+fn json(value: &impl serde::Serialize) -> String {
+    let mut v = serde_json::to_value(value).unwrap();
+    digest_long_strings(&mut v);
+    serde_json::to_string_pretty(&v).unwrap()
+}
+
+#[test]
+fn reduce_json_snapshots() {
+    for model in models() {
+        let p = eliminate(&model);
+        for choice in &model.choices {
+            let r = hamel_reduce::reduce(&model, Some(&choice.name), &p).unwrap();
+            let name = format!("reduce__{}__{}", model.name, choice.name);
+            insta::assert_snapshot!(name, json(&r));
+        }
+    }
+}
+
+#[test]
+fn search_json_snapshots() {
+    for model in models() {
+        let options = hamel_reduce::SearchOptions {
+            // Far above any seed example's search (< 3 s), so the budget never cuts a
+            // snapshot short.
+            budget: std::time::Duration::from_secs(600),
+            max_candidates: 12,
+        };
+        let mut r =
+            hamel_reduce::search(&model, &eliminate(&model), options, Box::new(|_, _| {})).unwrap();
+        assert!(!r.budget_exhausted);
+        r.seconds = 0.0; // wall time: not part of the snapshot
+        insta::assert_snapshot!(format!("search__{}", model.name), json(&r));
     }
 }
 

@@ -312,7 +312,7 @@ impl FieldInner {
     /// D·v reduced by v² = G may cancel further: (1 − cos²u)/sin u becomes sin u. The rewritten
     /// pair is kept only when it has fewer terms, so the form stays deterministic and this
     /// costs one gcd only where a bare sin u divides a denominator.
-    fn cancel_related_factors(&self, mut n: Poly, mut d: Poly) -> (Poly, Poly) {
+    pub(crate) fn cancel_related_factors(&self, mut n: Poly, mut d: Poly) -> (Poly, Poly) {
         let relations: Vec<usize> = self.relations.borrow().iter().map(|(v, _)| *v).collect();
         for v in relations {
             if d.degree(v) == 0 || d.into_iter().any(|t| t.exponents[v] == 0) {
@@ -631,6 +631,80 @@ impl Ex {
             return self.field().ex(n, d).ok();
         }
         None
+    }
+
+    /// The conditions for the expression to be free of q_k, as equations `c = 0`: the
+    /// coefficients of the reduced N'·D − N·D' (the numerator of the total derivative) in the
+    /// monomials of the variables that depend on q_k (sin, cos of angles in q_k, q_k itself).
+    /// Reduced monomials are linearly independent over the other variables, so the expression
+    /// is free of q_k iff every condition holds; conditions that are identically zero are
+    /// left out (none are returned when the expression is free of q_k). Free functions of q_k
+    /// count as variables depending on q_k, so for them the conditions are sufficient only.
+    pub fn dependence_conditions(&self, k: usize) -> Vec<Ex> {
+        if !self.mentions(k) {
+            return Vec::new();
+        }
+        let field = self.field();
+        let fi = &self.f;
+        let (a, da) = field.poly_diff_frac(&self.num, k);
+        let test = if self.den.is_constant() {
+            a
+        } else {
+            let (b, db) = field.poly_diff_frac(&self.den, k);
+            &(&(&a * &db) * &self.den) - &(&(&self.num * &b) * &da)
+        };
+        let test = fi.reduce(test);
+        let on_k: Vec<usize> = (0..fi.nvars())
+            .filter(|&v| test.degree(v) > 0 && fi.deps(v).contains(&k))
+            .collect();
+        let mut parts: Vec<(Vec<u16>, Poly)> = Vec::new();
+        let mut exps = vec![0u16; fi.nvars()];
+        for t in &test {
+            exps.copy_from_slice(t.exponents);
+            let key: Vec<u16> = on_k.iter().map(|&v| exps[v]).collect();
+            for &v in &on_k {
+                exps[v] = 0;
+            }
+            match parts.iter_mut().find(|(k2, _)| *k2 == key) {
+                Some((_, p)) => p.append_monomial(t.coefficient.clone(), &exps),
+                None => {
+                    let mut p = fi.zero.clone();
+                    p.append_monomial(t.coefficient.clone(), &exps);
+                    parts.push((key, p));
+                }
+            }
+        }
+        parts.sort_by(|x, y| x.0.cmp(&y.0));
+        parts
+            .into_iter()
+            .filter(|(_, p)| !p.is_zero())
+            .map(|(_, p)| field.ex_poly(p))
+            .collect()
+    }
+
+    /// Solve `self = 0` for the value of the free function `name`: when the numerator is of
+    /// degree one in that value, P₀ + P₁·f with P₁ ≠ 0, and no derivative of any free function
+    /// occurs, the solution f = −P₀/P₁ (a closed form in the other variables). `None` otherwise.
+    pub fn solve_for_free(&self, name: &str) -> Option<Ex> {
+        let fi = &self.f;
+        let func = fi.free.iter().position(|(n, _)| n == name)?;
+        let nargs = fi.free[func].1.len();
+        let v = *fi.free_var.get(&(func, vec![0; nargs]))?;
+        if self.num.degree(v) != 1 {
+            return None;
+        }
+        let derivative_occurs = fi
+            .free_var
+            .iter()
+            .any(|((_, orders), &w)| orders.iter().any(|&o| o > 0) && self.num.degree(w) > 0);
+        if derivative_occurs {
+            return None;
+        }
+        let parts = fi.split(&self.num, v);
+        if parts[1].is_zero() {
+            return None;
+        }
+        self.field().ex(-parts[0].clone(), parts[1].clone()).ok()
     }
 
     /// The coordinates the expression depends on (indices, sorted), decided as in
@@ -965,7 +1039,7 @@ impl std::ops::Mul for &Ex {
         let (num, den) = if needs_reduction {
             f.finish(f.reduce(prod), f.reduce(den))
         } else {
-            let (mut n, mut d) = (prod, den);
+            let (mut n, mut d) = f.cancel_related_factors(prod, den);
             if d.lcoeff().is_negative() {
                 n = -n;
                 d = -d;

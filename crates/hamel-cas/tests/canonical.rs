@@ -166,3 +166,76 @@ fn printing_is_independent_of_the_order_symbols_were_created() {
     .unwrap();
     assert_eq!(a[0], b);
 }
+
+#[test]
+fn a_bare_sine_in_a_denominator_cancels_when_it_can() {
+    let out = canon(&[
+        "(1 - cos(theta)^2)/sin(theta)",
+        "(cos(theta)^3 - cos(theta))/sin(theta)",
+        "1/sin(theta)",
+    ]);
+    assert_eq!(out[0], "sin(theta)");
+    assert_eq!(out[1], "-sin(theta)*cos(theta)");
+    // Nothing cancels: kept as it is (1/sin, not sin/(1 - cos²)).
+    assert_eq!(out[2], "1/sin(theta)");
+}
+
+#[test]
+fn dependence_conditions_are_the_coefficients_of_the_derivative() {
+    let out = run(|| {
+        let exprs = [
+            // free of theta iff z = 0 (one condition, the coefficient of cos(theta))
+            "z(phi)*sin(theta) + m",
+            // free of theta: no condition
+            "sin(theta)^2 + cos(theta)^2 + z(phi)",
+            // d/dtheta = (z - l)*cos(theta) - m*sin(theta): two conditions
+            "(z(phi) - l)*sin(theta) + m*cos(theta)",
+        ];
+        let f = Field::new(&spec(&exprs)).unwrap();
+        let theta = f.coord_index("theta").unwrap();
+        exprs
+            .iter()
+            .map(|s| {
+                let e = f.convert(&parse(s).unwrap().expr).unwrap();
+                let conds = e.dependence_conditions(theta);
+                let solved: Vec<String> = conds
+                    .iter()
+                    .filter_map(|c| c.solve_for_free("z").map(|x| x.to_string()))
+                    .collect();
+                (
+                    conds.iter().map(|c| c.to_string()).collect::<Vec<_>>(),
+                    solved,
+                )
+            })
+            .collect::<Vec<_>>()
+    })
+    .unwrap();
+    assert_eq!(out[0].0, vec!["z(phi)"]);
+    assert_eq!(out[0].1, vec!["0"]);
+    assert!(out[1].0.is_empty());
+    assert_eq!(out[2].0.len(), 2, "{:?}", out[2].0);
+    // One of them is z − l = 0 (up to sign), solved for z = l; the other, m = 0, has no z.
+    assert_eq!(out[2].1, vec!["l"]);
+}
+
+#[test]
+fn solving_refuses_derivatives_and_higher_degrees() {
+    let out = run(|| {
+        let exprs = ["z(phi)^2 - l", "z(phi)", "m*z(phi) - l*phi"];
+        let f = Field::new(&spec(&exprs)).unwrap();
+        let phi = f.coord_index("phi").unwrap();
+        let mut e: Vec<_> = exprs
+            .iter()
+            .map(|s| f.convert(&parse(s).unwrap().expr).unwrap())
+            .collect();
+        // z'(phi) + z(phi)
+        e[1] = &e[1].diff(phi) + &e[1];
+        e.iter()
+            .map(|e| e.solve_for_free("z").map(|x| x.to_string()))
+            .collect::<Vec<_>>()
+    })
+    .unwrap();
+    assert_eq!(out[0], None);
+    assert_eq!(out[1], None);
+    assert_eq!(out[2].as_deref(), Some("phi*l/m"));
+}

@@ -67,6 +67,20 @@ impl fmt::Display for Expr {
                             write!(f, " - ")?;
                             write_with(f, &Expr::Num(-r.clone()), 2)?;
                         }
+                        // a + (-b)*c reads as a - b*c.
+                        (_, Expr::Mul(v))
+                            if matches!(v.first(), Some(Expr::Neg(_)))
+                                || matches!(v.first(), Some(Expr::Num(r)) if r.is_negative()) =>
+                        {
+                            let mut v = v.clone();
+                            v[0] = match &v[0] {
+                                Expr::Neg(x) => (**x).clone(),
+                                Expr::Num(r) => Expr::Num(-r.clone()),
+                                _ => unreachable!("matched above"),
+                            };
+                            write!(f, " - ")?;
+                            write_with(f, &Expr::Mul(v), 2)?;
+                        }
                         (_, t) => {
                             write!(f, " + ")?;
                             write_with(f, t, 1)?;
@@ -142,6 +156,9 @@ mod tests {
             "-(a*b) + c",
             "a - b*(c - d)",
             "-(a*b)^2",
+            "a + (-b)*c",
+            "a + (-2)*c*d",
+            "a + (-(b + c))*d",
         ] {
             let e = parse(s).unwrap().expr;
             let printed = e.to_string();
@@ -150,5 +167,6 @@ mod tests {
             assert!((v1 - v2).abs() < 1e-12, "{s} printed as {printed}");
         }
         assert_eq!(parse("-(a*b)").unwrap().expr.to_string(), "-a*b");
+        assert_eq!(parse("a + (-b)*c").unwrap().expr.to_string(), "a - b*c");
     }
 }

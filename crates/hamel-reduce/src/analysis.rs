@@ -68,6 +68,34 @@ fn occurrences(
     (present, found)
 }
 
+/// The conditions for the true equations (11) to be free of the coordinates `p`: for every
+/// entry that depends on some q_k of `p`, [`Ex::dependence_conditions`] (equations `c = 0`),
+/// each with the entry it comes from. Deduplicated, in entry order. Used by the search of
+/// family (a), where the conditions are equations on the unknown functions.
+pub(crate) fn dependence_conditions(s: &Symbolic, p: &[usize]) -> Vec<(String, Ex)> {
+    let mut out: Vec<(String, Ex)> = Vec::new();
+    for (object, index, v) in equation_entries(s, false) {
+        let e = match &v {
+            Val::Ex(e) => e.clone(),
+            Val::Over(o) => o.to_ex(),
+        };
+        for &k in p {
+            if !e.depends_on(k) {
+                continue;
+            }
+            for c in e.dependence_conditions(k) {
+                if !out
+                    .iter()
+                    .any(|(_, d)| (d - &c).is_zero() || (d + &c).is_zero())
+                {
+                    out.push((format!("{object}{index:?}"), c));
+                }
+            }
+        }
+    }
+    out
+}
+
 pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
     let names = s.field.coordinates().to_vec();
     let ell = names.len();

@@ -27,7 +27,7 @@ use hamel_model::{Item, Model, ModelError, NumericModel, QuasiVelocityChoice};
 use indexmap::IndexMap;
 use serde::Serialize;
 
-use crate::analysis::analyse;
+use crate::analysis::{analyse, dependence_conditions};
 
 /// One reducing choice.
 #[derive(Clone, Debug, Serialize)]
@@ -74,6 +74,9 @@ pub struct FamilyStats {
 /// Largest total length (characters) of a candidate's quasi-velocities that is decided exactly.
 const MAX_TEXT: usize = 400;
 
+/// Most unknown functions in the family (a) ansatz (each adds variables to every expression).
+const FUNCTIONS: usize = 6;
+
 /// The result of `hamel search`.
 #[derive(Clone, Debug, Serialize)]
 pub struct SearchReport {
@@ -87,6 +90,9 @@ pub struct SearchReport {
     pub families: IndexMap<String, FamilyStats>,
     /// When nothing was found: why (the condition no candidate could meet).
     pub none_found: Option<String>,
+    /// Conditions on the unknown functions of family (a) that hamel could not solve in closed
+    /// form (equations `… = 0`, each with the entry of (11) it comes from).
+    pub unsolved_conditions: Vec<String>,
     /// Whether the time budget ran out before every candidate was tried.
     pub budget_exhausted: bool,
     /// Wall time, seconds.
@@ -294,6 +300,10 @@ struct Searcher<'a> {
     failures: IndexMap<String, usize>,
     exhausted: bool,
     seen: std::collections::HashSet<String>,
+    /// The derivation of the last candidate decided exactly (for the conditions of (a)).
+    last: Option<Symbolic>,
+    /// Conditions on the unknown functions of family (a) that could not be solved.
+    unsolved: Vec<String>,
 }
 
 impl Searcher<'_> {
@@ -322,7 +332,12 @@ impl Searcher<'_> {
         }
         // An exact check cannot be interrupted: choices written with very large expressions
         // are not decided (their derivation can take minutes), so that the budget holds.
-        if eta.iter().map(String::len).sum::<usize>() > MAX_TEXT {
+        let limit = if free.is_empty() {
+            MAX_TEXT
+        } else {
+            3 * MAX_TEXT
+        };
+        if eta.iter().map(String::len).sum::<usize>() > limit {
             stats.too_large += 1;
             return false;
         }
@@ -361,6 +376,7 @@ impl Searcher<'_> {
             }
         };
         let r = analyse(&m2, &s, self.p);
+        self.last = Some(s);
         if trace {
             eprintln!("{:>8.3} s  {}", t0.elapsed().as_secs_f64(), eta.join(" ; "));
         }
@@ -400,6 +416,102 @@ impl Searcher<'_> {
             eta,
         });
         true
+    }
+    /// Family (a): try the choice with its unknown functions symbolic; when the true equations
+    /// still contain an eliminated coordinate, derive the conditions on the functions
+    /// ([`dependence_conditions`]: every coefficient of the q_k-dependence must vanish) and
+    /// solve them where the solution is a closed form: a factor of a condition that is of
+    /// degree one in the value of a function (and free of derivatives) gives that function;
+    /// substitute and repeat, at most `depth` times. Conditions that no function can be solved
+    /// from are reported. True when a reducing member (possibly with functions left free) is
+    /// found.
+    fn solve_functions(
+        &mut self,
+        eta: Vec<String>,
+        free: Vec<(String, Vec<String>)>,
+        depth: usize,
+    ) -> bool {
+        let nonzero = free.len()
+            + eta
+                .iter()
+                .filter(|e| !free.iter().any(|(n, _)| e.contains(&format!("{n}("))))
+                .count();
+        self.last = None;
+        if self.try_candidate("functions", eta.clone(), free.clone(), nonzero) {
+            return true;
+        }
+        let Some(s) = self.last.take() else {
+            return false;
+        };
+        if depth == 0 || free.is_empty() || self.out_of_time() {
+            return false;
+        }
+        let mut conditions = dependence_conditions(&s, self.p);
+        conditions.sort_by_cached_key(|(_, c)| c.size());
+        // Every condition must hold: branching over the solutions of one condition (the
+        // smallest that has any) covers that condition's closed-form solutions.
+        let mut branches: Vec<(String, Ex)> = Vec::new();
+        for (_, c) in &conditions {
+            for factor in c.numerator_factors() {
+                for (fname, _) in &free {
+                    if let Some(sol) = factor.solve_for_free(fname) {
+                        if !branches
+                            .iter()
+                            .any(|(n, x)| n == fname && (x - &sol).is_zero())
+                        {
+                            branches.push((fname.clone(), sol));
+                        }
+                    }
+                }
+            }
+            if !branches.is_empty() {
+                break;
+            }
+        }
+        if branches.is_empty() {
+            if let Some((from, c)) = conditions.first() {
+                let text = c.to_expr().to_string();
+                if text.len() <= 300 {
+                    self.unsolved.push(format!("{text} = 0 (from {from})"));
+                }
+                *self
+                    .failures
+                    .entry(format!(
+                        "the conditions on the unknown functions have no closed-form solution \
+                         hamel can find (the smallest: `{}` = 0, from {from})",
+                        if text.len() <= 120 {
+                            text
+                        } else {
+                            format!("<{} characters>", text.len())
+                        }
+                    ))
+                    .or_default() += 1;
+            }
+            return false;
+        }
+        for (fname, sol) in branches.into_iter().take(4) {
+            if self.out_of_time() {
+                return false;
+            }
+            let by = sol.to_expr();
+            let Some(next): Option<Vec<String>> = eta
+                .iter()
+                .map(|e| {
+                    let p = parse(e).ok()?;
+                    Some(p.expr.substitute_free(&fname, &by).ok()?.tidy().to_string())
+                })
+                .collect()
+            else {
+                continue;
+            };
+            let rest: Vec<(String, Vec<String>)> =
+                free.iter().filter(|(n, _)| *n != fname).cloned().collect();
+            self.total += 1;
+            if self.solve_functions(next, rest, depth - 1) {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -458,6 +570,8 @@ pub(crate) fn search(
         failures: IndexMap::new(),
         exhausted: false,
         seen: std::collections::HashSet::new(),
+        last: None,
+        unsolved: Vec::new(),
     };
 
     // (b) finite ansatz: kept coordinates' velocities as unit rows, v rows from the basis.
@@ -603,13 +717,24 @@ pub(crate) fn search(
         );
     }
 
-    // (a) unknown functions of the kept coordinates multiplying the rows found in (b).
+    // (a) unknown functions of the kept coordinates multiplying a basis of rows: the rows of
+    // the simplest reducing ansatz choices, then the simplest row that did not reduce
+    // (so that the conditions have something to decide), at most FUNCTIONS unknowns in all.
     if !kept.is_empty() && !ansatz_rows.is_empty() && v > 0 && !se.out_of_time() {
+        let mut basis = ansatz_rows.clone();
+        for i in 0..pool.len() {
+            if basis.len() * v >= FUNCTIONS || basis.len() > ansatz_rows.len() {
+                break;
+            }
+            if !basis.contains(&i) {
+                basis.push(i);
+            }
+        }
         let args: Vec<String> = kept.iter().map(|&k| names[k].clone()).collect();
         let mut free = Vec::new();
         let mut eta = Vec::new();
         for r in 0..v {
-            let terms: Vec<String> = ansatz_rows
+            let terms: Vec<String> = basis
                 .iter()
                 .enumerate()
                 .map(|(b, &i)| {
@@ -621,9 +746,9 @@ pub(crate) fn search(
             eta.push(terms.join(" + "));
         }
         eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
-        let nonzero = v * ansatz_rows.len() + units.len();
         se.total += 1;
-        se.try_candidate("functions", eta, free, nonzero);
+        let depth = free.len();
+        se.solve_functions(eta, free, depth);
     }
 
     // When nothing reduces, say what the model's own choices fail on (exactly).
@@ -683,6 +808,7 @@ pub(crate) fn search(
         candidates,
         families: se.families,
         none_found,
+        unsolved_conditions: se.unsolved,
         budget_exhausted: se.exhausted,
         seconds: started.elapsed().as_secs_f64(),
     })
@@ -720,6 +846,15 @@ impl SearchReport {
         }
         if let Some(why) = &self.none_found {
             let _ = writeln!(o, "\n{why}");
+        }
+        if !self.unsolved_conditions.is_empty() {
+            let _ = writeln!(
+                o,
+                "\nconditions on the unknown functions of family (a) left unsolved:"
+            );
+            for c in &self.unsolved_conditions {
+                let _ = writeln!(o, "  {c}");
+            }
         }
         for c in &self.candidates {
             let _ = writeln!(
