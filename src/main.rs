@@ -6,6 +6,7 @@
 //! written when a command fails.
 
 mod bench;
+mod codegen;
 mod output;
 mod state;
 
@@ -98,6 +99,24 @@ enum Command {
         /// Write the result to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,
+    },
+    /// Write the equations as a standalone Rust crate (straight-line f64 code, an engine-free
+    /// runtime, an `eval` binary): the full and, with --eliminate, the reduced system.
+    Codegen {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// Coordinates to eliminate (checked exactly, as `hamel reduce` does).
+        #[arg(long, value_delimiter = ',')]
+        eliminate: Vec<String>,
+        /// Directory of the crate to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Overwrite the generated files of a non-empty directory.
+        #[arg(long)]
+        force: bool,
     },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
@@ -227,6 +246,25 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                 }
             };
             out.write(&text)
+        }
+        Command::Codegen {
+            model,
+            eta,
+            eliminate,
+            out,
+            force,
+        } => {
+            let started = Instant::now();
+            let w = codegen::run(&model, eta.as_deref(), &eliminate, &out, force)?;
+            eprintln!(
+                "wrote {} files to {} in {:.2} s; ingredients: {} operations as trees, {} shared",
+                w.files,
+                out.display(),
+                started.elapsed().as_secs_f64(),
+                w.ops_trees,
+                w.ops_shared
+            );
+            Ok(())
         }
         Command::Search {
             model,

@@ -418,3 +418,121 @@ fn search_honours_its_budget_and_rejects_a_bad_one() {
     );
     assert!(!file.exists(), "no partial output");
 }
+
+#[test]
+fn codegen_writes_a_crate_that_builds_offline_and_evaluates_like_hamel_eval() {
+    let dir = scratch("codegen_knife");
+    let out = dir.join("knife_core");
+    let args = [
+        "codegen",
+        "models/knife.toml",
+        "--eta",
+        "paper",
+        "--eliminate",
+        "x,y",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = hamel(&args, None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("operations as trees"), "{}", stderr(&o));
+    let model_rs = std::fs::read_to_string(out.join("src/model.rs")).unwrap();
+    assert!(model_rs.contains("pub const ELIMINATED: [usize; 2] = [0, 1];"));
+    // A second run refuses to overwrite, --force overwrites.
+    let o = hamel(&args, None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("not empty"), "{}", stderr(&o));
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    assert!(hamel(&forced, None).status.success());
+
+    // It builds offline, with its own target directory, and needs no computer algebra.
+    let build = Command::new(env!("CARGO"))
+        .args(["build", "--release", "--offline", "--quiet"])
+        .current_dir(&out)
+        .env("CARGO_TARGET_DIR", dir.join("target"))
+        .output()
+        .unwrap();
+    assert!(build.status.success(), "{}", stderr(&build));
+    let lock = std::fs::read_to_string(out.join("Cargo.lock")).unwrap();
+    assert!(!lock.contains("symbolica"));
+
+    let states = dir.join("states.json");
+    std::fs::write(
+        &states,
+        r#"[{"q": {"x": 0.1, "y": 0.2, "theta": 0.3}, "eta": [1.0, 0.5]},
+            {"q": {"x": -1, "y": 2, "theta": 2.2}, "eta": [-0.7, 1.5], "params": {"m": 2.5}}]"#,
+    )
+    .unwrap();
+    let generated = Command::new(dir.join("target/release/eval"))
+        .args(["--state", states.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(generated.status.success(), "{}", stderr(&generated));
+    let reference = hamel(
+        &[
+            "eval",
+            "models/knife.toml",
+            "--eta",
+            "paper",
+            "--state",
+            states.to_str().unwrap(),
+        ],
+        None,
+    );
+    let (g, r) = (json_on_stdout(&generated), json_on_stdout(&reference));
+    // Same shape and keys in the same order; values to 1e-12.
+    fn close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+        use serde_json::Value::*;
+        match (a, b) {
+            (Number(x), Number(y)) => {
+                let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+                (x - y).abs() <= 1e-12 * y.abs().max(1.0)
+            }
+            (Array(x), Array(y)) => x.len() == y.len() && x.iter().zip(y).all(|(a, b)| close(a, b)),
+            (Object(x), Object(y)) => {
+                x.keys().eq(y.keys()) && x.iter().zip(y).all(|((_, a), (_, b))| close(a, b))
+            }
+            _ => a == b,
+        }
+    }
+    assert!(close(&g, &r), "generated {g}\nhamel eval {r}");
+
+    // A bad state: an error naming the state, nothing on stdout.
+    std::fs::write(&states, r#"{"q": {"x": 0, "y": 0}, "eta": [1, 2]}"#).unwrap();
+    let bad = Command::new(dir.join("target/release/eval"))
+        .args(["--state", states.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(
+        stderr(&bad).contains("state 1: missing coordinate `theta`"),
+        "{}",
+        stderr(&bad)
+    );
+    assert!(bad.stdout.is_empty());
+}
+
+#[test]
+fn codegen_refuses_an_elimination_that_does_not_hold() {
+    let dir = scratch("codegen_refuses");
+    let out = dir.join("core");
+    let o = hamel(
+        &[
+            "codegen",
+            "models/vertical_knife.toml",
+            "--eliminate",
+            "theta",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("do not eliminate theta"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "no partial output");
+}

@@ -1,6 +1,6 @@
 //! Snapshots of `hamel derive`, `hamel reduce` and `hamel search` (their JSON reports) for
 //! every bundled model: derive and reduce for every quasi-velocity choice, reduce and search
-//! for the coordinates the paper eliminates (the table [`ELIMINATE`]).
+//! for the coordinates the paper eliminates (`common::ELIMINATE`).
 //!
 //! The text is the derivation's normal form, which does not depend on the order in which
 //! symbols were created, on test order or on threads. Entries longer than 2000 characters (the
@@ -8,6 +8,9 @@
 //! 64-bit FNV-1a digest, so any change still fails the snapshot while the files stay readable.
 //! The CAS runs in-process, on its one worker thread.
 
+mod common;
+
+use common::{eliminate, models};
 use hamel_model::Model;
 
 fn fnv1a(s: &str) -> u64 {
@@ -38,17 +41,6 @@ fn snapshot_of(model: &Model, choice: &str) -> String {
     serde_json::to_string_pretty(&v).unwrap()
 }
 
-fn models() -> Vec<Model> {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/models");
-    let mut paths: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    paths.sort();
-    paths.iter().map(|p| Model::load(p).unwrap()).collect()
-}
-
 #[test]
 fn derive_json_snapshots() {
     for model in models() {
@@ -57,27 +49,6 @@ fn derive_json_snapshots() {
             insta::assert_snapshot!(name, snapshot_of(&model, &choice.name));
         }
     }
-}
-
-/// The coordinates each seed example eliminates in the paper (Remark 3.1 for the vertical knife:
-/// y is removed, θ is not; Remark 2.2: q1 is not).
-const ELIMINATE: &[(&str, &str)] = &[
-    ("bar_blade", "x,y,theta"),
-    ("bar_wheels", "x,y,theta,psi1"),
-    ("chaplygin_sleigh", "x,y,theta"),
-    ("knife", "x,y,theta"),
-    ("remark22", "q1"),
-    ("rolling_disk", "xC,yC,phi"),
-    ("unicycle_rider", "xC,yC,phi,psi"),
-    ("vertical_knife", "x,y,theta"),
-];
-
-fn eliminate(model: &Model) -> Vec<String> {
-    let (_, p) = ELIMINATE
-        .iter()
-        .find(|(m, _)| *m == model.name)
-        .unwrap_or_else(|| panic!("add the model `{}` to ELIMINATE", model.name));
-    p.split(',').map(str::to_string).collect()
 }
 
 fn json(value: &impl serde::Serialize) -> String {

@@ -245,7 +245,7 @@ impl Expr {
     }
 
     /// A literal as `f64` (used by the evaluators).
-    pub(crate) fn rational_to_f64(r: &Rational) -> f64 {
+    pub fn rational_to_f64(r: &Rational) -> f64 {
         // Exact enough: numerator and denominator each rounded once, then divided.
         let (n, d) = (r.numer(), r.denom());
         match (n.to_f64(), d.to_f64()) {

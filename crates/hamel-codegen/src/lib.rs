@@ -1,0 +1,406 @@
+//! Code generation: a derivation as a standalone Rust crate.
+//!
+//! **Job**: turn the plain result of a derivation ([`hamel_derive::Derivation`], made by the CAS
+//! stage) into the source of a crate that evaluates the equations without any computer algebra:
+//! straight-line f64 code (generic over a scalar type, so dual numbers give exact Jacobians) for
+//! the ingredients Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q, with common subexpressions shared
+//! ([`hamel_expr::Tape`]), plus a fixed runtime (`runtime/runtime.rs`) that assembles the
+//! Boltzmann–Hamel right-hand side (6), (9), (11) from them, the reduced system, the
+//! reconstruction, the energy, the constraint residual and the reduced Jacobian.
+//!
+//! **Inputs**: a derivation (free functions defined), the coordinates proven eliminated (by
+//! `hamel reduce`'s exact ground truth). **Outputs**: [`Generated`]: files (path, text) and the
+//! operation counts before and after sharing.
+//!
+//! **Invariant**: the generated crate depends on serde and serde_json only, never on the CAS;
+//! its text depends only on the derivation (deterministic, so checked-in copies can be
+//! compared with a fresh generation).
+#![warn(missing_docs)]
+
+use std::fmt::Write;
+
+use hamel_derive::Derivation;
+use hamel_derive::{Entry, Mat};
+use hamel_expr::{Expr, Func, Op, Tape};
+
+/// The runtime every generated crate carries (and `crates/hamel-models` compiles once).
+pub const RUNTIME: &str = include_str!("../runtime/runtime.rs");
+
+pub mod registry;
+
+/// The runtime, compiled here too so that it is type-checked and tested with the workspace.
+#[path = "../runtime/runtime.rs"]
+pub mod runtime;
+
+/// A generated crate.
+#[derive(Clone, Debug)]
+pub struct Generated {
+    /// Files, relative paths with their text.
+    pub files: Vec<(String, String)>,
+    /// Arithmetic operations of the ingredients written as separate trees.
+    pub ops_trees: usize,
+    /// The same after sharing common subexpressions.
+    pub ops_shared: usize,
+}
+
+/// Operations in a tree, nothing shared (an n-ary sum or product counts n − 1).
+pub fn tree_operations(e: &Expr) -> usize {
+    match e {
+        Expr::Num(_) | Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. } => 0,
+        Expr::Add(v) | Expr::Mul(v) => {
+            v.len().saturating_sub(1) + v.iter().map(tree_operations).sum::<usize>()
+        }
+        Expr::Neg(a) | Expr::Call(_, a) => 1 + tree_operations(a),
+        Expr::Div(a, b) | Expr::Pow(a, b) => 1 + tree_operations(a) + tree_operations(b),
+    }
+}
+
+fn push_mat<'a>(out: &mut Vec<&'a Expr>, m: &'a Mat) {
+    out.extend(m.entries.iter().flatten().map(|e| &e.expr));
+}
+
+/// The ingredients in the order of the runtime's `Layout`.
+fn ingredient_exprs(d: &Derivation) -> Result<Vec<&Expr>, String> {
+    let ing = &d.ingredients;
+    let u: &Entry = ing
+        .potential
+        .as_ref()
+        .ok_or("the derivation carries no ingredients")?;
+    let mut v = Vec::new();
+    push_mat(&mut v, &d.z);
+    push_mat(&mut v, &d.alpha);
+    push_mat(&mut v, &d.a);
+    v.push(&u.expr);
+    v.extend(d.grad_u.iter().map(|e| &e.expr));
+    for m in &ing.da {
+        push_mat(&mut v, m);
+    }
+    for m in &ing.dz {
+        push_mat(&mut v, m);
+    }
+    for m in &ing.dalpha {
+        push_mat(&mut v, m);
+    }
+    Ok(v)
+}
+
+fn ident(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if s.chars().next().is_some_and(|c| c.is_ascii_digit()) || s == "self" || s == "type" {
+        format!("p_{s}")
+    } else {
+        s
+    }
+}
+
+fn lit(x: f64) -> String {
+    let s = format!("{x:?}");
+    if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN") {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+/// The straight-line body of `ingredients`: one `let` per shared operation.
+fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
+    let mut o = String::new();
+    for (k, op) in tape.ops().iter().enumerate() {
+        let t = |i: &usize| format!("t{i}");
+        let rhs = match op {
+            Op::Input(i) if *i < ell => format!("q[{i}]"),
+            Op::Input(i) => format!("S::constant(p.{})", ident(&params[*i - ell])),
+            Op::Const(r) => format!("S::constant({})", lit(Expr::rational_to_f64(r))),
+            Op::Add(v) => v.iter().map(t).collect::<Vec<_>>().join(" + "),
+            Op::Mul(v) => v.iter().map(t).collect::<Vec<_>>().join(" * "),
+            Op::Neg(a) => format!("-t{a}"),
+            Op::Div(a, b) => format!("t{a} / t{b}"),
+            Op::PowI(a, n) => format!("t{a}.powi({n})"),
+            Op::PowF(a, b) => format!("t{a}.powf(t{b})"),
+            Op::Call(f, a) => {
+                let name = match f {
+                    Func::Sin => "sin",
+                    Func::Cos => "cos",
+                    Func::Tan => "tan",
+                    Func::Sqrt => "sqrt",
+                    Func::Exp => "exp",
+                    Func::Log => "ln",
+                };
+                format!("t{a}.{name}()")
+            }
+        };
+        let _ = writeln!(o, "    let t{k} = {rhs};");
+    }
+    for (j, i) in tape.outputs().iter().enumerate() {
+        let _ = writeln!(o, "    out[{j}] = t{i};");
+    }
+    o
+}
+
+fn list(items: impl IntoIterator<Item = String>) -> String {
+    items.into_iter().collect::<Vec<_>>().join(", ")
+}
+
+/// Generate the crate for a derivation; `eliminated` are coordinate indices proven absent from
+/// the true equations and from the kinematics still needed (`hamel reduce`'s reduced system).
+/// `command` is the command line that regenerates it (written into the files).
+pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<Generated, String> {
+    if !d.free_functions.is_empty() {
+        return Err(format!(
+            "the quasi-velocities use free functions ({}): define them in the model before generating code",
+            d.free_functions.join(", ")
+        ));
+    }
+    let exprs = ingredient_exprs(d)?;
+    let params: Vec<String> = d.parameters.keys().cloned().collect();
+    let inputs: Vec<String> = d
+        .coordinates
+        .iter()
+        .cloned()
+        .chain(params.clone())
+        .collect();
+    let tape = Tape::compile(&exprs, &inputs)?;
+    let ops_trees: usize = exprs.iter().map(|e| tree_operations(e)).sum();
+    let ops_shared = tape.operation_count();
+    let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
+    let names = |ix: &[usize]| list(ix.iter().map(|&k| format!("{:?}", d.coordinates[k])));
+    let reduced_state: Vec<String> = kept
+        .iter()
+        .map(|&k| d.coordinates[k].clone())
+        .chain((1..=d.sigma).map(|i| format!("eta{i}")))
+        .collect();
+
+    let mut m = String::new();
+    let _ = write!(
+        m,
+        r#"//! The numeric core of model `{model}` with quasi-velocities `{eta}`, generated by hamel.
+//! Do not edit: regenerate with
+//!
+//! ```text
+//! {command}
+//! ```
+//!
+//! Quasi-velocities η = Z(q)q̇:
+{eta_doc}//!
+//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): {ops_trees} arithmetic operations as
+//! separate trees, {ops_shared} with common subexpressions shared.
+//!
+//! **States.** Full: q = ({coords}) and η = (eta1..eta{sigma}).
+//! Reduced (state vector `x`): ({reduced}); eliminated: ({elim}), reconstructed from
+//! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
+//! (decided exactly by `hamel reduce`), so the reduced right-hand side evaluates the full one
+//! with them at a reference value ([`REFERENCE`], the next one where [Z; α] is singular there).
+
+#![allow(clippy::all, unused_variables, unused_parens)]
+
+use crate::runtime::{{self, Dims, Dual, EvalError, Layout, Rhs, Scalar}};
+
+/// Model name.
+pub const MODEL: &str = {model:?};
+/// Quasi-velocity choice.
+pub const ETA: &str = {eta:?};
+/// ℓ, μ, σ.
+pub const DIMS: Dims = Dims {{ ell: {ell}, mu: {mu}, sigma: {sigma} }};
+/// Where each ingredient sits in the output of [`ingredients`].
+pub const LAYOUT: Layout = Layout::new(DIMS);
+/// Coordinates, in state order.
+pub const COORDINATES: [&str; {ell}] = [{coord_list}];
+/// Indices of the eliminated coordinates.
+pub const ELIMINATED: [usize; {np}] = [{elim_ix}];
+/// Indices of the coordinates kept in the reduced state.
+pub const KEPT: [usize; {nk}] = [{kept_ix}];
+/// Names of the reduced state's components.
+pub const REDUCED_STATE: [&str; {nr}] = [{reduced_list}];
+/// Size of the reduced state.
+pub const REDUCED_DIM: usize = {nr};
+/// Values tried in turn for the eliminated coordinates when evaluating the reduced system.
+pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
+/// Operation counts of the ingredients: as trees, and shared.
+pub const OPERATIONS: (usize, usize) = ({ops_trees}, {ops_shared});
+
+/// Parameters, with the model's defaults.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Parameters {{
+{param_fields}}}
+
+impl Default for Parameters {{
+    fn default() -> Self {{
+        Parameters {{
+{param_defaults}        }}
+    }}
+}}
+
+impl Parameters {{
+    /// Parameter names, in model order.
+    pub const NAMES: [&str; {npar}] = [{param_names}];
+
+    /// Set a parameter by name.
+    pub fn set(&mut self, name: &str, value: f64) -> Result<(), EvalError> {{
+        let slot: Option<&mut f64> = match name {{
+{param_set}            _ => None,
+        }};
+        match slot {{
+            Some(slot) => {{
+                *slot = value;
+                Ok(())
+            }}
+            None => Err(EvalError(format!("unknown parameter `{{name}}`"))),
+        }}
+    }}
+}}
+
+/// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
+pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {{
+{body}}}
+
+/// The full right-hand side at (q, η): η̇ (true and paper's), q̇ = Γη, A_Γ, F, energy.
+pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, EvalError> {{
+    let mut out = vec![S::constant(0.0); LAYOUT.len];
+    ingredients(q, p, &mut out);
+    runtime::structured(DIMS, &out, eta)
+}}
+
+/// The full right-hand side in f64, checked: errors instead of non-finite values.
+pub fn full_rhs(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Rhs<f64>, EvalError> {{
+    let r = rhs(q, eta, p)?;
+    runtime::finite("η̇", &r.eta_dot)?;
+    runtime::finite("q̇", &r.q_dot)?;
+    Ok(r)
+}}
+
+/// A_Γ and F of A_Γ η̇ = F at (q, η), for callers that solve the linear system themselves.
+pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Vec<Vec<f64>>, Vec<f64>), EvalError> {{
+    let r = full_rhs(q, eta, p)?;
+    Ok((r.a_gamma, r.forcing))
+}}
+
+/// The energy E = ½ηᵀA_Γη − U at (q, η).
+pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {{
+    Ok(full_rhs(q, eta, p)?.energy)
+}}
+
+/// The constraint residual α(q)q̇.
+pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {{
+    let mut out = vec![0.0; LAYOUT.len];
+    ingredients(q, p, &mut out);
+    (0..DIMS.mu)
+        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .collect()
+}}
+
+/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
+pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<Vec<S>, EvalError> {{
+    let eta = &x[KEPT.len()..];
+    let mut last = None;
+    for r in REFERENCE {{
+        let mut q = vec![S::constant(r); DIMS.ell];
+        for (i, &k) in KEPT.iter().enumerate() {{
+            q[k] = x[i];
+        }}
+        match rhs(&q, eta, p) {{
+            Ok(out) => {{
+                let mut v: Vec<S> = KEPT.iter().map(|&k| out.q_dot[k]).collect();
+                v.extend(out.eta_dot);
+                return Ok(v);
+            }}
+            Err(e) => last = Some(e),
+        }}
+    }}
+    Err(last.expect("REFERENCE is not empty"))
+}}
+
+/// The reduced right-hand side in f64, checked.
+pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {{
+    let v = reduced(x, p)?;
+    runtime::finite("the reduced right-hand side", &v)?;
+    Ok(v)
+}}
+
+/// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {{
+    let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
+    let f = reduced(&xd, p)?;
+    let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
+    runtime::finite("the Jacobian", &jac.concat())?;
+    Ok(jac)
+}}
+
+/// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.
+pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {{
+    let r = full_rhs(q, eta, p)?;
+    Ok(ELIMINATED.iter().map(|&k| r.q_dot[k]).collect())
+}}
+"#,
+        model = d.model,
+        eta = d.eta_name,
+        eta_doc = d
+            .eta
+            .iter()
+            .enumerate()
+            .map(|(i, e)| format!("//! * eta{} = {e}\n", i + 1))
+            .collect::<String>(),
+        coords = d.coordinates.join(", "),
+        sigma = d.sigma,
+        ell = d.ell,
+        mu = d.mu,
+        reduced = reduced_state.join(", "),
+        elim = eliminated
+            .iter()
+            .map(|&k| d.coordinates[k].clone())
+            .collect::<Vec<_>>()
+            .join(", "),
+        coord_list = names(&(0..d.ell).collect::<Vec<_>>()),
+        np = eliminated.len(),
+        elim_ix = list(eliminated.iter().map(|k| k.to_string())),
+        nk = kept.len(),
+        kept_ix = list(kept.iter().map(|k| k.to_string())),
+        nr = reduced_state.len(),
+        reduced_list = list(reduced_state.iter().map(|s| format!("{s:?}"))),
+        npar = params.len(),
+        param_names = list(params.iter().map(|s| format!("{s:?}"))),
+        param_fields = d
+            .parameters
+            .keys()
+            .map(|k| format!("    /// `{k}`\n    pub {}: f64,\n", ident(k)))
+            .collect::<String>(),
+        param_defaults = d
+            .parameters
+            .iter()
+            .map(|(k, v)| format!("            {}: {},\n", ident(k), lit(*v)))
+            .collect::<String>(),
+        param_set = d
+            .parameters
+            .keys()
+            .map(|k| format!("            {k:?} => Some(&mut self.{}),\n", ident(k)))
+            .collect::<String>(),
+        body = straight_line(&tape, d.ell, &params),
+    );
+
+    let lib = "//! A numeric core generated by hamel (see `model.rs`). Engine-free: it needs no computer\n\
+               //! algebra at run time.\n\npub mod model;\npub mod runtime;\n\npub use model::*;\n";
+    let cargo = format!(
+        "[package]\nname = \"{}\"\nversion = \"0.1.0\"\nedition = \"2024\"\npublish = false\n\n\
+         [lib]\nname = \"hamel_generated\"\npath = \"src/lib.rs\"\n\n\
+         [dependencies]\nserde = {{ version = \"1\", features = [\"derive\"] }}\nserde_json = \"1\"\n\n\
+         # Standalone: not a member of any enclosing workspace.\n[workspace]\n",
+        format!("hamel-model-{}-{}", d.model, d.eta_name).replace('_', "-")
+    );
+    Ok(Generated {
+        files: vec![
+            ("Cargo.toml".into(), cargo),
+            ("src/lib.rs".into(), lib.into()),
+            ("src/runtime.rs".into(), RUNTIME.into()),
+            ("src/model.rs".into(), m),
+            ("src/bin/eval.rs".into(), EVAL_BIN.into()),
+        ],
+        ops_trees,
+        ops_shared,
+    })
+}
+
+/// The `eval` binary: the same `--state` JSON as `hamel eval`, the same JSON out.
+pub const EVAL_BIN: &str = include_str!("../runtime/eval.rs");

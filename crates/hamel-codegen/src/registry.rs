@@ -1,0 +1,56 @@
+//! The library of `crates/hamel-models`: every generated core as a module, and a table of them.
+
+use std::fmt::Write;
+
+/// One generated core: module name, model, choice.
+pub struct Member {
+    /// Directory under `generated/` (also the module name).
+    pub dir: String,
+    /// Model name.
+    pub model: String,
+    /// Quasi-velocity choice.
+    pub eta: String,
+}
+
+/// The text of `crates/hamel-models/src/lib.rs` for the given members (sorted by the caller).
+pub fn models_lib(members: &[Member]) -> String {
+    let mut o = String::from(
+        "//! The generated numeric cores of every bundled model, compiled together.\n\
+         //!\n\
+         //! **Job**: give tests and benchmarks the generated code of `generated/*` (written by\n\
+         //! `hamel codegen`) with one copy of the runtime, and a table [`MODELS`] to iterate.\n\
+         //! **Inputs**: none at run time; **outputs**: right-hand sides, Jacobians, reconstructions.\n\
+         //! **Invariant**: engine-free (no computer algebra). This file is generated too: regenerate\n\
+         //! with `UPDATE_GENERATED=1 cargo test --release --test codegen`.\n\n\
+         #![allow(non_snake_case)]\n\n\
+         #[path = \"../../hamel-codegen/runtime/runtime.rs\"]\npub mod runtime;\n\n\
+         use runtime::{Dims, Dual, EvalError, Rhs};\n\n",
+    );
+    for m in members {
+        let _ = writeln!(
+            o,
+            "#[rustfmt::skip] // generated text, compared with a fresh generation\n#[path = \"../../../generated/{0}/src/model.rs\"]\npub mod {0};",
+            m.dir
+        );
+    }
+    o.push_str(
+        "\n/// One generated core, at the model's default parameters.\npub struct Core {\n    \
+         /// Model name.\n    pub model: &'static str,\n    /// Quasi-velocity choice.\n    pub eta: &'static str,\n    \
+         /// ℓ, μ, σ.\n    pub dims: Dims,\n    /// Eliminated coordinates.\n    pub eliminated: &'static [usize],\n    \
+         /// Kept coordinates (reduced state: these, then η).\n    pub kept: &'static [usize],\n    \
+         /// Full right-hand side at (q, η).\n    pub full: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,\n    \
+         /// The same over dual numbers (one direction).\n    pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,\n    \
+         /// Reduced right-hand side at x = (kept q, η).\n    pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,\n    \
+         /// Its Jacobian.\n    pub jacobian: fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>,\n    \
+         /// Rates of the eliminated coordinates.\n    pub reconstruction: fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>,\n    \
+         /// α(q)q̇.\n    pub constraint_residual: fn(&[f64], &[f64]) -> Vec<f64>,\n    \
+         /// Operation counts (trees, shared).\n    pub operations: (usize, usize),\n}\n\n\
+         macro_rules! core {\n    ($m:ident, $model:expr, $eta:expr) => {\n        Core {\n            model: $model,\n            eta: $eta,\n            dims: $m::DIMS,\n            eliminated: &$m::ELIMINATED,\n            kept: &$m::KEPT,\n            full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),\n            full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),\n            reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),\n            jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),\n            reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),\n            constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),\n            operations: $m::OPERATIONS,\n        }\n    };\n}\n\n\
+         /// Every generated core.\n#[rustfmt::skip]\npub const MODELS: &[Core] = &[\n",
+    );
+    for m in members {
+        let _ = writeln!(o, "    core!({}, {:?}, {:?}),", m.dir, m.model, m.eta);
+    }
+    o.push_str("];\n");
+    o
+}

@@ -1,0 +1,107 @@
+//! The generated numeric cores of every bundled model, compiled together.
+//!
+//! **Job**: give tests and benchmarks the generated code of `generated/*` (written by
+//! `hamel codegen`) with one copy of the runtime, and a table [`MODELS`] to iterate.
+//! **Inputs**: none at run time; **outputs**: right-hand sides, Jacobians, reconstructions.
+//! **Invariant**: engine-free (no computer algebra). This file is generated too: regenerate
+//! with `UPDATE_GENERATED=1 cargo test --release --test codegen`.
+
+#![allow(non_snake_case)]
+
+#[path = "../../hamel-codegen/runtime/runtime.rs"]
+pub mod runtime;
+
+use runtime::{Dims, Dual, EvalError, Rhs};
+
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/bar_blade__paper/src/model.rs"]
+pub mod bar_blade__paper;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/bar_wheels__paper/src/model.rs"]
+pub mod bar_wheels__paper;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/chaplygin_sleigh__paper_style/src/model.rs"]
+pub mod chaplygin_sleigh__paper_style;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/knife__paper/src/model.rs"]
+pub mod knife__paper;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/remark22__paper/src/model.rs"]
+pub mod remark22__paper;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/rolling_disk__momenta/src/model.rs"]
+pub mod rolling_disk__momenta;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/rolling_disk__velocities/src/model.rs"]
+pub mod rolling_disk__velocities;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/unicycle_rider__momenta/src/model.rs"]
+pub mod unicycle_rider__momenta;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/unicycle_rider__velocities/src/model.rs"]
+pub mod unicycle_rider__velocities;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/vertical_knife__paper/src/model.rs"]
+pub mod vertical_knife__paper;
+
+/// One generated core, at the model's default parameters.
+pub struct Core {
+    /// Model name.
+    pub model: &'static str,
+    /// Quasi-velocity choice.
+    pub eta: &'static str,
+    /// ℓ, μ, σ.
+    pub dims: Dims,
+    /// Eliminated coordinates.
+    pub eliminated: &'static [usize],
+    /// Kept coordinates (reduced state: these, then η).
+    pub kept: &'static [usize],
+    /// Full right-hand side at (q, η).
+    pub full: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,
+    /// The same over dual numbers (one direction).
+    pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,
+    /// Reduced right-hand side at x = (kept q, η).
+    pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,
+    /// Its Jacobian.
+    pub jacobian: fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>,
+    /// Rates of the eliminated coordinates.
+    pub reconstruction: fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>,
+    /// α(q)q̇.
+    pub constraint_residual: fn(&[f64], &[f64]) -> Vec<f64>,
+    /// Operation counts (trees, shared).
+    pub operations: (usize, usize),
+}
+
+macro_rules! core {
+    ($m:ident, $model:expr, $eta:expr) => {
+        Core {
+            model: $model,
+            eta: $eta,
+            dims: $m::DIMS,
+            eliminated: &$m::ELIMINATED,
+            kept: &$m::KEPT,
+            full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),
+            full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),
+            reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),
+            jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),
+            reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),
+            constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),
+            operations: $m::OPERATIONS,
+        }
+    };
+}
+
+/// Every generated core.
+#[rustfmt::skip]
+pub const MODELS: &[Core] = &[
+    core!(bar_blade__paper, "bar_blade", "paper"),
+    core!(bar_wheels__paper, "bar_wheels", "paper"),
+    core!(chaplygin_sleigh__paper_style, "chaplygin_sleigh", "paper_style"),
+    core!(knife__paper, "knife", "paper"),
+    core!(remark22__paper, "remark22", "paper"),
+    core!(rolling_disk__momenta, "rolling_disk", "momenta"),
+    core!(rolling_disk__velocities, "rolling_disk", "velocities"),
+    core!(unicycle_rider__momenta, "unicycle_rider", "momenta"),
+    core!(unicycle_rider__velocities, "unicycle_rider", "velocities"),
+    core!(vertical_knife__paper, "vertical_knife", "paper"),
+];

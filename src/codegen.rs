@@ -1,0 +1,92 @@
+//! `hamel codegen`: a model's equations as a standalone Rust crate (see `hamel-codegen`).
+
+use std::path::Path;
+
+use hamel_model::{Model, ModelError};
+
+/// What was written.
+pub struct Written {
+    pub files: usize,
+    pub ops_trees: usize,
+    pub ops_shared: usize,
+}
+
+/// Derive, check the elimination exactly, generate, and write the crate into `out`.
+pub fn run(
+    model_path: &Path,
+    eta: Option<&str>,
+    eliminate: &[String],
+    out: &Path,
+    force: bool,
+) -> Result<Written, ModelError> {
+    let model = Model::load(model_path)?;
+    let io_err = |what: String| {
+        ModelError::new(
+            &out.display().to_string(),
+            Default::default(),
+            None,
+            None,
+            what,
+        )
+    };
+    if out.exists() {
+        let non_empty = std::fs::read_dir(out)
+            .map_err(|e| io_err(format!("cannot read the directory: {e}")))?
+            .next()
+            .is_some();
+        if non_empty && !force {
+            return Err(io_err(
+                "the output directory is not empty (pass --force to overwrite its generated files)"
+                    .into(),
+            ));
+        }
+    }
+    let choice = model.choice(eta)?.name.clone();
+    let eliminated: Vec<usize> = if eliminate.is_empty() {
+        Vec::new()
+    } else {
+        let r = hamel_reduce::reduce(&model, Some(&choice), eliminate)?;
+        if !r.ground_truth.present.is_empty() || r.reduced_system.is_none() {
+            let why = if let Some(w) = r.ground_truth.occurrences.first() {
+                format!(
+                    "the true equations contain `{}` ({} {:?})",
+                    w.coordinate.clone().unwrap_or_default(),
+                    w.object,
+                    w.index
+                )
+            } else {
+                "the kinematic equations still needed contain an eliminated coordinate".into()
+            };
+            return Err(model.error(format!(
+                "quasi-velocities `{choice}` do not eliminate {}: {why} (see `hamel reduce`)",
+                eliminate.join(", ")
+            )));
+        }
+        hamel_reduce::coordinate_indices(&model, eliminate)?
+    };
+    let d = hamel_derive::derive(&model, Some(&choice))?;
+    let command = format!(
+        "hamel codegen {} --eta {choice}{} --out DIR",
+        model_path.display(),
+        if eliminate.is_empty() {
+            String::new()
+        } else {
+            format!(" --eliminate {}", eliminate.join(","))
+        }
+    );
+    let g = hamel_codegen::generate(&d, &eliminated, &command).map_err(|e| model.error(e))?;
+    for (path, text) in &g.files {
+        let p = out.join(path);
+        if let Some(dir) = p.parent() {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| io_err(format!("cannot create {}: {e}", dir.display())))?;
+        }
+        std::fs::write(&p, text)
+            .map_err(|e| io_err(format!("cannot write {}: {e}", p.display())))?;
+    }
+    Ok(Written {
+        files: g.files.len(),
+        ops_trees: g.ops_trees,
+        ops_shared: g.ops_shared,
+    })
+}

@@ -1,0 +1,39 @@
+//! Shared by the test binaries that need it.
+#![allow(dead_code)] // each test binary uses part of it
+
+/// The coordinates each seed example eliminates in the paper (Remark 3.1 for the vertical knife:
+/// y is removed, θ is not; Remark 2.2: q1 is not).
+pub const ELIMINATE: &[(&str, &str)] = &[
+    ("bar_blade", "x,y,theta"),
+    ("bar_wheels", "x,y,theta,psi1"),
+    ("chaplygin_sleigh", "x,y,theta"),
+    ("knife", "x,y,theta"),
+    ("remark22", "q1"),
+    ("rolling_disk", "xC,yC,phi"),
+    ("unicycle_rider", "xC,yC,phi,psi"),
+    ("vertical_knife", "x,y,theta"),
+];
+
+/// The bundled models, sorted by file name.
+pub fn models() -> Vec<hamel_model::Model> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/models");
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    paths
+        .iter()
+        .map(|p| hamel_model::Model::load(p).unwrap())
+        .collect()
+}
+
+/// The elimination asked for `model` in the paper.
+pub fn eliminate(model: &hamel_model::Model) -> Vec<String> {
+    let (_, p) = ELIMINATE
+        .iter()
+        .find(|(m, _)| *m == model.name)
+        .unwrap_or_else(|| panic!("add the model `{}` to ELIMINATE", model.name));
+    p.split(',').map(str::to_string).collect()
+}

@@ -1,0 +1,161 @@
+//! The generated numeric cores (`crates/hamel-models`, i.e. `generated/*`) against hamel's
+//! structured evaluator and against the Lagrange-multiplier oracle, at random admissible
+//! states: full right-hand side, reduced right-hand side, reconstruction, Jacobian, constraint
+//! residual. The CAS runs in-process (for the structured evaluator's derivation) on its one
+//! worker thread.
+
+mod common;
+
+use hamel_model::NumericModel;
+use hamel_models::MODELS;
+use hamel_models::runtime::Dual;
+use indexmap::IndexMap;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Generated code against the structured evaluator (same algorithm, same precision).
+const TOL_SAME: f64 = 1e-12;
+/// Against the oracle in f64 (as tests/oracle.rs).
+const TOL_ORACLE: f64 = 1e-10;
+/// States where [Z; α] is worse conditioned are skipped (as tests/oracle.rs).
+const MAX_CONDITION: f64 = 1e6;
+
+fn rel_error(a: &[f64], b: &[f64]) -> f64 {
+    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+        / scale
+}
+
+#[test]
+fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
+    let models = common::models();
+    let mut rng = ChaCha8Rng::seed_from_u64(44);
+    for core in MODELS {
+        let model = models.iter().find(|m| m.name == core.model).unwrap();
+        let d = hamel_derive::derive(model, Some(core.eta)).unwrap();
+        let c = d.compile().unwrap();
+        let params: IndexMap<String, f64> = d.parameters.clone();
+        let nm = NumericModel::new(model, &IndexMap::new()).unwrap();
+        let (ell, sigma) = (core.dims.ell, core.dims.sigma);
+        let (mut worst_same, mut worst_oracle, mut worst_reduced, mut worst_jac) =
+            (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
+        let mut states = 0;
+        while states < 30 {
+            let q: Vec<f64> = (0..ell).map(|_| rng.random_range(-3.0..3.0)).collect();
+            let v: Vec<f64> = (0..ell).map(|_| rng.random_range(-2.0..2.0)).collect();
+            if c.condition(&q, &params).unwrap() > MAX_CONDITION {
+                continue;
+            }
+            let qd = hamel_oracle::project(&nm, &q, &v).unwrap();
+            let z = nm.quasi_velocity_matrix::<f64>(core.eta, &q).unwrap();
+            let eta: Vec<f64> = z
+                .iter()
+                .map(|row| row.iter().zip(&qd).map(|(a, b)| a * b).sum())
+                .collect();
+            states += 1;
+
+            // Full right-hand side: generated vs structured evaluator.
+            let g = (core.full)(&q, &eta).unwrap();
+            let s = c.rhs::<f64>(&q, &eta, &params).unwrap();
+            for (a, b) in [
+                (&g.eta_dot, &s.eta_dot),
+                (&g.eta_dot_paper, &s.eta_dot_paper),
+                (&g.q_dot, &s.q_dot),
+            ] {
+                worst_same = worst_same.max(rel_error(a, b));
+            }
+            worst_same = worst_same.max(rel_error(&[g.energy], &[s.energy]));
+            // The constraints hold along q̇ = Γη.
+            let res = (core.constraint_residual)(&q, &g.q_dot);
+            assert!(
+                res.iter().all(|r| r.abs() < 1e-12),
+                "{}: α q̇ = {res:?}",
+                core.model
+            );
+
+            // Against the oracle: q̈ = Γ̇η + Γη̇, Γ̇η by dual numbers along q̇.
+            let qdual: Vec<Dual<1>> = q
+                .iter()
+                .zip(&g.q_dot)
+                .map(|(&x, &dx)| Dual { v: x, d: [dx] })
+                .collect();
+            let edual: Vec<Dual<1>> = eta.iter().map(|&x| Dual { v: x, d: [0.0] }).collect();
+            let gd = (core.full_dual)(&qdual, &edual).unwrap();
+            let g_eta_dot = (core.full)(&q, &g.eta_dot).unwrap();
+            let q_ddot: Vec<f64> = (0..ell)
+                .map(|k| gd.q_dot[k].d[0] + g_eta_dot.q_dot[k])
+                .collect();
+            let oracle = hamel_oracle::accelerations::<f64>(&nm, &q, &g.q_dot).unwrap();
+            worst_oracle = worst_oracle.max(rel_error(&q_ddot, &oracle.q_ddot));
+
+            // Reduced: the kept rates and η̇, with the eliminated coordinates dropped.
+            let x: Vec<f64> = core
+                .kept
+                .iter()
+                .map(|&k| q[k])
+                .chain(eta.iter().copied())
+                .collect();
+            let r = (core.reduced)(&x).unwrap();
+            let expect: Vec<f64> = core
+                .kept
+                .iter()
+                .map(|&k| g.q_dot[k])
+                .chain(g.eta_dot.iter().copied())
+                .collect();
+            worst_reduced = worst_reduced.max(rel_error(&r, &expect));
+            let rec = (core.reconstruction)(&q, &eta).unwrap();
+            let expect: Vec<f64> = core.eliminated.iter().map(|&k| g.q_dot[k]).collect();
+            assert_eq!(rec, expect);
+
+            // Jacobian against central differences.
+            let jac = (core.jacobian)(&x).unwrap();
+            for j in 0..x.len() {
+                let h = 1e-6 * x[j].abs().max(1.0);
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[j] += h;
+                xm[j] -= h;
+                let (fp, fm) = ((core.reduced)(&xp).unwrap(), (core.reduced)(&xm).unwrap());
+                let col: Vec<f64> = (0..x.len()).map(|i| jac[i][j]).collect();
+                let fd: Vec<f64> = fp
+                    .iter()
+                    .zip(&fm)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect();
+                worst_jac = worst_jac.max(rel_error(&col, &fd));
+            }
+        }
+        eprintln!(
+            "{}/{}: σ = {sigma}, {} eliminated; generated vs structured {worst_same:.1e}, vs oracle {worst_oracle:.1e}, reduced vs full {worst_reduced:.1e}, Jacobian vs differences {worst_jac:.1e}",
+            core.model,
+            core.eta,
+            core.eliminated.len()
+        );
+        assert!(
+            worst_same <= TOL_SAME,
+            "{}/{}: {worst_same:e}",
+            core.model,
+            core.eta
+        );
+        assert!(
+            worst_oracle <= TOL_ORACLE,
+            "{}/{}: {worst_oracle:e}",
+            core.model,
+            core.eta
+        );
+        assert!(
+            worst_reduced <= TOL_SAME,
+            "{}/{}: {worst_reduced:e}",
+            core.model,
+            core.eta
+        );
+        assert!(
+            worst_jac <= 1e-6,
+            "{}/{}: {worst_jac:e}",
+            core.model,
+            core.eta
+        );
+    }
+}
