@@ -7,6 +7,7 @@
 
 mod bench;
 mod codegen;
+mod simulate;
 mod output;
 mod state;
 
@@ -55,6 +56,13 @@ enum ProgressMode {
     Always,
     /// Never.
     Never,
+}
+
+/// Output of `hamel simulate`.
+#[derive(Clone, Copy, ValueEnum)]
+enum TrajectoryFormat {
+    Csv,
+    Json,
 }
 
 /// Output of `hamel reduce` and `hamel search`.
@@ -117,6 +125,18 @@ enum Command {
         /// Overwrite the generated files of a non-empty directory.
         #[arg(long)]
         force: bool,
+    },
+    /// Integrate a scene (model, quasi-velocities, parameters, initial state, integrator) and
+    /// write the trajectory; a one-line summary goes to stderr.
+    Simulate {
+        /// The scene file (TOML); its `model` path is relative to it.
+        scene: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "csv")]
+        format: TrajectoryFormat,
+        /// Write the trajectory to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
     },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
@@ -246,6 +266,27 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                 }
             };
             out.write(&text)
+        }
+        Command::Simulate {
+            scene,
+            format,
+            output,
+        } => {
+            let out = Output::new(output)?;
+            let (traj, failure) = simulate::run(&scene)?;
+            let text = match format {
+                TrajectoryFormat::Csv => traj.to_csv(),
+                TrajectoryFormat::Json => {
+                    serde_json::to_string_pretty(&traj).expect("serialisable") + "\n"
+                }
+            };
+            // A failure during the integration keeps what was computed, marked incomplete.
+            out.write(&text)?;
+            eprintln!("{}", traj.summary());
+            match failure {
+                Some(e) => Err(e),
+                None => Ok(()),
+            }
         }
         Command::Codegen {
             model,

@@ -536,3 +536,103 @@ fn codegen_refuses_an_elimination_that_does_not_hold() {
     );
     assert!(!out.exists(), "no partial output");
 }
+
+#[test]
+fn simulate_the_knife_follows_its_closed_form_solution() {
+    let dir = scratch("simulate_knife");
+    let file = dir.join("knife.json");
+    let o = hamel(
+        &[
+            "simulate",
+            "scenes/knife.toml",
+            "--format",
+            "json",
+            "--output",
+            file.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("RHS evaluations, energy drift"), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert_eq!(v["complete"], true);
+    let t = v["t"].as_array().unwrap();
+    assert_eq!(t.len(), 101);
+    // With η = (1, 0.5) constant: θ = 0.3 + t/2, x = 2(sin θ − sin 0.3), y = −2(cos θ − cos 0.3).
+    for (j, tj) in t.iter().enumerate() {
+        let tj = tj.as_f64().unwrap();
+        let th = 0.3 + 0.5 * tj;
+        let at = |c: &str| v["q"][c][j].as_f64().unwrap();
+        assert!((at("theta") - th).abs() < 1e-9);
+        assert!((at("x") - 2.0 * (th.sin() - 0.3f64.sin())).abs() < 1e-9);
+        assert!((at("y") + 2.0 * (th.cos() - 0.3f64.cos())).abs() < 1e-9);
+    }
+    let stats = &v["stats"];
+    assert!(stats["steps"].as_u64().unwrap() > 0);
+    assert!(stats["energy_drift"].as_f64().unwrap() < 1e-12);
+    assert!(stats["constraint_drift"].as_f64().unwrap() < 1e-12);
+}
+
+#[test]
+fn simulate_stops_at_the_singular_set_and_keeps_what_it_computed() {
+    let dir = scratch("simulate_singular");
+    let scene = dir.join("bar.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "model = {:?}\neta = \"paper\"\nt_end = 2.0\noutputs = 21\n\
+             [initial]\nq = {{ x = 0.0, y = 0.0, theta = 0.0, phi = 1.3 }}\neta = [0.5, 1.0]\n",
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("models/bar_blade.toml")
+                .display()
+                .to_string()
+        ),
+    )
+    .unwrap();
+    let csv = dir.join("bar.csv");
+    let o = hamel(
+        &["simulate", scene.to_str().unwrap(), "--output", csv.to_str().unwrap()],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(e.contains("singular"), "{e}");
+    assert!(e.contains("phi = 1.570796"), "{e}");
+    assert!(e.contains("INCOMPLETE"), "{e}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("# incomplete:"), "{text}");
+    // Rows up to the singularity (φ reaches π/2 near t = 0.3): t = 0, 0.1, 0.2.
+    assert_eq!(text.lines().count(), 5, "{text}");
+}
+
+#[test]
+fn simulate_rejects_a_bad_scene_with_the_place_and_reason() {
+    let dir = scratch("simulate_bad");
+    let scene = dir.join("bad.toml");
+    let csv = dir.join("out.csv");
+    for (body, expect) in [
+        (
+            "model = \"../../../../models/knife.toml\"\nt_end = 1\noutputs = 3\n[initial]\nq = { x = 0, y = 0 }\neta = [1, 0]\n",
+            "missing coordinate `theta`",
+        ),
+        (
+            "model = \"../../../../models/knife.toml\"\nt_end = 1\noutputs = 3\n[initial]\nq = { x = 0, y = 0, theta = 0 }\neta = [1, 0]\n[integrator]\nmethod = \"euler\"\n",
+            "unknown method `euler`",
+        ),
+        (
+            "model = \"../../../../models/knife.toml\"\nt_end = 1\noutputs = 3\nspeed = 2\n",
+            "unknown field `speed`",
+        ),
+    ] {
+        std::fs::write(&scene, body).unwrap();
+        let o = hamel(
+            &["simulate", scene.to_str().unwrap(), "--output", csv.to_str().unwrap()],
+            None,
+        );
+        assert_eq!(o.status.code(), Some(1), "{body}");
+        assert!(stderr(&o).contains(expect), "{body}: {}", stderr(&o));
+        assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
+        assert!(!csv.exists(), "no output for a bad scene");
+    }
+}

@@ -381,12 +381,16 @@ impl Compiled {
         Ok(self.gamma_theta(&p).0)
     }
 
-    /// Condition number of [Z; α] at q (∞ when singular).
-    pub fn condition(
+    /// δ = det[Z; α] at q (its sign changes where a path crosses the singular set).
+    pub fn delta(&self, q: &[f64], params: &IndexMap<String, f64>) -> Result<f64, NumericError> {
+        Ok(self.m_matrix(q, params)?.determinant())
+    }
+
+    fn m_matrix(
         &self,
         q: &[f64],
         params: &IndexMap<String, f64>,
-    ) -> Result<f64, NumericError> {
+    ) -> Result<DMatrix<f64>, NumericError> {
         let mut inputs: Vec<f64> = q.to_vec();
         inputs.extend(param_inputs::<f64>(&self.parameters, params));
         let out = self
@@ -395,13 +399,22 @@ impl Compiled {
             .map_err(|e| NumericError(e.to_string()))?;
         let z = block(&out, self.layout.z, self.sigma, self.ell);
         let alpha = block(&out, self.layout.alpha, self.mu, self.ell);
-        let m = DMatrix::from_fn(self.ell, self.ell, |i, j| {
+        Ok(DMatrix::from_fn(self.ell, self.ell, |i, j| {
             if i < self.sigma {
                 z[i][j]
             } else {
                 alpha[i - self.sigma][j]
             }
-        });
+        }))
+    }
+
+    /// Condition number of [Z; α] at q (∞ when singular).
+    pub fn condition(
+        &self,
+        q: &[f64],
+        params: &IndexMap<String, f64>,
+    ) -> Result<f64, NumericError> {
+        let m = self.m_matrix(q, params)?;
         let sv = m.singular_values();
         let (max, min) = (sv.max(), sv.min());
         Ok(if min == 0.0 { f64::INFINITY } else { max / min })
