@@ -135,7 +135,11 @@ impl System<'_> {
                 .iter()
                 .zip(q)
                 .map(|(n, v)| format!("{n} = {v:.6}"))
-                .chain(eta.iter().enumerate().map(|(i, v)| format!("eta{} = {v:.6}", i + 1)))
+                .chain(
+                    eta.iter()
+                        .enumerate()
+                        .map(|(i, v)| format!("eta{} = {v:.6}", i + 1)),
+                )
                 .collect();
             SystemError::new(format!("{e} (state {})", at.join(", ")))
         })
@@ -155,19 +159,53 @@ impl OdeSystem for System<'_> {
     fn energy(&self, t: f64, y: &[f64]) -> Option<f64> {
         self.at(t, y).ok().map(|e| e.energy)
     }
+    /// Exact Jacobian: the structured right-hand side over dual numbers, one column per
+    /// state component (used by the implicit Gauss–Legendre method).
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
+        use hamel_expr::Dual;
+        let n = y.len();
+        for j in 0..n {
+            let yd: Vec<Dual> = y
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| Dual::new(v, if i == j { 1.0 } else { 0.0 }))
+                .collect();
+            let (q, eta) = yd.split_at(self.ell);
+            let r = match self.compiled.rhs::<Dual>(q, eta, &self.params) {
+                Ok(r) => r,
+                Err(e) => return Some(Err(SystemError::new(format!("at t = {t}: {e}")))),
+            };
+            for (i, v) in r.q_dot.iter().chain(&r.eta_dot).enumerate() {
+                if !v.d.is_finite() {
+                    return Some(Err(SystemError::new(format!(
+                        "at t = {t}: the Jacobian is not finite"
+                    ))));
+                }
+                jac[i * n + j] = v.d;
+            }
+        }
+        Some(Ok(()))
+    }
 }
 
 /// Run the scene; returns the trajectory (possibly incomplete) and, on failure, the error.
 pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelError> {
     let name = scene_path.display().to_string();
     let text = std::fs::read_to_string(scene_path).map_err(|e| {
-        ModelError::new(&name, Arc::new(String::new()), None, None, format!("cannot read the scene: {e}"))
+        ModelError::new(
+            &name,
+            Arc::new(String::new()),
+            None,
+            None,
+            format!("cannot read the scene: {e}"),
+        )
     })?;
     let source = Arc::new(text.clone());
     let err = |span: Option<std::ops::Range<usize>>, key: Option<&str>, m: String| {
         ModelError::new(&name, source.clone(), span, key, m)
     };
-    let scene: Scene = toml::from_str(&text).map_err(|e| err(e.span(), None, e.message().to_string()))?;
+    let scene: Scene =
+        toml::from_str(&text).map_err(|e| err(e.span(), None, e.message().to_string()))?;
     let model_path = scene_path
         .parent()
         .unwrap_or(Path::new("."))
@@ -183,37 +221,59 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
         .map_err(|e| err(None, Some("parameters"), e.to_string()))?;
     let mut y0 = Vec::new();
     for c in &d.coordinates {
-        y0.push(*scene.initial.q.get(c).ok_or_else(|| {
-            err(None, Some("initial.q"), format!("missing coordinate `{c}`"))
-        })?);
+        y0.push(
+            *scene
+                .initial
+                .q
+                .get(c)
+                .ok_or_else(|| err(None, Some("initial.q"), format!("missing coordinate `{c}`")))?,
+        );
     }
     if let Some(extra) = scene.initial.q.keys().find(|k| !d.coordinates.contains(k)) {
-        return Err(err(None, Some("initial.q"), format!("`{extra}` is not a coordinate of the model")));
+        return Err(err(
+            None,
+            Some("initial.q"),
+            format!("`{extra}` is not a coordinate of the model"),
+        ));
     }
     if scene.initial.eta.len() != d.sigma {
         return Err(err(
             None,
             Some("initial.eta"),
-            format!("needs σ = {} values, found {}", d.sigma, scene.initial.eta.len()),
+            format!(
+                "needs σ = {} values, found {}",
+                d.sigma,
+                scene.initial.eta.len()
+            ),
         ));
     }
     y0.extend(&scene.initial.eta);
     if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
-        return Err(err(None, Some("t_end"), "t_end must be finite and differ from t0".into()));
+        return Err(err(
+            None,
+            Some("t_end"),
+            "t_end must be finite and differ from t0".into(),
+        ));
     }
     let times: Vec<f64> = match &scene.outputs {
         Outputs::Count(n) if *n >= 2 => (0..*n)
             .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
             .collect(),
         Outputs::Count(n) => {
-            return Err(err(None, Some("outputs"), format!("needs at least 2 output times, got {n}")));
+            return Err(err(
+                None,
+                Some("outputs"),
+                format!("needs at least 2 output times, got {n}"),
+            ));
         }
         Outputs::Times(t) => t.clone(),
     };
     let i = &scene.integrator;
     let method = match i.method.as_str() {
         "rk4" => Method::Rk4 {
-            step: i.step.ok_or_else(|| err(None, Some("integrator.step"), "rk4 needs a step".into()))?,
+            step: i
+                .step
+                .ok_or_else(|| err(None, Some("integrator.step"), "rk4 needs a step".into()))?,
         },
         "dopri5" => Method::Dopri5,
         "dop853" => Method::Dop853,
@@ -271,8 +331,7 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
         eta_name: d.eta_name.clone(),
         method: i.method.clone(),
         t: solution.t.clone(),
-        q: d
-            .coordinates
+        q: d.coordinates
             .iter()
             .enumerate()
             .map(|(k, c)| (c.clone(), solution.y.iter().map(|y| y[k]).collect()))
@@ -305,7 +364,8 @@ impl Trajectory {
             s.rejected,
             s.rhs_evals,
             s.energy_drift.map_or("n/a".into(), |x| format!("{x:.2e}")),
-            s.constraint_drift.map_or("n/a".into(), |x| format!("{x:.2e}")),
+            s.constraint_drift
+                .map_or("n/a".into(), |x| format!("{x:.2e}")),
             if self.complete { "" } else { "; INCOMPLETE" }
         )
     }
