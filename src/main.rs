@@ -7,8 +7,8 @@
 
 mod bench;
 mod codegen;
-mod simulate;
 mod output;
+mod simulate;
 mod state;
 
 use std::path::PathBuf;

@@ -553,7 +553,11 @@ fn simulate_the_knife_follows_its_closed_form_solution() {
         None,
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("RHS evaluations, energy drift"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("RHS evaluations, energy drift"),
+        "{}",
+        stderr(&o)
+    );
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
     assert_eq!(v["complete"], true);
@@ -592,7 +596,12 @@ fn simulate_stops_at_the_singular_set_and_keeps_what_it_computed() {
     .unwrap();
     let csv = dir.join("bar.csv");
     let o = hamel(
-        &["simulate", scene.to_str().unwrap(), "--output", csv.to_str().unwrap()],
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--output",
+            csv.to_str().unwrap(),
+        ],
         None,
     );
     assert_eq!(o.status.code(), Some(1));
@@ -627,7 +636,12 @@ fn simulate_rejects_a_bad_scene_with_the_place_and_reason() {
     ] {
         std::fs::write(&scene, body).unwrap();
         let o = hamel(
-            &["simulate", scene.to_str().unwrap(), "--output", csv.to_str().unwrap()],
+            &[
+                "simulate",
+                scene.to_str().unwrap(),
+                "--output",
+                csv.to_str().unwrap(),
+            ],
             None,
         );
         assert_eq!(o.status.code(), Some(1), "{body}");
