@@ -265,38 +265,45 @@ impl Layout {
     }
 }
 
-/// LU factors with partial pivoting of a small dense matrix.
-pub struct Lu<S> {
-    lu: Vec<Vec<S>>,
-    perm: Vec<usize>,
+/// LU factors with partial pivoting of an L×L matrix, on the stack.
+pub struct Lu<S, const L: usize> {
+    lu: [[S; L]; L],
+    perm: [usize; L],
 }
 
-impl<S: Scalar> Lu<S> {
+impl<S: Scalar, const L: usize> Lu<S, L> {
     /// Factor `m`; `None` when a pivot is zero or below 1e-14 of the largest entry.
-    pub fn new(mut m: Vec<Vec<S>>) -> Option<Lu<S>> {
-        let n = m.len();
-        let scale = m
-            .iter()
-            .flatten()
-            .map(|x| x.value().abs())
-            .fold(0.0, f64::max);
+    pub fn new(mut m: [[S; L]; L]) -> Option<Self> {
+        let mut scale = 0.0_f64;
+        for row in &m {
+            for x in row {
+                scale = scale.max(x.value().abs());
+            }
+        }
         if scale == 0.0 || !scale.is_finite() {
             return None;
         }
-        let mut perm: Vec<usize> = (0..n).collect();
-        for k in 0..n {
-            let p = (k..n)
-                .max_by(|&i, &j| m[i][k].value().abs().total_cmp(&m[j][k].value().abs()))
-                .expect("nonempty");
+        let mut perm = [0usize; L];
+        for (i, p) in perm.iter_mut().enumerate() {
+            *p = i;
+        }
+        for k in 0..L {
+            let mut p = k;
+            for i in k + 1..L {
+                if m[i][k].value().abs() > m[p][k].value().abs() {
+                    p = i;
+                }
+            }
             if m[p][k].value().abs() <= 1e-14 * scale {
                 return None;
             }
             m.swap(k, p);
             perm.swap(k, p);
-            for i in k + 1..n {
-                let f = m[i][k] / m[k][k];
+            let pivot = m[k][k];
+            for i in k + 1..L {
+                let f = m[i][k] / pivot;
                 m[i][k] = f;
-                for j in k + 1..n {
+                for j in k + 1..L {
                     let t = m[k][j];
                     m[i][j] = m[i][j] - f * t;
                 }
@@ -306,22 +313,41 @@ impl<S: Scalar> Lu<S> {
     }
 
     /// Solve M x = b.
-    pub fn solve(&self, b: &[S]) -> Vec<S> {
-        let n = self.lu.len();
-        let mut x: Vec<S> = self.perm.iter().map(|&i| b[i]).collect();
-        for i in 0..n {
+    pub fn solve(&self, b: &[S; L]) -> [S; L] {
+        let mut x = [b[0]; L];
+        for i in 0..L {
+            x[i] = b[self.perm[i]];
+        }
+        for i in 0..L {
             for j in 0..i {
                 x[i] = x[i] - self.lu[i][j] * x[j];
             }
         }
-        for i in (0..n).rev() {
-            for j in i + 1..n {
+        for i in (0..L).rev() {
+            for j in i + 1..L {
                 x[i] = x[i] - self.lu[i][j] * x[j];
             }
             x[i] = x[i] / self.lu[i][i];
         }
         x
     }
+}
+
+/// The right-hand side at one state, in fixed-size arrays (L coordinates, G = σ).
+#[derive(Clone, Copy, Debug)]
+pub struct Fixed<S, const L: usize, const G: usize> {
+    /// η̇ from the true equations (11).
+    pub eta_dot: [S; G],
+    /// η̇ from the paper's equations (equal to `eta_dot` when not asked for).
+    pub eta_dot_paper: [S; G],
+    /// q̇ = Γη.
+    pub q_dot: [S; L],
+    /// A_Γ = ΓᵀAΓ.
+    pub a_gamma: [[S; G]; G],
+    /// F, the right side of A_Γ η̇ = F (true equations).
+    pub forcing: [S; G],
+    /// E = ½ q̇ᵀAq̇ − U.
+    pub energy: S,
 }
 
 /// The right-hand side at one state.
@@ -341,113 +367,158 @@ pub struct Rhs<S> {
     pub energy: S,
 }
 
-fn block<S: Copy>(out: &[S], at: usize, rows: usize, cols: usize) -> Vec<Vec<S>> {
-    (0..rows)
-        .map(|i| out[at + i * cols..at + (i + 1) * cols].to_vec())
-        .collect()
+impl<S: Copy, const L: usize, const G: usize> From<Fixed<S, L, G>> for Rhs<S> {
+    fn from(f: Fixed<S, L, G>) -> Self {
+        Rhs {
+            eta_dot: f.eta_dot.to_vec(),
+            eta_dot_paper: f.eta_dot_paper.to_vec(),
+            q_dot: f.q_dot.to_vec(),
+            a_gamma: f.a_gamma.iter().map(|r| r.to_vec()).collect(),
+            forcing: f.forcing.to_vec(),
+            energy: f.energy,
+        }
+    }
 }
 
-fn dot<S: Scalar>(a: &[S], b: &[S]) -> S {
-    a.iter()
-        .zip(b)
-        .fold(S::constant(0.0), |acc, (x, y)| acc + *x * *y)
-}
-
-fn mat_vec<S: Scalar>(m: &[Vec<S>], v: &[S]) -> Vec<S> {
-    m.iter().map(|r| dot(r, v)).collect()
-}
-
-fn t_mat_vec<S: Scalar>(m: &[Vec<S>], v: &[S], cols: usize) -> Vec<S> {
-    (0..cols)
-        .map(|j| {
-            m.iter()
-                .zip(v)
-                .fold(S::constant(0.0), |acc, (r, b)| acc + r[j] * *b)
-        })
-        .collect()
-}
-
-/// The structured right-hand side from the ingredients `out` (see [`Layout`]) at η.
-pub fn structured<S: Scalar>(d: Dims, out: &[S], eta: &[S]) -> Result<Rhs<S>, EvalError> {
-    let (ell, mu, sigma) = (d.ell, d.mu, d.sigma);
-    let l = Layout::new(d);
-    let z = block(out, l.z, sigma, ell);
-    let alpha = block(out, l.alpha, mu, ell);
-    let a = block(out, l.a, ell, ell);
-    let m: Vec<Vec<S>> = z.into_iter().chain(alpha).collect();
+/// The structured right-hand side from the ingredients `out` (see [`Layout`]) at η, with no
+/// allocation: L = ℓ, M = μ, G = σ (L = M + G). `paper`: also the paper's η̇ (needs Θ).
+pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
+    out: &[S],
+    eta: &[S],
+    paper: bool,
+) -> Result<Fixed<S, L, G>, EvalError> {
+    let l = Layout::new(Dims {
+        ell: L,
+        mu: M,
+        sigma: G,
+    });
+    let zero = S::constant(0.0);
+    // M = [Z; α], row-major blocks of `out`.
+    let mut m = [[zero; L]; L];
+    for (i, row) in m.iter_mut().enumerate() {
+        let at = if i < G {
+            l.z + i * L
+        } else {
+            l.alpha + (i - G) * L
+        };
+        row.copy_from_slice(&out[at..at + L]);
+    }
     let lu = Lu::new(m).ok_or_else(|| {
         EvalError("the quasi-velocity map is singular here: det[Z; α] ≈ 0".into())
     })?;
-    // [Γ Θ] = M⁻¹, column by column.
-    let mut inv = vec![vec![S::constant(0.0); ell]; ell];
-    for j in 0..ell {
-        let e: Vec<S> = (0..ell)
-            .map(|i| S::constant(if i == j { 1.0 } else { 0.0 }))
-            .collect();
-        for (i, x) in lu.solve(&e).into_iter().enumerate() {
-            inv[i][j] = x;
+    let a = |i: usize, j: usize| out[l.a + i * L + j];
+    // Γ (L×G): columns 0..G of M⁻¹; q̇ = Γη (6).
+    let mut gamma = [[zero; G]; L];
+    for s in 0..G {
+        let mut e = [zero; L];
+        e[s] = S::constant(1.0);
+        let col = lu.solve(&e);
+        for i in 0..L {
+            gamma[i][s] = col[i];
         }
     }
-    let gamma: Vec<Vec<S>> = inv.iter().map(|r| r[..sigma].to_vec()).collect();
-    let theta: Vec<Vec<S>> = inv.iter().map(|r| r[sigma..].to_vec()).collect();
-    // (6)
-    let qd = mat_vec(&gamma, eta);
-    let zero = S::constant(0.0);
-    let mut mdot_qd = vec![zero; ell];
-    let mut adot_qd = vec![zero; ell];
-    let mut grad_t = vec![zero; ell];
-    for k in 0..ell {
-        let dz = block(out, l.dz + k * sigma * ell, sigma, ell);
-        let dalpha = block(out, l.dalpha + k * mu * ell, mu, ell);
-        let dm: Vec<Vec<S>> = dz.into_iter().chain(dalpha).collect();
-        let da = block(out, l.da + k * ell * ell, ell, ell);
-        let dmq = mat_vec(&dm, &qd);
-        let daq = mat_vec(&da, &qd);
-        for i in 0..ell {
-            mdot_qd[i] = mdot_qd[i] + dmq[i] * qd[k];
-            adot_qd[i] = adot_qd[i] + daq[i] * qd[k];
+    let mut qd = [zero; L];
+    for i in 0..L {
+        for s in 0..G {
+            qd[i] = qd[i] + gamma[i][s] * eta[s];
         }
-        grad_t[k] = dot(&qd, &daq) * S::constant(0.5);
+    }
+    // Ṁq̇ = Σ_k ∂M/∂q_k q̇ q̇_k, Ȧq̇, and ∇_q T = ½ q̇ᵀ ∂A/∂q_k q̇.
+    let mut mdot_qd = [zero; L];
+    let mut adot_qd = [zero; L];
+    let mut grad_t = [zero; L];
+    for k in 0..L {
+        let mut gt = zero;
+        for i in 0..L {
+            let dm_row = if i < G {
+                l.dz + k * G * L + i * L
+            } else {
+                l.dalpha + k * M * L + (i - G) * L
+            };
+            let mut dmq = zero;
+            let mut daq = zero;
+            for j in 0..L {
+                dmq = dmq + out[dm_row + j] * qd[j];
+                daq = daq + out[l.da + k * L * L + i * L + j] * qd[j];
+            }
+            mdot_qd[i] = mdot_qd[i] + dmq * qd[k];
+            adot_qd[i] = adot_qd[i] + daq * qd[k];
+            gt = gt + qd[i] * daq;
+        }
+        grad_t[k] = gt * S::constant(0.5);
     }
     // Γ̇η = −M⁻¹Ṁq̇
-    let gdot_eta: Vec<S> = lu.solve(&mdot_qd).into_iter().map(|x| -x).collect();
-    let a_gdot = mat_vec(&a, &gdot_eta);
-    let force: Vec<S> = (0..ell)
-        .map(|i| out[l.grad_u + i] + grad_t[i] - adot_qd[i] - a_gdot[i])
-        .collect();
-    let forcing = t_mat_vec(&gamma, &force, sigma);
-    let a_gamma: Vec<Vec<S>> = (0..sigma)
-        .map(|r| {
-            let col: Vec<S> = gamma.iter().map(|g| g[r]).collect();
-            t_mat_vec(&gamma, &mat_vec(&a, &col), sigma)
-        })
-        .collect();
-    // The paper's form: + Σ_m ν_m Γᵀ V_m q̇, (V_m q̇)_h = Σ_k (∂α_mh/∂q_k − ∂α_mk/∂q_h) q̇_k.
-    let aq = mat_vec(&a, &qd);
-    let nu = t_mat_vec(&theta, &aq, mu);
-    let dalpha = |k: usize, m_: usize, h: usize| out[l.dalpha + k * mu * ell + m_ * ell + h];
-    let mut paper = forcing.clone();
-    for (m_, nu_m) in nu.iter().enumerate() {
-        let w: Vec<S> = (0..ell)
-            .map(|h| {
-                (0..ell).fold(zero, |acc, k| {
-                    acc + (dalpha(k, m_, h) - dalpha(h, m_, k)) * qd[k]
-                })
-            })
-            .collect();
-        for (i, g) in t_mat_vec(&gamma, &w, sigma).into_iter().enumerate() {
-            paper[i] = paper[i] + *nu_m * g;
+    let gdot_eta = lu.solve(&mdot_qd);
+    let mut aq = [zero; L];
+    let mut force = [zero; L];
+    for i in 0..L {
+        let mut a_gdot = zero;
+        for j in 0..L {
+            a_gdot = a_gdot - a(i, j) * gdot_eta[j];
+            aq[i] = aq[i] + a(i, j) * qd[j];
+        }
+        force[i] = out[l.grad_u + i] + grad_t[i] - adot_qd[i] - a_gdot;
+    }
+    let mut forcing = [zero; G];
+    let mut a_gamma = [[zero; G]; G];
+    for r in 0..G {
+        let mut ag = [zero; L]; // A Γ e_r
+        for i in 0..L {
+            for j in 0..L {
+                ag[i] = ag[i] + a(i, j) * gamma[j][r];
+            }
+        }
+        for s in 0..G {
+            let mut x = zero;
+            for i in 0..L {
+                x = x + gamma[i][s] * ag[i];
+            }
+            a_gamma[s][r] = x;
+        }
+        for i in 0..L {
+            forcing[r] = forcing[r] + gamma[i][r] * force[i];
         }
     }
-    let ag = Lu::new(a_gamma.clone()).ok_or_else(|| EvalError("A_Γ is singular here".into()))?;
-    let energy = dot(&aq, &qd) * S::constant(0.5) - out[l.u];
-    Ok(Rhs {
-        eta_dot: ag.solve(&forcing),
-        eta_dot_paper: ag.solve(&paper),
+    let ag = Lu::new(a_gamma).ok_or_else(|| EvalError("A_Γ is singular here".into()))?;
+    let eta_dot = ag.solve(&forcing);
+    // The paper's form: + Σ_m ν_m Γᵀ V_m q̇, ν = ΘᵀAq̇ with Θ the last M columns of M⁻¹,
+    // (V_m q̇)_h = Σ_k (∂α_mh/∂q_k − ∂α_mk/∂q_h) q̇_k.
+    let eta_dot_paper = if paper && M > 0 {
+        let dalpha = |k: usize, m_: usize, h: usize| out[l.dalpha + k * M * L + m_ * L + h];
+        let mut rhs = forcing;
+        for m_ in 0..M {
+            let mut e = [zero; L];
+            e[G + m_] = S::constant(1.0);
+            let theta = lu.solve(&e);
+            let mut nu = zero;
+            for i in 0..L {
+                nu = nu + theta[i] * aq[i];
+            }
+            for h in 0..L {
+                let mut w = zero;
+                for k in 0..L {
+                    w = w + (dalpha(k, m_, h) - dalpha(h, m_, k)) * qd[k];
+                }
+                for r in 0..G {
+                    rhs[r] = rhs[r] + nu * gamma[h][r] * w;
+                }
+            }
+        }
+        ag.solve(&rhs)
+    } else {
+        eta_dot
+    };
+    let mut energy = zero;
+    for i in 0..L {
+        energy = energy + aq[i] * qd[i];
+    }
+    Ok(Fixed {
+        eta_dot,
+        eta_dot_paper,
         q_dot: qd,
         a_gamma,
         forcing,
-        energy,
+        energy: energy * S::constant(0.5) - out[l.u],
     })
 }
 

@@ -62,6 +62,10 @@ pub struct Core {
     pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,
     /// Reduced right-hand side at x = (kept q, η).
     pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,
+    /// The same into a slice, without allocation.
+    pub reduced_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,
+    /// d(q, η)/dt into a slice, without allocation (η̇ true form only).
+    pub full_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,
     /// Its Jacobian.
     pub jacobian: fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>,
     /// Rates of the eliminated coordinates.
@@ -83,6 +87,8 @@ macro_rules! core {
             full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),
             full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),
             reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),
+            reduced_into: |x, dx| $m::reduced_into(x, dx, &$m::Parameters::default()),
+            full_into: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),
             jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),
             reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),
             constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),

@@ -22,7 +22,7 @@
 
 #![allow(clippy::all, unused_variables, unused_parens)]
 
-use crate::runtime::{self, Dims, Dual, EvalError, Layout, Rhs, Scalar};
+use crate::runtime::{self, Dims, Dual, EvalError, Fixed, Layout, Rhs, Scalar};
 
 /// Model name.
 pub const MODEL: &str = "unicycle_rider";
@@ -32,6 +32,11 @@ pub const ETA: &str = "momenta";
 pub const DIMS: Dims = Dims { ell: 6, mu: 2, sigma: 4 };
 /// Where each ingredient sits in the output of [`ingredients`].
 pub const LAYOUT: Layout = Layout::new(DIMS);
+/// Number of ingredients.
+pub const LEN: usize = LAYOUT.len;
+const ELL: usize = 6;
+const MU: usize = 2;
+const SIGMA: usize = 4;
 /// Coordinates, in state order.
 pub const COORDINATES: [&str; 6] = ["xC", "yC", "phi", "psi", "theta", "theta1"];
 /// Indices of the eliminated coordinates.
@@ -783,11 +788,25 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[510] = t71;
 }
 
+/// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
+/// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
+pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {
+    let mut out = [S::constant(0.0); LEN];
+    ingredients(q, p, &mut out);
+    runtime::structured::<S, ELL, MU, SIGMA>(&out, eta, paper)
+}
+
 /// The full right-hand side at (q, η): η̇ (true and paper's), q̇ = Γη, A_Γ, F, energy.
 pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, EvalError> {
-    let mut out = vec![S::constant(0.0); LAYOUT.len];
-    ingredients(q, p, &mut out);
-    runtime::structured(DIMS, &out, eta)
+    rhs_fixed(q, eta, p, true).map(Rhs::from)
+}
+
+/// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
+    let r = rhs_fixed(&y[..ELL], &y[ELL..], p, false)?;
+    dy[..ELL].copy_from_slice(&r.q_dot);
+    dy[ELL..].copy_from_slice(&r.eta_dot);
+    runtime::finite("the right-hand side", dy)
 }
 
 /// The full right-hand side in f64, checked: errors instead of non-finite values.
@@ -811,7 +830,7 @@ pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> 
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = vec![0.0; LAYOUT.len];
+    let mut out = [0.0; LEN];
     ingredients(q, p, &mut out);
     (0..DIMS.mu)
         .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
@@ -819,18 +838,21 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
-pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<Vec<S>, EvalError> {
+pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
     let eta = &x[KEPT.len()..];
     let mut last = None;
     for r in REFERENCE {
-        let mut q = vec![S::constant(r); DIMS.ell];
+        let mut q = [S::constant(r); ELL];
         for (i, &k) in KEPT.iter().enumerate() {
             q[k] = x[i];
         }
-        match rhs(&q, eta, p) {
+        match rhs_fixed(&q, eta, p, false) {
             Ok(out) => {
-                let mut v: Vec<S> = KEPT.iter().map(|&k| out.q_dot[k]).collect();
-                v.extend(out.eta_dot);
+                let mut v = [S::constant(0.0); REDUCED_DIM];
+                for (i, &k) in KEPT.iter().enumerate() {
+                    v[i] = out.q_dot[k];
+                }
+                v[KEPT.len()..].copy_from_slice(&out.eta_dot);
                 return Ok(v);
             }
             Err(e) => last = Some(e),
@@ -839,9 +861,15 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<Vec<S>, EvalError> 
     Err(last.expect("REFERENCE is not empty"))
 }
 
+/// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced(x, p)?);
+    runtime::finite("the reduced right-hand side", dx)
+}
+
 /// The reduced right-hand side in f64, checked.
 pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
-    let v = reduced(x, p)?;
+    let v = reduced(x, p)?.to_vec();
     runtime::finite("the reduced right-hand side", &v)?;
     Ok(v)
 }

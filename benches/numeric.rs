@@ -1,0 +1,205 @@
+//! Numeric benchmarks (criterion): `cargo bench --bench numeric`.
+//!
+//! * `rhs/<model>/<eta>/{generated,interpreted}`: one evaluation of the right-hand side
+//!   (q̇, η̇) at a fixed admissible state, by the generated code (`crates/hamel-models`,
+//!   `full_into`: no allocation, the paper's form not computed) and by the structured evaluator
+//!   it is generated from (`hamel_derive::Compiled::rhs`, a tape interpreter that also computes
+//!   the paper's form and the energy); and, for the
+//!   knife, the 3.2 bar and the unicycle with rider, by hand-written code (`hamel-handwritten`:
+//!   η̇ and q̇ only, the practical limit).
+//! * `simulate/<model>/{full,reduced}`: 100 s with DOP853 at rtol = atol = 1e-10, the full state
+//!   (q, η) against the reduced one (kept q, η), both with the generated code.
+//!
+//! The CAS runs only in the setup (one derivation per model, on its worker thread).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use hamel_models::MODELS;
+use hamel_sim::{Method, OdeSystem, Options, SystemError};
+use indexmap::IndexMap;
+use std::hint::black_box;
+
+fn models_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models")
+}
+
+/// A fixed admissible state: q = 0.3, 0.7, 1.1, …; η = 0.4, −0.3, 0.2, …
+fn state(ell: usize, sigma: usize) -> (Vec<f64>, Vec<f64>) {
+    let q = (0..ell).map(|i| 0.3 + 0.4 * i as f64).collect();
+    let eta = (0..sigma)
+        .map(|i| 0.4 * if i % 2 == 0 { 1.0 } else { -0.75 } / (1 + i / 2) as f64)
+        .collect();
+    (q, eta)
+}
+
+fn rhs(c: &mut Criterion) {
+    let mut group = c.benchmark_group("rhs");
+    for core in MODELS {
+        let model = hamel_model::Model::load(models_dir().join(format!("{}.toml", core.model)))
+            .expect("bundled model");
+        let d = hamel_derive::derive(&model, Some(core.eta)).expect("derivation");
+        let compiled = d.compile().expect("compiles");
+        let params: IndexMap<String, f64> = d.parameters.clone();
+        let (q, eta) = state(core.dims.ell, core.dims.sigma);
+        if (core.full)(&q, &eta).is_err() {
+            continue;
+        }
+        let id = format!("{}/{}", core.model, core.eta);
+        let y: Vec<f64> = q.iter().chain(&eta).copied().collect();
+        let mut dy = vec![0.0; y.len()];
+        group.bench_function(format!("{id}/generated"), |b| {
+            b.iter(|| (core.full_into)(black_box(&y), &mut dy).unwrap())
+        });
+        group.bench_function(format!("{id}/interpreted"), |b| {
+            b.iter(|| {
+                compiled
+                    .rhs::<f64>(black_box(&q), black_box(&eta), &params)
+                    .unwrap()
+            })
+        });
+        let (qa, ea) = (q.clone(), eta.clone());
+        match (core.model, core.eta) {
+            ("knife", "paper") => {
+                use hamel_handwritten::knife::{Params, rhs};
+                let (q, e): ([f64; 3], [f64; 2]) = (qa.try_into().unwrap(), ea.try_into().unwrap());
+                let p = Params::default();
+                group.bench_function(format!("{id}/handwritten"), |b| {
+                    b.iter(|| rhs(black_box(&q), black_box(&e), &p))
+                });
+            }
+            ("bar_blade", "paper") => {
+                use hamel_handwritten::bar_blade::{Params, rhs};
+                let (q, e): ([f64; 4], [f64; 2]) = (qa.try_into().unwrap(), ea.try_into().unwrap());
+                let p = Params::default();
+                group.bench_function(format!("{id}/handwritten"), |b| {
+                    b.iter(|| rhs(black_box(&q), black_box(&e), &p))
+                });
+            }
+            ("unicycle_rider", "velocities") => {
+                use hamel_handwritten::unicycle_rider::{Params, rhs};
+                let (q, e): ([f64; 6], [f64; 4]) = (qa.try_into().unwrap(), ea.try_into().unwrap());
+                let p = Params::default();
+                group.bench_function(format!("{id}/handwritten"), |b| {
+                    b.iter(|| rhs(black_box(&q), black_box(&e), &p))
+                });
+            }
+            _ => {}
+        }
+    }
+    group.finish();
+}
+
+struct Full(&'static hamel_models::Core);
+struct Reduced(&'static hamel_models::Core);
+
+impl OdeSystem for Full {
+    fn dim(&self) -> usize {
+        self.0.dims.ell + self.0.dims.sigma
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+        (self.0.full_into)(y, dy).map_err(|e| SystemError::new(e.0))
+    }
+}
+
+impl OdeSystem for Reduced {
+    fn dim(&self) -> usize {
+        self.0.kept.len() + self.0.dims.sigma
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+        (self.0.reduced_into)(y, dy).map_err(|e| SystemError::new(e.0))
+    }
+}
+
+fn simulate(c: &mut Criterion) {
+    let mut group = c.benchmark_group("simulate");
+    group.sample_size(10);
+    let options = Options {
+        rtol: 1e-10,
+        atol: 1e-10,
+        max_steps: 10_000_000,
+        ..Options::default()
+    };
+    // The 3.3 cart (bar_wheels) and the unicycle with rider, 100 s.
+    for (model, eta, q0, eta0) in [
+        (
+            "bar_wheels",
+            "paper",
+            vec![0.0, 0.0, 0.3, 0.0, 0.4],
+            vec![1.0, 0.5],
+        ),
+        (
+            "unicycle_rider",
+            "velocities",
+            vec![0.0, 0.0, 0.0, 0.0, 0.05, 0.02],
+            vec![0.2, 4.0, 0.0, 0.0],
+        ),
+    ] {
+        let core = MODELS
+            .iter()
+            .find(|c| c.model == model && c.eta == eta)
+            .expect("generated core");
+        let y_full: Vec<f64> = q0.iter().chain(&eta0).copied().collect();
+        let y_red: Vec<f64> = core
+            .kept
+            .iter()
+            .map(|&k| q0[k])
+            .chain(eta0.iter().copied())
+            .collect();
+        let times = [100.0];
+        // Both runs must reach t = 100 (a failure is not timed), and agree on η at the end.
+        let full =
+            hamel_sim::integrate(&Full(core), Method::Dop853, 0.0, &y_full, &times, &options)
+                .unwrap_or_else(|e| panic!("{model}: full run failed: {e}"));
+        let red = hamel_sim::integrate(
+            &Reduced(core),
+            Method::Dop853,
+            0.0,
+            &y_red,
+            &times,
+            &options,
+        )
+        .unwrap_or_else(|e| panic!("{model}: reduced run failed: {e}"));
+        let (ef, er) = (&full.y[0][core.dims.ell..], &red.y[0][core.kept.len()..]);
+        eprintln!(
+            "{model}: full {} RHS evaluations, reduced {}; η(100) differs by {:.1e}",
+            full.stats.rhs_evals,
+            red.stats.rhs_evals,
+            ef.iter()
+                .zip(er)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+        );
+        group.bench_function(format!("{model}/full"), |b| {
+            b.iter(|| {
+                hamel_sim::integrate(&Full(core), Method::Dop853, 0.0, &y_full, &times, &options)
+                    .expect("checked above")
+                    .stats
+                    .rhs_evals
+            })
+        });
+        group.bench_function(format!("{model}/reduced"), |b| {
+            b.iter(|| {
+                hamel_sim::integrate(
+                    &Reduced(core),
+                    Method::Dop853,
+                    0.0,
+                    &y_red,
+                    &times,
+                    &options,
+                )
+                .expect("checked above")
+                .stats
+                .rhs_evals
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .warm_up_time(std::time::Duration::from_millis(500))
+        .measurement_time(std::time::Duration::from_secs(2));
+    targets = rhs, simulate
+}
+criterion_main!(benches);
