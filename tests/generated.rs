@@ -68,6 +68,12 @@ fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
                 worst_same = worst_same.max(rel_error(a, b));
             }
             worst_same = worst_same.max(rel_error(&[g.energy], &[s.energy]));
+            // The fast path (closed form or structured, as chosen at generation) agrees too.
+            let y: Vec<f64> = q.iter().chain(&eta).copied().collect();
+            let mut dy = vec![0.0; y.len()];
+            (core.full_into)(&y, &mut dy).unwrap();
+            worst_same = worst_same.max(rel_error(&dy[..ell], &g.q_dot));
+            worst_same = worst_same.max(rel_error(&dy[ell..], &g.eta_dot));
             // The constraints hold along q̇ = Γη.
             let res = (core.constraint_residual)(&q, &g.q_dot);
             assert!(

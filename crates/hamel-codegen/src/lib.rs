@@ -43,6 +43,98 @@ pub struct Generated {
     pub ops_shared: usize,
 }
 
+/// Which path the generated `fast` takes, and why.
+struct PathChoice {
+    closed: bool,
+    doc: String,
+}
+
+/// States at which the two paths are compared: a fixed pseudo-random sequence (deterministic).
+fn sample_states(ell: usize, sigma: usize, n: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..n)
+        .map(|_| {
+            let q = (0..ell).map(|_| -3.0 + 6.0 * next()).collect();
+            let eta = (0..sigma).map(|_| -2.0 + 4.0 * next()).collect();
+            (q, eta)
+        })
+        .collect()
+}
+
+/// The closed form is used when it is not more expensive than the structured path (its shared
+/// operation count at most twice the ingredients') and agrees with the structured evaluation
+/// to 1e-12 (max |Δ| / max(1, max |·|) over η̇ and q̇) at 200 sample states with [Z; α]
+/// well conditioned. Its expanded forms can cancel badly in floating point (derivation.md §4),
+/// hence the check; the decision only selects a code path, exactness is not at stake.
+fn choose_path(d: &Derivation, ingredients: &Tape, cf: &Tape) -> Result<PathChoice, String> {
+    let (ops_s, ops_c) = (ingredients.operation_count(), cf.operation_count());
+    if ops_c > 2 * ops_s {
+        return Ok(PathChoice {
+            closed: false,
+            doc: format!(
+                "structured: the closed form has {ops_c} operations, more than twice the ingredients' {ops_s}."
+            ),
+        });
+    }
+    let compiled = d.compile().map_err(|e| e.to_string())?;
+    let params = d.parameters.clone();
+    let (ell, sigma) = (d.ell, d.sigma);
+    let mut worst = 0.0_f64;
+    let mut used = 0;
+    for (q, eta) in sample_states(ell, sigma, 400) {
+        if used == 200 {
+            break;
+        }
+        if compiled.condition(&q, &params).map_or(true, |c| c > 1e6) {
+            continue;
+        }
+        let Ok(s) = compiled.rhs::<f64>(&q, &eta, &params) else {
+            continue;
+        };
+        let inputs: Vec<f64> = q.iter().copied().chain(params.values().copied()).collect();
+        let Ok(out) = cf.eval::<f64>(&inputs) else {
+            continue;
+        };
+        let runtime::Closed { eta_dot, q_dot } = match runtime::closed_dyn(&out, &eta, ell, sigma) {
+            Some(c) => c,
+            None => continue,
+        };
+        let scale = s
+            .eta_dot
+            .iter()
+            .chain(&s.q_dot)
+            .fold(1.0_f64, |m, x| m.max(x.abs()));
+        let err = eta_dot
+            .iter()
+            .zip(&s.eta_dot)
+            .chain(q_dot.iter().zip(&s.q_dot))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+            / scale;
+        worst = worst.max(err);
+        used += 1;
+    }
+    let closed = used >= 100 && worst <= 1e-12;
+    Ok(PathChoice {
+        closed,
+        doc: format!(
+            "{}: {ops_c} operations against the ingredients' {ops_s}; at {used} sample states the closed form deviates from the structured evaluation by at most {worst:.1e}{}.",
+            if closed { "closed form" } else { "structured" },
+            if closed {
+                ""
+            } else {
+                " (above 1e-12, or too few states)"
+            }
+        ),
+    })
+}
+
 /// Operations in a tree, nothing shared (an n-ary sum or product counts n − 1).
 pub fn tree_operations(e: &Expr) -> usize {
     match e {
@@ -82,6 +174,19 @@ fn ingredient_exprs(d: &Derivation) -> Result<Vec<&Expr>, String> {
         push_mat(&mut v, m);
     }
     Ok(v)
+}
+
+/// The closed-form path: Γ (ℓ×σ), A_Γ (σ×σ), Γᵀ∇U (σ) and the true Q⁽ⁱ⁾ (σ blocks σ×σ), from
+/// the derivation's canonical forms, so that η̇ = A_Γ⁻¹(Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s).
+fn closed_form_exprs(d: &Derivation) -> Vec<&Expr> {
+    let mut v = Vec::new();
+    push_mat(&mut v, &d.gamma);
+    push_mat(&mut v, &d.a_gamma);
+    v.extend(d.forcing.iter().map(|e| &e.expr));
+    for m in &d.q {
+        push_mat(&mut v, m);
+    }
+    v
 }
 
 fn ident(name: &str) -> String {
@@ -166,6 +271,10 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
     let ops_trees: usize = exprs.iter().map(|e| tree_operations(e)).sum();
     let ops_shared = tape.operation_count();
     let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
+    let cf_exprs = closed_form_exprs(d);
+    let cf_tape = Tape::compile(&cf_exprs, &inputs)?;
+    let cf_ops = cf_tape.operation_count();
+    let choice = choose_path(d, &tape, &cf_tape)?;
     let names = |ix: &[usize]| list(ix.iter().map(|&k| format!("{:?}", d.coordinates[k])));
     let reduced_state: Vec<String> = kept
         .iter()
@@ -186,7 +295,10 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
 //! Quasi-velocities η = Z(q)q̇:
 {eta_doc}//!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): {ops_trees} arithmetic operations as
-//! separate trees, {ops_shared} with common subexpressions shared.
+//! separate trees, {ops_shared} with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
+//! Q⁽ⁱ⁾): {cf_ops} shared operations.
+//!
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): {path_doc}
 //!
 //! **States.** Full: q = ({coords}) and η = (eta1..eta{sigma}).
 //! Reduced (state vector `x`): ({reduced}); eliminated: ({elim}), reconstructed from
@@ -225,6 +337,10 @@ pub const REDUCED_DIM: usize = {nr};
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = ({ops_trees}, {ops_shared});
+/// Whether [`fast`] uses the closed form (else the structured path).
+pub const CLOSED_FORM: bool = {closed};
+/// Number of closed-form outputs.
+pub const CF_LEN: usize = {cf_len};
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -275,11 +391,27 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }}
 
+/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
+pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {{
+{cf_body}}}
+
+/// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
+    if CLOSED_FORM {{
+        let mut out = [S::constant(0.0); CF_LEN];
+        closed_form(q, p, &mut out);
+        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    }} else {{
+        let r = rhs_fixed(q, eta, p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }}
+}}
+
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {{
-    let r = rhs_fixed(&y[..ELL], &y[ELL..], p, false)?;
-    dy[..ELL].copy_from_slice(&r.q_dot);
-    dy[ELL..].copy_from_slice(&r.eta_dot);
+    let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
     runtime::finite("the right-hand side", dy)
 }}
 
@@ -320,13 +452,13 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
         for (i, &k) in KEPT.iter().enumerate() {{
             q[k] = x[i];
         }}
-        match rhs_fixed(&q, eta, p, false) {{
-            Ok(out) => {{
+        match fast(&q, eta, p) {{
+            Ok((eta_dot, q_dot)) => {{
                 let mut v = [S::constant(0.0); REDUCED_DIM];
                 for (i, &k) in KEPT.iter().enumerate() {{
-                    v[i] = out.q_dot[k];
+                    v[i] = q_dot[k];
                 }}
-                v[KEPT.len()..].copy_from_slice(&out.eta_dot);
+                v[KEPT.len()..].copy_from_slice(&eta_dot);
                 return Ok(v);
             }}
             Err(e) => last = Some(e),
@@ -406,6 +538,10 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
             .map(|k| format!("            {k:?} => Some(&mut self.{}),\n", ident(k)))
             .collect::<String>(),
         body = straight_line(&tape, d.ell, &params),
+        cf_body = straight_line(&cf_tape, d.ell, &params),
+        cf_len = cf_tape.outputs().len(),
+        closed = choice.closed,
+        path_doc = choice.doc,
     );
 
     let lib = "//! A numeric core generated by hamel (see `model.rs`). Engine-free: it needs no computer\n\

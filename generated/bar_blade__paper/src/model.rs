@@ -10,7 +10,10 @@
 //! * eta2 = der(phi)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 135 arithmetic operations as
-//! separate trees, 46 with common subexpressions shared.
+//! separate trees, 46 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
+//! Q⁽ⁱ⁾): 53 shared operations.
+//!
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 53 operations against the ingredients' 46; at 200 sample states the closed form deviates from the structured evaluation by at most 3.4e-14.
 //!
 //! **States.** Full: q = (x, y, theta, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from
@@ -49,6 +52,10 @@ pub const REDUCED_DIM: usize = 3;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (135, 46);
+/// Whether [`fast`] uses the closed form (else the structured path).
+pub const CLOSED_FORM: bool = true;
+/// Number of closed-form outputs.
+pub const CF_LEN: usize = 22;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -326,11 +333,92 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
+/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
+pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = q[2];
+    let t1 = t0.cos();
+    let t2 = S::constant(0.0);
+    let t3 = t0.sin();
+    let t4 = q[3];
+    let t5 = t4.sin();
+    let t6 = t4.cos();
+    let t7 = S::constant(p.l_r);
+    let t8 = t6 * t7;
+    let t9 = t5 / t8;
+    let t10 = S::constant(1.0);
+    let t11 = S::constant(8.0);
+    let t12 = t6.powi(2);
+    let t13 = S::constant(p.m_r);
+    let t14 = t7.powi(2);
+    let t15 = t11 * t12 * t13 * t14;
+    let t16 = S::constant(p.m_f);
+    let t17 = S::constant(p.l_f);
+    let t18 = t17.powi(2);
+    let t19 = t12 * t16 * t18;
+    let t20 = -t19;
+    let t21 = S::constant(4.0);
+    let t22 = t13 * t14 * t21;
+    let t23 = S::constant(12.0);
+    let t24 = t14 * t16 * t23;
+    let t25 = t16 * t18;
+    let t26 = t15 + t20 + t22 + t24 + t25;
+    let t27 = t12 * t14 * t23;
+    let t28 = t26 / t27;
+    let t29 = t5 * t16 * t18;
+    let t30 = t6 * t7 * t23;
+    let t31 = t29 / t30;
+    let t32 = S::constant(0.08333333333333333);
+    let t33 = t16 * t18 * t32;
+    let t34 = t5 * t13 * t14 * t21;
+    let t35 = t5 * t14 * t16 * t23;
+    let t36 = t29 + t34 + t35;
+    let t37 = S::constant(24.0);
+    let t38 = t6.powi(3);
+    let t39 = t14 * t37 * t38;
+    let t40 = t36 / t39;
+    let t41 = t7 * t12 * t37;
+    let t42 = t25 / t41;
+    out[0] = t1;
+    out[1] = t2;
+    out[2] = t3;
+    out[3] = t2;
+    out[4] = t9;
+    out[5] = t2;
+    out[6] = t2;
+    out[7] = t10;
+    out[8] = t28;
+    out[9] = t31;
+    out[10] = t31;
+    out[11] = t33;
+    out[12] = t2;
+    out[13] = t2;
+    out[14] = t2;
+    out[15] = t40;
+    out[16] = t40;
+    out[17] = t2;
+    out[18] = t2;
+    out[19] = t42;
+    out[20] = t42;
+    out[21] = t2;
+}
+
+/// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if CLOSED_FORM {
+        let mut out = [S::constant(0.0); CF_LEN];
+        closed_form(q, p, &mut out);
+        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    } else {
+        let r = rhs_fixed(q, eta, p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
-    let r = rhs_fixed(&y[..ELL], &y[ELL..], p, false)?;
-    dy[..ELL].copy_from_slice(&r.q_dot);
-    dy[ELL..].copy_from_slice(&r.eta_dot);
+    let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
     runtime::finite("the right-hand side", dy)
 }
 
@@ -371,13 +459,13 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
         for (i, &k) in KEPT.iter().enumerate() {
             q[k] = x[i];
         }
-        match rhs_fixed(&q, eta, p, false) {
-            Ok(out) => {
+        match fast(&q, eta, p) {
+            Ok((eta_dot, q_dot)) => {
                 let mut v = [S::constant(0.0); REDUCED_DIM];
                 for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = out.q_dot[k];
+                    v[i] = q_dot[k];
                 }
-                v[KEPT.len()..].copy_from_slice(&out.eta_dot);
+                v[KEPT.len()..].copy_from_slice(&eta_dot);
                 return Ok(v);
             }
             Err(e) => last = Some(e),

@@ -10,7 +10,10 @@
 //! * eta2 = der(phi)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 114 arithmetic operations as
-//! separate trees, 50 with common subexpressions shared.
+//! separate trees, 50 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
+//! Q⁽ⁱ⁾): 80 shared operations.
+//!
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 80 operations against the ingredients' 50; at 200 sample states the closed form deviates from the structured evaluation by at most 3.8e-14.
 //!
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
@@ -49,6 +52,10 @@ pub const REDUCED_DIM: usize = 3;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (114, 50);
+/// Whether [`fast`] uses the closed form (else the structured path).
+pub const CLOSED_FORM: bool = true;
+/// Number of closed-form outputs.
+pub const CF_LEN: usize = 24;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -481,11 +488,109 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
+/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
+pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = q[2];
+    let t1 = t0.cos();
+    let t2 = S::constant(0.0);
+    let t3 = t0.sin();
+    let t4 = q[4];
+    let t5 = t4.sin();
+    let t6 = t4.cos();
+    let t7 = S::constant(p.l_r);
+    let t8 = t6 * t7;
+    let t9 = t5 / t8;
+    let t10 = S::constant(p.a);
+    let t11 = t5 * t10;
+    let t12 = -t8;
+    let t13 = t11 + t12;
+    let t14 = S::constant(p.R);
+    let t15 = t6 * t7 * t14;
+    let t16 = t13 / t15;
+    let t17 = S::constant(1.0);
+    let t18 = S::constant(6.0);
+    let t19 = t6.powi(2);
+    let t20 = S::constant(p.m_w);
+    let t21 = t14.powi(2);
+    let t22 = t18 * t19 * t20 * t21;
+    let t23 = -t22;
+    let t24 = S::constant(36.0);
+    let t25 = t10.powi(2);
+    let t26 = t19 * t20 * t24 * t25;
+    let t27 = -t26;
+    let t28 = t7.powi(2);
+    let t29 = t19 * t20 * t24 * t28;
+    let t30 = S::constant(p.m_f);
+    let t31 = S::constant(p.l_f);
+    let t32 = t31.powi(2);
+    let t33 = t19 * t30 * t32;
+    let t34 = -t33;
+    let t35 = t18 * t20 * t21;
+    let t36 = t20 * t24 * t25;
+    let t37 = S::constant(12.0);
+    let t38 = t28 * t30 * t37;
+    let t39 = t30 * t32;
+    let t40 = t23 + t27 + t29 + t34 + t35 + t36 + t38 + t39;
+    let t41 = t19 * t28 * t37;
+    let t42 = t40 / t41;
+    let t43 = t5 * t30 * t32;
+    let t44 = t6 * t7 * t37;
+    let t45 = t43 / t44;
+    let t46 = S::constant(0.08333333333333333);
+    let t47 = t30 * t32 * t46;
+    let t48 = t5 * t18 * t20 * t21;
+    let t49 = t5 * t20 * t24 * t25;
+    let t50 = t5 * t28 * t30 * t37;
+    let t51 = t43 + t48 + t49 + t50;
+    let t52 = S::constant(24.0);
+    let t53 = t6.powi(3);
+    let t54 = t28 * t52 * t53;
+    let t55 = t51 / t54;
+    let t56 = t7 * t19 * t52;
+    let t57 = t39 / t56;
+    out[0] = t1;
+    out[1] = t2;
+    out[2] = t3;
+    out[3] = t2;
+    out[4] = t9;
+    out[5] = t2;
+    out[6] = t16;
+    out[7] = t2;
+    out[8] = t2;
+    out[9] = t17;
+    out[10] = t42;
+    out[11] = t45;
+    out[12] = t45;
+    out[13] = t47;
+    out[14] = t2;
+    out[15] = t2;
+    out[16] = t2;
+    out[17] = t55;
+    out[18] = t55;
+    out[19] = t2;
+    out[20] = t2;
+    out[21] = t57;
+    out[22] = t57;
+    out[23] = t2;
+}
+
+/// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if CLOSED_FORM {
+        let mut out = [S::constant(0.0); CF_LEN];
+        closed_form(q, p, &mut out);
+        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    } else {
+        let r = rhs_fixed(q, eta, p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
-    let r = rhs_fixed(&y[..ELL], &y[ELL..], p, false)?;
-    dy[..ELL].copy_from_slice(&r.q_dot);
-    dy[ELL..].copy_from_slice(&r.eta_dot);
+    let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
     runtime::finite("the right-hand side", dy)
 }
 
@@ -526,13 +631,13 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
         for (i, &k) in KEPT.iter().enumerate() {
             q[k] = x[i];
         }
-        match rhs_fixed(&q, eta, p, false) {
-            Ok(out) => {
+        match fast(&q, eta, p) {
+            Ok((eta_dot, q_dot)) => {
                 let mut v = [S::constant(0.0); REDUCED_DIM];
                 for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = out.q_dot[k];
+                    v[i] = q_dot[k];
                 }
-                v[KEPT.len()..].copy_from_slice(&out.eta_dot);
+                v[KEPT.len()..].copy_from_slice(&eta_dot);
                 return Ok(v);
             }
             Err(e) => last = Some(e),

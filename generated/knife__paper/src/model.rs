@@ -10,7 +10,10 @@
 //! * eta2 = der(theta)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 13 arithmetic operations as
-//! separate trees, 8 with common subexpressions shared.
+//! separate trees, 8 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
+//! Q⁽ⁱ⁾): 6 shared operations.
+//!
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 6 operations against the ingredients' 8; at 200 sample states the closed form deviates from the structured evaluation by at most 3.5e-16.
 //!
 //! **States.** Full: q = (x, y, theta) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (eta1, eta2); eliminated: (x, y, theta), reconstructed from
@@ -49,6 +52,10 @@ pub const REDUCED_DIM: usize = 2;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (13, 8);
+/// Whether [`fast`] uses the closed form (else the structured path).
+pub const CLOSED_FORM: bool = true;
+/// Number of closed-form outputs.
+pub const CF_LEN: usize = 20;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -195,11 +202,57 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
+/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
+pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = q[2];
+    let t1 = t0.cos();
+    let t2 = S::constant(0.0);
+    let t3 = t0.sin();
+    let t4 = S::constant(1.0);
+    let t5 = S::constant(p.m);
+    let t6 = S::constant(0.08333333333333333);
+    let t7 = S::constant(p.l);
+    let t8 = t7.powi(2);
+    let t9 = t5 * t6 * t8;
+    out[0] = t1;
+    out[1] = t2;
+    out[2] = t3;
+    out[3] = t2;
+    out[4] = t2;
+    out[5] = t4;
+    out[6] = t5;
+    out[7] = t2;
+    out[8] = t2;
+    out[9] = t9;
+    out[10] = t2;
+    out[11] = t2;
+    out[12] = t2;
+    out[13] = t2;
+    out[14] = t2;
+    out[15] = t2;
+    out[16] = t2;
+    out[17] = t2;
+    out[18] = t2;
+    out[19] = t2;
+}
+
+/// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if CLOSED_FORM {
+        let mut out = [S::constant(0.0); CF_LEN];
+        closed_form(q, p, &mut out);
+        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    } else {
+        let r = rhs_fixed(q, eta, p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
-    let r = rhs_fixed(&y[..ELL], &y[ELL..], p, false)?;
-    dy[..ELL].copy_from_slice(&r.q_dot);
-    dy[ELL..].copy_from_slice(&r.eta_dot);
+    let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
     runtime::finite("the right-hand side", dy)
 }
 
@@ -240,13 +293,13 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
         for (i, &k) in KEPT.iter().enumerate() {
             q[k] = x[i];
         }
-        match rhs_fixed(&q, eta, p, false) {
-            Ok(out) => {
+        match fast(&q, eta, p) {
+            Ok((eta_dot, q_dot)) => {
                 let mut v = [S::constant(0.0); REDUCED_DIM];
                 for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = out.q_dot[k];
+                    v[i] = q_dot[k];
                 }
-                v[KEPT.len()..].copy_from_slice(&out.eta_dot);
+                v[KEPT.len()..].copy_from_slice(&eta_dot);
                 return Ok(v);
             }
             Err(e) => last = Some(e),

@@ -10,7 +10,10 @@
 //! * eta2 = sqrt(1 + q1^2 + q3^2)*der(q2)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 75 arithmetic operations as
-//! separate trees, 26 with common subexpressions shared.
+//! separate trees, 26 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
+//! Q⁽ⁱ⁾): 32 shared operations.
+//!
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 32 operations against the ingredients' 26; at 200 sample states the closed form deviates from the structured evaluation by at most 4.7e-16.
 //!
 //! **States.** Full: q = (q1, q2, q3) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (q1, q2, q3, eta1, eta2); eliminated: (), reconstructed from
@@ -49,6 +52,10 @@ pub const REDUCED_DIM: usize = 5;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (75, 26);
+/// Whether [`fast`] uses the closed form (else the structured path).
+pub const CLOSED_FORM: bool = true;
+/// Number of closed-form outputs.
+pub const CF_LEN: usize = 20;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -201,11 +208,76 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
+/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
+pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(1.0);
+    let t1 = q[1];
+    let t2 = t1.powi(2);
+    let t3 = q[2];
+    let t4 = t3.powi(2);
+    let t5 = t0 + t2 + t4;
+    let t6 = t5.sqrt();
+    let t7 = t0 / t6;
+    let t8 = S::constant(0.0);
+    let t9 = q[0];
+    let t10 = t9.powi(2);
+    let t11 = t0 + t4 + t10;
+    let t12 = t11.sqrt();
+    let t13 = t0 / t12;
+    let t14 = t6.powi(2);
+    let t15 = t5 / t14;
+    let t16 = t12.powi(2);
+    let t17 = t11 / t16;
+    let t18 = S::constant(2.0);
+    let t19 = t12 * t14 * t18;
+    let t20 = t1 / t19;
+    let t21 = -t9;
+    let t22 = t6 * t16;
+    let t23 = t21 / t22;
+    let t24 = -t1;
+    let t25 = t12 * t14;
+    let t26 = t24 / t25;
+    let t27 = t6 * t16 * t18;
+    let t28 = t9 / t27;
+    out[0] = t7;
+    out[1] = t8;
+    out[2] = t8;
+    out[3] = t13;
+    out[4] = t8;
+    out[5] = t8;
+    out[6] = t15;
+    out[7] = t8;
+    out[8] = t8;
+    out[9] = t17;
+    out[10] = t8;
+    out[11] = t8;
+    out[12] = t8;
+    out[13] = t20;
+    out[14] = t20;
+    out[15] = t23;
+    out[16] = t26;
+    out[17] = t28;
+    out[18] = t28;
+    out[19] = t8;
+}
+
+/// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if CLOSED_FORM {
+        let mut out = [S::constant(0.0); CF_LEN];
+        closed_form(q, p, &mut out);
+        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    } else {
+        let r = rhs_fixed(q, eta, p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
-    let r = rhs_fixed(&y[..ELL], &y[ELL..], p, false)?;
-    dy[..ELL].copy_from_slice(&r.q_dot);
-    dy[ELL..].copy_from_slice(&r.eta_dot);
+    let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
     runtime::finite("the right-hand side", dy)
 }
 
@@ -246,13 +318,13 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
         for (i, &k) in KEPT.iter().enumerate() {
             q[k] = x[i];
         }
-        match rhs_fixed(&q, eta, p, false) {
-            Ok(out) => {
+        match fast(&q, eta, p) {
+            Ok((eta_dot, q_dot)) => {
                 let mut v = [S::constant(0.0); REDUCED_DIM];
                 for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = out.q_dot[k];
+                    v[i] = q_dot[k];
                 }
-                v[KEPT.len()..].copy_from_slice(&out.eta_dot);
+                v[KEPT.len()..].copy_from_slice(&eta_dot);
                 return Ok(v);
             }
             Err(e) => last = Some(e),

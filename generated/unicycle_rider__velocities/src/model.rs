@@ -12,7 +12,10 @@
 //! * eta4 = der(theta1)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 1221 arithmetic operations as
-//! separate trees, 339 with common subexpressions shared.
+//! separate trees, 339 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
+//! Q⁽ⁱ⁾): 262 shared operations.
+//!
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 262 operations against the ingredients' 339; at 200 sample states the closed form deviates from the structured evaluation by at most 9.6e-14.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta, theta1) and η = (eta1..eta4).
 //! Reduced (state vector `x`): (theta, theta1, eta1, eta2, eta3, eta4); eliminated: (xC, yC, phi, psi), reconstructed from
@@ -51,6 +54,10 @@ pub const REDUCED_DIM: usize = 6;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (1221, 339);
+/// Whether [`fast`] uses the closed form (else the structured path).
+pub const CLOSED_FORM: bool = true;
+/// Number of closed-form outputs.
+pub const CF_LEN: usize = 108;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -801,11 +808,263 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
+/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
+pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(0.0);
+    let t1 = q[2];
+    let t2 = t1.cos();
+    let t3 = S::constant(p.R);
+    let t4 = t2 * t3;
+    let t5 = t1.sin();
+    let t6 = t3 * t5;
+    let t7 = S::constant(1.0);
+    let t8 = S::constant(2.0);
+    let t9 = q[4];
+    let t10 = t9.sin();
+    let t11 = q[5];
+    let t12 = t11.sin();
+    let t13 = S::constant(p.rho1);
+    let t14 = S::constant(p.m_r);
+    let t15 = S::constant(p.rho);
+    let t16 = t8 * t10 * t12 * t13 * t14 * t15;
+    let t17 = S::constant(p.rho2);
+    let t18 = t8 * t10 * t12 * t14 * t15 * t17;
+    let t19 = S::constant(1.25);
+    let t20 = t9.cos();
+    let t21 = t20.powi(2);
+    let t22 = t3.powi(2);
+    let t23 = S::constant(p.m_d);
+    let t24 = t19 * t21 * t22 * t23;
+    let t25 = -t24;
+    let t26 = S::constant(p.m_f);
+    let t27 = t13.powi(2);
+    let t28 = t21 * t26 * t27;
+    let t29 = -t28;
+    let t30 = t14 * t21 * t27;
+    let t31 = -t30;
+    let t32 = t8 * t13 * t14 * t17 * t21;
+    let t33 = -t32;
+    let t34 = t17.powi(2);
+    let t35 = t14 * t21 * t34;
+    let t36 = -t35;
+    let t37 = t11.cos();
+    let t38 = t37.powi(2);
+    let t39 = t15.powi(2);
+    let t40 = t14 * t38 * t39;
+    let t41 = -t40;
+    let t42 = S::constant(1.5);
+    let t43 = t22 * t23 * t42;
+    let t44 = t26 * t27;
+    let t45 = t14 * t27;
+    let t46 = t8 * t13 * t14 * t17;
+    let t47 = t14 * t34;
+    let t48 = t14 * t39;
+    let t49 = t16 + t18 + t25 + t29 + t31 + t33 + t36 + t41 + t43 + t44 + t45 + t46 + t47 + t48;
+    let t50 = t10 * t22 * t23 * t42;
+    let t51 = -t50;
+    let t52 = t3 * t10 * t13 * t26;
+    let t53 = -t52;
+    let t54 = t3 * t10 * t13 * t14;
+    let t55 = -t54;
+    let t56 = t3 * t10 * t14 * t17;
+    let t57 = -t56;
+    let t58 = t3 * t12 * t14 * t15;
+    let t59 = -t58;
+    let t60 = t51 + t53 + t55 + t57 + t59;
+    let t61 = t22 * t26;
+    let t62 = t14 * t22;
+    let t63 = t43 + t61 + t62;
+    let t64 = t19 * t22 * t23;
+    let t65 = t44 + t45 + t46 + t47 + t64;
+    let t66 = t10 * t12 * t13 * t14 * t15;
+    let t67 = -t66;
+    let t68 = t10 * t12 * t14 * t15 * t17;
+    let t69 = -t68;
+    let t70 = t13 * t14 * t15 * t20 * t37;
+    let t71 = t14 * t15 * t17 * t20 * t37;
+    let t72 = t67 + t69 + t70 + t71;
+    let t73 = S::constant(p.g);
+    let t74 = t3 * t10 * t23 * t73;
+    let t75 = t10 * t13 * t26 * t73;
+    let t76 = t10 * t13 * t14 * t73;
+    let t77 = t10 * t14 * t17 * t73;
+    let t78 = t74 + t75 + t76 + t77;
+    let t79 = t12 * t14 * t15 * t73;
+    let t80 = -t79;
+    let t81 = t10 * t19 * t20 * t22 * t23;
+    let t82 = t10 * t20 * t26 * t27;
+    let t83 = t10 * t14 * t20 * t27;
+    let t84 = t8 * t10 * t13 * t14 * t17 * t20;
+    let t85 = t10 * t14 * t20 * t34;
+    let t86 = t12 * t13 * t14 * t15 * t20;
+    let t87 = t12 * t14 * t15 * t17 * t20;
+    let t88 = t81 + t82 + t83 + t84 + t85 + t86 + t87;
+    let t89 = t10 * t13 * t14 * t15 * t37;
+    let t90 = t10 * t14 * t15 * t17 * t37;
+    let t91 = t12 * t14 * t37 * t39;
+    let t92 = t89 + t90 + t91;
+    let t93 = S::constant(0.25);
+    let t94 = t20 * t22 * t23 * t93;
+    let t95 = -t94;
+    let t96 = t19 * t20 * t22 * t23;
+    let t97 = -t96;
+    let t98 = t3 * t13 * t20 * t26;
+    let t99 = -t98;
+    let t100 = t3 * t13 * t14 * t20;
+    let t101 = -t100;
+    let t102 = t3 * t14 * t17 * t20;
+    let t103 = -t102;
+    let t104 = t97 + t99 + t101 + t103;
+    let t105 = t3 * t14 * t15 * t37;
+    let t106 = -t105;
+    let t107 = -t81;
+    let t108 = -t82;
+    let t109 = -t83;
+    let t110 = -t84;
+    let t111 = -t85;
+    let t112 = -t86;
+    let t113 = -t87;
+    let t114 = t107 + t108 + t109 + t110 + t111 + t112 + t113;
+    let t115 = S::constant(0.75);
+    let t116 = t20 * t22 * t23 * t115;
+    let t117 = S::constant(0.5);
+    let t118 = t3 * t13 * t20 * t26 * t117;
+    let t119 = t3 * t13 * t14 * t20 * t117;
+    let t120 = t3 * t14 * t17 * t20 * t117;
+    let t121 = t116 + t118 + t119 + t120;
+    let t122 = -t89;
+    let t123 = -t90;
+    let t124 = t112 + t113 + t122 + t123;
+    let t125 = -t91;
+    let t126 = t122 + t123 + t125;
+    let t127 = t3 * t14 * t15 * t37 * t117;
+    out[0] = t0;
+    out[1] = t4;
+    out[2] = t0;
+    out[3] = t0;
+    out[4] = t0;
+    out[5] = t6;
+    out[6] = t0;
+    out[7] = t0;
+    out[8] = t7;
+    out[9] = t0;
+    out[10] = t0;
+    out[11] = t0;
+    out[12] = t0;
+    out[13] = t7;
+    out[14] = t0;
+    out[15] = t0;
+    out[16] = t0;
+    out[17] = t0;
+    out[18] = t7;
+    out[19] = t0;
+    out[20] = t0;
+    out[21] = t0;
+    out[22] = t0;
+    out[23] = t7;
+    out[24] = t49;
+    out[25] = t60;
+    out[26] = t0;
+    out[27] = t0;
+    out[28] = t60;
+    out[29] = t63;
+    out[30] = t0;
+    out[31] = t0;
+    out[32] = t0;
+    out[33] = t0;
+    out[34] = t65;
+    out[35] = t72;
+    out[36] = t0;
+    out[37] = t0;
+    out[38] = t72;
+    out[39] = t48;
+    out[40] = t0;
+    out[41] = t0;
+    out[42] = t78;
+    out[43] = t80;
+    out[44] = t0;
+    out[45] = t0;
+    out[46] = t88;
+    out[47] = t92;
+    out[48] = t0;
+    out[49] = t0;
+    out[50] = t95;
+    out[51] = t0;
+    out[52] = t88;
+    out[53] = t95;
+    out[54] = t0;
+    out[55] = t0;
+    out[56] = t92;
+    out[57] = t0;
+    out[58] = t0;
+    out[59] = t0;
+    out[60] = t0;
+    out[61] = t0;
+    out[62] = t104;
+    out[63] = t106;
+    out[64] = t0;
+    out[65] = t0;
+    out[66] = t0;
+    out[67] = t0;
+    out[68] = t104;
+    out[69] = t0;
+    out[70] = t0;
+    out[71] = t0;
+    out[72] = t106;
+    out[73] = t0;
+    out[74] = t0;
+    out[75] = t0;
+    out[76] = t114;
+    out[77] = t121;
+    out[78] = t0;
+    out[79] = t0;
+    out[80] = t121;
+    out[81] = t0;
+    out[82] = t0;
+    out[83] = t0;
+    out[84] = t0;
+    out[85] = t0;
+    out[86] = t0;
+    out[87] = t0;
+    out[88] = t0;
+    out[89] = t0;
+    out[90] = t0;
+    out[91] = t124;
+    out[92] = t126;
+    out[93] = t127;
+    out[94] = t0;
+    out[95] = t0;
+    out[96] = t127;
+    out[97] = t0;
+    out[98] = t0;
+    out[99] = t0;
+    out[100] = t0;
+    out[101] = t0;
+    out[102] = t124;
+    out[103] = t0;
+    out[104] = t0;
+    out[105] = t0;
+    out[106] = t0;
+    out[107] = t0;
+}
+
+/// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if CLOSED_FORM {
+        let mut out = [S::constant(0.0); CF_LEN];
+        closed_form(q, p, &mut out);
+        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    } else {
+        let r = rhs_fixed(q, eta, p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
-    let r = rhs_fixed(&y[..ELL], &y[ELL..], p, false)?;
-    dy[..ELL].copy_from_slice(&r.q_dot);
-    dy[ELL..].copy_from_slice(&r.eta_dot);
+    let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
     runtime::finite("the right-hand side", dy)
 }
 
@@ -846,13 +1105,13 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
         for (i, &k) in KEPT.iter().enumerate() {
             q[k] = x[i];
         }
-        match rhs_fixed(&q, eta, p, false) {
-            Ok(out) => {
+        match fast(&q, eta, p) {
+            Ok((eta_dot, q_dot)) => {
                 let mut v = [S::constant(0.0); REDUCED_DIM];
                 for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = out.q_dot[k];
+                    v[i] = q_dot[k];
                 }
-                v[KEPT.len()..].copy_from_slice(&out.eta_dot);
+                v[KEPT.len()..].copy_from_slice(&eta_dot);
                 return Ok(v);
             }
             Err(e) => last = Some(e),
