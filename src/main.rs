@@ -8,6 +8,7 @@
 mod bench;
 mod codegen;
 mod output;
+mod plot;
 mod simulate;
 mod state;
 
@@ -137,6 +138,9 @@ enum Command {
         /// Write the trajectory to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,
+        /// Also draw the coordinates and quasi-velocities against time (FILE.svg or FILE.png).
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
@@ -271,8 +275,20 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             scene,
             format,
             output,
+            plot,
         } => {
             let out = Output::new(output)?;
+            if let Some(p) = &plot {
+                if !matches!(p.extension().and_then(|e| e.to_str()), Some("svg" | "png")) {
+                    return Err(ModelError::new(
+                        &p.display().to_string(),
+                        Default::default(),
+                        None,
+                        None,
+                        "the plot file must end in .svg or .png",
+                    ));
+                }
+            }
             let (traj, failure) = simulate::run(&scene)?;
             let text = match format {
                 TrajectoryFormat::Csv => traj.to_csv(),
@@ -282,6 +298,11 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             };
             // A failure during the integration keeps what was computed, marked incomplete.
             out.write(&text)?;
+            if let Some(p) = &plot {
+                plot::write(p, &traj).map_err(|m| {
+                    ModelError::new(&p.display().to_string(), Default::default(), None, None, m)
+                })?;
+            }
             eprintln!("{}", traj.summary());
             match failure {
                 Some(e) => Err(e),

@@ -81,15 +81,15 @@ impl Default for Integrator {
 /// The trajectory as written (`--format json`).
 #[derive(Serialize)]
 pub struct Trajectory {
-    model: String,
-    eta_name: String,
+    pub model: String,
+    pub eta_name: String,
     method: String,
-    t: Vec<f64>,
-    q: IndexMap<String, Vec<f64>>,
-    eta: Vec<Vec<f64>>,
+    pub t: Vec<f64>,
+    pub q: IndexMap<String, Vec<f64>>,
+    pub eta: Vec<Vec<f64>>,
     energy: Vec<Option<f64>>,
     stats: StatsOut,
-    complete: bool,
+    pub complete: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     error: Option<String>,
 }

@@ -574,6 +574,31 @@ fn simulate_the_knife_follows_its_closed_form_solution() {
     }
     let stats = &v["stats"];
     assert!(stats["steps"].as_u64().unwrap() > 0);
+    // --plot: an SVG with both panels and the coordinate names; a bad extension is refused.
+    let svg = dir.join("knife.svg");
+    let o = hamel(
+        &[
+            "simulate",
+            "scenes/knife.toml",
+            "--output",
+            dir.join("k.csv").to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg"));
+    for label in ["quasi-velocities", "theta", "eta2"] {
+        assert!(text.contains(label), "{label} missing from the plot");
+    }
+    let o = hamel(
+        &["simulate", "scenes/knife.toml", "--plot", "/tmp/x.pdf"],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
     assert!(stats["energy_drift"].as_f64().unwrap() < 1e-12);
     assert!(stats["constraint_drift"].as_f64().unwrap() < 1e-12);
 }
