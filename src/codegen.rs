@@ -18,6 +18,7 @@ pub fn run(
     eliminate: &[String],
     out: &Path,
     force: bool,
+    with_simulator: bool,
 ) -> Result<Written, ModelError> {
     let model = Model::load(model_path)?;
     let io_err = |what: String| {
@@ -74,7 +75,10 @@ pub fn run(
             format!(" --eliminate {}", eliminate.join(","))
         }
     );
-    let g = hamel_codegen::generate(&d, &eliminated, &command).map_err(|e| model.error(e))?;
+    let mut g = hamel_codegen::generate(&d, &eliminated, &command).map_err(|e| model.error(e))?;
+    if with_simulator {
+        g = hamel_codegen::with_simulator(g);
+    }
     for (path, text) in &g.files {
         let p = out.join(path);
         if let Some(dir) = p.parent() {

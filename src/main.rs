@@ -126,6 +126,9 @@ enum Command {
         /// Overwrite the generated files of a non-empty directory.
         #[arg(long)]
         force: bool,
+        /// Also write a `simulate` binary (vendors the integrators into the crate).
+        #[arg(long)]
+        with_simulator: bool,
     },
     /// Integrate a scene (model, quasi-velocities, parameters, initial state, integrator) and
     /// write the trajectory; a one-line summary goes to stderr.
@@ -315,9 +318,17 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             eliminate,
             out,
             force,
+            with_simulator,
         } => {
             let started = Instant::now();
-            let w = codegen::run(&model, eta.as_deref(), &eliminate, &out, force)?;
+            let w = codegen::run(
+                &model,
+                eta.as_deref(),
+                &eliminate,
+                &out,
+                force,
+                with_simulator,
+            )?;
             eprintln!(
                 "wrote {} files to {} in {:.2} s; ingredients: {} operations as trees, {} shared",
                 w.files,

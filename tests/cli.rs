@@ -675,3 +675,70 @@ fn simulate_rejects_a_bad_scene_with_the_place_and_reason() {
         assert!(!csv.exists(), "no output for a bad scene");
     }
 }
+
+#[test]
+fn codegen_with_simulator_integrates_the_knife_without_the_cas() {
+    let dir = scratch("codegen_simulator");
+    let out = dir.join("knife_sim");
+    let o = hamel(
+        &[
+            "codegen",
+            "models/knife.toml",
+            "--eta",
+            "paper",
+            "--eliminate",
+            "x,y",
+            "--with-simulator",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let build = Command::new(env!("CARGO"))
+        .args(["build", "--release", "--offline", "--quiet"])
+        .current_dir(&out)
+        .env("CARGO_TARGET_DIR", dir.join("target"))
+        .output()
+        .unwrap();
+    assert!(build.status.success(), "{}", stderr(&build));
+    assert!(
+        !std::fs::read_to_string(out.join("Cargo.lock"))
+            .unwrap()
+            .contains("symbolica")
+    );
+    let state = dir.join("state.json");
+    std::fs::write(
+        &state,
+        r#"{"q": {"x": 0, "y": 0, "theta": 0.3}, "eta": [1.0, 0.5]}"#,
+    )
+    .unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "--state",
+            state.to_str().unwrap(),
+            "--t-end",
+            "10",
+            "--outputs",
+            "11",
+        ];
+        args.extend(extra);
+        let o = Command::new(dir.join("target/release/simulate"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        json_on_stdout(&o)
+    };
+    // Full: θ = 0.3 + t/2, x = 2(sin θ − sin 0.3) at t = 10.
+    let v = run(&[]);
+    let th = 0.3 + 5.0_f64;
+    assert!((v["q"]["theta"][10].as_f64().unwrap() - th).abs() < 1e-9);
+    assert!((v["q"]["x"][10].as_f64().unwrap() - 2.0 * (th.sin() - 0.3f64.sin())).abs() < 1e-9);
+    assert_eq!(v["complete"], true);
+    // Reduced: only θ and η are integrated.
+    let v = run(&["--reduced", "--method", "gauss-legendre"]);
+    let q = v["q"].as_object().unwrap();
+    assert_eq!(q.keys().collect::<Vec<_>>(), vec!["theta"]);
+    assert!((v["q"]["theta"][10].as_f64().unwrap() - th).abs() < 1e-9);
+}

@@ -568,3 +568,81 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
 
 /// The `eval` binary: the same `--state` JSON as `hamel eval`, the same JSON out.
 pub const EVAL_BIN: &str = include_str!("../runtime/eval.rs");
+
+/// The `simulate` binary (with [`with_simulator`]).
+pub const SIMULATE_BIN: &str = include_str!("../runtime/simulate.rs");
+
+/// The integrators (`crates/hamel-sim`), vendored into a generated crate by [`with_simulator`]:
+/// (path inside the crate, text).
+const SIM_SOURCES: &[(&str, &str)] = &[
+    (
+        "hamel-sim/src/lib.rs",
+        include_str!("../../hamel-sim/src/lib.rs"),
+    ),
+    (
+        "hamel-sim/src/control.rs",
+        include_str!("../../hamel-sim/src/control.rs"),
+    ),
+    (
+        "hamel-sim/src/dop853.rs",
+        include_str!("../../hamel-sim/src/dop853.rs"),
+    ),
+    (
+        "hamel-sim/src/dopri5.rs",
+        include_str!("../../hamel-sim/src/dopri5.rs"),
+    ),
+    (
+        "hamel-sim/src/driver.rs",
+        include_str!("../../hamel-sim/src/driver.rs"),
+    ),
+    (
+        "hamel-sim/src/explicit.rs",
+        include_str!("../../hamel-sim/src/explicit.rs"),
+    ),
+    (
+        "hamel-sim/src/gauss.rs",
+        include_str!("../../hamel-sim/src/gauss.rs"),
+    ),
+    (
+        "hamel-sim/src/rk4.rs",
+        include_str!("../../hamel-sim/src/rk4.rs"),
+    ),
+    (
+        "hamel-sim/src/solution.rs",
+        include_str!("../../hamel-sim/src/solution.rs"),
+    ),
+    (
+        "hamel-sim/src/system.rs",
+        include_str!("../../hamel-sim/src/system.rs"),
+    ),
+    (
+        "hamel-sim/src/testing.rs",
+        include_str!("../../hamel-sim/src/testing.rs"),
+    ),
+];
+
+/// Add a `simulate` binary to a generated crate: the integrators of `crates/hamel-sim` are
+/// vendored as a path dependency inside the crate (they need nalgebra, serde and thiserror),
+/// so the crate still builds on its own.
+pub fn with_simulator(mut g: Generated) -> Generated {
+    for (path, text) in g.files.iter_mut() {
+        if path == "Cargo.toml" {
+            *text = text.replace(
+                "serde_json = \"1\"\n",
+                "serde_json = \"1\"\nhamel-sim = { path = \"hamel-sim\" }\n",
+            );
+        }
+    }
+    g.files.push((
+        "hamel-sim/Cargo.toml".into(),
+        "[package]\nname = \"hamel-sim\"\nversion = \"0.1.0\"\nedition = \"2024\"\npublish = false\n\n\
+         [dependencies]\nnalgebra = \"0.34\"\nserde = { version = \"1\", features = [\"derive\"] }\nthiserror = \"2\"\n"
+            .into(),
+    ));
+    for (path, text) in SIM_SOURCES {
+        g.files.push((path.to_string(), text.to_string()));
+    }
+    g.files
+        .push(("src/bin/simulate.rs".into(), SIMULATE_BIN.into()));
+    g
+}
