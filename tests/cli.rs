@@ -54,6 +54,20 @@ fn json_on_stdout(o: &Output) -> serde_json::Value {
     serde_json::from_str(&out[start..]).expect("valid JSON")
 }
 
+/// Build a generated crate offline in its own target directory (no CAS involved) and check
+/// that its lock file names no symbolica.
+fn build_generated(crate_dir: &Path, target: &Path) {
+    let build = Command::new(env!("CARGO"))
+        .args(["build", "--release", "--offline", "--quiet"])
+        .current_dir(crate_dir)
+        .env("CARGO_TARGET_DIR", target)
+        .output()
+        .unwrap();
+    assert!(build.status.success(), "{}", stderr(&build));
+    let lock = std::fs::read_to_string(crate_dir.join("Cargo.lock")).unwrap();
+    assert!(!lock.contains("symbolica"));
+}
+
 #[test]
 fn derive_writes_json_to_a_file() {
     let dir = scratch("derive_json");
@@ -447,15 +461,7 @@ fn codegen_writes_a_crate_that_builds_offline_and_evaluates_like_hamel_eval() {
     assert!(hamel(&forced, None).status.success());
 
     // It builds offline, with its own target directory, and needs no computer algebra.
-    let build = Command::new(env!("CARGO"))
-        .args(["build", "--release", "--offline", "--quiet"])
-        .current_dir(&out)
-        .env("CARGO_TARGET_DIR", dir.join("target"))
-        .output()
-        .unwrap();
-    assert!(build.status.success(), "{}", stderr(&build));
-    let lock = std::fs::read_to_string(out.join("Cargo.lock")).unwrap();
-    assert!(!lock.contains("symbolica"));
+    build_generated(&out, &dir.join("target"));
 
     let states = dir.join("states.json");
     std::fs::write(
@@ -695,18 +701,7 @@ fn codegen_with_simulator_integrates_the_knife_without_the_cas() {
         None,
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let build = Command::new(env!("CARGO"))
-        .args(["build", "--release", "--offline", "--quiet"])
-        .current_dir(&out)
-        .env("CARGO_TARGET_DIR", dir.join("target"))
-        .output()
-        .unwrap();
-    assert!(build.status.success(), "{}", stderr(&build));
-    assert!(
-        !std::fs::read_to_string(out.join("Cargo.lock"))
-            .unwrap()
-            .contains("symbolica")
-    );
+    build_generated(&out, &dir.join("target"));
     let state = dir.join("state.json");
     std::fs::write(
         &state,

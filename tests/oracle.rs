@@ -12,6 +12,10 @@
 //! Choices with free functions use concrete test functions. The CAS runs in-process, on its one
 //! worker thread.
 
+mod common;
+
+use common::models;
+
 use hamel_derive::{Compiled, SymbolicCompiled, derive};
 use hamel_expr::{DD, Dual, Expr, Scalar, parse};
 use hamel_model::{Model, NumericModel};
@@ -24,20 +28,6 @@ const TOL: f64 = 1e-10;
 /// Largest condition number of [Z; α] admitted for a sample state (very near the singular set
 /// the comparison measures rounding, not the equations; the stability study covers it).
 const MAX_CONDITION: f64 = 1e6;
-
-fn models() -> Vec<Model> {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/models");
-    let mut paths: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    paths.sort();
-    paths
-        .iter()
-        .map(|p| Model::load(p).unwrap_or_else(|e| panic!("{e}")))
-        .collect()
-}
 
 /// Concrete test functions for free functions: smooth, nonconstant, different for each name so
 /// that nothing cancels by accident.
