@@ -2,7 +2,8 @@
 //! [--step H] [--reduced]`: integrate from one state (the `eval` state format) and print the
 //! trajectory as JSON (`{"t", "q": {name: [...]}, "eta": [[...]], "energy", "stats",
 //! "complete"}`), with a one-line summary on stderr. `--reduced` integrates the reduced state
-//! (kept coordinates and η) only; the eliminated coordinates and the energy are then omitted.
+//! (kept coordinates and η) only, with the generated Jacobian for Gauss–Legendre; the
+//! eliminated coordinates and the energy are then omitted.
 //! A singularity stops the run: the rows computed so far are printed with `"complete": false`
 //! and an `"error"`, and the exit status is 1.
 
@@ -10,6 +11,7 @@ use std::io::Read;
 
 use hamel_generated::{
     COORDINATES, DIMS, KEPT, Parameters, REDUCED_DIM, energy, full_into, reduced_into,
+    reduced_jacobian,
 };
 use hamel_sim::{Method, OdeSystem, Options, SystemError};
 use serde::Deserialize;
@@ -45,6 +47,18 @@ impl OdeSystem for Reduced {
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
         reduced_into(y, dy, &self.0).map_err(|e| SystemError::new(e.0))
+    }
+    /// The generated Jacobian (dual numbers), for the implicit Gauss–Legendre method.
+    fn jacobian(&self, _t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
+        Some(
+            reduced_jacobian(y, &self.0)
+                .map(|j| {
+                    for (i, row) in j.iter().enumerate() {
+                        jac[i * REDUCED_DIM..(i + 1) * REDUCED_DIM].copy_from_slice(row);
+                    }
+                })
+                .map_err(|e| SystemError::new(e.0)),
+        )
     }
 }
 
