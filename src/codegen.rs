@@ -43,10 +43,10 @@ pub fn run(
         }
     }
     let choice = model.choice(eta)?.name.clone();
-    let eliminated: Vec<usize> = if eliminate.is_empty() {
-        Vec::new()
+    let (eliminated, d) = if eliminate.is_empty() {
+        (Vec::new(), hamel_derive::derive(&model, Some(&choice))?)
     } else {
-        let r = hamel_reduce::reduce(&model, Some(&choice), eliminate)?;
+        let (r, d) = hamel_reduce::reduce_with_derivation(&model, Some(&choice), eliminate)?;
         if !r.ground_truth.present.is_empty() || r.reduced_system.is_none() {
             let why = if let Some(w) = r.ground_truth.occurrences.first() {
                 format!(
@@ -63,9 +63,8 @@ pub fn run(
                 eliminate.join(", ")
             )));
         }
-        hamel_reduce::coordinate_indices(&model, eliminate)?
+        (hamel_reduce::coordinate_indices(&model, eliminate)?, d)
     };
-    let d = hamel_derive::derive(&model, Some(&choice))?;
     let command = format!(
         "hamel codegen {} --eta {choice}{} --out DIR",
         model_path.display(),

@@ -30,7 +30,8 @@ fn generate_all() -> BTreeMap<PathBuf, String> {
             .into_owned();
         let asked = common::eliminate(&model);
         for choice in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
-            let r = hamel_reduce::reduce(&model, Some(&choice.name), &asked).unwrap();
+            let (r, d) =
+                hamel_reduce::reduce_with_derivation(&model, Some(&choice.name), &asked).unwrap();
             let proven = r.ground_truth.present.is_empty() && r.reduced_system.is_some();
             let (eliminated, flag) = if proven {
                 (
@@ -40,7 +41,6 @@ fn generate_all() -> BTreeMap<PathBuf, String> {
             } else {
                 (Vec::new(), String::new())
             };
-            let d = hamel_derive::derive(&model, Some(&choice.name)).unwrap();
             let command = format!(
                 "hamel codegen models/{file} --eta {}{flag} --out DIR",
                 choice.name

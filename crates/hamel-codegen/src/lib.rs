@@ -20,7 +20,7 @@
 use std::fmt::Write;
 
 use hamel_derive::Derivation;
-use hamel_derive::{Entry, Mat};
+use hamel_derive::Mat;
 use hamel_expr::{Expr, Func, Op, Tape};
 
 /// The runtime every generated crate carries (and `crates/hamel-models` compiles once).
@@ -101,9 +101,8 @@ fn choose_path(d: &Derivation, ingredients: &Tape, cf: &Tape) -> Result<PathChoi
         let Ok(out) = cf.eval::<f64>(&inputs) else {
             continue;
         };
-        let runtime::Closed { eta_dot, q_dot } = match runtime::closed_dyn(&out, &eta, ell, sigma) {
-            Some(c) => c,
-            None => continue,
+        let Some((eta_dot, q_dot)) = closed_in_f64(&out, &eta, ell, sigma) else {
+            continue;
         };
         let scale = s
             .eta_dot
@@ -135,6 +134,26 @@ fn choose_path(d: &Derivation, ingredients: &Tape, cf: &Tape) -> Result<PathChoi
     })
 }
 
+/// The runtime's `closed` for sizes known only at run time, in f64 (the generator's check):
+/// (η̇, q̇) from the closed-form outputs (Γ ℓ×σ, A_Γ σ×σ, Γᵀ∇U σ, Q⁽ⁱ⁾ σ blocks σ×σ).
+fn closed_in_f64(out: &[f64], eta: &[f64], l: usize, g: usize) -> Option<(Vec<f64>, Vec<f64>)> {
+    let (ag_at, f_at, q_at) = (l * g, l * g + g * g, l * g + g * g + g);
+    let q_dot = (0..l)
+        .map(|i| (0..g).map(|s| out[i * g + s] * eta[s]).sum())
+        .collect();
+    let a_gamma = (0..g)
+        .map(|r| out[ag_at + r * g..ag_at + (r + 1) * g].to_vec())
+        .collect();
+    let rhs = (0..g)
+        .map(|i| {
+            let q = &out[q_at + i * g * g..q_at + (i + 1) * g * g];
+            let quad: f64 = (0..g * g).map(|rs| q[rs] * eta[rs / g] * eta[rs % g]).sum();
+            out[f_at + i] - quad
+        })
+        .collect();
+    Some((hamel_expr::solve(a_gamma, rhs)?, q_dot))
+}
+
 /// Operations in a tree, nothing shared (an n-ary sum or product counts n − 1).
 pub fn tree_operations(e: &Expr) -> usize {
     match e {
@@ -149,31 +168,6 @@ pub fn tree_operations(e: &Expr) -> usize {
 
 fn push_mat<'a>(out: &mut Vec<&'a Expr>, m: &'a Mat) {
     out.extend(m.entries.iter().flatten().map(|e| &e.expr));
-}
-
-/// The ingredients in the order of the runtime's `Layout`.
-fn ingredient_exprs(d: &Derivation) -> Result<Vec<&Expr>, String> {
-    let ing = &d.ingredients;
-    let u: &Entry = ing
-        .potential
-        .as_ref()
-        .ok_or("the derivation carries no ingredients")?;
-    let mut v = Vec::new();
-    push_mat(&mut v, &d.z);
-    push_mat(&mut v, &d.alpha);
-    push_mat(&mut v, &d.a);
-    v.push(&u.expr);
-    v.extend(d.grad_u.iter().map(|e| &e.expr));
-    for m in &ing.da {
-        push_mat(&mut v, m);
-    }
-    for m in &ing.dz {
-        push_mat(&mut v, m);
-    }
-    for m in &ing.dalpha {
-        push_mat(&mut v, m);
-    }
-    Ok(v)
 }
 
 /// The closed-form path: Γ (ℓ×σ), A_Γ (σ×σ), Γᵀ∇U (σ) and the true Q⁽ⁱ⁾ (σ blocks σ×σ), from
@@ -259,7 +253,7 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
             d.free_functions.join(", ")
         ));
     }
-    let exprs = ingredient_exprs(d)?;
+    let exprs = d.ingredient_exprs().map_err(|e| e.to_string())?;
     let params: Vec<String> = d.parameters.keys().cloned().collect();
     let inputs: Vec<String> = d
         .coordinates

@@ -50,6 +50,8 @@ pub struct Evaluation {
     pub eta_dot_paper: Vec<f64>,
     /// Condition number of [Z; α] at q (distance to the singular set).
     pub condition: f64,
+    /// δ = det[Z; α] at q (its sign changes where a path crosses the singular set).
+    pub delta: f64,
 }
 
 /// The right-hand side in any scalar type, unchecked.
@@ -148,33 +150,41 @@ pub struct SymbolicCompiled {
 }
 
 impl Derivation {
-    /// Compile for structured evaluation (inputs: coordinates and parameters). Free functions
-    /// must have been given definitions before deriving.
-    pub fn compile(&self) -> Result<Compiled, NumericError> {
+    /// The ingredients of the structured evaluation, in order: Z (σ×ℓ, row-major), α (μ×ℓ),
+    /// A (ℓ×ℓ), U, ∇U (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks μ×ℓ).
+    /// Compiled here and printed as Rust by the code generator (whose runtime `Layout` has the
+    /// same offsets).
+    pub fn ingredient_exprs(&self) -> Result<Vec<&hamel_expr::Expr>, NumericError> {
         let ing = &self.ingredients;
         let u = ing
             .potential
             .as_ref()
             .ok_or_else(|| NumericError("the derivation carries no ingredients".into()))?;
         let mut exprs = Vec::new();
-        let z = add_mat(&mut exprs, &self.z);
-        let alpha = add_mat(&mut exprs, &self.alpha);
-        let a = add_mat(&mut exprs, &self.a);
-        let u_at = exprs.len();
+        add_mat(&mut exprs, &self.z);
+        add_mat(&mut exprs, &self.alpha);
+        add_mat(&mut exprs, &self.a);
         exprs.push(&u.expr);
-        let grad_u = add_list(&mut exprs, &self.grad_u);
-        let da = exprs.len();
-        for m in &ing.da {
+        add_list(&mut exprs, &self.grad_u);
+        for m in ing.da.iter().chain(&ing.dz).chain(&ing.dalpha) {
             add_mat(&mut exprs, m);
         }
-        let dz = exprs.len();
-        for m in &ing.dz {
-            add_mat(&mut exprs, m);
-        }
-        let dalpha = exprs.len();
-        for m in &ing.dalpha {
-            add_mat(&mut exprs, m);
-        }
+        Ok(exprs)
+    }
+
+    /// Compile for structured evaluation (inputs: coordinates and parameters). Free functions
+    /// must have been given definitions before deriving.
+    pub fn compile(&self) -> Result<Compiled, NumericError> {
+        let exprs = self.ingredient_exprs()?;
+        let (ell, mu, sigma) = (self.ell, self.mu, self.sigma);
+        let z = 0;
+        let alpha = z + sigma * ell;
+        let a = alpha + mu * ell;
+        let u_at = a + ell * ell;
+        let grad_u = u_at + 1;
+        let da = grad_u + ell;
+        let dz = da + ell * ell * ell;
+        let dalpha = dz + ell * sigma * ell;
         let free = free_inputs(&exprs);
         if !free.is_empty() {
             return Err(NumericError(format!(
@@ -381,11 +391,6 @@ impl Compiled {
         Ok(self.gamma_theta(&p).0)
     }
 
-    /// δ = det[Z; α] at q (its sign changes where a path crosses the singular set).
-    pub fn delta(&self, q: &[f64], params: &IndexMap<String, f64>) -> Result<f64, NumericError> {
-        Ok(self.m_matrix(q, params)?.determinant())
-    }
-
     fn m_matrix(
         &self,
         q: &[f64],
@@ -414,10 +419,7 @@ impl Compiled {
         q: &[f64],
         params: &IndexMap<String, f64>,
     ) -> Result<f64, NumericError> {
-        let m = self.m_matrix(q, params)?;
-        let sv = m.singular_values();
-        let (max, min) = (sv.max(), sv.min());
-        Ok(if min == 0.0 { f64::INFINITY } else { max / min })
+        Ok(condition_number(&self.m_matrix(q, params)?))
     }
 
     /// The right-hand side at (q, η) in any scalar type, unchecked.
@@ -550,7 +552,8 @@ impl Compiled {
         if q.iter().chain(eta).any(|x| !x.is_finite()) {
             return Err(NumericError("the state has a non-finite value".into()));
         }
-        let condition = self.condition(q, params)?;
+        let m = self.m_matrix(q, params)?;
+        let (condition, delta) = (condition_number(&m), m.determinant());
         if condition > 1e12 {
             return Err(NumericError(format!(
                 "the quasi-velocity map is singular at this configuration: det[Z; α] ≈ 0 (condition number {condition:.3e}); singular where {}",
@@ -570,6 +573,7 @@ impl Compiled {
             energy: r.energy,
             eta_dot_paper: r.eta_dot_paper,
             condition,
+            delta,
         };
         if out
             .eta_dot
@@ -634,6 +638,13 @@ impl SymbolicCompiled {
         };
         Ok((solve(self.q), solve(self.q_paper)))
     }
+}
+
+/// σ_max/σ_min (∞ when singular).
+fn condition_number(m: &DMatrix<f64>) -> f64 {
+    let sv = m.singular_values();
+    let (max, min) = (sv.max(), sv.min());
+    if min == 0.0 { f64::INFINITY } else { max / min }
 }
 
 fn shorten(s: &str) -> String {

@@ -48,6 +48,23 @@ pub fn reduce(
     .map_err(model_error_from_cas)?
 }
 
+/// [`reduce`] and the derivation it analysed, from one symbolic pass (for code generation,
+/// which needs the proof of the elimination and the equations).
+pub fn reduce_with_derivation(
+    model: &Model,
+    eta: Option<&str>,
+    eliminate: &[String],
+) -> Result<(Reduction, hamel_derive::Derivation), ModelError> {
+    let name = model.choice(eta)?.name.clone();
+    let p = coordinate_indices(model, eliminate)?;
+    let model = model.clone();
+    hamel_cas::run(move || {
+        let s = hamel_derive::symbolic(&model, &name)?;
+        Ok((analysis::analyse(&model, &s, &p), s.to_derivation()))
+    })
+    .map_err(model_error_from_cas)?
+}
+
 /// Search for quasi-velocity choices that eliminate `eliminate` from the true equations
 /// (families (c) A-orthogonal, (b) finite ansatz, (a) unknown functions; see [`search`]).
 /// `progress` is called from the CAS thread with (done, total).

@@ -556,58 +556,6 @@ pub fn closed<S: Scalar, const L: usize, const G: usize>(
     Ok((lu.solve(&rhs), qd))
 }
 
-/// (η̇, q̇) of the closed-form path, for sizes known only at run time (the generator's check).
-pub struct Closed {
-    /// η̇
-    pub eta_dot: Vec<f64>,
-    /// q̇
-    pub q_dot: Vec<f64>,
-}
-
-/// [`closed`] with run-time sizes, in f64 (Gaussian elimination with partial pivoting).
-pub fn closed_dyn(out: &[f64], eta: &[f64], l: usize, g: usize) -> Option<Closed> {
-    let (ag_at, f_at, q_at) = (l * g, l * g + g * g, l * g + g * g + g);
-    let q_dot = (0..l)
-        .map(|i| (0..g).map(|s| out[i * g + s] * eta[s]).sum())
-        .collect();
-    let mut a: Vec<Vec<f64>> = (0..g)
-        .map(|r| out[ag_at + r * g..ag_at + (r + 1) * g].to_vec())
-        .collect();
-    let mut b: Vec<f64> = (0..g)
-        .map(|i| {
-            let quad: f64 = (0..g)
-                .map(|r| {
-                    (0..g)
-                        .map(|s| out[q_at + i * g * g + r * g + s] * eta[r] * eta[s])
-                        .sum::<f64>()
-                })
-                .sum();
-            out[f_at + i] - quad
-        })
-        .collect();
-    for k in 0..g {
-        let p = (k..g).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
-        if a[p][k] == 0.0 {
-            return None;
-        }
-        a.swap(k, p);
-        b.swap(k, p);
-        for i in k + 1..g {
-            let f = a[i][k] / a[k][k];
-            for j in k..g {
-                a[i][j] -= f * a[k][j];
-            }
-            b[i] -= f * b[k];
-        }
-    }
-    let mut x = vec![0.0; g];
-    for i in (0..g).rev() {
-        let s: f64 = (i + 1..g).map(|j| a[i][j] * x[j]).sum();
-        x[i] = (b[i] - s) / a[i][i];
-    }
-    Some(Closed { eta_dot: x, q_dot })
-}
-
 /// Fail on a non-finite value instead of passing NaN on.
 pub fn finite(what: &str, v: &[f64]) -> Result<(), EvalError> {
     if v.iter().all(|x| x.is_finite()) {
