@@ -57,31 +57,21 @@ fn rhs(c: &mut Criterion) {
             })
         });
         let (qa, ea) = (q.clone(), eta.clone());
+        // The hand-written right-hand side of the same system, where there is one.
+        macro_rules! handwritten {
+            ($m:ident) => {{
+                use hamel_handwritten::$m::{Params, rhs};
+                let (q, e) = (qa.try_into().unwrap(), ea.try_into().unwrap());
+                let p = Params::default();
+                group.bench_function(format!("{id}/handwritten"), |b| {
+                    b.iter(|| rhs(black_box(&q), black_box(&e), &p))
+                });
+            }};
+        }
         match (core.model, core.eta) {
-            ("knife", "paper") => {
-                use hamel_handwritten::knife::{Params, rhs};
-                let (q, e): ([f64; 3], [f64; 2]) = (qa.try_into().unwrap(), ea.try_into().unwrap());
-                let p = Params::default();
-                group.bench_function(format!("{id}/handwritten"), |b| {
-                    b.iter(|| rhs(black_box(&q), black_box(&e), &p))
-                });
-            }
-            ("bar_blade", "paper") => {
-                use hamel_handwritten::bar_blade::{Params, rhs};
-                let (q, e): ([f64; 4], [f64; 2]) = (qa.try_into().unwrap(), ea.try_into().unwrap());
-                let p = Params::default();
-                group.bench_function(format!("{id}/handwritten"), |b| {
-                    b.iter(|| rhs(black_box(&q), black_box(&e), &p))
-                });
-            }
-            ("unicycle_rider", "velocities") => {
-                use hamel_handwritten::unicycle_rider::{Params, rhs};
-                let (q, e): ([f64; 6], [f64; 4]) = (qa.try_into().unwrap(), ea.try_into().unwrap());
-                let p = Params::default();
-                group.bench_function(format!("{id}/handwritten"), |b| {
-                    b.iter(|| rhs(black_box(&q), black_box(&e), &p))
-                });
-            }
+            ("knife", "paper") => handwritten!(knife),
+            ("bar_blade", "paper") => handwritten!(bar_blade),
+            ("unicycle_rider", "velocities") => handwritten!(unicycle_rider),
             _ => {}
         }
     }

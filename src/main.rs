@@ -281,16 +281,11 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             plot,
         } => {
             let out = Output::new(output)?;
+            let plot_error = |p: &std::path::Path, m: String| {
+                ModelError::new(&p.display().to_string(), Default::default(), None, None, m)
+            };
             if let Some(p) = &plot {
-                if !matches!(p.extension().and_then(|e| e.to_str()), Some("svg" | "png")) {
-                    return Err(ModelError::new(
-                        &p.display().to_string(),
-                        Default::default(),
-                        None,
-                        None,
-                        "the plot file must end in .svg or .png",
-                    ));
-                }
+                plot::check(p).map_err(|m| plot_error(p, m))?;
             }
             let (traj, failure) = simulate::run(&scene)?;
             let text = match format {
@@ -302,9 +297,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             // A failure during the integration keeps what was computed, marked incomplete.
             out.write(&text)?;
             if let Some(p) = &plot {
-                plot::write(p, &traj).map_err(|m| {
-                    ModelError::new(&p.display().to_string(), Default::default(), None, None, m)
-                })?;
+                plot::write(p, &traj).map_err(|m| plot_error(p, m))?;
             }
             eprintln!("{}", traj.summary());
             match failure {

@@ -128,17 +128,34 @@ fn register_font() -> Result<(), String> {
     .clone()
 }
 
+/// The figure formats, by file extension.
+enum Format {
+    Svg,
+    Png,
+}
+
+fn format_of(path: &Path) -> Result<Format, String> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") => Ok(Format::Svg),
+        Some("png") => Ok(Format::Png),
+        _ => Err("the plot file must end in .svg or .png".into()),
+    }
+}
+
+/// Check the plot path before any work is done (so a bad name writes nothing).
+pub fn check(path: &Path) -> Result<(), String> {
+    format_of(path).map(|_| ())
+}
+
 /// Write the figure; the format follows the extension (`.svg` or `.png`). On failure no file
 /// is left behind.
 pub fn write(path: &Path, traj: &Trajectory) -> Result<(), String> {
+    let format = format_of(path)?;
     register_font()?;
-    let result = match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => draw(SVGBackend::new(path, (900, 700)).into_drawing_area(), traj),
-        Some("png") => draw(
-            BitMapBackend::new(path, (900, 700)).into_drawing_area(),
-            traj,
-        ),
-        _ => return Err("the plot file must end in .svg or .png".into()),
+    let size = (900, 700);
+    let result = match format {
+        Format::Svg => draw(SVGBackend::new(path, size).into_drawing_area(), traj),
+        Format::Png => draw(BitMapBackend::new(path, size).into_drawing_area(), traj),
     };
     if result.is_err() {
         let _ = std::fs::remove_file(path);

@@ -646,14 +646,7 @@ impl Ex {
         }
         let field = self.field();
         let fi = &self.f;
-        let (a, da) = field.poly_diff_frac(&self.num, k);
-        let test = if self.den.is_constant() {
-            a
-        } else {
-            let (b, db) = field.poly_diff_frac(&self.den, k);
-            &(&(&a * &db) * &self.den) - &(&(&self.num * &b) * &da)
-        };
-        let test = fi.reduce(test);
+        let test = field.derivative_test(&self.num, &self.den, k);
         let on_k: Vec<usize> = (0..fi.nvars())
             .filter(|&v| test.degree(v) > 0 && fi.deps(v).contains(&k))
             .collect();
@@ -881,6 +874,12 @@ impl Field {
     /// Whether N/D (D ≠ 0) depends on q_i, exactly and without gcds: d(N/D)/dq_i = 0 iff
     /// N'·D − N·D' = 0; with N' = a/da and D' = b/db, iff a·db·D − N·b·da reduces to zero.
     pub(crate) fn fraction_depends_on(&self, num: &Poly, den: &Poly, i: usize) -> bool {
+        !self.derivative_test(num, den, i).is_zero()
+    }
+
+    /// a·db·D − N·b·da reduced, with N' = a/da and D' = b/db: zero iff d(N/D)/dq_i = 0, and
+    /// otherwise a nonzero multiple of the derivative's numerator.
+    pub(crate) fn derivative_test(&self, num: &Poly, den: &Poly, i: usize) -> Poly {
         let (a, da) = self.poly_diff_frac(num, i);
         let test = if den.is_constant() {
             a
@@ -888,7 +887,7 @@ impl Field {
             let (b, db) = self.poly_diff_frac(den, i);
             &(&(&a * &db) * den) - &(&(num * &b) * &da)
         };
-        !self.0.reduce(test).is_zero()
+        self.0.reduce(test)
     }
 
     /// True when a variable of `p` depends on q_i (syntactic).
