@@ -6,7 +6,8 @@
 //!   it is generated from (`hamel_derive::Compiled::rhs`, a tape interpreter that also computes
 //!   the paper's form and the energy); and, for the
 //!   knife, the 3.2 bar and the unicycle with rider, by hand-written code (`hamel-handwritten`:
-//!   η̇ and q̇ only, the practical limit).
+//!   η̇ and q̇ only, the practical limit), beside the generated `fast` called the same way
+//!   (`generated_fast`: arrays in and out, no finite check).
 //! * `simulate/<model>/{full,reduced}`: 100 s with DOP853 at rtol = atol = 1e-10, the full state
 //!   (q, η) against the reduced one (kept q, η), both with the generated code.
 //!
@@ -58,20 +59,28 @@ fn rhs(c: &mut Criterion) {
         });
         let (qa, ea) = (q.clone(), eta.clone());
         // The hand-written right-hand side of the same system, where there is one.
+        // Beside it, the generated `fast` called the same way (arrays in and out, inlinable,
+        // no finite check): the like-for-like comparison.
         macro_rules! handwritten {
-            ($m:ident) => {{
+            ($m:ident, $g:ident) => {{
                 use hamel_handwritten::$m::{Params, rhs};
-                let (q, e) = (qa.try_into().unwrap(), ea.try_into().unwrap());
+                let (q, e): ([f64; _], [f64; _]) = (qa.try_into().unwrap(), ea.try_into().unwrap());
                 let p = Params::default();
                 group.bench_function(format!("{id}/handwritten"), |b| {
                     b.iter(|| rhs(black_box(&q), black_box(&e), &p))
                 });
+                let p = hamel_models::$g::Parameters::default();
+                group.bench_function(format!("{id}/generated_fast"), |b| {
+                    b.iter(|| hamel_models::$g::fast(black_box(&q), black_box(&e), &p).unwrap())
+                });
             }};
         }
         match (core.model, core.eta) {
-            ("knife", "paper") => handwritten!(knife),
-            ("bar_blade", "paper") => handwritten!(bar_blade),
-            ("unicycle_rider", "velocities") => handwritten!(unicycle_rider),
+            ("knife", "paper") => handwritten!(knife, knife__paper),
+            ("bar_blade", "paper") => handwritten!(bar_blade, bar_blade__paper),
+            ("unicycle_rider", "velocities") => {
+                handwritten!(unicycle_rider, unicycle_rider__velocities)
+            }
             _ => {}
         }
     }

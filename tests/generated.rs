@@ -68,7 +68,7 @@ fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
                 worst_same = worst_same.max(rel_error(a, b));
             }
             worst_same = worst_same.max(rel_error(&[g.energy], &[s.energy]));
-            // The fast path (closed form or structured, as chosen at generation) agrees too.
+            // The fast path (solved form or structured, as chosen at generation) agrees too.
             let y: Vec<f64> = q.iter().chain(&eta).copied().collect();
             let mut dy = vec![0.0; y.len()];
             (core.full_into)(&y, &mut dy).unwrap();
@@ -164,4 +164,26 @@ fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
             core.eta
         );
     }
+}
+
+/// The solved form checks the pivots of A_Γ = L D Lᵀ: with a negative mass A_Γ is not positive
+/// definite, and the generated code says so instead of returning accelerations.
+#[test]
+fn the_solved_form_refuses_an_indefinite_a_gamma() {
+    use hamel_models::{bar_blade__paper as bar, knife__paper as knife};
+    assert!(knife::SOLVED && bar::SOLVED, "both use the solved form");
+    let p = knife::Parameters {
+        m: -0.5,
+        ..Default::default()
+    };
+    let e = knife::fast(&[0.1, 0.2, 0.3], &[1.0, 0.5], &p).unwrap_err();
+    assert!(e.0.contains("not positive definite"), "{}", e.0);
+    assert!(knife::fast(&[0.1, 0.2, 0.3], &[1.0, 0.5], &Default::default()).is_ok());
+    // The bar's A_Γ depends on φ; with m_f < 0 large enough its second pivot turns negative.
+    let p = bar::Parameters {
+        m_f: -10.0,
+        ..Default::default()
+    };
+    let e = bar::fast(&[0.0, 0.0, 0.3, 0.4], &[1.0, 0.5], &p).unwrap_err();
+    assert!(e.0.contains("not positive definite"), "{}", e.0);
 }

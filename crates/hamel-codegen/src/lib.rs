@@ -20,7 +20,6 @@
 use std::fmt::Write;
 
 use hamel_derive::Derivation;
-use hamel_derive::Mat;
 use hamel_expr::{Expr, Func, Op, Tape};
 
 /// The runtime every generated crate carries (and `crates/hamel-models` compiles once).
@@ -67,18 +66,18 @@ fn sample_states(ell: usize, sigma: usize, n: usize) -> Vec<(Vec<f64>, Vec<f64>)
         .collect()
 }
 
-/// The closed form is used when it is not more expensive than the structured path (its shared
+/// The solved path is used when it is not more expensive than the structured path (its shared
 /// operation count at most twice the ingredients') and agrees with the structured evaluation
 /// to 1e-12 (max |Δ| / max(1, max |·|) over η̇ and q̇) at 200 sample states with [Z; α]
 /// well conditioned. Its expanded forms can cancel badly in floating point (derivation.md §4),
 /// hence the check; the decision only selects a code path, exactness is not at stake.
-fn choose_path(d: &Derivation, ingredients: &Tape, cf: &Tape) -> Result<PathChoice, String> {
-    let (ops_s, ops_c) = (ingredients.operation_count(), cf.operation_count());
+fn choose_path(d: &Derivation, ingredients: &Tape, solved: &Tape) -> Result<PathChoice, String> {
+    let (ops_s, ops_c) = (ingredients.operation_count(), solved.operation_count());
     if ops_c > 2 * ops_s {
         return Ok(PathChoice {
             closed: false,
             doc: format!(
-                "structured: the closed form has {ops_c} operations, more than twice the ingredients' {ops_s}."
+                "structured: the solved form has {ops_c} operations, more than twice the ingredients' {ops_s}."
             ),
         });
     }
@@ -97,13 +96,20 @@ fn choose_path(d: &Derivation, ingredients: &Tape, cf: &Tape) -> Result<PathChoi
         let Ok(s) = compiled.rhs::<f64>(&q, &eta, &params) else {
             continue;
         };
-        let inputs: Vec<f64> = q.iter().copied().chain(params.values().copied()).collect();
-        let Ok(out) = cf.eval::<f64>(&inputs) else {
+        let inputs: Vec<f64> = q
+            .iter()
+            .chain(params.values())
+            .chain(&eta)
+            .copied()
+            .collect();
+        let Ok(out) = solved.eval::<f64>(&inputs) else {
             continue;
         };
-        let Some((eta_dot, q_dot)) = closed_in_f64(&out, &eta, ell, sigma) else {
+        let (eta_dot, rest) = out.split_at(sigma);
+        let (q_dot, pivots) = rest.split_at(ell);
+        if pivots.iter().any(|&p| p <= 0.0) {
             continue;
-        };
+        }
         let scale = s
             .eta_dot
             .iter()
@@ -123,8 +129,8 @@ fn choose_path(d: &Derivation, ingredients: &Tape, cf: &Tape) -> Result<PathChoi
     Ok(PathChoice {
         closed,
         doc: format!(
-            "{}: {ops_c} operations against the ingredients' {ops_s}; at {used} sample states the closed form deviates from the structured evaluation by at most {worst:.1e}{}.",
-            if closed { "closed form" } else { "structured" },
+            "{}: {ops_c} operations against the ingredients' {ops_s}; at {used} sample states the solved form deviates from the structured evaluation by at most {worst:.1e}{}.",
+            if closed { "solved form" } else { "structured" },
             if closed {
                 ""
             } else {
@@ -132,26 +138,6 @@ fn choose_path(d: &Derivation, ingredients: &Tape, cf: &Tape) -> Result<PathChoi
             }
         ),
     })
-}
-
-/// The runtime's `closed` for sizes known only at run time, in f64 (the generator's check):
-/// (η̇, q̇) from the closed-form outputs (Γ ℓ×σ, A_Γ σ×σ, Γᵀ∇U σ, Q⁽ⁱ⁾ σ blocks σ×σ).
-fn closed_in_f64(out: &[f64], eta: &[f64], l: usize, g: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-    let (ag_at, f_at, q_at) = (l * g, l * g + g * g, l * g + g * g + g);
-    let q_dot = (0..l)
-        .map(|i| (0..g).map(|s| out[i * g + s] * eta[s]).sum())
-        .collect();
-    let a_gamma = (0..g)
-        .map(|r| out[ag_at + r * g..ag_at + (r + 1) * g].to_vec())
-        .collect();
-    let rhs = (0..g)
-        .map(|i| {
-            let q = &out[q_at + i * g * g..q_at + (i + 1) * g * g];
-            let quad: f64 = (0..g * g).map(|rs| q[rs] * eta[rs / g] * eta[rs % g]).sum();
-            out[f_at + i] - quad
-        })
-        .collect();
-    Some((hamel_expr::solve(a_gamma, rhs)?, q_dot))
 }
 
 /// Operations in a tree, nothing shared (an n-ary sum or product counts n − 1).
@@ -166,21 +152,91 @@ pub fn tree_operations(e: &Expr) -> usize {
     }
 }
 
-fn push_mat<'a>(out: &mut Vec<&'a Expr>, m: &'a Mat) {
-    out.extend(m.entries.iter().flatten().map(|e| &e.expr));
+/// Names of the η inputs of the solved tape (not valid model names, so they cannot clash).
+fn eta_input(s: usize) -> String {
+    format!("#eta{s}")
 }
 
-/// The closed-form path: Γ (ℓ×σ), A_Γ (σ×σ), Γᵀ∇U (σ) and the true Q⁽ⁱ⁾ (σ blocks σ×σ), from
-/// the derivation's canonical forms, so that η̇ = A_Γ⁻¹(Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s).
-fn closed_form_exprs(d: &Derivation) -> Vec<&Expr> {
-    let mut v = Vec::new();
-    push_mat(&mut v, &d.gamma);
-    push_mat(&mut v, &d.a_gamma);
-    v.extend(d.forcing.iter().map(|e| &e.expr));
-    for m in &d.q {
-        push_mat(&mut v, m);
+/// Expression builders that fold exact zeros and ones, so that structural zeros of Γ, A_Γ and
+/// Q⁽ⁱ⁾ vanish from the solved form (in floating point 0·x is not 0 for every x, so the
+/// compiler could not do this).
+mod fold {
+    use hamel_expr::Expr;
+
+    pub fn add(a: Expr, b: Expr) -> Expr {
+        Expr::Add(vec![a, b]).tidy()
     }
-    v
+    pub fn sub(a: Expr, b: Expr) -> Expr {
+        add(a, Expr::Neg(Box::new(b)).tidy())
+    }
+    pub fn mul(a: Expr, b: Expr) -> Expr {
+        Expr::Mul(vec![a, b]).tidy()
+    }
+    pub fn div(a: Expr, b: Expr) -> Expr {
+        if a.is_zero_literal() || b.is_one_literal() {
+            a
+        } else {
+            Expr::Div(Box::new(a), Box::new(b))
+        }
+    }
+}
+
+/// The solved form, with η as inputs: outputs η̇ (σ), q̇ = Γη (ℓ, eq. (6)) and the pivots of
+/// A_Γ = L D Lᵀ (σ), where η̇ solves A_Γ η̇ = Γᵀ∇U − Σ_rs Q⁽ⁱ⁾_rs η_r η_s (eq. (11) with the
+/// true Q of derivation.md) by Gaussian elimination without pivoting, which is stable for the
+/// symmetric positive definite A_Γ; a pivot ≤ 0 means A_Γ is not positive definite there.
+fn solved_exprs(d: &Derivation) -> Vec<Expr> {
+    use fold::*;
+    let (l, g) = (d.ell, d.sigma);
+    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
+    let q_dot: Vec<Expr> = (0..l)
+        .map(|i| {
+            (0..g).fold(Expr::int(0), |acc, s| {
+                add(acc, mul(d.gamma.entries[i][s].expr.clone(), eta[s].clone()))
+            })
+        })
+        .collect();
+    let mut b: Vec<Expr> = (0..g)
+        .map(|i| {
+            let mut x = d.forcing[i].expr.clone();
+            for r in 0..g {
+                let row = (0..g).fold(Expr::int(0), |acc, s| {
+                    add(acc, mul(d.q[i].entries[r][s].expr.clone(), eta[s].clone()))
+                });
+                x = sub(x, mul(row, eta[r].clone()));
+            }
+            x
+        })
+        .collect();
+    let mut a: Vec<Vec<Expr>> = (0..g)
+        .map(|r| {
+            (0..g)
+                .map(|s| d.a_gamma.entries[r][s].expr.clone())
+                .collect()
+        })
+        .collect();
+    for k in 0..g {
+        for i in k + 1..g {
+            let f = div(a[i][k].clone(), a[k][k].clone());
+            if f.is_zero_literal() {
+                continue;
+            }
+            for j in k + 1..g {
+                a[i][j] = sub(a[i][j].clone(), mul(f.clone(), a[k][j].clone()));
+            }
+            b[i] = sub(b[i].clone(), mul(f, b[k].clone()));
+        }
+    }
+    let mut x = vec![Expr::int(0); g];
+    for k in (0..g).rev() {
+        let mut r = b[k].clone();
+        for j in k + 1..g {
+            r = sub(r, mul(a[k][j].clone(), x[j].clone()));
+        }
+        x[k] = div(r, a[k][k].clone());
+    }
+    let pivots = (0..g).map(|k| a[k][k].clone());
+    x.into_iter().chain(q_dot).chain(pivots).collect()
 }
 
 fn ident(name: &str) -> String {
@@ -204,14 +260,28 @@ fn lit(x: f64) -> String {
     }
 }
 
-/// The straight-line body of `ingredients`: one `let` per shared operation.
-fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
+/// One `let` per shared operation of `tape`; `input(i)` is the Rust text of input slot `i`.
+/// A sine and a cosine of the same argument are computed together (`sin_cos`).
+fn lets(tape: &Tape, input: impl Fn(usize) -> String) -> String {
+    let ops = tape.ops();
+    // The partner of sin(a) is cos(a) and vice versa.
+    let partner = |f: Func, a: usize| {
+        let other = match f {
+            Func::Sin => Func::Cos,
+            Func::Cos => Func::Sin,
+            _ => return None,
+        };
+        ops.iter().position(|op| *op == Op::Call(other, a))
+    };
+    let mut paired = vec![false; ops.len()];
     let mut o = String::new();
-    for (k, op) in tape.ops().iter().enumerate() {
+    for (k, op) in ops.iter().enumerate() {
+        if paired[k] {
+            continue;
+        }
         let t = |i: &usize| format!("t{i}");
         let rhs = match op {
-            Op::Input(i) if *i < ell => format!("q[{i}]"),
-            Op::Input(i) => format!("S::constant(p.{})", ident(&params[*i - ell])),
+            Op::Input(i) => input(*i),
             Op::Const(r) => format!("S::constant({})", lit(Expr::rational_to_f64(r))),
             Op::Add(v) => v.iter().map(t).collect::<Vec<_>>().join(" + "),
             Op::Mul(v) => v.iter().map(t).collect::<Vec<_>>().join(" * "),
@@ -219,6 +289,17 @@ fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
             Op::Div(a, b) => format!("t{a} / t{b}"),
             Op::PowI(a, n) => format!("t{a}.powi({n})"),
             Op::PowF(a, b) => format!("t{a}.powf(t{b})"),
+            Op::Call(f, a) if partner(*f, *a).is_some() => {
+                let other = partner(*f, *a).unwrap();
+                paired[other] = true;
+                let (sin, cos) = if *f == Func::Sin {
+                    (k, other)
+                } else {
+                    (other, k)
+                };
+                let _ = writeln!(o, "    let (t{sin}, t{cos}) = t{a}.sin_cos();");
+                continue;
+            }
             Op::Call(f, a) => {
                 let name = match f {
                     Func::Sin => "sin",
@@ -233,9 +314,50 @@ fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
         };
         let _ = writeln!(o, "    let t{k} = {rhs};");
     }
+    o
+}
+
+/// The Rust text of input slot `i` of a tape over (q, parameters[, η]).
+fn input_text(i: usize, ell: usize, params: &[String]) -> String {
+    if i < ell {
+        format!("q[{i}]")
+    } else if i < ell + params.len() {
+        format!("S::constant(p.{})", ident(&params[i - ell]))
+    } else {
+        format!("eta[{}]", i - ell - params.len())
+    }
+}
+
+/// The straight-line body of `ingredients`: the lets, then `out[j] = …`.
+fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
+    let mut o = lets(tape, |i| input_text(i, ell, params));
     for (j, i) in tape.outputs().iter().enumerate() {
         let _ = writeln!(o, "    out[{j}] = t{i};");
     }
+    o
+}
+
+/// The body of `solved`: the lets, the pivot check, then (η̇, q̇).
+fn solved_body(tape: &Tape, ell: usize, sigma: usize, params: &[String]) -> String {
+    let mut o = lets(tape, |i| input_text(i, ell, params));
+    let out = tape.outputs();
+    let t = |i: &usize| format!("t{i}");
+    let pivots = &out[sigma + ell..];
+    let _ = writeln!(
+        o,
+        "    if !({}) {{\n        return Err(EvalError(\"A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)\".into()));\n    }}",
+        pivots
+            .iter()
+            .map(|i| format!("t{i}.value() > 0.0"))
+            .collect::<Vec<_>>()
+            .join(" && ")
+    );
+    let _ = writeln!(
+        o,
+        "    Ok(([{}], [{}]))",
+        list(out[..sigma].iter().map(t)),
+        list(out[sigma..sigma + ell].iter().map(t))
+    );
     o
 }
 
@@ -265,10 +387,15 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
     let ops_trees: usize = exprs.iter().map(|e| tree_operations(e)).sum();
     let ops_shared = tape.operation_count();
     let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
-    let cf_exprs = closed_form_exprs(d);
-    let cf_tape = Tape::compile(&cf_exprs, &inputs)?;
-    let cf_ops = cf_tape.operation_count();
-    let choice = choose_path(d, &tape, &cf_tape)?;
+    let solved = solved_exprs(d);
+    let solved_inputs: Vec<String> = inputs
+        .iter()
+        .cloned()
+        .chain((0..d.sigma).map(eta_input))
+        .collect();
+    let solved_tape = Tape::compile(&solved.iter().collect::<Vec<_>>(), &solved_inputs)?;
+    let solved_ops = solved_tape.operation_count();
+    let choice = choose_path(d, &tape, &solved_tape)?;
     let names = |ix: &[usize]| list(ix.iter().map(|&k| format!("{:?}", d.coordinates[k])));
     let reduced_state: Vec<String> = kept
         .iter()
@@ -289,8 +416,8 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
 //! Quasi-velocities η = Z(q)q̇:
 {eta_doc}//!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): {ops_trees} arithmetic operations as
-//! separate trees, {ops_shared} with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
-//! Q⁽ⁱ⁾): {cf_ops} shared operations.
+//! separate trees, {ops_shared} with common subexpressions shared. Solved form ((η̇, q̇) as
+//! straight-line code of (q, η), exact zeros folded): {solved_ops} shared operations.
 //!
 //! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): {path_doc}
 //!
@@ -331,10 +458,8 @@ pub const REDUCED_DIM: usize = {nr};
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = ({ops_trees}, {ops_shared});
-/// Whether [`fast`] uses the closed form (else the structured path).
-pub const CLOSED_FORM: bool = {closed};
-/// Number of closed-form outputs.
-pub const CF_LEN: usize = {cf_len};
+/// Whether [`fast`] uses the solved form (else the structured path).
+pub const SOLVED: bool = {closed};
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -385,16 +510,16 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }}
 
-/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
-pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {{
-{cf_body}}}
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
+/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
+{solved_body}}}
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
-    if CLOSED_FORM {{
-        let mut out = [S::constant(0.0); CF_LEN];
-        closed_form(q, p, &mut out);
-        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    if SOLVED {{
+        solved(q, eta, p)
     }} else {{
         let r = rhs_fixed(q, eta, p, false)?;
         Ok((r.eta_dot, r.q_dot))
@@ -532,8 +657,7 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
             .map(|k| format!("            {k:?} => Some(&mut self.{}),\n", ident(k)))
             .collect::<String>(),
         body = straight_line(&tape, d.ell, &params),
-        cf_body = straight_line(&cf_tape, d.ell, &params),
-        cf_len = cf_tape.outputs().len(),
+        solved_body = solved_body(&solved_tape, d.ell, d.sigma, &params),
         closed = choice.closed,
         path_doc = choice.doc,
     );

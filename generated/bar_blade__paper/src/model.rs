@@ -10,10 +10,10 @@
 //! * eta2 = der(phi)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 135 arithmetic operations as
-//! separate trees, 46 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
-//! Q⁽ⁱ⁾): 53 shared operations.
+//! separate trees, 46 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! straight-line code of (q, η), exact zeros folded): 77 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 53 operations against the ingredients' 46; at 200 sample states the closed form deviates from the structured evaluation by at most 3.4e-14.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form: 77 operations against the ingredients' 46; at 200 sample states the solved form deviates from the structured evaluation by at most 3.4e-14.
 //!
 //! **States.** Full: q = (x, y, theta, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from
@@ -52,10 +52,8 @@ pub const REDUCED_DIM: usize = 3;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (135, 46);
-/// Whether [`fast`] uses the closed form (else the structured path).
-pub const CLOSED_FORM: bool = true;
-/// Number of closed-form outputs.
-pub const CF_LEN: usize = 22;
+/// Whether [`fast`] uses the solved form (else the structured path).
+pub const SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -108,18 +106,16 @@ impl Parameters {
 /// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
 pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t0 = q[2];
-    let t1 = t0.cos();
-    let t2 = t0.sin();
+    let (t2, t1) = t0.sin_cos();
     let t3 = S::constant(0.0);
     let t4 = S::constant(1.0);
     let t5 = -t1;
     let t6 = q[3];
-    let t7 = t6.sin();
+    let (t7, t12) = t6.sin_cos();
     let t8 = t1 * t7;
     let t9 = -t8;
     let t10 = t2 * t7;
     let t11 = -t10;
-    let t12 = t6.cos();
     let t13 = S::constant(p.l_r);
     let t14 = t12 * t13;
     let t15 = S::constant(p.m_r);
@@ -333,81 +329,81 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
-pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
-    let t0 = q[2];
-    let t1 = t0.cos();
-    let t2 = S::constant(0.0);
-    let t3 = t0.sin();
-    let t4 = q[3];
-    let t5 = t4.sin();
-    let t6 = t4.cos();
-    let t7 = S::constant(p.l_r);
-    let t8 = t6 * t7;
-    let t9 = t5 / t8;
-    let t10 = S::constant(1.0);
-    let t11 = S::constant(8.0);
-    let t12 = t6.powi(2);
-    let t13 = S::constant(p.m_r);
-    let t14 = t7.powi(2);
-    let t15 = t11 * t12 * t13 * t14;
-    let t16 = S::constant(p.m_f);
-    let t17 = S::constant(p.l_f);
-    let t18 = t17.powi(2);
-    let t19 = t12 * t16 * t18;
-    let t20 = -t19;
-    let t21 = S::constant(4.0);
-    let t22 = t13 * t14 * t21;
-    let t23 = S::constant(12.0);
-    let t24 = t14 * t16 * t23;
-    let t25 = t16 * t18;
-    let t26 = t15 + t20 + t22 + t24 + t25;
-    let t27 = t12 * t14 * t23;
-    let t28 = t26 / t27;
-    let t29 = t5 * t16 * t18;
-    let t30 = t6 * t7 * t23;
-    let t31 = t29 / t30;
-    let t32 = S::constant(0.08333333333333333);
-    let t33 = t16 * t18 * t32;
-    let t34 = t5 * t13 * t14 * t21;
-    let t35 = t5 * t14 * t16 * t23;
-    let t36 = t29 + t34 + t35;
-    let t37 = S::constant(24.0);
-    let t38 = t6.powi(3);
-    let t39 = t14 * t37 * t38;
-    let t40 = t36 / t39;
-    let t41 = t7 * t12 * t37;
-    let t42 = t25 / t41;
-    out[0] = t1;
-    out[1] = t2;
-    out[2] = t3;
-    out[3] = t2;
-    out[4] = t9;
-    out[5] = t2;
-    out[6] = t2;
-    out[7] = t10;
-    out[8] = t28;
-    out[9] = t31;
-    out[10] = t31;
-    out[11] = t33;
-    out[12] = t2;
-    out[13] = t2;
-    out[14] = t2;
-    out[15] = t40;
-    out[16] = t40;
-    out[17] = t2;
-    out[18] = t2;
-    out[19] = t42;
-    out[20] = t42;
-    out[21] = t2;
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
+/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = S::constant(4.0);
+    let t1 = q[3];
+    let (t2, t15) = t1.sin_cos();
+    let t3 = S::constant(p.m_r);
+    let t4 = S::constant(p.l_r);
+    let t5 = t4.powi(2);
+    let t6 = t0 * t2 * t3 * t5;
+    let t7 = S::constant(12.0);
+    let t8 = S::constant(p.m_f);
+    let t9 = t2 * t5 * t7 * t8;
+    let t10 = S::constant(p.l_f);
+    let t11 = t10.powi(2);
+    let t12 = t2 * t8 * t11;
+    let t13 = t6 + t9 + t12;
+    let t14 = S::constant(24.0);
+    let t16 = t15.powi(3);
+    let t17 = t5 * t14 * t16;
+    let t18 = t13 / t17;
+    let t19 = eta[1];
+    let t20 = eta[0];
+    let t21 = t18 * t19 * t20;
+    let t22 = -t21;
+    let t23 = t4 * t7 * t15;
+    let t24 = t12 / t23;
+    let t25 = t8 * t11;
+    let t26 = t15.powi(2);
+    let t27 = t4 * t14 * t26;
+    let t28 = t25 / t27;
+    let t29 = t19 * t20 * t28;
+    let t30 = -t29;
+    let t31 = S::constant(8.0);
+    let t32 = t3 * t5 * t26 * t31;
+    let t33 = t8 * t11 * t26;
+    let t34 = -t33;
+    let t35 = t0 * t3 * t5;
+    let t36 = t5 * t7 * t8;
+    let t37 = t25 + t32 + t34 + t35 + t36;
+    let t38 = t5 * t7 * t26;
+    let t39 = t37 / t38;
+    let t40 = t24 / t39;
+    let t41 = t22 + t22;
+    let t42 = t40 * t41;
+    let t43 = -t42;
+    let t44 = t30 + t30 + t43;
+    let t45 = S::constant(0.08333333333333333);
+    let t46 = t8 * t11 * t45;
+    let t47 = t24 * t40;
+    let t48 = -t47;
+    let t49 = t46 + t48;
+    let t50 = t44 / t49;
+    let t51 = t24 * t50;
+    let t52 = -t51;
+    let t53 = t22 + t22 + t52;
+    let t54 = t53 / t39;
+    let t55 = q[2];
+    let (t58, t56) = t55.sin_cos();
+    let t57 = t20 * t56;
+    let t59 = t20 * t58;
+    let t60 = t4 * t15;
+    let t61 = t2 / t60;
+    let t62 = t20 * t61;
+    if !(t39.value() > 0.0 && t49.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok(([t54, t50], [t57, t59, t62, t19]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    if CLOSED_FORM {
-        let mut out = [S::constant(0.0); CF_LEN];
-        closed_form(q, p, &mut out);
-        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    if SOLVED {
+        solved(q, eta, p)
     } else {
         let r = rhs_fixed(q, eta, p, false)?;
         Ok((r.eta_dot, r.q_dot))

@@ -10,10 +10,10 @@
 //! * eta2 = der(phi)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 114 arithmetic operations as
-//! separate trees, 50 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
-//! Q⁽ⁱ⁾): 80 shared operations.
+//! separate trees, 50 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! straight-line code of (q, η), exact zeros folded): 105 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 80 operations against the ingredients' 50; at 200 sample states the closed form deviates from the structured evaluation by at most 3.8e-14.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured: the solved form has 105 operations, more than twice the ingredients' 50.
 //!
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
@@ -52,10 +52,8 @@ pub const REDUCED_DIM: usize = 3;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (114, 50);
-/// Whether [`fast`] uses the closed form (else the structured path).
-pub const CLOSED_FORM: bool = true;
-/// Number of closed-form outputs.
-pub const CF_LEN: usize = 24;
+/// Whether [`fast`] uses the solved form (else the structured path).
+pub const SOLVED: bool = false;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -116,15 +114,13 @@ impl Parameters {
 /// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
 pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t0 = q[2];
-    let t1 = t0.cos();
-    let t2 = t0.sin();
+    let (t2, t1) = t0.sin_cos();
     let t3 = S::constant(0.0);
     let t4 = S::constant(1.0);
     let t5 = q[4];
-    let t6 = t5.sin();
+    let (t6, t9) = t5.sin_cos();
     let t7 = t1 * t6;
     let t8 = t2 * t6;
-    let t9 = t5.cos();
     let t10 = S::constant(p.l_r);
     let t11 = t9 * t10;
     let t12 = -t11;
@@ -488,98 +484,97 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
-pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
-    let t0 = q[2];
-    let t1 = t0.cos();
-    let t2 = S::constant(0.0);
-    let t3 = t0.sin();
-    let t4 = q[4];
-    let t5 = t4.sin();
-    let t6 = t4.cos();
-    let t7 = S::constant(p.l_r);
-    let t8 = t6 * t7;
-    let t9 = t5 / t8;
-    let t10 = S::constant(p.a);
-    let t11 = t5 * t10;
-    let t12 = -t8;
-    let t13 = t11 + t12;
-    let t14 = S::constant(p.R);
-    let t15 = t6 * t7 * t14;
-    let t16 = t13 / t15;
-    let t17 = S::constant(1.0);
-    let t18 = S::constant(6.0);
-    let t19 = t6.powi(2);
-    let t20 = S::constant(p.m_w);
-    let t21 = t14.powi(2);
-    let t22 = t18 * t19 * t20 * t21;
-    let t23 = -t22;
-    let t24 = S::constant(36.0);
-    let t25 = t10.powi(2);
-    let t26 = t19 * t20 * t24 * t25;
-    let t27 = -t26;
-    let t28 = t7.powi(2);
-    let t29 = t19 * t20 * t24 * t28;
-    let t30 = S::constant(p.m_f);
-    let t31 = S::constant(p.l_f);
-    let t32 = t31.powi(2);
-    let t33 = t19 * t30 * t32;
-    let t34 = -t33;
-    let t35 = t18 * t20 * t21;
-    let t36 = t20 * t24 * t25;
-    let t37 = S::constant(12.0);
-    let t38 = t28 * t30 * t37;
-    let t39 = t30 * t32;
-    let t40 = t23 + t27 + t29 + t34 + t35 + t36 + t38 + t39;
-    let t41 = t19 * t28 * t37;
-    let t42 = t40 / t41;
-    let t43 = t5 * t30 * t32;
-    let t44 = t6 * t7 * t37;
-    let t45 = t43 / t44;
-    let t46 = S::constant(0.08333333333333333);
-    let t47 = t30 * t32 * t46;
-    let t48 = t5 * t18 * t20 * t21;
-    let t49 = t5 * t20 * t24 * t25;
-    let t50 = t5 * t28 * t30 * t37;
-    let t51 = t43 + t48 + t49 + t50;
-    let t52 = S::constant(24.0);
-    let t53 = t6.powi(3);
-    let t54 = t28 * t52 * t53;
-    let t55 = t51 / t54;
-    let t56 = t7 * t19 * t52;
-    let t57 = t39 / t56;
-    out[0] = t1;
-    out[1] = t2;
-    out[2] = t3;
-    out[3] = t2;
-    out[4] = t9;
-    out[5] = t2;
-    out[6] = t16;
-    out[7] = t2;
-    out[8] = t2;
-    out[9] = t17;
-    out[10] = t42;
-    out[11] = t45;
-    out[12] = t45;
-    out[13] = t47;
-    out[14] = t2;
-    out[15] = t2;
-    out[16] = t2;
-    out[17] = t55;
-    out[18] = t55;
-    out[19] = t2;
-    out[20] = t2;
-    out[21] = t57;
-    out[22] = t57;
-    out[23] = t2;
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
+/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = S::constant(6.0);
+    let t1 = q[4];
+    let (t2, t21) = t1.sin_cos();
+    let t3 = S::constant(p.m_w);
+    let t4 = S::constant(p.R);
+    let t5 = t4.powi(2);
+    let t6 = t0 * t2 * t3 * t5;
+    let t7 = S::constant(36.0);
+    let t8 = S::constant(p.a);
+    let t9 = t8.powi(2);
+    let t10 = t2 * t3 * t7 * t9;
+    let t11 = S::constant(12.0);
+    let t12 = S::constant(p.l_r);
+    let t13 = t12.powi(2);
+    let t14 = S::constant(p.m_f);
+    let t15 = t2 * t11 * t13 * t14;
+    let t16 = S::constant(p.l_f);
+    let t17 = t16.powi(2);
+    let t18 = t2 * t14 * t17;
+    let t19 = t6 + t10 + t15 + t18;
+    let t20 = S::constant(24.0);
+    let t22 = t21.powi(3);
+    let t23 = t13 * t20 * t22;
+    let t24 = t19 / t23;
+    let t25 = eta[1];
+    let t26 = eta[0];
+    let t27 = t24 * t25 * t26;
+    let t28 = -t27;
+    let t29 = t11 * t12 * t21;
+    let t30 = t18 / t29;
+    let t31 = t14 * t17;
+    let t32 = t21.powi(2);
+    let t33 = t12 * t20 * t32;
+    let t34 = t31 / t33;
+    let t35 = t25 * t26 * t34;
+    let t36 = -t35;
+    let t37 = t0 * t3 * t5 * t32;
+    let t38 = -t37;
+    let t39 = t3 * t7 * t9 * t32;
+    let t40 = -t39;
+    let t41 = t3 * t7 * t13 * t32;
+    let t42 = t14 * t17 * t32;
+    let t43 = -t42;
+    let t44 = t0 * t3 * t5;
+    let t45 = t3 * t7 * t9;
+    let t46 = t11 * t13 * t14;
+    let t47 = t31 + t38 + t40 + t41 + t43 + t44 + t45 + t46;
+    let t48 = t11 * t13 * t32;
+    let t49 = t47 / t48;
+    let t50 = t30 / t49;
+    let t51 = t28 + t28;
+    let t52 = t50 * t51;
+    let t53 = -t52;
+    let t54 = t36 + t36 + t53;
+    let t55 = S::constant(0.08333333333333333);
+    let t56 = t14 * t17 * t55;
+    let t57 = t30 * t50;
+    let t58 = -t57;
+    let t59 = t56 + t58;
+    let t60 = t54 / t59;
+    let t61 = t30 * t60;
+    let t62 = -t61;
+    let t63 = t28 + t28 + t62;
+    let t64 = t63 / t49;
+    let t65 = q[2];
+    let (t68, t66) = t65.sin_cos();
+    let t67 = t26 * t66;
+    let t69 = t26 * t68;
+    let t70 = t12 * t21;
+    let t71 = t2 / t70;
+    let t72 = t26 * t71;
+    let t73 = t2 * t8;
+    let t74 = -t70;
+    let t75 = t73 + t74;
+    let t76 = t4 * t12 * t21;
+    let t77 = t75 / t76;
+    let t78 = t26 * t77;
+    if !(t49.value() > 0.0 && t59.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok(([t64, t60], [t67, t69, t72, t78, t25]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    if CLOSED_FORM {
-        let mut out = [S::constant(0.0); CF_LEN];
-        closed_form(q, p, &mut out);
-        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    if SOLVED {
+        solved(q, eta, p)
     } else {
         let r = rhs_fixed(q, eta, p, false)?;
         Ok((r.eta_dot, r.q_dot))

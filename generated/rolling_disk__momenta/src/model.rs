@@ -11,10 +11,10 @@
 //! * eta3 = der(theta)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 286 arithmetic operations as
-//! separate trees, 58 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
-//! Q⁽ⁱ⁾): 64 shared operations.
+//! separate trees, 58 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! straight-line code of (q, η), exact zeros folded): 109 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured: 64 operations against the ingredients' 58; at 200 sample states the closed form deviates from the structured evaluation by at most 1.1e-12 (above 1e-12, or too few states).
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured: 109 operations against the ingredients' 58; at 200 sample states the solved form deviates from the structured evaluation by at most 1.1e-12 (above 1e-12, or too few states).
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
@@ -53,10 +53,8 @@ pub const REDUCED_DIM: usize = 5;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (286, 58);
-/// Whether [`fast`] uses the closed form (else the structured path).
-pub const CLOSED_FORM: bool = false;
-/// Number of closed-form outputs.
-pub const CF_LEN: usize = 54;
+/// Whether [`fast`] uses the solved form (else the structured path).
+pub const SOLVED: bool = false;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -105,18 +103,16 @@ impl Parameters {
 /// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
 pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t0 = q[2];
-    let t1 = t0.cos();
+    let (t8, t1) = t0.sin_cos();
     let t2 = q[4];
-    let t3 = t2.sin();
+    let (t3, t12) = t2.sin_cos();
     let t4 = S::constant(p.R);
     let t5 = S::constant(p.m_d);
     let t6 = t1 * t3 * t4 * t5;
     let t7 = -t6;
-    let t8 = t0.sin();
     let t9 = t3 * t4 * t5 * t8;
     let t10 = -t9;
     let t11 = S::constant(1.25);
-    let t12 = t2.cos();
     let t13 = t12.powi(2);
     let t14 = t4.powi(2);
     let t15 = t5 * t11 * t13 * t14;
@@ -468,134 +464,124 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
-pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
+/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     let t0 = S::constant(4.0);
-    let t1 = q[2];
-    let t2 = t1.cos();
+    let t1 = S::constant(p.R);
+    let t2 = t1.powi(2);
     let t3 = q[4];
-    let t4 = t3.sin();
-    let t5 = t0 * t2 * t4;
-    let t6 = S::constant(p.R);
-    let t7 = t3.cos();
-    let t8 = t7.powi(2);
-    let t9 = S::constant(p.m_d);
-    let t10 = t6 * t8 * t9;
-    let t11 = t5 / t10;
-    let t12 = S::constant(10.0);
-    let t13 = t2 * t8 * t12;
-    let t14 = -t13;
-    let t15 = S::constant(12.0);
-    let t16 = t2 * t15;
-    let t17 = t14 + t16;
-    let t18 = t17 / t10;
-    let t19 = S::constant(0.0);
-    let t20 = t1.sin();
-    let t21 = t0 * t4 * t20;
-    let t22 = t21 / t10;
-    let t23 = t8 * t12 * t20;
-    let t24 = -t23;
-    let t25 = t15 * t20;
-    let t26 = t24 + t25;
-    let t27 = t26 / t10;
-    let t28 = t6.powi(2);
-    let t29 = t8 * t9 * t28;
-    let t30 = t0 / t29;
-    let t31 = t4 * t15;
-    let t32 = t31 / t29;
-    let t33 = t0 * t4;
-    let t34 = t33 / t29;
-    let t35 = t8 * t12;
+    let (t13, t4) = t3.sin_cos();
+    let t5 = S::constant(p.m_d);
+    let t6 = t2 * t4 * t5;
+    let t7 = t0 / t6;
+    let t8 = eta[2];
+    let t9 = eta[1];
+    let t10 = t7 * t8 * t9;
+    let t11 = -t10;
+    let t12 = S::constant(12.0);
+    let t14 = t12 * t13;
+    let t15 = t4.powi(2);
+    let t16 = t2 * t5 * t15;
+    let t17 = t14 / t16;
+    let t18 = S::constant(-4.0);
+    let t19 = t18 / t6;
+    let t20 = eta[0];
+    let t21 = t8 * t19 * t20;
+    let t22 = -t21;
+    let t23 = t0 / t16;
+    let t24 = t17 / t23;
+    let t25 = t11 + t11;
+    let t26 = t24 * t25;
+    let t27 = -t26;
+    let t28 = t22 + t22 + t27;
+    let t29 = S::constant(30.0);
+    let t30 = t15 * t29;
+    let t31 = -t30;
+    let t32 = S::constant(36.0);
+    let t33 = t31 + t32;
+    let t34 = t33 / t16;
+    let t35 = t17 * t24;
     let t36 = -t35;
-    let t37 = t15 + t36;
-    let t38 = t37 / t29;
-    let t39 = S::constant(1.0);
-    let t40 = S::constant(30.0);
-    let t41 = t8 * t40;
-    let t42 = -t41;
-    let t43 = S::constant(36.0);
-    let t44 = t42 + t43;
-    let t45 = t44 / t29;
-    let t46 = S::constant(1.25);
-    let t47 = t9 * t28 * t46;
-    let t48 = S::constant(p.g);
-    let t49 = t4 * t6 * t9 * t48;
-    let t50 = t7 * t9 * t28;
-    let t51 = t0 / t50;
-    let t52 = -t0;
-    let t53 = t52 / t50;
-    let t54 = t7.powi(3);
-    let t55 = t9 * t28 * t54;
-    let t56 = t33 / t55;
-    let t57 = S::constant(6.0);
-    let t58 = t8 * t57;
-    let t59 = -t58;
-    let t60 = t15 + t59;
-    let t61 = t60 / t55;
-    let t62 = t4 * t43;
-    let t63 = t62 / t55;
-    out[0] = t11;
-    out[1] = t18;
-    out[2] = t19;
-    out[3] = t22;
-    out[4] = t27;
-    out[5] = t19;
-    out[6] = t30;
-    out[7] = t32;
-    out[8] = t19;
-    out[9] = t34;
-    out[10] = t38;
-    out[11] = t19;
-    out[12] = t19;
-    out[13] = t19;
-    out[14] = t39;
-    out[15] = t30;
-    out[16] = t32;
-    out[17] = t19;
-    out[18] = t32;
-    out[19] = t45;
-    out[20] = t19;
-    out[21] = t19;
-    out[22] = t19;
-    out[23] = t47;
-    out[24] = t19;
-    out[25] = t19;
-    out[26] = t49;
-    out[27] = t19;
-    out[28] = t19;
-    out[29] = t19;
-    out[30] = t19;
-    out[31] = t19;
-    out[32] = t51;
-    out[33] = t19;
-    out[34] = t51;
-    out[35] = t19;
-    out[36] = t19;
-    out[37] = t19;
-    out[38] = t53;
-    out[39] = t19;
-    out[40] = t19;
-    out[41] = t19;
-    out[42] = t53;
-    out[43] = t19;
-    out[44] = t19;
-    out[45] = t56;
-    out[46] = t61;
-    out[47] = t19;
-    out[48] = t61;
-    out[49] = t63;
-    out[50] = t19;
-    out[51] = t19;
-    out[52] = t19;
-    out[53] = t19;
+    let t37 = t34 + t36;
+    let t38 = t28 / t37;
+    let t39 = t17 * t38;
+    let t40 = -t39;
+    let t41 = t11 + t11 + t40;
+    let t42 = t41 / t23;
+    let t43 = S::constant(p.g);
+    let t44 = t1 * t5 * t13 * t43;
+    let t45 = t0 * t13;
+    let t46 = t4.powi(3);
+    let t47 = t2 * t5 * t46;
+    let t48 = t45 / t47;
+    let t49 = t20 * t48;
+    let t50 = S::constant(6.0);
+    let t51 = t15 * t50;
+    let t52 = -t51;
+    let t53 = t12 + t52;
+    let t54 = t53 / t47;
+    let t55 = t9 * t54;
+    let t56 = t49 + t55;
+    let t57 = t20 * t56;
+    let t58 = -t57;
+    let t59 = t20 * t54;
+    let t60 = t13 * t32;
+    let t61 = t60 / t47;
+    let t62 = t9 * t61;
+    let t63 = t59 + t62;
+    let t64 = t9 * t63;
+    let t65 = -t64;
+    let t66 = t44 + t58 + t65;
+    let t67 = S::constant(1.25);
+    let t68 = t2 * t5 * t67;
+    let t69 = t66 / t68;
+    let t70 = q[2];
+    let (t84, t71) = t70.sin_cos();
+    let t72 = t0 * t13 * t71;
+    let t73 = t1 * t5 * t15;
+    let t74 = t72 / t73;
+    let t75 = t20 * t74;
+    let t76 = S::constant(10.0);
+    let t77 = t15 * t71 * t76;
+    let t78 = -t77;
+    let t79 = t12 * t71;
+    let t80 = t78 + t79;
+    let t81 = t80 / t73;
+    let t82 = t9 * t81;
+    let t83 = t75 + t82;
+    let t85 = t0 * t13 * t84;
+    let t86 = t85 / t73;
+    let t87 = t20 * t86;
+    let t88 = t15 * t76 * t84;
+    let t89 = -t88;
+    let t90 = t12 * t84;
+    let t91 = t89 + t90;
+    let t92 = t91 / t73;
+    let t93 = t9 * t92;
+    let t94 = t87 + t93;
+    let t95 = t20 * t23;
+    let t96 = t9 * t17;
+    let t97 = t95 + t96;
+    let t98 = t45 / t16;
+    let t99 = t20 * t98;
+    let t100 = t15 * t76;
+    let t101 = -t100;
+    let t102 = t12 + t101;
+    let t103 = t102 / t16;
+    let t104 = t9 * t103;
+    let t105 = t99 + t104;
+    if !(t23.value() > 0.0 && t37.value() > 0.0 && t68.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok(([t42, t38, t69], [t83, t94, t97, t105, t8]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    if CLOSED_FORM {
-        let mut out = [S::constant(0.0); CF_LEN];
-        closed_form(q, p, &mut out);
-        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    if SOLVED {
+        solved(q, eta, p)
     } else {
         let r = rhs_fixed(q, eta, p, false)?;
         Ok((r.eta_dot, r.q_dot))

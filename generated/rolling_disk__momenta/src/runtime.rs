@@ -33,6 +33,10 @@ pub trait Scalar:
     fn sin(self) -> Self;
     /// cosine
     fn cos(self) -> Self;
+    /// sine and cosine together
+    fn sin_cos(self) -> (Self, Self) {
+        (self.sin(), self.cos())
+    }
     /// tangent
     fn tan(self) -> Self {
         self.sin() / self.cos()
@@ -63,6 +67,9 @@ impl Scalar for f64 {
     }
     fn cos(self) -> Self {
         f64::cos(self)
+    }
+    fn sin_cos(self) -> (Self, Self) {
+        f64::sin_cos(self)
     }
     fn tan(self) -> Self {
         f64::tan(self)
@@ -173,6 +180,10 @@ impl<const N: usize> Scalar for Dual<N> {
     }
     fn cos(self) -> Self {
         self.chain(self.v.cos(), -self.v.sin())
+    }
+    fn sin_cos(self) -> (Self, Self) {
+        let (s, c) = self.v.sin_cos();
+        (self.chain(s, c), self.chain(c, -s))
     }
     fn sqrt(self) -> Self {
         let r = self.v.sqrt();
@@ -520,40 +531,6 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
         forcing,
         energy: energy * S::constant(0.5) - out[l.u],
     })
-}
-
-/// The closed-form path from the outputs of the generated `closed_form` (Γ ℓ×σ row-major,
-/// A_Γ σ×σ, Γᵀ∇U σ, Q⁽ⁱ⁾ σ blocks σ×σ): η̇ = A_Γ⁻¹(Γᵀ∇U − Σ_rs Q⁽ⁱ⁾_rs η_r η_s) (11), q̇ = Γη (6).
-pub fn closed<S: Scalar, const L: usize, const G: usize>(
-    out: &[S],
-    eta: &[S],
-) -> Result<([S; G], [S; L]), EvalError> {
-    let zero = S::constant(0.0);
-    let (ag_at, f_at, q_at) = (L * G, L * G + G * G, L * G + G * G + G);
-    let mut qd = [zero; L];
-    for (i, x) in qd.iter_mut().enumerate() {
-        for s in 0..G {
-            *x = *x + out[i * G + s] * eta[s];
-        }
-    }
-    let mut a_gamma = [[zero; G]; G];
-    for (r, row) in a_gamma.iter_mut().enumerate() {
-        row.copy_from_slice(&out[ag_at + r * G..ag_at + (r + 1) * G]);
-    }
-    let mut rhs = [zero; G];
-    for (i, x) in rhs.iter_mut().enumerate() {
-        let mut quad = zero;
-        for r in 0..G {
-            let mut row = zero;
-            for s in 0..G {
-                row = row + out[q_at + i * G * G + r * G + s] * eta[s];
-            }
-            quad = quad + row * eta[r];
-        }
-        *x = out[f_at + i] - quad;
-    }
-    let lu = Lu::new(a_gamma).ok_or_else(|| EvalError("A_Γ is singular here".into()))?;
-    Ok((lu.solve(&rhs), qd))
 }
 
 /// Fail on a non-finite value instead of passing NaN on.

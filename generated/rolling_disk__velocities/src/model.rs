@@ -11,10 +11,10 @@
 //! * eta3 = der(theta)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 206 arithmetic operations as
-//! separate trees, 58 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
-//! Q⁽ⁱ⁾): 42 shared operations.
+//! separate trees, 58 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! straight-line code of (q, η), exact zeros folded): 97 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured: 42 operations against the ingredients' 58; at 200 sample states the closed form deviates from the structured evaluation by at most 2.3e-11 (above 1e-12, or too few states).
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured: 97 operations against the ingredients' 58; at 200 sample states the solved form deviates from the structured evaluation by at most 4.5e-11 (above 1e-12, or too few states).
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
@@ -53,10 +53,8 @@ pub const REDUCED_DIM: usize = 5;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (206, 58);
-/// Whether [`fast`] uses the closed form (else the structured path).
-pub const CLOSED_FORM: bool = false;
-/// Number of closed-form outputs.
-pub const CF_LEN: usize = 54;
+/// Whether [`fast`] uses the solved form (else the structured path).
+pub const SOLVED: bool = false;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -107,19 +105,17 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t0 = S::constant(0.0);
     let t1 = S::constant(1.0);
     let t2 = q[2];
-    let t3 = t2.cos();
+    let (t7, t3) = t2.sin_cos();
     let t4 = S::constant(p.R);
     let t5 = t3 * t4;
     let t6 = -t5;
-    let t7 = t2.sin();
     let t8 = t4 * t7;
     let t9 = -t8;
     let t10 = S::constant(p.m_d);
     let t11 = q[4];
-    let t12 = t11.sin();
+    let (t12, t15) = t11.sin_cos();
     let t13 = t3 * t4 * t10 * t12;
     let t14 = -t13;
-    let t15 = t11.cos();
     let t16 = t4 * t7 * t10 * t15;
     let t17 = -t16;
     let t18 = t4 * t7 * t10 * t12;
@@ -468,104 +464,85 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
-pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
-    let t0 = S::constant(0.0);
-    let t1 = q[2];
-    let t2 = t1.cos();
-    let t3 = S::constant(p.R);
-    let t4 = t2 * t3;
-    let t5 = t1.sin();
-    let t6 = t3 * t5;
-    let t7 = S::constant(1.0);
-    let t8 = S::constant(1.25);
-    let t9 = q[4];
-    let t10 = t9.cos();
-    let t11 = t10.powi(2);
-    let t12 = t3.powi(2);
-    let t13 = S::constant(p.m_d);
-    let t14 = t8 * t11 * t12 * t13;
-    let t15 = -t14;
-    let t16 = S::constant(1.5);
-    let t17 = t12 * t13 * t16;
-    let t18 = t15 + t17;
-    let t19 = t9.sin();
-    let t20 = t12 * t13 * t16 * t19;
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
+/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = S::constant(1.25);
+    let t1 = q[4];
+    let (t2, t3) = t1.sin_cos();
+    let t4 = S::constant(p.R);
+    let t5 = t4.powi(2);
+    let t6 = S::constant(p.m_d);
+    let t7 = eta[2];
+    let t8 = eta[0];
+    let t9 = t0 * t2 * t3 * t5 * t6 * t7 * t8;
+    let t10 = -t9;
+    let t11 = S::constant(0.25);
+    let t12 = t3 * t5 * t6 * t11;
+    let t13 = -t12;
+    let t14 = eta[1];
+    let t15 = t7 * t13 * t14;
+    let t16 = -t15;
+    let t17 = t0 * t2 * t3 * t5 * t6 * t8;
+    let t18 = t13 * t14;
+    let t19 = t17 + t18;
+    let t20 = t7 * t19;
     let t21 = -t20;
-    let t22 = t8 * t12 * t13;
-    let t23 = S::constant(p.g);
-    let t24 = t3 * t13 * t19 * t23;
-    let t25 = t8 * t10 * t12 * t13 * t19;
-    let t26 = S::constant(0.25);
-    let t27 = t10 * t12 * t13 * t26;
+    let t22 = S::constant(1.5);
+    let t23 = t2 * t5 * t6 * t22;
+    let t24 = -t23;
+    let t25 = t0 * t3 * t5 * t6;
+    let t26 = -t25;
+    let t27 = t7 * t8 * t26;
     let t28 = -t27;
-    let t29 = t8 * t10 * t12 * t13;
-    let t30 = -t29;
-    let t31 = -t25;
-    let t32 = S::constant(0.75);
-    let t33 = t10 * t12 * t13 * t32;
-    out[0] = t0;
-    out[1] = t4;
-    out[2] = t0;
-    out[3] = t0;
-    out[4] = t6;
-    out[5] = t0;
-    out[6] = t7;
-    out[7] = t0;
-    out[8] = t0;
-    out[9] = t0;
-    out[10] = t7;
-    out[11] = t0;
-    out[12] = t0;
-    out[13] = t0;
-    out[14] = t7;
-    out[15] = t18;
-    out[16] = t21;
-    out[17] = t0;
-    out[18] = t21;
-    out[19] = t17;
-    out[20] = t0;
-    out[21] = t0;
-    out[22] = t0;
-    out[23] = t22;
-    out[24] = t0;
-    out[25] = t0;
-    out[26] = t24;
-    out[27] = t0;
-    out[28] = t0;
-    out[29] = t25;
-    out[30] = t0;
-    out[31] = t0;
-    out[32] = t28;
-    out[33] = t25;
-    out[34] = t28;
-    out[35] = t0;
-    out[36] = t0;
-    out[37] = t0;
-    out[38] = t30;
-    out[39] = t0;
-    out[40] = t0;
-    out[41] = t0;
-    out[42] = t30;
-    out[43] = t0;
-    out[44] = t0;
-    out[45] = t31;
-    out[46] = t33;
-    out[47] = t0;
-    out[48] = t33;
-    out[49] = t0;
-    out[50] = t0;
-    out[51] = t0;
-    out[52] = t0;
-    out[53] = t0;
+    let t29 = t3.powi(2);
+    let t30 = t0 * t5 * t6 * t29;
+    let t31 = -t30;
+    let t32 = t5 * t6 * t22;
+    let t33 = t31 + t32;
+    let t34 = t24 / t33;
+    let t35 = t10 + t16 + t21;
+    let t36 = t34 * t35;
+    let t37 = -t36;
+    let t38 = t28 + t28 + t37;
+    let t39 = t24 * t34;
+    let t40 = -t39;
+    let t41 = t32 + t40;
+    let t42 = t38 / t41;
+    let t43 = t24 * t42;
+    let t44 = -t43;
+    let t45 = t10 + t16 + t21 + t44;
+    let t46 = t45 / t33;
+    let t47 = S::constant(p.g);
+    let t48 = t2 * t4 * t6 * t47;
+    let t49 = t0 * t2 * t3 * t5 * t6;
+    let t50 = -t49;
+    let t51 = t8 * t50;
+    let t52 = S::constant(0.75);
+    let t53 = t3 * t5 * t6 * t14 * t52;
+    let t54 = t51 + t53;
+    let t55 = t8 * t54;
+    let t56 = -t55;
+    let t57 = t3 * t5 * t6 * t8 * t14 * t52;
+    let t58 = -t57;
+    let t59 = t48 + t56 + t58;
+    let t60 = t0 * t5 * t6;
+    let t61 = t59 / t60;
+    let t62 = q[2];
+    let (t65, t63) = t62.sin_cos();
+    let t64 = t4 * t14 * t63;
+    let t66 = t4 * t14 * t65;
+    if !(t33.value() > 0.0 && t41.value() > 0.0 && t60.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok(([t46, t42, t61], [t64, t66, t8, t14, t7]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    if CLOSED_FORM {
-        let mut out = [S::constant(0.0); CF_LEN];
-        closed_form(q, p, &mut out);
-        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    if SOLVED {
+        solved(q, eta, p)
     } else {
         let r = rhs_fixed(q, eta, p, false)?;
         Ok((r.eta_dot, r.q_dot))

@@ -10,10 +10,10 @@
 //! * eta2 = der(theta)
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 18 arithmetic operations as
-//! separate trees, 13 with common subexpressions shared. Closed form (Γ, A_Γ, Γᵀ∇U,
-//! Q⁽ⁱ⁾): 9 shared operations.
+//! separate trees, 13 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! straight-line code of (q, η), exact zeros folded): 12 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): closed form: 9 operations against the ingredients' 13; at 200 sample states the closed form deviates from the structured evaluation by at most 4.4e-16.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form: 12 operations against the ingredients' 13; at 200 sample states the solved form deviates from the structured evaluation by at most 4.4e-16.
 //!
 //! **States.** Full: q = (x, y, theta) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (x, y, theta, eta1, eta2); eliminated: (), reconstructed from
@@ -52,10 +52,8 @@ pub const REDUCED_DIM: usize = 5;
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (18, 13);
-/// Whether [`fast`] uses the closed form (else the structured path).
-pub const CLOSED_FORM: bool = true;
-/// Number of closed-form outputs.
-pub const CF_LEN: usize = 20;
+/// Whether [`fast`] uses the solved form (else the structured path).
+pub const SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -104,8 +102,7 @@ impl Parameters {
 /// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
 pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t0 = q[2];
-    let t1 = t0.cos();
-    let t2 = t0.sin();
+    let (t2, t1) = t0.sin_cos();
     let t3 = S::constant(0.0);
     let t4 = S::constant(1.0);
     let t5 = -t1;
@@ -212,49 +209,36 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// Γ, A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ at q, straight-line code; `out` has [`CF_LEN`] entries.
-pub fn closed_form<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
+/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     let t0 = q[2];
-    let t1 = t0.cos();
-    let t2 = S::constant(0.0);
-    let t3 = t0.sin();
-    let t4 = S::constant(1.0);
-    let t5 = S::constant(p.m);
-    let t6 = S::constant(0.08333333333333333);
-    let t7 = S::constant(p.l);
-    let t8 = t7.powi(2);
-    let t9 = t5 * t6 * t8;
-    let t10 = S::constant(p.g);
-    let t11 = t3 * t5 * t10;
-    let t12 = -t11;
-    out[0] = t1;
-    out[1] = t2;
-    out[2] = t3;
-    out[3] = t2;
-    out[4] = t2;
-    out[5] = t4;
-    out[6] = t5;
-    out[7] = t2;
-    out[8] = t2;
-    out[9] = t9;
-    out[10] = t12;
-    out[11] = t2;
-    out[12] = t2;
-    out[13] = t2;
-    out[14] = t2;
-    out[15] = t2;
-    out[16] = t2;
-    out[17] = t2;
-    out[18] = t2;
-    out[19] = t2;
+    let (t1, t8) = t0.sin_cos();
+    let t2 = S::constant(p.m);
+    let t3 = S::constant(p.g);
+    let t4 = t1 * t2 * t3;
+    let t5 = -t4;
+    let t6 = t5 / t2;
+    let t7 = S::constant(0.0);
+    let t9 = eta[0];
+    let t10 = t8 * t9;
+    let t11 = t1 * t9;
+    let t12 = eta[1];
+    let t13 = S::constant(0.08333333333333333);
+    let t14 = S::constant(p.l);
+    let t15 = t14.powi(2);
+    let t16 = t2 * t13 * t15;
+    if !(t2.value() > 0.0 && t16.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok(([t6, t7], [t10, t11, t12]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    if CLOSED_FORM {
-        let mut out = [S::constant(0.0); CF_LEN];
-        closed_form(q, p, &mut out);
-        runtime::closed::<S, ELL, SIGMA>(&out, eta)
+    if SOLVED {
+        solved(q, eta, p)
     } else {
         let r = rhs_fixed(q, eta, p, false)?;
         Ok((r.eta_dot, r.q_dot))
