@@ -128,8 +128,11 @@ fn simulate(c: &mut Criterion) {
         (
             "unicycle_rider",
             "velocities",
+            // Rolling fast (ψ̇ = 40 rad/s, 10 m/s): gyroscopically stable, θ stays in
+            // 0.005..0.11 over 100 s and full and reduced runs agree to 2e-7 (at ψ̇ = 4 the disk
+            // falls over and the motion is chaotic: the runs diverge).
             vec![0.0, 0.0, 0.0, 0.0, 0.05, 0.02],
-            vec![0.2, 4.0, 0.0, 0.0],
+            vec![0.0, 40.0, 0.0, 0.0],
         ),
     ] {
         let core = MODELS

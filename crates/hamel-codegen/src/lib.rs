@@ -67,23 +67,25 @@ fn sample_states(ell: usize, sigma: usize, n: usize) -> Vec<(Vec<f64>, Vec<f64>)
 }
 
 /// The solved path is used when it is not more expensive than the structured path (its shared
-/// operation count at most twice the ingredients') and agrees with the structured evaluation
+/// operation count at most the ingredients' plus ℓ³ + σ²ℓ², a lower estimate of what the
+/// structured runtime adds: the LU of [Z; α] and the contractions of (11)) and agrees with the structured evaluation
 /// to 1e-12 (max |Δ| / max(1, max |·|) over η̇ and q̇) at 200 sample states with [Z; α]
 /// well conditioned. Its expanded forms can cancel badly in floating point (derivation.md §4),
 /// hence the check; the decision only selects a code path, exactness is not at stake.
 fn choose_path(d: &Derivation, ingredients: &Tape, solved: &Tape) -> Result<PathChoice, String> {
-    let (ops_s, ops_c) = (ingredients.operation_count(), solved.operation_count());
-    if ops_c > 2 * ops_s {
+    let (ell, sigma) = (d.ell, d.sigma);
+    let ops_c = solved.operation_count();
+    let ops_s = ingredients.operation_count() + ell.pow(3) + sigma.pow(2) * ell.pow(2);
+    if ops_c > ops_s {
         return Ok(PathChoice {
             closed: false,
             doc: format!(
-                "structured: the solved form has {ops_c} operations, more than twice the ingredients' {ops_s}."
+                "structured: the solved form has {ops_c} operations, more than the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²)."
             ),
         });
     }
     let compiled = d.compile().map_err(|e| e.to_string())?;
     let params = d.parameters.clone();
-    let (ell, sigma) = (d.ell, d.sigma);
     let mut worst = 0.0_f64;
     let mut used = 0;
     for (q, eta) in sample_states(ell, sigma, 400) {
@@ -129,7 +131,7 @@ fn choose_path(d: &Derivation, ingredients: &Tape, solved: &Tape) -> Result<Path
     Ok(PathChoice {
         closed,
         doc: format!(
-            "{}: {ops_c} operations against the ingredients' {ops_s}; at {used} sample states the solved form deviates from the structured evaluation by at most {worst:.1e}{}.",
+            "{}: {ops_c} operations against the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²); at {used} sample states the solved form deviates from the structured evaluation by at most {worst:.1e}{}.",
             if closed { "solved form" } else { "structured" },
             if closed {
                 ""

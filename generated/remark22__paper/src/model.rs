@@ -13,7 +13,7 @@
 //! separate trees, 26 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 54 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured: the solved form has 54 operations, more than twice the ingredients' 26.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form: 54 operations against the structured path's 89 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states the solved form deviates from the structured evaluation by at most 4.7e-16.
 //!
 //! **States.** Full: q = (q1, q2, q3) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (q1, q2, q3, eta1, eta2); eliminated: (), reconstructed from
@@ -53,7 +53,7 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (75, 26);
 /// Whether [`fast`] uses the solved form (else the structured path).
-pub const SOLVED: bool = false;
+pub const SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
