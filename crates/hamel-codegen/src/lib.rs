@@ -339,12 +339,20 @@ fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
     o
 }
 
-/// The body of `solved`: the lets, the pivot check, then (η̇, q̇).
-fn solved_body(tape: &Tape, ell: usize, sigma: usize, params: &[String]) -> String {
-    let mut o = lets(tape, |i| input_text(i, ell, params));
+/// The body of a solved-form function: the lets, the pivot check, then the result. The tape's
+/// outputs are η̇ (σ), rates (`n_rates`), pivots; `ret` writes the `Ok(…)` value from the
+/// texts of η̇ and of the rates.
+fn solved_body(
+    tape: &Tape,
+    input: impl Fn(usize) -> String,
+    sigma: usize,
+    n_rates: usize,
+    ret: impl Fn(String, String) -> String,
+) -> String {
+    let mut o = lets(tape, input);
     let out = tape.outputs();
     let t = |i: &usize| format!("t{i}");
-    let pivots = &out[sigma + ell..];
+    let pivots = &out[sigma + n_rates..];
     let _ = writeln!(
         o,
         "    if !({}) {{\n        return Err(EvalError(\"A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)\".into()));\n    }}",
@@ -356,9 +364,11 @@ fn solved_body(tape: &Tape, ell: usize, sigma: usize, params: &[String]) -> Stri
     );
     let _ = writeln!(
         o,
-        "    Ok(([{}], [{}]))",
-        list(out[..sigma].iter().map(t)),
-        list(out[sigma..sigma + ell].iter().map(t))
+        "    Ok({})",
+        ret(
+            list(out[..sigma].iter().map(t)),
+            list(out[sigma..sigma + n_rates].iter().map(t))
+        )
     );
     o
 }
@@ -398,6 +408,24 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
     let solved_tape = Tape::compile(&solved.iter().collect::<Vec<_>>(), &solved_inputs)?;
     let solved_ops = solved_tape.operation_count();
     let choice = choose_path(d, &tape, &solved_tape)?;
+    // The reduced solved form: η̇ and the kept rates as code of (kept q, η) alone. The
+    // eliminated coordinates are proven absent from A_Γ, Γᵀ∇U, Q⁽ⁱ⁾ and the kept rows of Γ, so
+    // the tape compiles without them as inputs; if it did not, `reduced` keeps evaluating the
+    // full form at reference values.
+    let kept_solved: Vec<&Expr> = solved[..d.sigma]
+        .iter()
+        .chain(kept.iter().map(|&k| &solved[d.sigma + k]))
+        .chain(&solved[d.sigma + d.ell..])
+        .collect();
+    let kept_inputs: Vec<String> = kept
+        .iter()
+        .map(|&k| d.coordinates[k].clone())
+        .chain(params.clone())
+        .chain((0..d.sigma).map(eta_input))
+        .collect();
+    let reduced_tape = Tape::compile(&kept_solved, &kept_inputs)
+        .ok()
+        .filter(|_| choice.closed && !eliminated.is_empty());
     let names = |ix: &[usize]| list(ix.iter().map(|&k| format!("{:?}", d.coordinates[k])));
     let reduced_state: Vec<String> = kept
         .iter()
@@ -426,8 +454,10 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
 //! **States.** Full: q = ({coords}) and η = (eta1..eta{sigma}).
 //! Reduced (state vector `x`): ({reduced}); eliminated: ({elim}), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
-//! (decided exactly by `hamel reduce`), so the reduced right-hand side evaluates the full one
-//! with them at a reference value ([`REFERENCE`], the next one where [Z; α] is singular there).
+//! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
+//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
+//! singular there).
 
 #![allow(clippy::all, unused_variables, unused_parens)]
 
@@ -462,6 +492,8 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 pub const OPERATIONS: (usize, usize) = ({ops_trees}, {ops_shared});
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = {closed};
+/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+pub const REDUCED_SOLVED: bool = {reduced_solved};
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -564,8 +596,16 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }}
 
+/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
+/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
+pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {{
+{reduced_solved_body}}}
+
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {{
+    if REDUCED_SOLVED {{
+        return solved_reduced(x, p);
+    }}
     let eta = &x[KEPT.len()..];
     let mut last = None;
     for r in REFERENCE {{
@@ -659,7 +699,35 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
             .map(|k| format!("            {k:?} => Some(&mut self.{}),\n", ident(k)))
             .collect::<String>(),
         body = straight_line(&tape, d.ell, &params),
-        solved_body = solved_body(&solved_tape, d.ell, d.sigma, &params),
+        solved_body = solved_body(
+            &solved_tape,
+            |i| input_text(i, d.ell, &params),
+            d.sigma,
+            d.ell,
+            |e, q| format!("([{e}], [{q}])")
+        ),
+        reduced_solved = reduced_tape.is_some(),
+        reduced_solved_body = match &reduced_tape {
+            Some(t) => {
+                let nk = kept.len();
+                solved_body(
+                    t,
+                    |i| {
+                        if i < nk {
+                            format!("x[{i}]")
+                        } else if i < nk + params.len() {
+                            format!("S::constant(p.{})", ident(&params[i - nk]))
+                        } else {
+                            format!("x[{}]", i - params.len())
+                        }
+                    },
+                    d.sigma,
+                    nk,
+                    |e, q| format!("[{}]", list([q, e].into_iter().filter(|s| !s.is_empty()))),
+                )
+            }
+            None => "    Err(EvalError(\"no reduced solved form for this core\".into()))\n".into(),
+        },
         closed = choice.closed,
         path_doc = choice.doc,
     );

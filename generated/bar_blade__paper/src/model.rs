@@ -18,8 +18,10 @@
 //! **States.** Full: q = (x, y, theta, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
-//! (decided exactly by `hamel reduce`), so the reduced right-hand side evaluates the full one
-//! with them at a reference value ([`REFERENCE`], the next one where [Z; α] is singular there).
+//! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
+//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
+//! singular there).
 
 #![allow(clippy::all, unused_variables, unused_parens)]
 
@@ -54,6 +56,8 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 pub const OPERATIONS: (usize, usize) = (135, 46);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
+/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -446,8 +450,74 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
+/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
+/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
+pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = S::constant(4.0);
+    let t1 = x[0];
+    let (t2, t15) = t1.sin_cos();
+    let t3 = S::constant(p.m_r);
+    let t4 = S::constant(p.l_r);
+    let t5 = t4.powi(2);
+    let t6 = t0 * t2 * t3 * t5;
+    let t7 = S::constant(12.0);
+    let t8 = S::constant(p.m_f);
+    let t9 = t2 * t5 * t7 * t8;
+    let t10 = S::constant(p.l_f);
+    let t11 = t10.powi(2);
+    let t12 = t2 * t8 * t11;
+    let t13 = t6 + t9 + t12;
+    let t14 = S::constant(24.0);
+    let t16 = t15.powi(3);
+    let t17 = t5 * t14 * t16;
+    let t18 = t13 / t17;
+    let t19 = x[2];
+    let t20 = x[1];
+    let t21 = t18 * t19 * t20;
+    let t22 = -t21;
+    let t23 = t4 * t7 * t15;
+    let t24 = t12 / t23;
+    let t25 = t8 * t11;
+    let t26 = t15.powi(2);
+    let t27 = t4 * t14 * t26;
+    let t28 = t25 / t27;
+    let t29 = t19 * t20 * t28;
+    let t30 = -t29;
+    let t31 = S::constant(8.0);
+    let t32 = t3 * t5 * t26 * t31;
+    let t33 = t8 * t11 * t26;
+    let t34 = -t33;
+    let t35 = t0 * t3 * t5;
+    let t36 = t5 * t7 * t8;
+    let t37 = t25 + t32 + t34 + t35 + t36;
+    let t38 = t5 * t7 * t26;
+    let t39 = t37 / t38;
+    let t40 = t24 / t39;
+    let t41 = t22 + t22;
+    let t42 = t40 * t41;
+    let t43 = -t42;
+    let t44 = t30 + t30 + t43;
+    let t45 = S::constant(0.08333333333333333);
+    let t46 = t8 * t11 * t45;
+    let t47 = t24 * t40;
+    let t48 = -t47;
+    let t49 = t46 + t48;
+    let t50 = t44 / t49;
+    let t51 = t24 * t50;
+    let t52 = -t51;
+    let t53 = t22 + t22 + t52;
+    let t54 = t53 / t39;
+    if !(t39.value() > 0.0 && t49.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok([t19, t54, t50])
+}
+
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    if REDUCED_SOLVED {
+        return solved_reduced(x, p);
+    }
     let eta = &x[KEPT.len()..];
     let mut last = None;
     for r in REFERENCE {

@@ -18,8 +18,10 @@
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
-//! (decided exactly by `hamel reduce`), so the reduced right-hand side evaluates the full one
-//! with them at a reference value ([`REFERENCE`], the next one where [Z; α] is singular there).
+//! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
+//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
+//! singular there).
 
 #![allow(clippy::all, unused_variables, unused_parens)]
 
@@ -54,6 +56,8 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 pub const OPERATIONS: (usize, usize) = (114, 50);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
+/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -617,8 +621,84 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
+/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
+/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
+pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = S::constant(6.0);
+    let t1 = x[0];
+    let (t2, t21) = t1.sin_cos();
+    let t3 = S::constant(p.m_w);
+    let t4 = S::constant(p.R);
+    let t5 = t4.powi(2);
+    let t6 = t0 * t2 * t3 * t5;
+    let t7 = S::constant(36.0);
+    let t8 = S::constant(p.a);
+    let t9 = t8.powi(2);
+    let t10 = t2 * t3 * t7 * t9;
+    let t11 = S::constant(12.0);
+    let t12 = S::constant(p.l_r);
+    let t13 = t12.powi(2);
+    let t14 = S::constant(p.m_f);
+    let t15 = t2 * t11 * t13 * t14;
+    let t16 = S::constant(p.l_f);
+    let t17 = t16.powi(2);
+    let t18 = t2 * t14 * t17;
+    let t19 = t6 + t10 + t15 + t18;
+    let t20 = S::constant(24.0);
+    let t22 = t21.powi(3);
+    let t23 = t13 * t20 * t22;
+    let t24 = t19 / t23;
+    let t25 = x[2];
+    let t26 = x[1];
+    let t27 = t24 * t25 * t26;
+    let t28 = -t27;
+    let t29 = t11 * t12 * t21;
+    let t30 = t18 / t29;
+    let t31 = t14 * t17;
+    let t32 = t21.powi(2);
+    let t33 = t12 * t20 * t32;
+    let t34 = t31 / t33;
+    let t35 = t25 * t26 * t34;
+    let t36 = -t35;
+    let t37 = t0 * t3 * t5 * t32;
+    let t38 = -t37;
+    let t39 = t3 * t7 * t9 * t32;
+    let t40 = -t39;
+    let t41 = t3 * t7 * t13 * t32;
+    let t42 = t14 * t17 * t32;
+    let t43 = -t42;
+    let t44 = t0 * t3 * t5;
+    let t45 = t3 * t7 * t9;
+    let t46 = t11 * t13 * t14;
+    let t47 = t31 + t38 + t40 + t41 + t43 + t44 + t45 + t46;
+    let t48 = t11 * t13 * t32;
+    let t49 = t47 / t48;
+    let t50 = t30 / t49;
+    let t51 = t28 + t28;
+    let t52 = t50 * t51;
+    let t53 = -t52;
+    let t54 = t36 + t36 + t53;
+    let t55 = S::constant(0.08333333333333333);
+    let t56 = t14 * t17 * t55;
+    let t57 = t30 * t50;
+    let t58 = -t57;
+    let t59 = t56 + t58;
+    let t60 = t54 / t59;
+    let t61 = t30 * t60;
+    let t62 = -t61;
+    let t63 = t28 + t28 + t62;
+    let t64 = t63 / t49;
+    if !(t49.value() > 0.0 && t59.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok([t25, t64, t60])
+}
+
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    if REDUCED_SOLVED {
+        return solved_reduced(x, p);
+    }
     let eta = &x[KEPT.len()..];
     let mut last = None;
     for r in REFERENCE {

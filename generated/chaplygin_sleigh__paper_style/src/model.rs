@@ -18,8 +18,10 @@
 //! **States.** Full: q = (x, y, theta) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (eta1, eta2); eliminated: (x, y, theta), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
-//! (decided exactly by `hamel reduce`), so the reduced right-hand side evaluates the full one
-//! with them at a reference value ([`REFERENCE`], the next one where [Z; α] is singular there).
+//! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
+//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
+//! singular there).
 
 #![allow(clippy::all, unused_variables, unused_parens)]
 
@@ -54,6 +56,8 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 pub const OPERATIONS: (usize, usize) = (43, 14);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
+/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -286,8 +290,38 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
+/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
+/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
+pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = S::constant(p.m);
+    let t1 = S::constant(p.a);
+    let t2 = t0 * t1;
+    let t3 = -t2;
+    let t4 = x[1];
+    let t5 = t3 * t4 * t4;
+    let t6 = -t5;
+    let t7 = t6 / t0;
+    let t8 = S::constant(0.5);
+    let t9 = x[0];
+    let t10 = t0 * t1 * t4 * t8 * t9;
+    let t11 = -t10;
+    let t12 = t11 + t11;
+    let t13 = t1.powi(2);
+    let t14 = t0 * t13;
+    let t15 = S::constant(p.I);
+    let t16 = t14 + t15;
+    let t17 = t12 / t16;
+    if !(t0.value() > 0.0 && t16.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok([t7, t17])
+}
+
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    if REDUCED_SOLVED {
+        return solved_reduced(x, p);
+    }
     let eta = &x[KEPT.len()..];
     let mut last = None;
     for r in REFERENCE {

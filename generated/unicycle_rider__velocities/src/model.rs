@@ -20,8 +20,10 @@
 //! **States.** Full: q = (xC, yC, phi, psi, theta, theta1) and η = (eta1..eta4).
 //! Reduced (state vector `x`): (theta, theta1, eta1, eta2, eta3, eta4); eliminated: (xC, yC, phi, psi), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
-//! (decided exactly by `hamel reduce`), so the reduced right-hand side evaluates the full one
-//! with them at a reference value ([`REFERENCE`], the next one where [Z; α] is singular there).
+//! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
+//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
+//! singular there).
 
 #![allow(clippy::all, unused_variables, unused_parens)]
 
@@ -56,6 +58,8 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 pub const OPERATIONS: (usize, usize) = (1221, 339);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
+/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -1050,8 +1054,207 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
+/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
+/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
+pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = S::constant(1.25);
+    let t1 = x[0];
+    let (t2, t3) = t1.sin_cos();
+    let t4 = S::constant(p.R);
+    let t5 = t4.powi(2);
+    let t6 = S::constant(p.m_d);
+    let t7 = t0 * t2 * t3 * t5 * t6;
+    let t8 = S::constant(p.m_f);
+    let t9 = S::constant(p.rho1);
+    let t10 = t9.powi(2);
+    let t11 = t2 * t3 * t8 * t10;
+    let t12 = S::constant(p.m_r);
+    let t13 = t2 * t3 * t10 * t12;
+    let t14 = S::constant(2.0);
+    let t15 = S::constant(p.rho2);
+    let t16 = t2 * t3 * t9 * t12 * t14 * t15;
+    let t17 = t15.powi(2);
+    let t18 = t2 * t3 * t12 * t17;
+    let t19 = x[1];
+    let (t20, t27) = t19.sin_cos();
+    let t21 = S::constant(p.rho);
+    let t22 = t3 * t9 * t12 * t20 * t21;
+    let t23 = t3 * t12 * t15 * t20 * t21;
+    let t24 = t7 + t11 + t13 + t16 + t18 + t22 + t23;
+    let t25 = x[4];
+    let t26 = t24 * t25;
+    let t28 = t2 * t9 * t12 * t21 * t27;
+    let t29 = t2 * t12 * t15 * t21 * t27;
+    let t30 = t21.powi(2);
+    let t31 = t12 * t20 * t27 * t30;
+    let t32 = t28 + t29 + t31;
+    let t33 = x[5];
+    let t34 = t32 * t33;
+    let t35 = t26 + t34;
+    let t36 = x[2];
+    let t37 = t35 * t36;
+    let t38 = -t37;
+    let t39 = S::constant(0.25);
+    let t40 = t3 * t5 * t6 * t39;
+    let t41 = -t40;
+    let t42 = x[3];
+    let t43 = t25 * t41 * t42;
+    let t44 = -t43;
+    let t45 = t24 * t36;
+    let t46 = t41 * t42;
+    let t47 = t45 + t46;
+    let t48 = t25 * t47;
+    let t49 = -t48;
+    let t50 = t32 * t33 * t36;
+    let t51 = -t50;
+    let t52 = S::constant(1.5);
+    let t53 = t2 * t5 * t6 * t52;
+    let t54 = -t53;
+    let t55 = t2 * t4 * t8 * t9;
+    let t56 = -t55;
+    let t57 = t2 * t4 * t9 * t12;
+    let t58 = -t57;
+    let t59 = t2 * t4 * t12 * t15;
+    let t60 = -t59;
+    let t61 = t4 * t12 * t20 * t21;
+    let t62 = -t61;
+    let t63 = t54 + t56 + t58 + t60 + t62;
+    let t64 = t0 * t3 * t5 * t6;
+    let t65 = -t64;
+    let t66 = t3 * t4 * t8 * t9;
+    let t67 = -t66;
+    let t68 = t3 * t4 * t9 * t12;
+    let t69 = -t68;
+    let t70 = t3 * t4 * t12 * t15;
+    let t71 = -t70;
+    let t72 = t65 + t67 + t69 + t71;
+    let t73 = t25 * t72;
+    let t74 = t4 * t12 * t21 * t27;
+    let t75 = -t74;
+    let t76 = t33 * t75;
+    let t77 = t73 + t76;
+    let t78 = t36 * t77;
+    let t79 = -t78;
+    let t80 = t25 * t36 * t72;
+    let t81 = -t80;
+    let t82 = t33 * t36 * t75;
+    let t83 = -t82;
+    let t84 = t2 * t9 * t12 * t14 * t20 * t21;
+    let t85 = t2 * t12 * t14 * t15 * t20 * t21;
+    let t86 = t3.powi(2);
+    let t87 = t0 * t5 * t6 * t86;
+    let t88 = -t87;
+    let t89 = t8 * t10 * t86;
+    let t90 = -t89;
+    let t91 = t10 * t12 * t86;
+    let t92 = -t91;
+    let t93 = t9 * t12 * t14 * t15 * t86;
+    let t94 = -t93;
+    let t95 = t12 * t17 * t86;
+    let t96 = -t95;
+    let t97 = t27.powi(2);
+    let t98 = t12 * t30 * t97;
+    let t99 = -t98;
+    let t100 = t5 * t6 * t52;
+    let t101 = t8 * t10;
+    let t102 = t10 * t12;
+    let t103 = t9 * t12 * t14 * t15;
+    let t104 = t12 * t17;
+    let t105 = t12 * t30;
+    let t106 = t84 + t85 + t88 + t90 + t92 + t94 + t96 + t99 + t100 + t101 + t102 + t103 + t104 + t105;
+    let t107 = t63 / t106;
+    let t108 = t38 + t44 + t49 + t51;
+    let t109 = t107 * t108;
+    let t110 = -t109;
+    let t111 = t79 + t81 + t83 + t110;
+    let t112 = t5 * t8;
+    let t113 = t5 * t12;
+    let t114 = t63 * t107;
+    let t115 = -t114;
+    let t116 = t100 + t112 + t113 + t115;
+    let t117 = t111 / t116;
+    let t118 = t63 * t117;
+    let t119 = -t118;
+    let t120 = t38 + t44 + t49 + t51 + t119;
+    let t121 = t120 / t106;
+    let t122 = S::constant(p.g);
+    let t123 = t2 * t4 * t6 * t122;
+    let t124 = t2 * t8 * t9 * t122;
+    let t125 = t2 * t9 * t12 * t122;
+    let t126 = t2 * t12 * t15 * t122;
+    let t127 = -t7;
+    let t128 = -t11;
+    let t129 = -t13;
+    let t130 = -t16;
+    let t131 = -t18;
+    let t132 = -t22;
+    let t133 = -t23;
+    let t134 = t127 + t128 + t129 + t130 + t131 + t132 + t133;
+    let t135 = t36 * t134;
+    let t136 = S::constant(0.75);
+    let t137 = t3 * t5 * t6 * t136;
+    let t138 = S::constant(0.5);
+    let t139 = t3 * t4 * t8 * t9 * t138;
+    let t140 = t3 * t4 * t9 * t12 * t138;
+    let t141 = t3 * t4 * t12 * t15 * t138;
+    let t142 = t137 + t139 + t140 + t141;
+    let t143 = t42 * t142;
+    let t144 = t135 + t143;
+    let t145 = t36 * t144;
+    let t146 = -t145;
+    let t147 = t36 * t42 * t142;
+    let t148 = -t147;
+    let t149 = -t28;
+    let t150 = -t29;
+    let t151 = t132 + t133 + t149 + t150;
+    let t152 = t33 * t33 * t151;
+    let t153 = -t152;
+    let t154 = t2 * t9 * t12 * t20 * t21;
+    let t155 = -t154;
+    let t156 = t2 * t12 * t15 * t20 * t21;
+    let t157 = -t156;
+    let t158 = t3 * t9 * t12 * t21 * t27;
+    let t159 = t3 * t12 * t15 * t21 * t27;
+    let t160 = t155 + t157 + t158 + t159;
+    let t161 = t12 * t20 * t21 * t122;
+    let t162 = -t161;
+    let t163 = -t31;
+    let t164 = t149 + t150 + t163;
+    let t165 = t36 * t164;
+    let t166 = t4 * t12 * t21 * t27 * t42 * t138;
+    let t167 = t165 + t166;
+    let t168 = t36 * t167;
+    let t169 = -t168;
+    let t170 = t4 * t12 * t21 * t27 * t36 * t42 * t138;
+    let t171 = -t170;
+    let t172 = t25 * t25 * t151;
+    let t173 = -t172;
+    let t174 = t0 * t5 * t6;
+    let t175 = t101 + t102 + t103 + t104 + t174;
+    let t176 = t160 / t175;
+    let t177 = t123 + t124 + t125 + t126 + t146 + t148 + t153;
+    let t178 = t176 * t177;
+    let t179 = -t178;
+    let t180 = t162 + t169 + t171 + t173 + t179;
+    let t181 = t160 * t176;
+    let t182 = -t181;
+    let t183 = t105 + t182;
+    let t184 = t180 / t183;
+    let t185 = t160 * t184;
+    let t186 = -t185;
+    let t187 = t123 + t124 + t125 + t126 + t146 + t148 + t153 + t186;
+    let t188 = t187 / t175;
+    if !(t106.value() > 0.0 && t116.value() > 0.0 && t175.value() > 0.0 && t183.value() > 0.0) {
+        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    }
+    Ok([t25, t33, t121, t117, t188, t184])
+}
+
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    if REDUCED_SOLVED {
+        return solved_reduced(x, p);
+    }
     let eta = &x[KEPT.len()..];
     let mut last = None;
     for r in REFERENCE {
