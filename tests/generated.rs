@@ -6,6 +6,8 @@
 
 mod common;
 
+use common::rel_error;
+
 use hamel_model::NumericModel;
 use hamel_models::MODELS;
 use hamel_models::runtime::Dual;
@@ -19,15 +21,6 @@ const TOL_SAME: f64 = 1e-12;
 const TOL_ORACLE: f64 = 1e-10;
 /// States where [Z; α] is worse conditioned are skipped (as tests/oracle.rs).
 const MAX_CONDITION: f64 = 1e6;
-
-fn rel_error(a: &[f64], b: &[f64]) -> f64 {
-    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-        / scale
-}
 
 #[test]
 fn generated_cores_match_the_structured_evaluator_and_the_oracle() {

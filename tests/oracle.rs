@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::models;
+use common::{models, rel_error};
 
 use hamel_derive::{Compiled, SymbolicCompiled, derive};
 use hamel_expr::{DD, Dual, Expr, Scalar, parse};
@@ -132,16 +132,6 @@ fn q_ddot<S: Scalar + Copy>(
 
 fn dd(v: &[f64]) -> Vec<DD> {
     v.iter().map(|&x| DD::from_f64(x)).collect()
-}
-
-/// max |a − b| / max(max |b|, 1).
-fn rel_error<S: Scalar + Copy>(a: &[S], b: &[S]) -> f64 {
-    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.value().abs()));
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (*x - *y).value().abs())
-        .fold(0.0, f64::max)
-        / scale
 }
 
 #[derive(Default)]

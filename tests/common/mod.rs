@@ -37,3 +37,13 @@ pub fn eliminate(model: &hamel_model::Model) -> Vec<String> {
         .unwrap_or_else(|| panic!("add the model `{}` to ELIMINATE", model.name));
     p.split(',').map(str::to_string).collect()
 }
+
+/// max |a − b| / max(max |b|, 1), over any scalar (the value part of dual numbers).
+pub fn rel_error<S: hamel_expr::Scalar + Copy>(a: &[S], b: &[S]) -> f64 {
+    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.value().abs()));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).value().abs())
+        .fold(0.0, f64::max)
+        / scale
+}

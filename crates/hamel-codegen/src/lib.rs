@@ -44,7 +44,7 @@ pub struct Generated {
 
 /// Which path the generated `fast` takes, and why.
 struct PathChoice {
-    closed: bool,
+    solved: bool,
     doc: String,
 }
 
@@ -78,7 +78,7 @@ fn choose_path(d: &Derivation, ingredients: &Tape, solved: &Tape) -> Result<Path
     let ops_s = ingredients.operation_count() + ell.pow(3) + sigma.pow(2) * ell.pow(2);
     if ops_c > ops_s {
         return Ok(PathChoice {
-            closed: false,
+            solved: false,
             doc: format!(
                 "structured: the solved form has {ops_c} operations, more than the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²)."
             ),
@@ -127,13 +127,13 @@ fn choose_path(d: &Derivation, ingredients: &Tape, solved: &Tape) -> Result<Path
         worst = worst.max(err);
         used += 1;
     }
-    let closed = used >= 100 && worst <= 1e-12;
+    let solved = used >= 100 && worst <= 1e-12;
     Ok(PathChoice {
-        closed,
+        solved,
         doc: format!(
             "{}: {ops_c} operations against the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²); at {used} sample states the solved form deviates from the structured evaluation by at most {worst:.1e}{}.",
-            if closed { "solved form" } else { "structured" },
-            if closed {
+            if solved { "solved form" } else { "structured" },
+            if solved {
                 ""
             } else {
                 " (above 1e-12, or too few states)"
@@ -266,15 +266,24 @@ fn lit(x: f64) -> String {
 /// A sine and a cosine of the same argument are computed together (`sin_cos`).
 fn lets(tape: &Tape, input: impl Fn(usize) -> String) -> String {
     let ops = tape.ops();
-    // The partner of sin(a) is cos(a) and vice versa.
-    let partner = |f: Func, a: usize| {
-        let other = match f {
-            Func::Sin => Func::Cos,
-            Func::Cos => Func::Sin,
-            _ => return None,
-        };
-        ops.iter().position(|op| *op == Op::Call(other, a))
-    };
+    // For each sin(a), the index of cos(a) if the tape has it (and the other way round).
+    let mut partner: Vec<Option<usize>> = vec![None; ops.len()];
+    {
+        let mut cos_of = std::collections::HashMap::new();
+        for (k, op) in ops.iter().enumerate() {
+            if let Op::Call(Func::Cos, a) = op {
+                cos_of.insert(*a, k);
+            }
+        }
+        for (k, op) in ops.iter().enumerate() {
+            if let Op::Call(Func::Sin, a) = op
+                && let Some(&c) = cos_of.get(a)
+            {
+                partner[k] = Some(c);
+                partner[c] = Some(k);
+            }
+        }
+    }
     let mut paired = vec![false; ops.len()];
     let mut o = String::new();
     for (k, op) in ops.iter().enumerate() {
@@ -291,8 +300,8 @@ fn lets(tape: &Tape, input: impl Fn(usize) -> String) -> String {
             Op::Div(a, b) => format!("t{a} / t{b}"),
             Op::PowI(a, n) => format!("t{a}.powi({n})"),
             Op::PowF(a, b) => format!("t{a}.powf(t{b})"),
-            Op::Call(f, a) if partner(*f, *a).is_some() => {
-                let other = partner(*f, *a).unwrap();
+            Op::Call(f, a) if partner[k].is_some() => {
+                let other = partner[k].unwrap();
                 paired[other] = true;
                 let (sin, cos) = if *f == Func::Sin {
                     (k, other)
@@ -319,20 +328,33 @@ fn lets(tape: &Tape, input: impl Fn(usize) -> String) -> String {
     o
 }
 
-/// The Rust text of input slot `i` of a tape over (q, parameters[, η]).
-fn input_text(i: usize, ell: usize, params: &[String]) -> String {
-    if i < ell {
-        format!("q[{i}]")
-    } else if i < ell + params.len() {
-        format!("S::constant(p.{})", ident(&params[i - ell]))
-    } else {
-        format!("eta[{}]", i - ell - params.len())
+/// Where a tape's inputs come from in the generated function: slots are `n` coordinates
+/// (`coords[0..n]`), the parameters, then η (`eta[eta_at..]`).
+struct Slots<'a> {
+    coords: &'a str,
+    n: usize,
+    params: &'a [String],
+    eta: &'a str,
+    eta_at: usize,
+}
+
+impl Slots<'_> {
+    /// The Rust text of input slot `i`.
+    fn text(&self, i: usize) -> String {
+        let np = self.params.len();
+        if i < self.n {
+            format!("{}[{i}]", self.coords)
+        } else if i < self.n + np {
+            format!("S::constant(p.{})", ident(&self.params[i - self.n]))
+        } else {
+            format!("{}[{}]", self.eta, self.eta_at + i - self.n - np)
+        }
     }
 }
 
 /// The straight-line body of `ingredients`: the lets, then `out[j] = …`.
-fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
-    let mut o = lets(tape, |i| input_text(i, ell, params));
+fn straight_line(tape: &Tape, slots: &Slots) -> String {
+    let mut o = lets(tape, |i| slots.text(i));
     for (j, i) in tape.outputs().iter().enumerate() {
         let _ = writeln!(o, "    out[{j}] = t{i};");
     }
@@ -344,12 +366,12 @@ fn straight_line(tape: &Tape, ell: usize, params: &[String]) -> String {
 /// texts of η̇ and of the rates.
 fn solved_body(
     tape: &Tape,
-    input: impl Fn(usize) -> String,
+    slots: &Slots,
     sigma: usize,
     n_rates: usize,
     ret: impl Fn(String, String) -> String,
 ) -> String {
-    let mut o = lets(tape, input);
+    let mut o = lets(tape, |i| slots.text(i));
     let out = tape.outputs();
     let t = |i: &usize| format!("t{i}");
     let pivots = &out[sigma + n_rates..];
@@ -423,9 +445,18 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
         .chain(params.clone())
         .chain((0..d.sigma).map(eta_input))
         .collect();
-    let reduced_tape = Tape::compile(&kept_solved, &kept_inputs)
-        .ok()
-        .filter(|_| choice.closed && !eliminated.is_empty());
+    let reduced_tape = if choice.solved && !eliminated.is_empty() {
+        Tape::compile(&kept_solved, &kept_inputs).ok()
+    } else {
+        None
+    };
+    let full_slots = Slots {
+        coords: "q",
+        n: d.ell,
+        params: &params,
+        eta: "eta",
+        eta_at: 0,
+    };
     let names = |ix: &[usize]| list(ix.iter().map(|&k| format!("{:?}", d.coordinates[k])));
     let reduced_state: Vec<String> = kept
         .iter()
@@ -455,7 +486,7 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
 //! Reduced (state vector `x`): ({reduced}); eliminated: ({elim}), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
 //! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
-//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! coordinates and η alone (when [`REDUCED_SOLVED`]), or else evaluates the
 //! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
 //! singular there).
 
@@ -491,8 +522,9 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = ({ops_trees}, {ops_shared});
 /// Whether [`fast`] uses the solved form (else the structured path).
-pub const SOLVED: bool = {closed};
-/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+pub const SOLVED: bool = {solved};
+/// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
+/// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
 pub const REDUCED_SOLVED: bool = {reduced_solved};
 
 /// Parameters, with the model's defaults.
@@ -596,37 +628,10 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }}
 
-/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
-/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
-pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {{
-{reduced_solved_body}}}
-
-/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
+/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
+/// [`REDUCED_SOLVED`].
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {{
-    if REDUCED_SOLVED {{
-        return solved_reduced(x, p);
-    }}
-    let eta = &x[KEPT.len()..];
-    let mut last = None;
-    for r in REFERENCE {{
-        let mut q = [S::constant(r); ELL];
-        for (i, &k) in KEPT.iter().enumerate() {{
-            q[k] = x[i];
-        }}
-        match fast(&q, eta, p) {{
-            Ok((eta_dot, q_dot)) => {{
-                let mut v = [S::constant(0.0); REDUCED_DIM];
-                for (i, &k) in KEPT.iter().enumerate() {{
-                    v[i] = q_dot[k];
-                }}
-                v[KEPT.len()..].copy_from_slice(&eta_dot);
-                return Ok(v);
-            }}
-            Err(e) => last = Some(e),
-        }}
-    }}
-    Err(last.expect("REFERENCE is not empty"))
-}}
+{reduced_body}}}
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {{
@@ -698,37 +703,28 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
             .keys()
             .map(|k| format!("            {k:?} => Some(&mut self.{}),\n", ident(k)))
             .collect::<String>(),
-        body = straight_line(&tape, d.ell, &params),
-        solved_body = solved_body(
-            &solved_tape,
-            |i| input_text(i, d.ell, &params),
-            d.sigma,
-            d.ell,
-            |e, q| format!("([{e}], [{q}])")
-        ),
+        body = straight_line(&tape, &full_slots),
+        solved_body = solved_body(&solved_tape, &full_slots, d.sigma, d.ell, |e, q| format!(
+            "([{e}], [{q}])"
+        )),
         reduced_solved = reduced_tape.is_some(),
-        reduced_solved_body = match &reduced_tape {
-            Some(t) => {
-                let nk = kept.len();
-                solved_body(
-                    t,
-                    |i| {
-                        if i < nk {
-                            format!("x[{i}]")
-                        } else if i < nk + params.len() {
-                            format!("S::constant(p.{})", ident(&params[i - nk]))
-                        } else {
-                            format!("x[{}]", i - params.len())
-                        }
-                    },
-                    d.sigma,
-                    nk,
-                    |e, q| format!("[{}]", list([q, e].into_iter().filter(|s| !s.is_empty()))),
-                )
-            }
-            None => "    Err(EvalError(\"no reduced solved form for this core\".into()))\n".into(),
+        reduced_body = match &reduced_tape {
+            Some(t) => solved_body(
+                t,
+                &Slots {
+                    coords: "x",
+                    n: kept.len(),
+                    params: &params,
+                    eta: "x",
+                    eta_at: kept.len(),
+                },
+                d.sigma,
+                kept.len(),
+                |e, q| format!("[{}]", list([q, e].into_iter().filter(|s| !s.is_empty()))),
+            ),
+            None => REDUCED_AT_REFERENCE.into(),
         },
-        closed = choice.closed,
+        solved = choice.solved,
         path_doc = choice.doc,
     );
 
@@ -753,6 +749,30 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
         ops_shared,
     })
 }
+
+/// The body of `reduced` without a reduced solved form: the full right-hand side with the
+/// eliminated coordinates at the first `REFERENCE` value where it evaluates.
+const REDUCED_AT_REFERENCE: &str = "    let eta = &x[KEPT.len()..];
+    let mut last = None;
+    for r in REFERENCE {
+        let mut q = [S::constant(r); ELL];
+        for (i, &k) in KEPT.iter().enumerate() {
+            q[k] = x[i];
+        }
+        match fast(&q, eta, p) {
+            Ok((eta_dot, q_dot)) => {
+                let mut v = [S::constant(0.0); REDUCED_DIM];
+                for (i, &k) in KEPT.iter().enumerate() {
+                    v[i] = q_dot[k];
+                }
+                v[KEPT.len()..].copy_from_slice(&eta_dot);
+                return Ok(v);
+            }
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(last.expect(\"REFERENCE is not empty\"))
+";
 
 /// The `eval` binary: the same `--state` JSON as `hamel eval`, the same JSON out.
 pub const EVAL_BIN: &str = include_str!("../runtime/eval.rs");

@@ -19,7 +19,7 @@
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
 //! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
-//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! coordinates and η alone (when [`REDUCED_SOLVED`]), or else evaluates the
 //! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
 //! singular there).
 
@@ -56,7 +56,8 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 pub const OPERATIONS: (usize, usize) = (135, 46);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
-/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+/// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
+/// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
 pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
@@ -450,9 +451,9 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
-/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
-pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
+/// [`REDUCED_SOLVED`].
+pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
     let t0 = S::constant(4.0);
     let t1 = x[0];
     let (t2, t15) = t1.sin_cos();
@@ -511,33 +512,6 @@ pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_
         return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
     }
     Ok([t19, t54, t50])
-}
-
-/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
-pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
-    if REDUCED_SOLVED {
-        return solved_reduced(x, p);
-    }
-    let eta = &x[KEPT.len()..];
-    let mut last = None;
-    for r in REFERENCE {
-        let mut q = [S::constant(r); ELL];
-        for (i, &k) in KEPT.iter().enumerate() {
-            q[k] = x[i];
-        }
-        match fast(&q, eta, p) {
-            Ok((eta_dot, q_dot)) => {
-                let mut v = [S::constant(0.0); REDUCED_DIM];
-                for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = q_dot[k];
-                }
-                v[KEPT.len()..].copy_from_slice(&eta_dot);
-                return Ok(v);
-            }
-            Err(e) => last = Some(e),
-        }
-    }
-    Err(last.expect("REFERENCE is not empty"))
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.

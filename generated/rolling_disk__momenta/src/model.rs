@@ -20,7 +20,7 @@
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
 //! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
 //! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
-//! coordinates and η alone ([`solved_reduced`], when [`REDUCED_SOLVED`]), or else evaluates the
+//! coordinates and η alone (when [`REDUCED_SOLVED`]), or else evaluates the
 //! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
 //! singular there).
 
@@ -57,7 +57,8 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 pub const OPERATIONS: (usize, usize) = (286, 58);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = false;
-/// Whether [`reduced`] uses [`solved_reduced`] (code of the kept coordinates and η alone).
+/// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
+/// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
 pub const REDUCED_SOLVED: bool = false;
 
 /// Parameters, with the model's defaults.
@@ -628,17 +629,9 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// The reduced right-hand side in solved form: straight-line code of x = (kept q, η) alone
-/// (used by [`reduced`] when [`REDUCED_SOLVED`]).
-pub fn solved_reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
-    Err(EvalError("no reduced solved form for this core".into()))
-}
-
-/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc.
+/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
+/// [`REDUCED_SOLVED`].
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
-    if REDUCED_SOLVED {
-        return solved_reduced(x, p);
-    }
     let eta = &x[KEPT.len()..];
     let mut last = None;
     for r in REFERENCE {
