@@ -44,7 +44,10 @@ pub fn run(
     }
     let choice = model.choice(eta)?.name.clone();
     let (eliminated, d) = if eliminate.is_empty() {
-        (Vec::new(), hamel_derive::derive(&model, Some(&choice))?)
+        (
+            Vec::new(),
+            hamel_derive::derive_for_code(&model, Some(&choice))?,
+        )
     } else {
         let (r, d) = hamel_reduce::reduce_with_derivation(&model, Some(&choice), eliminate)?;
         if !r.ground_truth.present.is_empty() || r.reduced_system.is_none() {

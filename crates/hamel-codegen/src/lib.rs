@@ -48,8 +48,15 @@ struct PathChoice {
     doc: String,
 }
 
-/// States at which the two paths are compared: a fixed pseudo-random sequence (deterministic).
-fn sample_states(ell: usize, sigma: usize, n: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
+/// States at which the paths are compared: a fixed pseudo-random sequence (deterministic) of
+/// (q, η, parameter factors): q in [-3, 3] (every third in [-0.1, 0.1]), η in [-2, 2]; every
+/// other state has each parameter scaled by a factor in [0.5, 2] (the others use the defaults).
+fn sample_states(
+    ell: usize,
+    sigma: usize,
+    npar: usize,
+    n: usize,
+) -> Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> {
     let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
     let mut next = || {
         x ^= x << 13;
@@ -58,44 +65,53 @@ fn sample_states(ell: usize, sigma: usize, n: usize) -> Vec<(Vec<f64>, Vec<f64>)
         (x >> 11) as f64 / (1u64 << 53) as f64
     };
     (0..n)
-        .map(|_| {
-            let q = (0..ell).map(|_| -3.0 + 6.0 * next()).collect();
+        .map(|k| {
+            // Every third state near q = 0 (where mechanisms often sit upright, and terms of
+            // expanded forms cancel).
+            let spread = if k % 3 == 2 { 0.1 } else { 3.0 };
+            let q = (0..ell).map(|_| spread * (2.0 * next() - 1.0)).collect();
             let eta = (0..sigma).map(|_| -2.0 + 4.0 * next()).collect();
-            (q, eta)
+            let factors = (0..npar)
+                .map(|_| {
+                    let f = 0.5 * 4.0_f64.powf(next());
+                    if k % 2 == 1 { f } else { 1.0 }
+                })
+                .collect();
+            (q, eta, factors)
         })
         .collect()
 }
 
-/// The solved path is used when it is not more expensive than the structured path (its shared
-/// operation count at most the ingredients' plus ℓ³ + σ²ℓ², a lower estimate of what the
-/// structured runtime adds: the LU of [Z; α] and the contractions of (11)) and agrees with the structured evaluation
-/// to 1e-12 (max |Δ| / max(1, max |·|) over η̇ and q̇) at 200 sample states with [Z; α]
-/// well conditioned. Its expanded forms can cancel badly in floating point (derivation.md §4),
-/// hence the check; the decision only selects a code path, exactness is not at stake.
-fn choose_path(d: &Derivation, ingredients: &Tape, solved: &Tape) -> Result<PathChoice, String> {
+/// Floating-point errors at up to 200 sample states ([`sample_states`]: half of them at other
+/// parameters) with [Z; α] well conditioned and A_Γ positive definite, relative (max |Δ| / max(1, max |·|) over η̇ and q̇), against the
+/// structured evaluation in double-double arithmetic (about 32 digits): the largest error of
+/// the solved tape in f64, the largest error of the structured evaluation in f64, and the
+/// number of states used. The reference also checks that the candidate is the same function.
+fn deviation(
+    d: &Derivation,
+    compiled: &hamel_derive::Compiled,
+    solved: &Tape,
+) -> (f64, f64, usize) {
+    use hamel_expr::{DD, Scalar};
     let (ell, sigma) = (d.ell, d.sigma);
-    let ops_c = solved.operation_count();
-    let ops_s = ingredients.operation_count() + ell.pow(3) + sigma.pow(2) * ell.pow(2);
-    if ops_c > ops_s {
-        return Ok(PathChoice {
-            solved: false,
-            doc: format!(
-                "structured: the solved form has {ops_c} operations, more than the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²)."
-            ),
-        });
-    }
-    let compiled = d.compile().map_err(|e| e.to_string())?;
-    let params = d.parameters.clone();
-    let mut worst = 0.0_f64;
+    let (mut worst, mut worst_structured) = (0.0_f64, 0.0_f64);
     let mut used = 0;
-    for (q, eta) in sample_states(ell, sigma, 400) {
+    for (q, eta, factors) in sample_states(ell, sigma, d.parameters.len(), 400) {
+        let mut params = d.parameters.clone();
+        for (v, f) in params.values_mut().zip(&factors) {
+            *v *= f;
+        }
         if used == 200 {
             break;
         }
         if compiled.condition(&q, &params).map_or(true, |c| c > 1e6) {
             continue;
         }
-        let Ok(s) = compiled.rhs::<f64>(&q, &eta, &params) else {
+        let dd = |v: &[f64]| v.iter().map(|&x| DD::constant(x)).collect::<Vec<_>>();
+        let (Ok(r), Ok(s)) = (
+            compiled.rhs::<DD>(&dd(&q), &dd(&eta), &params),
+            compiled.rhs::<f64>(&q, &eta, &params),
+        ) else {
             continue;
         };
         let inputs: Vec<f64> = q
@@ -112,34 +128,105 @@ fn choose_path(d: &Derivation, ingredients: &Tape, solved: &Tape) -> Result<Path
         if pivots.iter().any(|&p| p <= 0.0) {
             continue;
         }
-        let scale = s
+        let exact: Vec<f64> = r
             .eta_dot
             .iter()
-            .chain(&s.q_dot)
-            .fold(1.0_f64, |m, x| m.max(x.abs()));
-        let err = eta_dot
-            .iter()
-            .zip(&s.eta_dot)
-            .chain(q_dot.iter().zip(&s.q_dot))
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max)
-            / scale;
-        worst = worst.max(err);
+            .chain(&r.q_dot)
+            .map(|x| x.value())
+            .collect();
+        let scale = exact.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+        let error = |v: Vec<f64>| {
+            v.iter()
+                .zip(&exact)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+                / scale
+        };
+        worst = worst.max(error(eta_dot.iter().chain(q_dot).copied().collect()));
+        worst_structured =
+            worst_structured.max(error(s.eta_dot.iter().chain(&s.q_dot).copied().collect()));
         used += 1;
     }
-    let solved = used >= 100 && worst <= 1e-12;
-    Ok(PathChoice {
-        solved,
-        doc: format!(
-            "{}: {ops_c} operations against the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²); at {used} sample states the solved form deviates from the structured evaluation by at most {worst:.1e}{}.",
-            if solved { "solved form" } else { "structured" },
-            if solved {
-                ""
-            } else {
-                " (above 1e-12, or too few states)"
-            }
+    (worst, worst_structured, used)
+}
+
+/// The path of the generated `fast`: the candidate solved forms are tried from the fewest
+/// operations at run time with fixed parameters ([`Tape::varying_operation_count`]; total
+/// operations break ties). One is used when its shared operation count is at most the
+/// structured path's estimate (the ingredients' plus ℓ³ + σ²ℓ², a lower estimate of what the
+/// structured runtime adds: the LU of [Z; α] and the contractions of (11)) and it agrees with
+/// a double-double reference at 200 sample states at least as well as the structured path, or
+/// to 1e-12 ([`deviation`]). Its expanded forms
+/// can cancel badly in floating point (derivation.md §4), hence the check; the decision only
+/// selects a code path, exactness is not at stake. Returns the choice and the candidate used
+/// (the cheapest one when the structured path is taken) with its tape.
+fn choose_path(
+    d: &Derivation,
+    ingredients: &Tape,
+    candidates: Vec<Candidate>,
+    inputs: &[String],
+) -> Result<(PathChoice, Candidate, Tape), String> {
+    let (ell, np) = (d.ell, d.parameters.len());
+    let varying = |i: usize| i < ell || i >= ell + np;
+    let mut tried: Vec<(usize, usize, Candidate, Tape)> = candidates
+        .into_iter()
+        .map(|c| {
+            let tape = Tape::compile(&c.exprs.iter().collect::<Vec<_>>(), inputs)?;
+            Ok((
+                tape.varying_operation_count(varying),
+                tape.operation_count(),
+                c,
+                tape,
+            ))
+        })
+        .collect::<Result<_, String>>()?;
+    tried.sort_by_key(|t| (t.0, t.1));
+    let ops_s = ingredients.operation_count() + ell.pow(3) + d.sigma.pow(2) * ell.pow(2);
+    let compiled = d.compile().map_err(|e| e.to_string())?;
+    let mut notes = Vec::new();
+    let mut pick = None;
+    for (k, (run, ops, c, tape)) in tried.iter().enumerate() {
+        if *ops > ops_s {
+            notes.push(format!("`{}` ({ops} operations) is more than that", c.name));
+            continue;
+        }
+        let (worst, structured, used) = deviation(d, &compiled, tape);
+        if used >= 100 && worst <= structured.max(1e-12) {
+            pick = Some((
+                k,
+                format!(
+                    "solved form (`{}`): {ops} operations, {run} of them at run time with fixed parameters, against the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²); at {used} sample states its relative error in f64 is at most {worst:.1e} (structured path: {structured:.1e}; reference: double-double)",
+                    c.name
+                ),
+            ));
+            break;
+        }
+        notes.push(format!(
+            "`{}` has relative error {worst:.1e} at {used} sample states, above max(1e-12, the structured path's {structured:.1e}), or too few states",
+            c.name
+        ));
+    }
+    let (solved, k, mut doc) = match pick {
+        Some((k, doc)) => (true, k, doc),
+        None => (
+            false,
+            0,
+            format!("structured (estimate: {ops_s} operations = ingredients + ℓ³ + σ²ℓ²)"),
         ),
-    })
+    };
+    if !notes.is_empty() {
+        doc += &format!("; not used: {}", notes.join("; "));
+    }
+    doc += &format!(
+        ". Candidates (operations at run time / in all): {}.",
+        list(
+            tried
+                .iter()
+                .map(|(run, ops, c, _)| format!("`{}` {run}/{ops}", c.name))
+        )
+    );
+    let (_, _, c, tape) = tried.swap_remove(k);
+    Ok((PathChoice { solved, doc }, c, tape))
 }
 
 /// Operations in a tree, nothing shared (an n-ary sum or product counts n − 1).
@@ -183,40 +270,18 @@ mod fold {
     }
 }
 
-/// The solved form, with η as inputs: outputs η̇ (σ), q̇ = Γη (ℓ, eq. (6)) and the pivots of
-/// A_Γ = L D Lᵀ (σ), where η̇ solves A_Γ η̇ = Γᵀ∇U − Σ_rs Q⁽ⁱ⁾_rs η_r η_s (eq. (11) with the
-/// true Q of derivation.md) by Gaussian elimination without pivoting, which is stable for the
-/// symmetric positive definite A_Γ; a pivot ≤ 0 means A_Γ is not positive definite there.
-fn solved_exprs(d: &Derivation) -> Vec<Expr> {
+/// A candidate solved form: outputs η̇ (σ), q̇ = Γη (ℓ, eq. (6)) and the pivots of
+/// A_Γ = L D Lᵀ (σ); a pivot ≤ 0 means A_Γ is not positive definite there.
+struct Candidate {
+    name: &'static str,
+    exprs: Vec<Expr>,
+}
+
+/// Gaussian elimination without pivoting (stable for the symmetric positive definite A_Γ) on
+/// trees, folding exact zeros and ones: the solution x of a x = b and the pivots.
+fn eliminate(mut a: Vec<Vec<Expr>>, mut b: Vec<Expr>) -> (Vec<Expr>, Vec<Expr>) {
     use fold::*;
-    let (l, g) = (d.ell, d.sigma);
-    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
-    let q_dot: Vec<Expr> = (0..l)
-        .map(|i| {
-            (0..g).fold(Expr::int(0), |acc, s| {
-                add(acc, mul(d.gamma.entries[i][s].expr.clone(), eta[s].clone()))
-            })
-        })
-        .collect();
-    let mut b: Vec<Expr> = (0..g)
-        .map(|i| {
-            let mut x = d.forcing[i].expr.clone();
-            for r in 0..g {
-                let row = (0..g).fold(Expr::int(0), |acc, s| {
-                    add(acc, mul(d.q[i].entries[r][s].expr.clone(), eta[s].clone()))
-                });
-                x = sub(x, mul(row, eta[r].clone()));
-            }
-            x
-        })
-        .collect();
-    let mut a: Vec<Vec<Expr>> = (0..g)
-        .map(|r| {
-            (0..g)
-                .map(|s| d.a_gamma.entries[r][s].expr.clone())
-                .collect()
-        })
-        .collect();
+    let g = b.len();
     for k in 0..g {
         for i in k + 1..g {
             let f = div(a[i][k].clone(), a[k][k].clone());
@@ -237,8 +302,120 @@ fn solved_exprs(d: &Derivation) -> Vec<Expr> {
         }
         x[k] = div(r, a[k][k].clone());
     }
-    let pivots = (0..g).map(|k| a[k][k].clone());
-    x.into_iter().chain(q_dot).chain(pivots).collect()
+    (x, (0..g).map(|k| a[k][k].clone()).collect())
+}
+
+/// The candidate solved forms of A_Γ η̇ = Γᵀ∇U − Σ_rs Q⁽ⁱ⁾_rs η_r η_s (eq. (11) with the true Q
+/// of derivation.md), η as inputs:
+/// * `elimination`: elimination on the trees of A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ as derived;
+/// * `elimination of normal forms`: the same on the normal form of each right-hand side b_i
+///   (like terms of Q collected by the CAS), all in Horner form;
+/// * `Cramer's rule on blocks`: for each diagonal block of A_Γ (at most 3 rows), η̇ = adj(A) b /
+///   det A with the adjugate and the determinant as exact normal forms (no cancellation in
+///   the determinant); instead of pivots, the block's leading principal minors (all > 0 iff
+///   the block is positive definite, Sylvester's criterion);
+/// * `normal form`: η̇ = A_Γ⁻¹ b as one exact normal form per component (when the CAS kept it
+///   small), in Horner form; the pivots still come from eliminating A_Γ.
+///
+/// Horner forms take out the state (q, η) first, so that the coefficients left are
+/// polynomials in the parameters alone (hoisted out of loops with fixed parameters).
+fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
+    use fold::*;
+    let (l, g) = (d.ell, d.sigma);
+    let params: Vec<&String> = d.parameters.keys().collect();
+    let late = |f: &Expr| {
+        !f.any(&mut |e| match e {
+            Expr::Sym(n) => !params.contains(&n),
+            Expr::Der(_) | Expr::Free { .. } => true,
+            _ => false,
+        })
+    };
+    let hor = |e: &Expr| e.horner_by(&late);
+    // The CAS names η `eta1..`; the tapes take them as `#eta0..`.
+    let rename = |e: &Expr| {
+        e.map(&mut |x| match x {
+            Expr::Sym(n) => match n.strip_prefix("eta").and_then(|k| k.parse::<usize>().ok()) {
+                Some(k) if (1..=g).contains(&k) && !params.iter().any(|p| **p == n) => {
+                    Expr::sym(&eta_input(k - 1))
+                }
+                _ => Expr::Sym(n),
+            },
+            other => other,
+        })
+    };
+    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
+    let q_dot = |h: &dyn Fn(&Expr) -> Expr| -> Vec<Expr> {
+        (0..l)
+            .map(|i| {
+                (0..g).fold(Expr::int(0), |acc, s| {
+                    add(acc, mul(h(&d.gamma.entries[i][s].expr), eta[s].clone()))
+                })
+            })
+            .collect()
+    };
+    let a_gamma = |h: &dyn Fn(&Expr) -> Expr| -> Vec<Vec<Expr>> {
+        (0..g)
+            .map(|r| (0..g).map(|s| h(&d.a_gamma.entries[r][s].expr)).collect())
+            .collect()
+    };
+    let assemble = |name, x: Vec<Expr>, q_dot: Vec<Expr>, pivots: Vec<Expr>| Candidate {
+        name,
+        exprs: x.into_iter().chain(q_dot).chain(pivots).collect(),
+    };
+    let mut out = Vec::new();
+
+    let b: Vec<Expr> = (0..g)
+        .map(|i| {
+            let mut x = d.forcing[i].expr.clone();
+            for r in 0..g {
+                let row = (0..g).fold(Expr::int(0), |acc, s| {
+                    add(acc, mul(d.q[i].entries[r][s].expr.clone(), eta[s].clone()))
+                });
+                x = sub(x, mul(row, eta[r].clone()));
+            }
+            x
+        })
+        .collect();
+    let (x, pivots) = eliminate(a_gamma(&|e| e.clone()), b);
+    out.push(assemble("elimination", x, q_dot(&|e| e.clone()), pivots));
+
+    let ing = &d.ingredients;
+    if ing.eta_rhs.len() == g {
+        let b: Vec<Expr> = ing.eta_rhs.iter().map(|e| hor(&rename(&e.expr))).collect();
+        let (x, pivots) = eliminate(a_gamma(&hor), b);
+        out.push(assemble(
+            "elimination of normal forms",
+            x,
+            q_dot(&hor),
+            pivots,
+        ));
+    }
+    if let (Some(blocks), true) = (&ing.blocks, ing.eta_rhs.len() == g) {
+        let b: Vec<Expr> = ing.eta_rhs.iter().map(|e| hor(&rename(&e.expr))).collect();
+        let mut x = vec![Expr::int(0); g];
+        let mut minors = Vec::new();
+        for blk in blocks {
+            let det = hor(&blk.det.expr);
+            for (i, &r) in blk.rows.iter().enumerate() {
+                let num = blk
+                    .rows
+                    .iter()
+                    .enumerate()
+                    .fold(Expr::int(0), |acc, (j, &c)| {
+                        add(acc, mul(hor(&blk.adj[i][j].expr), b[c].clone()))
+                    });
+                x[r] = div(num, det.clone());
+            }
+            minors.extend(blk.minors.iter().map(|m| hor(&m.expr)));
+        }
+        out.push(assemble("Cramer's rule on blocks", x, q_dot(&hor), minors));
+    }
+    if let Some(eta_dot) = &ing.eta_dot {
+        let x: Vec<Expr> = eta_dot.iter().map(|e| hor(&rename(&e.expr))).collect();
+        let (_, pivots) = eliminate(a_gamma(&hor), vec![Expr::int(0); g]);
+        out.push(assemble("normal form", x, q_dot(&hor), pivots));
+    }
+    out
 }
 
 fn ident(name: &str) -> String {
@@ -262,10 +439,21 @@ fn lit(x: f64) -> String {
     }
 }
 
-/// One `let` per shared operation of `tape`; `input(i)` is the Rust text of input slot `i`.
-/// A sine and a cosine of the same argument are computed together (`sin_cos`).
-fn lets(tape: &Tape, input: impl Fn(usize) -> String) -> String {
+/// One `let` per shared operation of `tape`, its inputs taken from `slots`.
+/// A sine and a cosine of the same argument are computed together (`sin_cos`). In sums and
+/// products the operands that do not depend on the state come first, so that with fixed
+/// parameters their part is loop-invariant (left-to-right evaluation).
+fn lets(tape: &Tape, slots: &Slots) -> String {
     let ops = tape.ops();
+    let varying = tape.varying(|i| slots.varying(i));
+    let ordered = |v: &[usize]| -> Vec<String> {
+        let (fixed, moving): (Vec<usize>, Vec<usize>) = v.iter().partition(|&&k| !varying[k]);
+        fixed
+            .iter()
+            .chain(&moving)
+            .map(|k| format!("t{k}"))
+            .collect()
+    };
     // For each sin(a), the index of cos(a) if the tape has it (and the other way round).
     let mut partner: Vec<Option<usize>> = vec![None; ops.len()];
     {
@@ -290,12 +478,11 @@ fn lets(tape: &Tape, input: impl Fn(usize) -> String) -> String {
         if paired[k] {
             continue;
         }
-        let t = |i: &usize| format!("t{i}");
         let rhs = match op {
-            Op::Input(i) => input(*i),
+            Op::Input(i) => slots.text(*i),
             Op::Const(r) => format!("S::constant({})", lit(Expr::rational_to_f64(r))),
-            Op::Add(v) => v.iter().map(t).collect::<Vec<_>>().join(" + "),
-            Op::Mul(v) => v.iter().map(t).collect::<Vec<_>>().join(" * "),
+            Op::Add(v) => ordered(v).join(" + "),
+            Op::Mul(v) => ordered(v).join(" * "),
             Op::Neg(a) => format!("-t{a}"),
             Op::Div(a, b) => format!("t{a} / t{b}"),
             Op::PowI(a, n) => format!("t{a}.powi({n})"),
@@ -339,6 +526,11 @@ struct Slots<'a> {
 }
 
 impl Slots<'_> {
+    /// Whether input slot `i` is part of the state (not a parameter).
+    fn varying(&self, i: usize) -> bool {
+        i < self.n || i >= self.n + self.params.len()
+    }
+
     /// The Rust text of input slot `i`.
     fn text(&self, i: usize) -> String {
         let np = self.params.len();
@@ -354,7 +546,7 @@ impl Slots<'_> {
 
 /// The straight-line body of `ingredients`: the lets, then `out[j] = …`.
 fn straight_line(tape: &Tape, slots: &Slots) -> String {
-    let mut o = lets(tape, |i| slots.text(i));
+    let mut o = lets(tape, slots);
     for (j, i) in tape.outputs().iter().enumerate() {
         let _ = writeln!(o, "    out[{j}] = t{i};");
     }
@@ -371,7 +563,7 @@ fn solved_body(
     n_rates: usize,
     ret: impl Fn(String, String) -> String,
 ) -> String {
-    let mut o = lets(tape, |i| slots.text(i));
+    let mut o = lets(tape, slots);
     let out = tape.outputs();
     let t = |i: &usize| format!("t{i}");
     let pivots = &out[sigma + n_rates..];
@@ -421,15 +613,15 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
     let ops_trees: usize = exprs.iter().map(|e| tree_operations(e)).sum();
     let ops_shared = tape.operation_count();
     let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
-    let solved = solved_exprs(d);
     let solved_inputs: Vec<String> = inputs
         .iter()
         .cloned()
         .chain((0..d.sigma).map(eta_input))
         .collect();
-    let solved_tape = Tape::compile(&solved.iter().collect::<Vec<_>>(), &solved_inputs)?;
+    let (choice, candidate, solved_tape) =
+        choose_path(d, &tape, solved_candidates(d), &solved_inputs)?;
+    let solved = candidate.exprs;
     let solved_ops = solved_tape.operation_count();
-    let choice = choose_path(d, &tape, &solved_tape)?;
     // The reduced solved form: η̇ and the kept rates as code of (kept q, η) alone. The
     // eliminated coordinates are proven absent from A_Γ, Γᵀ∇U, Q⁽ⁱ⁾ and the kept rows of Γ, so
     // the tape compiles without them as inputs; if it did not, `reduced` keeps evaluating the

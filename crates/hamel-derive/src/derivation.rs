@@ -144,4 +144,28 @@ pub struct Ingredients {
     pub dz: Vec<Mat>,
     /// ∂α/∂q_k.
     pub dalpha: Vec<Mat>,
+    /// For code generation ([`Symbolic::to_derivation_for_code`](crate::Symbolic)), else empty:
+    /// the right-hand sides b_i = (Γᵀ∇U)_i − Σ_rs Q⁽ⁱ⁾_rs η_r η_s of (11), A_Γ η̇ = b, each one
+    /// normal form in q, the parameters and the symbols `eta1..`.
+    pub eta_rhs: Vec<Entry>,
+    /// For code generation, when small enough: η̇ = A_Γ⁻¹ b, each one normal form (exact
+    /// elimination; abandoned when an intermediate exceeds [`SOLUTION_TERMS`](crate::SOLUTION_TERMS) terms).
+    pub eta_dot: Option<Vec<Entry>>,
+    /// For code generation, when A_Γ splits into diagonal blocks of at most 3 rows (after
+    /// ordering): each block's rows, its determinant, adjugate and leading principal minors
+    /// as normal forms (Cramer's rule per block; Sylvester's criterion for definiteness).
+    pub blocks: Option<Vec<Block>>,
+}
+
+/// A diagonal block of A_Γ (the rows `rows`, coupled to no other row), for Cramer's rule.
+#[derive(Clone, Debug)]
+pub struct Block {
+    /// Indices of η in the block.
+    pub rows: Vec<usize>,
+    /// Its determinant.
+    pub det: Entry,
+    /// Its adjugate (det × inverse), row-major.
+    pub adj: Vec<Vec<Entry>>,
+    /// Its leading principal minors of orders 1..n (the last is `det`).
+    pub minors: Vec<Entry>,
 }

@@ -20,17 +20,35 @@ mod numeric;
 mod render;
 pub mod symbolic;
 
-pub use derivation::{Checks, Derivation, Entry, Ingredients, Mat};
+pub use derivation::{Block, Checks, Derivation, Entry, Ingredients, Mat};
 pub use hamel_model::{Model, ModelError};
 pub use numeric::{Compiled, Evaluation, NumericError, Rhs, SymbolicCompiled};
-pub use symbolic::{Symbolic, symbolic};
+pub use symbolic::{SOLUTION_TERMS, Symbolic, symbolic};
 
 /// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first
 /// choice when `None`).
 pub fn derive(model: &Model, eta: Option<&str>) -> Result<Derivation, ModelError> {
+    derive_with(model, eta, false)
+}
+
+/// [`derive`] with the ingredients code generation uses
+/// ([`Symbolic::to_derivation_for_code`]).
+pub fn derive_for_code(model: &Model, eta: Option<&str>) -> Result<Derivation, ModelError> {
+    derive_with(model, eta, true)
+}
+
+fn derive_with(model: &Model, eta: Option<&str>, code: bool) -> Result<Derivation, ModelError> {
     let name = model.choice(eta)?.name.clone();
     let model = model.clone();
-    hamel_cas::run(move || symbolic::derive(&model, &name)).map_err(|e| {
+    hamel_cas::run(move || {
+        let s = symbolic::symbolic(&model, &name)?;
+        Ok(if code {
+            s.to_derivation_for_code()
+        } else {
+            s.to_derivation()
+        })
+    })
+    .map_err(|e| {
         hamel_model::ModelError::new(
             "hamel",
             std::sync::Arc::new(String::new()),

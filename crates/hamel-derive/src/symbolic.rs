@@ -322,14 +322,134 @@ impl Symbolic {
                 da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
                 dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
                 dalpha: (0..model.ell()).map(|k| mat(&self.alpha.diff(k))).collect(),
+                eta_rhs: Vec::new(),
+                eta_dot: None,
+                blocks: None,
             },
         }
     }
+
+    /// [`Symbolic::to_derivation`] with the ingredients code generation simplifies with: the
+    /// right-hand sides b of A_Γ η̇ = b (11) as normal forms, and η̇ = A_Γ⁻¹ b itself when
+    /// exact elimination keeps every intermediate under [`SOLUTION_TERMS`] terms.
+    pub fn to_derivation_for_code(&self) -> Derivation {
+        let mut d = self.to_derivation();
+        let sigma = self.eta.len();
+        let b: Vec<Ex> = (0..sigma)
+            .map(|i| self.forcing[i].sub(&self.q_eta[i]).to_ex())
+            .collect();
+        d.ingredients.eta_rhs = b.iter().map(entry).collect();
+        let a = self.a_gamma.to_matrix();
+        let a: Vec<Vec<Ex>> = (0..sigma)
+            .map(|i| (0..sigma).map(|j| a[(i, j)].clone()).collect())
+            .collect();
+        d.ingredients.blocks = blocks(&a);
+        d.ingredients.eta_dot =
+            solve_capped(a, b, SOLUTION_TERMS).map(|x| x.iter().map(entry).collect());
+        d
+    }
 }
 
-/// Derive the Boltzmann–Hamel equations of `model` for the quasi-velocity choice `choice`.
-pub(crate) fn derive(model: &Model, choice: &str) -> Result<Derivation, ModelError> {
-    Ok(symbolic(model, choice)?.to_derivation())
+/// The largest entry (in terms) of A_Γ for which [`blocks`] computes cofactors.
+const BLOCK_ENTRY_TERMS: usize = 40;
+
+/// The diagonal blocks of `a` (connected components of its exact non-zero pattern) with
+/// determinant, adjugate and leading minors each, when every block has at most 3 rows and
+/// entries of at most [`BLOCK_ENTRY_TERMS`] terms.
+fn blocks(a: &[Vec<Ex>]) -> Option<Vec<crate::derivation::Block>> {
+    let g = a.len();
+    let mut comp: Vec<usize> = (0..g).collect();
+    fn root(c: &mut [usize], i: usize) -> usize {
+        if c[i] == i {
+            i
+        } else {
+            let r = root(c, c[i]);
+            c[i] = r;
+            r
+        }
+    }
+    for i in 0..g {
+        for j in i + 1..g {
+            if !a[i][j].is_zero() || !a[j][i].is_zero() {
+                let (ri, rj) = (root(&mut comp, i), root(&mut comp, j));
+                comp[ri.max(rj)] = ri.min(rj);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for r in 0..g {
+        let rows: Vec<usize> = (0..g).filter(|&i| root(&mut comp, i) == r).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        // Small blocks of small entries only: cofactors multiply entries, so their size is
+        // about the product of the entries' sizes.
+        let terms = rows.iter().flat_map(|&i| rows.iter().map(move |&j| (i, j)));
+        if rows.len() > 3
+            || terms
+                .into_iter()
+                .any(|(i, j)| a[i][j].size() > BLOCK_ENTRY_TERMS)
+        {
+            return None;
+        }
+        let sub = |n: usize| Matrix::from_fn(n, n, |i, j| a[rows[i]][rows[j]].clone());
+        let (inv, det) = sub(rows.len()).inverse().ok()??;
+        let adj = (0..rows.len())
+            .map(|i| {
+                (0..rows.len())
+                    .map(|j| entry(&(&inv[(i, j)] * &det)))
+                    .collect()
+            })
+            .collect();
+        let minors = (1..=rows.len())
+            .map(|n| sub(n).det().ok().map(|m| entry(&m)))
+            .collect::<Option<Vec<_>>>()?;
+        out.push(crate::derivation::Block {
+            rows,
+            det: entry(&det),
+            adj,
+            minors,
+        });
+    }
+    Some(out)
+}
+
+/// The largest number of terms an intermediate of the exact solution of A_Γ η̇ = b may have
+/// before code generation gives it up (the normal form of η̇ puts everything over one
+/// denominator, which is compact for small systems and explodes for coupled larger ones).
+pub const SOLUTION_TERMS: usize = 400;
+
+/// x with a x = b by exact Gaussian elimination (no pivoting: A_Γ is symmetric positive definite,
+/// so its leading minors are not identically zero), or `None` when an intermediate grows over
+/// `cap` terms or a division fails.
+fn solve_capped(mut a: Vec<Vec<Ex>>, mut b: Vec<Ex>, cap: usize) -> Option<Vec<Ex>> {
+    let g = b.len();
+    let small = |e: &Ex| e.size() <= cap;
+    for k in 0..g {
+        for i in k + 1..g {
+            if a[i][k].is_zero() {
+                continue;
+            }
+            let f = a[i][k].div(&a[k][k]).ok()?;
+            for j in k + 1..g {
+                a[i][j] = &a[i][j] - &(&f * &a[k][j]);
+                small(&a[i][j]).then_some(())?;
+            }
+            b[i] = &b[i] - &(&f * &b[k]);
+            small(&b[i]).then_some(())?;
+        }
+    }
+    let mut x = b.clone();
+    for k in (0..g).rev() {
+        let mut r = b[k].clone();
+        for j in k + 1..g {
+            r = &r - &(&a[k][j] * &x[j]);
+            small(&r).then_some(())?;
+        }
+        x[k] = r.div(&a[k][k]).ok()?;
+        small(&x[k]).then_some(())?;
+    }
+    Some(x)
 }
 
 /// The exact derivation of `model` for the choice `choice`. Must run on the CAS thread

@@ -18,6 +18,7 @@ mod ast;
 mod dd;
 mod display;
 mod eval;
+mod horner;
 mod latex;
 mod parse;
 mod tape;

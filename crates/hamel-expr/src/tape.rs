@@ -164,6 +164,46 @@ impl Tape {
             .sum()
     }
 
+    /// For each instruction, whether its value depends on an input for which `varying` holds
+    /// (the state, as opposed to fixed parameters and constants).
+    pub fn varying(&self, varying: impl Fn(usize) -> bool) -> Vec<bool> {
+        let mut v: Vec<bool> = Vec::with_capacity(self.ops.len());
+        for op in &self.ops {
+            let x = match op {
+                Op::Input(i) => varying(*i),
+                Op::Const(_) => false,
+                Op::Add(a) | Op::Mul(a) => a.iter().any(|&k| v[k]),
+                Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => v[*a],
+                Op::Div(a, b) | Op::PowF(a, b) => v[*a] || v[*b],
+            };
+            v.push(x);
+        }
+        v
+    }
+
+    /// Operations left to do once the inputs for which `varying` fails are fixed: those of
+    /// instructions depending on a varying input, where an n-ary sum or product with c ≥ 1
+    /// fixed operands counts as (its varying operands) − 1 + 1 (the fixed ones are combined
+    /// first; see [`Tape::varying`]). This is what a loop with fixed parameters pays once the
+    /// compiler has hoisted the rest.
+    pub fn varying_operation_count(&self, varying: impl Fn(usize) -> bool) -> usize {
+        let v = self.varying(varying);
+        self.ops
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| v[*k])
+            .map(|(_, op)| match op {
+                Op::Input(_) | Op::Const(_) => 0,
+                Op::Add(a) | Op::Mul(a) => {
+                    let n = a.iter().filter(|&&k| v[k]).count();
+                    n - 1 + usize::from(n < a.len())
+                }
+                Op::PowI(_, n) => (n.unsigned_abs() as usize).max(2).ilog2() as usize + 1,
+                _ => 1,
+            })
+            .sum()
+    }
+
     /// Evaluate every output. Division by zero, domain errors and non-finite values are
     /// errors, never NaN.
     pub fn eval<S: Scalar>(&self, inputs: &[S]) -> Result<Vec<S>, EvalError> {

@@ -60,7 +60,10 @@ pub fn reduce_with_derivation(
     let model = model.clone();
     hamel_cas::run(move || {
         let s = hamel_derive::symbolic(&model, &name)?;
-        Ok((analysis::analyse(&model, &s, &p), s.to_derivation()))
+        Ok((
+            analysis::analyse(&model, &s, &p),
+            s.to_derivation_for_code(),
+        ))
     })
     .map_err(model_error_from_cas)?
 }

@@ -13,7 +13,7 @@
 //! separate trees, 8 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 8 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form: 8 operations against the structured path's 71 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states the solved form deviates from the structured evaluation by at most 3.5e-16.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`elimination`): 8 operations, 4 of them at run time with fixed parameters, against the structured path's 71 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 2.1e-16 (structured path: 2.6e-16; reference: double-double). Candidates (operations at run time / in all): `elimination` 4/8, `elimination of normal forms` 4/8, `Cramer's rule on blocks` 4/8, `normal form` 4/8.
 //!
 //! **States.** Full: q = (x, y, theta) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (eta1, eta2); eliminated: (x, y, theta), reconstructed from
