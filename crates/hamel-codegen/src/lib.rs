@@ -165,15 +165,15 @@ fn choose_path(
     ingredients: &Tape,
     candidates: Vec<Candidate>,
     inputs: &[String],
+    slots: &Slots,
 ) -> Result<(PathChoice, Candidate, Tape), String> {
-    let (ell, np) = (d.ell, d.parameters.len());
-    let varying = |i: usize| i < ell || i >= ell + np;
+    let ell = d.ell;
     let mut tried: Vec<(usize, usize, Candidate, Tape)> = candidates
         .into_iter()
         .map(|c| {
             let tape = Tape::compile(&c.exprs.iter().collect::<Vec<_>>(), inputs)?;
             Ok((
-                tape.varying_operation_count(varying),
+                tape.varying_operation_count(|i| slots.varying(i)),
                 tape.operation_count(),
                 c,
                 tape,
@@ -270,8 +270,9 @@ mod fold {
     }
 }
 
-/// A candidate solved form: outputs η̇ (σ), q̇ = Γη (ℓ, eq. (6)) and the pivots of
-/// A_Γ = L D Lᵀ (σ); a pivot ≤ 0 means A_Γ is not positive definite there.
+/// A candidate solved form: outputs η̇ (σ), q̇ = Γη (ℓ, eq. (6)) and σ definiteness tests (the
+/// pivots of A_Γ = L D Lᵀ, or the leading minors of its blocks); one ≤ 0 means A_Γ is not
+/// positive definite there.
 struct Candidate {
     name: &'static str,
     exprs: Vec<Expr>,
@@ -364,7 +365,7 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
     };
     let mut out = Vec::new();
 
-    let b: Vec<Expr> = (0..g)
+    let b_trees: Vec<Expr> = (0..g)
         .map(|i| {
             let mut x = d.forcing[i].expr.clone();
             for r in 0..g {
@@ -376,13 +377,15 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
             x
         })
         .collect();
-    let (x, pivots) = eliminate(a_gamma(&|e| e.clone()), b);
+    let (x, pivots) = eliminate(a_gamma(&|e| e.clone()), b_trees);
     out.push(assemble("elimination", x, q_dot(&|e| e.clone()), pivots));
 
     let ing = &d.ingredients;
-    if ing.eta_rhs.len() == g {
-        let b: Vec<Expr> = ing.eta_rhs.iter().map(|e| hor(&rename(&e.expr))).collect();
-        let (x, pivots) = eliminate(a_gamma(&hor), b);
+    let a_hor = a_gamma(&hor);
+    // The normal forms of b (empty unless the derivation was made for code generation).
+    let b: Vec<Expr> = ing.eta_rhs.iter().map(|e| hor(&rename(&e.expr))).collect();
+    if b.len() == g {
+        let (x, pivots) = eliminate(a_hor.clone(), b.clone());
         out.push(assemble(
             "elimination of normal forms",
             x,
@@ -390,8 +393,7 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
             pivots,
         ));
     }
-    if let (Some(blocks), true) = (&ing.blocks, ing.eta_rhs.len() == g) {
-        let b: Vec<Expr> = ing.eta_rhs.iter().map(|e| hor(&rename(&e.expr))).collect();
+    if let (Some(blocks), true) = (&ing.blocks, b.len() == g) {
         let mut x = vec![Expr::int(0); g];
         let mut minors = Vec::new();
         for blk in blocks {
@@ -412,7 +414,7 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
     }
     if let Some(eta_dot) = &ing.eta_dot {
         let x: Vec<Expr> = eta_dot.iter().map(|e| hor(&rename(&e.expr))).collect();
-        let (_, pivots) = eliminate(a_gamma(&hor), vec![Expr::int(0); g]);
+        let (_, pivots) = eliminate(a_hor, vec![Expr::int(0); g]);
         out.push(assemble("normal form", x, q_dot(&hor), pivots));
     }
     out
@@ -618,8 +620,15 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
         .cloned()
         .chain((0..d.sigma).map(eta_input))
         .collect();
+    let full_slots = Slots {
+        coords: "q",
+        n: d.ell,
+        params: &params,
+        eta: "eta",
+        eta_at: 0,
+    };
     let (choice, candidate, solved_tape) =
-        choose_path(d, &tape, solved_candidates(d), &solved_inputs)?;
+        choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)?;
     let solved = candidate.exprs;
     let solved_ops = solved_tape.operation_count();
     // The reduced solved form: η̇ and the kept rates as code of (kept q, η) alone. The
@@ -641,13 +650,6 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
         Tape::compile(&kept_solved, &kept_inputs).ok()
     } else {
         None
-    };
-    let full_slots = Slots {
-        coords: "q",
-        n: d.ell,
-        params: &params,
-        eta: "eta",
-        eta_at: 0,
     };
     let names = |ix: &[usize]| list(ix.iter().map(|&k| format!("{:?}", d.coordinates[k])));
     let reduced_state: Vec<String> = kept

@@ -401,9 +401,10 @@ fn blocks(a: &[Vec<Ex>]) -> Option<Vec<crate::derivation::Block>> {
                     .collect()
             })
             .collect();
-        let minors = (1..=rows.len())
+        let mut minors = (1..rows.len())
             .map(|n| sub(n).det().ok().map(|m| entry(&m)))
             .collect::<Option<Vec<_>>>()?;
+        minors.push(entry(&det));
         out.push(crate::derivation::Block {
             rows,
             det: entry(&det),

@@ -32,6 +32,26 @@ pub enum Op {
     Call(Func, usize),
 }
 
+impl Op {
+    /// Arithmetic operations of this instruction: an n-ary sum or product counts n − 1, an
+    /// integer power its multiplications by squaring. With `varying` (per instruction, see
+    /// [`Tape::varying`]), the fixed operands of a sum or product count as one, combined first.
+    fn cost(&self, varying: Option<&[bool]>) -> usize {
+        match self {
+            Op::Input(_) | Op::Const(_) => 0,
+            Op::Add(a) | Op::Mul(a) => match varying {
+                None => a.len().saturating_sub(1),
+                Some(v) => {
+                    let n = a.iter().filter(|&&k| v[k]).count();
+                    (n + usize::from(n < a.len())).saturating_sub(1)
+                }
+            },
+            Op::PowI(_, n) => (n.unsigned_abs() as usize).max(2).ilog2() as usize + 1,
+            _ => 1,
+        }
+    }
+}
+
 /// A compiled set of expressions.
 #[derive(Clone, Debug)]
 pub struct Tape {
@@ -153,15 +173,7 @@ impl Tape {
 
     /// Number of arithmetic operations (an n-ary sum or product counts n − 1).
     pub fn operation_count(&self) -> usize {
-        self.ops
-            .iter()
-            .map(|op| match op {
-                Op::Input(_) | Op::Const(_) => 0,
-                Op::Add(v) | Op::Mul(v) => v.len().saturating_sub(1),
-                Op::PowI(_, n) => (n.unsigned_abs() as usize).max(2).ilog2() as usize + 1,
-                _ => 1,
-            })
-            .sum()
+        self.ops.iter().map(|op| op.cost(None)).sum()
     }
 
     /// For each instruction, whether its value depends on an input for which `varying` holds
@@ -192,15 +204,7 @@ impl Tape {
             .iter()
             .enumerate()
             .filter(|(k, _)| v[*k])
-            .map(|(_, op)| match op {
-                Op::Input(_) | Op::Const(_) => 0,
-                Op::Add(a) | Op::Mul(a) => {
-                    let n = a.iter().filter(|&&k| v[k]).count();
-                    n - 1 + usize::from(n < a.len())
-                }
-                Op::PowI(_, n) => (n.unsigned_abs() as usize).max(2).ilog2() as usize + 1,
-                _ => 1,
-            })
+            .map(|(_, op)| op.cost(Some(&v)))
             .sum()
     }
 
