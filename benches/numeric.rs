@@ -2,12 +2,14 @@
 //!
 //! * `rhs/<model>/<eta>/{generated,interpreted}`: one evaluation of the right-hand side
 //!   (q̇, η̇) at a fixed admissible state, by the generated code (`crates/hamel-models`,
-//!   `full_into`: no allocation, the paper's form not computed) and by the structured evaluator
+//!   `full_into`: no allocation, the paper's form not computed, parameters prepared once) and
+//!   by the structured evaluator
 //!   it is generated from (`hamel_derive::Compiled::rhs`, a tape interpreter that also computes
 //!   the paper's form and the energy); and, for the
 //!   knife, the 3.2 bar and the unicycle with rider, by hand-written code (`hamel-handwritten`:
 //!   η̇ and q̇ only, the practical limit), beside the generated `fast` called the same way
-//!   (`generated_fast`: arrays in and out, no finite check).
+//!   (`generated_fast`: arrays in and out, no finite check, parameter-only values computed at
+//!   each call) and `fast_with` with them prepared once (`generated_prepared`).
 //! * `simulate/<model>/{full,reduced}`: 100 s with DOP853 at rtol = atol = 1e-10, the full state
 //!   (q, η) against the reduced one (kept q, η), both with the generated code.
 //!
@@ -72,6 +74,12 @@ fn rhs(c: &mut Criterion) {
                 let p = hamel_models::$g::Parameters::default();
                 group.bench_function(format!("{id}/generated_fast"), |b| {
                     b.iter(|| hamel_models::$g::fast(black_box(&q), black_box(&e), &p).unwrap())
+                });
+                let prep = hamel_models::$g::Prepared::new(&p).unwrap();
+                group.bench_function(format!("{id}/generated_prepared"), |b| {
+                    b.iter(|| {
+                        hamel_models::$g::fast_with(black_box(&q), black_box(&e), &prep).unwrap()
+                    })
                 });
             }};
         }

@@ -180,3 +180,56 @@ fn the_solved_form_refuses_an_indefinite_a_gamma() {
     let e = bar::fast(&[0.0, 0.0, 0.3, 0.4], &[1.0, 0.5], &p).unwrap_err();
     assert!(e.0.contains("not positive definite"), "{}", e.0);
 }
+
+/// The parameter-only values prepared once (`Prepared`, what integrators use) change nothing:
+/// `full_into` with them gives the same bits as computing them at each call, at random states of
+/// every core, and the reduced right-hand side likewise.
+#[test]
+fn prepared_parameters_give_the_same_bits() {
+    let mut rng = ChaCha8Rng::seed_from_u64(45);
+    for core in MODELS {
+        let n = core.dims.ell + core.dims.sigma;
+        let nr = core.kept.len() + core.dims.sigma;
+        let mut compared = 0;
+        for _ in 0..50 {
+            let y: Vec<f64> = (0..n).map(|_| rng.random_range(-2.0..2.0)).collect();
+            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            match (
+                (core.full_into)(&y, &mut a),
+                (core.full_into_per_call)(&y, &mut b),
+            ) {
+                (Ok(()), Ok(())) => assert_eq!(a, b, "{}/{} at {y:?}", core.model, core.eta),
+                (Err(e), Err(f)) => assert_eq!(e, f),
+                (x, z) => panic!("{}/{}: {x:?} vs {z:?}", core.model, core.eta),
+            }
+            let x: Vec<f64> = y[..nr].to_vec();
+            let mut dx = vec![0.0; nr];
+            match ((core.reduced_into)(&x, &mut dx), (core.reduced)(&x)) {
+                (Ok(()), Ok(r)) => assert_eq!(dx, r, "{}/{} at {x:?}", core.model, core.eta),
+                (Err(e), Err(f)) => assert_eq!(e, f),
+                (x, z) => panic!("{}/{}: {x:?} vs {z:?}", core.model, core.eta),
+            }
+            compared += 1;
+        }
+        assert_eq!(compared, 50);
+    }
+}
+
+/// Parameters for which A_Γ is indefinite at every state are refused when prepared, with the
+/// reason; admissible ones are accepted.
+#[test]
+fn preparing_refuses_parameters_that_make_a_gamma_indefinite() {
+    use hamel_models::knife__paper as knife;
+    let p = knife::Parameters {
+        m: -0.5,
+        ..Default::default()
+    };
+    let e = knife::Prepared::new(&p).unwrap_err();
+    assert!(
+        e.0.contains("not positive definite") && e.0.contains("for these parameters"),
+        "{}",
+        e.0
+    );
+    let prep = knife::Prepared::new(&Default::default()).unwrap();
+    assert!(knife::fast_with(&[0.1, 0.2, 0.3], &[1.0, 0.5], &prep).is_ok());
+}

@@ -10,8 +10,8 @@
 use std::io::Read;
 
 use hamel_generated::{
-    COORDINATES, DIMS, KEPT, Parameters, REDUCED_DIM, energy, full_into, reduced_into,
-    reduced_jacobian,
+    COORDINATES, DIMS, KEPT, Parameters, Prepared, REDUCED_DIM, energy, full_into_with,
+    reduced_into_with, reduced_jacobian_with,
 };
 use hamel_sim::{Method, OdeSystem, Options, SystemError};
 use serde::Deserialize;
@@ -26,18 +26,18 @@ struct State {
     params: Map<String, Value>,
 }
 
-struct Full(Parameters);
-struct Reduced(Parameters);
+struct Full(Prepared);
+struct Reduced(Prepared);
 
 impl OdeSystem for Full {
     fn dim(&self) -> usize {
         DIMS.ell + DIMS.sigma
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        full_into(y, dy, &self.0).map_err(|e| SystemError::new(e.0))
+        full_into_with(y, dy, &self.0).map_err(|e| SystemError::new(e.0))
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
-        energy(&y[..DIMS.ell], &y[DIMS.ell..], &self.0).ok()
+        energy(&y[..DIMS.ell], &y[DIMS.ell..], &self.0.p).ok()
     }
 }
 
@@ -46,12 +46,12 @@ impl OdeSystem for Reduced {
         REDUCED_DIM
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        reduced_into(y, dy, &self.0).map_err(|e| SystemError::new(e.0))
+        reduced_into_with(y, dy, &self.0).map_err(|e| SystemError::new(e.0))
     }
     /// The generated Jacobian (dual numbers), for the implicit Gauss–Legendre method.
     fn jacobian(&self, _t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
         Some(
-            reduced_jacobian(y, &self.0)
+            reduced_jacobian_with(y, &self.0)
                 .map(|j| {
                     for (i, row) in j.iter().enumerate() {
                         jac[i * REDUCED_DIM..(i + 1) * REDUCED_DIM].copy_from_slice(row);
@@ -145,6 +145,7 @@ fn run() -> Result<(String, Option<String>), String> {
             q.iter().chain(&s.eta).copied().collect(),
         )
     };
+    let p = Prepared::new(&p).map_err(|e| format!("{path}: {}", e.0))?;
     let result = if reduced {
         hamel_sim::integrate(&Reduced(p), method, 0.0, &y0, &times, &options)
     } else {

@@ -279,31 +279,144 @@ struct Candidate {
 }
 
 /// Gaussian elimination without pivoting (stable for the symmetric positive definite A_Γ) on
-/// trees, folding exact zeros and ones: the solution x of a x = b and the pivots.
+/// trees, folding exact zeros and ones: the solution x of a x = b and the pivots. One
+/// reciprocal per pivot, shared by its multipliers and its back substitution (a division costs
+/// several multiplications).
 fn eliminate(mut a: Vec<Vec<Expr>>, mut b: Vec<Expr>) -> (Vec<Expr>, Vec<Expr>) {
     use fold::*;
     let g = b.len();
-    for k in 0..g {
-        for i in k + 1..g {
-            let f = div(a[i][k].clone(), a[k][k].clone());
-            if f.is_zero_literal() {
-                continue;
+    let inverse: Vec<Expr> = (0..g)
+        .map(|k| {
+            for i in k + 1..g {
+                let f = mul(a[i][k].clone(), div(Expr::int(1), a[k][k].clone()));
+                if f.is_zero_literal() {
+                    continue;
+                }
+                for j in k + 1..g {
+                    a[i][j] = sub(a[i][j].clone(), mul(f.clone(), a[k][j].clone()));
+                }
+                b[i] = sub(b[i].clone(), mul(f, b[k].clone()));
             }
-            for j in k + 1..g {
-                a[i][j] = sub(a[i][j].clone(), mul(f.clone(), a[k][j].clone()));
-            }
-            b[i] = sub(b[i].clone(), mul(f, b[k].clone()));
-        }
-    }
+            div(Expr::int(1), a[k][k].clone())
+        })
+        .collect();
     let mut x = vec![Expr::int(0); g];
     for k in (0..g).rev() {
         let mut r = b[k].clone();
         for j in k + 1..g {
             r = sub(r, mul(a[k][j].clone(), x[j].clone()));
         }
-        x[k] = div(r, a[k][k].clone());
+        x[k] = mul(r, inverse[k].clone());
     }
     (x, (0..g).map(|k| a[k][k].clone()).collect())
+}
+
+/// The diagonal blocks of a matrix (connected components of its nonzero pattern; exact zeros
+/// are zero literals), each as its sorted rows, in order of first row.
+fn diagonal_blocks(a: &[Vec<Expr>]) -> Vec<Vec<usize>> {
+    let g = a.len();
+    let mut block_of: Vec<usize> = (0..g).collect();
+    fn root(b: &mut [usize], mut i: usize) -> usize {
+        while b[i] != i {
+            b[i] = b[b[i]];
+            i = b[i];
+        }
+        i
+    }
+    for r in 0..g {
+        for s in 0..g {
+            if !a[r][s].is_zero_literal() {
+                let (x, y) = (root(&mut block_of, r), root(&mut block_of, s));
+                block_of[x.max(y)] = x.min(y);
+            }
+        }
+    }
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    for r in 0..g {
+        let k = root(&mut block_of, r);
+        match blocks.iter_mut().find(|b| b[0] == k) {
+            Some(b) => b.push(r),
+            None => blocks.push(vec![r]),
+        }
+    }
+    blocks
+}
+
+/// a x = b block by block ([`diagonal_blocks`]): Cramer's rule on the entries for blocks of at
+/// most 3 rows (the determinant and adjugate as products of entries, not expanded; one
+/// reciprocal of the determinant per block), elimination for larger ones. Returns x and the
+/// definiteness tests: each block's leading principal minors (Sylvester's criterion), or its
+/// pivots.
+fn cramer_on_entries(a: &[Vec<Expr>], b: &[Expr]) -> (Vec<Expr>, Vec<Expr>) {
+    use fold::*;
+    let mut x = vec![Expr::int(0); b.len()];
+    let mut tests = Vec::new();
+    for rows in diagonal_blocks(a) {
+        let m = |i: usize, j: usize| a[rows[i]][rows[j]].clone();
+        let minor2 = |i: usize, j: usize, k: usize, l: usize| {
+            sub(mul(m(i, k), m(j, l)), mul(m(i, l), m(j, k)))
+        };
+        // adj[i][j]: the cofactor of entry (j, i).
+        let (adj, det, minors): (Vec<Vec<Expr>>, Expr, Vec<Expr>) = match rows.len() {
+            1 => (vec![vec![Expr::int(1)]], m(0, 0), vec![m(0, 0)]),
+            2 => {
+                let det = minor2(0, 1, 0, 1);
+                let neg = |e: Expr| Expr::Neg(Box::new(e)).tidy();
+                (
+                    vec![vec![m(1, 1), neg(m(0, 1))], vec![neg(m(1, 0)), m(0, 0)]],
+                    det.clone(),
+                    vec![m(0, 0), det],
+                )
+            }
+            3 => {
+                let cof = |i: usize, j: usize| {
+                    let (r0, r1) = match i {
+                        0 => (1, 2),
+                        1 => (0, 2),
+                        _ => (0, 1),
+                    };
+                    let (c0, c1) = match j {
+                        0 => (1, 2),
+                        1 => (0, 2),
+                        _ => (0, 1),
+                    };
+                    let c = minor2(r0, r1, c0, c1);
+                    if (i + j) % 2 == 1 {
+                        Expr::Neg(Box::new(c)).tidy()
+                    } else {
+                        c
+                    }
+                };
+                let adj: Vec<Vec<Expr>> = (0..3)
+                    .map(|i| (0..3).map(|j| cof(j, i)).collect())
+                    .collect();
+                let det = (0..3).fold(Expr::int(0), |acc, j| {
+                    add(acc, mul(m(0, j), adj[j][0].clone()))
+                });
+                (adj, det.clone(), vec![m(0, 0), minor2(0, 1, 0, 1), det])
+            }
+            _ => {
+                let sub_a: Vec<Vec<Expr>> = (0..rows.len())
+                    .map(|i| (0..rows.len()).map(|j| m(i, j)).collect())
+                    .collect();
+                let (y, pivots) = eliminate(sub_a, rows.iter().map(|&r| b[r].clone()).collect());
+                for (&r, y) in rows.iter().zip(y) {
+                    x[r] = y;
+                }
+                tests.extend(pivots);
+                continue;
+            }
+        };
+        let inverse = div(Expr::int(1), det);
+        for (i, &r) in rows.iter().enumerate() {
+            let num = rows.iter().enumerate().fold(Expr::int(0), |acc, (j, &c)| {
+                add(acc, mul(adj[i][j].clone(), b[c].clone()))
+            });
+            x[r] = mul(num, inverse.clone());
+        }
+        tests.extend(minors);
+    }
+    (x, tests)
 }
 
 /// The candidate solved forms of A_Γ η̇ = Γᵀ∇U − Σ_rs Q⁽ⁱ⁾_rs η_r η_s (eq. (11) with the true Q
@@ -315,6 +428,9 @@ fn eliminate(mut a: Vec<Vec<Expr>>, mut b: Vec<Expr>) -> (Vec<Expr>, Vec<Expr>) 
 ///   det A with the adjugate and the determinant as exact normal forms (no cancellation in
 ///   the determinant); instead of pivots, the block's leading principal minors (all > 0 iff
 ///   the block is positive definite, Sylvester's criterion);
+/// * `Cramer's rule on block entries`: the same with the determinant and adjugate written as
+///   products of the (Horner-form) entries of A_Γ, not expanded, and blocks of any size
+///   (elimination beyond 3 rows) found from A_Γ's exact zeros;
 /// * `normal form`: η̇ = A_Γ⁻¹ b as one exact normal form per component (when the CAS kept it
 ///   small), in Horner form; the pivots still come from eliminating A_Γ.
 ///
@@ -412,6 +528,15 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
         }
         out.push(assemble("Cramer's rule on blocks", x, q_dot(&hor), minors));
     }
+    if b.len() == g {
+        let (x, minors) = cramer_on_entries(&a_hor, &b);
+        out.push(assemble(
+            "Cramer's rule on block entries",
+            x,
+            q_dot(&hor),
+            minors,
+        ));
+    }
     if let Some(eta_dot) = &ing.eta_dot {
         let x: Vec<Expr> = eta_dot.iter().map(|e| hor(&rename(&e.expr))).collect();
         let (_, pivots) = eliminate(a_hor, vec![Expr::int(0); g]);
@@ -445,16 +570,26 @@ fn lit(x: f64) -> String {
 /// A sine and a cosine of the same argument are computed together (`sin_cos`). In sums and
 /// products the operands that do not depend on the state come first, so that with fixed
 /// parameters their part is loop-invariant (left-to-right evaluation).
-fn lets(tape: &Tape, slots: &Slots) -> String {
+///
+/// With a [`Hoist`] plan, `part` selects the fixed half (the lets of `Prepared::new`, plus one
+/// `f{k}` per combination of fixed operands) or the varying half (the fixed values it needs
+/// read from the prepared array `c`).
+fn lets(tape: &Tape, slots: &Slots, part: Part) -> String {
     let ops = tape.ops();
     let varying = tape.varying(|i| slots.varying(i));
-    let ordered = |v: &[usize]| -> Vec<String> {
+    let ordered = |k: usize, v: &[usize], sep: &str| -> String {
         let (fixed, moving): (Vec<usize>, Vec<usize>) = v.iter().partition(|&&k| !varying[k]);
+        let fixed: Vec<String> = match part {
+            Part::Varying(h) if h.part.contains_key(&k) => {
+                vec![format!("S::constant(c[{}])", h.part[&k])]
+            }
+            _ => fixed.iter().map(|k| format!("t{k}")).collect(),
+        };
         fixed
-            .iter()
-            .chain(&moving)
-            .map(|k| format!("t{k}"))
-            .collect()
+            .into_iter()
+            .chain(moving.iter().map(|k| format!("t{k}")))
+            .collect::<Vec<_>>()
+            .join(sep)
     };
     // For each sin(a), the index of cos(a) if the tape has it (and the other way round).
     let mut partner: Vec<Option<usize>> = vec![None; ops.len()];
@@ -480,11 +615,41 @@ fn lets(tape: &Tape, slots: &Slots) -> String {
         if paired[k] {
             continue;
         }
+        match part {
+            Part::All => {}
+            Part::Fixed(h) => {
+                if let (Some(_), Op::Add(v) | Op::Mul(v)) = (h.part.get(&k), op) {
+                    let sep = if matches!(op, Op::Add(_)) {
+                        " + "
+                    } else {
+                        " * "
+                    };
+                    let fixed: Vec<String> = v
+                        .iter()
+                        .filter(|&&a| !varying[a])
+                        .map(|a| format!("t{a}"))
+                        .collect();
+                    let _ = writeln!(o, "    let f{k} = {};", fixed.join(sep));
+                }
+                if varying[k] {
+                    continue;
+                }
+            }
+            Part::Varying(h) if !varying[k] => {
+                if let Some(j) = h.op.get(&k) {
+                    let _ = writeln!(o, "    let t{k} = S::constant(c[{j}]);");
+                    continue;
+                } else if !h.consts.contains(&k) {
+                    continue;
+                }
+            }
+            Part::Varying(_) => {}
+        }
         let rhs = match op {
             Op::Input(i) => slots.text(*i),
             Op::Const(r) => format!("S::constant({})", lit(Expr::rational_to_f64(r))),
-            Op::Add(v) => ordered(v).join(" + "),
-            Op::Mul(v) => ordered(v).join(" * "),
+            Op::Add(v) => ordered(k, v, " + "),
+            Op::Mul(v) => ordered(k, v, " * "),
             Op::Neg(a) => format!("-t{a}"),
             Op::Div(a, b) => format!("t{a} / t{b}"),
             Op::PowI(a, n) => format!("t{a}.powi({n})"),
@@ -515,6 +680,113 @@ fn lets(tape: &Tape, slots: &Slots) -> String {
         let _ = writeln!(o, "    let t{k} = {rhs};");
     }
     o
+}
+
+/// Which operations of a tape [`lets`] writes.
+#[derive(Clone, Copy)]
+enum Part<'a> {
+    /// All of them, in one function.
+    All,
+    /// Those that do not depend on the state, and the hoisted values (`Prepared::new`).
+    Fixed(&'a Hoist),
+    /// Those that depend on the state, reading the hoisted values from `c`.
+    Varying(&'a Hoist),
+}
+
+/// The values of a solved tape computed once per parameter set (`Prepared`): the fixed
+/// (parameter-only) operations used by a varying one or as a result, and for each varying sum
+/// or product with two or more fixed operands, their combination (`f{k}`, left to right, as
+/// the unsplit code evaluates it, so the results are unchanged bit for bit). Constants that
+/// the varying half uses stay inline there.
+struct Hoist {
+    /// Fixed operation → index in the prepared array.
+    op: std::collections::HashMap<usize, usize>,
+    /// Varying sum or product → index of its fixed operands' combination.
+    part: std::collections::HashMap<usize, usize>,
+    /// Constants used by the varying half.
+    consts: std::collections::HashSet<usize>,
+    /// The names of the prepared array's entries, in order (`t{k}` or `f{k}`).
+    names: Vec<String>,
+    /// The definiteness tests that depend on the parameters alone (checked once).
+    fixed_tests: Vec<usize>,
+    /// The others (checked at every state).
+    varying_tests: Vec<usize>,
+}
+
+impl Hoist {
+    /// The plan for `tape` whose outputs are σ + `n_rates` results, then the tests.
+    fn new(tape: &Tape, slots: &Slots, n_results: usize) -> Hoist {
+        let varying = tape.varying(|i| slots.varying(i));
+        let ops = tape.ops();
+        let mut h = Hoist {
+            op: Default::default(),
+            part: Default::default(),
+            consts: Default::default(),
+            names: Vec::new(),
+            fixed_tests: Vec::new(),
+            varying_tests: Vec::new(),
+        };
+        let use_fixed = |h: &mut Hoist, a: usize| {
+            if !varying[a] && matches!(ops[a], Op::Const(_)) {
+                h.consts.insert(a);
+            } else if !varying[a] && !h.op.contains_key(&a) {
+                h.op.insert(a, h.names.len());
+                h.names.push(format!("t{a}"));
+            }
+        };
+        for (k, op) in ops.iter().enumerate() {
+            if !varying[k] {
+                continue;
+            }
+            match op {
+                Op::Add(v) | Op::Mul(v) => {
+                    let fixed: Vec<usize> = v.iter().copied().filter(|&a| !varying[a]).collect();
+                    if fixed.len() >= 2 {
+                        h.part.insert(k, h.names.len());
+                        h.names.push(format!("f{k}"));
+                    } else {
+                        fixed.into_iter().for_each(|a| use_fixed(&mut h, a));
+                    }
+                }
+                Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => use_fixed(&mut h, *a),
+                Op::Div(a, b) | Op::PowF(a, b) => {
+                    use_fixed(&mut h, *a);
+                    use_fixed(&mut h, *b);
+                }
+                Op::Input(_) | Op::Const(_) => {}
+            }
+        }
+        let out = tape.outputs();
+        for &o in &out[..n_results] {
+            use_fixed(&mut h, o);
+        }
+        for &o in &out[n_results..] {
+            if varying[o] {
+                h.varying_tests.push(o);
+            } else {
+                h.fixed_tests.push(o);
+            }
+        }
+        h
+    }
+}
+
+/// The error text of a failed definiteness test.
+const NOT_DEFINITE: &str = "A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0)";
+
+/// `if !(tests > 0) { return Err(…) }` for the given tape entries (nothing if none).
+fn definiteness_check(tests: &[usize], place: &str) -> String {
+    if tests.is_empty() {
+        return String::new();
+    }
+    format!(
+        "    if !({}) {{\n        return Err(runtime::cold_error(\"{NOT_DEFINITE} {place}\"));\n    }}\n",
+        tests
+            .iter()
+            .map(|i| format!("t{i}.value() > 0.0"))
+            .collect::<Vec<_>>()
+            .join(" && ")
+    )
 }
 
 /// Where a tape's inputs come from in the generated function: slots are `n` coordinates
@@ -548,45 +820,52 @@ impl Slots<'_> {
 
 /// The straight-line body of `ingredients`: the lets, then `out[j] = …`.
 fn straight_line(tape: &Tape, slots: &Slots) -> String {
-    let mut o = lets(tape, slots);
+    let mut o = lets(tape, slots, Part::All);
     for (j, i) in tape.outputs().iter().enumerate() {
         let _ = writeln!(o, "    out[{j}] = t{i};");
     }
     o
 }
 
-/// The body of a solved-form function: the lets, the pivot check, then the result. The tape's
-/// outputs are η̇ (σ), rates (`n_rates`), pivots; `ret` writes the `Ok(…)` value from the
-/// texts of η̇ and of the rates.
+/// The two halves of a solved-form function. The tape's outputs are η̇ (σ), rates
+/// (`n_rates`), then the definiteness tests; `ret` writes the result from the texts of η̇ and
+/// of the rates. Returns (the body of `prepare_*`, which checks the parameter-only tests and
+/// returns the prepared array, the body of `*_from`, which reads that array as `c`, the
+/// array's length). Without `hoist` (a form not on the fast path, which is then never compiled
+/// unless called), nothing is prepared and the body does it all.
 fn solved_body(
     tape: &Tape,
     slots: &Slots,
+    hoist: bool,
     sigma: usize,
     n_rates: usize,
     ret: impl Fn(String, String) -> String,
-) -> String {
-    let mut o = lets(tape, slots);
+) -> (String, String, usize) {
+    let h = Hoist::new(tape, slots, sigma + n_rates);
+    let (fixed, mut body) = if hoist {
+        let mut fixed = lets(tape, slots, Part::Fixed(&h));
+        fixed += &definiteness_check(&h.fixed_tests, "for these parameters");
+        let _ = writeln!(fixed, "    Ok([{}])", list(h.names.iter().cloned()));
+        let mut body = lets(tape, slots, Part::Varying(&h));
+        body += &definiteness_check(&h.varying_tests, "here");
+        (fixed, body)
+    } else {
+        let mut body = lets(tape, slots, Part::All);
+        let tests = [h.fixed_tests.as_slice(), &h.varying_tests].concat();
+        body.push_str(&definiteness_check(&tests, "here"));
+        ("    Ok([])\n".to_string(), body)
+    };
     let out = tape.outputs();
     let t = |i: &usize| format!("t{i}");
-    let pivots = &out[sigma + n_rates..];
     let _ = writeln!(
-        o,
-        "    if !({}) {{\n        return Err(EvalError(\"A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)\".into()));\n    }}",
-        pivots
-            .iter()
-            .map(|i| format!("t{i}.value() > 0.0"))
-            .collect::<Vec<_>>()
-            .join(" && ")
-    );
-    let _ = writeln!(
-        o,
+        body,
         "    Ok({})",
         ret(
             list(out[..sigma].iter().map(t)),
             list(out[sigma..sigma + n_rates].iter().map(t))
         )
     );
-    o
+    (fixed, body, if hoist { h.names.len() } else { 0 })
 }
 
 fn list(items: impl IntoIterator<Item = String>) -> String {
@@ -657,6 +936,32 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
         .map(|&k| d.coordinates[k].clone())
         .chain((1..=d.sigma).map(|i| format!("eta{i}")))
         .collect();
+
+    let solved_part = solved_body(
+        &solved_tape,
+        &full_slots,
+        choice.solved,
+        d.sigma,
+        d.ell,
+        |e, q| format!("([{e}], [{q}])"),
+    );
+    let reduced_part = match &reduced_tape {
+        Some(t) => solved_body(
+            t,
+            &Slots {
+                coords: "x",
+                n: kept.len(),
+                params: &params,
+                eta: "x",
+                eta_at: kept.len(),
+            },
+            true,
+            d.sigma,
+            kept.len(),
+            |e, q| format!("[{}]", list([q, e].into_iter().filter(|s| !s.is_empty()))),
+        ),
+        None => ("    Ok([])\n".into(), REDUCED_AT_REFERENCE.into(), 0),
+    };
 
     let mut m = String::new();
     let _ = write!(
@@ -770,13 +1075,67 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }}
 
+/// Parameters with what the solved forms compute from them alone, made once by
+/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
+/// [`full_into_with`], [`reduced_with`], …): {n_full} values for the full form, {n_reduced} for
+/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {{
+    /// The parameters.
+    pub p: Parameters,
+    full: [f64; {n_full}],
+    reduced: [f64; {n_reduced}],
+}}
+
+impl Prepared {{
+    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
+    /// every state) and compute the parameter-only values of the solved forms.
+    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {{
+        Ok(Prepared {{
+            p: *p,
+            full: prepare_full::<f64>(p)?,
+            reduced: prepare_reduced::<f64>(p)?,
+        }})
+    }}
+}}
+
+/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; {n_full}], EvalError> {{
+{prepare_full}}}
+
+/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; {n_reduced}], EvalError> {{
+{prepare_reduced}}}
+
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
-/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
+/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
+/// (eq. (6)).
+pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
+    solved_from(q, eta, &prep.p, &prep.full)
+}}
+
+/// [`solved_with`], computing the parameter-only values first.
 pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
+    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
+}}
+
+/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
+#[inline(always)]
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; {n_full}]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
 {solved_body}}}
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
+    if SOLVED {{
+        solved_with(q, eta, prep)
+    }} else {{
+        let r = rhs_fixed(q, eta, &prep.p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }}
+}}
+
+/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
     if SOLVED {{
         solved(q, eta, p)
@@ -787,6 +1146,14 @@ pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA]
 }}
 
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {{
+    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
+    runtime::finite("the right-hand side", dy)
+}}
+
+/// [`full_into_with`], computing the parameter-only values first.
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {{
     let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
     dy[..ELL].copy_from_slice(&q_dot);
@@ -824,10 +1191,27 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
 /// [`REDUCED_SOLVED`].
+pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {{
+    reduced_from(x, &prep.p, &prep.reduced)
+}}
+
+/// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {{
+    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
+}}
+
+/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
+#[inline(always)]
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; {n_reduced}]) -> Result<[S; REDUCED_DIM], EvalError> {{
 {reduced_body}}}
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {{
+    dx.copy_from_slice(&reduced_with(x, prep)?);
+    runtime::finite("the reduced right-hand side", dx)
+}}
+
+/// [`reduced_into_with`], computing the parameter-only values first.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {{
     dx.copy_from_slice(&reduced(x, p)?);
     runtime::finite("the reduced right-hand side", dx)
@@ -841,12 +1225,17 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {{
 }}
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {{
+pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {{
     let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced(&xd, p)?;
+    let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
+}}
+
+/// [`reduced_jacobian_with`], computing the parameter-only values first.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {{
+    reduced_jacobian_with(x, &Prepared::new(p)?)
 }}
 
 /// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.
@@ -898,26 +1287,13 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
             .map(|k| format!("            {k:?} => Some(&mut self.{}),\n", ident(k)))
             .collect::<String>(),
         body = straight_line(&tape, &full_slots),
-        solved_body = solved_body(&solved_tape, &full_slots, d.sigma, d.ell, |e, q| format!(
-            "([{e}], [{q}])"
-        )),
+        solved_body = solved_part.1,
+        prepare_full = solved_part.0,
+        n_full = solved_part.2,
         reduced_solved = reduced_tape.is_some(),
-        reduced_body = match &reduced_tape {
-            Some(t) => solved_body(
-                t,
-                &Slots {
-                    coords: "x",
-                    n: kept.len(),
-                    params: &params,
-                    eta: "x",
-                    eta_at: kept.len(),
-                },
-                d.sigma,
-                kept.len(),
-                |e, q| format!("[{}]", list([q, e].into_iter().filter(|s| !s.is_empty()))),
-            ),
-            None => REDUCED_AT_REFERENCE.into(),
-        },
+        reduced_body = reduced_part.1,
+        prepare_reduced = reduced_part.0,
+        n_reduced = reduced_part.2,
         solved = choice.solved,
         path_doc = choice.doc,
     );

@@ -10,10 +10,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 const TOL: f64 = 1e-12;
-/// The unicycle's generated core uses the `elimination of normal forms` solved form (fastest,
+/// The unicycle's generated core uses the `Cramer's rule on block entries` solved form (fastest,
 /// chosen by `hamel codegen` for agreeing with a double-double reference at least as well as the
 /// structured path at its 200 sample states). Near the upright configuration (θ, θ1 ≈ 0) its
-/// expanded right-hand sides cancel and the small pivot b11 amplifies that: at the worst of these
+/// expanded right-hand sides cancel and the small entry b11 amplifies that: at the worst of these
 /// 400 states (q = (−0.09, 0.03, −1.81, 0.29, −0.067, 0.094)) the relative errors against
 /// double-double are 2.7e-12 (generated), 7.5e-13 (structured evaluation), 3e-15 (hand-written,
 /// Cramer's rule with the cancellation-free determinant).

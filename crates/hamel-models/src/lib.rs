@@ -62,10 +62,12 @@ pub struct Core {
     pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,
     /// Reduced right-hand side at x = (kept q, η).
     pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,
-    /// The same into a slice, without allocation.
+    /// The same into a slice, without allocation, parameters prepared once.
     pub reduced_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,
-    /// d(q, η)/dt into a slice, without allocation (η̇ true form only).
+    /// d(q, η)/dt into a slice, without allocation (η̇ true form only), parameters prepared once.
     pub full_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,
+    /// The same, the parameter-only values computed at each call.
+    pub full_into_per_call: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,
     /// Its Jacobian.
     pub jacobian: fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>,
     /// Rates of the eliminated coordinates.
@@ -74,6 +76,15 @@ pub struct Core {
     pub constraint_residual: fn(&[f64], &[f64]) -> Vec<f64>,
     /// Operation counts (trees, shared).
     pub operations: (usize, usize),
+}
+
+/// The default parameters of module `$m`, prepared once (`Prepared::new`), or its error.
+macro_rules! prepared {
+    ($m:ident) => {{
+        static PREPARED: std::sync::LazyLock<Result<$m::Prepared, EvalError>> =
+            std::sync::LazyLock::new(|| $m::Prepared::new(&$m::Parameters::default()));
+        PREPARED.as_ref().map_err(Clone::clone)?
+    }};
 }
 
 macro_rules! core {
@@ -87,8 +98,9 @@ macro_rules! core {
             full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),
             full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),
             reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),
-            reduced_into: |x, dx| $m::reduced_into(x, dx, &$m::Parameters::default()),
-            full_into: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),
+            reduced_into: |x, dx| $m::reduced_into_with(x, dx, prepared!($m)),
+            full_into: |y, dy| $m::full_into_with(y, dy, prepared!($m)),
+            full_into_per_call: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),
             jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),
             reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),
             constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),

@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 135 arithmetic operations as
 //! separate trees, 46 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 61 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 62 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 61 operations, 35 of them at run time with fixed parameters, against the structured path's 174 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.5e-16 (structured path: 5.7e-15; reference: double-double). Candidates (operations at run time / in all): `normal form` 35/61, `elimination of normal forms` 42/69, `Cramer's rule on blocks` 46/75, `elimination` 52/77.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 62 operations, 36 of them at run time with fixed parameters, against the structured path's 174 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.5e-16 (structured path: 5.7e-15; reference: double-double). Candidates (operations at run time / in all): `normal form` 36/62, `Cramer's rule on block entries` 44/73, `elimination of normal forms` 46/73, `Cramer's rule on blocks` 46/75, `elimination` 56/81.
 //!
 //! **States.** Full: q = (x, y, theta, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from
@@ -334,14 +334,32 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
-/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
-pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    let t0 = q[3];
-    let (t1, t13) = t0.sin_cos();
-    let t2 = eta[0];
-    let t3 = eta[1];
+/// Parameters with what the solved forms compute from them alone, made once by
+/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
+/// [`full_into_with`], [`reduced_with`], …): 11 values for the full form, 11 for
+/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {
+    /// The parameters.
+    pub p: Parameters,
+    full: [f64; 11],
+    reduced: [f64; 11],
+}
+
+impl Prepared {
+    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
+    /// every state) and compute the parameter-only values of the solved forms.
+    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {
+        Ok(Prepared {
+            p: *p,
+            full: prepare_full::<f64>(p)?,
+            reduced: prepare_reduced::<f64>(p)?,
+        })
+    }
+}
+
+/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 11], EvalError> {
     let t4 = S::constant(p.m_r);
     let t5 = -t4;
     let t6 = S::constant(3.0);
@@ -349,6 +367,96 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t8 = t6 * t7;
     let t9 = -t8;
     let t10 = t5 + t9;
+    let t12 = S::constant(2.0);
+    let t16 = S::constant(1.0);
+    let t22 = t4 * t6;
+    let t23 = -t22;
+    let t24 = t9 + t23;
+    let t26 = S::constant(p.l_r);
+    let t37 = S::constant(8.0);
+    let t38 = t26.powi(2);
+    let t39 = t4 * t37 * t38;
+    let t40 = S::constant(p.l_f);
+    let t41 = t40.powi(2);
+    let t42 = t7 * t41;
+    let t43 = -t42;
+    let t44 = t39 + t43;
+    let t46 = S::constant(4.0);
+    let t47 = t4 * t46;
+    let t48 = S::constant(12.0);
+    let t49 = t7 * t48;
+    let t50 = t47 + t49;
+    let t51 = t38 * t50;
+    let f52 = t42 + t51;
+    let f53 = t38 * t48;
+    let t55 = S::constant(0.08333333333333333);
+    let t56 = t7 * t41 * t55;
+    let f57 = t7 * t41;
+    let f58 = t26 * t48;
+    Ok([t10, t4, t8, t24, t26, t44, f52, f53, f57, f58, t56])
+}
+
+/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 11], EvalError> {
+    let t4 = S::constant(p.m_r);
+    let t5 = -t4;
+    let t6 = S::constant(3.0);
+    let t7 = S::constant(p.m_f);
+    let t8 = t6 * t7;
+    let t9 = -t8;
+    let t10 = t5 + t9;
+    let t12 = S::constant(2.0);
+    let t16 = S::constant(1.0);
+    let t22 = t4 * t6;
+    let t23 = -t22;
+    let t24 = t9 + t23;
+    let t26 = S::constant(p.l_r);
+    let t29 = S::constant(8.0);
+    let t30 = t26.powi(2);
+    let t31 = t4 * t29 * t30;
+    let t32 = S::constant(p.l_f);
+    let t33 = t32.powi(2);
+    let t34 = t7 * t33;
+    let t35 = -t34;
+    let t36 = t31 + t35;
+    let t38 = S::constant(4.0);
+    let t39 = t4 * t38;
+    let t40 = S::constant(12.0);
+    let t41 = t7 * t40;
+    let t42 = t39 + t41;
+    let t43 = t30 * t42;
+    let f44 = t34 + t43;
+    let f45 = t30 * t40;
+    let t47 = S::constant(0.08333333333333333);
+    let t48 = t7 * t33 * t47;
+    let f49 = t7 * t33;
+    let f50 = t26 * t40;
+    Ok([t10, t4, t8, t24, t26, t36, f44, f45, f49, f50, t48])
+}
+
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
+/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
+/// (eq. (6)).
+pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, &prep.p, &prep.full)
+}
+
+/// [`solved_with`], computing the parameter-only values first.
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
+}
+
+/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
+#[inline(always)]
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 11]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = q[3];
+    let (t1, t13) = t0.sin_cos();
+    let t2 = eta[0];
+    let t3 = eta[1];
+    let t4 = S::constant(c[1]);
+    let t8 = S::constant(c[2]);
+    let t10 = S::constant(c[0]);
     let t11 = t10 * t1 * t2 * t3;
     let t12 = S::constant(2.0);
     let t14 = t13.powi(2);
@@ -359,11 +467,9 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t19 = t8 + t18;
     let t20 = t13 * t19;
     let t21 = t11 / t20;
-    let t22 = t4 * t6;
-    let t23 = -t22;
-    let t24 = t9 + t23;
+    let t24 = S::constant(c[3]);
     let t25 = t24 * t2 * t3;
-    let t26 = S::constant(p.l_r);
+    let t26 = S::constant(c[4]);
     let t27 = t26 * t19;
     let t28 = t25 / t27;
     let t29 = q[2];
@@ -373,40 +479,36 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t34 = t26 * t13;
     let t35 = t1 / t34;
     let t36 = t2 * t35;
-    let t37 = S::constant(8.0);
-    let t38 = t26.powi(2);
-    let t39 = t4 * t37 * t38;
-    let t40 = S::constant(p.l_f);
-    let t41 = t40.powi(2);
-    let t42 = t7 * t41;
-    let t43 = -t42;
-    let t44 = t39 + t43;
+    let t44 = S::constant(c[5]);
     let t45 = t44 * t14;
-    let t46 = S::constant(4.0);
-    let t47 = t4 * t46;
-    let t48 = S::constant(12.0);
-    let t49 = t7 * t48;
-    let t50 = t47 + t49;
-    let t51 = t38 * t50;
-    let t52 = t42 + t51 + t45;
-    let t53 = t38 * t48 * t14;
+    let t52 = S::constant(c[6]) + t45;
+    let t53 = S::constant(c[7]) * t14;
     let t54 = t52 / t53;
-    let t55 = S::constant(0.08333333333333333);
-    let t56 = t7 * t41 * t55;
-    let t57 = t7 * t41 * t1;
-    let t58 = t26 * t48 * t13;
+    let t56 = S::constant(c[10]);
+    let t57 = S::constant(c[8]) * t1;
+    let t58 = S::constant(c[9]) * t13;
     let t59 = t57 / t58;
-    let t60 = t59 / t54;
-    let t61 = t59 * t60;
+    let t60 = t16 / t54;
+    let t61 = t59 * t59 * t60;
     let t62 = -t61;
     let t63 = t56 + t62;
     if !(t54.value() > 0.0 && t63.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t21, t28], [t31, t33, t36, t3]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if SOLVED {
+        solved_with(q, eta, prep)
+    } else {
+        let r = rhs_fixed(q, eta, &prep.p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
+/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     if SOLVED {
         solved(q, eta, p)
@@ -417,6 +519,14 @@ pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA]
 }
 
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
+    runtime::finite("the right-hand side", dy)
+}
+
+/// [`full_into_with`], computing the parameter-only values first.
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
     dy[..ELL].copy_from_slice(&q_dot);
@@ -454,18 +564,25 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
 /// [`REDUCED_SOLVED`].
+pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, &prep.p, &prep.reduced)
+}
+
+/// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
+}
+
+/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
+#[inline(always)]
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 11]) -> Result<[S; REDUCED_DIM], EvalError> {
     let t0 = x[0];
     let (t1, t13) = t0.sin_cos();
     let t2 = x[1];
     let t3 = x[2];
-    let t4 = S::constant(p.m_r);
-    let t5 = -t4;
-    let t6 = S::constant(3.0);
-    let t7 = S::constant(p.m_f);
-    let t8 = t6 * t7;
-    let t9 = -t8;
-    let t10 = t5 + t9;
+    let t4 = S::constant(c[1]);
+    let t8 = S::constant(c[2]);
+    let t10 = S::constant(c[0]);
     let t11 = t10 * t1 * t2 * t3;
     let t12 = S::constant(2.0);
     let t14 = t13.powi(2);
@@ -476,47 +593,37 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     let t19 = t8 + t18;
     let t20 = t13 * t19;
     let t21 = t11 / t20;
-    let t22 = t4 * t6;
-    let t23 = -t22;
-    let t24 = t9 + t23;
+    let t24 = S::constant(c[3]);
     let t25 = t24 * t2 * t3;
-    let t26 = S::constant(p.l_r);
+    let t26 = S::constant(c[4]);
     let t27 = t26 * t19;
     let t28 = t25 / t27;
-    let t29 = S::constant(8.0);
-    let t30 = t26.powi(2);
-    let t31 = t4 * t29 * t30;
-    let t32 = S::constant(p.l_f);
-    let t33 = t32.powi(2);
-    let t34 = t7 * t33;
-    let t35 = -t34;
-    let t36 = t31 + t35;
+    let t36 = S::constant(c[5]);
     let t37 = t36 * t14;
-    let t38 = S::constant(4.0);
-    let t39 = t4 * t38;
-    let t40 = S::constant(12.0);
-    let t41 = t7 * t40;
-    let t42 = t39 + t41;
-    let t43 = t30 * t42;
-    let t44 = t34 + t43 + t37;
-    let t45 = t30 * t40 * t14;
+    let t44 = S::constant(c[6]) + t37;
+    let t45 = S::constant(c[7]) * t14;
     let t46 = t44 / t45;
-    let t47 = S::constant(0.08333333333333333);
-    let t48 = t7 * t33 * t47;
-    let t49 = t7 * t33 * t1;
-    let t50 = t26 * t40 * t13;
+    let t48 = S::constant(c[10]);
+    let t49 = S::constant(c[8]) * t1;
+    let t50 = S::constant(c[9]) * t13;
     let t51 = t49 / t50;
-    let t52 = t51 / t46;
-    let t53 = t51 * t52;
+    let t52 = t16 / t46;
+    let t53 = t51 * t51 * t52;
     let t54 = -t53;
     let t55 = t48 + t54;
     if !(t46.value() > 0.0 && t55.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t3, t21, t28])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced_with(x, prep)?);
+    runtime::finite("the reduced right-hand side", dx)
+}
+
+/// [`reduced_into_with`], computing the parameter-only values first.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     dx.copy_from_slice(&reduced(x, p)?);
     runtime::finite("the reduced right-hand side", dx)
@@ -530,12 +637,17 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 }
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
     let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced(&xd, p)?;
+    let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
+}
+
+/// [`reduced_jacobian_with`], computing the parameter-only values first.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+    reduced_jacobian_with(x, &Prepared::new(p)?)
 }
 
 /// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.

@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 114 arithmetic operations as
 //! separate trees, 50 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 90 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 91 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 90 operations, 38 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.1e-16 (structured path: 2.4e-14; reference: double-double). Candidates (operations at run time / in all): `normal form` 38/90, `elimination of normal forms` 48/89, `Cramer's rule on blocks` 49/107, `elimination` 66/105.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 91 operations, 39 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.1e-16 (structured path: 2.4e-14; reference: double-double). Candidates (operations at run time / in all): `normal form` 39/91, `Cramer's rule on blocks` 49/107, `Cramer's rule on block entries` 50/93, `elimination of normal forms` 52/93, `elimination` 70/109.
 //!
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
@@ -489,14 +489,32 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
-/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
-pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    let t0 = q[4];
-    let (t1, t20) = t0.sin_cos();
-    let t2 = eta[0];
-    let t3 = eta[1];
+/// Parameters with what the solved forms compute from them alone, made once by
+/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
+/// [`full_into_with`], [`reduced_with`], …): 13 values for the full form, 10 for
+/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {
+    /// The parameters.
+    pub p: Parameters,
+    full: [f64; 13],
+    reduced: [f64; 10],
+}
+
+impl Prepared {
+    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
+    /// every state) and compute the parameter-only values of the solved forms.
+    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {
+        Ok(Prepared {
+            p: *p,
+            full: prepare_full::<f64>(p)?,
+            reduced: prepare_reduced::<f64>(p)?,
+        })
+    }
+}
+
+/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 13], EvalError> {
     let t4 = S::constant(p.m_w);
     let t5 = S::constant(p.R);
     let t6 = t5.powi(2);
@@ -512,38 +530,21 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t16 = S::constant(p.m_f);
     let t17 = t13 * t15 * t16;
     let t18 = t12 + t17;
-    let t19 = t18 * t1 * t2 * t3;
-    let t21 = t20.powi(2);
     let t22 = t7 * t15;
     let t23 = -t22;
     let t24 = t6 + t10 + t23;
-    let t25 = t4 * t24 * t21;
+    let f25 = t4 * t24;
     let t26 = -t6;
     let t27 = -t10;
     let t28 = t26 + t27;
     let t29 = t4 * t28;
     let t30 = -t17;
-    let t31 = t29 + t30 + t25;
-    let t32 = t20 * t31;
-    let t33 = t19 / t32;
+    let f31 = t29 + t30;
     let t34 = t4 * t7;
     let t35 = t13 * t16;
     let t36 = t34 + t35;
-    let t37 = t14 * t36 * t2 * t3;
-    let t38 = t37 / t31;
-    let t39 = q[2];
-    let (t42, t40) = t39.sin_cos();
-    let t41 = t2 * t40;
-    let t43 = t2 * t42;
-    let t44 = t14 * t20;
-    let t45 = t1 / t44;
-    let t46 = t2 * t45;
-    let t47 = t8 * t1;
-    let t48 = -t44;
-    let t49 = t47 + t48;
-    let t50 = t5 * t14 * t20;
-    let t51 = t49 / t50;
-    let t52 = t2 * t51;
+    let f37 = t14 * t36;
+    let f50 = t5 * t14;
     let t53 = t6 * t7;
     let t54 = -t53;
     let t55 = S::constant(36.0);
@@ -557,32 +558,157 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t63 = t16 * t62;
     let t64 = -t63;
     let t65 = t60 + t64;
-    let t66 = t65 * t21;
     let t67 = t53 + t56;
     let t68 = t4 * t67;
     let t69 = S::constant(12.0);
     let t70 = t15 * t69;
     let t71 = t62 + t70;
     let t72 = t16 * t71;
-    let t73 = t68 + t72 + t66;
-    let t74 = t15 * t69 * t21;
-    let t75 = t73 / t74;
+    let f73 = t68 + t72;
+    let f74 = t15 * t69;
     let t76 = S::constant(0.08333333333333333);
     let t77 = t16 * t62 * t76;
-    let t78 = t16 * t62 * t1;
-    let t79 = t14 * t69 * t20;
+    let f78 = t16 * t62;
+    let f79 = t14 * t69;
+    let t81 = S::constant(1.0);
+    Ok([t18, f25, f31, f37, t14, t8, f50, t65, f73, f74, f78, f79, t77])
+}
+
+/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 10], EvalError> {
+    let t4 = S::constant(p.m_w);
+    let t5 = S::constant(p.R);
+    let t6 = t5.powi(2);
+    let t7 = S::constant(6.0);
+    let t8 = S::constant(p.a);
+    let t9 = t8.powi(2);
+    let t10 = t7 * t9;
+    let t11 = t6 + t10;
+    let t12 = t4 * t11;
+    let t13 = S::constant(2.0);
+    let t14 = S::constant(p.l_r);
+    let t15 = t14.powi(2);
+    let t16 = S::constant(p.m_f);
+    let t17 = t13 * t15 * t16;
+    let t18 = t12 + t17;
+    let t22 = t7 * t15;
+    let t23 = -t22;
+    let t24 = t6 + t10 + t23;
+    let f25 = t4 * t24;
+    let t26 = -t6;
+    let t27 = -t10;
+    let t28 = t26 + t27;
+    let t29 = t4 * t28;
+    let t30 = -t17;
+    let f31 = t29 + t30;
+    let t34 = t4 * t7;
+    let t35 = t13 * t16;
+    let t36 = t34 + t35;
+    let f37 = t14 * t36;
+    let t39 = t6 * t7;
+    let t40 = -t39;
+    let t41 = S::constant(36.0);
+    let t42 = t9 * t41;
+    let t43 = -t42;
+    let t44 = t15 * t41;
+    let t45 = t40 + t43 + t44;
+    let t46 = t4 * t45;
+    let t47 = S::constant(p.l_f);
+    let t48 = t47.powi(2);
+    let t49 = t16 * t48;
+    let t50 = -t49;
+    let t51 = t46 + t50;
+    let t53 = t39 + t42;
+    let t54 = t4 * t53;
+    let t55 = S::constant(12.0);
+    let t56 = t15 * t55;
+    let t57 = t48 + t56;
+    let t58 = t16 * t57;
+    let f59 = t54 + t58;
+    let f60 = t15 * t55;
+    let t62 = S::constant(0.08333333333333333);
+    let t63 = t16 * t48 * t62;
+    let f64 = t16 * t48;
+    let f65 = t14 * t55;
+    let t67 = S::constant(1.0);
+    Ok([t18, f25, f31, f37, t51, f59, f60, f64, f65, t63])
+}
+
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
+/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
+/// (eq. (6)).
+pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, &prep.p, &prep.full)
+}
+
+/// [`solved_with`], computing the parameter-only values first.
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
+}
+
+/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
+#[inline(always)]
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 13]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = q[4];
+    let (t1, t20) = t0.sin_cos();
+    let t2 = eta[0];
+    let t3 = eta[1];
+    let t8 = S::constant(c[5]);
+    let t14 = S::constant(c[4]);
+    let t18 = S::constant(c[0]);
+    let t19 = t18 * t1 * t2 * t3;
+    let t21 = t20.powi(2);
+    let t25 = S::constant(c[1]) * t21;
+    let t31 = S::constant(c[2]) + t25;
+    let t32 = t20 * t31;
+    let t33 = t19 / t32;
+    let t37 = S::constant(c[3]) * t2 * t3;
+    let t38 = t37 / t31;
+    let t39 = q[2];
+    let (t42, t40) = t39.sin_cos();
+    let t41 = t2 * t40;
+    let t43 = t2 * t42;
+    let t44 = t14 * t20;
+    let t45 = t1 / t44;
+    let t46 = t2 * t45;
+    let t47 = t8 * t1;
+    let t48 = -t44;
+    let t49 = t47 + t48;
+    let t50 = S::constant(c[6]) * t20;
+    let t51 = t49 / t50;
+    let t52 = t2 * t51;
+    let t65 = S::constant(c[7]);
+    let t66 = t65 * t21;
+    let t73 = S::constant(c[8]) + t66;
+    let t74 = S::constant(c[9]) * t21;
+    let t75 = t73 / t74;
+    let t77 = S::constant(c[12]);
+    let t78 = S::constant(c[10]) * t1;
+    let t79 = S::constant(c[11]) * t20;
     let t80 = t78 / t79;
-    let t81 = t80 / t75;
-    let t82 = t80 * t81;
-    let t83 = -t82;
-    let t84 = t77 + t83;
-    if !(t75.value() > 0.0 && t84.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    let t81 = S::constant(1.0);
+    let t82 = t81 / t75;
+    let t83 = t80 * t80 * t82;
+    let t84 = -t83;
+    let t85 = t77 + t84;
+    if !(t75.value() > 0.0 && t85.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t33, t38], [t41, t43, t46, t52, t3]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if SOLVED {
+        solved_with(q, eta, prep)
+    } else {
+        let r = rhs_fixed(q, eta, &prep.p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
+/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     if SOLVED {
         solved(q, eta, p)
@@ -593,6 +719,14 @@ pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA]
 }
 
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
+    runtime::finite("the right-hand side", dy)
+}
+
+/// [`full_into_with`], computing the parameter-only values first.
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
     dy[..ELL].copy_from_slice(&q_dot);
@@ -630,84 +764,58 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
 /// [`REDUCED_SOLVED`].
+pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, &prep.p, &prep.reduced)
+}
+
+/// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
+}
+
+/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
+#[inline(always)]
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 10]) -> Result<[S; REDUCED_DIM], EvalError> {
     let t0 = x[0];
     let (t1, t20) = t0.sin_cos();
     let t2 = x[1];
     let t3 = x[2];
-    let t4 = S::constant(p.m_w);
-    let t5 = S::constant(p.R);
-    let t6 = t5.powi(2);
-    let t7 = S::constant(6.0);
-    let t8 = S::constant(p.a);
-    let t9 = t8.powi(2);
-    let t10 = t7 * t9;
-    let t11 = t6 + t10;
-    let t12 = t4 * t11;
-    let t13 = S::constant(2.0);
-    let t14 = S::constant(p.l_r);
-    let t15 = t14.powi(2);
-    let t16 = S::constant(p.m_f);
-    let t17 = t13 * t15 * t16;
-    let t18 = t12 + t17;
+    let t18 = S::constant(c[0]);
     let t19 = t18 * t1 * t2 * t3;
     let t21 = t20.powi(2);
-    let t22 = t7 * t15;
-    let t23 = -t22;
-    let t24 = t6 + t10 + t23;
-    let t25 = t4 * t24 * t21;
-    let t26 = -t6;
-    let t27 = -t10;
-    let t28 = t26 + t27;
-    let t29 = t4 * t28;
-    let t30 = -t17;
-    let t31 = t29 + t30 + t25;
+    let t25 = S::constant(c[1]) * t21;
+    let t31 = S::constant(c[2]) + t25;
     let t32 = t20 * t31;
     let t33 = t19 / t32;
-    let t34 = t4 * t7;
-    let t35 = t13 * t16;
-    let t36 = t34 + t35;
-    let t37 = t14 * t36 * t2 * t3;
+    let t37 = S::constant(c[3]) * t2 * t3;
     let t38 = t37 / t31;
-    let t39 = t6 * t7;
-    let t40 = -t39;
-    let t41 = S::constant(36.0);
-    let t42 = t9 * t41;
-    let t43 = -t42;
-    let t44 = t15 * t41;
-    let t45 = t40 + t43 + t44;
-    let t46 = t4 * t45;
-    let t47 = S::constant(p.l_f);
-    let t48 = t47.powi(2);
-    let t49 = t16 * t48;
-    let t50 = -t49;
-    let t51 = t46 + t50;
+    let t51 = S::constant(c[4]);
     let t52 = t51 * t21;
-    let t53 = t39 + t42;
-    let t54 = t4 * t53;
-    let t55 = S::constant(12.0);
-    let t56 = t15 * t55;
-    let t57 = t48 + t56;
-    let t58 = t16 * t57;
-    let t59 = t54 + t58 + t52;
-    let t60 = t15 * t55 * t21;
+    let t59 = S::constant(c[5]) + t52;
+    let t60 = S::constant(c[6]) * t21;
     let t61 = t59 / t60;
-    let t62 = S::constant(0.08333333333333333);
-    let t63 = t16 * t48 * t62;
-    let t64 = t16 * t48 * t1;
-    let t65 = t14 * t55 * t20;
+    let t63 = S::constant(c[9]);
+    let t64 = S::constant(c[7]) * t1;
+    let t65 = S::constant(c[8]) * t20;
     let t66 = t64 / t65;
-    let t67 = t66 / t61;
-    let t68 = t66 * t67;
-    let t69 = -t68;
-    let t70 = t63 + t69;
-    if !(t61.value() > 0.0 && t70.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    let t67 = S::constant(1.0);
+    let t68 = t67 / t61;
+    let t69 = t66 * t66 * t68;
+    let t70 = -t69;
+    let t71 = t63 + t70;
+    if !(t61.value() > 0.0 && t71.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t3, t33, t38])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced_with(x, prep)?);
+    runtime::finite("the reduced right-hand side", dx)
+}
+
+/// [`reduced_into_with`], computing the parameter-only values first.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     dx.copy_from_slice(&reduced(x, p)?);
     runtime::finite("the reduced right-hand side", dx)
@@ -721,12 +829,17 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 }
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
     let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced(&xd, p)?;
+    let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
+}
+
+/// [`reduced_jacobian_with`], computing the parameter-only values first.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+    reduced_jacobian_with(x, &Prepared::new(p)?)
 }
 
 /// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.

@@ -13,7 +13,7 @@
 //! separate trees, 14 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 16 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 16 operations, 11 of them at run time with fixed parameters, against the structured path's 77 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 2.9e-16 (structured path: 5.9e-16; reference: double-double). Candidates (operations at run time / in all): `normal form` 11/16, `elimination of normal forms` 12/18, `Cramer's rule on blocks` 12/18, `elimination` 13/21.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 16 operations, 11 of them at run time with fixed parameters, against the structured path's 77 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 2.9e-16 (structured path: 5.9e-16; reference: double-double). Candidates (operations at run time / in all): `normal form` 11/16, `elimination of normal forms` 11/20, `Cramer's rule on block entries` 11/20, `Cramer's rule on blocks` 12/18, `elimination` 13/23.
 //!
 //! **States.** Full: q = (x, y, theta) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (eta1, eta2); eliminated: (x, y, theta), reconstructed from
@@ -213,34 +213,103 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
-/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
-pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+/// Parameters with what the solved forms compute from them alone, made once by
+/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
+/// [`full_into_with`], [`reduced_with`], …): 3 values for the full form, 3 for
+/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {
+    /// The parameters.
+    pub p: Parameters,
+    full: [f64; 3],
+    reduced: [f64; 3],
+}
+
+impl Prepared {
+    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
+    /// every state) and compute the parameter-only values of the solved forms.
+    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {
+        Ok(Prepared {
+            p: *p,
+            full: prepare_full::<f64>(p)?,
+            reduced: prepare_reduced::<f64>(p)?,
+        })
+    }
+}
+
+/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 3], EvalError> {
     let t0 = S::constant(p.a);
-    let t1 = eta[1];
-    let t2 = t1.powi(2);
-    let t3 = t0 * t2;
     let t4 = S::constant(p.m);
-    let t5 = eta[0];
-    let t6 = t0 * t4 * t1 * t5;
-    let t7 = -t6;
+    let f6 = t0 * t4;
     let t8 = t0.powi(2);
     let t9 = t4 * t8;
     let t10 = S::constant(p.I);
     let t11 = t9 + t10;
+    if !(t4.value() > 0.0 && t11.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([t0, f6, t11])
+}
+
+/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 3], EvalError> {
+    let t0 = S::constant(p.a);
+    let t4 = S::constant(p.m);
+    let f6 = t0 * t4;
+    let t8 = t0.powi(2);
+    let t9 = t4 * t8;
+    let t10 = S::constant(p.I);
+    let t11 = t9 + t10;
+    if !(t4.value() > 0.0 && t11.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([t0, f6, t11])
+}
+
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
+/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
+/// (eq. (6)).
+pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, &prep.p, &prep.full)
+}
+
+/// [`solved_with`], computing the parameter-only values first.
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
+}
+
+/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
+#[inline(always)]
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 3]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = S::constant(c[0]);
+    let t1 = eta[1];
+    let t2 = t1.powi(2);
+    let t3 = t0 * t2;
+    let t5 = eta[0];
+    let t6 = S::constant(c[1]) * t1 * t5;
+    let t7 = -t6;
+    let t11 = S::constant(c[2]);
     let t12 = t7 / t11;
     let t13 = q[2];
     let (t16, t14) = t13.sin_cos();
     let t15 = t5 * t14;
     let t17 = t5 * t16;
-    if !(t4.value() > 0.0 && t11.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
-    }
     Ok(([t3, t12], [t15, t17, t1]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if SOLVED {
+        solved_with(q, eta, prep)
+    } else {
+        let r = rhs_fixed(q, eta, &prep.p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
+/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     if SOLVED {
         solved(q, eta, p)
@@ -251,6 +320,14 @@ pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA]
 }
 
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
+    runtime::finite("the right-hand side", dy)
+}
+
+/// [`full_into_with`], computing the parameter-only values first.
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
     dy[..ELL].copy_from_slice(&q_dot);
@@ -288,27 +365,37 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
 /// [`REDUCED_SOLVED`].
+pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, &prep.p, &prep.reduced)
+}
+
+/// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
-    let t0 = S::constant(p.a);
+    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
+}
+
+/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
+#[inline(always)]
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 3]) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = S::constant(c[0]);
     let t1 = x[1];
     let t2 = t1.powi(2);
     let t3 = t0 * t2;
-    let t4 = S::constant(p.m);
     let t5 = x[0];
-    let t6 = t0 * t4 * t1 * t5;
+    let t6 = S::constant(c[1]) * t1 * t5;
     let t7 = -t6;
-    let t8 = t0.powi(2);
-    let t9 = t4 * t8;
-    let t10 = S::constant(p.I);
-    let t11 = t9 + t10;
+    let t11 = S::constant(c[2]);
     let t12 = t7 / t11;
-    if !(t4.value() > 0.0 && t11.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
-    }
     Ok([t3, t12])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced_with(x, prep)?);
+    runtime::finite("the reduced right-hand side", dx)
+}
+
+/// [`reduced_into_with`], computing the parameter-only values first.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     dx.copy_from_slice(&reduced(x, p)?);
     runtime::finite("the reduced right-hand side", dx)
@@ -322,12 +409,17 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 }
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
     let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced(&xd, p)?;
+    let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
+}
+
+/// [`reduced_jacobian_with`], computing the parameter-only values first.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+    reduced_jacobian_with(x, &Prepared::new(p)?)
 }
 
 /// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.

@@ -12,9 +12,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 286 arithmetic operations as
 //! separate trees, 58 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 101 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 102 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 101 operations, 83 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 7.2e-13 (structured path: 6.9e-13; reference: double-double). Candidates (operations at run time / in all): `normal form` 83/101, `elimination of normal forms` 85/99, `Cramer's rule on blocks` 85/103, `elimination` 99/109.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 102 operations, 84 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 7.2e-13 (structured path: 6.9e-13; reference: double-double). Candidates (operations at run time / in all): `normal form` 84/102, `Cramer's rule on blocks` 85/103, `Cramer's rule on block entries` 87/102, `elimination of normal forms` 89/104, `elimination` 103/114.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
@@ -469,10 +469,113 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
+/// Parameters with what the solved forms compute from them alone, made once by
+/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
+/// [`full_into_with`], [`reduced_with`], …): 4 values for the full form, 3 for
+/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {
+    /// The parameters.
+    pub p: Parameters,
+    full: [f64; 4],
+    reduced: [f64; 3],
+}
+
+impl Prepared {
+    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
+    /// every state) and compute the parameter-only values of the solved forms.
+    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {
+        Ok(Prepared {
+            p: *p,
+            full: prepare_full::<f64>(p)?,
+            reduced: prepare_reduced::<f64>(p)?,
+        })
+    }
+}
+
+/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 4], EvalError> {
+    let t2 = S::constant(10.0);
+    let t7 = S::constant(-12.0);
+    let t10 = S::constant(4.0);
+    let t18 = S::constant(12.0);
+    let t23 = S::constant(3.0);
+    let t27 = S::constant(p.R);
+    let t28 = t27.powi(3);
+    let t29 = S::constant(p.m_d);
+    let t30 = t29.powi(2);
+    let t31 = S::constant(p.g);
+    let f32 = t10 * t28 * t30 * t31;
+    let t33 = S::constant(16.0);
+    let t37 = S::constant(144.0);
+    let t43 = S::constant(48.0);
+    let t45 = S::constant(-96.0);
+    let t49 = S::constant(5.0);
+    let t50 = t27.powi(4);
+    let f51 = t30 * t49 * t50;
+    let f56 = t27 * t29;
+    let t73 = t27.powi(2);
+    let f74 = t29 * t73;
+    let t87 = S::constant(30.0);
+    let t90 = S::constant(36.0);
+    let t93 = S::constant(1.0);
+    let t98 = S::constant(1.25);
+    let t99 = t29 * t73 * t98;
+    if !(t99.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([f32, f51, f56, f74])
+}
+
+/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 3], EvalError> {
+    let t2 = S::constant(10.0);
+    let t7 = S::constant(-12.0);
+    let t10 = S::constant(4.0);
+    let t18 = S::constant(12.0);
+    let t23 = S::constant(3.0);
+    let t27 = S::constant(p.R);
+    let t28 = t27.powi(3);
+    let t29 = S::constant(p.m_d);
+    let t30 = t29.powi(2);
+    let t31 = S::constant(p.g);
+    let f32 = t10 * t28 * t30 * t31;
+    let t33 = S::constant(16.0);
+    let t37 = S::constant(144.0);
+    let t43 = S::constant(48.0);
+    let t45 = S::constant(-96.0);
+    let t49 = S::constant(5.0);
+    let t50 = t27.powi(4);
+    let f51 = t30 * t49 * t50;
+    let t54 = t27.powi(2);
+    let f55 = t29 * t54;
+    let t64 = S::constant(30.0);
+    let t67 = S::constant(36.0);
+    let t72 = S::constant(1.0);
+    let t77 = S::constant(1.25);
+    let t78 = t29 * t54 * t77;
+    if !(t78.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([f32, f51, f55])
+}
+
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
-/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
+/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
+/// (eq. (6)).
+pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, &prep.p, &prep.full)
+}
+
+/// [`solved_with`], computing the parameter-only values first.
 pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
+}
+
+/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
+#[inline(always)]
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 4]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     let t0 = eta[2];
     let t1 = eta[1];
     let t2 = S::constant(10.0);
@@ -499,12 +602,7 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t24 = t23 * t4;
     let t25 = t22 / t24;
     let t26 = t4.powi(3);
-    let t27 = S::constant(p.R);
-    let t28 = t27.powi(3);
-    let t29 = S::constant(p.m_d);
-    let t30 = t29.powi(2);
-    let t31 = S::constant(p.g);
-    let t32 = t10 * t28 * t30 * t31 * t26;
+    let t32 = S::constant(c[0]) * t26;
     let t33 = S::constant(16.0);
     let t34 = t12.powi(2);
     let t35 = t33 * t34;
@@ -521,14 +619,12 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t46 = t45 + t44;
     let t47 = t1 * t12 * t46;
     let t48 = t42 + t47;
-    let t49 = S::constant(5.0);
-    let t50 = t27.powi(4);
-    let t51 = t30 * t49 * t50 * t26;
+    let t51 = S::constant(c[1]) * t26;
     let t52 = t48 / t51;
     let t53 = q[2];
     let (t65, t54) = t53.sin_cos();
     let t55 = t10 * t11 * t54;
-    let t56 = t27 * t29 * t5;
+    let t56 = S::constant(c[2]) * t5;
     let t57 = t55 / t56;
     let t58 = t12 * t57;
     let t59 = -t6;
@@ -544,8 +640,7 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t70 = t69 / t56;
     let t71 = t1 * t70;
     let t72 = t68 + t71;
-    let t73 = t27.powi(2);
-    let t74 = t29 * t73 * t5;
+    let t74 = S::constant(c[3]) * t5;
     let t75 = t10 / t74;
     let t76 = t12 * t75;
     let t77 = t18 * t11;
@@ -564,19 +659,28 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t90 = S::constant(36.0);
     let t91 = t90 + t89;
     let t92 = t91 / t74;
-    let t93 = t78 / t75;
-    let t94 = t78 * t93;
-    let t95 = -t94;
-    let t96 = t92 + t95;
-    let t97 = S::constant(1.25);
-    let t98 = t29 * t73 * t97;
-    if !(t75.value() > 0.0 && t96.value() > 0.0 && t98.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    let t93 = S::constant(1.0);
+    let t94 = t93 / t75;
+    let t95 = t78 * t78 * t94;
+    let t96 = -t95;
+    let t97 = t92 + t96;
+    if !(t75.value() > 0.0 && t97.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t17, t25, t52], [t64, t72, t80, t86, t0]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if SOLVED {
+        solved_with(q, eta, prep)
+    } else {
+        let r = rhs_fixed(q, eta, &prep.p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
+/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     if SOLVED {
         solved(q, eta, p)
@@ -587,6 +691,14 @@ pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA]
 }
 
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
+    runtime::finite("the right-hand side", dy)
+}
+
+/// [`full_into_with`], computing the parameter-only values first.
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
     dy[..ELL].copy_from_slice(&q_dot);
@@ -624,7 +736,18 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
 /// [`REDUCED_SOLVED`].
+pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, &prep.p, &prep.reduced)
+}
+
+/// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
+}
+
+/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
+#[inline(always)]
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 3]) -> Result<[S; REDUCED_DIM], EvalError> {
     let t0 = x[4];
     let t1 = x[3];
     let t2 = S::constant(10.0);
@@ -651,12 +774,7 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     let t24 = t23 * t4;
     let t25 = t22 / t24;
     let t26 = t4.powi(3);
-    let t27 = S::constant(p.R);
-    let t28 = t27.powi(3);
-    let t29 = S::constant(p.m_d);
-    let t30 = t29.powi(2);
-    let t31 = S::constant(p.g);
-    let t32 = t10 * t28 * t30 * t31 * t26;
+    let t32 = S::constant(c[0]) * t26;
     let t33 = S::constant(16.0);
     let t34 = t12.powi(2);
     let t35 = t33 * t34;
@@ -673,13 +791,10 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     let t46 = t45 + t44;
     let t47 = t1 * t12 * t46;
     let t48 = t42 + t47;
-    let t49 = S::constant(5.0);
-    let t50 = t27.powi(4);
-    let t51 = t30 * t49 * t50 * t26;
+    let t51 = S::constant(c[1]) * t26;
     let t52 = t48 / t51;
     let t53 = t10 * t11;
-    let t54 = t27.powi(2);
-    let t55 = t29 * t54 * t5;
+    let t55 = S::constant(c[2]) * t5;
     let t56 = t53 / t55;
     let t57 = t12 * t56;
     let t58 = -t6;
@@ -696,19 +811,24 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     let t69 = t68 / t55;
     let t70 = t18 * t11;
     let t71 = t70 / t55;
-    let t72 = t71 / t63;
-    let t73 = t71 * t72;
-    let t74 = -t73;
-    let t75 = t69 + t74;
-    let t76 = S::constant(1.25);
-    let t77 = t29 * t54 * t76;
-    if !(t63.value() > 0.0 && t75.value() > 0.0 && t77.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    let t72 = S::constant(1.0);
+    let t73 = t72 / t63;
+    let t74 = t71 * t71 * t73;
+    let t75 = -t74;
+    let t76 = t69 + t75;
+    if !(t63.value() > 0.0 && t76.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t62, t0, t17, t25, t52])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced_with(x, prep)?);
+    runtime::finite("the reduced right-hand side", dx)
+}
+
+/// [`reduced_into_with`], computing the parameter-only values first.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     dx.copy_from_slice(&reduced(x, p)?);
     runtime::finite("the reduced right-hand side", dx)
@@ -722,12 +842,17 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 }
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
     let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced(&xd, p)?;
+    let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
+}
+
+/// [`reduced_jacobian_with`], computing the parameter-only values first.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+    reduced_jacobian_with(x, &Prepared::new(p)?)
 }
 
 /// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.

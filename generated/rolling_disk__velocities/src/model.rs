@@ -12,9 +12,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 206 arithmetic operations as
 //! separate trees, 58 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 56 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 57 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 56 operations, 43 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.4e-16 (structured path: 3.3e-11; reference: double-double). Candidates (operations at run time / in all): `normal form` 43/56, `Cramer's rule on blocks` 52/85, `elimination of normal forms` 55/72, `elimination` 71/97.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 57 operations, 44 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.4e-16 (structured path: 3.3e-11; reference: double-double). Candidates (operations at run time / in all): `normal form` 44/57, `Cramer's rule on blocks` 52/85, `Cramer's rule on block entries` 58/91, `elimination of normal forms` 59/77, `elimination` 75/102.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
@@ -469,10 +469,102 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
+/// Parameters with what the solved forms compute from them alone, made once by
+/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
+/// [`full_into_with`], [`reduced_with`], …): 8 values for the full form, 7 for
+/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {
+    /// The parameters.
+    pub p: Parameters,
+    full: [f64; 8],
+    reduced: [f64; 7],
+}
+
+impl Prepared {
+    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
+    /// every state) and compute the parameter-only values of the solved forms.
+    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {
+        Ok(Prepared {
+            p: *p,
+            full: prepare_full::<f64>(p)?,
+            reduced: prepare_reduced::<f64>(p)?,
+        })
+    }
+}
+
+/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 8], EvalError> {
+    let t0 = S::constant(2.0);
+    let t7 = S::constant(5.0);
+    let t11 = S::constant(6.0);
+    let t16 = S::constant(3.0);
+    let t19 = S::constant(p.R);
+    let f21 = t7 * t19;
+    let t22 = S::constant(4.0);
+    let t23 = S::constant(p.g);
+    let t24 = t22 * t23;
+    let f27 = t11 * t19;
+    let t30 = t7 * t19;
+    let t37 = t19.powi(2);
+    let t38 = S::constant(p.m_d);
+    let t39 = S::constant(1.25);
+    let t42 = S::constant(1.5);
+    let f44 = t37 * t38;
+    let t45 = t37 * t38 * t42;
+    let f46 = t37 * t38 * t42;
+    let t48 = S::constant(1.0);
+    let t53 = t37 * t38 * t39;
+    if !(t53.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([f21, t24, f27, t30, t19, f44, f46, t45])
+}
+
+/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 7], EvalError> {
+    let t0 = S::constant(2.0);
+    let t7 = S::constant(5.0);
+    let t11 = S::constant(6.0);
+    let t16 = S::constant(3.0);
+    let t19 = S::constant(p.R);
+    let f21 = t7 * t19;
+    let t22 = S::constant(4.0);
+    let t23 = S::constant(p.g);
+    let t24 = t22 * t23;
+    let f27 = t11 * t19;
+    let t30 = t7 * t19;
+    let t32 = t19.powi(2);
+    let t33 = S::constant(p.m_d);
+    let t34 = S::constant(1.25);
+    let t37 = S::constant(1.5);
+    let f39 = t32 * t33;
+    let t40 = t32 * t33 * t37;
+    let f41 = t32 * t33 * t37;
+    let t43 = S::constant(1.0);
+    let t48 = t32 * t33 * t34;
+    if !(t48.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([f21, t24, f27, t30, f39, f41, t40])
+}
+
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
-/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
+/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
+/// (eq. (6)).
+pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, &prep.p, &prep.full)
+}
+
+/// [`solved_with`], computing the parameter-only values first.
 pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
+}
+
+/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
+#[inline(always)]
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 8]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     let t0 = S::constant(2.0);
     let t1 = eta[1];
     let t2 = eta[2];
@@ -491,46 +583,52 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
     let t16 = S::constant(3.0);
     let t17 = t16 * t5;
     let t18 = t15 / t17;
-    let t19 = S::constant(p.R);
+    let t19 = S::constant(c[4]);
     let t20 = t9.powi(2);
-    let t21 = t7 * t19 * t5 * t20;
-    let t22 = S::constant(4.0);
-    let t23 = S::constant(p.g);
-    let t24 = t22 * t23;
+    let t21 = S::constant(c[0]) * t5 * t20;
+    let t24 = S::constant(c[1]);
     let t25 = t24 + t21;
     let t26 = t12 * t25;
-    let t27 = t11 * t19 * t1 * t5 * t9;
+    let t27 = S::constant(c[2]) * t1 * t5 * t9;
     let t28 = -t27;
     let t29 = t26 + t28;
-    let t30 = t7 * t19;
+    let t30 = S::constant(c[3]);
     let t31 = t29 / t30;
     let t32 = q[2];
     let (t35, t33) = t32.sin_cos();
     let t34 = t19 * t1 * t33;
     let t36 = t19 * t1 * t35;
-    let t37 = t19.powi(2);
-    let t38 = S::constant(p.m_d);
     let t39 = S::constant(1.25);
     let t40 = t39 * t8;
     let t41 = -t40;
     let t42 = S::constant(1.5);
     let t43 = t42 + t41;
-    let t44 = t37 * t38 * t43;
-    let t45 = t37 * t38 * t42;
-    let t46 = t37 * t38 * t42 * t12;
+    let t44 = S::constant(c[5]) * t43;
+    let t45 = S::constant(c[7]);
+    let t46 = S::constant(c[6]) * t12;
     let t47 = -t46;
-    let t48 = t47 / t44;
-    let t49 = t47 * t48;
-    let t50 = -t49;
-    let t51 = t45 + t50;
-    let t52 = t37 * t38 * t39;
-    if !(t44.value() > 0.0 && t51.value() > 0.0 && t52.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    let t48 = S::constant(1.0);
+    let t49 = t48 / t44;
+    let t50 = t47 * t47 * t49;
+    let t51 = -t50;
+    let t52 = t45 + t51;
+    if !(t44.value() > 0.0 && t52.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t6, t18, t31], [t34, t36, t9, t1, t2]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if SOLVED {
+        solved_with(q, eta, prep)
+    } else {
+        let r = rhs_fixed(q, eta, &prep.p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
+/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     if SOLVED {
         solved(q, eta, p)
@@ -541,6 +639,14 @@ pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA]
 }
 
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
+    runtime::finite("the right-hand side", dy)
+}
+
+/// [`full_into_with`], computing the parameter-only values first.
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
     dy[..ELL].copy_from_slice(&q_dot);
@@ -578,7 +684,18 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
 /// [`REDUCED_SOLVED`].
+pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, &prep.p, &prep.reduced)
+}
+
+/// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
+}
+
+/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
+#[inline(always)]
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 7]) -> Result<[S; REDUCED_DIM], EvalError> {
     let t0 = S::constant(2.0);
     let t1 = x[3];
     let t2 = x[4];
@@ -597,42 +714,43 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     let t16 = S::constant(3.0);
     let t17 = t16 * t5;
     let t18 = t15 / t17;
-    let t19 = S::constant(p.R);
     let t20 = t9.powi(2);
-    let t21 = t7 * t19 * t5 * t20;
-    let t22 = S::constant(4.0);
-    let t23 = S::constant(p.g);
-    let t24 = t22 * t23;
+    let t21 = S::constant(c[0]) * t5 * t20;
+    let t24 = S::constant(c[1]);
     let t25 = t24 + t21;
     let t26 = t12 * t25;
-    let t27 = t11 * t19 * t1 * t5 * t9;
+    let t27 = S::constant(c[2]) * t1 * t5 * t9;
     let t28 = -t27;
     let t29 = t26 + t28;
-    let t30 = t7 * t19;
+    let t30 = S::constant(c[3]);
     let t31 = t29 / t30;
-    let t32 = t19.powi(2);
-    let t33 = S::constant(p.m_d);
     let t34 = S::constant(1.25);
     let t35 = t34 * t8;
     let t36 = -t35;
     let t37 = S::constant(1.5);
     let t38 = t37 + t36;
-    let t39 = t32 * t33 * t38;
-    let t40 = t32 * t33 * t37;
-    let t41 = t32 * t33 * t37 * t12;
+    let t39 = S::constant(c[4]) * t38;
+    let t40 = S::constant(c[6]);
+    let t41 = S::constant(c[5]) * t12;
     let t42 = -t41;
-    let t43 = t42 / t39;
-    let t44 = t42 * t43;
-    let t45 = -t44;
-    let t46 = t40 + t45;
-    let t47 = t32 * t33 * t34;
-    if !(t39.value() > 0.0 && t46.value() > 0.0 && t47.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    let t43 = S::constant(1.0);
+    let t44 = t43 / t39;
+    let t45 = t42 * t42 * t44;
+    let t46 = -t45;
+    let t47 = t40 + t46;
+    if !(t39.value() > 0.0 && t47.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t1, t2, t6, t18, t31])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced_with(x, prep)?);
+    runtime::finite("the reduced right-hand side", dx)
+}
+
+/// [`reduced_into_with`], computing the parameter-only values first.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     dx.copy_from_slice(&reduced(x, p)?);
     runtime::finite("the reduced right-hand side", dx)
@@ -646,12 +764,17 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 }
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
     let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced(&xd, p)?;
+    let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
+}
+
+/// [`reduced_jacobian_with`], computing the parameter-only values first.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+    reduced_jacobian_with(x, &Prepared::new(p)?)
 }
 
 /// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.

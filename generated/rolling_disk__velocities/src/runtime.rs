@@ -541,3 +541,10 @@ pub fn finite(what: &str, v: &[f64]) -> Result<(), EvalError> {
         Err(EvalError(format!("{what} is not finite at this state")))
     }
 }
+
+/// An error, built out of line: the failing branch of a check stays small in the hot code.
+#[cold]
+#[inline(never)]
+pub fn cold_error(message: &str) -> EvalError {
+    EvalError(message.into())
+}

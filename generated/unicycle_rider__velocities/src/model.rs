@@ -13,9 +13,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 1221 arithmetic operations as
 //! separate trees, 339 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 251 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 256 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`elimination of normal forms`): 251 operations, 125 of them at run time with fixed parameters, against the structured path's 1131 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `elimination of normal forms` 125/251, `elimination` 240/361, `Cramer's rule on blocks` 261/3944.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 256 operations, 127 of them at run time with fixed parameters, against the structured path's 1131 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `Cramer's rule on block entries` 127/256, `elimination of normal forms` 132/259, `elimination` 247/369, `Cramer's rule on blocks` 261/3944.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta, theta1) and η = (eta1..eta4).
 //! Reduced (state vector `x`): (theta, theta1, eta1, eta2, eta3, eta4); eliminated: (xC, yC, phi, psi), reconstructed from
@@ -808,202 +808,408 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
     rhs_fixed(q, eta, p, true).map(Rhs::from)
 }
 
-/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by elimination without pivoting (A_Γ is
-/// symmetric positive definite; a pivot ≤ 0 is an error), and q̇ = Γη (eq. (6)).
-pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    let t0 = eta[0];
-    let t1 = q[4];
-    let (t2, t3) = t1.sin_cos();
-    let t4 = eta[2];
-    let t5 = S::constant(p.rho1);
-    let t6 = S::constant(2.0);
-    let t7 = S::constant(p.m_f);
-    let t8 = t6 * t7;
-    let t9 = -t8;
-    let t10 = S::constant(p.m_r);
-    let t11 = t6 * t10;
-    let t12 = -t11;
-    let t13 = t9 + t12;
-    let t14 = t5 * t13;
-    let t15 = S::constant(4.0);
-    let t16 = S::constant(p.rho2);
-    let t17 = t10 * t15 * t16;
-    let t18 = -t17;
-    let t19 = t14 + t18;
-    let t20 = t5 * t19;
-    let t21 = S::constant(2.5);
-    let t22 = S::constant(p.R);
-    let t23 = t22.powi(2);
-    let t24 = S::constant(p.m_d);
-    let t25 = t21 * t23 * t24;
-    let t26 = -t25;
-    let t27 = t16.powi(2);
-    let t28 = t6 * t10 * t27;
-    let t29 = -t28;
-    let t30 = t20 + t26 + t29;
-    let t31 = t30 * t3 * t4;
-    let t32 = q[5];
-    let (t44, t33) = t32.sin_cos();
-    let t34 = eta[3];
-    let t35 = S::constant(p.rho);
-    let t36 = t5 * t6;
-    let t37 = -t36;
-    let t38 = t6 * t16;
-    let t39 = -t38;
-    let t40 = t37 + t39;
-    let t41 = t10 * t35 * t40 * t33 * t34;
-    let t42 = t31 + t41;
-    let t43 = t2 * t42;
-    let t45 = t10 * t35 * t40 * t3 * t4;
-    let t46 = t35.powi(2);
-    let t47 = t6 * t10 * t46 * t33 * t34;
-    let t48 = -t47;
-    let t49 = t45 + t48;
-    let t50 = t44 * t49;
-    let t51 = t43 + t50;
-    let t52 = t0 * t51;
-    let t53 = S::constant(0.5);
-    let t54 = eta[1];
-    let t55 = t23 * t24 * t53 * t3 * t4 * t54;
-    let t56 = -t7;
-    let t57 = -t10;
-    let t58 = t56 + t57;
-    let t59 = t5 * t58;
-    let t60 = S::constant(1.5);
-    let t61 = t22 * t24 * t60;
-    let t62 = -t61;
-    let t63 = t10 * t16;
-    let t64 = -t63;
-    let t65 = t59 + t62 + t64;
-    let t66 = t22 * t65 * t2;
-    let t67 = t10 * t22 * t35 * t44;
-    let t68 = -t67;
-    let t69 = t66 + t68;
-    let t70 = t8 + t11;
-    let t71 = t5 * t70;
-    let t72 = t21 * t22 * t24;
-    let t73 = t6 * t10 * t16;
-    let t74 = t71 + t72 + t73;
-    let t75 = t22 * t74 * t3 * t4;
-    let t76 = t6 * t10 * t22 * t35 * t33 * t34;
-    let t77 = t75 + t76;
-    let t78 = t0 * t77;
-    let t79 = t3.powi(2);
-    let t80 = -t73;
-    let t81 = t59 + t80;
-    let t82 = t5 * t81;
-    let t83 = S::constant(1.25);
-    let t84 = t23 * t24 * t83;
-    let t85 = -t84;
-    let t86 = t10 * t27;
-    let t87 = -t86;
-    let t88 = t82 + t85 + t87;
-    let t89 = t88 * t79;
-    let t90 = t36 + t38;
-    let t91 = t10 * t35 * t90 * t2 * t44;
-    let t92 = t33.powi(2);
-    let t93 = -t92;
-    let t94 = S::constant(1.0);
-    let t95 = t94 + t93;
-    let t96 = t46 * t95;
-    let t97 = t5 + t38;
-    let t98 = t5 * t97;
-    let t99 = t27 + t98 + t96;
-    let t100 = t10 * t99;
-    let t101 = t23 * t24 * t60;
-    let t102 = t5.powi(2);
-    let t103 = t7 * t102;
-    let t104 = t101 + t103 + t89 + t91 + t100;
-    let t105 = t69 / t104;
-    let t106 = t52 + t55;
-    let t107 = t105 * t106;
-    let t108 = -t107;
-    let t109 = t78 + t108;
-    let t110 = t24 * t60;
-    let t111 = t7 + t10 + t110;
-    let t112 = t23 * t111;
-    let t113 = t69 * t105;
-    let t114 = -t113;
-    let t115 = t112 + t114;
-    let t116 = t109 / t115;
-    let t117 = t69 * t116;
-    let t118 = -t117;
-    let t119 = t52 + t55 + t118;
-    let t120 = t119 / t104;
-    let t121 = t7 + t10;
-    let t122 = t5 * t121;
-    let t123 = t73 + t122;
-    let t124 = t5 * t123;
-    let t125 = t84 + t86 + t124;
-    let t126 = t125 * t2;
-    let t127 = t5 + t16;
-    let t128 = t10 * t35 * t127 * t44;
-    let t129 = t126 + t128;
-    let t130 = t0 * t129;
-    let t131 = t22 * t65 * t54;
-    let t132 = t130 + t131;
-    let t133 = t0 * t132;
-    let t134 = t34.powi(2);
-    let t135 = t10 * t35 * t127 * t44 * t134;
-    let t136 = t133 + t135;
-    let t137 = t3 * t136;
-    let t138 = t10 * t35 * t127 * t33 * t134;
-    let t139 = S::constant(p.g);
-    let t140 = t22 * t24;
-    let t141 = t63 + t122 + t140;
-    let t142 = t139 * t141;
-    let t143 = t142 + t138;
-    let t144 = t2 * t143;
-    let t145 = -t5;
-    let t146 = -t16;
-    let t147 = t145 + t146;
-    let t148 = t10 * t35 * t147 * t2 * t44;
-    let t149 = t10 * t35 * t127 * t3 * t33;
-    let t150 = t148 + t149;
-    let t151 = t0.powi(2);
-    let t152 = t10 * t35 * t127 * t151;
-    let t153 = t4.powi(2);
-    let t154 = t10 * t35 * t127 * t153;
-    let t155 = t152 + t154;
-    let t156 = t2 * t155;
-    let t157 = t35 * t0 * t44;
-    let t158 = t22 * t54;
-    let t159 = -t158;
-    let t160 = t157 + t159;
-    let t161 = t10 * t35 * t0 * t160;
-    let t162 = t156 + t161;
-    let t163 = t33 * t162;
-    let t164 = t10 * t35 * t127 * t3 * t153;
-    let t165 = t10 * t35 * t139;
-    let t166 = -t165;
-    let t167 = t166 + t164;
-    let t168 = t44 * t167;
-    let t169 = t150 / t125;
-    let t170 = t137 + t144;
-    let t171 = t169 * t170;
-    let t172 = -t171;
-    let t173 = t163 + t168 + t172;
-    let t174 = t10 * t46;
-    let t175 = t150 * t169;
-    let t176 = -t175;
-    let t177 = t174 + t176;
-    let t178 = t173 / t177;
-    let t179 = t150 * t178;
-    let t180 = -t179;
-    let t181 = t137 + t144 + t180;
-    let t182 = t181 / t125;
-    let t183 = q[2];
-    let (t186, t184) = t183.sin_cos();
-    let t185 = t22 * t54 * t184;
-    let t187 = t22 * t54 * t186;
-    if !(t104.value() > 0.0 && t115.value() > 0.0 && t125.value() > 0.0 && t177.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+/// Parameters with what the solved forms compute from them alone, made once by
+/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
+/// [`full_into_with`], [`reduced_with`], …): 34 values for the full form, 34 for
+/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {
+    /// The parameters.
+    pub p: Parameters,
+    full: [f64; 34],
+    reduced: [f64; 34],
+}
+
+impl Prepared {
+    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
+    /// every state) and compute the parameter-only values of the solved forms.
+    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {
+        Ok(Prepared {
+            p: *p,
+            full: prepare_full::<f64>(p)?,
+            reduced: prepare_reduced::<f64>(p)?,
+        })
     }
-    Ok(([t120, t116, t182, t178], [t185, t187, t0, t54, t4, t34]))
+}
+
+/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 34], EvalError> {
+    let t0 = S::constant(p.R);
+    let t1 = t0.powi(2);
+    let t2 = S::constant(1.5);
+    let t3 = S::constant(p.m_d);
+    let t4 = t2 * t3;
+    let t5 = S::constant(p.m_f);
+    let t6 = S::constant(p.m_r);
+    let t7 = t4 + t5 + t6;
+    let t13 = S::constant(p.rho1);
+    let t14 = S::constant(2.0);
+    let t15 = t5 * t14;
+    let t16 = -t15;
+    let t17 = t6 * t14;
+    let t18 = -t17;
+    let t19 = t16 + t18;
+    let t20 = t13 * t19;
+    let t21 = S::constant(4.0);
+    let t22 = S::constant(p.rho2);
+    let t23 = t6 * t21 * t22;
+    let t24 = -t23;
+    let t25 = t20 + t24;
+    let t26 = t13 * t25;
+    let t27 = S::constant(2.5);
+    let t28 = t1 * t3 * t27;
+    let t29 = -t28;
+    let t30 = t22.powi(2);
+    let t31 = t6 * t14 * t30;
+    let t32 = -t31;
+    let t33 = t26 + t29 + t32;
+    let t38 = S::constant(p.rho);
+    let t39 = t13 * t14;
+    let t40 = -t39;
+    let t41 = t14 * t22;
+    let t42 = -t41;
+    let t43 = t40 + t42;
+    let f44 = t6 * t38 * t43;
+    let f48 = t6 * t38 * t43;
+    let t49 = t38.powi(2);
+    let f50 = t6 * t14 * t49;
+    let t56 = S::constant(0.5);
+    let f58 = t1 * t3 * t56;
+    let f60 = t1 * t7;
+    let t61 = -t5;
+    let t62 = -t6;
+    let t63 = t61 + t62;
+    let t64 = t13 * t63;
+    let t65 = t0 * t2 * t3;
+    let t66 = -t65;
+    let t67 = t6 * t22;
+    let t68 = -t67;
+    let t69 = t64 + t66 + t68;
+    let f70 = t0 * t69;
+    let f71 = t0 * t6 * t38;
+    let t75 = t15 + t17;
+    let t76 = t13 * t75;
+    let t77 = t0 * t3 * t27;
+    let t78 = t6 * t14 * t22;
+    let t79 = t76 + t77 + t78;
+    let f80 = t0 * t79;
+    let f81 = t0 * t6 * t14 * t38;
+    let t85 = S::constant(1.0);
+    let t87 = -t78;
+    let t88 = t64 + t87;
+    let t89 = t13 * t88;
+    let t90 = S::constant(1.25);
+    let t91 = t1 * t3 * t90;
+    let t92 = -t91;
+    let t93 = t6 * t30;
+    let t94 = -t93;
+    let t95 = t89 + t92 + t94;
+    let t97 = t39 + t41;
+    let f98 = t6 * t38 * t97;
+    let t103 = t13 + t41;
+    let t104 = t13 * t103;
+    let f105 = t30 + t104;
+    let t107 = t1 * t2 * t3;
+    let t108 = t13.powi(2);
+    let t109 = t5 * t108;
+    let f110 = t107 + t109;
+    let f111 = t1 * t7;
+    let t121 = t5 + t6;
+    let t122 = t13 * t121;
+    let t123 = t78 + t122;
+    let t124 = t13 * t123;
+    let t125 = t91 + t93 + t124;
+    let t127 = t13 + t22;
+    let f128 = t6 * t38 * t127;
+    let f131 = t0 * t69;
+    let f135 = t6 * t38 * t127;
+    let f138 = t6 * t38 * t127;
+    let t139 = S::constant(p.g);
+    let t140 = t0 * t3;
+    let t141 = t67 + t122 + t140;
+    let t142 = t139 * t141;
+    let f146 = t6 * t49;
+    let t147 = -t13;
+    let t148 = -t22;
+    let t149 = t147 + t148;
+    let f150 = t6 * t38 * t149;
+    let f151 = t6 * t38 * t127;
+    let f155 = t6 * t38 * t127;
+    let f157 = t6 * t38 * t127;
+    let f164 = t6 * t38;
+    let f167 = t6 * t38 * t127;
+    let t168 = t6 * t38 * t139;
+    let t169 = -t168;
+    let t175 = t6 * t49 * t125;
+    if !(t125.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([t33, f44, f48, f50, f58, f60, f70, f71, f80, f81, t95, f98, t49, f105, t6, f110, f111, t125, f128, f131, f135, f138, t142, f146, f150, f151, f155, f157, t38, t0, f164, f167, t169, t175])
+}
+
+/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 34], EvalError> {
+    let t0 = S::constant(p.R);
+    let t1 = t0.powi(2);
+    let t2 = S::constant(1.5);
+    let t3 = S::constant(p.m_d);
+    let t4 = t2 * t3;
+    let t5 = S::constant(p.m_f);
+    let t6 = S::constant(p.m_r);
+    let t7 = t4 + t5 + t6;
+    let t13 = S::constant(p.rho1);
+    let t14 = S::constant(2.0);
+    let t15 = t5 * t14;
+    let t16 = -t15;
+    let t17 = t6 * t14;
+    let t18 = -t17;
+    let t19 = t16 + t18;
+    let t20 = t13 * t19;
+    let t21 = S::constant(4.0);
+    let t22 = S::constant(p.rho2);
+    let t23 = t6 * t21 * t22;
+    let t24 = -t23;
+    let t25 = t20 + t24;
+    let t26 = t13 * t25;
+    let t27 = S::constant(2.5);
+    let t28 = t1 * t3 * t27;
+    let t29 = -t28;
+    let t30 = t22.powi(2);
+    let t31 = t6 * t14 * t30;
+    let t32 = -t31;
+    let t33 = t26 + t29 + t32;
+    let t38 = S::constant(p.rho);
+    let t39 = t13 * t14;
+    let t40 = -t39;
+    let t41 = t14 * t22;
+    let t42 = -t41;
+    let t43 = t40 + t42;
+    let f44 = t6 * t38 * t43;
+    let f48 = t6 * t38 * t43;
+    let t49 = t38.powi(2);
+    let f50 = t6 * t14 * t49;
+    let t56 = S::constant(0.5);
+    let f58 = t1 * t3 * t56;
+    let f60 = t1 * t7;
+    let t61 = -t5;
+    let t62 = -t6;
+    let t63 = t61 + t62;
+    let t64 = t13 * t63;
+    let t65 = t0 * t2 * t3;
+    let t66 = -t65;
+    let t67 = t6 * t22;
+    let t68 = -t67;
+    let t69 = t64 + t66 + t68;
+    let f70 = t0 * t69;
+    let f71 = t0 * t6 * t38;
+    let t75 = t15 + t17;
+    let t76 = t13 * t75;
+    let t77 = t0 * t3 * t27;
+    let t78 = t6 * t14 * t22;
+    let t79 = t76 + t77 + t78;
+    let f80 = t0 * t79;
+    let f81 = t0 * t6 * t14 * t38;
+    let t85 = S::constant(1.0);
+    let t87 = -t78;
+    let t88 = t64 + t87;
+    let t89 = t13 * t88;
+    let t90 = S::constant(1.25);
+    let t91 = t1 * t3 * t90;
+    let t92 = -t91;
+    let t93 = t6 * t30;
+    let t94 = -t93;
+    let t95 = t89 + t92 + t94;
+    let t97 = t39 + t41;
+    let f98 = t6 * t38 * t97;
+    let t103 = t13 + t41;
+    let t104 = t13 * t103;
+    let f105 = t30 + t104;
+    let t107 = t1 * t2 * t3;
+    let t108 = t13.powi(2);
+    let t109 = t5 * t108;
+    let f110 = t107 + t109;
+    let f111 = t1 * t7;
+    let t121 = t5 + t6;
+    let t122 = t13 * t121;
+    let t123 = t78 + t122;
+    let t124 = t13 * t123;
+    let t125 = t91 + t93 + t124;
+    let t127 = t13 + t22;
+    let f128 = t6 * t38 * t127;
+    let f131 = t0 * t69;
+    let f135 = t6 * t38 * t127;
+    let f138 = t6 * t38 * t127;
+    let t139 = S::constant(p.g);
+    let t140 = t0 * t3;
+    let t141 = t67 + t122 + t140;
+    let t142 = t139 * t141;
+    let f146 = t6 * t49;
+    let t147 = -t13;
+    let t148 = -t22;
+    let t149 = t147 + t148;
+    let f150 = t6 * t38 * t149;
+    let f151 = t6 * t38 * t127;
+    let f155 = t6 * t38 * t127;
+    let f157 = t6 * t38 * t127;
+    let f164 = t6 * t38;
+    let f167 = t6 * t38 * t127;
+    let t168 = t6 * t38 * t139;
+    let t169 = -t168;
+    let t175 = t6 * t49 * t125;
+    if !(t125.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([t33, f44, f48, f50, f58, f60, f70, f71, f80, f81, t95, f98, t49, f105, t6, f110, f111, t125, f128, f131, f135, f138, t142, f146, f150, f151, f155, f157, t38, t0, f164, f167, t169, t175])
+}
+
+/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
+/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
+/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
+/// (eq. (6)).
+pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, &prep.p, &prep.full)
+}
+
+/// [`solved_with`], computing the parameter-only values first.
+pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
+}
+
+/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
+#[inline(always)]
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 34]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = S::constant(c[29]);
+    let t6 = S::constant(c[14]);
+    let t8 = eta[0];
+    let t9 = q[4];
+    let (t10, t11) = t9.sin_cos();
+    let t12 = eta[2];
+    let t33 = S::constant(c[0]);
+    let t34 = t33 * t11 * t12;
+    let t35 = q[5];
+    let (t47, t36) = t35.sin_cos();
+    let t37 = eta[3];
+    let t38 = S::constant(c[28]);
+    let t44 = S::constant(c[1]) * t36 * t37;
+    let t45 = t34 + t44;
+    let t46 = t10 * t45;
+    let t48 = S::constant(c[2]) * t11 * t12;
+    let t49 = S::constant(c[12]);
+    let t50 = S::constant(c[3]) * t36 * t37;
+    let t51 = -t50;
+    let t52 = t48 + t51;
+    let t53 = t47 * t52;
+    let t54 = t46 + t53;
+    let t55 = t8 * t54;
+    let t57 = eta[1];
+    let t58 = S::constant(c[4]) * t11 * t12 * t57;
+    let t59 = t55 + t58;
+    let t60 = S::constant(c[5]) * t59;
+    let t70 = S::constant(c[6]) * t10;
+    let t71 = S::constant(c[7]) * t47;
+    let t72 = -t71;
+    let t73 = t70 + t72;
+    let t74 = -t73;
+    let t80 = S::constant(c[8]) * t11 * t12;
+    let t81 = S::constant(c[9]) * t36 * t37;
+    let t82 = t80 + t81;
+    let t83 = t8 * t74 * t82;
+    let t84 = t60 + t83;
+    let t85 = S::constant(1.0);
+    let t86 = t11.powi(2);
+    let t95 = S::constant(c[10]);
+    let t96 = t95 * t86;
+    let t98 = S::constant(c[11]) * t10 * t47;
+    let t99 = t36.powi(2);
+    let t100 = -t99;
+    let t101 = t85 + t100;
+    let t102 = t49 * t101;
+    let t105 = S::constant(c[13]) + t102;
+    let t106 = t6 * t105;
+    let t110 = S::constant(c[15]) + t96 + t98 + t106;
+    let t111 = S::constant(c[16]) * t110;
+    let t112 = t73 * t73;
+    let t113 = -t112;
+    let t114 = t111 + t113;
+    let t115 = t85 / t114;
+    let t116 = t84 * t115;
+    let t117 = t59 * t74;
+    let t118 = t8 * t82 * t110;
+    let t119 = t117 + t118;
+    let t120 = t115 * t119;
+    let t125 = S::constant(c[17]);
+    let t126 = t125 * t10;
+    let t128 = S::constant(c[18]) * t47;
+    let t129 = t126 + t128;
+    let t130 = t8 * t129;
+    let t131 = S::constant(c[19]) * t57;
+    let t132 = t130 + t131;
+    let t133 = t8 * t132;
+    let t134 = t37.powi(2);
+    let t135 = S::constant(c[20]) * t47 * t134;
+    let t136 = t133 + t135;
+    let t137 = t11 * t136;
+    let t138 = S::constant(c[21]) * t36 * t134;
+    let t142 = S::constant(c[22]);
+    let t143 = t142 + t138;
+    let t144 = t10 * t143;
+    let t145 = t137 + t144;
+    let t146 = S::constant(c[23]) * t145;
+    let t150 = S::constant(c[24]) * t10 * t47;
+    let t151 = S::constant(c[25]) * t11 * t36;
+    let t152 = t150 + t151;
+    let t153 = -t152;
+    let t154 = t8.powi(2);
+    let t155 = S::constant(c[26]) * t154;
+    let t156 = t12.powi(2);
+    let t157 = S::constant(c[27]) * t156;
+    let t158 = t155 + t157;
+    let t159 = t10 * t158;
+    let t160 = t38 * t8 * t47;
+    let t161 = t0 * t57;
+    let t162 = -t161;
+    let t163 = t160 + t162;
+    let t164 = S::constant(c[30]) * t8 * t163;
+    let t165 = t159 + t164;
+    let t166 = t36 * t165;
+    let t167 = S::constant(c[31]) * t11 * t156;
+    let t169 = S::constant(c[32]);
+    let t170 = t169 + t167;
+    let t171 = t47 * t170;
+    let t172 = t166 + t171;
+    let t173 = t153 * t172;
+    let t174 = t146 + t173;
+    let t175 = S::constant(c[33]);
+    let t176 = t152 * t152;
+    let t177 = -t176;
+    let t178 = t175 + t177;
+    let t179 = t85 / t178;
+    let t180 = t174 * t179;
+    let t181 = t145 * t153;
+    let t182 = t125 * t172;
+    let t183 = t181 + t182;
+    let t184 = t179 * t183;
+    let t185 = q[2];
+    let (t188, t186) = t185.sin_cos();
+    let t187 = t0 * t57 * t186;
+    let t189 = t0 * t57 * t188;
+    if !(t110.value() > 0.0 && t114.value() > 0.0 && t178.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
+    }
+    Ok(([t116, t120, t180, t184], [t187, t189, t8, t57, t12, t37]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
+pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    if SOLVED {
+        solved_with(q, eta, prep)
+    } else {
+        let r = rhs_fixed(q, eta, &prep.p, false)?;
+        Ok((r.eta_dot, r.q_dot))
+    }
+}
+
+/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
 pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
     if SOLVED {
         solved(q, eta, p)
@@ -1014,6 +1220,14 @@ pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA]
 }
 
 /// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
+pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
+    dy[..ELL].copy_from_slice(&q_dot);
+    dy[ELL..].copy_from_slice(&eta_dot);
+    runtime::finite("the right-hand side", dy)
+}
+
+/// [`full_into_with`], computing the parameter-only values first.
 pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
     dy[..ELL].copy_from_slice(&q_dot);
@@ -1051,195 +1265,142 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
 /// [`REDUCED_SOLVED`].
+pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, &prep.p, &prep.reduced)
+}
+
+/// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
-    let t0 = x[2];
-    let t1 = x[0];
-    let (t2, t3) = t1.sin_cos();
-    let t4 = x[4];
-    let t5 = S::constant(p.rho1);
-    let t6 = S::constant(2.0);
-    let t7 = S::constant(p.m_f);
-    let t8 = t6 * t7;
-    let t9 = -t8;
-    let t10 = S::constant(p.m_r);
-    let t11 = t6 * t10;
-    let t12 = -t11;
-    let t13 = t9 + t12;
-    let t14 = t5 * t13;
-    let t15 = S::constant(4.0);
-    let t16 = S::constant(p.rho2);
-    let t17 = t10 * t15 * t16;
-    let t18 = -t17;
-    let t19 = t14 + t18;
-    let t20 = t5 * t19;
-    let t21 = S::constant(2.5);
-    let t22 = S::constant(p.R);
-    let t23 = t22.powi(2);
-    let t24 = S::constant(p.m_d);
-    let t25 = t21 * t23 * t24;
-    let t26 = -t25;
-    let t27 = t16.powi(2);
-    let t28 = t6 * t10 * t27;
-    let t29 = -t28;
-    let t30 = t20 + t26 + t29;
-    let t31 = t30 * t3 * t4;
-    let t32 = x[1];
-    let (t44, t33) = t32.sin_cos();
-    let t34 = x[5];
-    let t35 = S::constant(p.rho);
-    let t36 = t5 * t6;
-    let t37 = -t36;
-    let t38 = t6 * t16;
-    let t39 = -t38;
-    let t40 = t37 + t39;
-    let t41 = t10 * t35 * t40 * t33 * t34;
-    let t42 = t31 + t41;
-    let t43 = t2 * t42;
-    let t45 = t10 * t35 * t40 * t3 * t4;
-    let t46 = t35.powi(2);
-    let t47 = t6 * t10 * t46 * t33 * t34;
-    let t48 = -t47;
-    let t49 = t45 + t48;
-    let t50 = t44 * t49;
-    let t51 = t43 + t50;
-    let t52 = t0 * t51;
-    let t53 = S::constant(0.5);
-    let t54 = x[3];
-    let t55 = t23 * t24 * t53 * t3 * t4 * t54;
-    let t56 = -t7;
-    let t57 = -t10;
-    let t58 = t56 + t57;
-    let t59 = t5 * t58;
-    let t60 = S::constant(1.5);
-    let t61 = t22 * t24 * t60;
-    let t62 = -t61;
-    let t63 = t10 * t16;
-    let t64 = -t63;
-    let t65 = t59 + t62 + t64;
-    let t66 = t22 * t65 * t2;
-    let t67 = t10 * t22 * t35 * t44;
-    let t68 = -t67;
-    let t69 = t66 + t68;
-    let t70 = t8 + t11;
-    let t71 = t5 * t70;
-    let t72 = t21 * t22 * t24;
-    let t73 = t6 * t10 * t16;
-    let t74 = t71 + t72 + t73;
-    let t75 = t22 * t74 * t3 * t4;
-    let t76 = t6 * t10 * t22 * t35 * t33 * t34;
-    let t77 = t75 + t76;
-    let t78 = t0 * t77;
-    let t79 = t3.powi(2);
-    let t80 = -t73;
-    let t81 = t59 + t80;
-    let t82 = t5 * t81;
-    let t83 = S::constant(1.25);
-    let t84 = t23 * t24 * t83;
-    let t85 = -t84;
-    let t86 = t10 * t27;
-    let t87 = -t86;
-    let t88 = t82 + t85 + t87;
-    let t89 = t88 * t79;
-    let t90 = t36 + t38;
-    let t91 = t10 * t35 * t90 * t2 * t44;
-    let t92 = t33.powi(2);
-    let t93 = -t92;
-    let t94 = S::constant(1.0);
-    let t95 = t94 + t93;
-    let t96 = t46 * t95;
-    let t97 = t5 + t38;
-    let t98 = t5 * t97;
-    let t99 = t27 + t98 + t96;
-    let t100 = t10 * t99;
-    let t101 = t23 * t24 * t60;
-    let t102 = t5.powi(2);
-    let t103 = t7 * t102;
-    let t104 = t101 + t103 + t89 + t91 + t100;
-    let t105 = t69 / t104;
-    let t106 = t52 + t55;
-    let t107 = t105 * t106;
-    let t108 = -t107;
-    let t109 = t78 + t108;
-    let t110 = t24 * t60;
-    let t111 = t7 + t10 + t110;
-    let t112 = t23 * t111;
-    let t113 = t69 * t105;
-    let t114 = -t113;
-    let t115 = t112 + t114;
-    let t116 = t109 / t115;
-    let t117 = t69 * t116;
-    let t118 = -t117;
-    let t119 = t52 + t55 + t118;
-    let t120 = t119 / t104;
-    let t121 = t7 + t10;
-    let t122 = t5 * t121;
-    let t123 = t73 + t122;
-    let t124 = t5 * t123;
-    let t125 = t84 + t86 + t124;
-    let t126 = t125 * t2;
-    let t127 = t5 + t16;
-    let t128 = t10 * t35 * t127 * t44;
+    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
+}
+
+/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
+#[inline(always)]
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 34]) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = S::constant(c[29]);
+    let t6 = S::constant(c[14]);
+    let t8 = x[2];
+    let t9 = x[0];
+    let (t10, t11) = t9.sin_cos();
+    let t12 = x[4];
+    let t33 = S::constant(c[0]);
+    let t34 = t33 * t11 * t12;
+    let t35 = x[1];
+    let (t47, t36) = t35.sin_cos();
+    let t37 = x[5];
+    let t38 = S::constant(c[28]);
+    let t44 = S::constant(c[1]) * t36 * t37;
+    let t45 = t34 + t44;
+    let t46 = t10 * t45;
+    let t48 = S::constant(c[2]) * t11 * t12;
+    let t49 = S::constant(c[12]);
+    let t50 = S::constant(c[3]) * t36 * t37;
+    let t51 = -t50;
+    let t52 = t48 + t51;
+    let t53 = t47 * t52;
+    let t54 = t46 + t53;
+    let t55 = t8 * t54;
+    let t57 = x[3];
+    let t58 = S::constant(c[4]) * t11 * t12 * t57;
+    let t59 = t55 + t58;
+    let t60 = S::constant(c[5]) * t59;
+    let t70 = S::constant(c[6]) * t10;
+    let t71 = S::constant(c[7]) * t47;
+    let t72 = -t71;
+    let t73 = t70 + t72;
+    let t74 = -t73;
+    let t80 = S::constant(c[8]) * t11 * t12;
+    let t81 = S::constant(c[9]) * t36 * t37;
+    let t82 = t80 + t81;
+    let t83 = t8 * t74 * t82;
+    let t84 = t60 + t83;
+    let t85 = S::constant(1.0);
+    let t86 = t11.powi(2);
+    let t95 = S::constant(c[10]);
+    let t96 = t95 * t86;
+    let t98 = S::constant(c[11]) * t10 * t47;
+    let t99 = t36.powi(2);
+    let t100 = -t99;
+    let t101 = t85 + t100;
+    let t102 = t49 * t101;
+    let t105 = S::constant(c[13]) + t102;
+    let t106 = t6 * t105;
+    let t110 = S::constant(c[15]) + t96 + t98 + t106;
+    let t111 = S::constant(c[16]) * t110;
+    let t112 = t73 * t73;
+    let t113 = -t112;
+    let t114 = t111 + t113;
+    let t115 = t85 / t114;
+    let t116 = t84 * t115;
+    let t117 = t59 * t74;
+    let t118 = t8 * t82 * t110;
+    let t119 = t117 + t118;
+    let t120 = t115 * t119;
+    let t125 = S::constant(c[17]);
+    let t126 = t125 * t10;
+    let t128 = S::constant(c[18]) * t47;
     let t129 = t126 + t128;
-    let t130 = t0 * t129;
-    let t131 = t22 * t65 * t54;
+    let t130 = t8 * t129;
+    let t131 = S::constant(c[19]) * t57;
     let t132 = t130 + t131;
-    let t133 = t0 * t132;
-    let t134 = t34.powi(2);
-    let t135 = t10 * t35 * t127 * t44 * t134;
+    let t133 = t8 * t132;
+    let t134 = t37.powi(2);
+    let t135 = S::constant(c[20]) * t47 * t134;
     let t136 = t133 + t135;
-    let t137 = t3 * t136;
-    let t138 = t10 * t35 * t127 * t33 * t134;
-    let t139 = S::constant(p.g);
-    let t140 = t22 * t24;
-    let t141 = t63 + t122 + t140;
-    let t142 = t139 * t141;
+    let t137 = t11 * t136;
+    let t138 = S::constant(c[21]) * t36 * t134;
+    let t142 = S::constant(c[22]);
     let t143 = t142 + t138;
-    let t144 = t2 * t143;
-    let t145 = -t5;
-    let t146 = -t16;
-    let t147 = t145 + t146;
-    let t148 = t10 * t35 * t147 * t2 * t44;
-    let t149 = t10 * t35 * t127 * t3 * t33;
-    let t150 = t148 + t149;
-    let t151 = t0.powi(2);
-    let t152 = t10 * t35 * t127 * t151;
-    let t153 = t4.powi(2);
-    let t154 = t10 * t35 * t127 * t153;
-    let t155 = t152 + t154;
-    let t156 = t2 * t155;
-    let t157 = t35 * t0 * t44;
-    let t158 = t22 * t54;
-    let t159 = -t158;
-    let t160 = t157 + t159;
-    let t161 = t10 * t35 * t0 * t160;
-    let t162 = t156 + t161;
-    let t163 = t33 * t162;
-    let t164 = t10 * t35 * t127 * t3 * t153;
-    let t165 = t10 * t35 * t139;
-    let t166 = -t165;
-    let t167 = t166 + t164;
-    let t168 = t44 * t167;
-    let t169 = t150 / t125;
-    let t170 = t137 + t144;
-    let t171 = t169 * t170;
-    let t172 = -t171;
-    let t173 = t163 + t168 + t172;
-    let t174 = t10 * t46;
-    let t175 = t150 * t169;
-    let t176 = -t175;
-    let t177 = t174 + t176;
-    let t178 = t173 / t177;
-    let t179 = t150 * t178;
-    let t180 = -t179;
-    let t181 = t137 + t144 + t180;
-    let t182 = t181 / t125;
-    if !(t104.value() > 0.0 && t115.value() > 0.0 && t125.value() > 0.0 && t177.value() > 0.0) {
-        return Err(EvalError("A_Γ is not positive definite here (a pivot of its L D Lᵀ factorisation is not > 0)".into()));
+    let t144 = t10 * t143;
+    let t145 = t137 + t144;
+    let t146 = S::constant(c[23]) * t145;
+    let t150 = S::constant(c[24]) * t10 * t47;
+    let t151 = S::constant(c[25]) * t11 * t36;
+    let t152 = t150 + t151;
+    let t153 = -t152;
+    let t154 = t8.powi(2);
+    let t155 = S::constant(c[26]) * t154;
+    let t156 = t12.powi(2);
+    let t157 = S::constant(c[27]) * t156;
+    let t158 = t155 + t157;
+    let t159 = t10 * t158;
+    let t160 = t38 * t8 * t47;
+    let t161 = t0 * t57;
+    let t162 = -t161;
+    let t163 = t160 + t162;
+    let t164 = S::constant(c[30]) * t8 * t163;
+    let t165 = t159 + t164;
+    let t166 = t36 * t165;
+    let t167 = S::constant(c[31]) * t11 * t156;
+    let t169 = S::constant(c[32]);
+    let t170 = t169 + t167;
+    let t171 = t47 * t170;
+    let t172 = t166 + t171;
+    let t173 = t153 * t172;
+    let t174 = t146 + t173;
+    let t175 = S::constant(c[33]);
+    let t176 = t152 * t152;
+    let t177 = -t176;
+    let t178 = t175 + t177;
+    let t179 = t85 / t178;
+    let t180 = t174 * t179;
+    let t181 = t145 * t153;
+    let t182 = t125 * t172;
+    let t183 = t181 + t182;
+    let t184 = t179 * t183;
+    if !(t110.value() > 0.0 && t114.value() > 0.0 && t178.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
-    Ok([t4, t34, t120, t116, t182, t178])
+    Ok([t12, t37, t116, t120, t180, t184])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
+pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced_with(x, prep)?);
+    runtime::finite("the reduced right-hand side", dx)
+}
+
+/// [`reduced_into_with`], computing the parameter-only values first.
 pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {
     dx.copy_from_slice(&reduced(x, p)?);
     runtime::finite("the reduced right-hand side", dx)
@@ -1253,12 +1414,17 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 }
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
     let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced(&xd, p)?;
+    let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
+}
+
+/// [`reduced_jacobian_with`], computing the parameter-only values first.
+pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {
+    reduced_jacobian_with(x, &Prepared::new(p)?)
 }
 
 /// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.
