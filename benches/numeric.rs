@@ -10,6 +10,10 @@
 //!   η̇ and q̇ only, the practical limit), beside the generated `fast` called the same way
 //!   (`generated_fast`: arrays in and out, no finite check, parameter-only values computed at
 //!   each call) and `fast_with` with them prepared once (`generated_prepared`).
+//! * `rhs/<model>/<eta>/symbolica`: Symbolica's own evaluator (its default optimisation: Horner
+//!   scheme, common subexpressions) on the same solved form as the generated code, parameters
+//!   as inputs, timed on the CAS worker thread (`hamel_cas::evaluator`, criterion's
+//!   `iter_custom`).
 //! * `simulate/<model>/{full,reduced}`: 100 s with DOP853 at rtol = atol = 1e-10, the full state
 //!   (q, η) against the reduced one (kept q, η), both with the generated code.
 //!
@@ -59,6 +63,52 @@ fn rhs(c: &mut Criterion) {
                     .unwrap()
             })
         });
+        // Symbolica's own evaluator (default optimisation) on the solved form the generator
+        // wrote (parameters as inputs, like the generated code), timed on the CAS worker thread.
+        let solved = hamel_derive::derive_for_code(&model, Some(core.eta))
+            .map_err(|e| e.to_string())
+            .and_then(|d| hamel_codegen::generate(&d, &[], "bench"))
+            .expect("generates")
+            .solved;
+        let at: Vec<f64> = q
+            .iter()
+            .chain(params.values())
+            .chain(&eta)
+            .copied()
+            .collect();
+        let reference = (core.full)(&q, &eta).unwrap();
+        match hamel_cas::evaluator::SymbolicaEvaluator::build(solved.exprs, solved.inputs) {
+            Ok(sym) => {
+                let v = sym.evaluate(at.clone()).unwrap();
+                let expect: Vec<f64> = reference
+                    .eta_dot
+                    .iter()
+                    .chain(&reference.q_dot)
+                    .copied()
+                    .collect();
+                let scale = expect.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+                let err = v
+                    .iter()
+                    .zip(&expect)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+                    / scale;
+                eprintln!(
+                    "{id}: Symbolica's evaluator on `{}`{}: relative difference {err:.1e}",
+                    solved.name,
+                    if solved.used {
+                        ""
+                    } else {
+                        " (not the generated fast path)"
+                    }
+                );
+                assert!(err < 1e-9, "{id}: Symbolica's evaluator differs by {err:e}");
+                group.bench_function(format!("{id}/symbolica"), |b| {
+                    b.iter_custom(|iters| sym.time(at.clone(), iters).unwrap())
+                });
+            }
+            Err(e) => eprintln!("{id}: Symbolica's evaluator not built: {e}"),
+        }
         let (qa, ea) = (q.clone(), eta.clone());
         // The hand-written right-hand side of the same system, where there is one.
         // Beside it, the generated `fast` called the same way (arrays in and out, inlinable,

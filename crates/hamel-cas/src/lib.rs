@@ -14,6 +14,7 @@
 #![warn(missing_docs)]
 
 mod convert;
+pub mod evaluator;
 mod export;
 pub mod field;
 pub mod linalg;

@@ -40,6 +40,21 @@ pub struct Generated {
     pub ops_trees: usize,
     /// The same after sharing common subexpressions.
     pub ops_shared: usize,
+    /// The solved form written into `solved` (used by `fast` or not).
+    pub solved: SolvedForm,
+}
+
+/// A solved form as plain trees (for comparisons with other evaluators).
+#[derive(Clone, Debug)]
+pub struct SolvedForm {
+    /// The candidate's name (`Cramer's rule on block entries`, …).
+    pub name: &'static str,
+    /// Whether `fast` uses it (else the structured path).
+    pub used: bool,
+    /// η̇ (σ), then q̇ (ℓ).
+    pub exprs: Vec<Expr>,
+    /// Their inputs, in order: the coordinates, the parameters, then η (named `#eta0`, …).
+    pub inputs: Vec<String>,
 }
 
 /// Which path the generated `fast` takes, and why.
@@ -1317,6 +1332,12 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
         ],
         ops_trees,
         ops_shared,
+        solved: SolvedForm {
+            name: candidate.name,
+            used: choice.solved,
+            exprs: solved[..d.sigma + d.ell].to_vec(),
+            inputs: solved_inputs,
+        },
     })
 }
 
