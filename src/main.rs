@@ -8,6 +8,7 @@
 mod bench;
 mod codegen;
 mod output;
+mod plan;
 mod plot;
 mod simulate;
 mod state;
@@ -144,6 +145,19 @@ enum Command {
         /// Also draw the coordinates and quasi-velocities against time (FILE.svg or FILE.png).
         #[arg(long)]
         plot: Option<PathBuf>,
+    },
+    /// Plan a scene: from the outputs it requests, which coordinates are integrated,
+    /// reconstructed or dropped, and the operation count of the right-hand side (all decided
+    /// exactly).
+    Plan {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
     },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
@@ -304,6 +318,20 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                 Some(e) => Err(e),
                 None => Ok(()),
             }
+        }
+        Command::Plan {
+            scene,
+            format,
+            output,
+        } => {
+            let out = Output::new(output)?;
+            let plan = simulate::load(&scene)?.plan;
+            out.write(&match format {
+                ReportFormat::Text => plan.to_text(),
+                ReportFormat::Json => {
+                    serde_json::to_string_pretty(&plan).expect("serialisable") + "\n"
+                }
+            })
         }
         Command::Codegen {
             model,

@@ -2,14 +2,19 @@
 //!
 //! The scene names a model and a quasi-velocity choice; the equations are derived once (CAS)
 //! and evaluated by the engine-free structured evaluator; the integrators are `hamel-sim`'s.
-//! State y = (q, η). A singularity on the way (det[Z; α] → 0, A_Γ degenerate, a non-finite
-//! value) stops the run with an error naming the time and state; what was computed is written
-//! and marked incomplete.
+//! The scene's `request` decides what is integrated ([`crate::plan`]): state y = (integrated
+//! coordinates, reconstructed coordinates, η); dropped coordinates are neither integrated nor
+//! written (the equations are proven free of them; they are held at a reference value).
+//! A singularity on the way (det[Z; α] → 0, A_Γ degenerate, a non-finite value) stops the run
+//! with an error naming the time and state; what was computed is written and marked
+//! incomplete.
 
 use std::path::Path;
 use std::sync::Arc;
 
 use hamel_derive::Compiled;
+
+use crate::plan::{Plan, Request};
 use hamel_model::{Model, ModelError};
 use hamel_sim::{Method, OdeSystem, Options, Solution, SystemError};
 use indexmap::IndexMap;
@@ -27,8 +32,19 @@ struct Scene {
     #[serde(default)]
     parameters: IndexMap<String, f64>,
     initial: Initial,
-    #[serde(default)]
-    integrator: Integrator,
+    /// The outputs wanted (default: everything).
+    request: Option<Vec<String>>,
+    /// An accuracy target instead of an explicit integrator.
+    accuracy: Option<Accuracy>,
+    integrator: Option<Integrator>,
+}
+
+/// `[accuracy]`: relative and absolute error wanted on the outputs.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Accuracy {
+    rtol: f64,
+    atol: f64,
 }
 
 #[derive(Deserialize)]
@@ -45,7 +61,7 @@ struct Initial {
     eta: Vec<f64>,
 }
 
-#[derive(Deserialize)]
+#[derive(Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Integrator {
     method: String,
@@ -86,8 +102,12 @@ pub struct Trajectory {
     method: String,
     pub t: Vec<f64>,
     pub q: IndexMap<String, Vec<f64>>,
+    /// η at the output times (empty when not requested).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub eta: Vec<Vec<f64>>,
-    energy: Vec<Option<f64>>,
+    /// The energy (absent when not requested).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    energy: Option<Vec<Option<f64>>>,
     stats: StatsOut,
     pub complete: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -109,17 +129,34 @@ struct System<'a> {
     names: &'a [String],
     ell: usize,
     sigma: usize,
+    /// The coordinates in the state (integrated, then reconstructed), model indices.
+    state: Vec<usize>,
+    /// The value at which the dropped coordinates are held (the equations are free of them).
+    reference: f64,
+    /// Whether the energy and the constraint residual are computed (requested).
+    energy: bool,
+    residual: bool,
     /// The sign of δ = det[Z; α] at the start: a path that changes it crosses the singular set.
     delta_sign: f64,
     numeric: hamel_model::NumericModel<'a>,
 }
 
 impl System<'_> {
+    /// The full coordinates at state y: the state's, the dropped ones at the reference value.
+    fn full_q<T: Copy>(&self, y: &[T], reference: T) -> Vec<T> {
+        let mut q = vec![reference; self.ell];
+        for (i, &k) in self.state.iter().enumerate() {
+            q[k] = y[i];
+        }
+        q
+    }
+
     fn at(&self, y: &[f64]) -> Result<hamel_derive::Evaluation, SystemError> {
-        let (q, eta) = y.split_at(self.ell);
+        let (qs, eta) = y.split_at(self.state.len());
+        let q = self.full_q(qs, self.reference);
         let result = self
             .compiled
-            .evaluate(q, eta, &self.params)
+            .evaluate(&q, eta, &self.params)
             .and_then(|e| {
                 if e.delta.signum() == self.delta_sign {
                     Ok(e)
@@ -132,10 +169,10 @@ impl System<'_> {
             });
         result.map_err(|e| {
             let at: Vec<String> = self
-                .names
+                .state
                 .iter()
-                .zip(q)
-                .map(|(n, v)| format!("{n} = {v:.6}"))
+                .zip(qs)
+                .map(|(&k, v)| format!("{} = {v:.6}", self.names[k]))
                 .chain(
                     eta.iter()
                         .enumerate()
@@ -149,40 +186,53 @@ impl System<'_> {
 
 impl OdeSystem for System<'_> {
     fn dim(&self) -> usize {
-        self.ell + self.sigma
+        self.state.len() + self.sigma
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
         let e = self.at(y)?;
-        dy[..self.ell].copy_from_slice(&e.q_dot);
-        dy[self.ell..].copy_from_slice(&e.eta_dot);
+        let n = self.state.len();
+        for (i, &k) in self.state.iter().enumerate() {
+            dy[i] = e.q_dot[k];
+        }
+        dy[n..].copy_from_slice(&e.eta_dot);
         Ok(())
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
+        if !self.energy {
+            return None;
+        }
         self.at(y).ok().map(|e| e.energy)
     }
     /// ‖α(q) q̇‖∞ with q̇ = Γη, from the model's own α (hamel-sim reports its maximum over the
-    /// outputs as the constraint drift).
+    /// outputs as the constraint drift). Requested, it keeps every coordinate in the state.
     fn constraint_residual(&self, _t: f64, y: &[f64]) -> Option<f64> {
+        if !self.residual {
+            return None;
+        }
         let e = self.at(y).ok()?;
-        hamel_oracle::constraint_residual(&self.numeric, &y[..self.ell], &e.q_dot).ok()
+        let q = self.full_q(&y[..self.state.len()], self.reference);
+        hamel_oracle::constraint_residual(&self.numeric, &q, &e.q_dot).ok()
     }
     /// Exact Jacobian: the structured right-hand side over dual numbers, one column per
     /// state component (used by the implicit Gauss–Legendre method).
     fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
         use hamel_expr::Dual;
         let n = y.len();
+        let ns = self.state.len();
         for j in 0..n {
             let yd: Vec<Dual> = y
                 .iter()
                 .enumerate()
                 .map(|(i, &v)| Dual::new(v, if i == j { 1.0 } else { 0.0 }))
                 .collect();
-            let (q, eta) = yd.split_at(self.ell);
-            let r = match self.compiled.rhs::<Dual>(q, eta, &self.params) {
+            let (qs, eta) = yd.split_at(ns);
+            let q = self.full_q(qs, Dual::new(self.reference, 0.0));
+            let r = match self.compiled.rhs::<Dual>(&q, eta, &self.params) {
                 Ok(r) => r,
                 Err(e) => return Some(Err(SystemError::new(format!("at t = {t}: {e}")))),
             };
-            for (i, v) in r.q_dot.iter().chain(&r.eta_dot).enumerate() {
+            let rates = self.state.iter().map(|&k| &r.q_dot[k]);
+            for (i, v) in rates.chain(&r.eta_dot).enumerate() {
                 if !v.d.is_finite() {
                     return Some(Err(SystemError::new(format!(
                         "at t = {t}: the Jacobian is not finite"
@@ -195,8 +245,22 @@ impl OdeSystem for System<'_> {
     }
 }
 
-/// Run the scene; returns the trajectory (possibly incomplete) and, on failure, the error.
-pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelError> {
+/// A scene read and checked, with its derivation and plan.
+pub struct Loaded {
+    scene: Scene,
+    compiled: Compiled,
+    model: Model,
+    d: hamel_derive::Derivation,
+    request: Request,
+    /// What is integrated, reconstructed, dropped.
+    pub plan: Plan,
+    /// The integrator: its name, method and options.
+    integrator: (String, Method, Options),
+    err: Box<dyn Fn(Option<&str>, String) -> ModelError>,
+}
+
+/// Read a scene, derive its equations and plan what to integrate (`hamel plan`).
+pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
     let name = scene_path.display().to_string();
     let text = std::fs::read_to_string(scene_path).map_err(|e| {
         ModelError::new(
@@ -208,11 +272,19 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
         )
     })?;
     let source = Arc::new(text.clone());
-    let err = |span: Option<std::ops::Range<usize>>, key: Option<&str>, m: String| {
-        ModelError::new(&name, source.clone(), span, key, m)
+    let scene: Scene = toml::from_str(&text).map_err(|e| {
+        ModelError::new(
+            &name,
+            source.clone(),
+            e.span(),
+            None,
+            e.message().to_string(),
+        )
+    })?;
+    let err = {
+        let (name, source) = (name.clone(), source.clone());
+        move |key: Option<&str>, m: String| ModelError::new(&name, source.clone(), None, key, m)
     };
-    let scene: Scene =
-        toml::from_str(&text).map_err(|e| err(e.span(), None, e.message().to_string()))?;
     let model_path = scene_path
         .parent()
         .unwrap_or(Path::new("."))
@@ -220,67 +292,31 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
     let model = Model::load(&model_path)?;
     let choice = model.choice(scene.eta.as_deref())?.name.clone();
     let d = hamel_derive::derive(&model, Some(&choice))?;
-    let compiled = d
-        .compile()
-        .map_err(|e| err(None, Some("eta"), e.to_string()))?;
-    let params = d
-        .parameters_with(&scene.parameters)
-        .map_err(|e| err(None, Some("parameters"), e.to_string()))?;
-    let mut y0 = Vec::new();
-    for c in &d.coordinates {
-        y0.push(
-            *scene
-                .initial
-                .q
-                .get(c)
-                .ok_or_else(|| err(None, Some("initial.q"), format!("missing coordinate `{c}`")))?,
-        );
-    }
-    if let Some(extra) = scene.initial.q.keys().find(|k| !d.coordinates.contains(k)) {
-        return Err(err(
-            None,
-            Some("initial.q"),
-            format!("`{extra}` is not a coordinate of the model"),
-        ));
-    }
-    if scene.initial.eta.len() != d.sigma {
-        return Err(err(
-            None,
-            Some("initial.eta"),
-            format!(
-                "needs σ = {} values, found {}",
-                d.sigma,
-                scene.initial.eta.len()
-            ),
-        ));
-    }
-    y0.extend(&scene.initial.eta);
-    if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
-        return Err(err(
-            None,
-            Some("t_end"),
-            "t_end must be finite and differ from t0".into(),
-        ));
-    }
-    let times: Vec<f64> = match &scene.outputs {
-        Outputs::Count(n) if *n >= 2 => (0..*n)
-            .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
-            .collect(),
-        Outputs::Count(n) => {
+    let request = match &scene.request {
+        Some(names) => Request::parse(names, &d).map_err(|m| err(Some("request"), m))?,
+        None => Request::everything(d.ell),
+    };
+    // `[accuracy]` stands for DOP853 at those tolerances (until `hamel tradeoff` recommends).
+    let i = match (&scene.integrator, &scene.accuracy) {
+        (Some(_), Some(_)) => {
             return Err(err(
-                None,
-                Some("outputs"),
-                format!("needs at least 2 output times, got {n}"),
+                Some("accuracy"),
+                "give either [accuracy] (a target) or [integrator] (a method), not both".into(),
             ));
         }
-        Outputs::Times(t) => t.clone(),
+        (Some(i), None) => i.clone(),
+        (None, Some(a)) => Integrator {
+            rtol: a.rtol,
+            atol: a.atol,
+            ..Integrator::default()
+        },
+        (None, None) => Integrator::default(),
     };
-    let i = &scene.integrator;
     let method = match i.method.as_str() {
         "rk4" => Method::Rk4 {
             step: i
                 .step
-                .ok_or_else(|| err(None, Some("integrator.step"), "rk4 needs a step".into()))?,
+                .ok_or_else(|| err(Some("integrator.step"), "rk4 needs a step".into()))?,
         },
         "dopri5" => Method::Dopri5,
         "dop853" => Method::Dop853,
@@ -290,7 +326,6 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
         },
         other => {
             return Err(err(
-                None,
                 Some("integrator.method"),
                 format!("unknown method `{other}` (rk4, dopri5, dop853, gauss-legendre)"),
             ));
@@ -302,18 +337,124 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
         max_steps: i.max_steps.unwrap_or(Options::default().max_steps),
         ..Options::default()
     };
-    let delta0 = compiled
-        .evaluate(&y0[..d.ell], &y0[d.ell..], &params)
-        .map_err(|e| err(None, Some("initial"), e.to_string()))?
-        .delta;
+    let compiled = d.compile().map_err(|e| err(Some("eta"), e.to_string()))?;
+    let plan = crate::plan::plan(&model, &d, &request)?;
+    Ok(Loaded {
+        compiled,
+        scene,
+        model,
+        d,
+        request,
+        plan,
+        integrator: (i.method.clone(), method, options),
+        err: Box::new(err),
+    })
+}
+
+/// Run the scene; returns the trajectory (possibly incomplete) and, on failure, the error.
+pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelError> {
+    let Loaded {
+        scene,
+        compiled,
+        model,
+        d,
+        request,
+        plan,
+        integrator: (method_name, method, options),
+        err,
+    } = load(scene_path)?;
+    let params = d
+        .parameters_with(&scene.parameters)
+        .map_err(|e| err(Some("parameters"), e.to_string()))?;
+    let mut q0 = Vec::new();
+    for c in &d.coordinates {
+        q0.push(
+            *scene
+                .initial
+                .q
+                .get(c)
+                .ok_or_else(|| err(Some("initial.q"), format!("missing coordinate `{c}`")))?,
+        );
+    }
+    if let Some(extra) = scene.initial.q.keys().find(|k| !d.coordinates.contains(k)) {
+        return Err(err(
+            Some("initial.q"),
+            format!("`{extra}` is not a coordinate of the model"),
+        ));
+    }
+    if scene.initial.eta.len() != d.sigma {
+        return Err(err(
+            Some("initial.eta"),
+            format!(
+                "needs σ = {} values, found {}",
+                d.sigma,
+                scene.initial.eta.len()
+            ),
+        ));
+    }
+    if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
+        return Err(err(
+            Some("t_end"),
+            "t_end must be finite and differ from t0".into(),
+        ));
+    }
+    let times: Vec<f64> = match &scene.outputs {
+        Outputs::Count(n) if *n >= 2 => (0..*n)
+            .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
+            .collect(),
+        Outputs::Count(n) => {
+            return Err(err(
+                Some("outputs"),
+                format!("needs at least 2 output times, got {n}"),
+            ));
+        }
+        Outputs::Times(t) => t.clone(),
+    };
+    let state: Vec<usize> = plan
+        .integrated_ix
+        .iter()
+        .chain(&plan.reconstructed_ix)
+        .copied()
+        .collect();
+    // The dropped coordinates are held at a reference value where the equations evaluate at
+    // the initial state (they are free of them; [Z; α] may still be singular at some values).
+    let references: &[f64] = if plan.dropped_ix.is_empty() {
+        &[0.0]
+    } else {
+        &[0.5, 1.25, 2.0]
+    };
+    let (mut start, mut last) = (None, String::new());
+    for &reference in references {
+        let mut q = q0.clone();
+        for &k in &plan.dropped_ix {
+            q[k] = reference;
+        }
+        match compiled.evaluate(&q, &scene.initial.eta, &params) {
+            Ok(e) => {
+                start = Some((reference, e.delta));
+                break;
+            }
+            Err(e) => last = e.to_string(),
+        }
+    }
+    let (reference, delta0) = start.ok_or_else(|| err(Some("initial"), last))?;
+    let y0: Vec<f64> = state
+        .iter()
+        .map(|&k| q0[k])
+        .chain(scene.initial.eta.iter().copied())
+        .collect();
     let numeric = hamel_model::NumericModel::new(&model, &params)
-        .map_err(|e| err(None, Some("parameters"), e.to_string()))?;
+        .map_err(|e| err(Some("parameters"), e.to_string()))?;
     let system = System {
         compiled: &compiled,
         params,
         names: &d.coordinates,
         ell: d.ell,
         sigma: d.sigma,
+        state: state.clone(),
+        reference,
+        energy: request.energy,
+        residual: request.constraint_residual,
         delta_sign: delta0.signum(),
         numeric,
     };
@@ -321,22 +462,40 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
         match hamel_sim::integrate(&system, method, scene.t0, &y0, &times, &options) {
             Ok(s) => (s, None),
             Err(e) => {
-                let m = err(None, Some("integrator"), e.to_string());
+                let m = err(Some("integrator"), e.to_string());
                 (*e.partial, Some(m))
             }
         };
+    let n = state.len();
     let traj = Trajectory {
         model: d.model.clone(),
         eta_name: d.eta_name.clone(),
-        method: i.method.clone(),
+        method: method_name,
         t: solution.t.clone(),
-        q: d.coordinates
+        q: request
+            .coordinates
             .iter()
-            .enumerate()
-            .map(|(k, c)| (c.clone(), solution.y.iter().map(|y| y[k]).collect()))
+            .map(|&k| {
+                let i = state
+                    .iter()
+                    .position(|&s| s == k)
+                    .expect("requested ⊆ state");
+                (
+                    d.coordinates[k].clone(),
+                    solution.y.iter().map(|y| y[i]).collect(),
+                )
+            })
             .collect(),
-        eta: solution.y.iter().map(|y| y[d.ell..].to_vec()).collect(),
-        energy: solution.energy.clone(),
+        eta: if request.eta {
+            solution.y.iter().map(|y| y[n..].to_vec()).collect()
+        } else {
+            Vec::new()
+        },
+        energy: if request.energy {
+            Some(solution.energy.clone())
+        } else {
+            None
+        },
         stats: StatsOut {
             steps: solution.stats.steps,
             rejected: solution.stats.rejected,
@@ -379,14 +538,20 @@ impl Trajectory {
         let mut header = vec!["t".to_string()];
         header.extend(self.q.keys().cloned());
         header.extend((1..=sigma).map(|i| format!("eta{i}")));
-        header.push("energy".into());
+        if self.energy.is_some() {
+            header.push("energy".into());
+        }
         o.push_str(&header.join(","));
         o.push('\n');
         for (j, t) in self.t.iter().enumerate() {
             let mut row = vec![format!("{t:e}")];
             row.extend(self.q.values().map(|v| format!("{:e}", v[j])));
-            row.extend(self.eta[j].iter().map(|v| format!("{v:e}")));
-            row.push(self.energy[j].map_or(String::new(), |e| format!("{e:e}")));
+            if let Some(eta) = self.eta.get(j) {
+                row.extend(eta.iter().map(|v| format!("{v:e}")));
+            }
+            if let Some(energy) = &self.energy {
+                row.push(energy[j].map_or(String::new(), |e| format!("{e:e}")));
+            }
             o.push_str(&row.join(","));
             o.push('\n');
         }

@@ -766,3 +766,152 @@ fn codegen_with_simulator_integrates_the_knife_without_the_cas() {
     assert_eq!(q.keys().collect::<Vec<_>>(), vec!["theta"]);
     assert!((v["q"]["theta"][10].as_f64().unwrap() - th).abs() < 1e-9);
 }
+
+/// A knife scene with the given extra top-level lines and tables (model path absolute).
+fn knife_scene(dir: &Path, name: &str, top: &str, tables: &str) -> PathBuf {
+    let scene = dir.join(name);
+    std::fs::write(
+        &scene,
+        format!(
+            "model = {:?}\neta = \"paper\"\nt_end = 4.0\noutputs = 9\n{top}\n\
+             [initial]\nq = {{ x = 0.0, y = 0.0, theta = 0.3 }}\neta = [1.0, 0.5]\n{tables}",
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("models/knife.toml")
+                .display()
+                .to_string()
+        ),
+    )
+    .unwrap();
+    scene
+}
+
+#[test]
+fn plan_integrates_only_what_the_scene_requests() {
+    let dir = scratch("plan");
+    let plan = |top: &str| {
+        let scene = knife_scene(&dir, "k.toml", top, "");
+        let o = hamel(&["plan", scene.to_str().unwrap(), "--format", "json"], None);
+        assert!(o.status.success(), "{}", stderr(&o));
+        json_on_stdout(&o)
+    };
+    let names = |v: &serde_json::Value| -> Vec<String> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s.as_str().unwrap().to_string())
+            .collect()
+    };
+    // The knife's equations (η̇ = 0) contain no coordinate: only η is integrated.
+    let p = plan("request = [\"theta\", \"eta\"]");
+    assert_eq!(names(&p["integrated"]), ["eta1", "eta2"]);
+    assert_eq!(names(&p["reconstructed"]), ["theta"]);
+    assert_eq!(names(&p["dropped"]), ["x", "y"]);
+    assert_eq!(p["eta"], "paper");
+    assert!(p["ops"].as_u64().unwrap() < p["ops_full"].as_u64().unwrap());
+    // x needs θ (ẋ = η1 cos θ): both are reconstructed, y is dropped.
+    let p = plan("request = [\"x\"]");
+    assert_eq!(names(&p["reconstructed"]), ["x", "theta"]);
+    assert_eq!(names(&p["dropped"]), ["y"]);
+    // Everything by default.
+    let p = plan("");
+    assert_eq!(names(&p["reconstructed"]), ["x", "y", "theta"]);
+    assert!(names(&p["dropped"]).is_empty());
+    // The unicycle's dynamics need θ and θ1; asking for θ alone drops the rolling coordinates.
+    let scene = dir.join("u.toml");
+    std::fs::write(
+        &scene,
+        std::fs::read_to_string("scenes/unicycle_rider.toml")
+            .unwrap()
+            .replace(
+                "../models/",
+                &format!("{}/models/", env!("CARGO_MANIFEST_DIR")),
+            )
+            .replace("[initial]", "request = [\"theta\"]\n[initial]"),
+    )
+    .unwrap();
+    let o = hamel(&["plan", scene.to_str().unwrap(), "--format", "json"], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = json_on_stdout(&o);
+    assert_eq!(
+        names(&p["integrated"]),
+        ["theta", "theta1", "eta1", "eta2", "eta3", "eta4"]
+    );
+    assert!(names(&p["reconstructed"]).is_empty());
+    assert_eq!(names(&p["dropped"]), ["xC", "yC", "phi", "psi"]);
+}
+
+#[test]
+fn simulate_with_a_request_writes_only_that_and_agrees_with_the_closed_form() {
+    let dir = scratch("simulate_request");
+    let scene = knife_scene(
+        &dir,
+        "k.toml",
+        "request = [\"theta\"]",
+        "[accuracy]\nrtol = 1e-11\natol = 1e-12\n",
+    );
+    let file = dir.join("k.json");
+    let o = hamel(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--format",
+            "json",
+            "--output",
+            file.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let q = v["q"].as_object().unwrap();
+    assert_eq!(q.keys().collect::<Vec<_>>(), ["theta"]);
+    assert!(v.get("eta").is_none() && v.get("energy").is_none(), "{v}");
+    for (j, t) in v["t"].as_array().unwrap().iter().enumerate() {
+        let th = 0.3 + 0.5 * t.as_f64().unwrap();
+        assert!((v["q"]["theta"][j].as_f64().unwrap() - th).abs() < 1e-9);
+    }
+    // CSV: the header names only what was requested.
+    let o = hamel(&["simulate", scene.to_str().unwrap()], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("\nt,theta\n"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+}
+
+#[test]
+fn a_bad_request_or_accuracy_is_an_error_naming_the_scene() {
+    let dir = scratch("simulate_bad_request");
+    let out = dir.join("out.csv");
+    for (top, tables, expect) in [
+        (
+            "request = [\"speed\"]",
+            "",
+            "`speed` is not an output of this scene",
+        ),
+        (
+            "",
+            "[accuracy]\nrtol = 1e-8\natol = 1e-10\n[integrator]\nmethod = \"rk4\"\nstep = 0.1\n",
+            "not both",
+        ),
+    ] {
+        let scene = knife_scene(&dir, "bad.toml", top, tables);
+        for cmd in ["plan", "simulate"] {
+            let o = hamel(
+                &[
+                    cmd,
+                    scene.to_str().unwrap(),
+                    "--output",
+                    out.to_str().unwrap(),
+                ],
+                None,
+            );
+            assert_eq!(o.status.code(), Some(1), "{cmd} {top} {tables}");
+            assert!(stderr(&o).contains(expect), "{}", stderr(&o));
+            assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
+            assert!(!out.exists(), "no output for a bad scene");
+        }
+    }
+}
