@@ -58,7 +58,11 @@ enum Outputs {
 #[serde(deny_unknown_fields)]
 struct Initial {
     q: IndexMap<String, f64>,
-    eta: Vec<f64>,
+    /// The quasi-velocities η, or else:
+    eta: Option<Vec<f64>>,
+    /// The velocities q̇, projected onto the constraints (kinetic metric) with the correction
+    /// reported.
+    q_dot: Option<IndexMap<String, f64>>,
 }
 
 #[derive(Clone, Deserialize)]
@@ -110,6 +114,9 @@ pub struct Trajectory {
     energy: Option<Vec<Option<f64>>>,
     stats: StatsOut,
     pub complete: bool,
+    /// When the initial velocities were given as q̇: their projection onto the constraints.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    initial_projection: Option<Projection>,
     #[serde(skip_serializing_if = "Option::is_none")]
     error: Option<String>,
 }
@@ -351,6 +358,97 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
     })
 }
 
+/// The initial quasi-velocities: `eta` as given, or η = Z(q)w for the given q̇ projected onto
+/// the constraints in the kinetic metric (w, [`hamel_oracle::project_kinetic`]), with the
+/// projection's report. Errors: (the scene key, the reason).
+fn initial_eta(
+    initial: &Initial,
+    d: &hamel_derive::Derivation,
+    numeric: &hamel_model::NumericModel<'_>,
+    q: &[f64],
+) -> Result<(Vec<f64>, Option<Projection>), (&'static str, String)> {
+    match (&initial.eta, &initial.q_dot) {
+        (Some(eta), None) if eta.len() == d.sigma => Ok((eta.clone(), None)),
+        (Some(eta), None) => Err((
+            "initial.eta",
+            format!("needs σ = {} values, found {}", d.sigma, eta.len()),
+        )),
+        (None, Some(v)) => {
+            if let Some(extra) = v.keys().find(|k| !d.coordinates.contains(k)) {
+                return Err((
+                    "initial.q_dot",
+                    format!("`{extra}` is not a coordinate of the model"),
+                ));
+            }
+            let v: Vec<f64> = d
+                .coordinates
+                .iter()
+                .map(|c| {
+                    v.get(c).copied().ok_or((
+                        "initial.q_dot",
+                        format!("missing the velocity of `{c}` (give every coordinate's)"),
+                    ))
+                })
+                .collect::<Result<_, _>>()?;
+            let w =
+                hamel_oracle::project_kinetic(numeric, q, &v).map_err(|e| ("initial.q_dot", e))?;
+            let kinetic = |x: &[f64]| -> Result<f64, (&'static str, String)> {
+                let a = numeric
+                    .mass_matrix::<f64>(q)
+                    .map_err(|e| ("initial.q", e.to_string()))?;
+                Ok(0.5
+                    * (0..x.len())
+                        .map(|i| (0..x.len()).map(|j| x[i] * a[i][j] * x[j]).sum::<f64>())
+                        .sum::<f64>())
+            };
+            let z = numeric
+                .quasi_velocity_matrix::<f64>(&d.eta_name, q)
+                .map_err(|e| ("initial.q", e.to_string()))?;
+            let eta = z
+                .iter()
+                .map(|row| row.iter().zip(&w).map(|(a, b)| a * b).sum())
+                .collect();
+            let projection = Projection {
+                q_dot: d
+                    .coordinates
+                    .iter()
+                    .cloned()
+                    .zip(w.iter().copied())
+                    .collect(),
+                correction: v
+                    .iter()
+                    .zip(&w)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max),
+                kinetic_before: kinetic(&v)?,
+                kinetic_after: kinetic(&w)?,
+            };
+            Ok((eta, Some(projection)))
+        }
+        (Some(_), Some(_)) => Err((
+            "initial",
+            "give the initial velocities as `eta` or as `q_dot`, not both".into(),
+        )),
+        (None, None) => Err((
+            "initial",
+            "give the initial velocities as `eta = [...]` (σ values) or `q_dot = { ... }`".into(),
+        )),
+    }
+}
+
+/// How given initial velocities were made admissible.
+#[derive(Clone, Debug, Serialize)]
+pub struct Projection {
+    /// The admissible velocities used (α(q)q̇ = 0).
+    pub q_dot: IndexMap<String, f64>,
+    /// max |q̇ given − q̇ used|.
+    pub correction: f64,
+    /// Kinetic energy of the given velocities.
+    pub kinetic_before: f64,
+    /// Kinetic energy of the ones used (never more).
+    pub kinetic_after: f64,
+}
+
 /// Run the scene; returns the trajectory (possibly incomplete) and, on failure, the error.
 pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelError> {
     let Loaded {
@@ -382,16 +480,10 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
             format!("`{extra}` is not a coordinate of the model"),
         ));
     }
-    if scene.initial.eta.len() != d.sigma {
-        return Err(err(
-            Some("initial.eta"),
-            format!(
-                "needs σ = {} values, found {}",
-                d.sigma,
-                scene.initial.eta.len()
-            ),
-        ));
-    }
+    let numeric = hamel_model::NumericModel::new(&model, &params)
+        .map_err(|e| err(Some("parameters"), e.to_string()))?;
+    let (eta0, projection) =
+        initial_eta(&scene.initial, &d, &numeric, &q0).map_err(|(key, m)| err(Some(key), m))?;
     if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
         return Err(err(
             Some("t_end"),
@@ -429,7 +521,7 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
         for &k in &plan.dropped_ix {
             q[k] = reference;
         }
-        match compiled.evaluate(&q, &scene.initial.eta, &params) {
+        match compiled.evaluate(&q, &eta0, &params) {
             Ok(e) => {
                 start = Some((reference, e.delta));
                 break;
@@ -441,10 +533,8 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
     let y0: Vec<f64> = state
         .iter()
         .map(|&k| q0[k])
-        .chain(scene.initial.eta.iter().copied())
+        .chain(eta0.iter().copied())
         .collect();
-    let numeric = hamel_model::NumericModel::new(&model, &params)
-        .map_err(|e| err(Some("parameters"), e.to_string()))?;
     let system = System {
         compiled: &compiled,
         params,
@@ -504,6 +594,7 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
             constraint_drift: solution.stats.constraint_drift,
         },
         complete: failure.is_none() && solution.complete,
+        initial_projection: projection,
         error: failure.as_ref().map(|e| e.message().to_string()),
     };
     Ok((traj, failure))
@@ -525,7 +616,16 @@ impl Trajectory {
             s.constraint_drift
                 .map_or("n/a".into(), |x| format!("{x:.2e}")),
             if self.complete { "" } else { "; INCOMPLETE" }
-        )
+        ) + self
+            .initial_projection
+            .as_ref()
+            .map_or(String::new(), |p| {
+                format!(
+                    "\ninitial velocities projected onto the constraints: max |Δq̇| = {:.3e}, kinetic energy {:.6e} → {:.6e}",
+                    p.correction, p.kinetic_before, p.kinetic_after
+                )
+            })
+            .as_str()
     }
 
     /// CSV: t, the coordinates, eta1…, energy (a `# incomplete` comment first when cut short).

@@ -767,21 +767,22 @@ fn codegen_with_simulator_integrates_the_knife_without_the_cas() {
     assert!((v["q"]["theta"][10].as_f64().unwrap() - th).abs() < 1e-9);
 }
 
-/// A knife scene with the given extra top-level lines and tables (model path absolute).
+/// The text of a knife scene with the given extra top-level lines (model path absolute).
+fn knife_scene_text(top: &str) -> String {
+    format!(
+        "model = {:?}\neta = \"paper\"\nt_end = 4.0\noutputs = 9\n{top}\n\
+         [initial]\nq = {{ x = 0.0, y = 0.0, theta = 0.3 }}\neta = [1.0, 0.5]\n",
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models/knife.toml")
+            .display()
+            .to_string()
+    )
+}
+
+/// A knife scene file with the given extra top-level lines and tables.
 fn knife_scene(dir: &Path, name: &str, top: &str, tables: &str) -> PathBuf {
     let scene = dir.join(name);
-    std::fs::write(
-        &scene,
-        format!(
-            "model = {:?}\neta = \"paper\"\nt_end = 4.0\noutputs = 9\n{top}\n\
-             [initial]\nq = {{ x = 0.0, y = 0.0, theta = 0.3 }}\neta = [1.0, 0.5]\n{tables}",
-            Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("models/knife.toml")
-                .display()
-                .to_string()
-        ),
-    )
-    .unwrap();
+    std::fs::write(&scene, knife_scene_text(top) + tables).unwrap();
     scene
 }
 
@@ -913,5 +914,85 @@ fn a_bad_request_or_accuracy_is_an_error_naming_the_scene() {
             assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
             assert!(!out.exists(), "no output for a bad scene");
         }
+    }
+}
+
+/// Initial velocities given as q̇ are projected onto the constraints in the kinetic metric (for
+/// the knife: the sideways component of the velocity of the contact point is removed, θ̇ is
+/// kept), the correction is reported, and the run starts from η = Z q̇.
+#[test]
+fn simulate_projects_initial_velocities_given_as_q_dot() {
+    let dir = scratch("simulate_q_dot");
+    let scene = dir.join("k.toml");
+    std::fs::write(
+        &scene,
+        knife_scene_text("request = [\"x\", \"y\", \"theta\"]").replace(
+            "eta = [1.0, 0.5]",
+            "q_dot = { x = 1.0, y = 0.5, theta = 0.5 }",
+        ),
+    )
+    .unwrap();
+    let file = dir.join("k.json");
+    let o = hamel(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--format",
+            "json",
+            "--output",
+            file.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("projected onto the constraints"),
+        "{}",
+        stderr(&o)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let p = &v["initial_projection"];
+    let (s, c) = 0.3f64.sin_cos();
+    let side = s * 1.0 - c * 0.5; // n·v with n = (sin θ, −cos θ)
+    let expect = [1.0 - side * s, 0.5 + side * c, 0.5];
+    for (k, name) in ["x", "y", "theta"].iter().enumerate() {
+        assert!(
+            (p["q_dot"][name].as_f64().unwrap() - expect[k]).abs() < 1e-12,
+            "{p}"
+        );
+    }
+    assert!(
+        (p["correction"].as_f64().unwrap() - side.abs() * c).abs() < 1e-12,
+        "{p}"
+    );
+    assert!(p["kinetic_after"].as_f64().unwrap() < p["kinetic_before"].as_f64().unwrap());
+    // The forward speed is the tangential one: x = u (sin θ − sin 0.3)/θ̇ …
+    let u = c * 1.0 + s * 0.5;
+    for (j, t) in v["t"].as_array().unwrap().iter().enumerate() {
+        let th = 0.3 + 0.5 * t.as_f64().unwrap();
+        let at = |n: &str| v["q"][n][j].as_f64().unwrap();
+        assert!((at("theta") - th).abs() < 1e-9);
+        assert!((at("x") - 2.0 * u * (th.sin() - s)).abs() < 1e-8);
+        assert!((at("y") + 2.0 * u * (th.cos() - c)).abs() < 1e-8);
+    }
+    // Both, or neither, is an error.
+    for (body, expect) in [
+        (
+            knife_scene_text("").replace(
+                "eta = [1.0, 0.5]",
+                "eta = [1.0, 0.5]\nq_dot = { x = 1.0, y = 0.0, theta = 0.0 }",
+            ),
+            "not both",
+        ),
+        (
+            knife_scene_text("").replace("eta = [1.0, 0.5]", "q_dot = { x = 1.0, theta = 0.0 }"),
+            "missing the velocity of `y`",
+        ),
+    ] {
+        std::fs::write(&scene, body).unwrap();
+        let o = hamel(&["simulate", scene.to_str().unwrap()], None);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(stderr(&o).contains(expect), "{}", stderr(&o));
     }
 }

@@ -15,7 +15,8 @@
 //! accurate than what it checks.
 //!
 //! **Inputs**: a [`hamel_model::NumericModel`] and a state (q, q̇) with α(q)q̇ = 0.
-//! **Outputs**: q̈ and the multipliers λ; projection of velocities onto the constraints.
+//! **Outputs**: q̈ and the multipliers λ; projection of velocities onto the constraints
+//! (Euclidean, or in the kinetic metric for initial conditions given as q̇).
 #![warn(missing_docs)]
 
 use hamel_expr::{Dual, Scalar, solve};
@@ -123,6 +124,36 @@ pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, 
         .ok_or_else(|| "α has dependent rows at this configuration".to_string())?;
     let out = vv - al.transpose() * y;
     Ok(out.iter().copied().collect())
+}
+
+/// Project a velocity onto the constraints in the kinetic metric: the admissible w closest to
+/// v in ½(w − v)ᵀA(w − v), i.e. the velocity just after the constraints act impulsively
+/// (Gauss), from [A αᵀ; α 0][w; μ] = [A v; 0]. Unlike [`project`] it does not mix units
+/// (lengths and angles), and it never raises the kinetic energy.
+pub fn project_kinetic(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, String> {
+    let alpha = nm.constraint_matrix::<f64>(q).map_err(err)?;
+    let a = nm.mass_matrix::<f64>(q).map_err(err)?;
+    let (ell, mu) = (q.len(), alpha.len());
+    let n = ell + mu;
+    let mut m = vec![vec![0.0; n]; n];
+    let mut rhs = vec![0.0; n];
+    for i in 0..ell {
+        for j in 0..ell {
+            m[i][j] = a[i][j];
+            rhs[i] += a[i][j] * v[j];
+        }
+    }
+    for (r, row) in alpha.iter().enumerate() {
+        for j in 0..ell {
+            m[ell + r][j] = row[j];
+            m[j][ell + r] = row[j];
+        }
+    }
+    let sol = solve(m, rhs).ok_or_else(|| {
+        "the constraints cannot be applied here (A is singular on them, or α has dependent rows)"
+            .to_string()
+    })?;
+    Ok(sol[..ell].to_vec())
 }
 
 /// Residual ‖α(q) q̇‖∞.
