@@ -12,6 +12,7 @@ mod plan;
 mod plot;
 mod simulate;
 mod state;
+mod tradeoff;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -159,6 +160,22 @@ enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
+    /// Measure the speed–accuracy trade on a scene: every integrator over a range of
+    /// tolerances and fixed steps against a DOP853 reference at 1e-14; error on the requested
+    /// outputs, time, RHS evaluations, drifts; the fastest setting that meets the target.
+    Tradeoff {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Also draw the work–precision diagram (FILE.svg or FILE.png).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
     Search {
@@ -295,12 +312,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             plot,
         } => {
             let out = Output::new(output)?;
-            let plot_error = |p: &std::path::Path, m: String| {
-                ModelError::new(&p.display().to_string(), Default::default(), None, None, m)
-            };
-            if let Some(p) = &plot {
-                plot::check(p).map_err(|m| plot_error(p, m))?;
-            }
+            plot::check(plot.as_deref())?;
             let (traj, failure) = simulate::run(&scene)?;
             let text = match format {
                 TrajectoryFormat::Csv => traj.to_csv(),
@@ -311,7 +323,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             // A failure during the integration keeps what was computed, marked incomplete.
             out.write(&text)?;
             if let Some(p) = &plot {
-                plot::write(p, &traj).map_err(|m| plot_error(p, m))?;
+                plot::write(p, &traj)?;
             }
             eprintln!("{}", traj.summary());
             match failure {
@@ -332,6 +344,27 @@ fn run(cli: Cli) -> Result<(), ModelError> {
                     serde_json::to_string_pretty(&plan).expect("serialisable") + "\n"
                 }
             })
+        }
+        Command::Tradeoff {
+            scene,
+            format,
+            output,
+            plot,
+        } => {
+            let out = Output::new(output)?;
+            plot::check(plot.as_deref())?;
+            let loaded = simulate::load(&scene)?;
+            let table = tradeoff::table(&loaded, tradeoff::Range::All)?;
+            out.write(&match format {
+                ReportFormat::Text => table.to_text(),
+                ReportFormat::Json => {
+                    serde_json::to_string_pretty(&table).expect("serialisable") + "\n"
+                }
+            })?;
+            if let Some(p) = &plot {
+                plot::write_tradeoff(p, &table)?;
+            }
+            Ok(())
         }
         Command::Codegen {
             model,

@@ -252,21 +252,34 @@ impl OdeSystem for System<'_> {
     }
 }
 
-/// A scene read and checked, with its derivation and plan.
+/// A scene read and checked, with its derivation, plan and initial state.
 pub struct Loaded {
     scene: Scene,
     compiled: Compiled,
     model: Model,
     d: hamel_derive::Derivation,
-    request: Request,
+    /// What the scene asks for.
+    pub request: Request,
     /// What is integrated, reconstructed, dropped.
     pub plan: Plan,
-    /// The integrator: its name, method and options.
-    integrator: (String, Method, Options),
+    /// The integrator the scene names (or DOP853 at its `[accuracy]`): name, method, options.
+    pub integrator: (String, Method, Options),
+    /// The accuracy target, when the scene gives one instead of an integrator.
+    pub accuracy: Option<(f64, f64)>,
+    params: IndexMap<String, f64>,
+    /// The coordinates in the integrated state (integrated, then reconstructed).
+    state: Vec<usize>,
+    /// The initial state (those coordinates, then η) and the output times.
+    pub y0: Vec<f64>,
+    pub times: Vec<f64>,
+    reference: f64,
+    delta0: f64,
+    projection: Option<Projection>,
     err: Box<dyn Fn(Option<&str>, String) -> ModelError>,
 }
 
-/// Read a scene, derive its equations and plan what to integrate (`hamel plan`).
+/// Read a scene, derive its equations, plan what to integrate and set up the initial state;
+/// every error names the scene (or model) file, the key and the reason.
 pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
     let name = scene_path.display().to_string();
     let text = std::fs::read_to_string(scene_path).map_err(|e| {
@@ -303,7 +316,8 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         Some(names) => Request::parse(names, &d).map_err(|m| err(Some("request"), m))?,
         None => Request::everything(d.ell),
     };
-    // `[accuracy]` stands for DOP853 at those tolerances (until `hamel tradeoff` recommends).
+    // `[accuracy]` alone: DOP853 at those tolerances unless `hamel simulate` finds a faster
+    // setting that meets it (`crate::tradeoff`).
     let i = match (&scene.integrator, &scene.accuracy) {
         (Some(_), Some(_)) => {
             return Err(err(
@@ -312,11 +326,22 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
             ));
         }
         (Some(i), None) => i.clone(),
-        (None, Some(a)) => Integrator {
-            rtol: a.rtol,
-            atol: a.atol,
-            ..Integrator::default()
-        },
+        (None, Some(a)) => {
+            if !(a.rtol > 0.0 && a.atol > 0.0 && a.rtol < 1.0) {
+                return Err(err(
+                    Some("accuracy"),
+                    format!(
+                        "rtol must be in (0, 1) and atol > 0 (got {}, {})",
+                        a.rtol, a.atol
+                    ),
+                ));
+            }
+            Integrator {
+                rtol: a.rtol,
+                atol: a.atol,
+                ..Integrator::default()
+            }
+        }
         (None, None) => Integrator::default(),
     };
     let method = match i.method.as_str() {
@@ -338,6 +363,21 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
             ));
         }
     };
+    // Tolerances the adaptive methods cannot meet are refused before anything runs.
+    let key = if scene.accuracy.is_some() {
+        "accuracy.rtol"
+    } else {
+        "integrator.rtol"
+    };
+    if !matches!(method, Method::Rk4 { .. }) && i.rtol <= 10.0 * f64::EPSILON {
+        return Err(err(
+            Some(key),
+            format!(
+                "rtol = {:e} is below what f64 arithmetic can deliver: it must exceed 10·ε ≈ 2.2e-15",
+                i.rtol
+            ),
+        ));
+    }
     let options = Options {
         rtol: i.rtol,
         atol: i.atol,
@@ -345,8 +385,87 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         ..Options::default()
     };
     let compiled = d.compile().map_err(|e| err(Some("eta"), e.to_string()))?;
+    let params = d
+        .parameters_with(&scene.parameters)
+        .map_err(|e| err(Some("parameters"), e.to_string()))?;
+    let mut q0 = Vec::new();
+    for c in &d.coordinates {
+        q0.push(
+            *scene
+                .initial
+                .q
+                .get(c)
+                .ok_or_else(|| err(Some("initial.q"), format!("missing coordinate `{c}`")))?,
+        );
+    }
+    if let Some(extra) = scene.initial.q.keys().find(|k| !d.coordinates.contains(k)) {
+        return Err(err(
+            Some("initial.q"),
+            format!("`{extra}` is not a coordinate of the model"),
+        ));
+    }
+    let (eta0, projection) = {
+        let numeric = hamel_model::NumericModel::new(&model, &params)
+            .map_err(|e| err(Some("parameters"), e.to_string()))?;
+        initial_eta(&scene.initial, &d, &numeric, &q0).map_err(|(key, m)| err(Some(key), m))?
+    };
+    if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
+        return Err(err(
+            Some("t_end"),
+            "t_end must be finite and differ from t0".into(),
+        ));
+    }
+    let times: Vec<f64> = match &scene.outputs {
+        Outputs::Count(n) if *n >= 2 => (0..*n)
+            .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
+            .collect(),
+        Outputs::Count(n) => {
+            return Err(err(
+                Some("outputs"),
+                format!("needs at least 2 output times, got {n}"),
+            ));
+        }
+        Outputs::Times(t) => t.clone(),
+    };
     let plan = crate::plan::plan(&model, &d, &request)?;
+    let state: Vec<usize> = plan
+        .integrated_ix
+        .iter()
+        .chain(&plan.reconstructed_ix)
+        .copied()
+        .collect();
+    // The dropped coordinates are held at a reference value where the equations evaluate at
+    // the initial state (they are free of them; [Z; α] may still be singular at some values).
+    let references: &[f64] = if plan.dropped_ix.is_empty() {
+        &[0.0]
+    } else {
+        &[0.5, 1.25, 2.0]
+    };
+    let (mut start, mut last) = (None, String::new());
+    for &reference in references {
+        let mut q = q0.clone();
+        for &k in &plan.dropped_ix {
+            q[k] = reference;
+        }
+        match compiled.evaluate(&q, &eta0, &params) {
+            Ok(e) => {
+                start = Some((reference, e.delta));
+                break;
+            }
+            Err(e) => last = e.to_string(),
+        }
+    }
+    let (reference, delta0) = start.ok_or_else(|| err(Some("initial"), last))?;
+    let y0: Vec<f64> = state
+        .iter()
+        .map(|&k| q0[k])
+        .chain(eta0.iter().copied())
+        .collect();
     Ok(Loaded {
+        accuracy: match (&scene.integrator, &scene.accuracy) {
+            (None, Some(a)) => Some((a.rtol, a.atol)),
+            _ => None,
+        },
         compiled,
         scene,
         model,
@@ -354,8 +473,144 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         request,
         plan,
         integrator: (i.method.clone(), method, options),
+        params,
+        state,
+        y0,
+        times,
+        reference,
+        delta0,
+        projection,
         err: Box::new(err),
     })
+}
+
+impl Loaded {
+    /// An error about this scene, at `key`.
+    pub fn error(&self, key: &str, message: String) -> ModelError {
+        (self.err)(Some(key), message)
+    }
+
+    /// The model's name.
+    pub fn model_name(&self) -> &str {
+        &self.d.model
+    }
+
+    /// The quasi-velocity choice's name.
+    pub fn eta_name(&self) -> &str {
+        &self.d.eta_name
+    }
+
+    /// Integrate the planned state with `method`; on failure, what was computed and the error.
+    pub fn integrate(
+        &self,
+        method: Method,
+        options: &Options,
+    ) -> Result<(Solution, Option<ModelError>), ModelError> {
+        let numeric = hamel_model::NumericModel::new(&self.model, &self.params)
+            .map_err(|e| (self.err)(Some("parameters"), e.to_string()))?;
+        let system = System {
+            compiled: &self.compiled,
+            params: self.params.clone(),
+            names: &self.d.coordinates,
+            ell: self.d.ell,
+            sigma: self.d.sigma,
+            state: self.state.clone(),
+            reference: self.reference,
+            energy: self.request.energy,
+            residual: self.request.constraint_residual,
+            delta_sign: self.delta0.signum(),
+            numeric,
+        };
+        Ok(
+            match hamel_sim::integrate(
+                &system,
+                method,
+                self.scene.t0,
+                &self.y0,
+                &self.times,
+                options,
+            ) {
+                Ok(s) => (s, None),
+                Err(e) => {
+                    let m = (self.err)(Some("integrator"), e.to_string());
+                    (*e.partial, Some(m))
+                }
+            },
+        )
+    }
+
+    /// The indices, in the integrated state, of the requested outputs (coordinates, then η).
+    pub fn requested_components(&self) -> Vec<usize> {
+        let n = self.state.len();
+        self.request
+            .coordinates
+            .iter()
+            .map(|&k| {
+                self.state
+                    .iter()
+                    .position(|&s| s == k)
+                    .expect("requested ⊆ state")
+            })
+            .chain(if self.request.eta {
+                n..n + self.d.sigma
+            } else {
+                n..n
+            })
+            .collect()
+    }
+
+    /// The trajectory of the requested outputs.
+    pub fn trajectory(
+        &self,
+        method_name: &str,
+        solution: &Solution,
+        failure: Option<&ModelError>,
+    ) -> Trajectory {
+        let n = self.state.len();
+        let d = &self.d;
+        Trajectory {
+            model: d.model.clone(),
+            eta_name: d.eta_name.clone(),
+            method: method_name.to_string(),
+            t: solution.t.clone(),
+            q: self
+                .request
+                .coordinates
+                .iter()
+                .map(|&k| {
+                    let i = self
+                        .state
+                        .iter()
+                        .position(|&s| s == k)
+                        .expect("requested ⊆ state");
+                    (
+                        d.coordinates[k].clone(),
+                        solution.y.iter().map(|y| y[i]).collect(),
+                    )
+                })
+                .collect(),
+            eta: if self.request.eta {
+                solution.y.iter().map(|y| y[n..].to_vec()).collect()
+            } else {
+                Vec::new()
+            },
+            energy: if self.request.energy {
+                Some(solution.energy.clone())
+            } else {
+                None
+            },
+            stats: StatsOut {
+                steps: solution.stats.steps,
+                rejected: solution.stats.rejected,
+                rhs_evals: solution.stats.rhs_evals,
+                energy_drift: solution.stats.energy_drift,
+                constraint_drift: solution.stats.constraint_drift,
+            },
+            complete: failure.is_none() && solution.complete,
+            initial_projection: self.projection.clone(),
+            error: failure.map(|e| e.message().to_string()),
+        }
+    }
 }
 
 /// The initial quasi-velocities: `eta` as given, or η = Z(q)w for the given q̇ projected onto
@@ -450,153 +705,32 @@ pub struct Projection {
 }
 
 /// Run the scene; returns the trajectory (possibly incomplete) and, on failure, the error.
+/// A scene with an `[accuracy]` target and no integrator runs the fastest adaptive setting that
+/// meets it (`hamel tradeoff`'s recommendation among DOP853 and DOPRI5; stderr says which).
 pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelError> {
-    let Loaded {
-        scene,
-        compiled,
-        model,
-        d,
-        request,
-        plan,
-        integrator: (method_name, method, options),
-        err,
-    } = load(scene_path)?;
-    let params = d
-        .parameters_with(&scene.parameters)
-        .map_err(|e| err(Some("parameters"), e.to_string()))?;
-    let mut q0 = Vec::new();
-    for c in &d.coordinates {
-        q0.push(
-            *scene
-                .initial
-                .q
-                .get(c)
-                .ok_or_else(|| err(Some("initial.q"), format!("missing coordinate `{c}`")))?,
-        );
-    }
-    if let Some(extra) = scene.initial.q.keys().find(|k| !d.coordinates.contains(k)) {
-        return Err(err(
-            Some("initial.q"),
-            format!("`{extra}` is not a coordinate of the model"),
-        ));
-    }
-    let numeric = hamel_model::NumericModel::new(&model, &params)
-        .map_err(|e| err(Some("parameters"), e.to_string()))?;
-    let (eta0, projection) =
-        initial_eta(&scene.initial, &d, &numeric, &q0).map_err(|(key, m)| err(Some(key), m))?;
-    if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
-        return Err(err(
-            Some("t_end"),
-            "t_end must be finite and differ from t0".into(),
-        ));
-    }
-    let times: Vec<f64> = match &scene.outputs {
-        Outputs::Count(n) if *n >= 2 => (0..*n)
-            .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
-            .collect(),
-        Outputs::Count(n) => {
-            return Err(err(
-                Some("outputs"),
-                format!("needs at least 2 output times, got {n}"),
-            ));
-        }
-        Outputs::Times(t) => t.clone(),
-    };
-    let state: Vec<usize> = plan
-        .integrated_ix
-        .iter()
-        .chain(&plan.reconstructed_ix)
-        .copied()
-        .collect();
-    // The dropped coordinates are held at a reference value where the equations evaluate at
-    // the initial state (they are free of them; [Z; α] may still be singular at some values).
-    let references: &[f64] = if plan.dropped_ix.is_empty() {
-        &[0.0]
-    } else {
-        &[0.5, 1.25, 2.0]
-    };
-    let (mut start, mut last) = (None, String::new());
-    for &reference in references {
-        let mut q = q0.clone();
-        for &k in &plan.dropped_ix {
-            q[k] = reference;
-        }
-        match compiled.evaluate(&q, &eta0, &params) {
-            Ok(e) => {
-                start = Some((reference, e.delta));
-                break;
+    let loaded = load(scene_path)?;
+    let (mut name, mut method, mut options) = loaded.integrator.clone();
+    if let Some((rtol, atol)) = loaded.accuracy {
+        let table = crate::tradeoff::table(&loaded, crate::tradeoff::Range::Adaptive)?;
+        match table.recommended {
+            Some(i) => {
+                let row = &table.rows[i];
+                eprintln!(
+                    "accuracy rtol = {rtol:.0e}, atol = {atol:.0e}: using {} (error {:.1e} of the target against a DOP853 reference at 1e-14, the fastest of {} adaptive settings that meet it)",
+                    row.setting(),
+                    row.target_ratio,
+                    table.rows.len()
+                );
+                name = row.method.clone();
+                (method, options) = row.method();
             }
-            Err(e) => last = e.to_string(),
+            None => eprintln!(
+                "warning: no adaptive setting measured meets rtol = {rtol:.0e}, atol = {atol:.0e}; using DOP853 at those tolerances"
+            ),
         }
     }
-    let (reference, delta0) = start.ok_or_else(|| err(Some("initial"), last))?;
-    let y0: Vec<f64> = state
-        .iter()
-        .map(|&k| q0[k])
-        .chain(eta0.iter().copied())
-        .collect();
-    let system = System {
-        compiled: &compiled,
-        params,
-        names: &d.coordinates,
-        ell: d.ell,
-        sigma: d.sigma,
-        state: state.clone(),
-        reference,
-        energy: request.energy,
-        residual: request.constraint_residual,
-        delta_sign: delta0.signum(),
-        numeric,
-    };
-    let (solution, failure): (Solution, Option<ModelError>) =
-        match hamel_sim::integrate(&system, method, scene.t0, &y0, &times, &options) {
-            Ok(s) => (s, None),
-            Err(e) => {
-                let m = err(Some("integrator"), e.to_string());
-                (*e.partial, Some(m))
-            }
-        };
-    let n = state.len();
-    let traj = Trajectory {
-        model: d.model.clone(),
-        eta_name: d.eta_name.clone(),
-        method: method_name,
-        t: solution.t.clone(),
-        q: request
-            .coordinates
-            .iter()
-            .map(|&k| {
-                let i = state
-                    .iter()
-                    .position(|&s| s == k)
-                    .expect("requested ⊆ state");
-                (
-                    d.coordinates[k].clone(),
-                    solution.y.iter().map(|y| y[i]).collect(),
-                )
-            })
-            .collect(),
-        eta: if request.eta {
-            solution.y.iter().map(|y| y[n..].to_vec()).collect()
-        } else {
-            Vec::new()
-        },
-        energy: if request.energy {
-            Some(solution.energy.clone())
-        } else {
-            None
-        },
-        stats: StatsOut {
-            steps: solution.stats.steps,
-            rejected: solution.stats.rejected,
-            rhs_evals: solution.stats.rhs_evals,
-            energy_drift: solution.stats.energy_drift,
-            constraint_drift: solution.stats.constraint_drift,
-        },
-        complete: failure.is_none() && solution.complete,
-        initial_projection: projection,
-        error: failure.as_ref().map(|e| e.message().to_string()),
-    };
+    let (solution, failure) = loaded.integrate(method, &options)?;
+    let traj = loaded.trajectory(&name, &solution, failure.as_ref());
     Ok((traj, failure))
 }
 

@@ -996,3 +996,140 @@ fn simulate_projects_initial_velocities_given_as_q_dot() {
         assert!(stderr(&o).contains(expect), "{}", stderr(&o));
     }
 }
+
+#[test]
+fn tradeoff_measures_every_integrator_and_recommends_one_that_meets_the_target() {
+    let dir = scratch("tradeoff");
+    let json = dir.join("t.json");
+    let svg = dir.join("t.svg");
+    let o = hamel(
+        &[
+            "tradeoff",
+            "scenes/knife.toml",
+            "--format",
+            "json",
+            "--output",
+            json.to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(
+        t["reference_check"].as_f64().unwrap() < 1e-12,
+        "{}",
+        t["reference_check"]
+    );
+    let rows = t["rows"].as_array().unwrap();
+    for m in ["dop853", "dopri5", "rk4", "gauss-legendre"] {
+        assert!(rows.iter().any(|r| r["method"] == m), "{m} missing");
+    }
+    // DOP853's error falls as its tolerance tightens (1e-5 against 1e-12).
+    let err = |tol: f64| {
+        rows.iter()
+            .find(|r| r["method"] == "dop853" && r["tol"].as_f64() == Some(tol))
+            .unwrap()["error_span"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        err(1e-12) < 1e-3 * err(1e-5),
+        "{} {}",
+        err(1e-12),
+        err(1e-5)
+    );
+    // The recommendation meets the target (the scene's 1e-10 / 1e-12) and is the fastest that does.
+    let rec = &rows[t["recommended"].as_u64().unwrap() as usize];
+    assert!(rec["target_ratio"].as_f64().unwrap() <= 1.0);
+    let fastest = rows
+        .iter()
+        .filter(|r| r["complete"] == true && r["target_ratio"].as_f64().unwrap() <= 1.0)
+        .map(|r| r["seconds"].as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(rec["seconds"].as_f64().unwrap(), fastest);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains("work–precision") && text.contains("dop853"));
+}
+
+#[test]
+fn simulate_with_only_an_accuracy_target_uses_the_recommended_setting() {
+    let dir = scratch("simulate_accuracy");
+    let scene = knife_scene(&dir, "k.toml", "", "[accuracy]\nrtol = 1e-6\natol = 1e-8\n");
+    let o = hamel(
+        &["simulate", scene.to_str().unwrap(), "--format", "json"],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("accuracy rtol = 1e-6, atol = 1e-8: using "),
+        "{e}"
+    );
+    let v = json_on_stdout(&o);
+    // The closed form, to the target.
+    for (j, t) in v["t"].as_array().unwrap().iter().enumerate() {
+        let th = 0.3 + 0.5 * t.as_f64().unwrap();
+        let x = 2.0 * (th.sin() - 0.3f64.sin());
+        assert!((v["q"]["x"][j].as_f64().unwrap() - x).abs() <= 1e-8 + 1e-6 * x.abs());
+    }
+    // A target below what f64 allows is refused clearly rather than attempted.
+    let scene = knife_scene(&dir, "k.toml", "", "[accuracy]\nrtol = 0.0\natol = 1e-8\n");
+    let o = hamel(&["simulate", scene.to_str().unwrap()], None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("rtol must be in (0, 1)"),
+        "{}",
+        stderr(&o)
+    );
+    // 1e-15 is below what f64 allows: a clear message, no output, no attempt.
+    let scene = knife_scene(
+        &dir,
+        "k.toml",
+        "",
+        "[accuracy]\nrtol = 1e-15\natol = 1e-15\n",
+    );
+    let out = dir.join("out.csv");
+    let o = hamel(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("below what f64 arithmetic can deliver"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}
+
+/// Every bundled scene is valid: it plans, and its plan integrates η.
+#[test]
+fn every_bundled_scene_plans() {
+    let mut n = 0;
+    for entry in std::fs::read_dir("scenes").unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) != Some("toml") {
+            continue;
+        }
+        let o = hamel(&["plan", path.to_str().unwrap(), "--format", "json"], None);
+        assert!(o.status.success(), "{}: {}", path.display(), stderr(&o));
+        let p = json_on_stdout(&o);
+        assert!(
+            p["integrated"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|s| s == "eta1")
+        );
+        n += 1;
+    }
+    assert!(n >= 8, "a scene per bundled model");
+}

@@ -1,0 +1,340 @@
+//! `hamel tradeoff SCENE`: the speed–accuracy trade of the numeric core, measured.
+//!
+//! Every integrator of `hamel-sim` is run on the scene's planned system over a range of
+//! settings — the adaptive ones (DOP853, DOPRI5, Gauss–Legendre with step doubling) at
+//! rtol = atol = 1e-3 … 1e-13 (Gauss–Legendre every other power), the fixed-step ones (RK4,
+//! Gauss–Legendre) at 1, 2, 4 … 64 steps per output interval — and compared with a reference solution: DOP853 at rtol = atol = 1e-14,
+//! checked against a second run at half that tolerance (their difference is reported). For each
+//! setting: the error on the requested outputs (the requested coordinates, η, the energy) at
+//! the end time and over the output times, as max |y − y_ref| / max(1, |y_ref|); how it
+//! compares with the scene's target (max |y − y_ref| / (atol + rtol·|y_ref|) ≤ 1 meets it); wall
+//! time (median of repeated runs up to ~50 ms); RHS evaluations; steps; energy and constraint
+//! drift. The recommendation is the fastest setting that meets the target.
+//!
+//! **Inputs**: a loaded scene ([`crate::simulate::Loaded`]). **Outputs**: a [`Table`].
+
+use std::time::{Duration, Instant};
+
+use hamel_model::ModelError;
+use hamel_sim::{Method, Options, Solution};
+use serde::Serialize;
+
+use crate::simulate::Loaded;
+
+/// One setting of one integrator, measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    /// `dop853`, `dopri5`, `gauss-legendre`, `rk4`.
+    pub method: String,
+    /// The tolerance (rtol = atol) of an adaptive run.
+    pub tol: Option<f64>,
+    /// The step of a fixed-step run.
+    pub step: Option<f64>,
+    /// Whether the run reached the end.
+    pub complete: bool,
+    /// Error on the requested outputs at the end time.
+    pub error_end: f64,
+    /// The same, maximum over the output times.
+    pub error_span: f64,
+    /// max |y − y_ref| / (atol + rtol·|y_ref|) with the target's tolerances (≤ 1 meets it).
+    pub target_ratio: f64,
+    /// Wall time of one run, seconds.
+    pub seconds: f64,
+    /// Right-hand side evaluations.
+    pub rhs_evals: usize,
+    /// Accepted steps.
+    pub steps: usize,
+    /// Relative energy drift (when the energy is computed).
+    pub energy_drift: Option<f64>,
+    /// Constraint drift of the reconstruction (when computed).
+    pub constraint_drift: Option<f64>,
+}
+
+/// The work–precision table of a scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct Table {
+    /// Model and choice.
+    pub model: String,
+    /// The target (rtol, atol): the scene's `[accuracy]`, else its integrator's tolerances.
+    pub target: (f64, f64),
+    /// How the reference was computed.
+    pub reference: String,
+    /// max difference between the reference and the run at half its tolerance (same measure
+    /// as `error_span`): the reference's own error, roughly.
+    pub reference_check: f64,
+    /// The settings, measured.
+    pub rows: Vec<Row>,
+    /// Index in `rows` of the fastest setting that meets the target, if any does.
+    pub recommended: Option<usize>,
+}
+
+/// Which settings to try.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Range {
+    /// Every integrator (the table).
+    All,
+    /// The adaptive explicit ones only (what `hamel simulate` tries for an `[accuracy]`).
+    Adaptive,
+}
+
+/// The requested outputs of a solution, per output time: the requested state components, then
+/// the energy when requested.
+fn outputs(loaded: &Loaded, s: &Solution) -> Vec<Vec<f64>> {
+    let ix = loaded.requested_components();
+    s.y.iter()
+        .zip(&s.energy)
+        .map(|(y, e)| {
+            ix.iter()
+                .map(|&i| y[i])
+                .chain(loaded.request.energy.then(|| e.unwrap_or(f64::NAN)))
+                .collect()
+        })
+        .collect()
+}
+
+/// (error at the end, error over the span, ratio to the target) of `got` against `reference`.
+fn errors(got: &[Vec<f64>], reference: &[Vec<f64>], target: (f64, f64)) -> (f64, f64, f64) {
+    let (mut end, mut span, mut ratio) = (0.0_f64, 0.0_f64, 0.0_f64);
+    for (j, (g, r)) in got.iter().zip(reference).enumerate() {
+        for (a, b) in g.iter().zip(r) {
+            let d = (a - b).abs();
+            let e = if d.is_nan() {
+                f64::INFINITY
+            } else {
+                d / b.abs().max(1.0)
+            };
+            span = span.max(e);
+            ratio = ratio.max(if d.is_nan() {
+                f64::INFINITY
+            } else {
+                d / (target.1 + target.0 * b.abs())
+            });
+            if j + 1 == reference.len() {
+                end = end.max(e);
+            }
+        }
+    }
+    if got.len() < reference.len() {
+        // An incomplete run has no error to compare at the missing times.
+        return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    }
+    (end, span, ratio)
+}
+
+/// Run once, and time it: repeated while the total stays under ~50 ms (at most 20 times),
+/// median of the runs.
+fn timed(
+    loaded: &Loaded,
+    method: Method,
+    options: &Options,
+) -> Result<(Solution, bool, Duration), ModelError> {
+    let mut times = Vec::new();
+    let mut total = Duration::ZERO;
+    loop {
+        let start = Instant::now();
+        let (s, failure) = loaded.integrate(method, options)?;
+        let took = start.elapsed();
+        times.push(took);
+        total += took;
+        if failure.is_some() || total > Duration::from_millis(50) || times.len() >= 20 {
+            times.sort();
+            return Ok((s, failure.is_none(), times[times.len() / 2]));
+        }
+    }
+}
+
+/// Measure the trade for a loaded scene.
+pub fn table(loaded: &Loaded, range: Range) -> Result<Table, ModelError> {
+    let target = loaded
+        .accuracy
+        .unwrap_or((loaded.integrator.2.rtol, loaded.integrator.2.atol));
+    let tight = |tol: f64| Options {
+        rtol: tol,
+        atol: tol,
+        max_steps: 10_000_000,
+        ..Options::default()
+    };
+    let (reference, ok, _) = timed(loaded, Method::Dop853, &tight(1e-14))?;
+    let (check, ok_check, _) = timed(loaded, Method::Dop853, &tight(5e-15))?;
+    if !(ok && ok_check) {
+        return Err(loaded.error(
+            "integrator",
+            "the reference run (DOP853 at 1e-14) did not reach the end; the scene cannot be measured".into(),
+        ));
+    }
+    let reference_out = outputs(loaded, &reference);
+    let reference_check = errors(&outputs(loaded, &check), &reference_out, target).1;
+    // Fixed steps end on every output time, so they are taken as fractions of the smallest
+    // output interval.
+    let interval = loaded
+        .times
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|&d| d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let mut settings: Vec<(String, Method, Option<f64>, Option<f64>)> = Vec::new();
+    let tolerances: Vec<f64> = (3..=13).map(|k| 10f64.powi(-k)).collect();
+    for &tol in &tolerances {
+        settings.push(("dop853".into(), Method::Dop853, Some(tol), None));
+        settings.push(("dopri5".into(), Method::Dopri5, Some(tol), None));
+    }
+    if range == Range::All {
+        for &tol in [1e-3, 1e-5, 1e-7, 1e-9, 1e-11].iter() {
+            settings.push((
+                "gauss-legendre".into(),
+                Method::GaussLegendre {
+                    stages: 3,
+                    step: None,
+                },
+                Some(tol),
+                None,
+            ));
+        }
+        for k in [1, 2, 4, 8, 16, 32, 64] {
+            let h = interval / k as f64;
+            settings.push(("rk4".into(), Method::Rk4 { step: h }, None, Some(h)));
+            settings.push((
+                "gauss-legendre".into(),
+                Method::GaussLegendre {
+                    stages: 3,
+                    step: Some(h),
+                },
+                None,
+                Some(h),
+            ));
+        }
+    }
+    let mut rows = Vec::new();
+    for (name, method, tol, step) in settings {
+        let options = Options {
+            rtol: tol.unwrap_or(1e-10),
+            atol: tol.unwrap_or(1e-10),
+            max_steps: 2_000_000,
+            ..Options::default()
+        };
+        let (s, complete, took) = timed(loaded, method, &options)?;
+        let (error_end, error_span, target_ratio) =
+            errors(&outputs(loaded, &s), &reference_out, target);
+        rows.push(Row {
+            method: name,
+            tol,
+            step,
+            complete,
+            error_end,
+            error_span,
+            target_ratio,
+            seconds: took.as_secs_f64(),
+            rhs_evals: s.stats.rhs_evals,
+            steps: s.stats.steps,
+            energy_drift: s.stats.energy_drift,
+            constraint_drift: s.stats.constraint_drift,
+        });
+    }
+    let recommended = rows
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.complete && r.target_ratio <= 1.0)
+        .min_by(|a, b| a.1.seconds.total_cmp(&b.1.seconds))
+        .map(|(i, _)| i);
+    Ok(Table {
+        model: format!("{} ({})", loaded.model_name(), loaded.eta_name()),
+        target,
+        reference: "DOP853 at rtol = atol = 1e-14".into(),
+        reference_check,
+        rows,
+        recommended,
+    })
+}
+
+impl Row {
+    /// The setting, as a scene's `[integrator]` would give it.
+    pub fn setting(&self) -> String {
+        match (self.tol, self.step) {
+            (Some(t), _) => format!("{} rtol = atol = {t:.0e}", self.method),
+            (_, Some(h)) => format!("{} step = {h:.3e}", self.method),
+            _ => self.method.clone(),
+        }
+    }
+
+    /// The method and options to run this setting.
+    pub fn method(&self) -> (Method, Options) {
+        let method = match (self.method.as_str(), self.step) {
+            ("dop853", _) => Method::Dop853,
+            ("dopri5", _) => Method::Dopri5,
+            ("rk4", Some(h)) => Method::Rk4 { step: h },
+            (_, step) => Method::GaussLegendre { stages: 3, step },
+        };
+        let tol = self.tol.unwrap_or(1e-10);
+        (
+            method,
+            Options {
+                rtol: tol,
+                atol: tol,
+                max_steps: 2_000_000,
+                ..Options::default()
+            },
+        )
+    }
+}
+
+impl Table {
+    /// A Markdown table, the reference and the recommendation.
+    pub fn to_text(&self) -> String {
+        let opt = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.1e}"));
+        let mut o = format!(
+            "{}: target rtol = {:.0e}, atol = {:.0e}; reference: {} (its difference from the run at half that tolerance: {:.1e})\n\n\
+             | setting | error at end | error over span | / target | time | RHS evals | steps | energy drift | constraint drift |\n\
+             |---|---|---|---|---|---|---|---|---|\n",
+            self.model, self.target.0, self.target.1, self.reference, self.reference_check
+        );
+        for (i, r) in self.rows.iter().enumerate() {
+            o += &format!(
+                "| {}{} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                r.setting(),
+                if Some(i) == self.recommended {
+                    " **(recommended)**"
+                } else {
+                    ""
+                },
+                if r.complete {
+                    format!("{:.1e}", r.error_end)
+                } else {
+                    "incomplete".into()
+                },
+                if r.complete {
+                    format!("{:.1e}", r.error_span)
+                } else {
+                    "–".into()
+                },
+                if r.complete {
+                    format!("{:.1e}", r.target_ratio)
+                } else {
+                    "–".into()
+                },
+                format_seconds(r.seconds),
+                r.rhs_evals,
+                r.steps,
+                opt(r.energy_drift),
+                opt(r.constraint_drift),
+            );
+        }
+        o += &match self.recommended {
+            Some(i) => format!(
+                "\nrecommended: {} (the fastest setting whose error stays within the target)\n",
+                self.rows[i].setting()
+            ),
+            None => "\nno setting meets the target\n".to_string(),
+        };
+        o
+    }
+}
+
+fn format_seconds(s: f64) -> String {
+    if s < 1e-3 {
+        format!("{:.0} µs", s * 1e6)
+    } else if s < 1.0 {
+        format!("{:.2} ms", s * 1e3)
+    } else {
+        format!("{s:.2} s")
+    }
+}
