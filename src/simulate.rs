@@ -128,7 +128,14 @@ struct StatsOut {
     rhs_evals: usize,
     energy_drift: Option<f64>,
     constraint_drift: Option<f64>,
+    /// The largest condition number of [Z; α] over the output states, and where.
+    max_condition: Option<f64>,
+    max_condition_t: Option<f64>,
 }
+
+/// Above this condition number of [Z; α] along the path, `hamel simulate` warns: the singular
+/// set of the quasi-velocities is near and accuracy degrades like cond·ε (docs/stability.md).
+pub const CONDITION_WARNING: f64 = 1e6;
 
 struct System<'a> {
     compiled: &'a Compiled,
@@ -143,9 +150,12 @@ struct System<'a> {
     /// Whether the energy and the constraint residual are computed (requested).
     energy: bool,
     residual: bool,
-    /// The sign of δ = det[Z; α] at the start: a path that changes it crosses the singular set.
-    delta_sign: f64,
+    /// δ = det[Z; α] at the start: a path that changes its sign crosses the singular set.
+    delta0: f64,
     numeric: hamel_model::NumericModel<'a>,
+    /// The largest condition number of [Z; α] met, and when: computed whenever |δ| has fallen
+    /// below 1e-3 of its start (δ comes with every evaluation; the condition number costs an SVD).
+    watch: std::cell::Cell<Option<(f64, f64)>>,
 }
 
 impl System<'_> {
@@ -165,7 +175,7 @@ impl System<'_> {
             .compiled
             .evaluate(&q, eta, &self.params)
             .and_then(|e| {
-                if e.delta.signum() == self.delta_sign {
+                if e.delta.signum() == self.delta0.signum() {
                     Ok(e)
                 } else {
                     Err(hamel_derive::NumericError(format!(
@@ -195,8 +205,16 @@ impl OdeSystem for System<'_> {
     fn dim(&self) -> usize {
         self.state.len() + self.sigma
     }
-    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
         let e = self.at(y)?;
+        if e.delta.abs() < 1e-3 * self.delta0.abs() {
+            let q = self.full_q(&y[..self.state.len()], self.reference);
+            if let Ok(cond) = self.compiled.condition(&q, &self.params)
+                && self.watch.get().is_none_or(|(c, _)| cond > c)
+            {
+                self.watch.set(Some((cond, t)));
+            }
+        }
         let n = self.state.len();
         for (i, &k) in self.state.iter().enumerate() {
             dy[i] = e.q_dot[k];
@@ -250,6 +268,17 @@ impl OdeSystem for System<'_> {
         }
         Some(Ok(()))
     }
+}
+
+/// One integration of a scene.
+pub struct Run {
+    /// What was computed (up to the failure, if any).
+    pub solution: Solution,
+    /// Why it stopped early.
+    pub failure: Option<ModelError>,
+    /// The largest condition number of [Z; α] met near the singular set, and when (computed
+    /// once |δ| has fallen below 1e-3 of its start).
+    pub max_condition: Option<(f64, f64)>,
 }
 
 /// A scene read and checked, with its derivation, plan and initial state.
@@ -501,11 +530,7 @@ impl Loaded {
     }
 
     /// Integrate the planned state with `method`; on failure, what was computed and the error.
-    pub fn integrate(
-        &self,
-        method: Method,
-        options: &Options,
-    ) -> Result<(Solution, Option<ModelError>), ModelError> {
+    pub fn integrate(&self, method: Method, options: &Options) -> Result<Run, ModelError> {
         let numeric = hamel_model::NumericModel::new(&self.model, &self.params)
             .map_err(|e| (self.err)(Some("parameters"), e.to_string()))?;
         let system = System {
@@ -518,25 +543,29 @@ impl Loaded {
             reference: self.reference,
             energy: self.request.energy,
             residual: self.request.constraint_residual,
-            delta_sign: self.delta0.signum(),
+            delta0: self.delta0,
             numeric,
+            watch: Default::default(),
         };
-        Ok(
-            match hamel_sim::integrate(
-                &system,
-                method,
-                self.scene.t0,
-                &self.y0,
-                &self.times,
-                options,
-            ) {
-                Ok(s) => (s, None),
-                Err(e) => {
-                    let m = (self.err)(Some("integrator"), e.to_string());
-                    (*e.partial, Some(m))
-                }
-            },
-        )
+        let (solution, failure) = match hamel_sim::integrate(
+            &system,
+            method,
+            self.scene.t0,
+            &self.y0,
+            &self.times,
+            options,
+        ) {
+            Ok(s) => (s, None),
+            Err(e) => {
+                let m = (self.err)(Some("integrator"), e.to_string());
+                (*e.partial, Some(m))
+            }
+        };
+        Ok(Run {
+            solution,
+            failure,
+            max_condition: system.watch.get(),
+        })
     }
 
     /// The indices, in the integrated state, of the requested outputs (coordinates, then η).
@@ -560,12 +589,8 @@ impl Loaded {
     }
 
     /// The trajectory of the requested outputs.
-    pub fn trajectory(
-        &self,
-        method_name: &str,
-        solution: &Solution,
-        failure: Option<&ModelError>,
-    ) -> Trajectory {
+    pub fn trajectory(&self, method_name: &str, run: &Run) -> Trajectory {
+        let (solution, failure) = (&run.solution, run.failure.as_ref());
         let n = self.state.len();
         let d = &self.d;
         Trajectory {
@@ -605,6 +630,8 @@ impl Loaded {
                 rhs_evals: solution.stats.rhs_evals,
                 energy_drift: solution.stats.energy_drift,
                 constraint_drift: solution.stats.constraint_drift,
+                max_condition: run.max_condition.map(|c| c.0),
+                max_condition_t: run.max_condition.map(|c| c.1),
             },
             complete: failure.is_none() && solution.complete,
             initial_projection: self.projection.clone(),
@@ -729,9 +756,16 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
             ),
         }
     }
-    let (solution, failure) = loaded.integrate(method, &options)?;
-    let traj = loaded.trajectory(&name, &solution, failure.as_ref());
-    Ok((traj, failure))
+    let run = loaded.integrate(method, &options)?;
+    if let Some((cond, t)) = run.max_condition
+        && cond > CONDITION_WARNING
+    {
+        eprintln!(
+            "warning: the path comes near the singular set of the quasi-velocities: the condition number of [Z; α] reaches {cond:.1e} at t = {t} (accuracy degrades like cond·ε; docs/stability.md)"
+        );
+    }
+    let traj = loaded.trajectory(&name, &run);
+    Ok((traj, run.failure))
 }
 
 impl Trajectory {

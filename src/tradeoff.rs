@@ -132,13 +132,13 @@ fn timed(
     let mut total = Duration::ZERO;
     loop {
         let start = Instant::now();
-        let (s, failure) = loaded.integrate(method, options)?;
+        let run = loaded.integrate(method, options)?;
         let took = start.elapsed();
         times.push(took);
         total += took;
-        if failure.is_some() || total > Duration::from_millis(50) || times.len() >= 20 {
+        if run.failure.is_some() || total > Duration::from_millis(50) || times.len() >= 20 {
             times.sort();
-            return Ok((s, failure.is_none(), times[times.len() / 2]));
+            return Ok((run.solution, run.failure.is_none(), times[times.len() / 2]));
         }
     }
 }

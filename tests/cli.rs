@@ -668,6 +668,12 @@ fn simulate_stops_at_the_singular_set_and_keeps_what_it_computed() {
     let e = stderr(&o);
     assert!(e.contains("singular"), "{e}");
     assert!(e.contains("phi = 1.570796"), "{e}");
+    // On the way it warns how close the path came: the condition number of [Z; α].
+    assert!(
+        e.contains("warning: the path comes near the singular set")
+            && e.contains("condition number of [Z; α] reaches"),
+        "{e}"
+    );
     assert!(e.contains("INCOMPLETE"), "{e}");
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("# incomplete:"), "{text}");

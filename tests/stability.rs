@@ -1,0 +1,171 @@
+//! Numerical stability at the extremes (issue 5 §4; figures in docs/stability.md).
+//!
+//! * Near the singular set of the quasi-velocities: the 3.2 bar under the paper's Z as
+//!   φ → π/2 (δ = det[Z; α] → 0). The f64 evaluation of the true equations against the same
+//!   in double-double: the error grows with the condition number of [Z; α] and stays within a
+//!   small multiple of cond · ε.
+//! * Extreme parameters: one mass scaled by 1e±8 (mass ratios 1e-8 … 1e8), one length by 1e±4,
+//!   for the knife, the 3.2 bar, the rolling disk and the unicycle: q̈ = Γ̇η + Γη̇ from the f64
+//!   evaluation against the Lagrange-multiplier oracle in double-double, within 1e-12 or, where
+//!   [Z; α] or A_Γ is ill-conditioned (mass ratios of 1e8 make A_Γ so; the condition number of
+//!   [Z; α] is not scale-free: lengths of 1e4 m next to angles make it large), within
+//!   100 (cond [Z; α] + cond A_Γ)·ε.
+//!
+//! Each test prints its table (`cargo test --release --test stability -- --nocapture`). The CAS
+//! runs in-process, on its one worker thread.
+
+mod common;
+
+use hamel_derive::{Compiled, derive};
+use hamel_expr::{DD, Dual, Scalar};
+use hamel_model::NumericModel;
+use indexmap::IndexMap;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn dd(v: &[f64]) -> Vec<DD> {
+    v.iter().map(|&x| DD::from_f64(x)).collect()
+}
+
+/// max |a − b| / max |b|.
+fn relative(a: &[f64], b: &[DD]) -> f64 {
+    let scale = b.iter().fold(0.0_f64, |m, x| m.max(x.value().abs()));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (DD::from_f64(*x) - *y).value().abs())
+        .fold(0.0, f64::max)
+        / scale.max(f64::MIN_POSITIVE)
+}
+
+#[test]
+fn accuracy_degrades_with_the_condition_number_near_the_singular_set() {
+    let model = common::models()
+        .into_iter()
+        .find(|m| m.name == "bar_blade")
+        .unwrap();
+    let d = derive(&model, Some("paper")).unwrap();
+    let c = d.compile().unwrap();
+    let params = d.parameters.clone();
+    let eta = [0.5, 0.3];
+    println!("| π/2 − φ | cond [Z; α] | rel. error of η̇ in f64 | error / (cond·ε) |");
+    println!("|---|---|---|---|");
+    let mut last_cond = 0.0;
+    for k in 1..=8 {
+        let eps = 10f64.powi(-k);
+        let q = [0.1, 0.2, 0.3, std::f64::consts::FRAC_PI_2 - eps];
+        let cond = c.condition(&q, &params).unwrap();
+        let f = c.rhs::<f64>(&q, &eta, &params).unwrap();
+        let r = c.rhs::<DD>(&dd(&q), &dd(&eta), &params).unwrap();
+        let err = relative(&f.eta_dot, &r.eta_dot);
+        let ratio = err / (cond * f64::EPSILON);
+        println!("| 1e-{k} | {cond:.1e} | {err:.1e} | {ratio:.2} |");
+        // The condition number grows like 1/ε, and the error stays within 10·cond·ε.
+        assert!(cond > last_cond * 5.0, "cond {cond:e} after {last_cond:e}");
+        assert!(ratio < 10.0, "error {err:e} at cond {cond:e}");
+        last_cond = cond;
+    }
+    // At the singular set itself the evaluation refuses, naming the reason.
+    let q = [0.1, 0.2, 0.3, std::f64::consts::FRAC_PI_2];
+    match c.rhs::<f64>(&q, &eta, &params) {
+        Err(e) => assert!(e.to_string().contains("singular"), "{e}"),
+        Ok(r) => assert!(
+            r.eta_dot.iter().all(|x| x.is_finite()) && c.condition(&q, &params).unwrap() > 1e15,
+            "at φ = π/2 (in f64, cos φ = 6e-17) the evaluation must refuse or be finite and report the condition"
+        ),
+    }
+}
+
+/// q̈ = Γ̇η + Γη̇ from the structured f64 evaluation (Γ̇η by dual numbers along q̇ = Γη).
+fn q_ddot(c: &Compiled, q: &[f64], eta: &[f64], params: &IndexMap<String, f64>) -> Vec<f64> {
+    let r = c.rhs::<f64>(q, eta, params).unwrap();
+    let qdual: Vec<Dual<f64>> = q
+        .iter()
+        .zip(&r.q_dot)
+        .map(|(&v, &dv)| Dual::new(v, dv))
+        .collect();
+    let gamma = c.gamma::<Dual<f64>>(&qdual, params).unwrap();
+    (0..q.len())
+        .map(|k| {
+            (0..eta.len()).fold(0.0, |acc, s| {
+                acc + gamma[k][s].d * eta[s] + gamma[k][s].v * r.eta_dot[s]
+            })
+        })
+        .collect()
+}
+
+#[test]
+fn extreme_parameters_against_the_oracle_in_double_double() {
+    let models = common::models();
+    let cases = [
+        ("knife", "paper"),
+        ("bar_blade", "paper"),
+        ("rolling_disk", "velocities"),
+        ("unicycle_rider", "velocities"),
+    ];
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    println!(
+        "| model | parameter × factor | states | worst rel. error of q̈ (f64 vs oracle in DD) | worst error / ((cond [Z; α] + cond A_Γ)·ε) |"
+    );
+    println!("|---|---|---|---|---|");
+    for (name, eta_name) in cases {
+        let model = models.iter().find(|m| m.name == name).unwrap();
+        let d = derive(model, Some(eta_name)).unwrap();
+        let c = d.compile().unwrap();
+        let mass = d.parameters.keys().find(|k| k.starts_with('m')).cloned();
+        let length = d
+            .parameters
+            .keys()
+            .find(|k| k.starts_with('l') || k.starts_with('R') || k.starts_with("rho"))
+            .cloned();
+        let mut settings = Vec::new();
+        for f in [1e-8, 1e8] {
+            settings.extend(mass.clone().map(|m| (m, f)));
+        }
+        for f in [1e-4, 1e4] {
+            settings.extend(length.clone().map(|l| (l, f)));
+        }
+        for (param, factor) in settings {
+            let mut params = d.parameters.clone();
+            *params.get_mut(&param).unwrap() *= factor;
+            let nm = NumericModel::new(model, &params).unwrap();
+            let (mut worst, mut worst_scaled, mut n) = (0.0_f64, 0.0_f64, 0);
+            for _ in 0..200 {
+                if n == 20 {
+                    break;
+                }
+                let q: Vec<f64> = (0..d.ell).map(|_| rng.random_range(-1.5..1.5)).collect();
+                let v: Vec<f64> = (0..d.ell).map(|_| rng.random_range(-2.0..2.0)).collect();
+                let cond = c.condition(&q, &params).unwrap();
+                let qd = hamel_oracle::project(&nm, &q, &v).unwrap();
+                let z = nm.quasi_velocity_matrix::<f64>(eta_name, &q).unwrap();
+                let eta: Vec<f64> = z
+                    .iter()
+                    .map(|row| row.iter().zip(&qd).map(|(a, b)| a * b).sum())
+                    .collect();
+                // The oracle in double-double at the same state (q̇ = Γη recomputed there).
+                let r = c.rhs::<DD>(&dd(&q), &dd(&eta), &params).unwrap();
+                let Ok(oracle) = hamel_oracle::accelerations::<DD>(&nm, &dd(&q), &r.q_dot) else {
+                    continue;
+                };
+                let e = relative(&q_ddot(&c, &q, &eta, &params), &oracle.q_ddot);
+                let a = c.rhs::<f64>(&q, &eta, &params).unwrap().a_gamma;
+                let sv =
+                    nalgebra::DMatrix::from_fn(d.sigma, d.sigma, |i, j| a[i][j]).singular_values();
+                let cond = cond + sv.max() / sv.min();
+                worst = worst.max(e);
+                worst_scaled = worst_scaled.max(e / (cond * f64::EPSILON));
+                // Within 1e-12, or within 100 cond·ε where [Z; α] or A_Γ is ill-conditioned
+                // (cond: the sum of their condition numbers).
+                assert!(
+                    e <= 1e-12 + 100.0 * cond * f64::EPSILON,
+                    "{name} with {param} × {factor:e} at q = {q:?}: error {e:e}, cond {cond:e}"
+                );
+                n += 1;
+            }
+            println!(
+                "| {name} ({eta_name}) | {param} × {factor:.0e} | {n} | {worst:.1e} | {worst_scaled:.2} |"
+            );
+            assert!(n >= 10, "{name}: too few states");
+        }
+    }
+}
