@@ -291,3 +291,63 @@ fn long_horizon_energy_drift_over_ten_thousand_periods() {
 fn long_horizon_energy_drift_over_a_million_periods() {
     print_long_horizon(&long_horizon(6));
 }
+
+/// Very fast and very slow motions: η scaled by 1e±6 at random states of the generated cores
+/// (knife, 3.2 bar, rolling disk, unicycle), q̈ = Γ̇η + Γη̇ in f64 against the Lagrange-multiplier
+/// oracle in double-double: no overflow, no loss beyond the conditioning (the velocity-quadratic
+/// terms scale by 1e±12 against gravity, which stays).
+#[test]
+fn very_fast_and_very_slow_motions_against_the_oracle() {
+    use hamel_models::runtime::Dual as GDual;
+    let models = common::models();
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    println!("| core | η × | states | worst rel. error of q̈ |");
+    println!("|---|---|---|---|");
+    for (name, eta_name) in [
+        ("knife", "paper"),
+        ("bar_blade", "paper"),
+        ("rolling_disk", "velocities"),
+        ("unicycle_rider", "velocities"),
+    ] {
+        let core = hamel_models::MODELS
+            .iter()
+            .find(|c| c.model == name && c.eta == eta_name)
+            .unwrap();
+        let model = models.iter().find(|m| m.name == name).unwrap();
+        let nm = NumericModel::new(model, &IndexMap::new()).unwrap();
+        for scale in [1e-6, 1.0, 1e6] {
+            let (mut worst, mut n) = (0.0_f64, 0);
+            while n < 20 {
+                let q: Vec<f64> = (0..core.dims.ell)
+                    .map(|_| rng.random_range(-1.5..1.5))
+                    .collect();
+                let eta: Vec<f64> = (0..core.dims.sigma)
+                    .map(|_| scale * rng.random_range(-2.0..2.0))
+                    .collect();
+                let Ok(g) = (core.full)(&q, &eta) else {
+                    continue;
+                };
+                let qd: Vec<GDual<1>> = q
+                    .iter()
+                    .zip(&g.q_dot)
+                    .map(|(&x, &dx)| GDual { v: x, d: [dx] })
+                    .collect();
+                let ed: Vec<GDual<1>> = eta.iter().map(|&x| GDual { v: x, d: [0.0] }).collect();
+                let gd = (core.full_dual)(&qd, &ed).unwrap();
+                let ge = (core.full)(&q, &g.eta_dot).unwrap();
+                let q_ddot: Vec<f64> = (0..core.dims.ell)
+                    .map(|k| gd.q_dot[k].d[0] + ge.q_dot[k])
+                    .collect();
+                let Ok(oracle) = hamel_oracle::accelerations::<DD>(&nm, &dd(&q), &dd(&g.q_dot))
+                else {
+                    continue;
+                };
+                assert!(q_ddot.iter().all(|x| x.is_finite()));
+                worst = worst.max(relative(&q_ddot, &oracle.q_ddot));
+                n += 1;
+            }
+            println!("| {name} ({eta_name}) | {scale:.0e} | {n} | {worst:.1e} |");
+            assert!(worst < 1e-9, "{name} with η × {scale:e}: {worst:e}");
+        }
+    }
+}
