@@ -169,3 +169,98 @@ pub struct Block {
     /// Its leading principal minors of orders 1..n (the last is `det`).
     pub minors: Vec<Entry>,
 }
+
+impl Entry {
+    /// The entry with `f` applied to its tree (text printed from the result).
+    fn map_expr(&self, f: &dyn Fn(&Expr) -> Expr) -> Entry {
+        let expr = f(&self.expr);
+        Entry {
+            text: expr.to_string(),
+            expr,
+        }
+    }
+}
+
+impl Mat {
+    fn map_expr(&self, f: &dyn Fn(&Expr) -> Expr) -> Mat {
+        Mat {
+            rows: self.rows,
+            cols: self.cols,
+            entries: self
+                .entries
+                .iter()
+                .map(|r| r.iter().map(|e| e.map_expr(f)).collect())
+                .collect(),
+        }
+    }
+}
+
+fn map_all<T>(v: &[T], f: impl Fn(&T) -> T) -> Vec<T> {
+    v.iter().map(f).collect()
+}
+
+impl Derivation {
+    /// The derivation for fixed values of some parameters (a scene's): every expression with
+    /// those parameters replaced by their exact values and its constants folded
+    /// ([`Expr::specialise`]); they leave [`Derivation::parameters`]. The exact checks are
+    /// those of the general derivation (they hold for every value). Errors name a parameter
+    /// that is not the model's or a value that is not finite.
+    pub fn specialise(&self, values: &IndexMap<String, f64>) -> Result<Derivation, String> {
+        let mut exact = std::collections::HashMap::new();
+        for (name, &v) in values {
+            if !self.parameters.contains_key(name) {
+                return Err(format!("`{name}` is not a parameter of the model"));
+            }
+            let r = hamel_expr::rational_of_f64(v)
+                .ok_or_else(|| format!("parameter `{name}` = {v} is not finite"))?;
+            exact.insert(name.clone(), r);
+        }
+        let f = |e: &Expr| e.specialise(&exact);
+        let mats = |v: &[Mat]| map_all(v, |m| m.map_expr(&f));
+        let entries = |v: &[Entry]| map_all(v, |e| e.map_expr(&f));
+        let ing = &self.ingredients;
+        Ok(Derivation {
+            parameters: self
+                .parameters
+                .iter()
+                .filter(|(k, _)| !values.contains_key(*k))
+                .map(|(k, v)| (k.clone(), *v))
+                .collect(),
+            a: self.a.map_expr(&f),
+            alpha: self.alpha.map_expr(&f),
+            z: self.z.map_expr(&f),
+            gamma: self.gamma.map_expr(&f),
+            theta: self.theta.map_expr(&f),
+            delta: self.delta.map_expr(&f),
+            singular_set: entries(&self.singular_set),
+            a_gamma: self.a_gamma.map_expr(&f),
+            grad_u: entries(&self.grad_u),
+            forcing: entries(&self.forcing),
+            nu: self.nu.map_expr(&f),
+            q: mats(&self.q),
+            q_paper: mats(&self.q_paper),
+            q_correction: mats(&self.q_correction),
+            kinematics: entries(&self.kinematics),
+            equations: entries(&self.equations),
+            equations_paper: entries(&self.equations_paper),
+            energy: self.energy.map_expr(&f),
+            ingredients: Ingredients {
+                potential: ing.potential.as_ref().map(|e| e.map_expr(&f)),
+                da: mats(&ing.da),
+                dz: mats(&ing.dz),
+                dalpha: mats(&ing.dalpha),
+                eta_rhs: entries(&ing.eta_rhs),
+                eta_dot: ing.eta_dot.as_ref().map(|v| entries(v)),
+                blocks: ing.blocks.as_ref().map(|bs| {
+                    map_all(bs, |b| Block {
+                        rows: b.rows.clone(),
+                        det: b.det.map_expr(&f),
+                        adj: map_all(&b.adj, |r| entries(r)),
+                        minors: entries(&b.minors),
+                    })
+                }),
+            },
+            ..self.clone()
+        })
+    }
+}

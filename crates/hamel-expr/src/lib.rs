@@ -21,6 +21,7 @@ mod eval;
 mod horner;
 mod latex;
 mod parse;
+mod specialise;
 mod tape;
 
 pub use ast::{Expr, Func, Rational};
@@ -28,4 +29,5 @@ pub use dd::DD;
 pub use eval::{Dual, Env, EvalError, Lu, Scalar, solve};
 pub use latex::latex_name;
 pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
+pub use specialise::rational_of_f64;
 pub use tape::{Op, Tape};
