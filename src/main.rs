@@ -10,6 +10,7 @@ mod codegen;
 mod output;
 mod plan;
 mod plot;
+mod scene_core;
 mod simulate;
 mod state;
 mod tradeoff;
@@ -146,6 +147,11 @@ enum Command {
         /// Also draw the coordinates and quasi-velocities against time (FILE.svg or FILE.png).
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// `compiled`: the scene's generated core, specialised for its parameters, built with
+        /// cargo on first use and cached (falls back to `interpreted`, with a warning, when it
+        /// cannot be built); `interpreted`: the structured evaluator, nothing compiled.
+        #[arg(long, value_enum, default_value = "compiled")]
+        engine: simulate::Engine,
     },
     /// Plan a scene: from the outputs it requests, which coordinates are integrated,
     /// reconstructed or dropped, and the operation count of the right-hand side (all decided
@@ -159,6 +165,12 @@ enum Command {
         /// Write the result to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,
+        /// Also measure the plan: integrate the scene on its compiled core and the full
+        /// unreduced system (every coordinate, parameters not specialised) on its own compiled
+        /// core with the same integrator, and report both times and the largest difference
+        /// of the requested outputs.
+        #[arg(long)]
+        measure: bool,
     },
     /// Measure the speed–accuracy trade on a scene: every integrator over a range of
     /// tolerances and fixed steps against a DOP853 reference at 1e-14; error on the requested
@@ -175,6 +187,10 @@ enum Command {
         /// Also draw the work–precision diagram (FILE.svg or FILE.png).
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Instead, write the planned system as Python with the reference solution and hamel's
+        /// adaptive runs, for `bench/scipy_tradeoff.py` (JSON).
+        #[arg(long, conflicts_with_all = ["plot", "format"])]
+        export_python: Option<PathBuf>,
     },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
@@ -310,10 +326,11 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             format,
             output,
             plot,
+            engine,
         } => {
             let out = Output::new(output)?;
             plot::check(plot.as_deref())?;
-            let (traj, failure) = simulate::run(&scene)?;
+            let (traj, failure) = simulate::run(&scene, engine)?;
             let text = match format {
                 TrajectoryFormat::Csv => traj.to_csv(),
                 TrajectoryFormat::Json => {
@@ -335,13 +352,37 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             scene,
             format,
             output,
+            measure,
         } => {
             let out = Output::new(output)?;
-            let plan = simulate::load(&scene)?.plan;
+            let loaded = simulate::load(&scene)?;
+            let measured = if measure {
+                Some(simulate::measure_plan(&loaded)?)
+            } else {
+                None
+            };
+            let plan = &loaded.plan;
             out.write(&match format {
-                ReportFormat::Text => plan.to_text(),
+                ReportFormat::Text => {
+                    plan.to_text()
+                        + measured
+                            .as_ref()
+                            .map_or(String::new(), |m| m.to_text())
+                            .as_str()
+                }
                 ReportFormat::Json => {
-                    serde_json::to_string_pretty(&plan).expect("serialisable") + "\n"
+                    #[derive(serde::Serialize)]
+                    struct Measured<'a> {
+                        #[serde(flatten)]
+                        plan: &'a plan::Plan,
+                        #[serde(skip_serializing_if = "Option::is_none")]
+                        measured: Option<&'a simulate::Measured>,
+                    }
+                    let v = Measured {
+                        plan,
+                        measured: measured.as_ref(),
+                    };
+                    serde_json::to_string_pretty(&v).expect("serialisable") + "\n"
                 }
             })
         }
@@ -350,7 +391,15 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             format,
             output,
             plot,
+            export_python,
         } => {
+            if let Some(file) = export_python {
+                let out = Output::new(Some(file))?;
+                let loaded = simulate::load(&scene)?;
+                let v = tradeoff::export_python(&loaded)?;
+                return out
+                    .write(&(serde_json::to_string_pretty(&v).expect("serialisable") + "\n"));
+            }
             let out = Output::new(output)?;
             plot::check(plot.as_deref())?;
             let loaded = simulate::load(&scene)?;

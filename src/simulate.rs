@@ -98,12 +98,24 @@ impl Default for Integrator {
     }
 }
 
+/// What evaluates the right-hand side.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Engine {
+    /// The scene's generated core, compiled and cached ([`crate::scene_core`]).
+    Compiled,
+    /// The structured evaluator of the derivation (a tape interpreter).
+    Interpreted,
+}
+
 /// The trajectory as written (`--format json`).
 #[derive(Serialize)]
 pub struct Trajectory {
     pub model: String,
     pub eta_name: String,
     method: String,
+    /// What evaluated the right-hand side.
+    pub engine: Engine,
     pub t: Vec<f64>,
     pub q: IndexMap<String, Vec<f64>>,
     /// η at the output times (empty when not requested).
@@ -298,6 +310,8 @@ pub struct Loaded {
     params: IndexMap<String, f64>,
     /// The coordinates in the integrated state (integrated, then reconstructed).
     state: Vec<usize>,
+    /// The initial configuration, every coordinate.
+    q0: Vec<f64>,
     /// The initial state (those coordinates, then η) and the output times.
     pub y0: Vec<f64>,
     pub times: Vec<f64>,
@@ -339,7 +353,18 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         .unwrap_or(Path::new("."))
         .join(&scene.model);
     let model = Model::load(&model_path)?;
-    let choice = model.choice(scene.eta.as_deref())?.name.clone();
+    let (model, choice) = if scene.eta.as_deref() == Some("auto") {
+        if scene.initial.eta.is_some() {
+            return Err(err(
+                Some("initial.eta"),
+                "with eta = \"auto\" the quasi-velocities are chosen by the search, so their initial values cannot be given: give the initial velocities as `q_dot = { ... }`".into(),
+            ));
+        }
+        auto_choice(model, scene.request.as_deref())?
+    } else {
+        let choice = model.choice(scene.eta.as_deref())?.name.clone();
+        (model, choice)
+    };
     let d = hamel_derive::derive(&model, Some(&choice))?;
     let request = match &scene.request {
         Some(names) => Request::parse(names, &d).map_err(|m| err(Some("request"), m))?,
@@ -456,7 +481,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         }
         Outputs::Times(t) => t.clone(),
     };
-    let plan = crate::plan::plan(&model, &d, &request)?;
+    let plan = crate::plan::plan(&model, &d, &request, &params)?;
     let state: Vec<usize> = plan
         .integrated_ix
         .iter()
@@ -490,6 +515,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         .map(|&k| q0[k])
         .chain(eta0.iter().copied())
         .collect();
+    let q0 = q0.clone();
     Ok(Loaded {
         accuracy: match (&scene.integrator, &scene.accuracy) {
             (None, Some(a)) => Some((a.rtol, a.atol)),
@@ -504,6 +530,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         integrator: (i.method.clone(), method, options),
         params,
         state,
+        q0,
         y0,
         times,
         reference,
@@ -522,6 +549,26 @@ impl Loaded {
     /// The model's name.
     pub fn model_name(&self) -> &str {
         &self.d.model
+    }
+
+    /// (ℓ, σ).
+    pub fn dims(&self) -> (usize, usize) {
+        (self.d.ell, self.d.sigma)
+    }
+
+    /// The scene's value of a parameter (the model's default unless overridden).
+    pub fn parameter(&self, name: &str) -> f64 {
+        self.params[name]
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The value at which the dropped coordinates are held.
+    pub fn reference_value(&self) -> f64 {
+        self.reference
     }
 
     /// The quasi-velocity choice's name.
@@ -568,6 +615,106 @@ impl Loaded {
         })
     }
 
+    /// Integrate the planned state on the scene's compiled core ([`crate::scene_core`]: built
+    /// on first use, cached): the run, the median time of one integration measured inside the
+    /// core over `repeat` runs, and whether this call compiled the core. The singular set is
+    /// watched at the output states (δ's sign, the condition number of [Z; α] once |δ| falls
+    /// below 1e-3 of its start): a sign change ends the output before it, as an error.
+    /// Errors: the core could not be built or run (the caller may fall back to [`Self::integrate`]).
+    pub fn integrate_compiled(
+        &self,
+        method: Method,
+        options: &Options,
+        repeat: usize,
+    ) -> Result<(Run, f64, bool), String> {
+        let (exe, built) = crate::scene_core::binary(&self.plan.entry)?;
+        let n = self.state.len();
+        let mut kept = self.state.clone();
+        kept.sort_unstable();
+        let at = |k: usize| {
+            self.state
+                .iter()
+                .position(|&s| s == k)
+                .expect("kept = state")
+        };
+        let job = crate::scene_core::Job {
+            t0: self.scene.t0,
+            times: &self.times,
+            y0: kept
+                .iter()
+                .map(|&k| self.y0[at(k)])
+                .chain(self.y0[n..].iter().copied())
+                .collect(),
+            method,
+            options: *options,
+            reference: self.reference,
+            energy: self.request.energy,
+            residual: self.request.constraint_residual,
+            repeat,
+            params: IndexMap::new(),
+        };
+        let (mut solution, error, seconds) = crate::scene_core::run(&exe, &job)?;
+        // Back to the state order (integrated, then reconstructed).
+        let from: Vec<usize> = self
+            .state
+            .iter()
+            .map(|k| kept.iter().position(|x| x == k).expect("state = kept"))
+            .collect();
+        for y in solution.y.iter_mut() {
+            *y = from
+                .iter()
+                .map(|&i| y[i])
+                .chain(y[n..].iter().copied())
+                .collect();
+        }
+        let mut failure = error.map(|m| (self.err)(Some("integrator"), m));
+        let mut max_condition: Option<(f64, f64)> = None;
+        for j in 0..solution.t.len() {
+            let y = &solution.y[j];
+            let mut q = vec![self.reference; self.d.ell];
+            for (i, &k) in self.state.iter().enumerate() {
+                q[k] = y[i];
+            }
+            let delta = self
+                .compiled
+                .evaluate(&q, &y[n..], &self.params)
+                .map(|e| e.delta);
+            if let Ok(delta) = delta
+                && delta.signum() != self.delta0.signum()
+            {
+                failure = Some((self.err)(
+                    Some("integrator"),
+                    format!(
+                        "the path crosses the singular set of the quasi-velocities, det[Z; α] = 0, between t = {} and t = {} (δ = {delta:.3e} changed sign); choose other quasi-velocities there",
+                        solution.t[j.saturating_sub(1)],
+                        solution.t[j]
+                    ),
+                ));
+                solution.t.truncate(j);
+                solution.y.truncate(j);
+                solution.energy.truncate(j);
+                solution.constraint.truncate(j);
+                solution.complete = false;
+                break;
+            }
+            if delta.is_ok_and(|d| d.abs() < 1e-3 * self.delta0.abs())
+                && let Ok(cond) = self.compiled.condition(&q, &self.params)
+                && max_condition.is_none_or(|(c, _)| cond > c)
+            {
+                max_condition = Some((cond, solution.t[j]));
+            }
+        }
+        Ok((
+            Run {
+                solution,
+                failure,
+                max_condition,
+            },
+            seconds,
+            built,
+        ))
+    }
+
     /// The indices, in the integrated state, of the requested outputs (coordinates, then η).
     pub fn requested_components(&self) -> Vec<usize> {
         let n = self.state.len();
@@ -597,6 +744,7 @@ impl Loaded {
             model: d.model.clone(),
             eta_name: d.eta_name.clone(),
             method: method_name.to_string(),
+            engine: Engine::Interpreted,
             t: solution.t.clone(),
             q: self
                 .request
@@ -636,6 +784,79 @@ impl Loaded {
             complete: failure.is_none() && solution.complete,
             initial_projection: self.projection.clone(),
             error: failure.map(|e| e.message().to_string()),
+        }
+    }
+}
+
+/// `eta = "auto"`: the quasi-velocities that eliminate the coordinates the scene does not
+/// request, as `hamel search` finds them (its first candidate without free functions, added to
+/// the model as a choice); else, or when the scene requests every coordinate, the model's
+/// first choice. stderr says which and why.
+fn auto_choice(model: Model, request: Option<&[String]>) -> Result<(Model, String), ModelError> {
+    let first = model.choice(None)?.name.clone();
+    let eliminate: Vec<String> = match request {
+        Some(r) => model
+            .coordinates
+            .iter()
+            .filter(|c| !r.contains(c))
+            .cloned()
+            .collect(),
+        None => Vec::new(),
+    };
+    if eliminate.is_empty() {
+        eprintln!(
+            "eta = auto: every coordinate is requested, nothing to eliminate: using the model's first choice `{first}`"
+        );
+        return Ok((model, first));
+    }
+    let report = hamel_reduce::search(
+        &model,
+        &eliminate,
+        hamel_reduce::SearchOptions {
+            budget: std::time::Duration::from_secs(20),
+            max_candidates: 10,
+        },
+        Box::new(|_, _| {}),
+    )?;
+    // Candidates without free functions, in the search's order (simplest first); the first
+    // whose map [Z; α] is regular everywhere wins, else the first.
+    let usable: Vec<(Model, String, bool)> = report
+        .candidates
+        .iter()
+        .filter(|c| c.free_functions.is_empty())
+        .filter_map(|c| {
+            let text = format!("{}\n{}\n", model.source, c.toml);
+            let m = Model::from_source(&model.file, &text).ok()?;
+            let regular = hamel_derive::derive(&m, Some(&c.name))
+                .ok()?
+                .singular_set
+                .is_empty();
+            Some((m, c.name.clone(), regular))
+        })
+        .collect();
+    let pick = usable
+        .iter()
+        .position(|c| c.2)
+        .or((!usable.is_empty()).then_some(0));
+    match pick.map(|i| usable.into_iter().nth(i).expect("in range")) {
+        Some((m, name, regular)) => {
+            eprintln!(
+                "eta = auto: using `{name}` (found by search; it eliminates {} from the equations{})",
+                eliminate.join(", "),
+                if regular {
+                    "; [Z; α] is regular everywhere"
+                } else {
+                    "; no candidate is regular everywhere: see its singular set with hamel derive"
+                }
+            );
+            Ok((m, name))
+        }
+        None => {
+            eprintln!(
+                "eta = auto: search found no quasi-velocities without free functions that eliminate {}: using the model's first choice `{first}`",
+                eliminate.join(", ")
+            );
+            Ok((model, first))
         }
     }
 }
@@ -734,7 +955,10 @@ pub struct Projection {
 /// Run the scene; returns the trajectory (possibly incomplete) and, on failure, the error.
 /// A scene with an `[accuracy]` target and no integrator runs the fastest adaptive setting that
 /// meets it (`hamel tradeoff`'s recommendation among DOP853 and DOPRI5; stderr says which).
-pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelError> {
+pub fn run(
+    scene_path: &Path,
+    engine: Engine,
+) -> Result<(Trajectory, Option<ModelError>), ModelError> {
     let loaded = load(scene_path)?;
     let (mut name, mut method, mut options) = loaded.integrator.clone();
     if let Some((rtol, atol)) = loaded.accuracy {
@@ -756,7 +980,36 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
             ),
         }
     }
-    let run = loaded.integrate(method, &options)?;
+    let (run, engine) = match engine {
+        Engine::Interpreted => (loaded.integrate(method, &options)?, Engine::Interpreted),
+        Engine::Compiled => match loaded.integrate_compiled(method, &options, 1) {
+            // The compiled core sees a singularity only as a failed step or a value that is
+            // not finite; the interpreted evaluator checks δ and A_Γ at every evaluation and
+            // names the cause, so a failed run is repeated with it for the diagnosis.
+            Ok((run, _, _)) if run.failure.is_some() => {
+                eprintln!(
+                    "note: the compiled core stopped ({}); integrating again with the interpreted evaluator, which watches the singular set at every evaluation",
+                    run.failure.as_ref().map_or("", |e| e.message())
+                );
+                (loaded.integrate(method, &options)?, Engine::Interpreted)
+            }
+            Ok((run, _, built)) => {
+                eprintln!(
+                    "compiled core ({} operations): {} {}",
+                    loaded.plan.ops,
+                    if built { "built into" } else { "cached in" },
+                    loaded.plan.entry.dir.display()
+                );
+                (run, Engine::Compiled)
+            }
+            Err(e) => {
+                eprintln!(
+                    "warning: the scene's compiled core is not available, using the interpreted evaluator: {e}"
+                );
+                (loaded.integrate(method, &options)?, Engine::Interpreted)
+            }
+        },
+    };
     if let Some((cond, t)) = run.max_condition
         && cond > CONDITION_WARNING
     {
@@ -764,7 +1017,8 @@ pub fn run(scene_path: &Path) -> Result<(Trajectory, Option<ModelError>), ModelE
             "warning: the path comes near the singular set of the quasi-velocities: the condition number of [Z; α] reaches {cond:.1e} at t = {t} (accuracy degrades like cond·ε; docs/stability.md)"
         );
     }
-    let traj = loaded.trajectory(&name, &run);
+    let mut traj = loaded.trajectory(&name, &run);
+    traj.engine = engine;
     Ok((traj, run.failure))
 }
 
@@ -825,4 +1079,146 @@ impl Trajectory {
         }
         o
     }
+}
+
+/// `hamel plan --measure`: the planned computation against the full unreduced system.
+#[derive(Debug, Serialize)]
+pub struct Measured {
+    /// The integrator both ran.
+    pub method: String,
+    /// States integrated: planned, full.
+    pub states: (usize, usize),
+    /// Operations of the right-hand side: planned (specialised), full (parameters as inputs).
+    pub ops: (usize, usize),
+    /// Median time of one integration, seconds: planned, full (measured inside each core).
+    pub seconds: (f64, f64),
+    /// Right-hand side evaluations: planned, full.
+    pub rhs_evals: (usize, usize),
+    /// Full time over planned time.
+    pub speedup: f64,
+    /// The largest difference of the requested outputs between the two runs, relative to
+    /// max(1, |value|).
+    pub max_difference: f64,
+}
+
+impl Measured {
+    /// The measurement as text.
+    pub fn to_text(&self) -> String {
+        format!(
+            "measured ({}): planned {} states, {} operations, {:.3e} s, {} RHS evaluations; full {} states, {} operations, {:.3e} s, {} RHS evaluations; full / planned = {:.2}x; largest difference of the requested outputs {:.1e}\n",
+            self.method,
+            self.states.0,
+            self.ops.0,
+            self.seconds.0,
+            self.rhs_evals.0,
+            self.states.1,
+            self.ops.1,
+            self.seconds.1,
+            self.rhs_evals.1,
+            self.speedup,
+            self.max_difference
+        )
+    }
+}
+
+/// Integrate a scene on its compiled core and the full unreduced system (every coordinate,
+/// η; parameters not specialised, set at run time) on its own compiled core, both with the
+/// scene's integrator (DOP853 at the `[accuracy]` tolerances when it gives only a target),
+/// each repeated until it has run about 0.3 s; the median times and the outputs' agreement.
+pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
+    let (name, method, options) = loaded.integrator.clone();
+    let fail = |e: String| loaded.error("integrator", e);
+    let repeats = |seconds: f64| ((0.3 / seconds.max(1e-9)) as usize).clamp(3, 10_000);
+    let (probe, first, _) = loaded
+        .integrate_compiled(method, &options, 1)
+        .map_err(fail)?;
+    if let Some(e) = probe.failure {
+        return Err(e);
+    }
+    let (planned, planned_seconds, _) = loaded
+        .integrate_compiled(method, &options, repeats(first))
+        .map_err(fail)?;
+    // The full system's core: nothing dropped, nothing specialised.
+    let model = &loaded.model;
+    let d = &loaded.d;
+    let none = IndexMap::new();
+    let key = crate::scene_core::Key::new(&model.source, &d.eta_name, &[], &none);
+    let entry = match crate::scene_core::lookup(&key) {
+        Some(e) => e,
+        None => {
+            let code = hamel_derive::derive_for_code(model, Some(&d.eta_name))?;
+            crate::scene_core::store(
+                &key,
+                &code,
+                &none,
+                &[],
+                |_| Ok(loaded.plan.ops_full),
+                loaded.plan.ops_full,
+                &format!(
+                    "hamel plan --measure (full system of {}, {})",
+                    model.file, d.eta_name
+                ),
+            )
+            .map_err(fail)?
+        }
+    };
+    let (exe, _) = crate::scene_core::binary(&entry).map_err(fail)?;
+    let full_job = |repeat: usize| crate::scene_core::Job {
+        t0: loaded.scene.t0,
+        times: &loaded.times,
+        y0: loaded
+            .q0
+            .iter()
+            .chain(&loaded.y0[loaded.state.len()..])
+            .copied()
+            .collect(),
+        method,
+        options,
+        reference: 0.0,
+        energy: loaded.request.energy,
+        residual: loaded.request.constraint_residual,
+        repeat,
+        params: loaded.params.clone(),
+    };
+    let (_, _, first_full) = crate::scene_core::run(&exe, &full_job(1)).map_err(fail)?;
+    let (full, error, full_seconds) =
+        crate::scene_core::run(&exe, &full_job(repeats(first_full))).map_err(fail)?;
+    if let Some(e) = error {
+        return Err(fail(format!("the full system's run failed: {e}")));
+    }
+    let p = &planned.solution;
+    let n = loaded.state.len();
+    let mut max_difference = 0.0_f64;
+    for (yp, yf) in p.y.iter().zip(&full.y) {
+        let pairs = loaded
+            .request
+            .coordinates
+            .iter()
+            .map(|&k| {
+                (
+                    loaded
+                        .state
+                        .iter()
+                        .position(|&s| s == k)
+                        .expect("requested ⊆ state"),
+                    k,
+                )
+            })
+            .chain((0..d.sigma).map(|i| (n + i, d.ell + i)));
+        for (i, j) in pairs {
+            max_difference = max_difference.max((yp[i] - yf[j]).abs() / yf[j].abs().max(1.0));
+        }
+    }
+    if p.y.len() != full.y.len() {
+        max_difference = f64::INFINITY;
+    }
+    Ok(Measured {
+        method: name,
+        states: (n + d.sigma, d.ell + d.sigma),
+        ops: (loaded.plan.ops, loaded.plan.ops_full),
+        seconds: (planned_seconds, full_seconds),
+        rhs_evals: (p.stats.rhs_evals, full.stats.rhs_evals),
+        speedup: full_seconds / planned_seconds,
+        max_difference,
+    })
 }

@@ -79,14 +79,14 @@ pub enum Range {
 
 /// The requested outputs of a solution, per output time: the requested state components, then
 /// the energy when requested.
-fn outputs(loaded: &Loaded, s: &Solution) -> Vec<Vec<f64>> {
+fn outputs(loaded: &Loaded, s: &Solution, energy: bool) -> Vec<Vec<f64>> {
     let ix = loaded.requested_components();
     s.y.iter()
         .zip(&s.energy)
         .map(|(y, e)| {
             ix.iter()
                 .map(|&i| y[i])
-                .chain(loaded.request.energy.then(|| e.unwrap_or(f64::NAN)))
+                .chain((energy && loaded.request.energy).then(|| e.unwrap_or(f64::NAN)))
                 .collect()
         })
         .collect()
@@ -145,6 +145,15 @@ fn timed(
 
 /// Measure the trade for a loaded scene.
 pub fn table(loaded: &Loaded, range: Range) -> Result<Table, ModelError> {
+    Ok(measure(loaded, range, true)?.0)
+}
+
+/// [`table`], with the energy among the compared outputs or not, and the reference's outputs.
+fn measure(
+    loaded: &Loaded,
+    range: Range,
+    energy: bool,
+) -> Result<(Table, Vec<Vec<f64>>), ModelError> {
     let target = loaded
         .accuracy
         .unwrap_or((loaded.integrator.2.rtol, loaded.integrator.2.atol));
@@ -162,8 +171,8 @@ pub fn table(loaded: &Loaded, range: Range) -> Result<Table, ModelError> {
             "the reference run (DOP853 at 1e-14) did not reach the end; the scene cannot be measured".into(),
         ));
     }
-    let reference_out = outputs(loaded, &reference);
-    let reference_check = errors(&outputs(loaded, &check), &reference_out, target).1;
+    let reference_out = outputs(loaded, &reference, energy);
+    let reference_check = errors(&outputs(loaded, &check, energy), &reference_out, target).1;
     // Fixed steps end on every output time, so they are taken as fractions of the smallest
     // output interval.
     let interval = loaded
@@ -214,7 +223,7 @@ pub fn table(loaded: &Loaded, range: Range) -> Result<Table, ModelError> {
         };
         let (s, complete, took) = timed(loaded, method, &options)?;
         let (error_end, error_span, target_ratio) =
-            errors(&outputs(loaded, &s), &reference_out, target);
+            errors(&outputs(loaded, &s, energy), &reference_out, target);
         rows.push(Row {
             method: name,
             tol,
@@ -236,14 +245,112 @@ pub fn table(loaded: &Loaded, range: Range) -> Result<Table, ModelError> {
         .filter(|(_, r)| r.complete && r.target_ratio <= 1.0)
         .min_by(|a, b| a.1.seconds.total_cmp(&b.1.seconds))
         .map(|(i, _)| i);
-    Ok(Table {
-        model: format!("{} ({})", loaded.model_name(), loaded.eta_name()),
-        target,
-        reference: "DOP853 at rtol = atol = 1e-14".into(),
-        reference_check,
-        rows,
-        recommended,
-    })
+    Ok((
+        Table {
+            model: format!("{} ({})", loaded.model_name(), loaded.eta_name()),
+            target,
+            reference: "DOP853 at rtol = atol = 1e-14".into(),
+            reference_check,
+            rows,
+            recommended,
+        },
+        reference_out,
+    ))
+}
+
+/// An expression tape as a Python function `rhs(t, y)` returning a list (straight-line code, one
+/// assignment per shared operation), its inputs given as Python texts.
+fn python_function(tape: &hamel_expr::Tape, inputs: &[String]) -> String {
+    use hamel_expr::{Expr, Func, Op};
+    let mut o = String::from("def rhs(t, y):\n");
+    for (k, op) in tape.ops().iter().enumerate() {
+        let join = |v: &[usize], sep: &str| {
+            v.iter()
+                .map(|a| format!("t{a}"))
+                .collect::<Vec<_>>()
+                .join(sep)
+        };
+        let text = match op {
+            Op::Input(i) => inputs[*i].clone(),
+            Op::Const(r) => format!("{:?}", Expr::rational_to_f64(r)),
+            Op::Add(v) => join(v, " + "),
+            Op::Mul(v) => join(v, " * "),
+            Op::Neg(a) => format!("-t{a}"),
+            Op::Div(a, b) => format!("t{a} / t{b}"),
+            Op::PowI(a, n) => format!("t{a} ** {n}"),
+            Op::PowF(a, b) => format!("t{a} ** t{b}"),
+            Op::Call(f, a) => {
+                let name = match f {
+                    Func::Sin => "sin",
+                    Func::Cos => "cos",
+                    Func::Tan => "tan",
+                    Func::Sqrt => "sqrt",
+                    Func::Exp => "exp",
+                    Func::Log => "log",
+                };
+                format!("{name}(t{a})")
+            }
+        };
+        o += &format!("    t{k} = {text}\n");
+    }
+    let outs: Vec<String> = tape.outputs().iter().map(|i| format!("t{i}")).collect();
+    o += &format!("    return [{}]\n", outs.join(", "));
+    o
+}
+
+/// The scene's planned system for a comparison with scipy (`bench/scipy_tradeoff.py`): the
+/// right-hand side as Python (the code generator's solved form with the scene's parameters and
+/// the dropped coordinates' reference value as numbers), the initial state, the output times,
+/// the reference solution on the requested state components, and hamel's DOP853 and DOPRI5
+/// measured on the same components.
+pub fn export_python(loaded: &Loaded) -> Result<serde_json::Value, ModelError> {
+    let (table, reference) = measure(loaded, Range::Adaptive, false)?;
+    let plan = &loaded.plan;
+    let (ell, sigma) = loaded.dims();
+    // The general solved form (parameters as inputs, written below as the scene's numbers).
+    let code = hamel_derive::derive_for_code(loaded.model(), Some(loaded.eta_name()))?;
+    let generated = hamel_codegen::generate(&code, &[], "export")
+        .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
+    let solved = &generated.solved;
+    let state: Vec<usize> = plan
+        .integrated_ix
+        .iter()
+        .chain(&plan.reconstructed_ix)
+        .copied()
+        .collect();
+    let exprs: Vec<&hamel_expr::Expr> = state
+        .iter()
+        .map(|&k| &solved.exprs[sigma + k])
+        .chain(&solved.exprs[..sigma])
+        .collect();
+    let tape = hamel_expr::Tape::compile(&exprs, &solved.inputs)
+        .map_err(|e| loaded.error("eta", format!("internal error: {e}")))?;
+    // Inputs of the solved form: the ℓ coordinates, the parameters, then η.
+    let inputs: Vec<String> = (0..ell)
+        .map(|k| match state.iter().position(|&s| s == k) {
+            Some(i) => format!("y[{i}]"),
+            None => format!("{:?}", loaded.reference_value()),
+        })
+        .chain(
+            solved.inputs[ell..solved.inputs.len() - sigma]
+                .iter()
+                .map(|name| format!("{:?}", loaded.parameter(name))),
+        )
+        .chain((0..sigma).map(|s| format!("y[{}]", state.len() + s)))
+        .collect();
+    Ok(serde_json::json!({
+        "model": table.model,
+        "python": python_function(&tape, &inputs),
+        "y0": loaded.y0,
+        "times": loaded.times,
+        "requested": loaded.requested_components(),
+        "reference": reference,
+        "target": table.target,
+        "hamel": table.rows.iter().map(|r| serde_json::json!({
+            "method": r.method, "tol": r.tol, "seconds": r.seconds,
+            "error_span": r.error_span, "rhs_evals": r.rhs_evals, "complete": r.complete,
+        })).collect::<Vec<_>>(),
+    }))
 }
 
 impl Row {

@@ -12,7 +12,10 @@ static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 fn hamel(args: &[&str], stdin: Option<&str>) -> Output {
     let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hamel"));
-    cmd.args(args).current_dir(env!("CARGO_MANIFEST_DIR"));
+    cmd.args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("HAMEL_CACHE", code_cache())
+        .env("CARGO", env!("CARGO"));
     match stdin {
         None => cmd.output().unwrap(),
         Some(text) => {
@@ -31,6 +34,25 @@ fn hamel(args: &[&str], stdin: Option<&str>) -> Output {
                 .unwrap();
             child.wait_with_output().unwrap()
         }
+    }
+}
+
+/// The cache of compiled scene cores the `hamel` processes of this binary share (kept between
+/// runs: its entries are keyed by the hamel executable's size and time). Its cargo target
+/// directory starts with the outer build's `.rustc_info.json` (see [`build_generated`]).
+fn code_cache() -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("hamel-cache");
+    seed_rustc_info(&dir.join("target"));
+    dir
+}
+
+/// Copy the outer build's cache of rustc's probes into a new target directory.
+fn seed_rustc_info(target: &Path) {
+    let outer = Path::new(env!("CARGO_TARGET_TMPDIR")).parent().unwrap();
+    std::fs::create_dir_all(target).unwrap();
+    let cache = target.join(".rustc_info.json");
+    if !cache.exists() {
+        let _ = std::fs::copy(outer.join(".rustc_info.json"), &cache);
     }
 }
 
@@ -67,12 +89,7 @@ fn json_on_stdout(o: &Output) -> serde_json::Value {
 fn build_generated(crate_dir: &Path, target: &Path) {
     static ONE_BUILD: Mutex<()> = Mutex::new(());
     let _guard = ONE_BUILD.lock().unwrap_or_else(|e| e.into_inner());
-    let outer = Path::new(env!("CARGO_TARGET_TMPDIR")).parent().unwrap();
-    std::fs::create_dir_all(target).unwrap();
-    let cache = target.join(".rustc_info.json");
-    if !cache.exists() {
-        let _ = std::fs::copy(outer.join(".rustc_info.json"), &cache);
-    }
+    seed_rustc_info(target);
     let build = Command::new(env!("CARGO"))
         .args(["build", "--release", "--offline", "--quiet"])
         .current_dir(crate_dir)
@@ -1138,4 +1155,181 @@ fn every_bundled_scene_plans() {
         n += 1;
     }
     assert!(n >= 8, "a scene per bundled model");
+}
+
+/// The file's modification time.
+fn modified(path: &Path) -> std::time::SystemTime {
+    std::fs::metadata(path).unwrap().modified().unwrap()
+}
+
+#[test]
+fn simulate_builds_a_specialised_core_once_and_reuses_it() {
+    let dir = scratch("core_cache");
+    let (first, second, interpreted) = (
+        dir.join("first.json"),
+        dir.join("second.json"),
+        dir.join("interpreted.json"),
+    );
+    let run = |out: &Path, engine: &str| {
+        let o = hamel(
+            &[
+                "simulate",
+                "scenes/bar_wheels.toml",
+                "--format",
+                "json",
+                "--output",
+                out.to_str().unwrap(),
+                "--engine",
+                engine,
+            ],
+            None,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let plan = json_on_stdout(&hamel(
+        &["plan", "scenes/bar_wheels.toml", "--format", "json"],
+        None,
+    ));
+    let code = PathBuf::from(plan["code"].as_str().unwrap());
+    // Another test may have built this scene's core in the shared cache: start without it.
+    let _ = std::fs::remove_file(code.join("scene"));
+    let e = run(&first, "compiled");
+    assert!(e.contains("built into"), "{e}");
+    let exe = code.join("scene");
+    let built = modified(&exe);
+    let e = run(&second, "compiled");
+    assert!(e.contains("cached in"), "{e}");
+    assert_eq!(modified(&exe), built, "the second run rebuilt the core");
+    let plan = json_on_stdout(&hamel(
+        &["plan", "scenes/bar_wheels.toml", "--format", "json"],
+        None,
+    ));
+    assert_eq!(plan["cached"], true);
+    // Specialised: the scene fixes every parameter, so the core has none left, and its
+    // planned right-hand side has fewer operations than the general full system's.
+    let model = std::fs::read_to_string(code.join("src/model.rs")).unwrap();
+    assert!(
+        model.contains("pub const NAMES: [&str; 0] = [];"),
+        "{model}"
+    );
+    assert!(plan["ops"].as_u64().unwrap() < plan["ops_full"].as_u64().unwrap());
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&first), read(&second));
+    assert_eq!(a["engine"], "compiled");
+    assert_eq!(a["eta"], b["eta"]);
+    // The compiled core and the interpreted evaluator integrate the same equations.
+    run(&interpreted, "interpreted");
+    let c = read(&interpreted);
+    assert_eq!(c["engine"], "interpreted");
+    let flat = |v: &serde_json::Value| -> Vec<f64> {
+        let mut out: Vec<f64> = v["q"]["phi"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        for row in v["eta"].as_array().unwrap() {
+            out.extend(row.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()));
+        }
+        out
+    };
+    let (fa, fc) = (flat(&a), flat(&c));
+    assert_eq!(fa.len(), 3 * 201);
+    let worst = fa
+        .iter()
+        .zip(&fc)
+        .map(|(x, y)| (x - y).abs() / y.abs().max(1.0))
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-8, "compiled vs interpreted: {worst:e}");
+}
+
+#[test]
+fn plan_measure_compares_the_plan_with_the_full_system() {
+    let o = hamel(
+        &[
+            "plan",
+            "scenes/bar_wheels.toml",
+            "--format",
+            "json",
+            "--measure",
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_on_stdout(&o);
+    let m = &v["measured"];
+    // φ, η1, η2 against x, y, θ, ψ1, φ, η1, η2.
+    assert_eq!(m["states"], serde_json::json!([3, 7]));
+    assert!(m["ops"][0].as_u64().unwrap() < m["ops"][1].as_u64().unwrap());
+    assert!(m["max_difference"].as_f64().unwrap() < 1e-8, "{m}");
+    for i in 0..2 {
+        assert!(m["seconds"][i].as_f64().unwrap() > 0.0, "{m}");
+        assert!(m["rhs_evals"][i].as_u64().unwrap() > 0, "{m}");
+    }
+}
+
+#[test]
+fn eta_auto_takes_a_regular_reducing_choice_from_the_search() {
+    let dir = scratch("eta_auto");
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/knife.toml");
+    let scene = |name: &str, initial: &str| {
+        let path = dir.join(name);
+        std::fs::write(
+            &path,
+            format!(
+                "model = {:?}\neta = \"auto\"\nrequest = [\"theta\", \"eta\"]\nt_end = 10.0\noutputs = 11\n\
+                 [initial]\nq = {{ x = 0.0, y = 0.0, theta = 0.3 }}\n{initial}\n",
+                model.display().to_string()
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let good = scene("auto.toml", "q_dot = { x = 0.95, y = 0.3, theta = 0.5 }");
+    let o = hamel(&["plan", good.to_str().unwrap(), "--format", "json"], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("eta = auto: using") && e.contains("regular everywhere"),
+        "{e}"
+    );
+    let plan = json_on_stdout(&o);
+    assert_eq!(plan["dropped"], serde_json::json!(["x", "y"]));
+    assert_ne!(plan["eta"], "paper");
+    let out = dir.join("auto.json");
+    let o = hamel(
+        &[
+            "simulate",
+            good.to_str().unwrap(),
+            "--format",
+            "json",
+            "--output",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    // The sideways velocity is removed by the projection; θ̇ = 0.5 stays: θ(10) = 5.3.
+    let theta = v["q"]["theta"]
+        .as_array()
+        .unwrap()
+        .last()
+        .unwrap()
+        .as_f64()
+        .unwrap();
+    assert!((theta - 5.3).abs() < 1e-9, "{theta}");
+    // η of a choice not yet made cannot be given.
+    let bad = scene("bad.toml", "eta = [1.0, 0.5]");
+    let o = hamel(&["plan", bad.to_str().unwrap()], None);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("bad.toml") && e.contains("initial.eta") && e.contains("q_dot"),
+        "{e}"
+    );
 }

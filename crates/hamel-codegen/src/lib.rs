@@ -1371,6 +1371,9 @@ pub const EVAL_BIN: &str = include_str!("../runtime/eval.rs");
 /// The `simulate` binary (with [`with_simulator`]).
 pub const SIMULATE_BIN: &str = include_str!("../runtime/simulate.rs");
 
+/// The `scene` binary (the integration job of `hamel simulate` on a compiled core).
+pub const SCENE_BIN: &str = include_str!("../runtime/scene.rs");
+
 /// The integrators (`crates/hamel-sim`), vendored into a generated crate by [`with_simulator`]:
 /// (path inside the crate, text).
 const SIM_SOURCES: &[(&str, &str)] = &[
@@ -1420,7 +1423,7 @@ const SIM_SOURCES: &[(&str, &str)] = &[
     ),
 ];
 
-/// Add a `simulate` binary to a generated crate: the integrators of `crates/hamel-sim` are
+/// Add the `simulate` and `scene` binaries to a generated crate: the integrators of `crates/hamel-sim` are
 /// vendored as a path dependency inside the crate (they need nalgebra, serde and thiserror),
 /// so the crate still builds on its own.
 pub fn with_simulator(mut g: Generated) -> Generated {
@@ -1443,5 +1446,6 @@ pub fn with_simulator(mut g: Generated) -> Generated {
     }
     g.files
         .push(("src/bin/simulate.rs".into(), SIMULATE_BIN.into()));
+    g.files.push(("src/bin/scene.rs".into(), SCENE_BIN.into()));
     g
 }

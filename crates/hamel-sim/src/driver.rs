@@ -1,6 +1,6 @@
 //! The driver: input checks, the fixed-step and adaptive step loops, outputs and failures.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::control::{Controller, Tolerances, Verdict, initial_step};
 use crate::dop853::Dop853;
@@ -11,7 +11,7 @@ use crate::solution::{ErrorKind, IntegrationError, Solution, Stats};
 use crate::system::{Evaluator, OdeSystem, SystemError};
 
 /// An integration method.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Method {
     /// Classical fourth-order Runge–Kutta with a fixed step (the last step before each output
     /// time is shortened to land on it).
@@ -34,7 +34,7 @@ pub enum Method {
 }
 
 /// Tolerances and step-size limits.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Options {
     /// Relative tolerance; adaptive methods require `rtol > 10·f64::EPSILON`.
     pub rtol: f64,

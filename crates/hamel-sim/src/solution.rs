@@ -1,9 +1,9 @@
 //! What an integration returns: states at the output times, statistics, errors.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// States at the requested output times, with monitored invariants and statistics.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Solution {
     /// Output times reached, in the order requested.
     pub t: Vec<f64>,
@@ -22,7 +22,7 @@ pub struct Solution {
 }
 
 /// Work counters and invariant drift of one integration.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
     /// Accepted steps.
     pub steps: usize,
