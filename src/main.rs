@@ -191,6 +191,11 @@ enum Command {
         /// adaptive runs, for `bench/scipy_tradeoff.py` (JSON).
         #[arg(long, conflicts_with_all = ["plot", "format"])]
         export_python: Option<PathBuf>,
+        /// What the timed runs evaluate: the scene's compiled core (as `hamel simulate` runs
+        /// it; the interpreted evaluator, with a warning, when it cannot be built) or the
+        /// interpreted evaluator.
+        #[arg(long, value_enum, default_value = "compiled")]
+        engine: simulate::Engine,
     },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
@@ -392,18 +397,19 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
             plot,
             export_python,
+            engine,
         } => {
             if let Some(file) = export_python {
                 let out = Output::new(Some(file))?;
                 let loaded = simulate::load(&scene)?;
-                let v = tradeoff::export_python(&loaded)?;
+                let v = tradeoff::export_python(&loaded, engine)?;
                 return out
                     .write(&(serde_json::to_string_pretty(&v).expect("serialisable") + "\n"));
             }
             let out = Output::new(output)?;
             plot::check(plot.as_deref())?;
             let loaded = simulate::load(&scene)?;
-            let table = tradeoff::table(&loaded, tradeoff::Range::All)?;
+            let table = tradeoff::table(&loaded, tradeoff::Range::All, engine)?;
             out.write(&match format {
                 ReportFormat::Text => table.to_text(),
                 ReportFormat::Json => {

@@ -960,9 +960,22 @@ pub fn run(
     engine: Engine,
 ) -> Result<(Trajectory, Option<ModelError>), ModelError> {
     let loaded = load(scene_path)?;
+    // The compiled core is built (or found) first: the accuracy measurement below runs on it too.
+    let (engine, built) = match engine {
+        Engine::Compiled => match crate::scene_core::binary(&loaded.plan.entry) {
+            Ok((_, built)) => (Engine::Compiled, built),
+            Err(e) => {
+                eprintln!(
+                    "warning: the scene's compiled core is not available, using the interpreted evaluator: {e}"
+                );
+                (Engine::Interpreted, false)
+            }
+        },
+        Engine::Interpreted => (Engine::Interpreted, false),
+    };
     let (mut name, mut method, mut options) = loaded.integrator.clone();
     if let Some((rtol, atol)) = loaded.accuracy {
-        let table = crate::tradeoff::table(&loaded, crate::tradeoff::Range::Adaptive)?;
+        let table = crate::tradeoff::table(&loaded, crate::tradeoff::Range::Adaptive, engine)?;
         match table.recommended {
             Some(i) => {
                 let row = &table.rows[i];
@@ -993,7 +1006,7 @@ pub fn run(
                 );
                 (loaded.integrate(method, &options)?, Engine::Interpreted)
             }
-            Ok((run, _, built)) => {
+            Ok((run, _, _)) => {
                 eprintln!(
                     "compiled core ({} operations): {} {}",
                     loaded.plan.ops,

@@ -19,7 +19,7 @@ use hamel_model::ModelError;
 use hamel_sim::{Method, Options, Solution};
 use serde::Serialize;
 
-use crate::simulate::Loaded;
+use crate::simulate::{Engine, Loaded};
 
 /// One setting of one integrator, measured.
 #[derive(Clone, Debug, Serialize)]
@@ -59,6 +59,8 @@ pub struct Table {
     pub target: (f64, f64),
     /// How the reference was computed.
     pub reference: String,
+    /// What evaluated the right-hand side in the timed runs.
+    pub engine: Engine,
     /// max difference between the reference and the run at half its tolerance (same measure
     /// as `error_span`): the reference's own error, roughly.
     pub reference_check: f64,
@@ -121,13 +123,38 @@ fn errors(got: &[Vec<f64>], reference: &[Vec<f64>], target: (f64, f64)) -> (f64,
     (end, span, ratio)
 }
 
-/// Run once, and time it: repeated while the total stays under ~50 ms (at most 20 times),
-/// median of the runs.
+/// Run once, and time it. Interpreted: repeated while the total stays under ~50 ms (at most 20
+/// times), median of the runs. Compiled: one run on the scene's core, then, when it took under
+/// ~10 ms, a second call repeating it inside the core for about 50 ms (at most 1000 times);
+/// the median time measured inside the core (process start-up and JSON excluded).
 fn timed(
     loaded: &Loaded,
+    engine: Engine,
     method: Method,
     options: &Options,
 ) -> Result<(Solution, bool, Duration), ModelError> {
+    if engine == Engine::Compiled {
+        let fail = |e: String| loaded.error("integrator", format!("the compiled core failed: {e}"));
+        let (run, first, _) = loaded
+            .integrate_compiled(method, options, 1)
+            .map_err(fail)?;
+        if run.failure.is_some() || first > 0.01 {
+            return Ok((
+                run.solution,
+                run.failure.is_none(),
+                Duration::from_secs_f64(first),
+            ));
+        }
+        let repeat = ((0.05 / first.max(1e-7)) as usize).clamp(3, 1000);
+        let (run, median, _) = loaded
+            .integrate_compiled(method, options, repeat)
+            .map_err(fail)?;
+        return Ok((
+            run.solution,
+            run.failure.is_none(),
+            Duration::from_secs_f64(median),
+        ));
+    }
     let mut times = Vec::new();
     let mut total = Duration::ZERO;
     loop {
@@ -143,17 +170,33 @@ fn timed(
     }
 }
 
+/// The engine the trade is measured on: `engine`, or the interpreted evaluator (with a warning
+/// on stderr) when the scene's compiled core cannot be built.
+fn usable(loaded: &Loaded, engine: Engine) -> Engine {
+    if engine == Engine::Compiled
+        && let Err(e) = crate::scene_core::binary(&loaded.plan.entry)
+    {
+        eprintln!(
+            "warning: the scene's compiled core is not available, measuring the interpreted evaluator: {e}"
+        );
+        return Engine::Interpreted;
+    }
+    engine
+}
+
 /// Measure the trade for a loaded scene.
-pub fn table(loaded: &Loaded, range: Range) -> Result<Table, ModelError> {
-    Ok(measure(loaded, range, true)?.0)
+pub fn table(loaded: &Loaded, range: Range, engine: Engine) -> Result<Table, ModelError> {
+    Ok(measure(loaded, range, engine, true)?.0)
 }
 
 /// [`table`], with the energy among the compared outputs or not, and the reference's outputs.
 fn measure(
     loaded: &Loaded,
     range: Range,
+    engine: Engine,
     energy: bool,
 ) -> Result<(Table, Vec<Vec<f64>>), ModelError> {
+    let engine = usable(loaded, engine);
     let target = loaded
         .accuracy
         .unwrap_or((loaded.integrator.2.rtol, loaded.integrator.2.atol));
@@ -163,8 +206,8 @@ fn measure(
         max_steps: 10_000_000,
         ..Options::default()
     };
-    let (reference, ok, _) = timed(loaded, Method::Dop853, &tight(1e-14))?;
-    let (check, ok_check, _) = timed(loaded, Method::Dop853, &tight(5e-15))?;
+    let (reference, ok, _) = timed(loaded, engine, Method::Dop853, &tight(1e-14))?;
+    let (check, ok_check, _) = timed(loaded, engine, Method::Dop853, &tight(5e-15))?;
     if !(ok && ok_check) {
         return Err(loaded.error(
             "integrator",
@@ -221,7 +264,7 @@ fn measure(
             max_steps: 2_000_000,
             ..Options::default()
         };
-        let (s, complete, took) = timed(loaded, method, &options)?;
+        let (s, complete, took) = timed(loaded, engine, method, &options)?;
         let (error_end, error_span, target_ratio) =
             errors(&outputs(loaded, &s, energy), &reference_out, target);
         rows.push(Row {
@@ -250,6 +293,7 @@ fn measure(
             model: format!("{} ({})", loaded.model_name(), loaded.eta_name()),
             target,
             reference: "DOP853 at rtol = atol = 1e-14".into(),
+            engine,
             reference_check,
             rows,
             recommended,
@@ -303,8 +347,8 @@ fn python_function(tape: &hamel_expr::Tape, inputs: &[String]) -> String {
 /// the dropped coordinates' reference value as numbers), the initial state, the output times,
 /// the reference solution on the requested state components, and hamel's DOP853 and DOPRI5
 /// measured on the same components.
-pub fn export_python(loaded: &Loaded) -> Result<serde_json::Value, ModelError> {
-    let (table, reference) = measure(loaded, Range::Adaptive, false)?;
+pub fn export_python(loaded: &Loaded, engine: Engine) -> Result<serde_json::Value, ModelError> {
+    let (table, reference) = measure(loaded, Range::Adaptive, engine, false)?;
     let plan = &loaded.plan;
     let (ell, sigma) = loaded.dims();
     // The general solved form (parameters as inputs, written below as the scene's numbers).
@@ -346,6 +390,7 @@ pub fn export_python(loaded: &Loaded) -> Result<serde_json::Value, ModelError> {
         "requested": loaded.requested_components(),
         "reference": reference,
         "target": table.target,
+        "engine": table.engine,
         "hamel": table.rows.iter().map(|r| serde_json::json!({
             "method": r.method, "tol": r.tol, "seconds": r.seconds,
             "error_span": r.error_span, "rhs_evals": r.rhs_evals, "complete": r.complete,
@@ -389,10 +434,18 @@ impl Table {
     pub fn to_text(&self) -> String {
         let opt = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.1e}"));
         let mut o = format!(
-            "{}: target rtol = {:.0e}, atol = {:.0e}; reference: {} (its difference from the run at half that tolerance: {:.1e})\n\n\
+            "{}: target rtol = {:.0e}, atol = {:.0e}; reference: {} (its difference from the run at half that tolerance: {:.1e}); timed on the {}\n\n\
              | setting | error at end | error over span | / target | time | RHS evals | steps | energy drift | constraint drift |\n\
              |---|---|---|---|---|---|---|---|---|\n",
-            self.model, self.target.0, self.target.1, self.reference, self.reference_check
+            self.model,
+            self.target.0,
+            self.target.1,
+            self.reference,
+            self.reference_check,
+            match self.engine {
+                Engine::Compiled => "scene's compiled core",
+                Engine::Interpreted => "interpreted evaluator",
+            }
         );
         for (i, r) in self.rows.iter().enumerate() {
             o += &format!(

@@ -1073,8 +1073,58 @@ fn tradeoff_measures_every_integrator_and_recommends_one_that_meets_the_target()
         .map(|r| r["seconds"].as_f64().unwrap())
         .fold(f64::INFINITY, f64::min);
     assert_eq!(rec["seconds"].as_f64().unwrap(), fastest);
+    assert_eq!(
+        t["engine"], "compiled",
+        "timed on the scene's core by default"
+    );
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.contains("work–precision") && text.contains("dop853"));
+}
+
+#[test]
+fn tradeoff_exports_the_planned_system_for_scipy_timed_on_the_compiled_core() {
+    let dir = scratch("tradeoff_export");
+    let json = dir.join("knife.json");
+    let o = hamel(
+        &[
+            "tradeoff",
+            "scenes/knife.toml",
+            "--export-python",
+            json.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["engine"], "compiled", "timed on the scene's core");
+    let times = v["times"].as_array().unwrap().len();
+    assert_eq!(v["reference"].as_array().unwrap().len(), times);
+    let rows = v["hamel"].as_array().unwrap();
+    assert!(rows.iter().any(|r| r["method"] == "dop853"));
+    assert!(
+        rows.iter()
+            .all(|r| r["seconds"].as_f64().unwrap() > 0.0 && r["rhs_evals"].as_u64().unwrap() > 0)
+    );
+    // The Python right-hand side is the knife's (x, y, θ, η₁, η₂)' = (η₁ cos θ, η₁ sin θ, η₂, 0, 0)
+    // at the initial state; checked with python3 when it is installed.
+    let script = format!(
+        "from math import *\n{}\nimport json\nprint(json.dumps(rhs(0.0, {})))\n",
+        v["python"].as_str().unwrap(),
+        v["y0"]
+    );
+    match Command::new("python3").arg("-c").arg(&script).output() {
+        Ok(p) if p.status.success() => {
+            let f: Vec<f64> = serde_json::from_slice(&p.stdout).unwrap();
+            let y0: Vec<f64> = serde_json::from_value(v["y0"].clone()).unwrap();
+            let (th, e1, e2) = (y0[2], y0[3], y0[4]);
+            let want = [e1 * th.cos(), e1 * th.sin(), e2, 0.0, 0.0];
+            for (a, b) in f.iter().zip(want) {
+                assert!((a - b).abs() <= 1e-15, "{f:?} against {want:?}");
+            }
+        }
+        _ => eprintln!("python3 not available: the exported function is not evaluated"),
+    }
 }
 
 #[test]
