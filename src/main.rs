@@ -152,6 +152,11 @@ enum Command {
         /// cannot be built); `interpreted`: the structured evaluator, nothing compiled.
         #[arg(long, value_enum, default_value = "compiled")]
         engine: simulate::Engine,
+        /// Estimate the global error on the requested outputs with a check run (1/1000 of the
+        /// tolerances, or half the step) and report it (stderr, and `stats.error_estimate`).
+        /// Done without asking when a tolerance is loose (≥ 1e-3).
+        #[arg(long)]
+        estimate_error: bool,
     },
     /// Plan a scene: from the outputs it requests, which coordinates are integrated,
     /// reconstructed or dropped, and the operation count of the right-hand side (all decided
@@ -332,10 +337,11 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
             plot,
             engine,
+            estimate_error,
         } => {
             let out = Output::new(output)?;
             plot::check(plot.as_deref())?;
-            let (traj, failure) = simulate::run(&scene, engine)?;
+            let (traj, failure) = simulate::run(&scene, engine, estimate_error)?;
             let text = match format {
                 TrajectoryFormat::Csv => traj.to_csv(),
                 TrajectoryFormat::Json => {

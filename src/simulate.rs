@@ -143,7 +143,19 @@ struct StatsOut {
     /// The largest condition number of [Z; α] over the output states, and where.
     max_condition: Option<f64>,
     max_condition_t: Option<f64>,
+    /// Estimated global error on the requested outputs (max |y − y_c| / max(1, |y_c|) over the
+    /// output times, y_c a check run at 1/1000 of the tolerances or half the step), computed
+    /// for loose tolerances and on `--estimate-error`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_estimate: Option<f64>,
+    /// How the check run was made.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_estimate_by: Option<String>,
 }
+
+/// At or above this rtol or atol an adaptive run is *loose*: `hamel simulate` estimates its
+/// global error with a check run and says so (issue 5 §4, docs/stability.md).
+pub const LOOSE_TOLERANCE: f64 = 1e-3;
 
 /// Above this condition number of [Z; α] along the path, `hamel simulate` warns: the singular
 /// set of the quasi-velocities is near and accuracy degrades like cond·ε (docs/stability.md).
@@ -780,6 +792,8 @@ impl Loaded {
                 constraint_drift: solution.stats.constraint_drift,
                 max_condition: run.max_condition.map(|c| c.0),
                 max_condition_t: run.max_condition.map(|c| c.1),
+                error_estimate: None,
+                error_estimate_by: None,
             },
             complete: failure.is_none() && solution.complete,
             initial_projection: self.projection.clone(),
@@ -958,6 +972,7 @@ pub struct Projection {
 pub fn run(
     scene_path: &Path,
     engine: Engine,
+    estimate_error: bool,
 ) -> Result<(Trajectory, Option<ModelError>), ModelError> {
     let loaded = load(scene_path)?;
     // The compiled core is built (or found) first: the accuracy measurement below runs on it too.
@@ -1032,7 +1047,83 @@ pub fn run(
     }
     let mut traj = loaded.trajectory(&name, &run);
     traj.engine = engine;
+    let loose = options.rtol.max(options.atol) >= LOOSE_TOLERANCE && method.is_adaptive();
+    if run.failure.is_none() && (estimate_error || loose) {
+        let (error, by) = loaded.error_estimate(&run.solution, engine, method, &options)?;
+        if loose {
+            eprintln!(
+                "warning: rtol = {:.0e}, atol = {:.0e} is loose: the error on the requested outputs is about {error:.1e} (difference from a run {by})",
+                options.rtol, options.atol
+            );
+        } else {
+            eprintln!(
+                "error estimate: {error:.1e} on the requested outputs (difference from a run {by})"
+            );
+        }
+        traj.stats.error_estimate = Some(error);
+        traj.stats.error_estimate_by = Some(by);
+    }
     Ok((traj, run.failure))
+}
+
+impl Loaded {
+    /// The global error of `solution` on the requested outputs, estimated by a check run on
+    /// the same engine: at 1/1000 of the tolerances (not below 1e-13) for an adaptive method,
+    /// at half the step for a fixed-step one; max |y − y_c| / max(1, |y_c|) over the output
+    /// times, and how the check run was made.
+    fn error_estimate(
+        &self,
+        solution: &Solution,
+        engine: Engine,
+        method: Method,
+        options: &Options,
+    ) -> Result<(f64, String), ModelError> {
+        let (check, by) = match method {
+            Method::Rk4 { step } => (
+                Method::Rk4 { step: step / 2.0 },
+                format!("at step {:.3e}", step / 2.0),
+            ),
+            Method::GaussLegendre {
+                stages,
+                step: Some(h),
+            } => (
+                Method::GaussLegendre {
+                    stages,
+                    step: Some(h / 2.0),
+                },
+                format!("at step {:.3e}", h / 2.0),
+            ),
+            m => (m, String::new()),
+        };
+        let mut tight = *options;
+        let by = if by.is_empty() {
+            tight.rtol = (options.rtol * 1e-3).max(1e-13);
+            tight.atol = (options.atol * 1e-3).max(1e-13);
+            format!("at rtol = {:.0e}, atol = {:.0e}", tight.rtol, tight.atol)
+        } else {
+            by
+        };
+        let run = match engine {
+            Engine::Compiled => self
+                .integrate_compiled(check, &tight, 1)
+                .map(|r| r.0)
+                .map_err(|e| self.error("integrator", format!("the check run failed: {e}")))?,
+            Engine::Interpreted => self.integrate(check, &tight)?,
+        };
+        if let Some(e) = run.failure {
+            return Err(self.error(
+                "integrator",
+                format!(
+                    "the check run for the error estimate failed: {}",
+                    e.message()
+                ),
+            ));
+        }
+        let got = crate::tradeoff::outputs(self, solution, true);
+        let reference = crate::tradeoff::outputs(self, &run.solution, true);
+        let (_, span, _) = crate::tradeoff::errors(&got, &reference, (1.0, 1.0));
+        Ok((span, by))
+    }
 }
 
 impl Trajectory {

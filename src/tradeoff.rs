@@ -81,7 +81,7 @@ pub enum Range {
 
 /// The requested outputs of a solution, per output time: the requested state components, then
 /// the energy when requested.
-fn outputs(loaded: &Loaded, s: &Solution, energy: bool) -> Vec<Vec<f64>> {
+pub(crate) fn outputs(loaded: &Loaded, s: &Solution, energy: bool) -> Vec<Vec<f64>> {
     let ix = loaded.requested_components();
     s.y.iter()
         .zip(&s.energy)
@@ -95,7 +95,11 @@ fn outputs(loaded: &Loaded, s: &Solution, energy: bool) -> Vec<Vec<f64>> {
 }
 
 /// (error at the end, error over the span, ratio to the target) of `got` against `reference`.
-fn errors(got: &[Vec<f64>], reference: &[Vec<f64>], target: (f64, f64)) -> (f64, f64, f64) {
+pub(crate) fn errors(
+    got: &[Vec<f64>],
+    reference: &[Vec<f64>],
+    target: (f64, f64),
+) -> (f64, f64, f64) {
     let (mut end, mut span, mut ratio) = (0.0_f64, 0.0_f64, 0.0_f64);
     for (j, (g, r)) in got.iter().zip(reference).enumerate() {
         for (a, b) in g.iter().zip(r) {

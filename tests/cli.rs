@@ -1183,6 +1183,71 @@ fn simulate_with_only_an_accuracy_target_uses_the_recommended_setting() {
     assert!(!out.exists());
 }
 
+/// A loose tolerance still returns the trajectory, with its global error estimated by a check
+/// run (and said on stderr); `--estimate-error` does the same for any setting. The estimate is
+/// compared with the knife's true error (closed form: θ = θ₀ + η₂t, x = (η₁/η₂)(sin θ − sin θ₀),
+/// y = −(η₁/η₂)(cos θ − cos θ₀)).
+#[test]
+fn loose_tolerances_return_a_result_with_its_error_estimate() {
+    let dir = scratch("loose");
+    let true_error = |v: &serde_json::Value| {
+        let mut e = 0.0_f64;
+        for (j, t) in v["t"].as_array().unwrap().iter().enumerate() {
+            let th = 0.3 + 0.5 * t.as_f64().unwrap();
+            let exact = [
+                ("x", 2.0 * (th.sin() - 0.3f64.sin())),
+                ("y", -2.0 * (th.cos() - 0.3f64.cos())),
+                ("theta", th),
+            ];
+            for (name, x) in exact {
+                let got = v["q"][name][j].as_f64().unwrap();
+                e = e.max((got - x).abs() / x.abs().max(1.0));
+            }
+        }
+        e
+    };
+    for (integrator, flag, loose) in [
+        ("method = \"dop853\"\nrtol = 0.1\natol = 0.1\n", None, true),
+        (
+            "method = \"dopri5\"\nrtol = 1e-2\natol = 1e-2\n",
+            None,
+            true,
+        ),
+        (
+            "method = \"rk4\"\nstep = 0.25\n",
+            Some("--estimate-error"),
+            false,
+        ),
+    ] {
+        let scene = knife_scene(&dir, "k.toml", "", &format!("[integrator]\n{integrator}"));
+        let mut args = vec!["simulate", scene.to_str().unwrap(), "--format", "json"];
+        args.extend(flag);
+        let o = hamel(&args, None);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(stderr(&o).contains("is loose"), loose, "{}", stderr(&o));
+        let v = json_on_stdout(&o);
+        assert_eq!(v["complete"], true);
+        let estimate = v["stats"]["error_estimate"].as_f64().expect("an estimate");
+        let truth = true_error(&v);
+        assert!(
+            truth > 1e-9,
+            "{integrator}: the run is not loose ({truth:e})"
+        );
+        assert!(
+            (0.5 * truth..=2.0 * truth).contains(&estimate),
+            "{integrator}: estimate {estimate:e}, true error {truth:e}"
+        );
+    }
+    // Without the flag, a tight run is not checked twice.
+    let scene = knife_scene(&dir, "k.toml", "", "");
+    let o = hamel(
+        &["simulate", scene.to_str().unwrap(), "--format", "json"],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(json_on_stdout(&o)["stats"].get("error_estimate").is_none());
+}
+
 /// Every bundled scene is valid: it plans, and its plan integrates η.
 #[test]
 fn every_bundled_scene_plans() {

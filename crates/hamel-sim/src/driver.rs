@@ -33,6 +33,17 @@ pub enum Method {
     },
 }
 
+impl Method {
+    /// Whether the step is chosen by error control (the tolerances apply), rather than fixed.
+    pub fn is_adaptive(&self) -> bool {
+        match self {
+            Method::Rk4 { .. } => false,
+            Method::Dopri5 | Method::Dop853 => true,
+            Method::GaussLegendre { step, .. } => step.is_none(),
+        }
+    }
+}
+
 /// Tolerances and step-size limits.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Options {
