@@ -15,7 +15,9 @@
 //!   as inputs, timed on the CAS worker thread (`hamel_cas::evaluator`, criterion's
 //!   `iter_custom`).
 //! * `simulate/<model>/{full,reduced}`: 100 s with DOP853 at rtol = atol = 1e-10, the full state
-//!   (q, η) against the reduced one (kept q, η), both with the generated code.
+//!   (q, η) against the reduced one (kept q, η), both with the generated code;
+//!   `simulate/<model>/gauss-legendre/{full,reduced}` the same with the implicit Gauss–Legendre
+//!   method (step doubling, finite-difference Jacobians on both sides).
 //!
 //! The CAS runs only in the setup (one derivation per model, on its worker thread).
 
@@ -205,52 +207,51 @@ fn simulate(c: &mut Criterion) {
             .chain(eta0.iter().copied())
             .collect();
         let times = [100.0];
-        // Both runs must reach t = 100 (a failure is not timed), and agree on η at the end.
-        let full =
-            hamel_sim::integrate(&Full(core), Method::Dop853, 0.0, &y_full, &times, &options)
+        // DOP853, and Gauss–Legendre (3 stages, step doubling) with finite-difference
+        // Jacobians for both systems (neither run gets the generated Jacobian: the same
+        // machinery on both sides), whose Newton solves cost O(n³) in the state count.
+        for (label, method) in [
+            ("", Method::Dop853),
+            (
+                "gauss-legendre/",
+                Method::GaussLegendre {
+                    stages: 3,
+                    step: None,
+                },
+            ),
+        ] {
+            // Both runs must reach t = 100 (a failure is not timed), and agree on η at the end.
+            let full = hamel_sim::integrate(&Full(core), method, 0.0, &y_full, &times, &options)
                 .unwrap_or_else(|e| panic!("{model}: full run failed: {e}"));
-        let red = hamel_sim::integrate(
-            &Reduced(core),
-            Method::Dop853,
-            0.0,
-            &y_red,
-            &times,
-            &options,
-        )
-        .unwrap_or_else(|e| panic!("{model}: reduced run failed: {e}"));
-        let (ef, er) = (&full.y[0][core.dims.ell..], &red.y[0][core.kept.len()..]);
-        eprintln!(
-            "{model}: full {} RHS evaluations, reduced {}; η(100) differs by {:.1e}",
-            full.stats.rhs_evals,
-            red.stats.rhs_evals,
-            ef.iter()
-                .zip(er)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max)
-        );
-        group.bench_function(format!("{model}/full"), |b| {
-            b.iter(|| {
-                hamel_sim::integrate(&Full(core), Method::Dop853, 0.0, &y_full, &times, &options)
-                    .expect("checked above")
-                    .stats
-                    .rhs_evals
-            })
-        });
-        group.bench_function(format!("{model}/reduced"), |b| {
-            b.iter(|| {
-                hamel_sim::integrate(
-                    &Reduced(core),
-                    Method::Dop853,
-                    0.0,
-                    &y_red,
-                    &times,
-                    &options,
-                )
-                .expect("checked above")
-                .stats
-                .rhs_evals
-            })
-        });
+            let red = hamel_sim::integrate(&Reduced(core), method, 0.0, &y_red, &times, &options)
+                .unwrap_or_else(|e| panic!("{model}: reduced run failed: {e}"));
+            let (ef, er) = (&full.y[0][core.dims.ell..], &red.y[0][core.kept.len()..]);
+            eprintln!(
+                "{model} {label}: full {} RHS evaluations, reduced {}; η(100) differs by {:.1e}",
+                full.stats.rhs_evals,
+                red.stats.rhs_evals,
+                ef.iter()
+                    .zip(er)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+            );
+            group.bench_function(format!("{model}/{label}full"), |b| {
+                b.iter(|| {
+                    hamel_sim::integrate(&Full(core), method, 0.0, &y_full, &times, &options)
+                        .expect("checked above")
+                        .stats
+                        .rhs_evals
+                })
+            });
+            group.bench_function(format!("{model}/{label}reduced"), |b| {
+                b.iter(|| {
+                    hamel_sim::integrate(&Reduced(core), method, 0.0, &y_red, &times, &options)
+                        .expect("checked above")
+                        .stats
+                        .rhs_evals
+                })
+            });
+        }
     }
     group.finish();
 }
