@@ -32,28 +32,40 @@ pub struct Request {
     pub energy: bool,
     /// The constraint residual α(q)q̇ requested.
     pub constraint_residual: bool,
+    /// The scene's `[expressions]` requested, by index.
+    pub expressions: Vec<usize>,
+    /// Coordinates the requested expressions need (kept in the state, not written).
+    pub needed: Vec<usize>,
 }
 
 impl Request {
     /// Everything (the default).
-    pub fn everything(ell: usize) -> Request {
+    pub fn everything(ell: usize, expressions: usize) -> Request {
         Request {
             coordinates: (0..ell).collect(),
             eta: true,
             energy: true,
             constraint_residual: true,
+            expressions: (0..expressions).collect(),
+            needed: Vec::new(),
         }
     }
 
     /// Parse the names of `request`: coordinates, `eta` (or `eta1`…, which all mean η: it is
-    /// integrated whole), `energy`, `constraint_residual`. Errors name the unknown entry and
-    /// list the valid ones.
-    pub fn parse(names: &[String], d: &Derivation) -> Result<Request, String> {
+    /// integrated whole), `energy`, `constraint_residual`, the names of the scene's
+    /// `expressions`. Errors name the unknown entry and list the valid ones.
+    pub fn parse(
+        names: &[String],
+        d: &Derivation,
+        expressions: &[String],
+    ) -> Result<Request, String> {
         let mut r = Request {
             coordinates: Vec::new(),
             eta: false,
             energy: false,
             constraint_residual: false,
+            expressions: Vec::new(),
+            needed: Vec::new(),
         };
         for n in names {
             if let Some(k) = d.coordinates.iter().position(|c| c == n) {
@@ -70,11 +82,20 @@ impl Request {
                 r.energy = true;
             } else if n == "constraint_residual" {
                 r.constraint_residual = true;
+            } else if let Some(i) = expressions.iter().position(|e| e == n) {
+                if !r.expressions.contains(&i) {
+                    r.expressions.push(i);
+                }
             } else {
                 return Err(format!(
-                    "`{n}` is not an output of this scene: use coordinates ({}), eta (or eta1..eta{}), energy, constraint_residual",
+                    "`{n}` is not an output of this scene: use coordinates ({}), eta (or eta1..eta{}), energy, constraint_residual{}",
                     d.coordinates.join(", "),
-                    d.sigma
+                    d.sigma,
+                    if expressions.is_empty() {
+                        ", or a name defined in [expressions]".to_string()
+                    } else {
+                        format!(", or an expression ({})", expressions.join(", "))
+                    }
                 ));
             }
         }
@@ -94,6 +115,10 @@ pub struct Plan {
     pub dropped: Vec<String>,
     /// The quasi-velocity choice used.
     pub eta: String,
+    /// The requested `[expressions]` of the scene, each with the coordinates it needs
+    /// (evaluated at the output times only, from the integrated and reconstructed state).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    pub expressions: IndexMap<String, Vec<String>>,
     /// Arithmetic operations of the planned right-hand side (η̇ and the rates of the integrated
     /// and reconstructed coordinates, common subexpressions shared, in the solved form the
     /// code generator chooses).
@@ -168,6 +193,7 @@ pub fn plan(
     }
     close(&mut integrated, &d.kinematics, coords);
     let mut wanted: Vec<usize> = request.coordinates.clone();
+    wanted.extend(&request.needed);
     if request.energy {
         wanted.extend(occurring(&d.energy.expr, coords));
     }
@@ -256,6 +282,7 @@ pub fn plan(
         reconstructed: names(&reconstructed),
         dropped: names(&dropped),
         eta: d.eta_name.clone(),
+        expressions: IndexMap::new(),
         ops: entry.meta.ops,
         ops_full: entry.meta.ops_full,
         code: entry.dir.display().to_string(),
@@ -292,8 +319,13 @@ impl Plan {
                 v.join(", ")
             }
         };
+        let expressions = self
+            .expressions
+            .iter()
+            .map(|(name, needs)| format!("expression {name}: needs {}\n", list(needs)))
+            .collect::<String>();
         format!(
-            "quasi-velocities: {}\nintegrated: {}\nreconstructed: {}\ndropped: {}\noperations of the right-hand side: {} (full system: {})\n",
+            "quasi-velocities: {}\nintegrated: {}\nreconstructed: {}\ndropped: {}\n{expressions}operations of the right-hand side: {} (full system: {})\n",
             self.eta,
             list(&self.integrated),
             list(&self.reconstructed),

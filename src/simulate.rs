@@ -34,6 +34,10 @@ struct Scene {
     initial: Initial,
     /// The outputs wanted (default: everything).
     request: Option<Vec<String>>,
+    /// Named outputs defined as expressions of the coordinates, the parameters and η (e.g.
+    /// the position of a contact point): `name = "x + a*cos(theta)"`.
+    #[serde(default)]
+    expressions: IndexMap<String, String>,
     /// An accuracy target instead of an explicit integrator.
     accuracy: Option<Accuracy>,
     integrator: Option<Integrator>,
@@ -124,6 +128,10 @@ pub struct Trajectory {
     /// The energy (absent when not requested).
     #[serde(skip_serializing_if = "Option::is_none")]
     energy: Option<Vec<Option<f64>>>,
+    /// The requested `[expressions]` at the output times (null where an expression cannot be
+    /// evaluated, e.g. outside its domain; stderr says where).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    pub expressions: IndexMap<String, Vec<Option<f64>>>,
     stats: StatsOut,
     pub complete: bool,
     /// When the initial velocities were given as q̇: their projection onto the constraints.
@@ -320,6 +328,8 @@ pub struct Loaded {
     /// The accuracy target, when the scene gives one instead of an integrator.
     pub accuracy: Option<(f64, f64)>,
     params: IndexMap<String, f64>,
+    /// The scene's requested `[expressions]`, parameters substituted.
+    expressions: Vec<OutputExpression>,
     /// The coordinates in the integrated state (integrated, then reconstructed).
     state: Vec<usize>,
     /// The initial configuration, every coordinate.
@@ -365,6 +375,18 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         .unwrap_or(Path::new("."))
         .join(&scene.model);
     let model = Model::load(&model_path)?;
+    let parsed =
+        parse_expressions(&scene.expressions, &model).map_err(|(k, m)| err(Some(&k), m))?;
+    // The names `request` may use: the expressions' besides the model's outputs.
+    let expression_names: Vec<String> = parsed.iter().map(|e| e.name.clone()).collect();
+    // For `eta = "auto"`: the requested coordinates, and those the requested expressions need.
+    let auto_request: Option<Vec<String>> = scene.request.as_ref().map(|names| {
+        let mut v = names.clone();
+        for e in parsed.iter().filter(|e| names.contains(&e.name)) {
+            v.extend(e.coordinates.iter().map(|&k| model.coordinates[k].clone()));
+        }
+        v
+    });
     let (model, choice) = if scene.eta.as_deref() == Some("auto") {
         if scene.initial.eta.is_some() {
             return Err(err(
@@ -372,16 +394,25 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
                 "with eta = \"auto\" the quasi-velocities are chosen by the search, so their initial values cannot be given: give the initial velocities as `q_dot = { ... }`".into(),
             ));
         }
-        auto_choice(model, scene.request.as_deref())?
+        auto_choice(model, auto_request.as_deref())?
     } else {
         let choice = model.choice(scene.eta.as_deref())?.name.clone();
         (model, choice)
     };
     let d = hamel_derive::derive(&model, Some(&choice))?;
-    let request = match &scene.request {
-        Some(names) => Request::parse(names, &d).map_err(|m| err(Some("request"), m))?,
-        None => Request::everything(d.ell),
+    let mut request = match &scene.request {
+        Some(names) => {
+            Request::parse(names, &d, &expression_names).map_err(|m| err(Some("request"), m))?
+        }
+        None => Request::everything(d.ell, parsed.len()),
     };
+    for &i in &request.expressions {
+        for &k in &parsed[i].coordinates {
+            if !request.needed.contains(&k) {
+                request.needed.push(k);
+            }
+        }
+    }
     // `[accuracy]` alone: DOP853 at those tolerances unless `hamel simulate` finds a faster
     // setting that meets it (`crate::tradeoff`).
     let i = match (&scene.integrator, &scene.accuracy) {
@@ -454,6 +485,12 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
     let params = d
         .parameters_with(&scene.parameters)
         .map_err(|e| err(Some("parameters"), e.to_string()))?;
+    let expressions = request
+        .expressions
+        .iter()
+        .map(|&i| parsed[i].specialised(&params, &d))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|(k, m)| err(Some(&k), m))?;
     let mut q0 = Vec::new();
     for c in &d.coordinates {
         q0.push(
@@ -493,7 +530,21 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         }
         Outputs::Times(t) => t.clone(),
     };
-    let plan = crate::plan::plan(&model, &d, &request, &params)?;
+    let mut plan = crate::plan::plan(&model, &d, &request, &params)?;
+    plan.expressions = request
+        .expressions
+        .iter()
+        .map(|&i| {
+            (
+                parsed[i].name.clone(),
+                parsed[i]
+                    .coordinates
+                    .iter()
+                    .map(|&k| d.coordinates[k].clone())
+                    .collect(),
+            )
+        })
+        .collect();
     let state: Vec<usize> = plan
         .integrated_ix
         .iter()
@@ -541,6 +592,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         plan,
         integrator: (i.method.clone(), method, options),
         params,
+        expressions,
         state,
         q0,
         y0,
@@ -556,6 +608,49 @@ impl Loaded {
     /// An error about this scene, at `key`.
     pub fn error(&self, key: &str, message: String) -> ModelError {
         (self.err)(Some(key), message)
+    }
+
+    /// The requested `[expressions]` at the output states of `solution`, by name; a value
+    /// that cannot be computed (outside the expression's domain, not finite) is None, and a
+    /// warning on stderr names the expression and the first such time.
+    pub fn expression_values(&self, solution: &Solution) -> IndexMap<String, Vec<Option<f64>>> {
+        let values = self.evaluate_expressions(solution);
+        for (name, v) in &values {
+            if let Some(j) = v.iter().position(Option::is_none) {
+                eprintln!(
+                    "warning: expressions.{name} cannot be evaluated at t = {} (outside its domain or not finite): written as null",
+                    solution.t[j]
+                );
+            }
+        }
+        values
+    }
+
+    /// [`Self::expression_values`] without the warnings.
+    pub fn evaluate_expressions(&self, solution: &Solution) -> IndexMap<String, Vec<Option<f64>>> {
+        let n = self.state.len();
+        self.expressions
+            .iter()
+            .map(|e| {
+                let values: Vec<Option<f64>> = solution
+                    .y
+                    .iter()
+                    .map(|y| {
+                        let mut inputs = vec![self.reference; self.d.ell];
+                        for (i, &k) in self.state.iter().enumerate() {
+                            inputs[k] = y[i];
+                        }
+                        inputs.extend_from_slice(&y[n..]);
+                        e.tape
+                            .eval::<f64>(&inputs)
+                            .ok()
+                            .map(|v| v[0])
+                            .filter(|v| v.is_finite())
+                    })
+                    .collect();
+                (e.name.clone(), values)
+            })
+            .collect()
     }
 
     /// The model's name.
@@ -784,6 +879,7 @@ impl Loaded {
             } else {
                 None
             },
+            expressions: self.expression_values(solution),
             stats: StatsOut {
                 steps: solution.stats.steps,
                 rejected: solution.stats.rejected,
@@ -1126,6 +1222,138 @@ impl Loaded {
     }
 }
 
+/// One of the scene's requested `[expressions]`, its parameters substituted: its name and a
+/// tape over (the ℓ coordinates, η).
+struct OutputExpression {
+    name: String,
+    tape: hamel_expr::Tape,
+}
+
+/// An expression parsed and checked against the model, before the parameters are substituted.
+struct ParsedExpression {
+    name: String,
+    expr: hamel_expr::Expr,
+    coordinates: Vec<usize>,
+}
+
+/// Names a scene's outputs already use; an expression may not take one.
+const RESERVED: [&str; 4] = ["eta", "energy", "constraint_residual", "t"];
+
+/// Parse `[expressions]`: each a name (an identifier not already an output, coordinate or
+/// parameter) and an expression of the coordinates, the parameters and eta1…etaσ, with the
+/// model's grammar. Errors: (key, reason).
+fn parse_expressions(
+    table: &IndexMap<String, String>,
+    model: &Model,
+) -> Result<Vec<ParsedExpression>, (String, String)> {
+    let sigma = model.coordinates.len() - model.constraints.len();
+    let etas: Vec<String> = (1..=sigma).map(|i| format!("eta{i}")).collect();
+    table
+        .iter()
+        .map(|(name, text)| {
+            let key = format!("expressions.{name}");
+            let identifier = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+                && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !identifier {
+                return Err((key, format!("`{name}` is not a name (letters, digits, _; a letter first)")));
+            }
+            if RESERVED.contains(&name.as_str())
+                || etas.contains(name)
+                || model.coordinates.contains(name)
+                || model.parameters.contains_key(name)
+            {
+                return Err((
+                    key,
+                    format!("`{name}` is already a coordinate, parameter or output of this scene: choose another name"),
+                ));
+            }
+            let parsed = hamel_expr::parse(text).map_err(|e| {
+                (key.clone(), format!("cannot parse `{text}`: {e}"))
+            })?;
+            for o in &parsed.occurrences {
+                let known = model.coordinates.contains(&o.name)
+                    || model.parameters.contains_key(&o.name)
+                    || etas.contains(&o.name);
+                match &o.kind {
+                    hamel_expr::OccurrenceKind::Symbol if known => {}
+                    hamel_expr::OccurrenceKind::Symbol => {
+                        return Err((
+                            key,
+                            format!(
+                                "unknown name `{}` in `{text}`: an expression may use the coordinates ({}), the parameters ({}) and {}",
+                                o.name,
+                                model.coordinates.join(", "),
+                                model.parameters.keys().cloned().collect::<Vec<_>>().join(", "),
+                                if sigma == 1 { "eta1".to_string() } else { format!("eta1..eta{sigma}") }
+                            ),
+                        ));
+                    }
+                    hamel_expr::OccurrenceKind::Velocity => {
+                        return Err((
+                            key,
+                            format!("`der({})` in `{text}`: an output expression takes coordinates, parameters and η (velocities are η's business: write them with eta1…)", o.name),
+                        ));
+                    }
+                    hamel_expr::OccurrenceKind::FreeFunction(_) => {
+                        return Err((
+                            key,
+                            format!("`{}` in `{text}` is not a built-in function", o.name),
+                        ));
+                    }
+                }
+            }
+            let coordinates = (0..model.coordinates.len())
+                .filter(|&k| {
+                    parsed
+                        .occurrences
+                        .iter()
+                        .any(|o| o.name == model.coordinates[k])
+                })
+                .collect();
+            Ok(ParsedExpression {
+                name: name.clone(),
+                expr: parsed.expr,
+                coordinates,
+            })
+        })
+        .collect()
+}
+
+impl ParsedExpression {
+    /// Substitute the scene's parameter values (exact: dyadic rationals, constants folded)
+    /// and compile over (the coordinates, eta1…).
+    fn specialised(
+        &self,
+        params: &IndexMap<String, f64>,
+        d: &hamel_derive::Derivation,
+    ) -> Result<OutputExpression, (String, String)> {
+        let key = format!("expressions.{}", self.name);
+        let mut values = std::collections::HashMap::new();
+        for (name, &v) in params {
+            let r = hamel_expr::rational_of_f64(v).ok_or_else(|| {
+                (
+                    key.clone(),
+                    format!("parameter `{name}` = {v} is not finite"),
+                )
+            })?;
+            values.insert(name.clone(), r);
+        }
+        let expr = self.expr.specialise(&values);
+        let inputs: Vec<String> = d
+            .coordinates
+            .iter()
+            .cloned()
+            .chain((1..=d.sigma).map(|i| format!("eta{i}")))
+            .collect();
+        let tape = hamel_expr::Tape::compile(&[&expr], &inputs)
+            .map_err(|e| (key, format!("cannot compile: {e}")))?;
+        Ok(OutputExpression {
+            name: self.name.clone(),
+            tape,
+        })
+    }
+}
+
 impl Trajectory {
     /// One line for stderr.
     pub fn summary(&self) -> String {
@@ -1154,7 +1382,8 @@ impl Trajectory {
             .as_str()
     }
 
-    /// CSV: t, the coordinates, eta1…, energy (a `# incomplete` comment first when cut short).
+    /// CSV: t, the coordinates, eta1…, energy, the expressions (a `# incomplete` comment first
+    /// when cut short).
     pub fn to_csv(&self) -> String {
         let mut o = String::new();
         if let Some(e) = &self.error {
@@ -1167,6 +1396,7 @@ impl Trajectory {
         if self.energy.is_some() {
             header.push("energy".into());
         }
+        header.extend(self.expressions.keys().cloned());
         o.push_str(&header.join(","));
         o.push('\n');
         for (j, t) in self.t.iter().enumerate() {
@@ -1178,6 +1408,11 @@ impl Trajectory {
             if let Some(energy) = &self.energy {
                 row.push(energy[j].map_or(String::new(), |e| format!("{e:e}")));
             }
+            row.extend(
+                self.expressions
+                    .values()
+                    .map(|v| v[j].map_or(String::new(), |x| format!("{x:e}"))),
+            );
             o.push_str(&row.join(","));
             o.push('\n');
         }

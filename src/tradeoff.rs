@@ -79,16 +79,19 @@ pub enum Range {
     Adaptive,
 }
 
-/// The requested outputs of a solution, per output time: the requested state components, then
-/// the energy when requested.
+/// The requested outputs of a solution, per output time: the requested state components, the
+/// energy when requested (and `energy`), then the requested expressions.
 pub(crate) fn outputs(loaded: &Loaded, s: &Solution, energy: bool) -> Vec<Vec<f64>> {
     let ix = loaded.requested_components();
+    let expressions = loaded.evaluate_expressions(s);
     s.y.iter()
         .zip(&s.energy)
-        .map(|(y, e)| {
+        .enumerate()
+        .map(|(j, (y, e))| {
             ix.iter()
                 .map(|&i| y[i])
                 .chain((energy && loaded.request.energy).then(|| e.unwrap_or(f64::NAN)))
+                .chain(expressions.values().map(|v| v[j].unwrap_or(f64::NAN)))
                 .collect()
         })
         .collect()

@@ -1248,6 +1248,81 @@ fn loose_tolerances_return_a_result_with_its_error_estimate() {
     assert!(json_on_stdout(&o)["stats"].get("error_estimate").is_none());
 }
 
+/// `[expressions]`: named outputs of the coordinates, parameters and η. Requested, they are
+/// evaluated at the output times with the scene's parameter values, and the coordinates they
+/// need are kept in the state (reconstructed) while the others are dropped; bad ones are
+/// refused with the key and the reason.
+#[test]
+fn scene_expressions_are_outputs_and_plan_what_they_need() {
+    let dir = scratch("expressions");
+    let tables = "[parameters]\nm = 3.0\n[expressions]\nahead = \"x + m*cos(theta)/10\"\nspeed2 = \"eta1^2\"\nside = \"y\"\n";
+    let scene = knife_scene(&dir, "k.toml", "request = [\"ahead\", \"speed2\"]", tables);
+    let o = hamel(&["plan", scene.to_str().unwrap(), "--format", "json"], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = json_on_stdout(&o);
+    // x and θ are needed by `ahead` (reconstructed); y by nothing requested (dropped).
+    assert_eq!(p["reconstructed"], serde_json::json!(["x", "theta"]));
+    assert_eq!(p["dropped"], serde_json::json!(["y"]));
+    assert_eq!(p["expressions"]["ahead"], serde_json::json!(["x", "theta"]));
+    assert!(p["expressions"].get("side").is_none(), "not requested");
+    let o = hamel(
+        &["simulate", scene.to_str().unwrap(), "--format", "json"],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_on_stdout(&o);
+    assert!(
+        v["q"].as_object().unwrap().is_empty(),
+        "no coordinate requested"
+    );
+    let ahead = v["expressions"]["ahead"].as_array().unwrap();
+    let speed2 = v["expressions"]["speed2"].as_array().unwrap();
+    assert!(v["expressions"].get("side").is_none());
+    for (j, t) in v["t"].as_array().unwrap().iter().enumerate() {
+        let th = 0.3 + 0.5 * t.as_f64().unwrap();
+        let want = 2.0 * (th.sin() - 0.3f64.sin()) + 3.0 * th.cos() / 10.0;
+        assert!((ahead[j].as_f64().unwrap() - want).abs() < 1e-9, "t = {t}");
+        assert!((speed2[j].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    }
+    // CSV columns.
+    let o = hamel(&["simulate", scene.to_str().unwrap()], None);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("t,ahead,speed2\n"));
+    // Bad expressions: the scene file, the key and the reason; nothing written.
+    for (table, key, reason) in [
+        ("bad = \"x + zz\"", "expressions.bad", "unknown name `zz`"),
+        ("theta = \"x\"", "expressions.theta", "already a coordinate"),
+        ("v = \"der(x)\"", "expressions.v", "`der(x)`"),
+        ("w = \"x +\"", "expressions.w", "cannot parse"),
+    ] {
+        let scene = knife_scene(&dir, "bad.toml", "", &format!("[expressions]\n{table}\n"));
+        let out = dir.join("bad.csv");
+        let o = hamel(
+            &[
+                "simulate",
+                scene.to_str().unwrap(),
+                "--output",
+                out.to_str().unwrap(),
+            ],
+            None,
+        );
+        assert_eq!(o.status.code(), Some(1), "{table}");
+        let e = stderr(&o);
+        assert!(
+            e.contains("bad.toml") && e.contains(key) && e.contains(reason),
+            "{table}: {e}"
+        );
+        assert!(!out.exists());
+    }
+    let scene = knife_scene(&dir, "bad.toml", "request = [\"nope\"]", tables);
+    let o = hamel(&["plan", scene.to_str().unwrap()], None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("or an expression (ahead, speed2, side)"),
+        "{}",
+        stderr(&o)
+    );
+}
+
 /// Every bundled scene is valid: it plans, and its plan integrates η.
 #[test]
 fn every_bundled_scene_plans() {
