@@ -1,5 +1,7 @@
 //! Numeric benchmarks (criterion): `cargo bench --bench numeric`.
 //!
+//! * `rhs/<model>/<eta>/generated_reduced`: the reduced right-hand side (kept coordinates, η) at
+//!   the same state, prepared parameters.
 //! * `rhs/<model>/<eta>/{generated,interpreted}`: one evaluation of the right-hand side
 //!   (q̇, η̇) at a fixed admissible state, by the generated code (`crates/hamel-models`,
 //!   `full_into`: no allocation, the paper's form not computed, parameters prepared once) and
@@ -57,6 +59,17 @@ fn rhs(c: &mut Criterion) {
         let mut dy = vec![0.0; y.len()];
         group.bench_function(format!("{id}/generated"), |b| {
             b.iter(|| (core.full_into)(black_box(&y), &mut dy).unwrap())
+        });
+        // The reduced right-hand side (kept coordinates and η) at the same state.
+        let x: Vec<f64> = core
+            .kept
+            .iter()
+            .map(|&k| q[k])
+            .chain(eta.iter().copied())
+            .collect();
+        let mut dx = vec![0.0; x.len()];
+        group.bench_function(format!("{id}/generated_reduced"), |b| {
+            b.iter(|| (core.reduced_into)(black_box(&x), &mut dx).unwrap())
         });
         group.bench_function(format!("{id}/interpreted"), |b| {
             b.iter(|| {
