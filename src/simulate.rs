@@ -1145,19 +1145,24 @@ pub fn run(
     traj.engine = engine;
     let loose = options.rtol.max(options.atol) >= LOOSE_TOLERANCE && method.is_adaptive();
     if run.failure.is_none() && (estimate_error || loose) {
-        let (error, by) = loaded.error_estimate(&run.solution, engine, method, &options)?;
-        if loose {
-            eprintln!(
-                "warning: rtol = {:.0e}, atol = {:.0e} is loose: the error on the requested outputs is about {error:.1e} (difference from a run {by})",
-                options.rtol, options.atol
-            );
-        } else {
-            eprintln!(
-                "error estimate: {error:.1e} on the requested outputs (difference from a run {by})"
-            );
+        match loaded.error_estimate(&run.solution, engine, method, &options) {
+            Ok((error, by)) => {
+                if loose {
+                    eprintln!(
+                        "warning: rtol = {:.0e}, atol = {:.0e} is loose: the error on the requested outputs is about {error:.1e} (difference from a run {by})",
+                        options.rtol, options.atol
+                    );
+                } else {
+                    eprintln!(
+                        "error estimate: {error:.1e} on the requested outputs (difference from a run {by})"
+                    );
+                }
+                traj.stats.error_estimate = Some(error);
+                traj.stats.error_estimate_by = Some(by);
+            }
+            // The trajectory stands; only its estimate is missing, and stderr says why.
+            Err(e) => eprintln!("warning: no error estimate: {}", e.message()),
         }
-        traj.stats.error_estimate = Some(error);
-        traj.stats.error_estimate_by = Some(by);
     }
     Ok((traj, run.failure))
 }
