@@ -42,6 +42,15 @@ fn state(ell: usize, sigma: usize) -> (Vec<f64>, Vec<f64>) {
     (q, eta)
 }
 
+/// The reduced state of a core at (q, η): the kept coordinates, then η.
+fn reduced_state(core: &hamel_models::Core, q: &[f64], eta: &[f64]) -> Vec<f64> {
+    core.kept
+        .iter()
+        .map(|&k| q[k])
+        .chain(eta.iter().copied())
+        .collect()
+}
+
 fn rhs(c: &mut Criterion) {
     let mut group = c.benchmark_group("rhs");
     for core in MODELS {
@@ -61,12 +70,7 @@ fn rhs(c: &mut Criterion) {
             b.iter(|| (core.full_into)(black_box(&y), &mut dy).unwrap())
         });
         // The reduced right-hand side (kept coordinates and η) at the same state.
-        let x: Vec<f64> = core
-            .kept
-            .iter()
-            .map(|&k| q[k])
-            .chain(eta.iter().copied())
-            .collect();
+        let x = reduced_state(core, &q, &eta);
         let mut dx = vec![0.0; x.len()];
         group.bench_function(format!("{id}/generated_reduced"), |b| {
             b.iter(|| (core.reduced_into)(black_box(&x), &mut dx).unwrap())
@@ -213,12 +217,7 @@ fn simulate(c: &mut Criterion) {
             .find(|c| c.model == model && c.eta == eta)
             .expect("generated core");
         let y_full: Vec<f64> = q0.iter().chain(&eta0).copied().collect();
-        let y_red: Vec<f64> = core
-            .kept
-            .iter()
-            .map(|&k| q0[k])
-            .chain(eta0.iter().copied())
-            .collect();
+        let y_red = reduced_state(core, &q0, &eta0);
         let times = [100.0];
         // DOP853, and Gauss–Legendre (3 stages, step doubling) with finite-difference
         // Jacobians for both systems (neither run gets the generated Jacobian: the same

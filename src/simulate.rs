@@ -653,6 +653,29 @@ impl Loaded {
             .collect()
     }
 
+    /// The engine that can run this scene: `engine`, or the interpreted evaluator (with a
+    /// warning on stderr) when the scene's compiled core cannot be built; and whether this call
+    /// built the core.
+    pub fn usable(&self, engine: Engine) -> (Engine, bool) {
+        if engine == Engine::Interpreted {
+            return (engine, false);
+        }
+        match crate::scene_core::binary(&self.plan.entry) {
+            Ok((_, built)) => (Engine::Compiled, built),
+            Err(e) => {
+                eprintln!(
+                    "warning: the scene's compiled core is not available, using the interpreted evaluator: {e}"
+                );
+                (Engine::Interpreted, false)
+            }
+        }
+    }
+
+    /// The coordinates in the integrated state, by index: integrated, then reconstructed.
+    pub fn state(&self) -> &[usize] {
+        &self.state
+    }
+
     /// The model's name.
     pub fn model_name(&self) -> &str {
         &self.d.model
@@ -1072,18 +1095,7 @@ pub fn run(
 ) -> Result<(Trajectory, Option<ModelError>), ModelError> {
     let loaded = load(scene_path)?;
     // The compiled core is built (or found) first: the accuracy measurement below runs on it too.
-    let (engine, built) = match engine {
-        Engine::Compiled => match crate::scene_core::binary(&loaded.plan.entry) {
-            Ok((_, built)) => (Engine::Compiled, built),
-            Err(e) => {
-                eprintln!(
-                    "warning: the scene's compiled core is not available, using the interpreted evaluator: {e}"
-                );
-                (Engine::Interpreted, false)
-            }
-        },
-        Engine::Interpreted => (Engine::Interpreted, false),
-    };
+    let (engine, built) = loaded.usable(engine);
     let (mut name, mut method, mut options) = loaded.integrator.clone();
     if let Some((rtol, atol)) = loaded.accuracy {
         let table = crate::tradeoff::table(&loaded, crate::tradeoff::Range::Adaptive, engine)?;

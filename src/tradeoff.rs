@@ -177,20 +177,6 @@ fn timed(
     }
 }
 
-/// The engine the trade is measured on: `engine`, or the interpreted evaluator (with a warning
-/// on stderr) when the scene's compiled core cannot be built.
-fn usable(loaded: &Loaded, engine: Engine) -> Engine {
-    if engine == Engine::Compiled
-        && let Err(e) = crate::scene_core::binary(&loaded.plan.entry)
-    {
-        eprintln!(
-            "warning: the scene's compiled core is not available, measuring the interpreted evaluator: {e}"
-        );
-        return Engine::Interpreted;
-    }
-    engine
-}
-
 /// Measure the trade for a loaded scene.
 pub fn table(loaded: &Loaded, range: Range, engine: Engine) -> Result<Table, ModelError> {
     Ok(measure(loaded, range, engine, true)?.0)
@@ -203,7 +189,7 @@ fn measure(
     engine: Engine,
     energy: bool,
 ) -> Result<(Table, Vec<Vec<f64>>), ModelError> {
-    let engine = usable(loaded, engine);
+    let (engine, _) = loaded.usable(engine);
     let target = loaded
         .accuracy
         .unwrap_or((loaded.integrator.2.rtol, loaded.integrator.2.atol));
@@ -312,7 +298,7 @@ fn measure(
 /// An expression tape as a Python function `rhs(t, y)` returning a list (straight-line code, one
 /// assignment per shared operation), its inputs given as Python texts.
 fn python_function(tape: &hamel_expr::Tape, inputs: &[String]) -> String {
-    use hamel_expr::{Expr, Func, Op};
+    use hamel_expr::{Expr, Op};
     let mut o = String::from("def rhs(t, y):\n");
     for (k, op) in tape.ops().iter().enumerate() {
         let join = |v: &[usize], sep: &str| {
@@ -330,17 +316,8 @@ fn python_function(tape: &hamel_expr::Tape, inputs: &[String]) -> String {
             Op::Div(a, b) => format!("t{a} / t{b}"),
             Op::PowI(a, n) => format!("t{a} ** {n}"),
             Op::PowF(a, b) => format!("t{a} ** t{b}"),
-            Op::Call(f, a) => {
-                let name = match f {
-                    Func::Sin => "sin",
-                    Func::Cos => "cos",
-                    Func::Tan => "tan",
-                    Func::Sqrt => "sqrt",
-                    Func::Exp => "exp",
-                    Func::Log => "log",
-                };
-                format!("{name}(t{a})")
-            }
+            // Python's math module and the model grammar name the functions alike.
+            Op::Call(f, a) => format!("{}(t{a})", f.name()),
         };
         o += &format!("    t{k} = {text}\n");
     }
@@ -356,19 +333,13 @@ fn python_function(tape: &hamel_expr::Tape, inputs: &[String]) -> String {
 /// measured on the same components.
 pub fn export_python(loaded: &Loaded, engine: Engine) -> Result<serde_json::Value, ModelError> {
     let (table, reference) = measure(loaded, Range::Adaptive, engine, false)?;
-    let plan = &loaded.plan;
     let (ell, sigma) = loaded.dims();
     // The general solved form (parameters as inputs, written below as the scene's numbers).
     let code = hamel_derive::derive_for_code(loaded.model(), Some(loaded.eta_name()))?;
     let generated = hamel_codegen::generate(&code, &[], "export")
         .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
     let solved = &generated.solved;
-    let state: Vec<usize> = plan
-        .integrated_ix
-        .iter()
-        .chain(&plan.reconstructed_ix)
-        .copied()
-        .collect();
+    let state = loaded.state();
     let exprs: Vec<&hamel_expr::Expr> = state
         .iter()
         .map(|&k| &solved.exprs[sigma + k])
