@@ -94,6 +94,10 @@ class Model:
 
     def parse(self, text, trig_symbols=True):
         """Translate `der(q)` -> qd_q, `^` -> `**`; numbers exact; sin/cos(q) -> s_q/c_q."""
+        # sympify evaluates Python: only the model grammar's characters get that far (no
+        # strings, attributes, lambdas or dunder names), whoever wrote the file.
+        if re.search(r"[^\w\s+\-*/^().,]|__|\.\s*[A-Za-z_]", text):
+            fail(f"`{text}` is not an expression of the model grammar")
         text = re.sub(r"der\s*\(\s*(\w+)\s*\)", r"qd_\1", text).replace("^", "**")
         ns = dict(BUILTINS)
         if trig_symbols:

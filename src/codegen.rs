@@ -79,7 +79,7 @@ pub fn run(
     );
     let mut g = hamel_codegen::generate(&d, &eliminated, &command).map_err(|e| model.error(e))?;
     if with_simulator {
-        g = hamel_codegen::with_simulator(g);
+        g = hamel_codegen::with_simulator(g).map_err(|e| model.error(e))?;
     }
     for (path, text) in &g.files {
         let p = out.join(path);

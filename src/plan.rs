@@ -229,7 +229,7 @@ pub fn plan(
         }
         Ok(())
     };
-    let entry = match scene_core::lookup(&key) {
+    let entry = match scene_core::lookup(&key).map_err(|e| model.error(e))? {
         Some(entry) => {
             if !absent.is_empty() {
                 confirm(&hamel_reduce::reduce(

@@ -29,8 +29,9 @@ use hamel_sim::Solution;
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
-/// The cache directory.
-pub fn root() -> PathBuf {
+/// Where the cache lives: `$HAMEL_CACHE`, else `$XDG_CACHE_HOME/hamel`, else
+/// `~/.cache/hamel`, else `hamel-cache` in the temporary directory. Not checked: see [`root`].
+pub fn location() -> PathBuf {
     if let Some(d) = std::env::var_os("HAMEL_CACHE").filter(|d| !d.is_empty()) {
         return PathBuf::from(d);
     }
@@ -41,6 +42,79 @@ pub fn root() -> PathBuf {
         return PathBuf::from(d).join(".cache").join("hamel");
     }
     std::env::temp_dir().join("hamel-cache")
+}
+
+/// The cache directory, created private (mode 0700) when missing. hamel builds and runs
+/// code from it, so it refuses a directory that another user could write to: one not owned
+/// by the user running hamel, or writable by its group or by others.
+pub fn root() -> Result<PathBuf, String> {
+    let dir = location();
+    if !dir.exists() {
+        create_private(&dir).map_err(|e| {
+            format!(
+                "cannot create the code cache {}: {e} (set HAMEL_CACHE to a directory of your own)",
+                dir.display()
+            )
+        })?;
+    }
+    check_private(&dir)?;
+    Ok(dir)
+}
+
+#[cfg(unix)]
+fn create_private(dir: &Path) -> std::io::Result<()> {
+    use std::os::unix::fs::DirBuilderExt;
+    std::fs::DirBuilder::new()
+        .recursive(true)
+        .mode(0o700)
+        .create(dir)
+}
+
+#[cfg(not(unix))]
+fn create_private(dir: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)
+}
+
+/// Refuse a cache directory (followed through symbolic links) that is not a directory, not
+/// owned by the effective user, or writable by group or others.
+#[cfg(unix)]
+fn check_private(dir: &Path) -> Result<(), String> {
+    use std::os::unix::fs::MetadataExt;
+    let refuse = |why: String| {
+        Err(format!(
+            "refusing the code cache {}: {why}. hamel compiles and runs code from it, so it must be a directory of your own that nobody else can write to (chmod 700 it, or set HAMEL_CACHE to another directory)",
+            dir.display()
+        ))
+    };
+    let m = std::fs::metadata(dir).map_err(|e| format!("code cache {}: {e}", dir.display()))?;
+    // SAFETY: geteuid has no preconditions and cannot fail.
+    let me = unsafe { libc::geteuid() };
+    if !m.is_dir() {
+        return refuse("it is not a directory".into());
+    }
+    if m.uid() != me {
+        return refuse(format!(
+            "it is owned by user {}, not by you ({me})",
+            m.uid()
+        ));
+    }
+    if m.mode() & 0o022 != 0 {
+        return refuse(format!(
+            "it is writable by {} (mode {:04o})",
+            if m.mode() & 0o002 != 0 {
+                "all users"
+            } else {
+                "its group"
+            },
+            m.mode() & 0o7777
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn check_private(_dir: &Path) -> Result<(), String> {
+    Ok(())
 }
 
 /// What identifies a scene's code.
@@ -106,6 +180,10 @@ pub struct Meta {
     pub ops_full: usize,
     /// The solved form the generator chose.
     pub path: String,
+    /// SHA-256 of the built `scene` binary, recorded when hamel built it and verified before
+    /// every run ([`binary`]).
+    #[serde(default)]
+    pub binary_sha256: Option<String>,
 }
 
 /// A cache entry: a generated crate, maybe built.
@@ -119,16 +197,21 @@ pub struct Entry {
     pub cached: bool,
 }
 
-/// The entry for `key`, if the cache holds it.
-pub fn lookup(key: &Key) -> Option<Entry> {
-    let dir = root().join(key.hash());
-    let meta: Meta =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).ok()?).ok()?;
-    (meta.key == key.text).then_some(Entry {
+/// The entry for `key`, if the cache holds it. Errors: the cache directory is refused
+/// ([`root`]).
+pub fn lookup(key: &Key) -> Result<Option<Entry>, String> {
+    let dir = root()?.join(key.hash());
+    let Some(meta) = std::fs::read_to_string(dir.join("meta.json"))
+        .ok()
+        .and_then(|text| serde_json::from_str::<Meta>(&text).ok())
+    else {
+        return Ok(None);
+    };
+    Ok((meta.key == key.text).then_some(Entry {
         dir,
         meta,
         cached: true,
-    })
+    }))
 }
 
 /// Generate the crate for `key` (the scene's code: `d` specialised for `fixed`, `dropped`
@@ -143,43 +226,33 @@ pub fn store(
     command: &str,
 ) -> Result<Entry, String> {
     let special = d.specialise(fixed)?;
-    let generated =
-        hamel_codegen::with_simulator(hamel_codegen::generate(&special, dropped, command)?);
+    let mut generated =
+        hamel_codegen::with_simulator(hamel_codegen::generate(&special, dropped, command)?)?;
+    let root = root()?;
+    let dir = root.join(key.hash());
+    // The binary is named after the entry: every entry's crate builds in the one shared target
+    // directory, where a fresh (not rebuilt) binary is not copied to `release/` again. So is
+    // the package: cargo hashes a workspace root's artifacts by its name and version, not its
+    // path, so two entries of one model would share a library.
+    let bin = bin_name(&dir);
+    generated.edit_manifest(|doc| {
+        hamel_codegen::manifest::rename_package(doc, &format!("hamel-{bin}"));
+        hamel_codegen::manifest::add_binary(doc, &bin, "src/scene_main.rs");
+    })?;
     let meta = Meta {
         key: key.text.clone(),
         ops: ops_of(&generated)?,
         ops_full,
         path: generated.solved.name.to_string(),
+        binary_sha256: None,
     };
-    let root = root();
-    let dir = root.join(key.hash());
     let tmp = root.join(format!("{}.tmp{}", key.hash(), std::process::id()));
     let io = |e: std::io::Error| format!("cannot write the code cache in {}: {e}", root.display());
     let _ = std::fs::remove_dir_all(&tmp);
-    // The binary is named after the entry: every entry's crate builds in the one shared target
-    // directory, where a fresh (not rebuilt) binary is not copied to `release/` again.
-    let bin = bin_name(&dir);
     for (path, text) in &generated.files {
-        let (path, text) = match path.as_str() {
-            "src/bin/scene.rs" => ("src/scene_main.rs", text.clone()),
-            // So is the package: cargo hashes a workspace root's artifacts by its name and
-            // version, not its path, so two entries of one model would share a library.
-            "Cargo.toml" => (
-                "Cargo.toml",
-                text.lines()
-                    .map(|l| {
-                        if l.starts_with("name = ") && !l.contains("hamel_generated") {
-                            format!("name = \"hamel-{bin}\"")
-                        } else {
-                            l.to_string()
-                        }
-                    })
-                    .collect::<Vec<_>>()
-                    .join("\n")
-                    + format!("\n\n[[bin]]\nname = \"{bin}\"\npath = \"src/scene_main.rs\"\n")
-                        .as_str(),
-            ),
-            _ => (path.as_str(), text.clone()),
+        let path = match path.as_str() {
+            "src/bin/scene.rs" => "src/scene_main.rs",
+            path => path,
         };
         let file = tmp.join(path);
         std::fs::create_dir_all(file.parent().expect("a file in the crate")).map_err(io)?;
@@ -210,29 +283,93 @@ fn bin_name(dir: &Path) -> String {
 }
 
 /// The entry's `scene` binary, built with cargo (offline, release) when missing; returns the
-/// path and whether this call built it.
+/// path and whether this call built it. A binary whose SHA-256 is not the one recorded in
+/// `meta.json` when hamel built it (planted, altered, or built by something else) is never
+/// run: it is rebuilt from the entry's source, with a warning.
 pub fn binary(entry: &Entry) -> Result<(PathBuf, bool), String> {
     let exe = entry.dir.join("scene");
-    if exe.is_file() {
+    let root = root()?;
+    if verify(&entry.dir, &exe)? == Check::Good {
         return Ok((exe, false));
     }
-    let root = root();
     let io = |e: std::io::Error| format!("code cache {}: {e}", root.display());
-    std::fs::create_dir_all(&root).map_err(io)?;
     // One build at a time: the shared target directory has one `release/scene`.
     let lock = std::fs::File::create(root.join("build.lock")).map_err(io)?;
     lock.lock().map_err(io)?;
-    if exe.is_file() {
-        return Ok((exe, false));
+    match verify(&entry.dir, &exe)? {
+        Check::Good => return Ok((exe, false)),
+        Check::Missing => {}
+        Check::Mismatch(why) => {
+            eprintln!(
+                "warning: the cached core {} {why}: not running it; rebuilding it from its source",
+                exe.display()
+            );
+            std::fs::remove_file(&exe).map_err(io)?;
+            // Whatever cargo kept of this entry is not trusted either: build it anew.
+            cargo(
+                entry,
+                &root,
+                &["clean", "--release", "--offline", "--quiet", "--package"],
+            )?;
+        }
     }
+    cargo(
+        entry,
+        &root,
+        &["build", "--release", "--offline", "--quiet", "--bin"],
+    )?;
+    let tmp = entry.dir.join(format!("scene.tmp{}", std::process::id()));
+    std::fs::copy(root.join("target/release").join(bin_name(&entry.dir)), &tmp).map_err(io)?;
+    record_hash(&entry.dir, &sha256(&tmp).map_err(io)?).map_err(io)?;
+    std::fs::rename(&tmp, &exe).map_err(io)?;
+    Ok((exe, true))
+}
+
+/// What [`verify`] found.
+#[derive(Debug, PartialEq)]
+enum Check {
+    /// The binary is the one hamel built.
+    Good,
+    /// No binary.
+    Missing,
+    /// A binary that is not the one recorded (the reason).
+    Mismatch(String),
+}
+
+/// Compare the binary with the hash recorded in the entry's `meta.json` (read now: another
+/// process may have built it since the entry was looked up).
+fn verify(dir: &Path, exe: &Path) -> Result<Check, String> {
+    if !exe.exists() {
+        return Ok(Check::Missing);
+    }
+    let found = sha256(exe).map_err(|e| format!("cannot read {}: {e}", exe.display()))?;
+    let recorded = std::fs::read_to_string(dir.join("meta.json"))
+        .ok()
+        .and_then(|text| serde_json::from_str::<Meta>(&text).ok())
+        .and_then(|m| m.binary_sha256);
+    Ok(match recorded {
+        Some(r) if r == found => Check::Good,
+        Some(r) => Check::Mismatch(format!("has SHA-256 {found}, not {r} as built")),
+        None => Check::Mismatch("was not built by hamel (no SHA-256 recorded)".into()),
+    })
+}
+
+/// Run cargo on the entry's crate with the cache's shared target directory; `args` end with
+/// the option that takes the package's binary (`--bin`) or package (`--package`) name.
+fn cargo(entry: &Entry, root: &Path, args: &[&str]) -> Result<(), String> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let target = root.join("target");
+    let bin = bin_name(&entry.dir);
+    let name = if args.last() == Some(&"--package") {
+        format!("hamel-{bin}")
+    } else {
+        bin
+    };
     let out = Command::new(&cargo)
-        .args(["build", "--release", "--offline", "--quiet", "--bin"])
-        .arg(bin_name(&entry.dir))
+        .args(args)
+        .arg(name)
         .arg("--manifest-path")
         .arg(entry.dir.join("Cargo.toml"))
-        .env("CARGO_TARGET_DIR", &target)
+        .env("CARGO_TARGET_DIR", root.join("target"))
         .stdin(Stdio::null())
         .output()
         .map_err(|e| format!("cannot run cargo ({}): {e}", Path::new(&cargo).display()))?;
@@ -240,15 +377,40 @@ pub fn binary(entry: &Entry) -> Result<(PathBuf, bool), String> {
         let err = String::from_utf8_lossy(&out.stderr);
         let tail: Vec<&str> = err.lines().rev().take(15).collect();
         return Err(format!(
-            "cargo could not build the scene's core in {}:\n{}",
+            "cargo {} failed for the scene's core in {}:\n{}",
+            args[0],
             entry.dir.display(),
             tail.into_iter().rev().collect::<Vec<_>>().join("\n")
         ));
     }
-    let tmp = entry.dir.join(format!("scene.tmp{}", std::process::id()));
-    std::fs::copy(target.join("release").join(bin_name(&entry.dir)), &tmp).map_err(io)?;
-    std::fs::rename(&tmp, &exe).map_err(io)?;
-    Ok((exe, true))
+    Ok(())
+}
+
+/// The SHA-256 of a file, in hexadecimal.
+fn sha256(path: &Path) -> std::io::Result<String> {
+    use sha2::{Digest, Sha256};
+    let mut file = std::fs::File::open(path)?;
+    let mut hasher = Sha256::new();
+    std::io::copy(&mut file, &mut hasher)?;
+    Ok(hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
+/// Record the built binary's hash in the entry's `meta.json` (written whole, by rename).
+fn record_hash(dir: &Path, hash: &str) -> std::io::Result<()> {
+    let path = dir.join("meta.json");
+    let mut meta: Meta = serde_json::from_str(&std::fs::read_to_string(&path)?)
+        .map_err(|e| std::io::Error::other(format!("{}: {e}", path.display())))?;
+    meta.binary_sha256 = Some(hash.to_string());
+    let tmp = dir.join(format!("meta.json.tmp{}", std::process::id()));
+    std::fs::write(
+        &tmp,
+        serde_json::to_string_pretty(&meta).expect("serialisable"),
+    )?;
+    std::fs::rename(&tmp, &path)
 }
 
 /// One integration job for a core's `scene` binary (see `runtime/scene.rs`).

@@ -1499,7 +1499,7 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let d = &loaded.d;
     let none = IndexMap::new();
     let key = crate::scene_core::Key::new(&model.source, &d.eta_name, &[], &none);
-    let entry = match crate::scene_core::lookup(&key) {
+    let entry = match crate::scene_core::lookup(&key).map_err(fail)? {
         Some(e) => e,
         None => {
             let code = hamel_derive::derive_for_code(model, Some(&d.eta_name))?;

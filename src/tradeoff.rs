@@ -295,37 +295,6 @@ fn measure(
     ))
 }
 
-/// An expression tape as a Python function `rhs(t, y)` returning a list (straight-line code, one
-/// assignment per shared operation), its inputs given as Python texts.
-fn python_function(tape: &hamel_expr::Tape, inputs: &[String]) -> String {
-    use hamel_expr::{Expr, Op};
-    let mut o = String::from("def rhs(t, y):\n");
-    for (k, op) in tape.ops().iter().enumerate() {
-        let join = |v: &[usize], sep: &str| {
-            v.iter()
-                .map(|a| format!("t{a}"))
-                .collect::<Vec<_>>()
-                .join(sep)
-        };
-        let text = match op {
-            Op::Input(i) => inputs[*i].clone(),
-            Op::Const(r) => format!("{:?}", Expr::rational_to_f64(r)),
-            Op::Add(v) => join(v, " + "),
-            Op::Mul(v) => join(v, " * "),
-            Op::Neg(a) => format!("-t{a}"),
-            Op::Div(a, b) => format!("t{a} / t{b}"),
-            Op::PowI(a, n) => format!("t{a} ** {n}"),
-            Op::PowF(a, b) => format!("t{a} ** t{b}"),
-            // Python's math module and the model grammar name the functions alike.
-            Op::Call(f, a) => format!("{}(t{a})", f.name()),
-        };
-        o += &format!("    t{k} = {text}\n");
-    }
-    let outs: Vec<String> = tape.outputs().iter().map(|i| format!("t{i}")).collect();
-    o += &format!("    return [{}]\n", outs.join(", "));
-    o
-}
-
 /// The scene's planned system for a comparison with scipy (`bench/scipy_tradeoff.py`): the
 /// right-hand side as Python (the code generator's solved form with the scene's parameters and
 /// the dropped coordinates' reference value as numbers), the initial state, the output times,
@@ -348,21 +317,27 @@ pub fn export_python(loaded: &Loaded, engine: Engine) -> Result<serde_json::Valu
     let tape = hamel_expr::Tape::compile(&exprs, &solved.inputs)
         .map_err(|e| loaded.error("eta", format!("internal error: {e}")))?;
     // Inputs of the solved form: the ℓ coordinates, the parameters, then η.
-    let inputs: Vec<String> = (0..ell)
+    use hamel_codegen::python::Input;
+    let inputs: Vec<Input> = (0..ell)
         .map(|k| match state.iter().position(|&s| s == k) {
-            Some(i) => format!("y[{i}]"),
-            None => format!("{:?}", loaded.reference_value()),
+            Some(i) => Input::State(i),
+            None => Input::Number(loaded.reference_value()),
         })
         .chain(
             solved.inputs[ell..solved.inputs.len() - sigma]
                 .iter()
-                .map(|name| format!("{:?}", loaded.parameter(name))),
+                .map(|name| Input::Number(loaded.parameter(name))),
         )
-        .chain((0..sigma).map(|s| format!("y[{}]", state.len() + s)))
+        .chain((0..sigma).map(|s| Input::State(state.len() + s)))
         .collect();
+    let header = format!(
+        "The planned right-hand side of a scene of model `{}` with quasi-velocities `{}`,\nwritten by hamel tradeoff --export-python.",
+        loaded.model_name(),
+        loaded.eta_name()
+    );
     Ok(serde_json::json!({
         "model": table.model,
-        "python": python_function(&tape, &inputs),
+        "python": hamel_codegen::python::rhs_function(&tape, &inputs, &header),
         "y0": loaded.y0,
         "times": loaded.times,
         "requested": loaded.requested_components(),

@@ -10,11 +10,20 @@ use std::sync::Mutex;
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
 fn hamel(args: &[&str], stdin: Option<&str>) -> Output {
+    hamel_with_cache(args, stdin, &code_cache())
+}
+
+/// [`hamel`] with `HAMEL_CACHE` set to `cache`; arguments may be paths that are not UTF-8.
+fn hamel_with_cache<A: AsRef<std::ffi::OsStr>>(
+    args: &[A],
+    stdin: Option<&str>,
+    cache: &Path,
+) -> Output {
     let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hamel"));
     cmd.args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("HAMEL_CACHE", code_cache())
+        .env("HAMEL_CACHE", cache)
         .env("CARGO", env!("CARGO"));
     match stdin {
         None => cmd.output().unwrap(),
@@ -41,8 +50,11 @@ fn hamel(args: &[&str], stdin: Option<&str>) -> Output {
 /// runs: its entries are keyed by the hamel executable's size and time). Its cargo target
 /// directory starts with the outer build's `.rustc_info.json` (see [`build_generated`]).
 fn code_cache() -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("hamel-cache");
     seed_rustc_info(&dir.join("target"));
+    // hamel refuses a cache others could write to, whatever the umask made it.
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)).unwrap();
     dir
 }
 
@@ -1521,5 +1533,230 @@ fn eta_auto_takes_a_regular_reducing_choice_from_the_search() {
     assert!(
         e.contains("bad.toml") && e.contains("initial.eta") && e.contains("q_dot"),
         "{e}"
+    );
+}
+
+/// The model file name of the reproduction in issue 23: newlines around an item.
+const INJECTING_NAME: &str = "b\nfn injected_by_filename() {}\nx.toml";
+
+/// The top-level function names of a Rust file (which must parse).
+fn functions(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let file = syn::parse_file(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    file.items
+        .iter()
+        .filter_map(|item| match item {
+            syn::Item::Fn(f) => Some(f.sig.ident.to_string()),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_model_file_name_cannot_inject_code_into_a_generated_crate() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = scratch("hostile_name");
+    let knife = std::fs::read_to_string("models/knife.toml").unwrap();
+    // The reproduction of the issue, and a name that is not UTF-8 with a raw-string end.
+    let names = [
+        std::ffi::OsString::from(INJECTING_NAME),
+        std::ffi::OsStr::from_bytes(b"k\xff\"#*\nfn injected_by_filename() {}\n.toml").to_owned(),
+    ];
+    for (i, name) in names.iter().enumerate() {
+        let model = dir.join(name);
+        std::fs::write(&model, &knife).unwrap();
+        let out = dir.join(format!("out{i}"));
+        let args: Vec<&std::ffi::OsStr> = vec![
+            "codegen".as_ref(),
+            model.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ];
+        let o = hamel_with_cache(&args, None, &code_cache());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let fns = functions(&out.join("src/model.rs"));
+        assert!(!fns.iter().any(|f| f == "injected_by_filename"), "{fns:?}");
+        assert!(fns.iter().any(|f| f == "full_rhs"), "{fns:?}");
+        let text = std::fs::read_to_string(out.join("src/model.rs")).unwrap();
+        assert!(
+            text.contains("\\nfn injected_by_filename() {}\\n"),
+            "the name is shown, escaped"
+        );
+    }
+    // A scene of that model: its cached core is generated with the model's path in it.
+    let model = dir.join(INJECTING_NAME);
+    let scene = dir.join("scene.toml");
+    let text = knife_scene_text("").replace(
+        &format!(
+            "{:?}",
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("models/knife.toml")
+                .display()
+                .to_string()
+        ),
+        &toml::Value::String(model.display().to_string()).to_string(),
+    );
+    std::fs::write(&scene, text).unwrap();
+    let o = hamel(&["plan", scene.to_str().unwrap(), "--format", "json"], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let code = PathBuf::from(json_on_stdout(&o)["code"].as_str().unwrap());
+    let fns = functions(&code.join("src/model.rs"));
+    assert!(!fns.iter().any(|f| f == "injected_by_filename"), "{fns:?}");
+    let manifest: toml::Table = std::fs::read_to_string(code.join("Cargo.toml"))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        manifest["bin"][0]["name"]
+            .as_str()
+            .unwrap()
+            .starts_with("scene-")
+    );
+}
+
+/// Make `dir` with `mode`.
+fn dir_with_mode(dir: &Path, mode: u32) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::set_permissions(dir, std::fs::Permissions::from_mode(mode)).unwrap();
+}
+
+#[test]
+fn a_code_cache_others_could_write_is_refused_and_a_new_one_is_private() {
+    use std::os::unix::fs::{MetadataExt, PermissionsExt};
+    let dir = scratch("cache_modes");
+    let out = dir.join("plan.json");
+    let plan = |cache: &Path| {
+        hamel_with_cache(
+            &[
+                "plan",
+                "scenes/knife.toml",
+                "--format",
+                "json",
+                "--output",
+                out.to_str().unwrap(),
+            ],
+            None,
+            cache,
+        )
+    };
+    for (name, mode, says) in [
+        ("world", 0o777, "writable by all users"),
+        ("group", 0o770, "writable by its group"),
+    ] {
+        let cache = dir.join(name);
+        dir_with_mode(&cache, mode);
+        let o = plan(&cache);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains("refusing the code cache") && e.contains(says),
+            "{e}"
+        );
+        assert!(e.contains("knife.toml"), "the error names the file: {e}");
+        assert!(!out.exists(), "nothing is written");
+        assert_eq!(
+            std::fs::read_dir(&cache).unwrap().count(),
+            0,
+            "nothing is cached"
+        );
+    }
+    // Owned by another user (only root can make one here).
+    let cache = dir.join("other");
+    dir_with_mode(&cache, 0o700);
+    let chown = Command::new("chown")
+        .args(["65534", cache.to_str().unwrap()])
+        .output();
+    if chown.is_ok_and(|o| o.status.success()) {
+        let o = plan(&cache);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(
+            stderr(&o).contains("is owned by user 65534"),
+            "{}",
+            stderr(&o)
+        );
+    } else {
+        eprintln!("cannot chown here (not root): the other-owner case is skipped");
+    }
+    // A missing cache is created private, with its parents.
+    let cache = dir.join("new/cache");
+    let o = plan(&cache);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mode = std::fs::metadata(&cache).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o700);
+    // SAFETY: geteuid has no preconditions.
+    assert_eq!(std::fs::metadata(&cache).unwrap().uid(), unsafe {
+        libc::geteuid()
+    });
+}
+
+#[test]
+fn a_planted_binary_in_the_cache_is_rebuilt_not_run() {
+    let dir = scratch("planted");
+    let marker = dir.join("planted-binary-ran");
+    let out = dir.join("knife.json");
+    let simulate = || {
+        hamel(
+            &[
+                "simulate",
+                "scenes/knife.toml",
+                "--format",
+                "json",
+                "--output",
+                out.to_str().unwrap(),
+            ],
+            None,
+        )
+    };
+    let o = simulate();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let honest = std::fs::read_to_string(&out).unwrap();
+    let plan = json_on_stdout(&hamel(
+        &["plan", "scenes/knife.toml", "--format", "json"],
+        None,
+    ));
+    let exe = PathBuf::from(plan["code"].as_str().unwrap()).join("scene");
+    let meta = |exe: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(exe.with_file_name("meta.json")).unwrap())
+            .unwrap()
+    };
+    assert_eq!(meta(&exe)["binary_sha256"].as_str().unwrap().len(), 64);
+    // Replace the built core with a program that would leave a mark.
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::write(&exe, format!("#!/bin/sh\ntouch '{}'\n", marker.display())).unwrap();
+        std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let o = simulate();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("warning: the cached core") && e.contains("not running it"),
+        "{e}"
+    );
+    assert!(!marker.exists(), "the planted binary ran");
+    // The core was rebuilt, and its hash recorded anew.
+    let rebuilt = std::fs::read(&exe).unwrap();
+    assert!(!rebuilt.starts_with(b"#!"));
+    let sha: String = {
+        use sha2::Digest;
+        sha2::Sha256::digest(&rebuilt)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    };
+    assert_eq!(meta(&exe)["binary_sha256"].as_str().unwrap(), sha);
+    let again = std::fs::read_to_string(&out).unwrap();
+    let solution = |s: &str| -> (serde_json::Value, serde_json::Value) {
+        let v: serde_json::Value = serde_json::from_str(s).unwrap();
+        (v["q"].clone(), v["eta"].clone())
+    };
+    assert_eq!(solution(&honest), solution(&again));
+    // The next run finds the rebuilt core good: no warning.
+    let o = simulate();
+    assert!(
+        !stderr(&o).contains("warning: the cached core"),
+        "{}",
+        stderr(&o)
     );
 }

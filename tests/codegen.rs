@@ -59,7 +59,7 @@ fn generate_all() -> BTreeMap<PathBuf, String> {
     }
     files.insert(
         PathBuf::from("crates/hamel-models/src/lib.rs"),
-        models_lib(&members),
+        models_lib(&members).unwrap(),
     );
     files
 }

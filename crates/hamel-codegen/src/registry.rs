@@ -2,6 +2,8 @@
 
 use std::fmt::Write;
 
+use crate::escape::{rust_ident, rust_str};
+
 /// One generated core: module name, model, choice.
 pub struct Member {
     /// Directory under `generated/` (also the module name).
@@ -13,7 +15,11 @@ pub struct Member {
 }
 
 /// The text of `crates/hamel-models/src/lib.rs` for the given members (sorted by the caller).
-pub fn models_lib(members: &[Member]) -> String {
+/// Errors: a member's directory is not an identifier (it names a module).
+pub fn models_lib(members: &[Member]) -> Result<String, String> {
+    for m in members {
+        rust_ident(&m.dir)?;
+    }
     let mut o = String::from(
         "//! The generated numeric cores of every bundled model, compiled together.\n\
          //!\n\
@@ -54,8 +60,14 @@ pub fn models_lib(members: &[Member]) -> String {
          /// Every generated core.\n#[rustfmt::skip]\npub const MODELS: &[Core] = &[\n",
     );
     for m in members {
-        let _ = writeln!(o, "    core!({}, {:?}, {:?}),", m.dir, m.model, m.eta);
+        let _ = writeln!(
+            o,
+            "    core!({}, {}, {}),",
+            m.dir,
+            rust_str(&m.model),
+            rust_str(&m.eta)
+        );
     }
     o.push_str("];\n");
-    o
+    Ok(o)
 }
