@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use hamel_model::{Model, ModelError};
+use hamel_model::ModelError;
 
 /// What was written.
 pub struct Written {
@@ -20,7 +20,7 @@ pub fn run(
     force: bool,
     with_simulator: bool,
 ) -> Result<Written, ModelError> {
-    let model = Model::load(model_path)?;
+    let model = crate::load_for(model_path, eta)?;
     let io_err = |what: String| {
         ModelError::new(
             &out.display().to_string(),

@@ -11,6 +11,7 @@ mod output;
 mod plan;
 mod plot;
 mod scene_core;
+mod search;
 mod simulate;
 mod state;
 mod tradeoff;
@@ -48,18 +49,6 @@ enum TableFormat {
     /// A Markdown table.
     Markdown,
     Json,
-}
-
-/// When `hamel search` shows its progress on stderr.
-#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum ProgressMode {
-    /// A bar on a terminal, for searches that last over a second; nothing otherwise.
-    Auto,
-    /// From the start: a bar on a terminal, plain lines (`search: N/M candidates`, at most
-    /// one every 0.2 s, and a last one) when stderr is a file or a pipe.
-    Always,
-    /// Never.
-    Never,
 }
 
 /// Output of `hamel simulate`.
@@ -210,9 +199,9 @@ enum Command {
         /// Coordinates to eliminate, comma-separated.
         #[arg(long, value_delimiter = ',', required = true)]
         eliminate: Vec<String>,
-        /// Time budget in seconds, checked between candidates (an exact check under way is
-        /// finished; deriving A and α comes first). Candidates not tried by then are reported
-        /// as such.
+        /// Time budget in seconds for the whole command: it returns within the budget plus
+        /// about a second, with what it found and why it stopped (an exact check under way at
+        /// the deadline is abandoned, and named).
         #[arg(long, default_value_t = 60.0)]
         budget: f64,
         /// Most reducing choices to collect from the finite ansatz.
@@ -220,13 +209,24 @@ enum Command {
         max: usize,
         /// Progress on stderr.
         #[arg(long, value_enum, default_value = "auto")]
-        progress: ProgressMode,
+        progress: search::ProgressMode,
         /// Output format.
         #[arg(long, value_enum, default_value = "text")]
         format: ReportFormat,
         /// Write the result to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,
+    },
+    /// The worker process of `hamel search` (internal: its output is a protocol).
+    #[command(hide = true)]
+    SearchWorker {
+        model: PathBuf,
+        #[arg(long, value_delimiter = ',', required = true)]
+        eliminate: Vec<String>,
+        #[arg(long)]
+        budget: f64,
+        #[arg(long)]
+        max: usize,
     },
     /// Evaluate the derived equations at states given as JSON: η̇ (true and paper's), q̇, energy.
     Eval {
@@ -281,6 +281,20 @@ fn main() -> ExitCode {
     }
 }
 
+/// Load a model for a command that uses the choice `eta`; when that is the default hamel took
+/// (the file names no quasi-velocities), say so on stderr, with the table to paste.
+pub(crate) fn load_for(path: &std::path::Path, eta: Option<&str>) -> Result<Model, ModelError> {
+    let model = Model::load(path)?;
+    if let Some(note) = model
+        .choice(eta)
+        .ok()
+        .and_then(|c| model.default_choice_note(c))
+    {
+        eprintln!("{note}");
+    }
+    Ok(model)
+}
+
 fn run(cli: Cli) -> Result<(), ModelError> {
     match cli.command {
         Command::Derive {
@@ -290,7 +304,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
         } => {
             let out = Output::new(output)?;
-            let model = Model::load(&model)?;
+            let model = load_for(&model, eta.as_deref())?;
             let started = Instant::now();
             let d = hamel_derive::derive(&model, eta.as_deref())?;
             eprintln!(
@@ -314,7 +328,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
         } => {
             let out = Output::new(output)?;
-            let model = Model::load(&model)?;
+            let model = load_for(&model, eta.as_deref())?;
             let started = Instant::now();
             let r = hamel_reduce::reduce(&model, eta.as_deref(), &eliminate)?;
             eprintln!(
@@ -463,76 +477,41 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             format,
             output,
         } => {
+            // The budget counts from here.
+            let started = Instant::now();
             let out = Output::new(output)?;
-            let model = Model::load(&model)?;
+            let loaded = Model::load(&model)?;
             if !(budget.is_finite() && budget > 0.0) {
-                return Err(model.error(format!(
+                return Err(loaded.error(format!(
                     "--budget must be a positive number of seconds, got {budget}"
                 )));
             }
-            use std::io::IsTerminal;
-            let terminal = std::io::stderr().is_terminal();
-            let bar = indicatif::ProgressBar::new(0);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{elapsed_precise} [{bar:30}] {pos}/{len} candidates",
-                )
-                .expect("valid template"),
-            );
-            // Auto: drawn only for searches that last over a second.
-            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-            let started = Instant::now();
-            let shown = std::sync::atomic::AtomicBool::new(false);
-            let last_line = std::sync::Mutex::new(None::<Instant>);
-            let b2 = bar.clone();
-            let mode = progress;
-            let progress: hamel_reduce::Progress = Box::new(move |done, total| {
-                b2.set_length(total);
-                b2.set_position(done);
-                let due = match mode {
-                    ProgressMode::Never => false,
-                    ProgressMode::Always => true,
-                    ProgressMode::Auto => terminal && started.elapsed().as_secs_f64() > 1.0,
-                };
-                if !due {
-                    return;
-                }
-                if terminal {
-                    if !shown.swap(true, std::sync::atomic::Ordering::Relaxed) {
-                        b2.set_draw_target(indicatif::ProgressDrawTarget::stderr());
-                    }
-                } else if let Ok(mut last) = last_line.lock() {
-                    if last.is_none_or(|t| t.elapsed().as_secs_f64() >= 0.2) {
-                        eprintln!("search: {done}/{total} candidates");
-                        *last = Some(Instant::now());
-                    }
-                }
-            });
-            let options = hamel_reduce::SearchOptions {
-                budget: std::time::Duration::from_secs_f64(budget),
-                max_candidates: max,
+            let budget = std::time::Duration::from_secs_f64(budget);
+            let job = search::Job {
+                model_path: &model,
+                model: &loaded,
+                eliminate: &eliminate,
+                budget,
+                max,
+                started,
             };
-            let r = hamel_reduce::search(&model, &eliminate, options, progress)?;
-            bar.finish_and_clear();
-            if mode == ProgressMode::Always && !terminal {
-                let done: usize = r.families.values().map(|f| f.generated).sum();
-                eprintln!(
-                    "search: done, {done} candidates in {:.2} s{}",
-                    r.seconds,
-                    if r.budget_exhausted {
-                        " (budget exhausted)"
-                    } else {
-                        ""
-                    }
-                );
-            }
-            let text = match format {
+            let r = search::run(&job, progress)?;
+            out.write(&match format {
                 ReportFormat::Text => r.to_text(),
                 ReportFormat::Json => {
                     serde_json::to_string_pretty(&r).expect("serialisable") + "\n"
                 }
-            };
-            out.write(&text)
+            })
+        }
+        Command::SearchWorker {
+            model,
+            eliminate,
+            budget,
+            max,
+        } => {
+            let model = Model::load(&model)?;
+            let budget = std::time::Duration::from_secs_f64(budget.max(0.0));
+            search::work(&model, &eliminate, budget, max)
         }
         Command::Eval {
             model,
@@ -541,7 +520,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
         } => {
             let out = Output::new(output)?;
-            let model = Model::load(&model)?;
+            let model = load_for(&model, eta.as_deref())?;
             let text = state::eval(&model, eta.as_deref(), &state)?;
             out.write(&text)
         }

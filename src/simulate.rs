@@ -396,7 +396,11 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         }
         auto_choice(model, auto_request.as_deref())?
     } else {
-        let choice = model.choice(scene.eta.as_deref())?.name.clone();
+        let chosen = model.choice(scene.eta.as_deref())?;
+        if let Some(note) = model.default_choice_note(chosen) {
+            eprintln!("{note}");
+        }
+        let choice = chosen.name.clone();
         (model, choice)
     };
     let d = hamel_derive::derive(&model, Some(&choice))?;
@@ -949,7 +953,7 @@ fn auto_choice(model: Model, request: Option<&[String]>) -> Result<(Model, Strin
             budget: std::time::Duration::from_secs(20),
             max_candidates: 10,
         },
-        Box::new(|_, _| {}),
+        Box::new(|_| {}),
     )?;
     // Candidates without free functions, in the search's order (simplest first); the first
     // whose map [Z; α] is regular everywhere wins, else the first.

@@ -20,11 +20,7 @@ fn hamel_with_cache<A: AsRef<std::ffi::OsStr>>(
     cache: &Path,
 ) -> Output {
     let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hamel"));
-    cmd.args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("HAMEL_CACHE", cache)
-        .env("CARGO", env!("CARGO"));
+    let mut cmd = hamel_command(args, cache);
     match stdin {
         None => cmd.output().unwrap(),
         Some(text) => {
@@ -44,6 +40,24 @@ fn hamel_with_cache<A: AsRef<std::ffi::OsStr>>(
             child.wait_with_output().unwrap()
         }
     }
+}
+
+/// The `hamel` command with `args`, run in the repository with `HAMEL_CACHE` = `cache`.
+fn hamel_command<A: AsRef<std::ffi::OsStr>>(args: &[A], cache: &Path) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hamel"));
+    cmd.args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("HAMEL_CACHE", cache)
+        .env("CARGO", env!("CARGO"));
+    cmd
+}
+
+/// [`hamel`] and the wall time of the command alone (not of waiting for its turn).
+fn hamel_timed(args: &[&str]) -> (Output, std::time::Duration) {
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let started = std::time::Instant::now();
+    let out = hamel_command(args, &code_cache()).output().unwrap();
+    (out, started.elapsed())
 }
 
 /// The cache of compiled scene cores the `hamel` processes of this binary share (kept between
@@ -444,7 +458,7 @@ fn search_writes_json_candidates_and_reports_progress() {
             .iter()
             .any(|e| e == "cos(theta)*der(x) + sin(theta)*der(y)")
     }));
-    assert_eq!(v["budget_exhausted"], false);
+    assert_eq!(v["stop"]["reason"], "completed");
 }
 
 #[test]
@@ -468,7 +482,11 @@ fn search_honours_its_budget_and_rejects_a_bad_one() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
-    assert_eq!(v["budget_exhausted"], true);
+    let reason = v["stop"]["reason"].as_str().unwrap();
+    assert!(
+        reason == "budget" || reason == "budget_during_check",
+        "{reason}"
+    );
     // Far fewer candidates generated than the full search (which generates over a hundred).
     let generated: u64 = v["families"]
         .as_object()
@@ -1759,4 +1777,62 @@ fn a_planted_binary_in_the_cache_is_rebuilt_not_run() {
         "{}",
         stderr(&o)
     );
+}
+
+#[test]
+fn search_budget_is_a_wall_even_during_an_exact_check() {
+    // The snakeboard eliminating x, y, θ, ψ: the ansatz finds its candidates in about a second,
+    // then the exact check of the family with unknown functions takes minutes.
+    let dir = scratch("search_wall");
+    let file = dir.join("out.json");
+    let budget = 5.0;
+    let (o, took) = hamel_timed(&[
+        "search",
+        "models/snakeboard.toml",
+        "--eliminate",
+        "x,y,theta,psi",
+        "--budget",
+        "5",
+        "--format",
+        "json",
+        "--output",
+        file.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The whole command, set-up and the abandoned check included, within the budget + 2 s.
+    assert!(
+        took.as_secs_f64() < budget + 2.0,
+        "took {:.2} s with a budget of {budget} s",
+        took.as_secs_f64()
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let stop = &v["stop"];
+    assert!(
+        stop["reason"] == "budget_during_check" || stop["reason"] == "budget",
+        "{stop}"
+    );
+    if stop["reason"] == "budget_during_check" {
+        assert!(!stop["eta"].as_array().unwrap().is_empty(), "{stop}");
+    }
+    // What was found before the deadline is reported, each a pasteable choice.
+    let candidates = v["candidates"].as_array().unwrap();
+    assert!(!candidates.is_empty());
+    for c in candidates {
+        assert_eq!(
+            c["eliminated"],
+            serde_json::json!(["x", "y", "theta", "psi"])
+        );
+        let t: toml::Table = c["toml"].as_str().unwrap().parse().unwrap();
+        assert!(
+            t["quasi_velocities"]
+                .as_table()
+                .unwrap()
+                .contains_key(c["name"].as_str().unwrap())
+        );
+    }
+    // Symbolica's notice is passed through, and the next command runs (the worker's
+    // Symbolica instance ended with it).
+    let o = hamel(&["derive", "models/knife.toml", "--format", "json"], None);
+    assert!(o.status.success(), "{}", stderr(&o));
 }

@@ -333,6 +333,25 @@ def chaplygin_sleigh():
           "sleigh: (I + m a^2) omega' = -m a v omega")
 
 
+def snakeboard():
+    m = Model("snakeboard")
+    x, y, th, ps, ph = m.q
+    mass, J, Jr, Jw, r = (m.P[k] for k in ("m", "J", "J_r", "J_w", "r"))
+    P = sp.Matrix([x, y, 0])
+    e = sp.Matrix([sp.cos(th), sp.sin(th), 0])
+    # J is the board's with the wheel sets' own 2 J_w; the rotor and the wheel sets are massless
+    # bodies turning about vertical axes (their masses are in m, at P).
+    T = (body_T(m, mass, P, Rz(th), sp.diag(0, 0, J - 2 * Jw))
+         + body_T(m, 0, P, Rz(th + ps), sp.diag(0, 0, Jr))
+         + body_T(m, 0, P + r * e, Rz(th + ph), sp.diag(0, 0, Jw))
+         + body_T(m, 0, P - r * e, Rz(th - ph), sp.diag(0, 0, Jw)))
+    rows = []
+    for sign, steer in ((1, ph), (-1, -ph)):
+        heading = sp.Matrix([sp.cos(th + steer), sp.sin(th + steer), 0])
+        rows.append(m.on_velocities(vel(P + sign * r * e, m).cross(heading)[2])[0])
+    compare_with_file(m, T, 0, rows)
+
+
 def bar_blade():
     m = Model("bar_blade")
     x, y, th, ph = m.q
@@ -550,7 +569,8 @@ def main():
     for fn, name in ((knife, "knife"), (lambda: knife("vertical_knife"), "vertical_knife"),
                      (bar_blade, "bar_blade"), (bar_wheels, "bar_wheels"),
                      (unicycle_rider, "unicycle_rider"), (rolling_disk, "rolling_disk"),
-                     (remark22, "remark22"), (chaplygin_sleigh, "chaplygin_sleigh")):
+                     (remark22, "remark22"), (chaplygin_sleigh, "chaplygin_sleigh"),
+                     (snakeboard, "snakeboard")):
         print(f"== {name}")
         fn()
     files = sorted(p.stem for p in MODELS.glob("*.toml"))

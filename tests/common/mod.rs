@@ -10,6 +10,7 @@ pub const ELIMINATE: &[(&str, &str)] = &[
     ("knife", "x,y,theta"),
     ("remark22", "q1"),
     ("rolling_disk", "xC,yC,phi"),
+    ("snakeboard", "x,y,theta"),
     ("unicycle_rider", "xC,yC,phi,psi"),
     ("vertical_knife", "x,y,theta"),
 ];

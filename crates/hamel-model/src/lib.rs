@@ -16,11 +16,13 @@
 //! stage finds it, points into the file the same way.
 #![warn(missing_docs)]
 
+pub mod default_choice;
 mod error;
 mod model;
 mod numeric;
 mod schema;
 
+pub use default_choice::combinations;
 pub use error::ModelError;
-pub use model::{Item, Kinetic, Model, QuasiVelocityChoice, Site};
+pub use model::{ChoiceOrigin, Item, Kinetic, Model, QuasiVelocityChoice, Site};
 pub use numeric::{NumericModel, sample_configurations};

@@ -79,6 +79,22 @@ pub struct QuasiVelocityChoice {
     pub eta: Vec<Item>,
     /// Free functions it uses, with their coordinate arguments, sorted by name.
     pub free_functions: Vec<(String, Vec<String>)>,
+    /// Where it comes from.
+    pub origin: ChoiceOrigin,
+}
+
+/// Where a quasi-velocity choice comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChoiceOrigin {
+    /// A `[quasi_velocities.NAME]` table of the file.
+    File,
+    /// Z = I, added to every model without constraints.
+    Holonomic,
+    /// The independent velocities hamel takes when the file names no choice
+    /// (`default_choice`).
+    Independent,
+    /// A candidate built by `hamel search`.
+    Search,
 }
 
 /// A model read from a file, with names resolved and counts checked.
@@ -631,13 +647,14 @@ impl Model {
                 description: description.clone(),
                 eta: items,
                 free_functions: free,
+                origin: ChoiceOrigin::File,
             });
         }
         if mu == 0 && !choices.iter().any(|c| c.name == "identity") {
             choices.push(identity_choice(&coordinates));
         }
 
-        let model = Model {
+        let mut model = Model {
             file: file.to_string(),
             source,
             name: raw.name.get_ref().clone(),
@@ -651,6 +668,10 @@ impl Model {
             choices,
         };
         model.check_mass_matrix_numerically()?;
+        if model.choices.is_empty() {
+            let default = model.independent_velocities()?;
+            model.choices.push(default);
+        }
         Ok(model)
     }
 
@@ -767,6 +788,7 @@ fn identity_choice(coordinates: &[String]) -> QuasiVelocityChoice {
             })
             .collect(),
         free_functions: Vec::new(),
+        origin: ChoiceOrigin::Holonomic,
     }
 }
 

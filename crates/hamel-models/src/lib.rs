@@ -35,6 +35,9 @@ pub mod rolling_disk__momenta;
 #[path = "../../../generated/rolling_disk__velocities/src/model.rs"]
 pub mod rolling_disk__velocities;
 #[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/snakeboard__velocities/src/model.rs"]
+pub mod snakeboard__velocities;
+#[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/unicycle_rider__momenta/src/model.rs"]
 pub mod unicycle_rider__momenta;
 #[rustfmt::skip] // generated text, compared with a fresh generation
@@ -119,6 +122,7 @@ pub const MODELS: &[Core] = &[
     core!(remark22__paper, "remark22", "paper"),
     core!(rolling_disk__momenta, "rolling_disk", "momenta"),
     core!(rolling_disk__velocities, "rolling_disk", "velocities"),
+    core!(snakeboard__velocities, "snakeboard", "velocities"),
     core!(unicycle_rider__momenta, "unicycle_rider", "momenta"),
     core!(unicycle_rider__velocities, "unicycle_rider", "velocities"),
     core!(vertical_knife__paper, "vertical_knife", "paper"),

@@ -27,7 +27,10 @@ pub use report::{
     Property, ReducedSystem, Reduction, Witness,
 };
 
-pub use search::{Candidate, FamilyStats, Progress, SearchOptions, SearchReport};
+pub use search::{
+    Candidate, Events, FamilyStats, SearchEvent, SearchOptions, SearchReport, StopReason,
+    sort_candidates,
+};
 
 use hamel_model::{Model, ModelError};
 
@@ -70,16 +73,18 @@ pub fn reduce_with_derivation(
 
 /// Search for quasi-velocity choices that eliminate `eliminate` from the true equations
 /// (families (c) A-orthogonal, (b) finite ansatz, (a) unknown functions; see [`search`]).
-/// `progress` is called from the CAS thread with (done, total).
+/// `events` is called from the CAS thread as the search goes ([`SearchEvent`]). The budget is
+/// kept between candidates; an exact check under way runs to its end (see `hamel search`, which
+/// runs this in a worker process it can end, for a budget that is a wall).
 pub fn search(
     model: &Model,
     eliminate: &[String],
     options: SearchOptions,
-    progress: Progress,
+    events: Events,
 ) -> Result<SearchReport, ModelError> {
     let p = coordinate_indices(model, eliminate)?;
     let model = model.clone();
-    hamel_cas::run(move || search::search(&model, &p, options, progress))
+    hamel_cas::run(move || search::search(&model, &p, options, events))
         .map_err(model_error_from_cas)?
 }
 

@@ -23,14 +23,16 @@ use std::time::{Duration, Instant};
 use hamel_cas::{Ex, Matrix};
 use hamel_derive::Symbolic;
 use hamel_expr::{Dual, parse};
-use hamel_model::{Item, Model, ModelError, NumericModel, QuasiVelocityChoice};
+use hamel_model::{
+    ChoiceOrigin, Item, Model, ModelError, NumericModel, QuasiVelocityChoice, combinations,
+};
 use indexmap::IndexMap;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::analysis::{analyse, dependence_conditions};
 
 /// One reducing choice.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Candidate {
     /// A name for the `[quasi_velocities.NAME]` table.
     pub name: String,
@@ -53,7 +55,7 @@ pub struct Candidate {
 }
 
 /// Counts for one family.
-#[derive(Clone, Debug, Serialize, Default)]
+#[derive(Clone, Debug, Serialize, Deserialize, Default, PartialEq)]
 pub struct FamilyStats {
     /// Candidates generated.
     pub generated: usize,
@@ -77,8 +79,80 @@ const MAX_TEXT: usize = 400;
 /// Most unknown functions in the family (a) ansatz (each adds variables to every expression).
 const FUNCTIONS: usize = 6;
 
+/// Why a search stopped.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum StopReason {
+    /// Every candidate of every family was tried.
+    Completed,
+    /// Every family was tried, the finite ansatz up to the number of candidates asked for.
+    MaxCandidates,
+    /// The budget ran out between two candidates.
+    Budget,
+    /// The budget ran out during the exact check of a candidate, which was abandoned: the
+    /// process running it was ended (`hamel search` runs the search in a worker process).
+    BudgetDuringCheck {
+        /// The candidate's family.
+        family: String,
+        /// Its quasi-velocities.
+        eta: Vec<String>,
+    },
+}
+
+impl StopReason {
+    /// Whether the budget ended the search.
+    pub fn budget(&self) -> bool {
+        matches!(
+            self,
+            StopReason::Budget | StopReason::BudgetDuringCheck { .. }
+        )
+    }
+
+    /// One line for people.
+    pub fn describe(&self) -> String {
+        match self {
+            StopReason::Completed => "every candidate was tried".into(),
+            StopReason::MaxCandidates => {
+                "the finite ansatz stopped at the number of candidates asked for (--max)".into()
+            }
+            StopReason::Budget => "the time budget ran out".into(),
+            StopReason::BudgetDuringCheck { family, eta } => format!(
+                "the time budget ran out during the exact check of the {family} candidate [{}], which was abandoned",
+                eta.join("; ")
+            ),
+        }
+    }
+}
+
+/// What a running search reports, as it happens.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum SearchEvent {
+    /// Candidates done, candidates generated so far, and the counts per family.
+    Progress {
+        /// Candidates tried.
+        done: u64,
+        /// Candidates generated so far.
+        total: u64,
+        /// Counts per family so far.
+        families: IndexMap<String, FamilyStats>,
+    },
+    /// The exact check of a candidate starts (it may take long).
+    Checking {
+        /// The candidate's family.
+        family: String,
+        /// Its quasi-velocities.
+        eta: Vec<String>,
+    },
+    /// A reducing candidate was found.
+    Found(Candidate),
+}
+
+/// Receives the events of a search (on the CAS thread).
+pub type Events = Box<dyn Fn(SearchEvent) + Send>;
+
 /// The result of `hamel search`.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SearchReport {
     /// Model identifier.
     pub model: String,
@@ -93,8 +167,8 @@ pub struct SearchReport {
     /// Conditions on the unknown functions of family (a) that hamel could not solve in closed
     /// form (equations `… = 0`, each with the entry of (11) it comes from).
     pub unsolved_conditions: Vec<String>,
-    /// Whether the time budget ran out before every candidate was tried.
-    pub budget_exhausted: bool,
+    /// Why the search stopped.
+    pub stop: StopReason,
     /// Wall time, seconds.
     pub seconds: f64,
 }
@@ -107,9 +181,6 @@ pub struct SearchOptions {
     /// Most candidates to report.
     pub max_candidates: usize,
 }
-
-/// Progress callback: (candidates done, candidates generated so far).
-pub type Progress = Box<dyn Fn(u64, u64) + Send>;
 
 struct Row {
     text: String,
@@ -195,6 +266,7 @@ fn with_choice(
         description: None,
         eta: items,
         free_functions: free.to_vec(),
+        origin: ChoiceOrigin::Search,
     });
     Some(m)
 }
@@ -292,7 +364,7 @@ struct Searcher<'a> {
     samples: Vec<Vec<f64>>,
     started: Instant,
     options: SearchOptions,
-    progress: Progress,
+    events: Events,
     done: u64,
     total: u64,
     families: IndexMap<String, FamilyStats>,
@@ -323,9 +395,16 @@ impl Searcher<'_> {
         nonzero: usize,
     ) -> bool {
         self.done += 1;
-        (self.progress)(self.done, self.total);
-        let stats = self.families.entry(family.to_string()).or_default();
-        stats.generated += 1;
+        self.families
+            .entry(family.to_string())
+            .or_default()
+            .generated += 1;
+        (self.events)(SearchEvent::Progress {
+            done: self.done,
+            total: self.total,
+            families: self.families.clone(),
+        });
+        let stats = &mut self.families[family];
         if !self.seen.insert(eta.join("; ")) {
             stats.duplicates += 1;
             return false;
@@ -363,6 +442,10 @@ impl Searcher<'_> {
             }
         }
         self.families[family].exact_checks += 1;
+        (self.events)(SearchEvent::Checking {
+            family: family.to_string(),
+            eta: eta.clone(),
+        });
         let t0 = Instant::now();
         let trace = std::env::var_os("HAMEL_SEARCH_TRACE").is_some();
         if trace {
@@ -401,7 +484,7 @@ impl Searcher<'_> {
         };
         self.families[family].found += 1;
         let cname = format!("{}_{}", family, self.families[family].found);
-        self.found.push(Candidate {
+        let candidate = Candidate {
             toml: toml_block(&cname, family, &eta),
             name: cname,
             family: family.to_string(),
@@ -414,7 +497,9 @@ impl Searcher<'_> {
             paper_is_exact: r.paper_is_exact,
             nonzero,
             eta,
-        });
+        };
+        (self.events)(SearchEvent::Found(candidate.clone()));
+        self.found.push(candidate);
         true
     }
     /// Family (a): try the choice with its unknown functions symbolic; when the true equations
@@ -515,38 +600,12 @@ impl Searcher<'_> {
     }
 }
 
-/// Combinations of `k` indices out of `n`, in lexicographic order.
-fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
-    let mut out = Vec::new();
-    let mut c: Vec<usize> = (0..k).collect();
-    if k > n {
-        return out;
-    }
-    loop {
-        out.push(c.clone());
-        let mut i = k;
-        loop {
-            if i == 0 {
-                return out;
-            }
-            i -= 1;
-            if c[i] != i + n - k {
-                break;
-            }
-        }
-        c[i] += 1;
-        for j in i + 1..k {
-            c[j] = c[j - 1] + 1;
-        }
-    }
-}
-
 /// Search (runs on the CAS thread).
 pub(crate) fn search(
     model: &Model,
     p: &[usize],
     options: SearchOptions,
-    progress: Progress,
+    events: Events,
 ) -> Result<SearchReport, ModelError> {
     let started = Instant::now();
     let names = model.coordinates.clone();
@@ -562,7 +621,7 @@ pub(crate) fn search(
         samples,
         started,
         options,
-        progress,
+        events,
         done: 0,
         total: 0,
         families: IndexMap::new(),
@@ -775,8 +834,9 @@ pub(crate) fn search(
             }
         }
     }
+    let candidates_full = se.found.len() >= se.options.max_candidates;
     let mut candidates = se.found;
-    candidates.sort_by_key(|c| (c.free_functions.len(), c.nonzero));
+    sort_candidates(&mut candidates);
     let none_found = candidates.is_empty().then(|| {
         let mut reasons: Vec<(String, usize)> = se.failures.into_iter().collect();
         reasons.sort_by(|a, b| b.1.cmp(&a.1));
@@ -809,9 +869,21 @@ pub(crate) fn search(
         families: se.families,
         none_found,
         unsolved_conditions: se.unsolved,
-        budget_exhausted: se.exhausted,
+        stop: if se.exhausted {
+            StopReason::Budget
+        } else if candidates_full {
+            StopReason::MaxCandidates
+        } else {
+            StopReason::Completed
+        },
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// Simplest first: fewest free functions, then fewest nonzero entries (stable: in the order
+/// found).
+pub fn sort_candidates(candidates: &mut [Candidate]) {
+    candidates.sort_by_key(|c| (c.free_functions.len(), c.nonzero));
 }
 
 impl SearchReport {
@@ -821,15 +893,11 @@ impl SearchReport {
         let mut o = String::new();
         let _ = writeln!(
             o,
-            "Search for quasi-velocities of `{}` eliminating {} ({:.2} s{})",
+            "Search for quasi-velocities of `{}` eliminating {} ({:.2} s; stopped: {})",
             self.model,
             self.eliminate.join(", "),
             self.seconds,
-            if self.budget_exhausted {
-                ", budget exhausted"
-            } else {
-                ""
-            }
+            self.stop.describe()
         );
         for (name, s) in &self.families {
             let _ = writeln!(
