@@ -76,7 +76,8 @@ fn create_private(dir: &Path) -> std::io::Result<()> {
 }
 
 /// Refuse a cache directory (followed through symbolic links) that is not a directory, not
-/// owned by the effective user, or writable by group or others.
+/// owned by the effective user, or writable by group or others, and a symbolic link to it that
+/// another user owns.
 #[cfg(unix)]
 fn check_private(dir: &Path) -> Result<(), String> {
     use std::os::unix::fs::MetadataExt;
@@ -96,6 +97,16 @@ fn check_private(dir: &Path) -> Result<(), String> {
         return refuse(format!(
             "it is owned by user {}, not by you ({me})",
             m.uid()
+        ));
+    }
+    // A link that someone else owns could be pointed elsewhere later.
+    if let Ok(link) = std::fs::symlink_metadata(dir)
+        && link.file_type().is_symlink()
+        && link.uid() != me
+    {
+        return refuse(format!(
+            "it is a symbolic link owned by user {}, not by you ({me})",
+            link.uid()
         ));
     }
     if m.mode() & 0o022 != 0 {

@@ -252,6 +252,13 @@ impl Seen {
         budget: Duration,
         started: Instant,
     ) -> SearchReport {
+        let mut families = self.families;
+        // The abandoned check was counted when it started; it decided nothing.
+        if let Some((family, _)) = &self.checking
+            && let Some(f) = families.get_mut(family)
+        {
+            f.exact_checks = f.exact_checks.saturating_sub(1);
+        }
         let mut candidates = self.found;
         hamel_reduce::sort_candidates(&mut candidates);
         let none_found = candidates.is_empty().then(|| {
@@ -264,7 +271,7 @@ impl Seen {
             model: model.name.clone(),
             eliminate: eliminate.to_vec(),
             candidates,
-            families: self.families,
+            families,
             none_found,
             unsolved_conditions: Vec::new(),
             stop: match self.checking {

@@ -1693,6 +1693,23 @@ fn a_code_cache_others_could_write_is_refused_and_a_new_one_is_private() {
             "{}",
             stderr(&o)
         );
+        // A link someone else owns, to a directory of ours.
+        let mine = dir.join("mine");
+        dir_with_mode(&mine, 0o700);
+        let link = dir.join("link");
+        std::os::unix::fs::symlink(&mine, &link).unwrap();
+        let chown = Command::new("chown")
+            .args(["-h", "65534", link.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(chown.status.success());
+        let o = plan(&link);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(
+            stderr(&o).contains("symbolic link owned by user 65534"),
+            "{}",
+            stderr(&o)
+        );
     } else {
         eprintln!("cannot chown here (not root): the other-owner case is skipped");
     }
