@@ -519,7 +519,9 @@ fn the_flat_disk_loses_what_the_condition_of_a_gamma_says() {
     let d = derive(model, Some("velocities")).unwrap();
     let c = d.compile().unwrap();
     let params = d.parameters.clone();
-    println!("| π/2 − θ | cond A_Γ | f64 vs oracle (DD) | rounded A_Γ, b solved in f64 | error / (cond A_Γ·ε) |");
+    println!(
+        "| π/2 − θ | cond A_Γ | f64 vs oracle (DD) | rounded A_Γ, b solved in f64 | error / (cond A_Γ·ε) |"
+    );
     println!("|---|---|---|---|---|");
     for k in 1..=7 {
         let h = 10f64.powi(-k);
@@ -536,11 +538,17 @@ fn the_flat_disk_loses_what_the_condition_of_a_gamma_says() {
         let b: Vec<f64> = (0..3)
             .map(|i| {
                 (0..3)
-                    .fold(DD::from_f64(0.0), |acc, j| acc + r.a_gamma[i][j] * r.eta_dot[j])
+                    .fold(DD::from_f64(0.0), |acc, j| {
+                        acc + r.a_gamma[i][j] * r.eta_dot[j]
+                    })
                     .value()
             })
             .collect();
-        let x = ag.clone().lu().solve(&nalgebra::DVector::from_vec(b)).unwrap();
+        let x = ag
+            .clone()
+            .lu()
+            .solve(&nalgebra::DVector::from_vec(b))
+            .unwrap();
         let ev = ag.symmetric_eigen().eigenvalues;
         let cond = ev.max() / ev.min();
         let err = relative(&f.eta_dot, reference);
@@ -549,6 +557,9 @@ fn the_flat_disk_loses_what_the_condition_of_a_gamma_says() {
             "| 1e-{k} | {cond:.1e} | {err:.1e} | {:.1e} | {ratio:.2} |",
             relative(x.as_slice(), reference)
         );
-        assert!(ratio < 10.0, "θ = π/2 − 1e-{k}: error {err:e}, cond A_Γ {cond:e}");
+        assert!(
+            ratio < 10.0,
+            "θ = π/2 − 1e-{k}: error {err:e}, cond A_Γ {cond:e}"
+        );
     }
 }

@@ -75,6 +75,12 @@ pub fn doc_comment(marker: &str, text: &str) -> String {
 
 /// A Rust string literal whose value is `text`.
 pub fn rust_str(text: &str) -> String {
+    quoted(text, |c| format!("\\u{{{:x}}}", c as u32))
+}
+
+/// `text` in double quotes with `"`, `\\`, `\n`, `\r`, `\t` escaped, and every unsafe character
+/// written by `unicode` (the escapes common to Rust and Python).
+fn quoted(text: &str, unicode: impl Fn(char) -> String) -> String {
     let mut out = String::from("\"");
     for c in text.chars() {
         match c {
@@ -83,7 +89,7 @@ pub fn rust_str(text: &str) -> String {
             '\n' => out.push_str("\\n"),
             '\r' => out.push_str("\\r"),
             '\t' => out.push_str("\\t"),
-            c if unsafe_char(c) => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+            c if unsafe_char(c) => out.push_str(&unicode(c)),
             c => out.push(c),
         }
     }
@@ -141,20 +147,7 @@ pub fn python_comment(text: &str) -> String {
 
 /// A Python string literal whose value is `text`.
 pub fn python_str(text: &str) -> String {
-    let mut out = String::from("\"");
-    for c in text.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            '\r' => out.push_str("\\r"),
-            '\t' => out.push_str("\\t"),
-            c if unsafe_char(c) => out.push_str(&format!("\\U{:08x}", c as u32)),
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
+    quoted(text, |c| format!("\\U{:08x}", c as u32))
 }
 
 #[cfg(test)]
