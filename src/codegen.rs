@@ -20,7 +20,7 @@ pub fn run(
     force: bool,
     with_simulator: bool,
 ) -> Result<Written, ModelError> {
-    let model = crate::load_for(model_path, eta)?;
+    let model = crate::choice::load_for(model_path, eta)?;
     let io_err = |what: String| {
         ModelError::new(
             &out.display().to_string(),

@@ -6,6 +6,7 @@
 //! written when a command fails.
 
 mod bench;
+mod choice;
 mod codegen;
 mod output;
 mod plan;
@@ -281,20 +282,6 @@ fn main() -> ExitCode {
     }
 }
 
-/// Load a model for a command that uses the choice `eta`; when that is the default hamel took
-/// (the file names no quasi-velocities), say so on stderr, with the table to paste.
-pub(crate) fn load_for(path: &std::path::Path, eta: Option<&str>) -> Result<Model, ModelError> {
-    let model = Model::load(path)?;
-    if let Some(note) = model
-        .choice(eta)
-        .ok()
-        .and_then(|c| model.default_choice_note(c))
-    {
-        eprintln!("{note}");
-    }
-    Ok(model)
-}
-
 fn run(cli: Cli) -> Result<(), ModelError> {
     match cli.command {
         Command::Derive {
@@ -304,7 +291,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
         } => {
             let out = Output::new(output)?;
-            let model = load_for(&model, eta.as_deref())?;
+            let model = choice::load_for(&model, eta.as_deref())?;
             let started = Instant::now();
             let d = hamel_derive::derive(&model, eta.as_deref())?;
             eprintln!(
@@ -328,7 +315,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
         } => {
             let out = Output::new(output)?;
-            let model = load_for(&model, eta.as_deref())?;
+            let model = choice::load_for(&model, eta.as_deref())?;
             let started = Instant::now();
             let r = hamel_reduce::reduce(&model, eta.as_deref(), &eliminate)?;
             eprintln!(
@@ -520,7 +507,7 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             output,
         } => {
             let out = Output::new(output)?;
-            let model = load_for(&model, eta.as_deref())?;
+            let model = choice::load_for(&model, eta.as_deref())?;
             let text = state::eval(&model, eta.as_deref(), &state)?;
             out.write(&text)
         }

@@ -228,20 +228,8 @@ impl Seen {
                 self.families = families;
                 self.checking = None;
             }
-            // The counts of the last Progress are from before this candidate's check.
-            SearchEvent::Checking { family, eta } => {
-                if let Some(f) = self.families.get_mut(&family) {
-                    f.exact_checks += 1;
-                }
-                self.checking = Some((family, eta));
-            }
-            SearchEvent::Found(c) => {
-                self.checking = None;
-                if let Some(f) = self.families.get_mut(&c.family) {
-                    f.found += 1;
-                }
-                self.found.push(c);
-            }
+            SearchEvent::Checking { family, eta } => self.checking = Some((family, eta)),
+            SearchEvent::Found(c) => self.found.push(c),
         }
     }
 
@@ -252,13 +240,6 @@ impl Seen {
         budget: Duration,
         started: Instant,
     ) -> SearchReport {
-        let mut families = self.families;
-        // The abandoned check was counted when it started; it decided nothing.
-        if let Some((family, _)) = &self.checking
-            && let Some(f) = families.get_mut(family)
-        {
-            f.exact_checks = f.exact_checks.saturating_sub(1);
-        }
         let mut candidates = self.found;
         hamel_reduce::sort_candidates(&mut candidates);
         let none_found = candidates.is_empty().then(|| {
@@ -271,7 +252,7 @@ impl Seen {
             model: model.name.clone(),
             eliminate: eliminate.to_vec(),
             candidates,
-            families,
+            families: self.families,
             none_found,
             unsolved_conditions: Vec::new(),
             stop: match self.checking {

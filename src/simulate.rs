@@ -397,9 +397,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         auto_choice(model, auto_request.as_deref())?
     } else {
         let chosen = model.choice(scene.eta.as_deref())?;
-        if let Some(note) = model.default_choice_note(chosen) {
-            eprintln!("{note}");
-        }
+        crate::choice::note_default(&model, chosen);
         let choice = chosen.name.clone();
         (model, choice)
     };

@@ -51,16 +51,27 @@ pub fn comment_text(text: &str) -> String {
             out.push_str(&format!("… ({rest} more characters)"));
             break;
         }
-        match c {
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            '\r' => out.push_str("\\r"),
-            '\t' => out.push_str("\\t"),
-            c if unsafe_char(c) => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
-            c => out.push(c),
-        }
+        push_escaped(&mut out, c, rust_unicode);
     }
     out
+}
+
+/// `\u{…}`, Rust's escape of a character.
+fn rust_unicode(c: char) -> String {
+    format!("\\u{{{:x}}}", c as u32)
+}
+
+/// Push `c`, with backslash, newline, carriage return and tab as `\\`, `\n`, `\r`, `\t` and
+/// every other unsafe character written by `unicode` (the escapes common to Rust and Python).
+fn push_escaped(out: &mut String, c: char, unicode: impl Fn(char) -> String) {
+    match c {
+        '\\' => out.push_str("\\\\"),
+        '\n' => out.push_str("\\n"),
+        '\r' => out.push_str("\\r"),
+        '\t' => out.push_str("\\t"),
+        c if unsafe_char(c) => out.push_str(&unicode(c)),
+        c => out.push(c),
+    }
 }
 
 /// One line of a Rust comment: `marker` (`//!`, `///` or `//`), a space unless the text is
@@ -75,22 +86,17 @@ pub fn doc_comment(marker: &str, text: &str) -> String {
 
 /// A Rust string literal whose value is `text`.
 pub fn rust_str(text: &str) -> String {
-    quoted(text, |c| format!("\\u{{{:x}}}", c as u32))
+    quoted(text, rust_unicode)
 }
 
-/// `text` in double quotes with `"`, `\\`, `\n`, `\r`, `\t` escaped, and every unsafe character
-/// written by `unicode` (the escapes common to Rust and Python).
-fn quoted(text: &str, unicode: impl Fn(char) -> String) -> String {
+/// `text` in double quotes, `"` and what [`push_escaped`] escapes escaped.
+fn quoted(text: &str, unicode: impl Fn(char) -> String + Copy) -> String {
     let mut out = String::from("\"");
     for c in text.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            '\r' => out.push_str("\\r"),
-            '\t' => out.push_str("\\t"),
-            c if unsafe_char(c) => out.push_str(&unicode(c)),
-            c => out.push(c),
+        if c == '"' {
+            out.push_str("\\\"");
+        } else {
+            push_escaped(&mut out, c, unicode);
         }
     }
     out.push('"');

@@ -128,7 +128,8 @@ impl StopReason {
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(rename_all = "snake_case")]
 pub enum SearchEvent {
-    /// Candidates done, candidates generated so far, and the counts per family.
+    /// Candidates done, candidates generated so far, and the counts per family (sent when a
+    /// candidate starts and when it is decided: a check under way is not in them).
     Progress {
         /// Candidates tried.
         done: u64,
@@ -386,7 +387,17 @@ impl Searcher<'_> {
         self.exhausted
     }
 
-    /// Try one candidate; true when it reduces.
+    /// The counts so far, to the events.
+    fn progress(&self) {
+        (self.events)(SearchEvent::Progress {
+            done: self.done,
+            total: self.total,
+            families: self.families.clone(),
+        });
+    }
+
+    /// Try one candidate; true when it reduces. The counts go out when it starts and when it
+    /// is decided, so that they never count a check that has not ended.
     fn try_candidate(
         &mut self,
         family: &str,
@@ -399,11 +410,20 @@ impl Searcher<'_> {
             .entry(family.to_string())
             .or_default()
             .generated += 1;
-        (self.events)(SearchEvent::Progress {
-            done: self.done,
-            total: self.total,
-            families: self.families.clone(),
-        });
+        self.progress();
+        let reduces = self.decide(family, eta, free, nonzero);
+        self.progress();
+        reduces
+    }
+
+    /// The body of [`Self::try_candidate`]: screen, then decide exactly.
+    fn decide(
+        &mut self,
+        family: &str,
+        eta: Vec<String>,
+        free: Vec<(String, Vec<String>)>,
+        nonzero: usize,
+    ) -> bool {
         let stats = &mut self.families[family];
         if !self.seen.insert(eta.join("; ")) {
             stats.duplicates += 1;
