@@ -16,6 +16,9 @@
 //!   scheme, common subexpressions) on the same solved form as the generated code, parameters
 //!   as inputs, timed on the CAS worker thread (`hamel_cas::evaluator`, criterion's
 //!   `iter_custom`).
+//! * `checked/<model>/<eta>/<precision>/…`: the checked structured evaluation (error estimate,
+//!   double-double repeat where it says so; `<precision>` is what it chose at the state) against
+//!   the plain f64 one and double-double throughout, generated and interpreted.
 //! * `simulate/<model>/{full,reduced}`: 100 s with DOP853 at rtol = atol = 1e-10, the full state
 //!   (q, η) against the reduced one (kept q, η), both with the generated code;
 //!   `simulate/<model>/gauss-legendre/{full,reduced}` the same with the implicit Gauss–Legendre
@@ -164,6 +167,65 @@ fn rhs(c: &mut Criterion) {
     group.finish();
 }
 
+/// The price of the checked evaluation (docs/stability.md): the structured path with its error
+/// estimate and double-double repeat against the plain f64 evaluation and against double-double
+/// throughout, generated and interpreted, at the fixed state of `rhs/`.
+fn checked(c: &mut Criterion) {
+    let mut group = c.benchmark_group("checked");
+    let picked = [
+        ("knife", "paper"),
+        ("rolling_disk", "velocities"),
+        ("snakeboard", "velocities"),
+        ("unicycle_rider", "momenta"),
+    ];
+    for core in MODELS.iter().filter(|k| picked.contains(&(k.model, k.eta))) {
+        let model = hamel_model::Model::load(models_dir().join(format!("{}.toml", core.model)))
+            .expect("bundled model");
+        let d = hamel_derive::derive(&model, Some(core.eta)).expect("derivation");
+        let compiled = d.compile().expect("compiles");
+        let params: IndexMap<String, f64> = d.parameters.clone();
+        let (q, eta) = state(core.dims.ell, core.dims.sigma);
+        let Ok(r) = (core.full)(&q, &eta) else {
+            continue;
+        };
+        let id = format!("{}/{}/{}", core.model, core.eta, r.precision.name());
+        group.bench_function(format!("{id}/generated_unchecked"), |b| {
+            b.iter(|| (core.full_unchecked)(black_box(&q), black_box(&eta)).unwrap())
+        });
+        group.bench_function(format!("{id}/generated_checked"), |b| {
+            b.iter(|| (core.full)(black_box(&q), black_box(&eta)).unwrap())
+        });
+        group.bench_function(format!("{id}/interpreted_unchecked"), |b| {
+            b.iter(|| {
+                compiled
+                    .rhs::<f64>(black_box(&q), black_box(&eta), &params)
+                    .unwrap()
+            })
+        });
+        group.bench_function(format!("{id}/interpreted_checked"), |b| {
+            b.iter(|| {
+                compiled
+                    .evaluate(black_box(&q), black_box(&eta), &params)
+                    .unwrap()
+            })
+        });
+        let wide = |v: &[f64]| {
+            v.iter()
+                .map(|&x| hamel_expr::DD::from_f64(x))
+                .collect::<Vec<_>>()
+        };
+        let (qd, ed) = (wide(&q), wide(&eta));
+        group.bench_function(format!("{id}/interpreted_double_double"), |b| {
+            b.iter(|| {
+                compiled
+                    .rhs::<hamel_expr::DD>(black_box(&qd), black_box(&ed), &params)
+                    .unwrap()
+            })
+        });
+    }
+    group.finish();
+}
+
 struct Full(&'static hamel_models::Core);
 struct Reduced(&'static hamel_models::Core);
 
@@ -273,6 +335,6 @@ criterion_group! {
     config = Criterion::default()
         .warm_up_time(std::time::Duration::from_millis(500))
         .measurement_time(std::time::Duration::from_secs(2));
-    targets = rhs, simulate
+    targets = rhs, checked, simulate
 }
 criterion_main!(benches);

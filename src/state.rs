@@ -26,6 +26,10 @@ struct Out {
     q_dot: IndexMap<String, f64>,
     energy: f64,
     eta_dot_paper: Vec<f64>,
+    /// `f64`, or `double_double` where f64 would have lost digits (docs/stability.md).
+    precision: hamel_derive::Precision,
+    /// The estimate that decided it: the relative error an f64 evaluation may have here.
+    f64_error_estimate: f64,
 }
 
 fn read_source(state: &str) -> Result<(String, String), ModelError> {
@@ -167,6 +171,8 @@ pub fn eval(model: &Model, eta: Option<&str>, state: &str) -> Result<String, Mod
             q_dot: d.coordinates.iter().cloned().zip(ev.q_dot).collect(),
             energy: ev.energy,
             eta_dot_paper: ev.eta_dot_paper,
+            precision: ev.precision,
+            f64_error_estimate: ev.f64_error_bound,
         });
     }
     let json = if list {

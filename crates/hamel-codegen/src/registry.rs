@@ -29,7 +29,7 @@ pub fn models_lib(members: &[Member]) -> Result<String, String> {
          //! **Invariant**: engine-free (no computer algebra). This file is generated too: regenerate\n\
          //! with `UPDATE_GENERATED=1 cargo test --release --test codegen`.\n\n\
          #![allow(non_snake_case)]\n\n\
-         #[path = \"../../hamel-codegen/runtime/runtime.rs\"]\npub mod runtime;\n\n\
+         #[path = \"../../hamel-expr/src/dd_core.rs\"]\npub mod dd;\n#[path = \"../../hamel-codegen/runtime/runtime.rs\"]\npub mod runtime;\n\n\
          use runtime::{Dims, Dual, EvalError, Rhs};\n\n",
     );
     for m in members {
@@ -46,6 +46,7 @@ pub fn models_lib(members: &[Member]) -> Result<String, String> {
          /// Kept coordinates (reduced state: these, then η).\n    pub kept: &'static [usize],\n    \
          /// Full right-hand side at (q, η).\n    pub full: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,\n    \
          /// The same over dual numbers (one direction).\n    pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,\n    \
+         /// The structured f64 evaluation without the double-double repeat (a baseline).\n    pub full_unchecked: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,\n    \
          /// Reduced right-hand side at x = (kept q, η).\n    pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,\n    \
          /// The same into a slice, without allocation, parameters prepared once.\n    pub reduced_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,\n    \
          /// d(q, η)/dt into a slice, without allocation (η̇ true form only), parameters prepared once.\n    pub full_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,\n    \
@@ -56,7 +57,7 @@ pub fn models_lib(members: &[Member]) -> Result<String, String> {
          /// Operation counts (trees, shared).\n    pub operations: (usize, usize),\n}\n\n\
          /// The default parameters of module `$m`, prepared once (`Prepared::new`), or its error.\n\
          macro_rules! prepared {\n    ($m:ident) => {{\n        static PREPARED: std::sync::LazyLock<Result<$m::Prepared, EvalError>> =\n            std::sync::LazyLock::new(|| $m::Prepared::new(&$m::Parameters::default()));\n        PREPARED.as_ref().map_err(Clone::clone)?\n    }};\n}\n\n\
-         macro_rules! core {\n    ($m:ident, $model:expr, $eta:expr) => {\n        Core {\n            model: $model,\n            eta: $eta,\n            dims: $m::DIMS,\n            eliminated: &$m::ELIMINATED,\n            kept: &$m::KEPT,\n            full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),\n            full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),\n            reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),\n            reduced_into: |x, dx| $m::reduced_into_with(x, dx, prepared!($m)),\n            full_into: |y, dy| $m::full_into_with(y, dy, prepared!($m)),\n            full_into_per_call: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),\n            jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),\n            reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),\n            constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),\n            operations: $m::OPERATIONS,\n        }\n    };\n}\n\n\
+         macro_rules! core {\n    ($m:ident, $model:expr, $eta:expr) => {\n        Core {\n            model: $model,\n            eta: $eta,\n            dims: $m::DIMS,\n            eliminated: &$m::ELIMINATED,\n            kept: &$m::KEPT,\n            full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),\n            full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),\n            full_unchecked: |q, e| {\n                $m::structured_unchecked(q, e, &$m::Parameters::default(), true).map(Rhs::from)\n            },\n            reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),\n            reduced_into: |x, dx| $m::reduced_into_with(x, dx, prepared!($m)),\n            full_into: |y, dy| $m::full_into_with(y, dy, prepared!($m)),\n            full_into_per_call: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),\n            jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),\n            reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),\n            constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),\n            operations: $m::OPERATIONS,\n        }\n    };\n}\n\n\
          /// Every generated core.\n#[rustfmt::skip]\npub const MODELS: &[Core] = &[\n",
     );
     for m in members {

@@ -22,7 +22,9 @@ pub mod symbolic;
 
 pub use derivation::{Block, Checks, Derivation, Entry, Ingredients, Mat};
 pub use hamel_model::{Model, ModelError};
-pub use numeric::{Compiled, Evaluation, NumericError, Rhs, SymbolicCompiled};
+pub use numeric::{
+    Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,
+};
 pub use symbolic::{SOLUTION_TERMS, Symbolic, symbolic};
 
 /// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first

@@ -18,7 +18,7 @@
 //! Both compile their trees once into a [`Tape`] (shared subexpressions, resolved inputs) and
 //! evaluate over any scalar: f64, dual numbers, double-double.
 
-use hamel_expr::{Lu, Scalar, Tape};
+use hamel_expr::{DD, Lu, Scalar, Tape};
 use indexmap::IndexMap;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -52,7 +52,30 @@ pub struct Evaluation {
     pub condition: f64,
     /// δ = det[Z; α] at q (its sign changes where a path crosses the singular set).
     pub delta: f64,
+    /// The arithmetic the values were computed in (see [`Compiled::evaluate`]).
+    pub precision: Precision,
+    /// An estimate of the relative error of η̇ in f64 here (see [`f64_error_estimate`]).
+    pub f64_error_bound: f64,
 }
+
+/// The arithmetic of an [`Evaluation`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    /// IEEE double precision.
+    F64,
+    /// Double-double (about 32 digits), rounded to f64 at the end.
+    DoubleDouble,
+}
+
+/// [`Compiled::evaluate`] repeats an evaluation in double-double when [`f64_error_estimate`]
+/// exceeds this: 64 units of rounding. Solving with [Z; α] or with the Gram matrix
+/// A_Γ = ΓᵀAΓ in f64 can lose far more digits than the problem itself is sensitive to
+/// (A_Γ squares the conditioning of the kinetic metric on the constraints: the flat rolling
+/// disk, docs/stability.md); double-double does not, there. (A running error bound was tried
+/// as the trigger and rejected: through the LU of badly scaled [Z; α] it overestimates by up
+/// to 1e5 and sent nine states in ten to double-double.)
+pub const DOUBLE_DOUBLE_ABOVE: f64 = 16.0 * f64::EPSILON;
 
 /// The right-hand side in any scalar type, unchecked.
 #[derive(Clone, Debug)]
@@ -69,6 +92,9 @@ pub struct Rhs<S> {
     pub a_gamma: Vec<Vec<S>>,
     /// Γ.
     pub gamma: Vec<Vec<S>>,
+    /// |Γ|ᵀ(|∇U| + |∇_q T| + |Ȧq̇| + |AΓ̇η|): the size of the terms the forcing is summed from
+    /// (values only), for the error estimate of [`Compiled::evaluate`].
+    pub forcing_scale: Vec<f64>,
 }
 
 fn add_mat<'a>(exprs: &mut Vec<&'a hamel_expr::Expr>, m: &'a Mat) -> usize {
@@ -478,6 +504,19 @@ impl Compiled {
             })
             .collect();
         let rhs_true = t_mat_vec(&gamma, &force, sigma);
+        let forcing_scale: Vec<f64> = (0..sigma)
+            .map(|r| {
+                (0..ell)
+                    .map(|i| {
+                        let t = [&p.grad_u[i], &grad_t[i], &adot_qd[i], &a_gdot[i]]
+                            .iter()
+                            .map(|x| x.value().abs())
+                            .sum::<f64>();
+                        gamma[i][r].value().abs() * t
+                    })
+                    .sum()
+            })
+            .collect();
         // A_Γ = ΓᵀAΓ
         let ag_cols: Vec<Vec<S>> = (0..sigma)
             .map(|s| {
@@ -528,6 +567,7 @@ impl Compiled {
             energy,
             a_gamma,
             gamma,
+            forcing_scale,
         })
     }
 
@@ -562,18 +602,37 @@ impl Compiled {
         }
         let r = self.rhs(q, eta, params)?;
         let ag = DMatrix::from_fn(self.sigma, self.sigma, |i, j| r.a_gamma[i][j]);
-        if ag.cholesky().is_none() {
+        if ag.clone().cholesky().is_none() {
             return Err(NumericError(
                 "A_Γ is not positive definite at this configuration (the mass matrix A is degenerate here)".into(),
             ));
         }
-        let out = Evaluation {
-            eta_dot: r.eta_dot,
-            q_dot: r.q_dot,
-            energy: r.energy,
-            eta_dot_paper: r.eta_dot_paper,
-            condition,
-            delta,
+        let bound = f64_error_estimate(&m, &ag, &r.forcing_scale, &r.eta_dot);
+        let out = if bound > DOUBLE_DOUBLE_ABOVE {
+            let to_dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
+            let r = self.rhs::<DD>(&to_dd(q), &to_dd(eta), params)?;
+            let round = |v: &[DD]| v.iter().map(|x| x.to_f64()).collect::<Vec<_>>();
+            Evaluation {
+                eta_dot: round(&r.eta_dot),
+                q_dot: round(&r.q_dot),
+                energy: r.energy.to_f64(),
+                eta_dot_paper: round(&r.eta_dot_paper),
+                condition,
+                delta,
+                precision: Precision::DoubleDouble,
+                f64_error_bound: bound,
+            }
+        } else {
+            Evaluation {
+                eta_dot: r.eta_dot,
+                q_dot: r.q_dot,
+                energy: r.energy,
+                eta_dot_paper: r.eta_dot_paper,
+                condition,
+                delta,
+                precision: Precision::F64,
+                f64_error_bound: bound,
+            }
         };
         if out
             .eta_dot
@@ -638,6 +697,47 @@ impl SymbolicCompiled {
         };
         Ok((solve(self.q), solve(self.q_paper)))
     }
+}
+
+/// Skeel's condition number ‖ |M⁻¹| |M| ‖∞ (∞ when singular): the error amplification of
+/// solving with M by Gaussian elimination, whatever the scaling of M's rows.
+fn skeel_condition(m: &DMatrix<f64>) -> f64 {
+    match m.clone().try_inverse() {
+        Some(inv) => (inv.abs() * m.abs())
+            .row_iter()
+            .map(|r| r.sum())
+            .fold(0.0, f64::max),
+        None => f64::INFINITY,
+    }
+}
+
+/// The relative error of η̇ an f64 evaluation may have, to first order: ε times the sum of
+/// * κ_S[Z; α], Skeel's condition number ‖ |M⁻¹| |M| ‖∞ (solving for Γ and Γ̇η);
+/// * κ_S(D A_Γ D) with D = diag(A_Γ)^(−½) (the solve with A_Γ; by van der Sluis the symmetric
+///   scaling removes what the units of η alone contribute);
+/// * ‖ |A_Γ⁻¹| s ‖∞ / ‖η̇‖∞ with s = |Γ|ᵀ(|∇U| + |∇_q T| + |Ȧq̇| + |AΓ̇η|): cancellation in
+///   summing the forcing (∞ when η̇ = 0 from terms that are not all zero).
+pub fn f64_error_estimate(
+    m: &DMatrix<f64>,
+    a_gamma: &DMatrix<f64>,
+    forcing_scale: &[f64],
+    eta_dot: &[f64],
+) -> f64 {
+    let n = a_gamma.nrows();
+    let d: Vec<f64> = (0..n)
+        .map(|i| a_gamma[(i, i)].abs().sqrt().recip())
+        .collect();
+    let scaled = DMatrix::from_fn(n, n, |i, j| d[i] * a_gamma[(i, j)] * d[j]);
+    let cancellation = match a_gamma.clone().try_inverse() {
+        Some(inv) => {
+            let e = inv.abs() * nalgebra::DVector::from_column_slice(forcing_scale);
+            let size = eta_dot.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            let err = e.amax();
+            if err == 0.0 { 0.0 } else { err / size }
+        }
+        None => f64::INFINITY,
+    };
+    f64::EPSILON * (skeel_condition(m) + skeel_condition(&scaled) + cancellation)
 }
 
 /// σ_max/σ_min (∞ when singular).

@@ -16,6 +16,7 @@
 
 mod ast;
 mod dd;
+mod dd_core;
 mod display;
 mod eval;
 mod horner;

@@ -8,6 +8,8 @@
 
 #![allow(non_snake_case)]
 
+#[path = "../../hamel-expr/src/dd_core.rs"]
+pub mod dd;
 #[path = "../../hamel-codegen/runtime/runtime.rs"]
 pub mod runtime;
 
@@ -63,6 +65,8 @@ pub struct Core {
     pub full: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,
     /// The same over dual numbers (one direction).
     pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,
+    /// The structured f64 evaluation without the double-double repeat (a baseline).
+    pub full_unchecked: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,
     /// Reduced right-hand side at x = (kept q, η).
     pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,
     /// The same into a slice, without allocation, parameters prepared once.
@@ -100,6 +104,9 @@ macro_rules! core {
             kept: &$m::KEPT,
             full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),
             full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),
+            full_unchecked: |q, e| {
+                $m::structured_unchecked(q, e, &$m::Parameters::default(), true).map(Rhs::from)
+            },
             reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),
             reduced_into: |x, dx| $m::reduced_into_with(x, dx, prepared!($m)),
             full_into: |y, dy| $m::full_into_with(y, dy, prepared!($m)),

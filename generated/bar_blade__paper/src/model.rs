@@ -323,7 +323,30 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
 
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
+///
+/// In f64, an evaluation whose solves are ill-conditioned (ε·(κ_S[Z; α] + κ_S(A_Γ)) above
+/// [`runtime::DOUBLE_DOUBLE_ABOVE`]) is repeated in double-double and rounded.
 pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {
+    let mut out = [S::constant(0.0); LEN];
+    ingredients(q, p, &mut out);
+    let mut r = runtime::structured::<S, ELL, MU, SIGMA>(&out, eta, paper)?;
+    if !S::CHECKED {
+        return Ok(r);
+    }
+    r.f64_error_estimate = runtime::f64_error_bound::<S, ELL, MU, SIGMA>(&out, &r);
+    if r.f64_error_estimate > runtime::DOUBLE_DOUBLE_ABOVE {
+        let (q, eta) = (runtime::widen::<S, runtime::DD, ELL>(q), runtime::widen::<S, runtime::DD, SIGMA>(eta));
+        let mut wide = rhs_fixed::<runtime::DD>(&q, &eta, p, paper)?.narrow::<S>();
+        wide.precision = runtime::Precision::DoubleDouble;
+        wide.f64_error_estimate = r.f64_error_estimate;
+        return Ok(wide);
+    }
+    Ok(r)
+}
+
+/// [`rhs_fixed`] without the estimate and the double-double repeat: the plain structured
+/// evaluation in `S` (a baseline for benchmarks and stability studies).
+pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {
     let mut out = [S::constant(0.0); LEN];
     ingredients(q, p, &mut out);
     runtime::structured::<S, ELL, MU, SIGMA>(&out, eta, paper)

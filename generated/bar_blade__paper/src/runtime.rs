@@ -12,9 +12,15 @@
 //! * A_Γ η̇ = F with F = Γᵀ(∇U + ½∇_q(q̇ᵀAq̇) − Ȧq̇ − AΓ̇η): (11) with Q from (9), true form;
 //! * the paper's form adds Σ_m ν_m ΓᵀV_m q̇, ν = ΘᵀAq̇.
 //!
-//! Everything is generic over [`Scalar`]: `f64`, and [`Dual`] for exact Jacobians.
+//! Everything is generic over [`Scalar`]: `f64`, [`Dual`] for exact Jacobians and [`DD`]
+//! (double-double, `dd.rs`). An f64 evaluation whose solves are ill-conditioned
+//! (ε·(κ_S[Z; α] + κ_S(A_Γ)) above [`DOUBLE_DOUBLE_ABOVE`]) is repeated in double-double and
+//! rounded, so that near singular configurations no more digits are lost than the problem
+//! itself is sensitive to (docs/stability.md).
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
+
+pub use crate::dd::DD;
 
 /// The number types the equations are evaluated in.
 pub trait Scalar:
@@ -53,9 +59,13 @@ pub trait Scalar:
     fn powf(self, e: Self) -> Self {
         (self.ln() * e).exp()
     }
+    /// Whether an ill-conditioned evaluation in this type is repeated in double-double (f64
+    /// only: dual numbers carry derivatives, double-double is the repeat).
+    const CHECKED: bool = false;
 }
 
 impl Scalar for f64 {
+    const CHECKED: bool = true;
     fn constant(v: f64) -> Self {
         v
     }
@@ -198,6 +208,110 @@ impl<const N: usize> Scalar for Dual<N> {
     }
     fn powi(self, n: i32) -> Self {
         self.chain(self.v.powi(n), n as f64 * self.v.powi(n - 1))
+    }
+}
+
+impl Scalar for DD {
+    fn constant(v: f64) -> Self {
+        DD::from_f64(v)
+    }
+    fn value(&self) -> f64 {
+        self.to_f64()
+    }
+    fn sin(self) -> Self {
+        self.sin_cos().0
+    }
+    fn cos(self) -> Self {
+        self.sin_cos().1
+    }
+    fn sin_cos(self) -> (Self, Self) {
+        DD::sin_cos(self)
+    }
+    fn sqrt(self) -> Self {
+        DD::sqrt(self)
+    }
+    fn exp(self) -> Self {
+        DD::exp(self)
+    }
+    fn ln(self) -> Self {
+        DD::ln(self)
+    }
+    fn powi(self, n: i32) -> Self {
+        DD::powi(self, n)
+    }
+}
+
+/// An f64 evaluation is repeated in double-double when [`f64_error_bound`] exceeds this (64
+/// units of rounding, as `hamel_derive::DOUBLE_DOUBLE_ABOVE`).
+pub const DOUBLE_DOUBLE_ABOVE: f64 = 16.0 * f64::EPSILON;
+
+/// The values of `v` as exact values of another scalar type.
+pub fn widen<S: Scalar, T: Scalar, const N: usize>(v: &[S]) -> [T; N] {
+    std::array::from_fn(|i| T::constant(v[i].value()))
+}
+
+/// ‖ |M⁻¹| v ‖∞ for the values of `m` (∞ when singular): with v the row sums of |M|, Skeel's
+/// condition number ‖ |M⁻¹| |M| ‖∞.
+fn inverse_abs_times<const N: usize>(m: &[[f64; N]; N], v: &[f64; N]) -> f64 {
+    let Some(lu) = Lu::new(*m) else {
+        return f64::INFINITY;
+    };
+    let mut sums = [0.0_f64; N];
+    for j in 0..N {
+        let mut e = [0.0; N];
+        e[j] = 1.0;
+        let col = lu.solve(&e); // column j of M⁻¹
+        for i in 0..N {
+            sums[i] += col[i].abs() * v[j];
+        }
+    }
+    sums.iter().fold(0.0, |m, x| m.max(*x))
+}
+
+/// Skeel's condition number ‖ |M⁻¹| |M| ‖∞ of the values of `m` (∞ when singular).
+pub fn skeel_condition<S: Scalar, const N: usize>(m: &[[S; N]; N]) -> f64 {
+    let values: [[f64; N]; N] = std::array::from_fn(|i| std::array::from_fn(|j| m[i][j].value()));
+    let rows: [f64; N] = std::array::from_fn(|k| values[k].iter().map(|x| x.abs()).sum());
+    inverse_abs_times(&values, &rows)
+}
+
+/// The relative error of η̇ an f64 evaluation may have, to first order (as
+/// `hamel_derive::f64_error_estimate`): ε·(κ_S[Z; α] + κ_S(D A_Γ D) + ‖ |A_Γ⁻¹| s ‖∞/‖η̇‖∞),
+/// D = diag(A_Γ)^(−½), s the forcing's term sizes ([`Fixed::forcing_scale`]).
+pub fn f64_error_bound<S: Scalar, const L: usize, const M: usize, const G: usize>(
+    out: &[S],
+    r: &Fixed<S, L, G>,
+) -> f64 {
+    let m = m_matrix::<S, L, M, G>(out);
+    let ag: [[f64; G]; G] =
+        std::array::from_fn(|i| std::array::from_fn(|j| r.a_gamma[i][j].value()));
+    let d: [f64; G] = std::array::from_fn(|i| ag[i][i].abs().sqrt().recip());
+    let scaled: [[f64; G]; G] =
+        std::array::from_fn(|i| std::array::from_fn(|j| d[i] * ag[i][j] * d[j]));
+    let size = r
+        .eta_dot
+        .iter()
+        .fold(0.0_f64, |a, x| a.max(x.value().abs()));
+    let err = inverse_abs_times(&ag, &r.forcing_scale);
+    let cancellation = if err == 0.0 { 0.0 } else { err / size };
+    f64::EPSILON * (skeel_condition(&m) + skeel_condition(&scaled) + cancellation)
+}
+
+impl<T: Scalar, const L: usize, const G: usize> Fixed<T, L, G> {
+    /// The values (rounded to f64) as values of `S`.
+    pub fn narrow<S: Scalar>(self) -> Fixed<S, L, G> {
+        let r = |x: T| S::constant(x.value());
+        Fixed {
+            eta_dot: self.eta_dot.map(r),
+            eta_dot_paper: self.eta_dot_paper.map(r),
+            q_dot: self.q_dot.map(r),
+            a_gamma: self.a_gamma.map(|row| row.map(r)),
+            forcing: self.forcing.map(r),
+            energy: r(self.energy),
+            forcing_scale: self.forcing_scale,
+            precision: self.precision,
+            f64_error_estimate: self.f64_error_estimate,
+        }
     }
 }
 
@@ -359,6 +473,33 @@ pub struct Fixed<S, const L: usize, const G: usize> {
     pub forcing: [S; G],
     /// E = ½ q̇ᵀAq̇ − U.
     pub energy: S,
+    /// |Γ|ᵀ(|∇U| + |∇_q T| + |Ȧq̇| + |AΓ̇η|), values only: the size of the terms F is summed
+    /// from (for [`f64_error_bound`]).
+    pub forcing_scale: [f64; G],
+    /// The arithmetic the values come from: an f64 evaluation is repeated in double-double
+    /// when [`f64_error_bound`] exceeds [`DOUBLE_DOUBLE_ABOVE`].
+    pub precision: Precision,
+    /// [`f64_error_bound`] at this state (0 when not computed: types other than f64).
+    pub f64_error_estimate: f64,
+}
+
+/// The arithmetic of a result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    /// IEEE double precision (or the caller's type).
+    F64,
+    /// Double-double (about 32 digits), rounded at the end.
+    DoubleDouble,
+}
+
+impl Precision {
+    /// `f64` or `double_double`, as `hamel eval` prints it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F64 => "f64",
+            Precision::DoubleDouble => "double_double",
+        }
+    }
 }
 
 /// The right-hand side at one state.
@@ -376,6 +517,10 @@ pub struct Rhs<S> {
     pub forcing: Vec<S>,
     /// E = ½ q̇ᵀAq̇ − U.
     pub energy: S,
+    /// The arithmetic the values come from.
+    pub precision: Precision,
+    /// The estimate that decided it (see [`Fixed::f64_error_estimate`]).
+    pub f64_error_estimate: f64,
 }
 
 impl<S: Copy, const L: usize, const G: usize> From<Fixed<S, L, G>> for Rhs<S> {
@@ -387,8 +532,29 @@ impl<S: Copy, const L: usize, const G: usize> From<Fixed<S, L, G>> for Rhs<S> {
             a_gamma: f.a_gamma.iter().map(|r| r.to_vec()).collect(),
             forcing: f.forcing.to_vec(),
             energy: f.energy,
+            precision: f.precision,
+            f64_error_estimate: f.f64_error_estimate,
         }
     }
+}
+
+/// M = [Z; α] from the ingredients `out` (row-major blocks).
+fn m_matrix<S: Scalar, const L: usize, const M: usize, const G: usize>(out: &[S]) -> [[S; L]; L] {
+    let l = Layout::new(Dims {
+        ell: L,
+        mu: M,
+        sigma: G,
+    });
+    let mut m = [[S::constant(0.0); L]; L];
+    for (i, row) in m.iter_mut().enumerate() {
+        let at = if i < G {
+            l.z + i * L
+        } else {
+            l.alpha + (i - G) * L
+        };
+        row.copy_from_slice(&out[at..at + L]);
+    }
+    m
 }
 
 /// The structured right-hand side from the ingredients `out` (see [`Layout`]) at η, with no
@@ -404,17 +570,7 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
         sigma: G,
     });
     let zero = S::constant(0.0);
-    // M = [Z; α], row-major blocks of `out`.
-    let mut m = [[zero; L]; L];
-    for (i, row) in m.iter_mut().enumerate() {
-        let at = if i < G {
-            l.z + i * L
-        } else {
-            l.alpha + (i - G) * L
-        };
-        row.copy_from_slice(&out[at..at + L]);
-    }
-    let lu = Lu::new(m).ok_or_else(|| {
+    let lu = Lu::new(m_matrix::<S, L, M, G>(out)).ok_or_else(|| {
         EvalError("the quasi-velocity map is singular here: det[Z; α] ≈ 0".into())
     })?;
     let a = |i: usize, j: usize| out[l.a + i * L + j];
@@ -462,6 +618,7 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
     let gdot_eta = lu.solve(&mdot_qd);
     let mut aq = [zero; L];
     let mut force = [zero; L];
+    let mut terms = [0.0_f64; L];
     for i in 0..L {
         let mut a_gdot = zero;
         for j in 0..L {
@@ -469,6 +626,16 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
             aq[i] = aq[i] + a(i, j) * qd[j];
         }
         force[i] = out[l.grad_u + i] + grad_t[i] - adot_qd[i] - a_gdot;
+        terms[i] = [out[l.grad_u + i], grad_t[i], adot_qd[i], a_gdot]
+            .iter()
+            .map(|x| x.value().abs())
+            .sum();
+    }
+    let mut forcing_scale = [0.0_f64; G];
+    for (r, fs) in forcing_scale.iter_mut().enumerate() {
+        for i in 0..L {
+            *fs += gamma[i][r].value().abs() * terms[i];
+        }
     }
     let mut forcing = [zero; G];
     let mut a_gamma = [[zero; G]; G];
@@ -530,6 +697,9 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
         a_gamma,
         forcing,
         energy: energy * S::constant(0.5) - out[l.u],
+        forcing_scale,
+        precision: Precision::F64,
+        f64_error_estimate: 0.0,
     })
 }
 

@@ -1,6 +1,7 @@
 //! `eval --state FILE|-`: the right-hand side at the given states, as `hamel eval` prints it.
 //! Input: a state object `{"q": {name: value, …}, "eta": [..], "params": {name: value}}` or a
-//! list of them. Output (stdout): `{"eta_dot", "q_dot", "energy", "eta_dot_paper"}` per state.
+//! list of them. Output (stdout): `{"eta_dot", "q_dot", "energy", "eta_dot_paper",
+//! "precision", "f64_error_estimate"}` per state.
 //! A bad state is an error on stderr naming the state and the reason; nothing is printed.
 
 use std::io::Read;
@@ -24,6 +25,8 @@ struct Out {
     q_dot: InOrder,
     energy: f64,
     eta_dot_paper: Vec<f64>,
+    precision: &'static str,
+    f64_error_estimate: f64,
 }
 
 /// q̇ by coordinate name, in the model's coordinate order (as `hamel eval` prints it).
@@ -85,6 +88,8 @@ fn one(i: usize, v: Value) -> Result<Out, String> {
         q_dot: InOrder(COORDINATES.iter().copied().zip(r.q_dot).collect()),
         energy: r.energy,
         eta_dot_paper: r.eta_dot_paper,
+        precision: r.precision.name(),
+        f64_error_estimate: r.f64_error_estimate,
     })
 }
 
