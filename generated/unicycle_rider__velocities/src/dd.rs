@@ -31,16 +31,63 @@ fn quick_two_sum(a: f64, b: f64) -> (f64, f64) {
     (s, b - (s - a))
 }
 
+/// a·b = p + e exactly: with a fused multiply-add where the target has one, else by Dekker's
+/// splitting (a software `mul_add` is ten times slower; the split overflows above ~1e300).
 #[inline]
 fn two_prod(a: f64, b: f64) -> (f64, f64) {
     let p = a * b;
-    (p, a.mul_add(b, -p))
+    #[cfg(target_feature = "fma")]
+    {
+        (p, a.mul_add(b, -p))
+    }
+    #[cfg(not(target_feature = "fma"))]
+    {
+        let (ah, al) = split(a);
+        let (bh, bl) = split(b);
+        (p, ((ah * bh - p) + ah * bl + al * bh) + al * bl)
+    }
+}
+
+/// a = hi + lo with hi holding the upper 26 bits (Veltkamp).
+#[cfg(not(target_feature = "fma"))]
+#[inline]
+fn split(a: f64) -> (f64, f64) {
+    let t = 134_217_729.0 * a; // 2^27 + 1
+    let hi = t - (t - a);
+    (hi, a - hi)
+}
+
+/// 1/n! for n < 20, and sin, cos of kπ/16 for k = 0…4, computed once.
+struct Tables {
+    inverse_factorial: [DD; 20],
+    sin_cos_sixteenths: [(DD, DD); 5],
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(|| {
+        let mut inverse_factorial = [DD::from_f64(1.0); 20];
+        for n in 1..20 {
+            inverse_factorial[n] = inverse_factorial[n - 1] / DD::from_f64(n as f64);
+        }
+        let sin_cos_sixteenths =
+            std::array::from_fn(|k| DD::sin_cos_series(PI_SIXTEENTH.mul_f64(k as f64)));
+        Tables {
+            inverse_factorial,
+            sin_cos_sixteenths,
+        }
+    })
 }
 
 /// π in double-double.
 const PI: DD = DD {
     hi: std::f64::consts::PI,
     lo: 1.224_646_799_147_353_2e-16,
+};
+/// π/16 (exact scaling of [`PI`]).
+const PI_SIXTEENTH: DD = DD {
+    hi: std::f64::consts::PI / 16.0,
+    lo: 1.224_646_799_147_353_2e-16 / 16.0,
 };
 const HALF_PI: DD = DD {
     hi: std::f64::consts::FRAC_PI_2,
@@ -101,8 +148,8 @@ impl DD {
         }
     }
 
-    /// Taylor series of sin and cos for |t| ≤ π/4.
-    fn sin_cos_small(t: DD) -> (DD, DD) {
+    /// Taylor series of sin and cos for |t| ≤ π/4, term by term (slow: builds the tables).
+    fn sin_cos_series(t: DD) -> (DD, DD) {
         let t2 = t * t;
         let mut term = t;
         let mut sin = t;
@@ -131,13 +178,38 @@ impl DD {
         (sin, cos)
     }
 
+    /// sin and cos for |t| ≤ π/4: t = kπ/16 + u with |u| ≤ π/32, sin u by its Taylor series
+    /// (nine terms at most), cos u = √(1 − sin²u), then the addition theorems with the tables.
+    fn sin_cos_quarter(t: DD) -> (DD, DD) {
+        let tables = tables();
+        let k = (t.hi / PI_SIXTEENTH.hi).round();
+        let u = t - PI_SIXTEENTH.mul_f64(k);
+        let u2 = u * u;
+        let mut power = u;
+        let mut sin_u = u;
+        for n in (3..20).step_by(2) {
+            power = -(power * u2);
+            let term = power * tables.inverse_factorial[n];
+            sin_u = sin_u + term;
+            if term.hi.abs() <= 1e-33 * u.hi.abs() {
+                break;
+            }
+        }
+        let cos_u = (DD::from_f64(1.0) - sin_u * sin_u).sqrt();
+        let (sk, ck) = tables.sin_cos_sixteenths[k.abs() as usize];
+        let sk = if k < 0.0 { -sk } else { sk };
+        (sk * cos_u + ck * sin_u, ck * cos_u - sk * sin_u)
+    }
+
     /// sin and cos together (reduced modulo 2π, then to a quarter period).
     pub fn sin_cos(self) -> (DD, DD) {
-        let n = (self / TWO_PI).round();
+        // The quotients in f64 suffice: a misrounded one leaves a remainder just past the
+        // boundary, which the series and the tables cover.
+        let n = (self.hi / TWO_PI.hi).round();
         let r = self - TWO_PI.mul_f64(n);
-        let j = (r / HALF_PI).round();
+        let j = (r.hi / HALF_PI.hi).round();
         let t = r - HALF_PI.mul_f64(j);
-        let (s, c) = DD::sin_cos_small(t);
+        let (s, c) = DD::sin_cos_quarter(t);
         match (j as i64).rem_euclid(4) {
             0 => (s, c),
             1 => (c, -s),
@@ -266,5 +338,22 @@ impl Div for DD {
         let q3 = r.hi / b.hi;
         let (hi, lo) = quick_two_sum(q1, q2);
         DD { hi, lo } + DD::from_f64(q3)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::DD;
+
+    #[test]
+    fn the_table_driven_sin_cos_matches_the_plain_series_to_31_digits() {
+        for i in -200..=200 {
+            let t = DD::from_f64(f64::from(i) * std::f64::consts::FRAC_PI_4 / 200.0)
+                + DD::from_f64(f64::from(i) * 1e-19);
+            let (s, c) = DD::sin_cos_quarter(t);
+            let (s0, c0) = DD::sin_cos_series(t);
+            assert!((s - s0).to_f64().abs() < 1e-31, "sin at step {i}");
+            assert!((c - c0).to_f64().abs() < 1e-31, "cos at step {i}");
+        }
     }
 }
