@@ -40,19 +40,23 @@ pub fn models_lib(members: &[Member]) -> Result<String, String> {
         );
     }
     o.push_str(
-        "\n/// One generated core, at the model's default parameters.\npub struct Core {\n    \
+        "\n/// A full right-hand side at (q, η) in f64.\npub type FullFn = fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>;\n\
+         /// A full right-hand side over dual numbers.\npub type FullDualFn = fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>;\n\
+         /// A function of (q, η) giving a vector.\npub type VectorFn = fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>;\n\
+         /// A Jacobian of the reduced state.\npub type MatrixFn = fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>;\n\
+         \n/// One generated core, at the model's default parameters.\npub struct Core {\n    \
          /// Model name.\n    pub model: &'static str,\n    /// Quasi-velocity choice.\n    pub eta: &'static str,\n    \
          /// ℓ, μ, σ.\n    pub dims: Dims,\n    /// Eliminated coordinates.\n    pub eliminated: &'static [usize],\n    \
          /// Kept coordinates (reduced state: these, then η).\n    pub kept: &'static [usize],\n    \
-         /// Full right-hand side at (q, η).\n    pub full: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,\n    \
-         /// The same over dual numbers (one direction).\n    pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,\n    \
-         /// The structured f64 evaluation without the double-double repeat (a baseline).\n    pub full_unchecked: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,\n    \
+         /// Full right-hand side at (q, η).\n    pub full: FullFn,\n    \
+         /// The same over dual numbers (one direction).\n    pub full_dual: FullDualFn,\n    \
+         /// The structured f64 evaluation without the double-double repeat (a baseline).\n    pub full_unchecked: FullFn,\n    \
          /// Reduced right-hand side at x = (kept q, η).\n    pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,\n    \
          /// The same into a slice, without allocation, parameters prepared once.\n    pub reduced_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,\n    \
          /// d(q, η)/dt into a slice, without allocation (η̇ true form only), parameters prepared once.\n    pub full_into: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,\n    \
          /// The same, the parameter-only values computed at each call.\n    pub full_into_per_call: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,\n    \
-         /// Its Jacobian.\n    pub jacobian: fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>,\n    \
-         /// Rates of the eliminated coordinates.\n    pub reconstruction: fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>,\n    \
+         /// Its Jacobian.\n    pub jacobian: MatrixFn,\n    \
+         /// Rates of the eliminated coordinates.\n    pub reconstruction: VectorFn,\n    \
          /// α(q)q̇.\n    pub constraint_residual: fn(&[f64], &[f64]) -> Vec<f64>,\n    \
          /// Operation counts (trees, shared).\n    pub operations: (usize, usize),\n}\n\n\
          /// The default parameters of module `$m`, prepared once (`Prepared::new`), or its error.\n\

@@ -49,6 +49,15 @@ pub mod unicycle_rider__velocities;
 #[path = "../../../generated/vertical_knife__paper/src/model.rs"]
 pub mod vertical_knife__paper;
 
+/// A full right-hand side at (q, η) in f64.
+pub type FullFn = fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>;
+/// A full right-hand side over dual numbers.
+pub type FullDualFn = fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>;
+/// A function of (q, η) giving a vector.
+pub type VectorFn = fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>;
+/// A Jacobian of the reduced state.
+pub type MatrixFn = fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>;
+
 /// One generated core, at the model's default parameters.
 pub struct Core {
     /// Model name.
@@ -62,11 +71,11 @@ pub struct Core {
     /// Kept coordinates (reduced state: these, then η).
     pub kept: &'static [usize],
     /// Full right-hand side at (q, η).
-    pub full: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,
+    pub full: FullFn,
     /// The same over dual numbers (one direction).
-    pub full_dual: fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>,
+    pub full_dual: FullDualFn,
     /// The structured f64 evaluation without the double-double repeat (a baseline).
-    pub full_unchecked: fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>,
+    pub full_unchecked: FullFn,
     /// Reduced right-hand side at x = (kept q, η).
     pub reduced: fn(&[f64]) -> Result<Vec<f64>, EvalError>,
     /// The same into a slice, without allocation, parameters prepared once.
@@ -76,9 +85,9 @@ pub struct Core {
     /// The same, the parameter-only values computed at each call.
     pub full_into_per_call: fn(&[f64], &mut [f64]) -> Result<(), EvalError>,
     /// Its Jacobian.
-    pub jacobian: fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>,
+    pub jacobian: MatrixFn,
     /// Rates of the eliminated coordinates.
-    pub reconstruction: fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>,
+    pub reconstruction: VectorFn,
     /// α(q)q̇.
     pub constraint_residual: fn(&[f64], &[f64]) -> Vec<f64>,
     /// Operation counts (trees, shared).
