@@ -16,6 +16,7 @@
 
 mod common;
 
+use hamel_derive::conditioning::{STATED_MULTIPLE, problem_condition, singular_points};
 use hamel_derive::{Compiled, derive};
 use hamel_expr::{DD, Dual, Scalar};
 use hamel_model::NumericModel;
@@ -542,7 +543,7 @@ fn the_flat_disk_keeps_the_digits_its_conditioning_allows() {
                 assert!(relative(&structured, &o.q_ddot[2..]) < 1e-15);
             }
             let ev = c.evaluate(&q, &eta, &params).unwrap();
-            let kappa = problem_condition(&c, &q, &eta, &params);
+            let kappa = problem_condition(&c, &q, &eta, &params).unwrap();
             let ag = nalgebra::DMatrix::from_fn(3, 3, |i, j| r.a_gamma[i][j].value());
             let e = ag.symmetric_eigen().eigenvalues;
             let (raw, err) = (
@@ -562,74 +563,6 @@ fn the_flat_disk_keeps_the_digits_its_conditioning_allows() {
         }
     }
 }
-
-/// The problem's own condition number at (q, η): κ = ‖ Σ_j |∂η̇/∂x_j|·|x_j| ‖∞ / ‖η̇‖∞ over the
-/// inputs x = (q, η), each of which an f64 state holds with relative error ε at best. Exact
-/// derivatives: dual numbers over double-double.
-fn problem_condition(c: &Compiled, q: &[f64], eta: &[f64], params: &IndexMap<String, f64>) -> f64 {
-    let x: Vec<f64> = q.iter().chain(eta).copied().collect();
-    let mut sensitivity = vec![0.0_f64; eta.len()];
-    let mut value = vec![0.0_f64; eta.len()];
-    for j in 0..x.len() {
-        let seeded: Vec<Dual<DD>> = x
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| Dual::new(DD::from_f64(v), DD::from_f64(f64::from(i == j))))
-            .collect();
-        let r = c
-            .rhs::<Dual<DD>>(&seeded[..q.len()], &seeded[q.len()..], params)
-            .unwrap();
-        for (s, e) in sensitivity.iter_mut().zip(&r.eta_dot) {
-            *s += e.d.to_f64().abs() * x[j].abs();
-        }
-        value = r.eta_dot.iter().map(|e| e.v.to_f64()).collect();
-    }
-    let max = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    max(&sensitivity) / max(&value).max(f64::MIN_POSITIVE)
-}
-
-/// A point of the singular set {g = 0} of the quasi-velocities, reached by Newton's method in
-/// double-double along the first coordinate g depends on, from a random configuration.
-fn singular_point(
-    g: &hamel_expr::Expr,
-    coordinates: &[String],
-    params: &IndexMap<String, f64>,
-    rng: &mut ChaCha8Rng,
-) -> Option<(Vec<f64>, usize)> {
-    let k = coordinates
-        .iter()
-        .position(|c| g.any(&mut |e| matches!(e, hamel_expr::Expr::Sym(s) if s == c)))?;
-    for _ in 0..20 {
-        let mut q: Vec<DD> = (0..coordinates.len())
-            .map(|_| DD::from_f64(rng.random_range(-3.0..3.0)))
-            .collect();
-        for _ in 0..80 {
-            let env = |name: &str| -> Option<Dual<DD>> {
-                if let Some(i) = coordinates.iter().position(|c| c == name) {
-                    return Some(Dual::new(q[i], DD::from_f64(f64::from(i == k))));
-                }
-                params
-                    .get(name)
-                    .map(|&v| Dual::new(DD::from_f64(v), DD::from_f64(0.0)))
-            };
-            let v = g.eval::<Dual<DD>>(&env).ok()?;
-            if v.d.to_f64() == 0.0 {
-                break;
-            }
-            let step = v.v / v.d;
-            q[k] = q[k] - step;
-            if step.to_f64().abs() < 1e-30 {
-                let q: Vec<f64> = q.iter().map(|x| x.to_f64()).collect();
-                return q.iter().all(|x| x.abs() < 10.0).then_some((q, k));
-            }
-        }
-    }
-    None
-}
-
-/// The stated bound near singular configurations: relative error of η̇ ≤ 32 (κ + 1)·ε, with κ
-/// the problem's own condition number ([`problem_condition`]).
-const STATED_MULTIPLE: f64 = 32.0;
 
 /// One evaluator's worst error over a sweep, and its ratio to κ·ε.
 #[derive(Default, Clone, Copy)]
@@ -671,7 +604,9 @@ fn sweep(
             let Ok(reference) = c.rhs::<DD>(&dd(&q), &dd(&eta), params) else {
                 continue;
             };
-            let kappa = problem_condition(c, &q, &eta, params);
+            let Ok(kappa) = problem_condition(c, &q, &eta, params) else {
+                continue;
+            };
             if !kappa.is_finite() {
                 continue;
             }
@@ -726,19 +661,18 @@ fn every_evaluator_near_every_singular_configuration_is_within_a_multiple_of_the
                 .find(|k| k.model == model.name && k.eta == d.eta_name);
             let sigma = d.eta.len();
             let mut targets: Vec<(String, Vec<f64>, usize)> = Vec::new();
-            for (i, g) in d.singular_set.iter().enumerate() {
-                if let Some((q, k)) = singular_point(&g.expr, &d.coordinates, &params, &mut rng) {
-                    let label = if g.text.chars().count() <= 40 {
-                        format!("{} = 0", g.text)
-                    } else {
-                        format!(
-                            "factor {} of δ = 0 ({} characters)",
-                            i + 1,
-                            g.text.chars().count()
-                        )
-                    };
-                    targets.push((label, q, k));
-                }
+            for p in singular_points(&d, &params, 14) {
+                let g = &d.singular_set[p.factor].text;
+                let label = if g.chars().count() <= 40 {
+                    format!("{g} = 0")
+                } else {
+                    format!(
+                        "factor {} of δ = 0 ({} characters)",
+                        p.factor + 1,
+                        g.chars().count()
+                    )
+                };
+                targets.push((label, p.q, p.coordinate));
             }
             if targets.is_empty() {
                 println!(

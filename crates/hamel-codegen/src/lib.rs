@@ -20,6 +20,7 @@
 use std::fmt::Write;
 
 use hamel_derive::Derivation;
+use hamel_derive::conditioning::STATED_MULTIPLE;
 use hamel_expr::{Expr, Func, Op, Tape};
 
 /// The runtime every generated crate carries (and `crates/hamel-models` compiles once).
@@ -138,20 +139,10 @@ fn deviation(
         ) else {
             continue;
         };
-        let inputs: Vec<f64> = q
-            .iter()
-            .chain(params.values())
-            .chain(&eta)
-            .copied()
-            .collect();
-        let Ok(out) = solved.eval::<f64>(&inputs) else {
+        let Some(out) = solved_at(solved, &q, &params, &eta, ell + sigma) else {
             continue;
         };
-        let (eta_dot, rest) = out.split_at(sigma);
-        let (q_dot, pivots) = rest.split_at(ell);
-        if pivots.iter().any(|&p| p <= 0.0) {
-            continue;
-        }
+        let (eta_dot, q_dot) = out.split_at(sigma);
         let exact: Vec<f64> = r
             .eta_dot
             .iter()
@@ -174,13 +165,87 @@ fn deviation(
     (worst, worst_structured, used)
 }
 
+/// The solved tape in f64 at (q, η): η̇ then q̇ (`n` = σ + ℓ values), or `None` where it fails
+/// or a definiteness pivot after them is not positive.
+fn solved_at(
+    solved: &Tape,
+    q: &[f64],
+    params: &indexmap::IndexMap<String, f64>,
+    eta: &[f64],
+    n: usize,
+) -> Option<Vec<f64>> {
+    let inputs: Vec<f64> = q
+        .iter()
+        .chain(params.values())
+        .chain(eta)
+        .copied()
+        .collect();
+    let mut out = solved.eval::<f64>(&inputs).ok()?;
+    if out[n..].iter().any(|&p| p <= 0.0) {
+        return None;
+    }
+    out.truncate(n);
+    Some(out)
+}
+
+/// The worst relative error of η̇ from the solved tape in f64, as a multiple of (κ + 1)·ε (κ the
+/// problem's own condition number, [`hamel_derive::conditioning`]), at configurations
+/// approaching each factor of δ that depends on the coordinates (distances 1e-2 … 1e-7 on both
+/// sides, default parameters), against the structured evaluation in double-double; with the
+/// number of states used. Where the solved form divides by the factors of δ it keeps the digits
+/// the problem has; where its expanded numerators cancel it may not.
+fn near_singular_set(
+    d: &Derivation,
+    compiled: &hamel_derive::Compiled,
+    solved: &Tape,
+) -> (f64, usize) {
+    use hamel_derive::conditioning::{problem_condition, singular_points};
+    use hamel_expr::DD;
+    let params = &d.parameters;
+    let eta: Vec<f64> = (0..d.sigma)
+        .map(|i| [0.8, -1.3, 0.4][i % 3] / (1 + i / 3) as f64)
+        .collect();
+    let (mut worst, mut used) = (0.0_f64, 0);
+    for point in singular_points(d, params, 1) {
+        for q in point.approach(2..=7) {
+            let dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
+            let (Ok(r), Ok(kappa)) = (
+                compiled.rhs::<DD>(&dd(&q), &dd(&eta), params),
+                problem_condition(compiled, &q, &eta, params),
+            ) else {
+                continue;
+            };
+            let Some(out) = solved_at(solved, &q, params, &eta, d.ell + d.sigma) else {
+                continue;
+            };
+            if !kappa.is_finite() {
+                continue;
+            }
+            let scale = r
+                .eta_dot
+                .iter()
+                .fold(0.0_f64, |m, x| m.max(x.to_f64().abs()));
+            let error = out[..d.sigma]
+                .iter()
+                .zip(&r.eta_dot)
+                .map(|(a, b)| (DD::from_f64(*a) - *b).to_f64().abs())
+                .fold(0.0, f64::max)
+                / scale.max(f64::MIN_POSITIVE);
+            worst = worst.max(error / ((kappa + 1.0) * f64::EPSILON));
+            used += 1;
+        }
+    }
+    (worst, used)
+}
+
 /// The path of the generated `fast`: the candidate solved forms are tried from the fewest
 /// operations at run time with fixed parameters ([`Tape::varying_operation_count`]; total
 /// operations break ties). One is used when its shared operation count is at most the
 /// structured path's estimate (the ingredients' plus ℓ³ + σ²ℓ², a lower estimate of what the
 /// structured runtime adds: the LU of [Z; α] and the contractions of (11)) and it agrees with
 /// a double-double reference at 200 sample states at least as well as the structured path, or
-/// to 1e-12 ([`deviation`]). Its expanded forms
+/// to 1e-12 ([`deviation`]), and within [`STATED_MULTIPLE`] (κ + 1)·ε approaching the singular
+/// set ([`near_singular_set`]). Its expanded forms
 /// can cancel badly in floating point (derivation.md §4), hence the check; the decision only
 /// selects a code path, exactness is not at stake. Returns the choice and the candidate used
 /// (the cheapest one when the structured path is taken) with its tape.
@@ -215,15 +280,30 @@ fn choose_path(
             continue;
         }
         let (worst, structured, used) = deviation(d, &compiled, tape);
-        if used >= 100 && worst <= structured.max(1e-12) {
+        let (near, near_used) = near_singular_set(d, &compiled, tape);
+        if used >= 100 && worst <= structured.max(1e-12) && near <= STATED_MULTIPLE {
+            let near = if near_used == 0 {
+                String::new()
+            } else {
+                format!(
+                    "; at {near_used} states approaching the singular set, at most {near:.1e} (κ + 1)·ε"
+                )
+            };
             pick = Some((
                 k,
                 format!(
-                    "solved form (`{}`): {ops} operations, {run} of them at run time with fixed parameters, against the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²); at {used} sample states its relative error in f64 is at most {worst:.1e} (structured path: {structured:.1e}; reference: double-double)",
+                    "solved form (`{}`): {ops} operations, {run} of them at run time with fixed parameters, against the structured path's {ops_s} (ingredients + ℓ³ + σ²ℓ²); at {used} sample states its relative error in f64 is at most {worst:.1e} (structured path: {structured:.1e}; reference: double-double){near}",
                     c.name
                 ),
             ));
             break;
+        }
+        if near > STATED_MULTIPLE {
+            notes.push(format!(
+                "`{}` loses digits approaching the singular set: relative error {near:.1e} (κ + 1)·ε, above {STATED_MULTIPLE}",
+                c.name
+            ));
+            continue;
         }
         notes.push(format!(
             "`{}` has relative error {worst:.1e} at {used} sample states, above max(1e-12, the structured path's {structured:.1e}), or too few states",

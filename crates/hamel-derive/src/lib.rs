@@ -15,6 +15,7 @@
 //! ([`hamel_cas::run`]); everything returned is engine-free and `Send`.
 #![warn(missing_docs)]
 
+pub mod conditioning;
 mod derivation;
 mod numeric;
 mod render;

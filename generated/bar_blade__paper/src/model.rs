@@ -13,7 +13,7 @@
 //! separate trees, 46 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 62 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 62 operations, 36 of them at run time with fixed parameters, against the structured path's 174 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.5e-16 (structured path: 5.7e-15; reference: double-double). Candidates (operations at run time / in all): `normal form` 36/62, `Cramer's rule on block entries` 44/73, `elimination of normal forms` 46/73, `Cramer's rule on blocks` 46/75, `elimination` 56/81.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 62 operations, 36 of them at run time with fixed parameters, against the structured path's 174 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.5e-16 (structured path: 5.7e-15; reference: double-double); at 12 states approaching the singular set, at most 3.0e-3 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 36/62, `Cramer's rule on block entries` 44/73, `elimination of normal forms` 46/73, `Cramer's rule on blocks` 46/75, `elimination` 56/81.
 //!
 //! **States.** Full: q = (x, y, theta, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from

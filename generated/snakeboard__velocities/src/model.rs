@@ -14,7 +14,7 @@
 //! separate trees, 25 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 337 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured (estimate: 375 operations = ingredients + ℓ³ + σ²ℓ²); not used: `Cramer's rule on block entries` has relative error 2.4e6 at 200 sample states, above max(1e-12, the structured path's 2.2e-13), or too few states; `elimination of normal forms` has relative error 2.4e6 at 200 sample states, above max(1e-12, the structured path's 2.2e-13), or too few states; `elimination` (546 operations) is more than that; `normal form` (763 operations) is more than that. Candidates (operations at run time / in all): `Cramer's rule on block entries` 226/337, `elimination of normal forms` 233/342, `elimination` 434/546, `normal form` 609/763.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured (estimate: 375 operations = ingredients + ℓ³ + σ²ℓ²); not used: `Cramer's rule on block entries` loses digits approaching the singular set: relative error 2.9e29 (κ + 1)·ε, above 32; `elimination of normal forms` loses digits approaching the singular set: relative error 2.9e29 (κ + 1)·ε, above 32; `elimination` (546 operations) is more than that; `normal form` (763 operations) is more than that. Candidates (operations at run time / in all): `Cramer's rule on block entries` 226/337, `elimination of normal forms` 233/342, `elimination` 434/546, `normal form` 609/763.
 //!
 //! **States.** Full: q = (x, y, theta, psi, phi) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, phi, eta1, eta2, eta3); eliminated: (x, y, theta), reconstructed from
