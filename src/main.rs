@@ -303,7 +303,9 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             let text = match format {
                 Format::Text => d.to_text(),
                 Format::Latex => d.to_latex(),
-                Format::Json => serde_json::to_string_pretty(&d).expect("serialisable") + "\n",
+                Format::Json => {
+                    serde_json::to_string_pretty(&d.json()).expect("serialisable") + "\n"
+                }
             };
             out.write(&text)
         }

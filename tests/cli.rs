@@ -190,6 +190,20 @@ fn derive_json_on_stdout_parses_after_the_notice() {
     let d = json_on_stdout(&o);
     assert_eq!(d["checks"]["paper_is_exact"], false);
     assert_eq!(d["eta_name"], "paper_style");
+    // Each object's size is reported, and is the size of what is printed.
+    for key in ["gamma", "a_gamma", "q", "equations", "energy"] {
+        let mut chars = 0;
+        let mut count = |s: &serde_json::Value| chars += s.as_str().unwrap().chars().count();
+        fn walk(v: &serde_json::Value, f: &mut dyn FnMut(&serde_json::Value)) {
+            match v {
+                serde_json::Value::Array(a) => a.iter().for_each(|x| walk(x, f)),
+                s => f(s),
+            }
+        }
+        walk(&d[key], &mut count);
+        assert_eq!(d["sizes"][key]["characters"], chars, "{key}");
+        assert!(d["sizes"][key]["operations"].as_u64().unwrap() > 0, "{key}");
+    }
 }
 
 #[test]

@@ -36,7 +36,8 @@ fn digest_long_strings(v: &mut serde_json::Value) {
 
 fn snapshot_of(model: &Model, choice: &str) -> String {
     let d = hamel_derive::derive(model, Some(choice)).unwrap();
-    let mut v = serde_json::to_value(&d).unwrap();
+    // With the size of every object, so that swell shows up as a failing diff.
+    let mut v = serde_json::to_value(d.json()).unwrap();
     digest_long_strings(&mut v);
     serde_json::to_string_pretty(&v).unwrap()
 }

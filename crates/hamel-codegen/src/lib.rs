@@ -333,18 +333,6 @@ fn choose_path(
     Ok((PathChoice { solved, doc }, c, tape))
 }
 
-/// Operations in a tree, nothing shared (an n-ary sum or product counts n − 1).
-pub fn tree_operations(e: &Expr) -> usize {
-    match e {
-        Expr::Num(_) | Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. } => 0,
-        Expr::Add(v) | Expr::Mul(v) => {
-            v.len().saturating_sub(1) + v.iter().map(tree_operations).sum::<usize>()
-        }
-        Expr::Neg(a) | Expr::Call(_, a) => 1 + tree_operations(a),
-        Expr::Div(a, b) | Expr::Pow(a, b) => 1 + tree_operations(a) + tree_operations(b),
-    }
-}
-
 /// Names of the η inputs of the solved tape (not valid model names, so they cannot clash).
 fn eta_input(s: usize) -> String {
     format!("#eta{s}")
@@ -1001,7 +989,7 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
         .chain(params.clone())
         .collect();
     let tape = Tape::compile(&exprs, &inputs)?;
-    let ops_trees: usize = exprs.iter().map(|e| tree_operations(e)).sum();
+    let ops_trees: usize = exprs.iter().map(|e| e.tree_operations()).sum();
     let ops_shared = tape.operation_count();
     let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
     let solved_inputs: Vec<String> = inputs

@@ -199,7 +199,75 @@ fn map_all<T>(v: &[T], f: impl Fn(&T) -> T) -> Vec<T> {
     v.iter().map(f).collect()
 }
 
+/// A derivation with the size of each object, serialised side by side (see
+/// [`Derivation::json`]).
+#[derive(Serialize)]
+pub struct DerivationJson<'a> {
+    /// The derivation's fields.
+    #[serde(flatten)]
+    pub derivation: &'a Derivation,
+    /// Characters and operations of each derived object.
+    pub sizes: IndexMap<&'static str, Size>,
+}
+
+/// The size of a derived object: characters of its canonical text, and arithmetic operations of
+/// its trees with nothing shared ([`Expr::tree_operations`]). Swell shows here first.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Size {
+    /// Characters of the canonical text, all entries together.
+    pub characters: usize,
+    /// Operations of the trees, all entries together.
+    pub operations: usize,
+}
+
+impl Size {
+    fn of<'a>(entries: impl IntoIterator<Item = &'a Entry>) -> Size {
+        entries.into_iter().fold(Size::default(), |s, e| Size {
+            characters: s.characters + e.text.chars().count(),
+            operations: s.operations + e.expr.tree_operations(),
+        })
+    }
+}
+
+impl Mat {
+    fn all(&self) -> impl Iterator<Item = &Entry> {
+        self.entries.iter().flatten()
+    }
+}
+
 impl Derivation {
+    /// The size of each derived object, keyed by its name in the JSON output (Γ `gamma`, Θ
+    /// `theta`, δ `delta`, the singular set, A_Γ `a_gamma` (8), Γᵀ∇U `forcing`, ΘᵀAΓ `nu`,
+    /// the Q⁽ⁱ⁾ of (11), of the paper and of the correction, the equations, the kinematic
+    /// equations and the energy).
+    pub fn sizes(&self) -> IndexMap<&'static str, Size> {
+        let mats = |v: &[Mat]| Size::of(v.iter().flat_map(Mat::all));
+        IndexMap::from([
+            ("gamma", Size::of(self.gamma.all())),
+            ("theta", Size::of(self.theta.all())),
+            ("delta", Size::of([&self.delta])),
+            ("singular_set", Size::of(&self.singular_set)),
+            ("a_gamma", Size::of(self.a_gamma.all())),
+            ("forcing", Size::of(&self.forcing)),
+            ("nu", Size::of(self.nu.all())),
+            ("q", mats(&self.q)),
+            ("q_paper", mats(&self.q_paper)),
+            ("q_correction", mats(&self.q_correction)),
+            ("equations", Size::of(&self.equations)),
+            ("equations_paper", Size::of(&self.equations_paper)),
+            ("kinematics", Size::of(&self.kinematics)),
+            ("energy", Size::of([&self.energy])),
+        ])
+    }
+
+    /// What `hamel derive --format json` prints: the derivation and [`Derivation::sizes`].
+    pub fn json(&self) -> DerivationJson<'_> {
+        DerivationJson {
+            derivation: self,
+            sizes: self.sizes(),
+        }
+    }
+
     /// The derivation for fixed values of some parameters (a scene's): every expression with
     /// those parameters replaced by their exact values and its constants folded
     /// ([`Expr::specialise`]); they leave [`Derivation::parameters`]. The exact checks are

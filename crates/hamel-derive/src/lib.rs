@@ -21,7 +21,7 @@ mod numeric;
 mod render;
 pub mod symbolic;
 
-pub use derivation::{Block, Checks, Derivation, Entry, Ingredients, Mat};
+pub use derivation::{Block, Checks, Derivation, DerivationJson, Entry, Ingredients, Mat, Size};
 pub use hamel_model::{Model, ModelError};
 pub use numeric::{
     Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,

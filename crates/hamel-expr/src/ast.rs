@@ -172,6 +172,19 @@ impl Expr {
         found
     }
 
+    /// Arithmetic operations of the tree, nothing shared (an n-ary sum or product counts
+    /// n − 1; a negation, a function call, a quotient and a power count one each).
+    pub fn tree_operations(&self) -> usize {
+        match self {
+            Expr::Num(_) | Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. } => 0,
+            Expr::Add(v) | Expr::Mul(v) => {
+                v.len().saturating_sub(1) + v.iter().map(Expr::tree_operations).sum::<usize>()
+            }
+            Expr::Neg(a) | Expr::Call(_, a) => 1 + a.tree_operations(),
+            Expr::Div(a, b) | Expr::Pow(a, b) => 1 + a.tree_operations() + b.tree_operations(),
+        }
+    }
+
     /// True when the expression mentions a velocity `der(q)`.
     pub fn has_velocity(&self) -> bool {
         self.any(&mut |e| matches!(e, Expr::Der(_)))
