@@ -1453,7 +1453,6 @@ fn simulate_builds_a_specialised_core_once_and_reuses_it() {
     };
     let (a, b) = (read(&first), read(&second));
     assert_eq!(a["engine"], "compiled");
-    assert_eq!(a["eta"], b["eta"]);
     // The compiled core and the interpreted evaluator integrate the same equations.
     run(&interpreted, "interpreted");
     let c = read(&interpreted);
@@ -1470,14 +1469,27 @@ fn simulate_builds_a_specialised_core_once_and_reuses_it() {
         }
         out
     };
-    let (fa, fc) = (flat(&a), flat(&c));
+    let (fa, fb, fc) = (flat(&a), flat(&b), flat(&c));
     assert_eq!(fa.len(), 3 * 201);
-    let worst = fa
-        .iter()
-        .zip(&fc)
-        .map(|(x, y)| (x - y).abs() / y.abs().max(1.0))
-        .fold(0.0, f64::max);
-    assert!(worst < 1e-8, "compiled vs interpreted: {worst:e}");
+    let worst = |u: &[f64], v: &[f64]| {
+        u.iter()
+            .zip(v)
+            .map(|(x, y)| (x - y).abs() / y.abs().max(1.0))
+            .fold(0.0, f64::max)
+    };
+    // The scene gives an accuracy target (1e-10), and the setting that meets it fastest is
+    // chosen by timing, which may differ from run to run: the runs agree to the target, not
+    // bit for bit.
+    assert!(
+        worst(&fa, &fb) < 1e-8,
+        "first vs second run: {:e}",
+        worst(&fa, &fb)
+    );
+    assert!(
+        worst(&fa, &fc) < 1e-8,
+        "compiled vs interpreted: {:e}",
+        worst(&fa, &fc)
+    );
 }
 
 #[test]
