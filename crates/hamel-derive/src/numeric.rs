@@ -58,6 +58,37 @@ pub struct Evaluation {
     pub f64_error_bound: f64,
 }
 
+impl Evaluation {
+    /// The values of `r` rounded to f64, with what the evaluation knew about the state:
+    /// (condition number of [Z; α], δ, the f64 error estimate).
+    fn of<S: Scalar>(
+        r: &Rhs<S>,
+        precision: Precision,
+        (condition, delta, bound): (f64, f64, f64),
+    ) -> Evaluation {
+        let values = |v: &[S]| v.iter().map(Scalar::value).collect::<Vec<_>>();
+        Evaluation {
+            eta_dot: values(&r.eta_dot),
+            q_dot: values(&r.q_dot),
+            energy: r.energy.value(),
+            eta_dot_paper: values(&r.eta_dot_paper),
+            condition,
+            delta,
+            precision,
+            f64_error_bound: bound,
+        }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.eta_dot
+            .iter()
+            .chain(&self.eta_dot_paper)
+            .chain(&self.q_dot)
+            .chain([&self.energy])
+            .all(|x| x.is_finite())
+    }
+}
+
 /// The arithmetic of an [`Evaluation`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -608,40 +639,15 @@ impl Compiled {
             ));
         }
         let bound = f64_error_estimate(&m, &ag, &r.forcing_scale, &r.eta_dot);
+        let at = (condition, delta, bound);
         let out = if bound > DOUBLE_DOUBLE_ABOVE {
             let to_dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
             let r = self.rhs::<DD>(&to_dd(q), &to_dd(eta), params)?;
-            let round = |v: &[DD]| v.iter().map(|x| x.to_f64()).collect::<Vec<_>>();
-            Evaluation {
-                eta_dot: round(&r.eta_dot),
-                q_dot: round(&r.q_dot),
-                energy: r.energy.to_f64(),
-                eta_dot_paper: round(&r.eta_dot_paper),
-                condition,
-                delta,
-                precision: Precision::DoubleDouble,
-                f64_error_bound: bound,
-            }
+            Evaluation::of(&r, Precision::DoubleDouble, at)
         } else {
-            Evaluation {
-                eta_dot: r.eta_dot,
-                q_dot: r.q_dot,
-                energy: r.energy,
-                eta_dot_paper: r.eta_dot_paper,
-                condition,
-                delta,
-                precision: Precision::F64,
-                f64_error_bound: bound,
-            }
+            Evaluation::of(&r, Precision::F64, at)
         };
-        if out
-            .eta_dot
-            .iter()
-            .chain(&out.eta_dot_paper)
-            .chain(&out.q_dot)
-            .any(|x| !x.is_finite())
-            || !out.energy.is_finite()
-        {
+        if !out.is_finite() {
             return Err(NumericError(
                 "the equations give a non-finite value at this state".into(),
             ));
