@@ -172,7 +172,7 @@ pub fn eval(model: &Model, eta: Option<&str>, state: &str) -> Result<String, Mod
             energy: ev.energy,
             eta_dot_paper: ev.eta_dot_paper,
             precision: ev.precision,
-            f64_error_estimate: ev.f64_error_bound,
+            f64_error_estimate: ev.f64_error_estimate,
         });
     }
     let json = if list {

@@ -761,7 +761,7 @@ fn the_double_double_repeat_is_decided_by_an_estimate_that_holds() {
                 let reference = c.rhs::<DD>(&dd(&q), &dd(&eta), &params).unwrap();
                 let err = relative(&ev.eta_dot, &reference.eta_dot);
                 n += 1;
-                largest = largest.max(ev.f64_error_bound);
+                largest = largest.max(ev.f64_error_estimate);
                 if ev.precision == hamel_derive::Precision::DoubleDouble {
                     repeated += 1;
                     assert!(
@@ -777,7 +777,7 @@ fn the_double_double_repeat_is_decided_by_an_estimate_that_holds() {
                         err <= 8.0 * hamel_derive::DOUBLE_DOUBLE_ABOVE,
                         "{} at {q:?}, {eta:?}: kept in f64 with error {err:e}, estimate {:e}",
                         model.name,
-                        ev.f64_error_bound
+                        ev.f64_error_estimate
                     );
                 }
             }

@@ -188,52 +188,73 @@ fn solved_at(
     Some(out)
 }
 
-/// The worst relative error of η̇ from the solved tape in f64, as a multiple of (κ + 1)·ε (κ the
-/// problem's own condition number, [`hamel_derive::conditioning`]), at configurations
-/// approaching each factor of δ that depends on the coordinates (distances 1e-2 … 1e-7 on both
-/// sides, default parameters), against the structured evaluation in double-double; with the
-/// number of states used. Where the solved form divides by the factors of δ it keeps the digits
-/// the problem has; where its expanded numerators cancel it may not.
-fn near_singular_set(
+/// A configuration approaching the singular set, with what any candidate is compared against:
+/// (q, η) and η̇ in double-double, its largest magnitude, and κ.
+struct NearSingular {
+    q: Vec<f64>,
+    eta_dot: Vec<hamel_expr::DD>,
+    scale: f64,
+    kappa: f64,
+}
+
+/// Configurations approaching each factor of δ that depends on the coordinates (distances
+/// 1e-2 … 1e-7 on both sides, default parameters), with the structured evaluation in
+/// double-double and the problem's own condition number κ ([`hamel_derive::conditioning`]) at
+/// each: computed once, for every candidate; with the η they share.
+fn near_singular_states(
     d: &Derivation,
     compiled: &hamel_derive::Compiled,
-    solved: &Tape,
-) -> (f64, usize) {
+) -> (Vec<NearSingular>, Vec<f64>) {
     use hamel_derive::conditioning::{problem_condition, singular_points};
     use hamel_expr::DD;
     let params = &d.parameters;
     let eta: Vec<f64> = (0..d.sigma)
         .map(|i| [0.8, -1.3, 0.4][i % 3] / (1 + i / 3) as f64)
         .collect();
-    let (mut worst, mut used) = (0.0_f64, 0);
-    for point in singular_points(d, params, 1) {
-        for q in point.approach(2..=7) {
-            let dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
-            let (Ok(r), Ok(kappa)) = (
-                compiled.rhs::<DD>(&dd(&q), &dd(&eta), params),
-                problem_condition(compiled, &q, &eta, params),
-            ) else {
-                continue;
-            };
-            let Some(out) = solved_at(solved, &q, params, &eta, d.ell + d.sigma) else {
-                continue;
-            };
-            if !kappa.is_finite() {
-                continue;
-            }
+    let dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
+    let states = singular_points(d, params, 1)
+        .iter()
+        .flat_map(|point| point.approach(2..=7))
+        .filter_map(|q| {
+            let r = compiled.rhs::<DD>(&dd(&q), &dd(&eta), params).ok()?;
+            let kappa = problem_condition(compiled, &q, &eta, params).ok()?;
             let scale = r
                 .eta_dot
                 .iter()
                 .fold(0.0_f64, |m, x| m.max(x.to_f64().abs()));
-            let error = out[..d.sigma]
-                .iter()
-                .zip(&r.eta_dot)
-                .map(|(a, b)| (DD::from_f64(*a) - *b).to_f64().abs())
-                .fold(0.0, f64::max)
-                / scale.max(f64::MIN_POSITIVE);
-            worst = worst.max(error / ((kappa + 1.0) * f64::EPSILON));
-            used += 1;
-        }
+            kappa.is_finite().then_some(NearSingular {
+                q,
+                eta_dot: r.eta_dot,
+                scale,
+                kappa,
+            })
+        })
+        .collect();
+    (states, eta)
+}
+
+/// The worst relative error of η̇ from the solved tape in f64 at `states`, as a multiple of
+/// (κ + 1)·ε, and the number of states used. Where the solved form divides by the factors of δ
+/// it keeps the digits the problem has; where its expanded numerators cancel it may not.
+fn near_singular_set(
+    d: &Derivation,
+    (states, eta): &(Vec<NearSingular>, Vec<f64>),
+    solved: &Tape,
+) -> (f64, usize) {
+    use hamel_expr::DD;
+    let (mut worst, mut used) = (0.0_f64, 0);
+    for s in states {
+        let Some(out) = solved_at(solved, &s.q, &d.parameters, eta, d.ell + d.sigma) else {
+            continue;
+        };
+        let error = out[..d.sigma]
+            .iter()
+            .zip(&s.eta_dot)
+            .map(|(a, b)| (DD::from_f64(*a) - *b).to_f64().abs())
+            .fold(0.0, f64::max)
+            / s.scale.max(f64::MIN_POSITIVE);
+        worst = worst.max(error / ((s.kappa + 1.0) * f64::EPSILON));
+        used += 1;
     }
     (worst, used)
 }
@@ -245,7 +266,7 @@ fn near_singular_set(
 /// structured runtime adds: the LU of [Z; α] and the contractions of (11)) and it agrees with
 /// a double-double reference at 200 sample states at least as well as the structured path, or
 /// to 1e-12 ([`deviation`]), and within [`STATED_MULTIPLE`] (κ + 1)·ε approaching the singular
-/// set ([`near_singular_set`]). Its expanded forms
+/// set ([`near_singular_states`], [`near_singular_set`]). Its expanded forms
 /// can cancel badly in floating point (derivation.md §4), hence the check; the decision only
 /// selects a code path, exactness is not at stake. Returns the choice and the candidate used
 /// (the cheapest one when the structured path is taken) with its tape.
@@ -272,6 +293,7 @@ fn choose_path(
     tried.sort_by_key(|t| (t.0, t.1));
     let ops_s = ingredients.operation_count() + ell.pow(3) + d.sigma.pow(2) * ell.pow(2);
     let compiled = d.compile().map_err(|e| e.to_string())?;
+    let near_states = near_singular_states(d, &compiled);
     let mut notes = Vec::new();
     let mut pick = None;
     for (k, (run, ops, c, tape)) in tried.iter().enumerate() {
@@ -280,7 +302,7 @@ fn choose_path(
             continue;
         }
         let (worst, structured, used) = deviation(d, &compiled, tape);
-        let (near, near_used) = near_singular_set(d, &compiled, tape);
+        let (near, near_used) = near_singular_set(d, &near_states, tape);
         if used >= 100 && worst <= structured.max(1e-12) && near <= STATED_MULTIPLE {
             let near = if near_used == 0 {
                 String::new()
@@ -1160,8 +1182,8 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {{
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
-/// In f64, an evaluation whose solves are ill-conditioned (ε·(κ_S[Z; α] + κ_S(A_Γ)) above
-/// [`runtime::DOUBLE_DOUBLE_ABOVE`]) is repeated in double-double and rounded.
+/// In f64, an evaluation whose error estimate ([`runtime::f64_error_estimate`]) is above
+/// [`runtime::DOUBLE_DOUBLE_ABOVE`] is repeated in double-double and rounded.
 pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {{
     let mut out = [S::constant(0.0); LEN];
     ingredients(q, p, &mut out);
@@ -1169,7 +1191,7 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     if !S::CHECKED {{
         return Ok(r);
     }}
-    r.f64_error_estimate = runtime::f64_error_bound::<S, ELL, MU, SIGMA>(&out, &r);
+    r.f64_error_estimate = runtime::f64_error_estimate::<S, ELL, MU, SIGMA>(&out, &r);
     if r.f64_error_estimate > runtime::DOUBLE_DOUBLE_ABOVE {{
         let (q, eta) = (runtime::widen::<S, runtime::DD, ELL>(q), runtime::widen::<S, runtime::DD, SIGMA>(eta));
         let mut wide = rhs_fixed::<runtime::DD>(&q, &eta, p, paper)?.narrow::<S>();

@@ -55,7 +55,7 @@ pub struct Evaluation {
     /// The arithmetic the values were computed in (see [`Compiled::evaluate`]).
     pub precision: Precision,
     /// An estimate of the relative error of η̇ in f64 here (see [`f64_error_estimate`]).
-    pub f64_error_bound: f64,
+    pub f64_error_estimate: f64,
 }
 
 impl Evaluation {
@@ -75,7 +75,7 @@ impl Evaluation {
             condition,
             delta,
             precision,
-            f64_error_bound: bound,
+            f64_error_estimate: bound,
         }
     }
 

@@ -13,10 +13,11 @@
 //! * the paper's form adds Σ_m ν_m ΓᵀV_m q̇, ν = ΘᵀAq̇.
 //!
 //! Everything is generic over [`Scalar`]: `f64`, [`Dual`] for exact Jacobians and [`DD`]
-//! (double-double, `dd.rs`). An f64 evaluation whose solves are ill-conditioned
-//! (ε·(κ_S[Z; α] + κ_S(A_Γ)) above [`DOUBLE_DOUBLE_ABOVE`]) is repeated in double-double and
-//! rounded, so that near singular configurations no more digits are lost than the problem
-//! itself is sensitive to (docs/stability.md).
+//! (double-double, `dd.rs`). An f64 evaluation whose error estimate ([`f64_error_estimate`]:
+//! the conditioning of the solves with [Z; α] and A_Γ, and cancellation in the forcing) is
+//! above [`DOUBLE_DOUBLE_ABOVE`] is repeated in double-double and rounded, so that near
+//! singular configurations no more digits are lost than the problem itself is sensitive to
+//! (docs/stability.md).
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -241,7 +242,7 @@ impl Scalar for DD {
     }
 }
 
-/// An f64 evaluation is repeated in double-double when [`f64_error_bound`] exceeds this (64
+/// An f64 evaluation is repeated in double-double when [`f64_error_estimate`] exceeds this (16
 /// units of rounding, as `hamel_derive::DOUBLE_DOUBLE_ABOVE`).
 pub const DOUBLE_DOUBLE_ABOVE: f64 = 16.0 * f64::EPSILON;
 
@@ -278,7 +279,7 @@ pub fn skeel_condition<S: Scalar, const N: usize>(m: &[[S; N]; N]) -> f64 {
 /// The relative error of η̇ an f64 evaluation may have, to first order (as
 /// `hamel_derive::f64_error_estimate`): ε·(κ_S[Z; α] + κ_S(D A_Γ D) + ‖ |A_Γ⁻¹| s ‖∞/‖η̇‖∞),
 /// D = diag(A_Γ)^(−½), s the forcing's term sizes ([`Fixed::forcing_scale`]).
-pub fn f64_error_bound<S: Scalar, const L: usize, const M: usize, const G: usize>(
+pub fn f64_error_estimate<S: Scalar, const L: usize, const M: usize, const G: usize>(
     out: &[S],
     r: &Fixed<S, L, G>,
 ) -> f64 {
@@ -474,12 +475,12 @@ pub struct Fixed<S, const L: usize, const G: usize> {
     /// E = ½ q̇ᵀAq̇ − U.
     pub energy: S,
     /// |Γ|ᵀ(|∇U| + |∇_q T| + |Ȧq̇| + |AΓ̇η|), values only: the size of the terms F is summed
-    /// from (for [`f64_error_bound`]).
+    /// from (for [`f64_error_estimate`]; zero for types that are not [`Scalar::CHECKED`]).
     pub forcing_scale: [f64; G],
     /// The arithmetic the values come from: an f64 evaluation is repeated in double-double
-    /// when [`f64_error_bound`] exceeds [`DOUBLE_DOUBLE_ABOVE`].
+    /// when [`f64_error_estimate`] exceeds [`DOUBLE_DOUBLE_ABOVE`].
     pub precision: Precision,
-    /// [`f64_error_bound`] at this state (0 when not computed: types other than f64).
+    /// [`f64_error_estimate`] at this state (0 when not computed: types other than f64).
     pub f64_error_estimate: f64,
 }
 
@@ -626,13 +627,15 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
             aq[i] = aq[i] + a(i, j) * qd[j];
         }
         force[i] = out[l.grad_u + i] + grad_t[i] - adot_qd[i] - a_gdot;
-        terms[i] = [out[l.grad_u + i], grad_t[i], adot_qd[i], a_gdot]
-            .iter()
-            .map(|x| x.value().abs())
-            .sum();
+        if S::CHECKED {
+            terms[i] = [out[l.grad_u + i], grad_t[i], adot_qd[i], a_gdot]
+                .iter()
+                .map(|x| x.value().abs())
+                .sum();
+        }
     }
     let mut forcing_scale = [0.0_f64; G];
-    for (r, fs) in forcing_scale.iter_mut().enumerate() {
+    for (r, fs) in forcing_scale.iter_mut().enumerate().filter(|_| S::CHECKED) {
         for i in 0..L {
             *fs += gamma[i][r].value().abs() * terms[i];
         }

@@ -204,8 +204,8 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
-/// In f64, an evaluation whose solves are ill-conditioned (ε·(κ_S[Z; α] + κ_S(A_Γ)) above
-/// [`runtime::DOUBLE_DOUBLE_ABOVE`]) is repeated in double-double and rounded.
+/// In f64, an evaluation whose error estimate ([`runtime::f64_error_estimate`]) is above
+/// [`runtime::DOUBLE_DOUBLE_ABOVE`] is repeated in double-double and rounded.
 pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {
     let mut out = [S::constant(0.0); LEN];
     ingredients(q, p, &mut out);
@@ -213,7 +213,7 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     if !S::CHECKED {
         return Ok(r);
     }
-    r.f64_error_estimate = runtime::f64_error_bound::<S, ELL, MU, SIGMA>(&out, &r);
+    r.f64_error_estimate = runtime::f64_error_estimate::<S, ELL, MU, SIGMA>(&out, &r);
     if r.f64_error_estimate > runtime::DOUBLE_DOUBLE_ABOVE {
         let (q, eta) = (runtime::widen::<S, runtime::DD, ELL>(q), runtime::widen::<S, runtime::DD, SIGMA>(eta));
         let mut wide = rhs_fixed::<runtime::DD>(&q, &eta, p, paper)?.narrow::<S>();
