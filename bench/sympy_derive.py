@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """SymPy baseline of hamel's Boltzmann–Hamel derivation, for `hamel bench --sympy`.
 
-    python3 bench/sympy_derive.py MODEL.toml [ETA] [--timeout SECONDS] [--check STATE_JSON]
+    python3 bench/sympy_derive.py MODEL.toml [ETA] [--simplify] [--timeout SECONDS] [--check STATE_JSON]
 
 Reproduces hamel's algorithm (crates/hamel-derive/src/symbolic.rs): A = Hessian of T in the
 velocities (or the mass matrix), α and Z = Jacobians of the constraints and of η in the
@@ -25,6 +25,10 @@ Canonical simplification (one method, the same for every model):
     (division by a monic polynomial in c_q, so a unique normal form) → gcd cancellation
     (Poly.cancel, what sp.cancel does);
   * an expression is zero iff the canonical form of its numerator is 0 (exact).
+With --simplify, the way a SymPy user simplifies instead: sin and cos stay functions, and `canon`
+is `sp.simplify` (zero tests: `sp.simplify(e) == 0`, derivatives `sp.diff`), applied at the same
+places. "a_gamma_chars" in the JSON is the total length of A_Γ's entries as SymPy prints them
+(`str`, with sin(q) and cos(q) written out), the size measure `hamel derive --format json` reports.
 Exit status: 0 (also on timeout, reported in the JSON), 2 bad usage or model, 3 SymPy missing.
 """
 import argparse
@@ -58,7 +62,8 @@ class Timeout(BaseException):
 # ---------------------------------------------------------------------------------------------
 # Model parsing: the model expression syntax -> SymPy.
 class Model:
-    def __init__(self, path, eta_name):
+    def __init__(self, path, eta_name, trig_symbols=True):
+        self.trig_symbols = trig_symbols
         with open(path, "rb") as fh:
             raw = tomllib.load(fh)
         self.name = raw["name"]
@@ -92,7 +97,7 @@ class Model:
     def _cos(self, x):
         return self.c[x] if x in self.c else sp.cos(x)
 
-    def parse(self, text, trig_symbols=True):
+    def parse(self, text, trig_symbols=None):
         """Translate `der(q)` -> qd_q, `^` -> `**`; numbers exact; sin/cos(q) -> s_q/c_q."""
         # sympify evaluates Python: only the model grammar's characters get that far (no
         # strings, attributes, lambdas or dunder names), whoever wrote the file.
@@ -100,6 +105,8 @@ class Model:
             fail(f"`{text}` is not an expression of the model grammar")
         text = re.sub(r"der\s*\(\s*(\w+)\s*\)", r"qd_\1", text).replace("^", "**")
         ns = dict(BUILTINS)
+        if trig_symbols is None:
+            trig_symbols = self.trig_symbols
         if trig_symbols:
             ns.update(sin=self._sin, cos=self._cos, tan=lambda x: self._sin(x) / self._cos(x))
         else:
@@ -158,6 +165,19 @@ class Algebra:
         return m.applyfunc(lambda e: self.d(e, q))
 
 
+class Simplify(Algebra):
+    """sp.simplify at every place where Algebra brings an expression to its canonical form."""
+
+    def canon(self, e):
+        return e if e.is_number else sp.simplify(e)
+
+    def is_zero(self, e):
+        return sp.simplify(e) == 0
+
+    def d(self, e, q):
+        return self.canon(sp.diff(e, q))
+
+
 def sym(m):
     """Symmetric part (M + Mᵀ)/2."""
     return (m + m.T) / 2
@@ -165,8 +185,8 @@ def sym(m):
 
 # ---------------------------------------------------------------------------------------------
 # The derivation (hamel-derive/src/symbolic.rs, step by step).
-def derive(model):
-    al = Algebra(model)
+def derive(model, simplify=False):
+    al = Simplify(model) if simplify else Algebra(model)
     q, qd = model.q, model.qd
     ell = len(q)
     if model.mass is not None:
@@ -279,14 +299,23 @@ def check(model, d, state):
     return {"eta_dot": solve(d["Q"]), "eta_dot_paper": solve(d["Q_paper"])}
 
 
+def a_gamma_chars(model, a_gamma):
+    """Total length of A_Γ's entries printed by SymPy, sin(q) and cos(q) written out."""
+    back = {model.s[q]: sp.sin(q) for q in model.q}
+    back.update({model.c[q]: sp.cos(q) for q in model.q})
+    return sum(len(str(e.xreplace(back))) for e in a_gamma)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("model", help="model file (TOML)")
     ap.add_argument("eta", nargs="?", help="quasi-velocity choice (default: the first)")
     ap.add_argument("--timeout", type=float, help="give up after SECONDS of derivation")
     ap.add_argument("--check", metavar="STATE_JSON", help="print η̇ at the state(s) of this file")
+    ap.add_argument("--simplify", action="store_true",
+                    help="sp.simplify instead of the polynomial normal form")
     args = ap.parse_args()
-    model = Model(args.model, args.eta)
+    model = Model(args.model, args.eta, trig_symbols=not args.simplify)
 
     def on_alarm(signum, frame):
         raise Timeout()
@@ -295,12 +324,13 @@ def main():
         signal.setitimer(signal.ITIMER_REAL, args.timeout)
     start = time.perf_counter()
     try:
-        d = derive(model)
+        d = derive(model, args.simplify)
         seconds = time.perf_counter() - start
         signal.setitimer(signal.ITIMER_REAL, 0)
     except Timeout:
         print(json.dumps({"model": model.name, "eta": model.eta_name, "seconds": args.timeout,
-                          "split_identity": None, "energy_conserved": None, "status": "timeout"}))
+                          "split_identity": None, "energy_conserved": None,
+                          "a_gamma_chars": None, "status": "timeout"}))
         return
     if args.check:
         with open(args.check) as fh:
@@ -311,7 +341,8 @@ def main():
         return
     print(json.dumps({"model": model.name, "eta": model.eta_name, "seconds": round(seconds, 6),
                       "split_identity": d["split_identity"],
-                      "energy_conserved": d["energy_conserved"], "status": "ok"}))
+                      "energy_conserved": d["energy_conserved"],
+                      "a_gamma_chars": a_gamma_chars(model, d["A_Gamma"]), "status": "ok"}))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
-//! `hamel bench`: derivation time per model and choice, with SymPy doing the same derivation
-//! in the same run as the baseline (optional: `bench/sympy_derive.py`, skipped with a message
-//! when Python or SymPy is missing).
+//! `hamel bench`: derivation time and size per model and choice, with SymPy doing the same
+//! derivation in the same run as the baseline, twice: with its polynomial normal form (`cancel`)
+//! and with `simplify` (optional: `bench/sympy_derive.py`, skipped with a message when Python or
+//! SymPy is missing).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -19,19 +20,76 @@ pub struct Row {
     hamel_seconds: f64,
     /// Fastest repeat, seconds.
     hamel_min_seconds: f64,
-    /// SymPy's time for the same derivation, when measured.
-    sympy_seconds: Option<f64>,
-    /// "ok", "timeout", "skipped: …".
-    sympy_status: String,
-    /// SymPy time / hamel time.
+    /// Characters of A_Γ as hamel prints it (all entries).
+    hamel_a_gamma_chars: usize,
+    /// Characters of the whole derivation's printed objects ([`hamel_derive::Derivation::sizes`]).
+    hamel_total_chars: usize,
+    /// SymPy with its polynomial normal form (`cancel` modulo sin² + cos² − 1).
+    sympy: Baseline,
+    /// SymPy with `simplify`.
+    sympy_simplify: Baseline,
+}
+
+/// One SymPy run of the same derivation.
+#[derive(Serialize)]
+pub struct Baseline {
+    /// Seconds, when measured (the timeout on a timeout).
+    seconds: Option<f64>,
+    /// "ok", "timeout", "skipped: …", "not run (use --sympy)".
+    status: String,
+    /// Characters of A_Γ as SymPy prints it, when it finished.
+    a_gamma_chars: Option<usize>,
+    /// SymPy time / hamel time (median), when it finished.
     ratio: Option<f64>,
 }
 
-fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64) -> (Option<f64>, String) {
-    let child = Command::new("python3")
-        .arg(script)
-        .arg(model)
-        .arg(eta)
+impl Baseline {
+    fn not_run() -> Baseline {
+        Baseline {
+            seconds: None,
+            status: "not run (use --sympy)".into(),
+            a_gamma_chars: None,
+            ratio: None,
+        }
+    }
+
+    fn cell(&self) -> String {
+        match (self.seconds, self.status.as_str()) {
+            (Some(t), "ok") => format!("{t:.3} s"),
+            (Some(t), "timeout") => format!("> {t:.0} s (timeout)"),
+            (_, other) => other.to_string(),
+        }
+    }
+
+    fn ratio_cell(&self, hamel: f64) -> String {
+        match (self.ratio, self.status.as_str(), self.seconds) {
+            (Some(x), _, _) => format!("{x:.0}×"),
+            (None, "timeout", Some(t)) => format!("> {:.0}×", t / hamel),
+            _ => "–".into(),
+        }
+    }
+}
+
+/// Run the SymPy script on one choice (`simplify`: its `--simplify` mode).
+fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64, simplify: bool) -> Baseline {
+    let (seconds, status, a_gamma_chars) = sympy_run(script, model, eta, timeout, simplify);
+    Baseline {
+        seconds,
+        status,
+        a_gamma_chars,
+        ratio: None,
+    }
+}
+
+type Measured = (Option<f64>, String, Option<usize>);
+
+fn sympy_run(script: &Path, model: &Path, eta: &str, timeout: f64, simplify: bool) -> Measured {
+    let mut command = Command::new("python3");
+    command.arg(script).arg(model).arg(eta);
+    if simplify {
+        command.arg("--simplify");
+    }
+    let child = command
         .arg("--timeout")
         .arg(format!("{timeout}"))
         .stdout(Stdio::piped())
@@ -39,7 +97,7 @@ fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64) -> (Option<f64>, 
         .spawn();
     let mut child = match child {
         Ok(c) => c,
-        Err(e) => return (None, format!("skipped: cannot run python3 ({e})")),
+        Err(e) => return (None, format!("skipped: cannot run python3 ({e})"), None),
     };
     // The script enforces its own timeout; this is a safety net.
     let deadline = Instant::now() + Duration::from_secs_f64(timeout + 60.0);
@@ -48,20 +106,21 @@ fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64) -> (Option<f64>, 
             Ok(Some(_)) => break,
             Ok(None) if Instant::now() > deadline => {
                 let _ = child.kill();
-                return (Some(timeout), "timeout".into());
+                return (Some(timeout), "timeout".into(), None);
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(50)),
-            Err(e) => return (None, format!("skipped: {e}")),
+            Err(e) => return (None, format!("skipped: {e}"), None),
         }
     }
     let out = match child.wait_with_output() {
         Ok(o) => o,
-        Err(e) => return (None, format!("skipped: {e}")),
+        Err(e) => return (None, format!("skipped: {e}"), None),
     };
     if out.status.code() == Some(3) {
         return (
             None,
             "skipped: SymPy is not installed (pip install sympy)".into(),
+            None,
         );
     }
     let text = String::from_utf8_lossy(&out.stdout);
@@ -69,7 +128,8 @@ fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64) -> (Option<f64>, 
     match line.and_then(|l| serde_json::from_str::<serde_json::Value>(l).ok()) {
         Some(v) => {
             let status = v["status"].as_str().unwrap_or("?").to_string();
-            (v["seconds"].as_f64(), status)
+            let chars = v["a_gamma_chars"].as_u64().map(|c| c as usize);
+            (v["seconds"].as_f64(), status, chars)
         }
         None => (
             None,
@@ -80,6 +140,7 @@ fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64) -> (Option<f64>, 
                     .last()
                     .unwrap_or("")
             ),
+            None,
         ),
     }
 }
@@ -96,76 +157,78 @@ pub fn run(
     for path in models {
         let model = Model::load(path)?;
         for choice in &model.choices {
-            let mut times = Vec::with_capacity(repeat);
-            let mut shape = (0, 0);
-            for _ in 0..repeat.max(1) {
-                let t = Instant::now();
-                let d = hamel_derive::derive(&model, Some(&choice.name))?;
-                times.push(t.elapsed().as_secs_f64());
-                shape = (d.ell, d.sigma);
+            let mut row = time_hamel(&model, &choice.name, repeat)?;
+            if with_sympy {
+                row.sympy = sympy(&script, path, &choice.name, timeout, false);
+                row.sympy_simplify = sympy(&script, path, &choice.name, timeout, true);
             }
-            times.sort_by(f64::total_cmp);
-            let median = times[times.len() / 2];
-            let (sympy_seconds, sympy_status) = if with_sympy {
-                sympy(&script, path, &choice.name, timeout)
-            } else {
-                (None, "not run (use --sympy)".into())
-            };
-            let ratio = match (sympy_seconds, sympy_status.as_str()) {
-                (Some(s), "ok") => Some(s / median),
-                _ => None,
-            };
-            eprintln!(
-                "{:<18} {:<12} hamel {:>9.4} s   sympy {}",
-                model.name,
-                choice.name,
-                median,
-                match sympy_seconds {
-                    Some(s) => format!("{s:.3} s ({sympy_status})"),
-                    None => sympy_status.clone(),
+            for b in [&mut row.sympy, &mut row.sympy_simplify] {
+                if let (Some(s), "ok") = (b.seconds, b.status.as_str()) {
+                    b.ratio = Some(s / row.hamel_seconds);
                 }
+            }
+            eprintln!(
+                "{:<18} {:<14} hamel {:>9.4} s   sympy {}   sympy simplify {}",
+                row.model,
+                row.eta,
+                row.hamel_seconds,
+                row.sympy.cell(),
+                row.sympy_simplify.cell()
             );
-            rows.push(Row {
-                model: model.name.clone(),
-                eta: choice.name.clone(),
-                ell: shape.0,
-                sigma: shape.1,
-                hamel_seconds: median,
-                hamel_min_seconds: times[0],
-                sympy_seconds,
-                sympy_status,
-                ratio,
-            });
+            rows.push(row);
         }
     }
     Ok(rows)
 }
 
+/// hamel's median time over `repeat` derivations, and the sizes of the last.
+fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError> {
+    let mut times = Vec::with_capacity(repeat);
+    let mut last = None;
+    for _ in 0..repeat.max(1) {
+        let t = Instant::now();
+        let d = hamel_derive::derive(model, Some(eta))?;
+        times.push(t.elapsed().as_secs_f64());
+        last = Some(d);
+    }
+    let d = last.expect("at least one derivation");
+    times.sort_by(f64::total_cmp);
+    let sizes = d.sizes();
+    Ok(Row {
+        model: model.name.clone(),
+        eta: eta.to_string(),
+        ell: d.ell,
+        sigma: d.sigma,
+        hamel_seconds: times[times.len() / 2],
+        hamel_min_seconds: times[0],
+        hamel_a_gamma_chars: sizes["a_gamma"].characters,
+        hamel_total_chars: sizes.values().map(|s| s.characters).sum(),
+        sympy: Baseline::not_run(),
+        sympy_simplify: Baseline::not_run(),
+    })
+}
+
 /// A Markdown table of the rows.
 pub fn table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| model | choice | ℓ | σ | hamel (median) | SymPy | SymPy / hamel |\n|---|---|---|---|---|---|---|\n",
+        "| model | choice | ℓ | σ | hamel (median) | SymPy (cancel) | ratio | SymPy (simplify) | ratio | A_Γ chars: hamel | SymPy (cancel) | SymPy (simplify) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
+    let chars = |c: Option<usize>| c.map_or("–".to_string(), |c| c.to_string());
     for r in rows {
-        let sympy = match (r.sympy_seconds, r.sympy_status.as_str()) {
-            (Some(t), "ok") => format!("{t:.3} s"),
-            (Some(t), "timeout") => format!("> {t:.0} s (timeout)"),
-            (_, other) => other.to_string(),
-        };
-        let ratio = match (r.ratio, r.sympy_status.as_str(), r.sympy_seconds) {
-            (Some(x), _, _) => format!("{x:.0}×"),
-            (None, "timeout", Some(t)) => format!("> {:.0}×", t / r.hamel_seconds),
-            _ => "–".into(),
-        };
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {:.1} ms | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.1} ms | {} | {} | {} | {} | {} | {} | {} |\n",
             r.model,
             r.eta,
             r.ell,
             r.sigma,
             r.hamel_seconds * 1e3,
-            sympy,
-            ratio
+            r.sympy.cell(),
+            r.sympy.ratio_cell(r.hamel_seconds),
+            r.sympy_simplify.cell(),
+            r.sympy_simplify.ratio_cell(r.hamel_seconds),
+            r.hamel_a_gamma_chars,
+            chars(r.sympy.a_gamma_chars),
+            chars(r.sympy_simplify.a_gamma_chars),
         ));
     }
     s

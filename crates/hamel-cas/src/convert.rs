@@ -22,6 +22,7 @@ use crate::CasError;
 use crate::field::{
     Angle, AngleVars, Ex, Field, FieldInner, FieldSpec, Kernel, Poly, Sym, VarKind,
 };
+use crate::half::HalfRing;
 
 /// A rational constant value of a tree made only of numbers, if it is one.
 fn const_rational(e: &Expr) -> Option<Rational> {
@@ -255,13 +256,19 @@ fn base_layout(spec: &FieldSpec, scan: &Scan) -> Layout {
     l
 }
 
-fn build(spec: &FieldSpec, layout: Layout) -> Field {
+/// The zero polynomial of a ring of `n` variables named `{prefix}{i}`.
+fn ring(prefix: &str, n: usize) -> Poly {
     let vars: Arc<Vec<PolyVariable>> = Arc::new(
-        (0..layout.kinds.len())
-            .map(|i| symbol!(&format!("hamel_v{i}")).into())
+        (0..n)
+            .map(|i| symbol!(&format!("{prefix}{i}")).into())
             .collect(),
     );
-    let zero: Poly = MultivariatePolynomial::new(&Z, None, vars);
+    MultivariatePolynomial::new(&Z, None, vars)
+}
+
+fn build(spec: &FieldSpec, layout: Layout) -> Field {
+    let zero = ring("hamel_v", layout.kinds.len());
+    let half = HalfRing::new(&layout.kinds, |n| ring("hamel_t", n));
     let inner = FieldInner {
         coordinates: spec.coordinates.clone(),
         parameters: spec.parameters.clone(),
@@ -272,6 +279,7 @@ fn build(spec: &FieldSpec, layout: Layout) -> Field {
         kernels: RefCell::new(Vec::new()),
         relations: RefCell::new(Vec::new()),
         zero,
+        half,
         coord_var: layout.coord_var,
         param_var: layout.param_var,
         velocity_var: layout.velocity_var,

@@ -192,10 +192,14 @@ pub(crate) fn factored_expr(
 }
 
 /// The expression as a tree: the numerator expanded (terms in the deterministic order of
-/// [`sorted_terms`]) over the denominator as a product of its irreducible factors.
+/// [`sorted_terms`]) over the denominator as a product of its factors (for sin and cos, those of
+/// [`crate::half::trig_factors`]).
 pub(crate) fn to_expr(e: &Ex) -> Expr {
     if e.den.is_constant() {
         return quotient_expr(&e.f, &e.num, &e.den, None);
+    }
+    if let Some((kappa, factors)) = crate::half::trig_factors(&e.f, &e.den) {
+        return factored_expr(&e.f, &e.num, &integer_to_big(&kappa), &factors);
     }
     let mut c = integer_to_big(&e.den.lcoeff());
     let mut factors: Vec<(Poly, u32)> = Vec::new();

@@ -9,19 +9,22 @@
 //! coprime), so every polynomial has a unique *reduced* representative, of degree ≤ 1 in each
 //! related variable.
 //!
-//! **Normal form**, kept after every operation: N and D reduced, divided by their gcd, D with a
-//! positive leading coefficient. Consequences, all exact:
+//! **Normal form**, kept after every operation: N and D reduced, in lowest terms, D with a
+//! positive leading coefficient. The ring of reduced polynomials in sin and cos is not a unique
+//! factorisation domain (sin·sin = (1 − cos)(1 + cos)), so lowest terms are computed where it
+//! is one: in the half-angle parametrisation t = tan(u/2), then mapped back to sin and cos by a
+//! fixed rule ([`crate::half`]). Without square-root kernels the form is therefore *canonical*:
+//! equal values have identical N and D (s/(1 + c) and (1 − c)/s are one form). Consequences,
+//! all exact:
 //! * an expression is zero iff its reduced numerator is the zero polynomial (the reduced form of
 //!   an element of the ideal is 0), so `a == b` is decided by `(a − b).is_zero()`;
 //! * if no variable depending on a coordinate q occurs in N or D the expression is free of q;
 //!   when one occurs, the expression is free of q iff its total derivative ∂/∂q is zero
-//!   ([`Ex::depends_on`] does both).
+//!   ([`Ex::depends_on`] does both). (With a canonical form a value free of q never mentions
+//!   q's sin or cos; the derivative test is kept for free functions and kernels.)
 //!
-//! Denominators are not rationalized (sin(u) may stay in a denominator): rationalizing makes the
-//! form unique but squares the denominators at every step, which makes the larger models
-//! intractable. Only a bare related variable dividing the denominator is tried for
-//! cancellation ((1 − cos²u)/sin u becomes sin u; [`FieldInner::finish`]). The printed form is therefore a deterministic normal form, not a unique one:
-//! s/(1 + c) and (1 − c)/s print differently although their difference is (exactly) zero.
+//! Arithmetic on large derivations runs without lowest terms ([`crate::over`]); the half-angle
+//! ring is used only to bring results to this normal form.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -118,6 +121,8 @@ pub(crate) struct FieldInner {
     /// (variable, G) with variable² = G, in creation order.
     pub relations: RefCell<Vec<(usize, Poly)>>,
     pub zero: Poly,
+    /// The half-angle ring, where lowest terms are computed ([`crate::half`]).
+    pub half: crate::half::HalfRing,
     /// Index of each variable by kind, for lookups.
     pub coord_var: Vec<Option<usize>>,
     pub param_var: Vec<Option<usize>>,
@@ -282,13 +287,18 @@ impl FieldInner {
         self.finish(n, d)
     }
 
-    /// Divide by the gcd and fix the sign, for N/D that are already reduced.
+    /// Lowest terms and the sign, for N/D that are already reduced: through the half-angle ring
+    /// when a sin or cos occurs ([`crate::half::canonical`]), by a gcd otherwise.
     pub fn finish(&self, n: Poly, d: Poly) -> Result<(Poly, Poly), CasError> {
         if d.is_zero() {
             return Err(CasError::DivisionByZero);
         }
         if n.is_zero() {
             return Ok((n, self.one()));
+        }
+        if crate::half::has_angles(self, &n) || crate::half::has_angles(self, &d) {
+            let (n, d) = crate::half::canonical(self, &n, &d);
+            return Ok(self.cancel_related_factors(n, d));
         }
         let (mut n, mut d) = if d.is_constant() && d.lcoeff() == int(1) {
             (n, d)
@@ -308,12 +318,18 @@ impl FieldInner {
         Ok((n, d))
     }
 
-    /// When a related variable v (v² = G, e.g. v = sin u) divides D, N/D = N·v/(D·v) with
-    /// D·v reduced by v² = G may cancel further: (1 − cos²u)/sin u becomes sin u. The rewritten
-    /// pair is kept only when it has fewer terms, so the form stays deterministic and this
-    /// costs one gcd only where a bare sin u divides a denominator.
+    /// When a square-root kernel r (r² = G) divides D, N/D = N·r/(D·r) with D·r reduced by
+    /// r² = G may cancel further: G/r becomes r. The rewritten pair is kept only when it has
+    /// fewer terms, so the form stays deterministic and this costs one gcd only where a bare r
+    /// divides a denominator. (sin u is handled exactly by the half-angle ring.)
     pub(crate) fn cancel_related_factors(&self, mut n: Poly, mut d: Poly) -> (Poly, Poly) {
-        let relations: Vec<usize> = self.relations.borrow().iter().map(|(v, _)| *v).collect();
+        let relations: Vec<usize> = self
+            .relations
+            .borrow()
+            .iter()
+            .map(|(v, _)| *v)
+            .filter(|&v| matches!(self.kinds[v], VarKind::Kernel(_)))
+            .collect();
         for v in relations {
             if d.degree(v) == 0 || d.into_iter().any(|t| t.exponents[v] == 0) {
                 continue;
@@ -527,9 +543,11 @@ impl Ex {
         }
     }
 
-    /// The distinct non-constant irreducible factors of the numerator (factored over the
-    /// integers with the field variables independent), each with a positive leading
-    /// coefficient, sorted by their text.
+    /// The distinct non-constant irreducible factors of the numerator, each with a positive
+    /// leading coefficient, sorted by their text: for a polynomial in sin and cos, the factors
+    /// of [`crate::half::trig_factors`] (from the unique factorisation in the half-angle ring,
+    /// regrouped into polynomials in sin and cos, with 1 + cos u for a zero at u = π); otherwise
+    /// factored over the integers with the field variables independent.
     pub fn numerator_factors(&self) -> Vec<Ex> {
         self.poly_factors(&self.num)
     }
@@ -544,8 +562,11 @@ impl Ex {
         if p.is_constant() {
             return Vec::new();
         }
-        let mut out: Vec<Ex> = p
-            .factor()
+        let factors: Vec<(Poly, usize)> = match crate::half::trig_factors(&self.f, p) {
+            Some((_, fs)) => fs.into_iter().map(|(t, e)| (t, e as usize)).collect(),
+            None => p.factor(),
+        };
+        let mut out: Vec<Ex> = factors
             .into_iter()
             .filter(|(f, _)| !f.is_constant())
             .map(|(f, _)| {
@@ -635,7 +656,8 @@ impl Ex {
 
     /// The conditions for the expression to be free of q_k, as equations `c = 0`: the
     /// coefficients of the reduced N'·D − N·D' (the numerator of the total derivative) in the
-    /// monomials of the variables that depend on q_k (sin, cos of angles in q_k, q_k itself).
+    /// monomials of the variables that depend on q_k (sin, cos of angles in q_k, q_k itself),
+    /// each made primitive with a positive leading coefficient, and each once.
     /// Reduced monomials are linearly independent over the other variables, so the expression
     /// is free of q_k iff every condition holds; conditions that are identically zero are
     /// left out (none are returned when the expression is free of q_k). Free functions of q_k
@@ -668,11 +690,16 @@ impl Ex {
             }
         }
         parts.sort_by(|x, y| x.0.cmp(&y.0));
-        parts
-            .into_iter()
-            .filter(|(_, p)| !p.is_zero())
-            .map(|(_, p)| field.ex_poly(p))
-            .collect()
+        // Each condition primitive with a positive leading coefficient, each once.
+        let mut out: Vec<Ex> = Vec::new();
+        for (_, p) in parts.into_iter().filter(|(_, p)| !p.is_zero()) {
+            let p = p.quot_rem(&fi.constant(p.content()), false).0;
+            let c = field.ex_poly(if p.lcoeff().is_negative() { -p } else { p });
+            if !out.contains(&c) {
+                out.push(c);
+            }
+        }
+        out
     }
 
     /// Solve `self = 0` for the value of the free function `name`: when the numerator is of
@@ -1034,7 +1061,11 @@ impl std::ops::Mul for &Ex {
             .borrow()
             .iter()
             .any(|(v, _)| prod.degree(*v) >= 2 || den.degree(*v) >= 2);
-        // Without reduction the cross-cancelled product is already in lowest terms.
+        // Without reduction and without sin or cos the cross-cancelled product is already in
+        // lowest terms.
+        let needs_reduction = needs_reduction
+            || crate::half::has_angles(f, &prod)
+            || crate::half::has_angles(f, &den);
         let (num, den) = if needs_reduction {
             f.finish(f.reduce(prod), f.reduce(den))
         } else {

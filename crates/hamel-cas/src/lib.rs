@@ -8,8 +8,9 @@
 //! **Outputs**: expressions [`Ex`] in normal form (inside jobs only) and, to leave a job, plain
 //! trees ([`Ex::to_expr`]) and their text (`Display`).
 //!
-//! **Invariants**: every [`Ex`] is in the normal form described in [`field`], so zero tests,
-//! equality and "free of q" are exact decisions, never samples; [`Ex`] is `!Send` and cannot
+//! **Invariants**: every [`Ex`] is in the normal form described in [`field`] (lowest terms taken
+//! in the half-angle ring, `half`), so zero tests, equality and "free of q" are exact decisions,
+//! never samples, and without square-root kernels equal values have identical forms; [`Ex`] is `!Send` and cannot
 //! escape the worker thread.
 #![warn(missing_docs)]
 
@@ -17,6 +18,7 @@ mod convert;
 pub mod evaluator;
 mod export;
 pub mod field;
+mod half;
 pub mod linalg;
 pub mod over;
 mod print;

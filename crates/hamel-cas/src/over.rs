@@ -16,6 +16,7 @@ use std::rc::Rc;
 use symbolica::prelude::Factorize;
 
 use crate::field::{Ex, Field, Poly};
+use crate::half::{HalfFactors, canonical_over, half_factors, has_angles};
 
 struct Inner {
     field: Field,
@@ -23,6 +24,8 @@ struct Inner {
     bases: RefCell<Vec<Poly>>,
     /// ∂b_j/∂q_i as an [`Over`] (memo).
     dbase: RefCell<HashMap<(usize, usize), Over>>,
+    /// The half-angle factorisation of each base (memo; [`crate::half::half_factors`]).
+    half: RefCell<HashMap<usize, Rc<HalfFactors>>>,
 }
 
 /// A shared list of denominator factors. Cheap to clone.
@@ -51,6 +54,7 @@ impl Denominators {
             field: field.clone(),
             bases: RefCell::new(Vec::new()),
             dbase: RefCell::new(HashMap::new()),
+            half: RefCell::new(HashMap::new()),
         }));
         for e in seeds {
             d.add_factors_of(&e.den);
@@ -203,12 +207,33 @@ impl Over {
         }
     }
 
-    /// The value in lowest terms (trial division of the numerator by the factors, then the
-    /// integer content).
+    /// The value in normal form ([`crate::field`]): trial division of the numerator by the
+    /// factors, then, when sin or cos occur, lowest terms in the half-angle ring by trial
+    /// division by the factors' (memoised) half-angle factorisations; otherwise the integer
+    /// content.
     pub fn to_ex(&self) -> Ex {
         let field = &self.inner().field;
-        let (num, exps, mut den) = self.lowest_terms();
+        let fi = field.inner();
+        let (num, exps, cden) = self.lowest_terms();
         let bases = self.inner().bases.borrow().clone();
+        let used: Vec<usize> = (0..exps.len()).filter(|&j| exps[j] > 0).collect();
+        if !num.is_zero()
+            && (has_angles(fi, &num) || used.iter().any(|&j| has_angles(fi, &bases[j])))
+        {
+            let factors: Vec<(Rc<HalfFactors>, u32)> = used
+                .iter()
+                .map(|&j| (self.base_half(j, &bases[j]), exps[j]))
+                .collect();
+            let refs: Vec<(&HalfFactors, u32)> =
+                factors.iter().map(|(h, e)| (h.as_ref(), *e)).collect();
+            let (num, den) = canonical_over(fi, &num, &cden, &refs);
+            return Ex {
+                f: field.0.clone(),
+                num,
+                den,
+            };
+        }
+        let mut den = cden;
         for (j, &e) in exps.iter().enumerate() {
             for _ in 0..e {
                 den = &den * &bases[j];
@@ -219,6 +244,16 @@ impl Over {
             num,
             den,
         }
+    }
+
+    fn base_half(&self, j: usize, b: &Poly) -> Rc<HalfFactors> {
+        let fi = self.inner().field.inner();
+        self.inner()
+            .half
+            .borrow_mut()
+            .entry(j)
+            .or_insert_with(|| Rc::new(half_factors(fi, b)))
+            .clone()
     }
 
     /// Product.

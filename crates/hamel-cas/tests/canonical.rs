@@ -45,7 +45,7 @@ fn pythagoras_and_friends_are_zero() {
 
 #[test]
 fn equality_is_decided_by_subtraction() {
-    // s/(1+c) = (1-c)/s on the circle: different normal forms, exactly equal.
+    // s/(1+c) = (1-c)/s on the circle: one canonical form (both are tan(θ/2)).
     let out = run(|| {
         let exprs = [
             "sin(theta)/(1 + cos(theta))",
@@ -67,7 +67,7 @@ fn equality_is_decided_by_subtraction() {
         )
     })
     .unwrap();
-    assert_eq!(out, (true, false, "1/24*m*l^2".to_string(), true, false));
+    assert_eq!(out, (true, true, "1/24*m*l^2".to_string(), true, false));
 }
 
 #[test]
@@ -238,4 +238,48 @@ fn solving_refuses_derivatives_and_higher_degrees() {
     assert_eq!(out[0], None);
     assert_eq!(out[1], None);
     assert_eq!(out[2].as_deref(), Some("phi*l/m"));
+}
+
+#[test]
+fn a_value_free_of_an_angle_never_mentions_it() {
+    // The common factor sin(θ)·tan(φ/2) + cos(θ) is no polynomial in sin φ, cos φ: only lowest
+    // terms in tan(φ/2) find it (issue 15).
+    let out = run(|| {
+        let exprs = [
+            "(sin(theta)*(1 - cos(phi)) + cos(theta)*sin(phi))/(sin(theta)*sin(phi) + cos(theta)*(1 + cos(phi)))",
+            "(1 - cos(phi))/sin(phi)",
+            "sin(phi)/(1 + cos(phi))",
+        ];
+        let f = Field::new(&spec(&exprs)).unwrap();
+        let theta = f.coord_index("theta").unwrap();
+        let e: Vec<_> = exprs
+            .iter()
+            .map(|s| f.convert(&parse(s).unwrap().expr).unwrap())
+            .collect();
+        (
+            e[0].mentions(theta),
+            e.iter().map(|x| x.to_string()).collect::<Vec<_>>(),
+        )
+    })
+    .unwrap();
+    assert!(
+        !out.0,
+        "the canonical form of a value free of theta mentions theta"
+    );
+    assert_eq!(out.1[0], out.1[1]);
+    assert_eq!(out.1[1], out.1[2]);
+}
+
+#[test]
+fn denominators_print_as_powers_of_their_factors() {
+    // (sin θ cos φ + 2)² reduced modulo sin² + cos² − 1 is no square of a polynomial in
+    // (sin, cos): the factors come from the unique factorisation in tan(θ/2), tan(φ/2).
+    let out = canon(&["1/(sin(theta)*cos(phi) + 2)^2", "m/(sin(theta)^2*cos(phi))"]);
+    assert_eq!(out[0], "1/(sin(theta)*cos(phi) + 2)^2");
+    assert!(out[1].contains("cos(phi)"), "{}", out[1]);
+    assert!(
+        !out[1].contains("cos(theta)^2*cos(phi) - cos(phi)"),
+        "{}",
+        out[1]
+    );
 }

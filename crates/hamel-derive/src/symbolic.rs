@@ -426,17 +426,23 @@ pub const SOLUTION_TERMS: usize = 400;
 fn solve_capped(mut a: Vec<Vec<Ex>>, mut b: Vec<Ex>, cap: usize) -> Option<Vec<Ex>> {
     let g = b.len();
     let small = |e: &Ex| e.size() <= cap;
+    if !a.iter().flatten().chain(&b).all(small) {
+        return None;
+    }
+    // Products are formed only when the operands' sizes bound theirs by cap²/16 (lowest terms
+    // of a larger product cost more than the whole solution is worth).
+    let mul = |x: &Ex, y: &Ex| (x.size() * y.size() <= cap * cap / 16).then(|| x * y);
     for k in 0..g {
         for i in k + 1..g {
             if a[i][k].is_zero() {
                 continue;
             }
-            let f = a[i][k].div(&a[k][k]).ok()?;
+            let f = mul(&a[i][k], &a[k][k].inv().ok()?)?;
             for j in k + 1..g {
-                a[i][j] = &a[i][j] - &(&f * &a[k][j]);
+                a[i][j] = &a[i][j] - &mul(&f, &a[k][j])?;
                 small(&a[i][j]).then_some(())?;
             }
-            b[i] = &b[i] - &(&f * &b[k]);
+            b[i] = &b[i] - &mul(&f, &b[k])?;
             small(&b[i]).then_some(())?;
         }
     }
@@ -444,10 +450,10 @@ fn solve_capped(mut a: Vec<Vec<Ex>>, mut b: Vec<Ex>, cap: usize) -> Option<Vec<E
     for k in (0..g).rev() {
         let mut r = b[k].clone();
         for j in k + 1..g {
-            r = &r - &(&a[k][j] * &x[j]);
+            r = &r - &mul(&a[k][j], &x[j])?;
             small(&r).then_some(())?;
         }
-        x[k] = r.div(&a[k][k]).ok()?;
+        x[k] = mul(&r, &a[k][k].inv().ok()?)?;
         small(&x[k]).then_some(())?;
     }
     Some(x)

@@ -19,8 +19,17 @@ use runtime::{Dims, Dual, EvalError, Rhs};
 #[path = "../../../generated/bar_blade__paper/src/model.rs"]
 pub mod bar_blade__paper;
 #[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/bar_blade__a_orthogonal/src/model.rs"]
+pub mod bar_blade__a_orthogonal;
+#[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/bar_wheels__paper/src/model.rs"]
 pub mod bar_wheels__paper;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/bar_wheels__a_orthogonal/src/model.rs"]
+pub mod bar_wheels__a_orthogonal;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/bar_wheels__search_ansatz/src/model.rs"]
+pub mod bar_wheels__search_ansatz;
 #[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/chaplygin_sleigh__paper_style/src/model.rs"]
 pub mod chaplygin_sleigh__paper_style;
@@ -132,7 +141,10 @@ macro_rules! core {
 #[rustfmt::skip]
 pub const MODELS: &[Core] = &[
     core!(bar_blade__paper, "bar_blade", "paper"),
+    core!(bar_blade__a_orthogonal, "bar_blade", "a_orthogonal"),
     core!(bar_wheels__paper, "bar_wheels", "paper"),
+    core!(bar_wheels__a_orthogonal, "bar_wheels", "a_orthogonal"),
+    core!(bar_wheels__search_ansatz, "bar_wheels", "search_ansatz"),
     core!(chaplygin_sleigh__paper_style, "chaplygin_sleigh", "paper_style"),
     core!(knife__paper, "knife", "paper"),
     core!(remark22__paper, "remark22", "paper"),

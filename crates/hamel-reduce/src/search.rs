@@ -74,7 +74,7 @@ pub struct FamilyStats {
 }
 
 /// Largest total length (characters) of a candidate's quasi-velocities that is decided exactly.
-const MAX_TEXT: usize = 400;
+const MAX_TEXT: usize = 1000;
 
 /// Most unknown functions in the family (a) ansatz (each adds variables to every expression).
 const FUNCTIONS: usize = 6;

@@ -12,9 +12,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 110 arithmetic operations as
 //! separate trees, 25 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 337 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 44 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured (estimate: 375 operations = ingredients + ℓ³ + σ²ℓ²); not used: `Cramer's rule on block entries` loses digits approaching the singular set: relative error 2.9e29 (κ + 1)·ε, above 32; `elimination of normal forms` loses digits approaching the singular set: relative error 2.9e29 (κ + 1)·ε, above 32; `elimination` (546 operations) is more than that; `normal form` (763 operations) is more than that. Candidates (operations at run time / in all): `Cramer's rule on block entries` 226/337, `elimination of normal forms` 233/342, `elimination` 434/546, `normal form` 609/763.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 44 operations, 32 of them at run time with fixed parameters, against the structured path's 375 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 6.3e-16 (structured path: 2.2e-13; reference: double-double); at 24 states approaching the singular set, at most 2.7e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 32/44, `Cramer's rule on block entries` 34/46, `Cramer's rule on blocks` 35/50, `elimination of normal forms` 41/52, `elimination` 50/57.
 //!
 //! **States.** Full: q = (x, y, theta, psi, phi) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, phi, eta1, eta2, eta3); eliminated: (x, y, theta), reconstructed from
@@ -56,10 +56,10 @@ pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
 pub const OPERATIONS: (usize, usize) = (110, 25);
 /// Whether [`fast`] uses the solved form (else the structured path).
-pub const SOLVED: bool = false;
+pub const SOLVED: bool = true;
 /// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
 /// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
-pub const REDUCED_SOLVED: bool = false;
+pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -494,14 +494,14 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
 
 /// Parameters with what the solved forms compute from them alone, made once by
 /// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
-/// [`full_into_with`], [`reduced_with`], …): 0 values for the full form, 0 for
+/// [`full_into_with`], [`reduced_with`], …): 8 values for the full form, 7 for
 /// the reduced one. The functions taking [`Parameters`] prepare them at each call.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Prepared {
     /// The parameters.
     pub p: Parameters,
-    full: [f64; 0],
-    reduced: [f64; 0],
+    full: [f64; 8],
+    reduced: [f64; 7],
 }
 
 impl Prepared {
@@ -517,13 +517,55 @@ impl Prepared {
 }
 
 /// The parameter-only values of [`solved_with`] (see [`Prepared`]).
-fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 0], EvalError> {
-    Ok([])
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 8], EvalError> {
+    let t2 = S::constant(p.m);
+    let t3 = S::constant(p.r);
+    let t4 = t3.powi(2);
+    let f7 = t2 * t4;
+    let t9 = t2 * t4;
+    let t10 = S::constant(p.J);
+    let t11 = -t10;
+    let t12 = t9 + t11;
+    let t20 = S::constant(0.0);
+    let t31 = S::constant(p.J_r);
+    let t32 = -t31;
+    let t33 = t9 + t11 + t32;
+    let f35 = t10 + t31;
+    let t38 = S::constant(1.0);
+    let f40 = t31 * t31;
+    let t43 = S::constant(2.0);
+    let t44 = S::constant(p.J_w);
+    let t45 = t43 * t44;
+    if !(t45.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([f7, t12, t10, t3, t33, f35, f40, t31])
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
-fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 0], EvalError> {
-    Ok([])
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 7], EvalError> {
+    let t2 = S::constant(p.m);
+    let t3 = S::constant(p.r);
+    let t4 = t3.powi(2);
+    let f7 = t2 * t4;
+    let t9 = t2 * t4;
+    let t10 = S::constant(p.J);
+    let t11 = -t10;
+    let t12 = t9 + t11;
+    let t20 = S::constant(0.0);
+    let t22 = S::constant(p.J_r);
+    let t23 = -t22;
+    let t24 = t9 + t11 + t23;
+    let f26 = t10 + t22;
+    let t29 = S::constant(1.0);
+    let f31 = t22 * t22;
+    let t34 = S::constant(2.0);
+    let t35 = S::constant(p.J_w);
+    let t36 = t34 * t35;
+    if !(t36.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([f7, t12, t10, t24, f26, f31, t22])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -541,284 +583,47 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
 
 /// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
 #[inline(always)]
-fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 0]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    let t0 = S::constant(p.J_r);
-    let t1 = q[4];
-    let (t18, t2) = t1.sin_cos();
-    let t3 = eta[0];
-    let t4 = eta[2];
-    let t5 = q[2];
-    let (t7, t6) = t5.sin_cos();
-    let t8 = S::constant(p.m);
-    let t9 = S::constant(p.r);
-    let t10 = t9.powi(2);
-    let t11 = S::constant(32.0);
-    let t12 = t2.powi(2);
-    let t13 = t11 * t12;
-    let t14 = -t13;
-    let t15 = S::constant(96.0);
-    let t16 = t15 + t14;
-    let t17 = t8 * t10 * t7 * t16;
-    let t19 = t8 * t10 * t11 * t2 * t6 * t18;
-    let t20 = -t19;
-    let t21 = t17 + t20;
-    let t22 = t2 * t21;
-    let t23 = S::constant(80.0);
-    let t24 = t8 * t10 * t23 * t6 * t18;
-    let t25 = t22 + t24;
-    let t26 = t6 * t25;
-    let t27 = S::constant(48.0);
-    let t28 = t27 * t12;
-    let t29 = S::constant(-108.0);
-    let t30 = t29 + t28;
-    let t31 = t8 * t10 * t18 * t30;
-    let t32 = t26 + t31;
-    let t33 = t6 * t32;
-    let t34 = S::constant(-84.0);
-    let t35 = t34 + t13;
-    let t36 = t8 * t10 * t2 * t7 * t35;
-    let t37 = t33 + t36;
-    let t38 = t2 * t37;
-    let t39 = S::constant(102.0);
-    let t40 = t6.powi(2);
-    let t41 = t39 * t40;
-    let t42 = -t41;
-    let t43 = S::constant(72.0);
-    let t44 = t43 + t42;
-    let t45 = t8 * t10 * t7 * t44;
-    let t46 = t38 + t45;
-    let t47 = t2 * t46;
-    let t48 = S::constant(66.0);
-    let t49 = t48 * t40;
-    let t50 = -t49;
-    let t51 = S::constant(75.0);
-    let t52 = t51 + t50;
-    let t53 = t8 * t10 * t6 * t18 * t52;
-    let t54 = t47 + t53;
-    let t55 = t6 * t54;
-    let t56 = S::constant(18.0);
-    let t57 = t56 * t12;
-    let t58 = -t57;
-    let t59 = S::constant(33.0);
-    let t60 = t59 + t58;
-    let t61 = t8 * t10 * t12 * t60;
-    let t62 = S::constant(15.0);
-    let t63 = t8 * t10 * t62;
-    let t64 = -t63;
-    let t65 = t64 + t61;
-    let t66 = t18 * t65;
-    let t67 = t55 + t66;
-    let t68 = t6 * t67;
-    let t69 = S::constant(6.0);
-    let t70 = t69 * t12;
-    let t71 = -t70;
-    let t72 = S::constant(12.0);
-    let t73 = t72 + t71;
-    let t74 = t8 * t10 * t12 * t73;
-    let t75 = t8 * t10 * t69;
-    let t76 = -t75;
-    let t77 = t76 + t74;
-    let t78 = t2 * t7 * t77;
-    let t79 = t68 + t78;
-    let t80 = t2 * t79;
-    let t81 = S::constant(44.0);
-    let t82 = t81 * t40;
-    let t83 = S::constant(-20.0);
-    let t84 = t83 + t82;
-    let t85 = t8 * t10 * t7 * t40 * t84;
-    let t86 = t80 + t85;
-    let t87 = t2 * t86;
-    let t88 = t6.powi(3);
-    let t89 = S::constant(19.0);
-    let t90 = t89 * t40;
-    let t91 = S::constant(-15.0);
-    let t92 = t91 + t90;
-    let t93 = t8 * t10 * t18 * t88 * t92;
-    let t94 = t87 + t93;
-    let t95 = t6 * t94;
-    let t96 = t2.powi(4);
-    let t97 = S::constant(-1.0);
-    let t98 = t97 + t12;
-    let t99 = t8 * t10 * t18 * t96 * t98;
-    let t100 = t95 + t99;
-    let t101 = t2 * t100;
-    let t102 = t6.powi(5);
-    let t103 = t8 * t10 * t69 * t7 * t102;
-    let t104 = -t103;
-    let t105 = t101 + t104;
-    let t106 = t2 * t105;
-    let t107 = t6.powi(6);
-    let t108 = t8 * t10 * t18 * t107;
-    let t109 = -t108;
-    let t110 = t106 + t109;
-    let t111 = t2 * t3 * t4 * t110;
-    let t112 = S::constant(2.0);
-    let t113 = t112 * t12;
-    let t114 = S::constant(-2.0);
-    let t115 = t114 + t113;
-    let t116 = t7 * t115;
-    let t117 = t112 * t2 * t6 * t18;
-    let t118 = t116 + t117;
-    let t119 = t2 * t118;
-    let t120 = t6 * t18;
-    let t121 = -t120;
-    let t122 = t119 + t121;
-    let t123 = t6 * t122;
-    let t124 = t12 * t18;
-    let t125 = -t124;
-    let t126 = t123 + t125;
-    let t127 = t126.powi(3);
-    let t128 = t18.powi(3);
-    let t129 = t127 * t128;
-    let t130 = t111 / t129;
-    let t131 = S::constant(1.0);
-    let t132 = S::constant(8.0);
-    let t133 = t8 * t10 * t132;
-    let t134 = S::constant(p.J);
-    let t135 = t132 * t134;
-    let t136 = -t135;
-    let t137 = t0 * t132;
-    let t138 = -t137;
-    let t139 = t133 + t136 + t138;
-    let t140 = t139 * t7 * t18;
-    let t141 = -t133;
-    let t142 = t135 + t137 + t141;
-    let t143 = t142 * t2 * t6;
-    let t144 = t140 + t143;
-    let t145 = t2 * t144;
-    let t146 = S::constant(16.0);
-    let t147 = t8 * t10 * t146;
-    let t148 = S::constant(24.0);
-    let t149 = t134 * t148;
-    let t150 = -t149;
-    let t151 = t0 * t148;
-    let t152 = -t151;
-    let t153 = t147 + t150 + t152;
-    let t154 = t153 * t6;
-    let t155 = t145 + t154;
-    let t156 = t6 * t155;
-    let t157 = t139 * t12;
-    let t158 = S::constant(14.0);
-    let t159 = t8 * t10 * t158;
-    let t160 = -t159;
-    let t161 = S::constant(22.0);
-    let t162 = t134 * t161;
-    let t163 = t0 * t161;
-    let t164 = t160 + t162 + t163 + t156 + t157;
-    let t165 = t2 * t164;
-    let t166 = t8 * t10 * t72;
-    let t167 = -t166;
-    let t168 = S::constant(20.0);
-    let t169 = t134 * t168;
-    let t170 = t0 * t168;
-    let t171 = t167 + t169 + t170;
-    let t172 = t171 * t6 * t7 * t18;
-    let t173 = t165 + t172;
-    let t174 = t2 * t173;
-    let t175 = S::constant(9.0);
-    let t176 = t8 * t10 * t175;
-    let t177 = -t176;
-    let t178 = S::constant(25.0);
-    let t179 = t134 * t178;
-    let t180 = t0 * t178;
-    let t181 = t177 + t179 + t180;
-    let t182 = t181 * t40;
-    let t183 = -t169;
-    let t184 = -t170;
-    let t185 = t75 + t183 + t184 + t174 + t182;
-    let t186 = t6 * t185;
-    let t187 = S::constant(4.0);
-    let t188 = t8 * t10 * t187;
-    let t189 = -t188;
-    let t190 = t134 * t187;
-    let t191 = t0 * t187;
-    let t192 = t189 + t190 + t191;
-    let t193 = t192 * t12;
-    let t194 = t136 + t138 + t188 + t193;
-    let t195 = t2 * t7 * t18 * t194;
-    let t196 = t186 + t195;
-    let t197 = t6 * t196;
-    let t198 = t8 * t10;
-    let t199 = -t198;
-    let t200 = t0 + t134 + t199;
-    let t201 = t200 * t12;
-    let t202 = t112 * t134;
-    let t203 = -t202;
-    let t204 = t0 * t112;
-    let t205 = -t204;
-    let t206 = t198 + t203 + t205 + t201;
-    let t207 = t12 * t206;
-    let t208 = t0 + t134 + t197 + t207;
-    let t209 = t2 * t208;
-    let t210 = t134 * t146;
-    let t211 = -t210;
-    let t212 = t0 * t146;
-    let t213 = -t212;
-    let t214 = t188 + t211 + t213;
-    let t215 = t214 * t40;
-    let t216 = t190 + t191 + t215;
-    let t217 = t6 * t7 * t18 * t216;
-    let t218 = t209 + t217;
-    let t219 = t2 * t218;
-    let t220 = S::constant(10.0);
-    let t221 = t134 * t220;
-    let t222 = -t221;
-    let t223 = t0 * t220;
-    let t224 = -t223;
-    let t225 = t198 + t222 + t224;
-    let t226 = t225 * t40;
-    let t227 = t69 * t134;
-    let t228 = t0 * t69;
-    let t229 = t227 + t228 + t226;
-    let t230 = t40 * t229;
-    let t231 = t219 + t230;
-    let t232 = t2 * t231;
-    let t233 = t190 + t191;
-    let t234 = t233 * t7 * t18 * t88;
-    let t235 = t232 + t234;
-    let t236 = t2 * t235;
-    let t237 = t6.powi(4);
-    let t238 = t0 + t134;
-    let t239 = t238 * t237;
-    let t240 = t236 + t239;
-    let t241 = t126.powi(2);
-    let t242 = t18.powi(2);
-    let t243 = t241 * t242;
-    let t244 = t240 / t243;
-    let t245 = t0 * t244;
-    let t246 = t0 * t0;
-    let t247 = -t246;
-    let t248 = t247 + t245;
-    let t249 = t131 / t248;
-    let t250 = t0 * t130 * t249;
-    let t251 = -t0;
-    let t252 = t251 * t130 * t249;
-    let t253 = S::constant(0.0);
-    let t254 = t112 * t7 * t18;
-    let t255 = -t254;
-    let t256 = t112 * t2 * t6;
-    let t257 = t255 + t256;
-    let t258 = t9 * t2 * t257;
-    let t259 = t9 * t6;
-    let t260 = -t259;
-    let t261 = t258 + t260;
-    let t262 = t6 * t261;
-    let t263 = t9 * t12;
-    let t264 = -t263;
-    let t265 = t262 + t264;
-    let t266 = t2 * t6 * t265;
-    let t267 = t266 / t126;
-    let t268 = t3 * t267;
-    let t269 = t9 * t2 * t7;
-    let t270 = t269 / t18;
-    let t271 = t3 * t270;
-    let t272 = eta[1];
-    let t273 = S::constant(p.J_w);
-    let t274 = t112 * t273;
-    if !(t274.value() > 0.0 && t244.value() > 0.0 && t248.value() > 0.0) {
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 8]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = q[4];
+    let (t15, t1) = t0.sin_cos();
+    let t3 = S::constant(c[3]);
+    let t5 = eta[0];
+    let t6 = eta[2];
+    let t7 = S::constant(c[0]) * t1 * t5 * t6;
+    let t8 = t1.powi(2);
+    let t10 = S::constant(c[2]);
+    let t12 = S::constant(c[1]);
+    let t13 = t12 * t8;
+    let t14 = t10 + t13;
+    let t16 = t14 * t15;
+    let t17 = t7 / t16;
+    let t18 = -t7;
+    let t19 = t18 / t16;
+    let t20 = S::constant(0.0);
+    let t21 = q[2];
+    let (t26, t22) = t21.sin_cos();
+    let t23 = t3 * t1 * t22;
+    let t24 = t23 / t15;
+    let t25 = t5 * t24;
+    let t27 = t3 * t1 * t26;
+    let t28 = t27 / t15;
+    let t29 = t5 * t28;
+    let t30 = eta[1];
+    let t31 = S::constant(c[7]);
+    let t33 = S::constant(c[4]);
+    let t34 = t33 * t8;
+    let t35 = S::constant(c[5]) + t34;
+    let t36 = t15.powi(2);
+    let t37 = t35 / t36;
+    let t38 = S::constant(1.0);
+    let t39 = t38 / t37;
+    let t40 = S::constant(c[6]) * t39;
+    let t41 = -t40;
+    let t42 = t31 + t41;
+    if !(t37.value() > 0.0 && t42.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
-    Ok(([t250, t252, t253], [t268, t271, t3, t272, t4]))
+    Ok(([t17, t19, t20], [t25, t29, t5, t30, t6]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
@@ -898,27 +703,38 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
-fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 0]) -> Result<[S; REDUCED_DIM], EvalError> {
-    let eta = &x[KEPT.len()..];
-    let mut last = None;
-    for r in REFERENCE {
-        let mut q = [S::constant(r); ELL];
-        for (i, &k) in KEPT.iter().enumerate() {
-            q[k] = x[i];
-        }
-        match fast(&q, eta, p) {
-            Ok((eta_dot, q_dot)) => {
-                let mut v = [S::constant(0.0); REDUCED_DIM];
-                for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = q_dot[k];
-                }
-                v[KEPT.len()..].copy_from_slice(&eta_dot);
-                return Ok(v);
-            }
-            Err(e) => last = Some(e),
-        }
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 7]) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = x[1];
+    let (t15, t1) = t0.sin_cos();
+    let t5 = x[2];
+    let t6 = x[4];
+    let t7 = S::constant(c[0]) * t1 * t5 * t6;
+    let t8 = t1.powi(2);
+    let t10 = S::constant(c[2]);
+    let t12 = S::constant(c[1]);
+    let t13 = t12 * t8;
+    let t14 = t10 + t13;
+    let t16 = t14 * t15;
+    let t17 = t7 / t16;
+    let t18 = -t7;
+    let t19 = t18 / t16;
+    let t20 = S::constant(0.0);
+    let t21 = x[3];
+    let t22 = S::constant(c[6]);
+    let t24 = S::constant(c[3]);
+    let t25 = t24 * t8;
+    let t26 = S::constant(c[4]) + t25;
+    let t27 = t15.powi(2);
+    let t28 = t26 / t27;
+    let t29 = S::constant(1.0);
+    let t30 = t29 / t28;
+    let t31 = S::constant(c[5]) * t30;
+    let t32 = -t31;
+    let t33 = t22 + t32;
+    if !(t28.value() > 0.0 && t33.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
-    Err(last.expect("REFERENCE is not empty"))
+    Ok([t21, t6, t17, t19, t20])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.

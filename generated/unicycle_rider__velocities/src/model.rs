@@ -15,7 +15,7 @@
 //! separate trees, 339 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 256 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 256 operations, 127 of them at run time with fixed parameters, against the structured path's 1131 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `Cramer's rule on block entries` 127/256, `elimination of normal forms` 132/259, `elimination` 247/369, `Cramer's rule on blocks` 261/3944.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 256 operations, 127 of them at run time with fixed parameters, against the structured path's 1131 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `Cramer's rule on block entries` 127/256, `elimination of normal forms` 132/259, `Cramer's rule on blocks` 134/368, `normal form` 224/666, `elimination` 247/369.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta, theta1) and η = (eta1..eta4).
 //! Reduced (state vector `x`): (theta, theta1, eta1, eta2, eta3, eta4); eliminated: (xC, yC, phi, psi), reconstructed from
