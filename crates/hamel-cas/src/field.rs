@@ -296,7 +296,11 @@ impl FieldInner {
         if n.is_zero() {
             return Ok((n, self.one()));
         }
-        if crate::half::has_angles(self, &n) || crate::half::has_angles(self, &d) {
+        // A reduced polynomial over an integer is already canonical up to the integer content
+        // (its half-angle image comes back as itself), so only fractions go through t.
+        if !d.is_constant()
+            && (crate::half::has_angles(self, &n) || crate::half::has_angles(self, &d))
+        {
             let (n, d) = crate::half::canonical(self, &n, &d);
             return Ok(self.cancel_related_factors(n, d));
         }

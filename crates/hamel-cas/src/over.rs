@@ -208,16 +208,18 @@ impl Over {
     }
 
     /// The value in normal form ([`crate::field`]): trial division of the numerator by the
-    /// factors, then, when sin or cos occur, lowest terms in the half-angle ring by trial
-    /// division by the factors' (memoised) half-angle factorisations; otherwise the integer
-    /// content.
+    /// factors, then, when sin or cos occur in a fraction, lowest terms in the half-angle ring by
+    /// trial division by the factors' (memoised) half-angle factorisations; otherwise the
+    /// integer content.
     pub fn to_ex(&self) -> Ex {
         let field = &self.inner().field;
         let fi = field.inner();
         let (num, exps, cden) = self.lowest_terms();
         let bases = self.inner().bases.borrow().clone();
         let used: Vec<usize> = (0..exps.len()).filter(|&j| exps[j] > 0).collect();
+        // A polynomial over an integer is canonical up to its content (as in `finish`).
         if !num.is_zero()
+            && !used.is_empty()
             && (has_angles(fi, &num) || used.iter().any(|&j| has_angles(fi, &bases[j])))
         {
             let factors: Vec<(Rc<HalfFactors>, u32)> = used
