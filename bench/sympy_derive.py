@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """SymPy baseline of hamel's Boltzmann–Hamel derivation, for `hamel bench --sympy`.
 
-    python3 bench/sympy_derive.py MODEL.toml [ETA] [--simplify] [--timeout SECONDS] [--check STATE_JSON]
+    python3 bench/sympy_derive.py MODEL.toml [ETA] [--simplify] [--eta-rows JSON] [--timeout SECONDS] [--check STATE_JSON]
 
 Reproduces hamel's algorithm (crates/hamel-derive/src/symbolic.rs): A = Hessian of T in the
 velocities (or the mass matrix), α and Z = Jacobians of the constraints and of η in the
@@ -62,7 +62,7 @@ class Timeout(BaseException):
 # ---------------------------------------------------------------------------------------------
 # Model parsing: the model expression syntax -> SymPy.
 class Model:
-    def __init__(self, path, eta_name, trig_symbols=True):
+    def __init__(self, path, eta_name, trig_symbols=True, eta_rows=None):
         self.trig_symbols = trig_symbols
         with open(path, "rb") as fh:
             raw = tomllib.load(fh)
@@ -85,6 +85,8 @@ class Model:
         choices = raw.get("quasi_velocities", {})
         if not choices and not self.constraints:
             choices = {"identity": {"eta": ["der(%s)" % c for c in self.coords]}}
+        if eta_rows is not None:                   # a choice hamel made (its default choice)
+            choices = {eta_name or "given": {"eta": eta_rows}}
         self.eta_name = eta_name or next(iter(choices), None)
         if self.eta_name not in choices:
             fail(f"{self.name} has no quasi-velocity choice `{self.eta_name}` "
@@ -314,8 +316,12 @@ def main():
     ap.add_argument("--check", metavar="STATE_JSON", help="print η̇ at the state(s) of this file")
     ap.add_argument("--simplify", action="store_true",
                     help="sp.simplify instead of the polynomial normal form")
+    ap.add_argument("--eta-rows", metavar="JSON",
+                    help="the quasi-velocities as a JSON list of expressions (for a choice hamel "
+                         "made itself, such as the default `velocities` of a model without one)")
     args = ap.parse_args()
-    model = Model(args.model, args.eta, trig_symbols=not args.simplify)
+    rows = json.loads(args.eta_rows) if args.eta_rows else None
+    model = Model(args.model, args.eta, trig_symbols=not args.simplify, eta_rows=rows)
 
     def on_alarm(signum, frame):
         raise Timeout()

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use hamel_model::{Model, ModelError};
+use hamel_model::{ChoiceOrigin, Model, ModelError};
 use serde::Serialize;
 
 #[derive(Serialize)]
@@ -70,8 +70,15 @@ impl Baseline {
     }
 }
 
+/// The quasi-velocity choice as the SymPy script takes it: the name, and the rows when hamel
+/// made the choice itself (the file does not list it).
+struct Choice<'a> {
+    name: &'a str,
+    rows: Option<String>,
+}
+
 /// Run the SymPy script on one choice (`simplify`: its `--simplify` mode).
-fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64, simplify: bool) -> Baseline {
+fn sympy(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Baseline {
     let (seconds, status, a_gamma_chars) = sympy_run(script, model, eta, timeout, simplify);
     Baseline {
         seconds,
@@ -83,11 +90,14 @@ fn sympy(script: &Path, model: &Path, eta: &str, timeout: f64, simplify: bool) -
 
 type Measured = (Option<f64>, String, Option<usize>);
 
-fn sympy_run(script: &Path, model: &Path, eta: &str, timeout: f64, simplify: bool) -> Measured {
+fn sympy_run(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Measured {
     let mut command = Command::new("python3");
-    command.arg(script).arg(model).arg(eta);
+    command.arg(script).arg(model).arg(eta.name);
     if simplify {
         command.arg("--simplify");
+    }
+    if let Some(rows) = &eta.rows {
+        command.arg("--eta-rows").arg(rows);
     }
     let child = command
         .arg("--timeout")
@@ -159,8 +169,14 @@ pub fn run(
         for choice in &model.choices {
             let mut row = time_hamel(&model, &choice.name, repeat)?;
             if with_sympy {
-                row.sympy = sympy(&script, path, &choice.name, timeout, false);
-                row.sympy_simplify = sympy(&script, path, &choice.name, timeout, true);
+                let rows: Vec<String> = choice.eta.iter().map(|e| e.expr.to_string()).collect();
+                let eta = Choice {
+                    name: &choice.name,
+                    rows: matches!(choice.origin, ChoiceOrigin::Independent)
+                        .then(|| serde_json::to_string(&rows).expect("serialisable")),
+                };
+                row.sympy = sympy(&script, path, &eta, timeout, false);
+                row.sympy_simplify = sympy(&script, path, &eta, timeout, true);
             }
             for b in [&mut row.sympy, &mut row.sympy_simplify] {
                 if let (Some(s), "ok") = (b.seconds, b.status.as_str()) {

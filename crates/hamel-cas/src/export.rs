@@ -199,8 +199,34 @@ pub(crate) fn to_expr(e: &Ex) -> Expr {
         return quotient_expr(&e.f, &e.num, &e.den, None);
     }
     if let Some((kappa, factors)) = crate::half::trig_factors(&e.f, &e.den) {
-        return factored_expr(&e.f, &e.num, &integer_to_big(&kappa), &factors);
+        return factored_trig(e, kappa, &factors);
     }
+    plain_factored(e)
+}
+
+/// [`to_expr`] for a value whose denominator's half-angle factorisation is known.
+pub(crate) fn to_expr_with(e: &Ex, hf: &crate::half::HalfFactors) -> Expr {
+    if e.den.is_constant() {
+        return quotient_expr(&e.f, &e.num, &e.den, None);
+    }
+    match crate::half::trig_factors_of(&e.f, &e.den, hf) {
+        Some((kappa, factors)) => factored_trig(e, kappa, &factors),
+        None => to_expr(e),
+    }
+}
+
+/// N / (κ · ∏ Tᵢ^eᵢ), the sign of κ moved to the numerator.
+fn factored_trig(e: &Ex, kappa: symbolica::prelude::Integer, factors: &[(Poly, u32)]) -> Expr {
+    let kappa = integer_to_big(&kappa);
+    if kappa.is_negative() {
+        factored_expr(&e.f, &-e.num.clone(), &-kappa, factors)
+    } else {
+        factored_expr(&e.f, &e.num, &kappa, factors)
+    }
+}
+
+/// The denominator factored over the integers with all variables independent.
+fn plain_factored(e: &Ex) -> Expr {
     let mut c = integer_to_big(&e.den.lcoeff());
     let mut factors: Vec<(Poly, u32)> = Vec::new();
     let mut constant = BigInt::one();

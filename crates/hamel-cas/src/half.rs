@@ -301,6 +301,18 @@ pub(crate) fn canonical_over(
     c: &Poly,
     dens: &[(&HalfFactors, u32)],
 ) -> (Poly, Poly) {
+    let (n, d, _) = canonical_over_factored(f, num, c, dens);
+    (n, d)
+}
+
+/// [`canonical_over`], with the half-angle factorisation of the resulting denominator (for
+/// printing it factored without factoring it again).
+pub(crate) fn canonical_over_factored(
+    f: &FieldInner,
+    num: &Poly,
+    c: &Poly,
+    dens: &[(&HalfFactors, u32)],
+) -> (Poly, Poly, HalfFactors) {
     let hr = &f.half;
     let one = hr.zero.one();
     let (mut n, mn) = to_half(f, num);
@@ -334,7 +346,7 @@ pub(crate) fn canonical_over(
             primes.push((h.clone(), hexp[a]));
         }
     }
-    let mut den = cden;
+    let mut den = cden.clone();
     for (p, k) in &mut primes {
         while *k > 0 {
             let (q, r) = n.quot_rem(p, false);
@@ -346,7 +358,40 @@ pub(crate) fn canonical_over(
         }
         den = &den * &pow(p, *k as usize, &one);
     }
-    from_half(f, &n, &den)
+    // The field denominator D = 2^k·den/∏h^k (up to content) has the image D·∏h^(m_D):
+    // den's primes, with h's exponent moved by m_D − k.
+    let ks = half_degrees(f, &[&n, &den]);
+    let (num, d) = from_half(f, &n, &den);
+    let m: Vec<usize> = f
+        .angles
+        .iter()
+        .map(|av| {
+            d.into_iter()
+                .map(|t| (t.exponents[av.sin] + t.exponents[av.cos]) as usize)
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out: Vec<(Poly, u32)> = Vec::new();
+    for (a, h) in hs.iter().enumerate() {
+        let k = primes.iter().find(|(p, _)| p == h).map_or(0, |(_, k)| *k);
+        let e = m[a] as i64 - ks[a] as i64 + k;
+        if e > 0 {
+            out.push((h.clone(), e as u32));
+        }
+    }
+    out.extend(
+        primes
+            .into_iter()
+            .filter(|(p, k)| *k > 0 && !hs.contains(p))
+            .map(|(p, k)| (p, k as u32)),
+    );
+    let hf = HalfFactors {
+        content: cden,
+        primes: out,
+        m,
+    };
+    (num, d, hf)
 }
 
 /// A field polynomial p (a canonical numerator or denominator) as κ · ∏ Tᵢ^eᵢ with Tᵢ
@@ -360,7 +405,15 @@ pub(crate) fn trig_factors(f: &FieldInner, p: &Poly) -> Option<(Integer, Vec<(Po
     if !has_angles(f, p) {
         return None;
     }
-    let hf = half_factors(f, p);
+    trig_factors_of(f, p, &half_factors(f, p))
+}
+
+/// [`trig_factors`] given the half-angle factorisation `hf` of `p`.
+pub(crate) fn trig_factors_of(
+    f: &FieldInner,
+    p: &Poly,
+    hf: &HalfFactors,
+) -> Option<(Integer, Vec<(Poly, u32)>)> {
     let hs: Vec<Poly> = (0..f.angles.len()).map(|a| f.half.h(a)).collect();
     let mut budget: Vec<i64> = hf.m.iter().map(|&m| m as i64).collect();
     let degs = |q: &Poly| -> Vec<i64> { f.half.t.iter().map(|&t| q.degree(t) as i64).collect() };

@@ -16,7 +16,7 @@ use std::rc::Rc;
 use symbolica::prelude::Factorize;
 
 use crate::field::{Ex, Field, Poly};
-use crate::half::{HalfFactors, canonical_over, half_factors, has_angles};
+use crate::half::{HalfFactors, canonical_over, canonical_over_factored, half_factors, has_angles};
 
 struct Inner {
     field: Field,
@@ -162,15 +162,41 @@ impl Over {
 
     /// The value as a plain tree, in lowest terms, the denominator as a product of factors.
     pub fn to_expr(&self) -> hamel_expr::Expr {
+        match self.canonical_factored() {
+            Some((e, hf)) => crate::export::to_expr_with(&e, &hf),
+            None => self.to_ex().to_expr(),
+        }
+    }
+
+    /// The value in normal form through the half-angle ring, with its denominator's half-angle
+    /// factorisation (`None` where [`Over::to_ex`] does not use the half-angle ring).
+    fn canonical_factored(&self) -> Option<(Ex, HalfFactors)> {
+        let field = &self.inner().field;
+        let fi = field.inner();
         let (num, exps, cden) = self.lowest_terms();
         let bases = self.inner().bases.borrow().clone();
-        let factors: Vec<(Poly, u32)> = bases.into_iter().zip(exps).collect();
-        crate::export::factored_expr(
-            self.inner().field.inner(),
-            &num,
-            &crate::field::integer_to_big(&cden.lcoeff()),
-            &factors,
-        )
+        let used: Vec<usize> = (0..exps.len()).filter(|&j| exps[j] > 0).collect();
+        if num.is_zero()
+            || used.is_empty()
+            || !(has_angles(fi, &num) || used.iter().any(|&j| has_angles(fi, &bases[j])))
+        {
+            return None;
+        }
+        let factors: Vec<(Rc<HalfFactors>, u32)> = used
+            .iter()
+            .map(|&j| (self.base_half(j, &bases[j]), exps[j]))
+            .collect();
+        let refs: Vec<(&HalfFactors, u32)> =
+            factors.iter().map(|(h, e)| (h.as_ref(), *e)).collect();
+        let (num, den, hf) = canonical_over_factored(fi, &num, &cden, &refs);
+        Some((
+            Ex {
+                f: field.0.clone(),
+                num,
+                den,
+            },
+            hf,
+        ))
     }
 
     /// Numerator, exponents and integer denominator in lowest terms.
@@ -240,6 +266,15 @@ impl Over {
             for _ in 0..e {
                 den = &den * &bases[j];
             }
+        }
+        if fi
+            .relations
+            .borrow()
+            .iter()
+            .any(|(v, _)| den.degree(*v) > 0)
+        {
+            // A square-root kernel among the factors: r·r = G, so reduce and take lowest terms.
+            return field.ex(num, den).expect("a nonzero denominator");
         }
         Ex {
             f: field.0.clone(),

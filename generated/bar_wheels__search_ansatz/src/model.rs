@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 114 arithmetic operations as
 //! separate trees, 50 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 208 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 166 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on blocks`): 208 operations, 78 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 6.9e-14 (structured path: 4.3e-14; reference: double-double); at 24 states approaching the singular set, at most 5.6e-1 (κ + 1)·ε; not used: `normal form` (287 operations) is more than that. Candidates (operations at run time / in all): `normal form` 76/287, `Cramer's rule on blocks` 78/208, `Cramer's rule on block entries` 89/303, `elimination of normal forms` 91/303, `elimination` 715/1590.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 166 operations, 62 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 5.0e-14 (structured path: 4.3e-14; reference: double-double); at 24 states approaching the singular set, at most 4.5e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 62/166, `Cramer's rule on blocks` 75/203, `Cramer's rule on block entries` 76/187, `elimination of normal forms` 78/187, `elimination` 165/334.
 //!
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
@@ -514,14 +514,14 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
 
 /// Parameters with what the solved forms compute from them alone, made once by
 /// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
-/// [`full_into_with`], [`reduced_with`], …): 19 values for the full form, 15 for
+/// [`full_into_with`], [`reduced_with`], …): 18 values for the full form, 14 for
 /// the reduced one. The functions taking [`Parameters`] prepare them at each call.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Prepared {
     /// The parameters.
     pub p: Parameters,
-    full: [f64; 19],
-    reduced: [f64; 15],
+    full: [f64; 18],
+    reduced: [f64; 14],
 }
 
 impl Prepared {
@@ -537,247 +537,209 @@ impl Prepared {
 }
 
 /// The parameter-only values of [`solved_with`] (see [`Prepared`]).
-fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 19], EvalError> {
-    let t0 = S::constant(0.08333333333333333);
-    let t1 = S::constant(p.m_f);
-    let t2 = S::constant(p.l_f);
-    let t3 = t2.powi(2);
-    let t8 = S::constant(p.R);
-    let t9 = t8.powi(2);
-    let t10 = S::constant(p.m_w);
-    let t11 = S::constant(6.0);
-    let t12 = t8 * t11;
-    let t13 = S::constant(p.l_r);
-    let t14 = t11 * t13;
-    let t15 = -t14;
-    let t16 = t12 + t15;
-    let t17 = t8 * t16;
-    let t18 = S::constant(36.0);
-    let t19 = S::constant(p.a);
-    let t20 = t19.powi(2);
-    let t21 = t18 * t20;
-    let t22 = t13.powi(2);
-    let t23 = t18 * t22;
-    let t24 = -t23;
-    let t25 = t17 + t21 + t24;
-    let t26 = t8 * t25;
-    let t27 = -t21;
-    let t28 = t23 + t27;
-    let t29 = t13 * t28;
-    let t30 = t26 + t29;
-    let t31 = t10 * t30;
-    let t32 = -t13;
-    let t33 = t8 + t32;
-    let t34 = t1 * t3 * t33;
-    let t35 = t31 + t34;
-    let f36 = t9 * t35;
-    let t38 = t9 * t11;
-    let t39 = t21 + t24 + t38;
-    let t40 = t10 * t39;
-    let t41 = t1 * t3;
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 18], EvalError> {
+    let t4 = S::constant(p.m_w);
+    let t5 = S::constant(p.R);
+    let t6 = S::constant(p.l_r);
+    let t7 = -t6;
+    let t8 = t5 + t7;
+    let t9 = t5 * t8;
+    let t10 = S::constant(6.0);
+    let t11 = S::constant(p.a);
+    let t12 = t11.powi(2);
+    let t13 = t10 * t12;
+    let t14 = t6.powi(2);
+    let t15 = t10 * t14;
+    let t16 = -t15;
+    let t17 = t9 + t13 + t16;
+    let t18 = t5 * t17;
+    let t19 = -t13;
+    let t20 = t15 + t19;
+    let t21 = t6 * t20;
+    let t22 = t18 + t21;
+    let f23 = t4 * t22;
+    let t25 = t5.powi(2);
+    let t26 = t13 + t16 + t25;
+    let f27 = t4 * t11 * t26;
+    let t30 = S::constant(2.0);
+    let t31 = t5 * t30;
+    let t32 = -t31;
+    let t33 = t6 * t30;
+    let t34 = t32 + t33;
+    let t35 = t5 * t34;
+    let t36 = S::constant(12.0);
+    let t37 = t12 * t36;
+    let t38 = -t37;
+    let t39 = t35 + t38;
+    let t40 = t5 * t39;
+    let t41 = t6 * t12 * t36;
     let t42 = t40 + t41;
-    let f43 = t9 * t19 * t42;
-    let t46 = S::constant(12.0);
-    let t47 = t8 * t46;
-    let t48 = -t47;
-    let t49 = t13 * t46;
-    let t50 = t48 + t49;
-    let t51 = t8 * t50;
-    let t52 = S::constant(72.0);
-    let t53 = t20 * t52;
-    let t54 = -t53;
-    let t55 = t51 + t54;
-    let t56 = t10 * t55;
-    let t57 = S::constant(24.0);
-    let t58 = t22 * t57;
-    let t59 = -t58;
-    let t60 = S::constant(2.0);
-    let t61 = t3 * t60;
-    let t62 = -t61;
-    let t63 = t59 + t62;
-    let t64 = t1 * t63;
-    let t65 = t56 + t64;
-    let t66 = t8 * t65;
-    let t67 = t58 + t61;
-    let t68 = t1 * t67;
-    let t69 = t10 * t20 * t52;
-    let t70 = t68 + t69;
-    let t71 = t13 * t70;
-    let t72 = t66 + t71;
-    let t73 = t9 * t72;
-    let t76 = -t38;
-    let t77 = t24 + t27 + t76;
-    let t78 = t10 * t77;
-    let t79 = -t3;
-    let t80 = t59 + t79;
-    let t81 = t1 * t80;
-    let t82 = t78 + t81;
-    let f83 = t9 * t19 * t82;
-    let t86 = t17 + t21;
-    let t87 = t10 * t86;
-    let t88 = t22 * t46;
-    let t89 = t3 + t88;
-    let t90 = t1 * t89;
-    let t91 = t87 + t90;
-    let t92 = t8 * t91;
-    let t93 = -t88;
-    let t94 = t79 + t93;
-    let t95 = t1 * t94;
-    let t96 = t10 * t18 * t20;
-    let t97 = -t96;
-    let t98 = t95 + t97;
-    let t99 = t13 * t98;
-    let t100 = t92 + t99;
-    let t101 = t9 * t100;
-    let f112 = t0 * t1 * t3;
-    let t113 = t1 * t3 * t8;
-    let t114 = -t113;
-    let t117 = -t8;
-    let t118 = t13 + t117;
-    let f119 = t1 * t3 * t8 * t118;
-    let f120 = t1 * t3 * t8 * t19;
-    let t129 = t11 * t20;
-    let t130 = t11 * t22;
-    let t131 = -t130;
-    let t132 = t9 + t129 + t131;
-    let f133 = t1 * t3 * t9 * t10 * t132;
-    let t134 = -t9;
-    let t135 = -t129;
-    let t136 = t134 + t135;
-    let t137 = t10 * t136;
-    let t138 = t1 * t22 * t60;
-    let t139 = -t138;
-    let t140 = t137 + t139;
-    let t141 = t1 * t3 * t9 * t140;
-    let f149 = t9 * t42;
-    let t150 = t27 + t76;
-    let t151 = t10 * t150;
-    let t152 = t95 + t151;
-    let t153 = t9 * t152;
-    let f163 = t8 * t13;
-    let f168 = t8 * t13;
-    Ok([f36, f43, t73, f83, t101, t33, t19, f112, t114, f119, f120, f133, t141, f149, t153, f163, f168, t8, t13])
+    let t43 = t4 * t42;
+    let t44 = S::constant(p.m_f);
+    let t45 = S::constant(4.0);
+    let t46 = t5 * t45;
+    let t47 = -t46;
+    let t48 = t6 * t45;
+    let t49 = t47 + t48;
+    let t50 = t14 * t44 * t49;
+    let f51 = t43 + t50;
+    let t53 = -t25;
+    let t54 = t16 + t19 + t53;
+    let t55 = t4 * t54;
+    let t56 = t14 * t44 * t45;
+    let t57 = -t56;
+    let t58 = t55 + t57;
+    let f59 = t11 * t58;
+    let t62 = t9 + t13;
+    let t63 = t5 * t62;
+    let t64 = t6 * t10 * t12;
+    let t65 = -t64;
+    let t66 = t63 + t65;
+    let t67 = t4 * t66;
+    let t68 = -t33;
+    let t69 = t31 + t68;
+    let t70 = t14 * t44 * t69;
+    let f71 = t67 + t70;
+    let f74 = t4 * t26;
+    let t75 = t19 + t53;
+    let t76 = t4 * t75;
+    let t77 = t14 * t30 * t44;
+    let t78 = -t77;
+    let f79 = t76 + t78;
+    let t85 = t4 * t10;
+    let t86 = t30 * t44;
+    let t87 = t85 + t86;
+    let f88 = t5 * t14 * t87;
+    let f92 = t5 * t6;
+    let f97 = t5 * t6;
+    let t107 = t10 * t25;
+    let t108 = -t107;
+    let t109 = S::constant(36.0);
+    let t110 = t12 * t109;
+    let t111 = -t110;
+    let t112 = t14 * t109;
+    let t113 = t108 + t111 + t112;
+    let t114 = t4 * t113;
+    let t115 = S::constant(p.l_f);
+    let t116 = t115.powi(2);
+    let t117 = t44 * t116;
+    let t118 = -t117;
+    let t119 = t114 + t118;
+    let f120 = t25 * t119;
+    let t121 = t107 + t110;
+    let t122 = t4 * t121;
+    let t123 = t14 * t36;
+    let t124 = t116 + t123;
+    let t125 = t44 * t124;
+    let t126 = t122 + t125;
+    let t127 = t25 * t126;
+    let t133 = S::constant(0.08333333333333333);
+    let t134 = t44 * t116 * t133;
+    let t135 = t5 * t44 * t116;
+    let t138 = S::constant(1.0);
+    Ok([f23, f27, f51, f59, f71, f74, f79, t8, t11, f88, f92, f97, t5, t6, f120, t127, t135, t134])
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
-fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 15], EvalError> {
-    let t0 = S::constant(0.08333333333333333);
-    let t1 = S::constant(p.m_f);
-    let t2 = S::constant(p.l_f);
-    let t3 = t2.powi(2);
-    let t8 = S::constant(p.R);
-    let t9 = t8.powi(2);
-    let t10 = S::constant(p.m_w);
-    let t11 = S::constant(6.0);
-    let t12 = t8 * t11;
-    let t13 = S::constant(p.l_r);
-    let t14 = t11 * t13;
-    let t15 = -t14;
-    let t16 = t12 + t15;
-    let t17 = t8 * t16;
-    let t18 = S::constant(36.0);
-    let t19 = S::constant(p.a);
-    let t20 = t19.powi(2);
-    let t21 = t18 * t20;
-    let t22 = t13.powi(2);
-    let t23 = t18 * t22;
-    let t24 = -t23;
-    let t25 = t17 + t21 + t24;
-    let t26 = t8 * t25;
-    let t27 = -t21;
-    let t28 = t23 + t27;
-    let t29 = t13 * t28;
-    let t30 = t26 + t29;
-    let t31 = t10 * t30;
-    let t32 = -t13;
-    let t33 = t8 + t32;
-    let t34 = t1 * t3 * t33;
-    let t35 = t31 + t34;
-    let f36 = t9 * t35;
-    let t38 = t9 * t11;
-    let t39 = t21 + t24 + t38;
-    let t40 = t10 * t39;
-    let t41 = t1 * t3;
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 14], EvalError> {
+    let t4 = S::constant(p.m_w);
+    let t5 = S::constant(p.R);
+    let t6 = S::constant(p.l_r);
+    let t7 = -t6;
+    let t8 = t5 + t7;
+    let t9 = t5 * t8;
+    let t10 = S::constant(6.0);
+    let t11 = S::constant(p.a);
+    let t12 = t11.powi(2);
+    let t13 = t10 * t12;
+    let t14 = t6.powi(2);
+    let t15 = t10 * t14;
+    let t16 = -t15;
+    let t17 = t9 + t13 + t16;
+    let t18 = t5 * t17;
+    let t19 = -t13;
+    let t20 = t15 + t19;
+    let t21 = t6 * t20;
+    let t22 = t18 + t21;
+    let f23 = t4 * t22;
+    let t25 = t5.powi(2);
+    let t26 = t13 + t16 + t25;
+    let f27 = t4 * t11 * t26;
+    let t30 = S::constant(2.0);
+    let t31 = t5 * t30;
+    let t32 = -t31;
+    let t33 = t6 * t30;
+    let t34 = t32 + t33;
+    let t35 = t5 * t34;
+    let t36 = S::constant(12.0);
+    let t37 = t12 * t36;
+    let t38 = -t37;
+    let t39 = t35 + t38;
+    let t40 = t5 * t39;
+    let t41 = t6 * t12 * t36;
     let t42 = t40 + t41;
-    let f43 = t9 * t19 * t42;
-    let t46 = S::constant(12.0);
-    let t47 = t8 * t46;
-    let t48 = -t47;
-    let t49 = t13 * t46;
-    let t50 = t48 + t49;
-    let t51 = t8 * t50;
-    let t52 = S::constant(72.0);
-    let t53 = t20 * t52;
-    let t54 = -t53;
-    let t55 = t51 + t54;
-    let t56 = t10 * t55;
-    let t57 = S::constant(24.0);
-    let t58 = t22 * t57;
-    let t59 = -t58;
-    let t60 = S::constant(2.0);
-    let t61 = t3 * t60;
-    let t62 = -t61;
-    let t63 = t59 + t62;
-    let t64 = t1 * t63;
-    let t65 = t56 + t64;
-    let t66 = t8 * t65;
-    let t67 = t58 + t61;
-    let t68 = t1 * t67;
-    let t69 = t10 * t20 * t52;
-    let t70 = t68 + t69;
-    let t71 = t13 * t70;
-    let t72 = t66 + t71;
-    let t73 = t9 * t72;
-    let t76 = -t38;
-    let t77 = t24 + t27 + t76;
-    let t78 = t10 * t77;
-    let t79 = -t3;
-    let t80 = t59 + t79;
-    let t81 = t1 * t80;
-    let t82 = t78 + t81;
-    let f83 = t9 * t19 * t82;
-    let t86 = t17 + t21;
-    let t87 = t10 * t86;
-    let t88 = t22 * t46;
-    let t89 = t3 + t88;
-    let t90 = t1 * t89;
-    let t91 = t87 + t90;
-    let t92 = t8 * t91;
-    let t93 = -t88;
-    let t94 = t79 + t93;
-    let t95 = t1 * t94;
-    let t96 = t10 * t18 * t20;
-    let t97 = -t96;
-    let t98 = t95 + t97;
-    let t99 = t13 * t98;
-    let t100 = t92 + t99;
-    let t101 = t9 * t100;
-    let f112 = t0 * t1 * t3;
-    let t113 = t1 * t3 * t8;
-    let t114 = -t113;
-    let t117 = -t8;
-    let t118 = t13 + t117;
-    let f119 = t1 * t3 * t8 * t118;
-    let f120 = t1 * t3 * t8 * t19;
-    let t129 = t11 * t20;
-    let t130 = t11 * t22;
-    let t131 = -t130;
-    let t132 = t9 + t129 + t131;
-    let f133 = t1 * t3 * t9 * t10 * t132;
-    let t134 = -t9;
-    let t135 = -t129;
-    let t136 = t134 + t135;
-    let t137 = t10 * t136;
-    let t138 = t1 * t22 * t60;
-    let t139 = -t138;
-    let t140 = t137 + t139;
-    let t141 = t1 * t3 * t9 * t140;
-    let f149 = t9 * t42;
-    let t150 = t27 + t76;
-    let t151 = t10 * t150;
-    let t152 = t95 + t151;
-    let t153 = t9 * t152;
-    Ok([f36, f43, t73, f83, t101, t33, t19, f112, t114, f119, f120, f133, t141, f149, t153])
+    let t43 = t4 * t42;
+    let t44 = S::constant(p.m_f);
+    let t45 = S::constant(4.0);
+    let t46 = t5 * t45;
+    let t47 = -t46;
+    let t48 = t6 * t45;
+    let t49 = t47 + t48;
+    let t50 = t14 * t44 * t49;
+    let f51 = t43 + t50;
+    let t53 = -t25;
+    let t54 = t16 + t19 + t53;
+    let t55 = t4 * t54;
+    let t56 = t14 * t44 * t45;
+    let t57 = -t56;
+    let t58 = t55 + t57;
+    let f59 = t11 * t58;
+    let t62 = t9 + t13;
+    let t63 = t5 * t62;
+    let t64 = t6 * t10 * t12;
+    let t65 = -t64;
+    let t66 = t63 + t65;
+    let t67 = t4 * t66;
+    let t68 = -t33;
+    let t69 = t31 + t68;
+    let t70 = t14 * t44 * t69;
+    let f71 = t67 + t70;
+    let f74 = t4 * t26;
+    let t75 = t19 + t53;
+    let t76 = t4 * t75;
+    let t77 = t14 * t30 * t44;
+    let t78 = -t77;
+    let f79 = t76 + t78;
+    let t85 = t4 * t10;
+    let t86 = t30 * t44;
+    let t87 = t85 + t86;
+    let f88 = t5 * t14 * t87;
+    let t90 = t10 * t25;
+    let t91 = -t90;
+    let t92 = S::constant(36.0);
+    let t93 = t12 * t92;
+    let t94 = -t93;
+    let t95 = t14 * t92;
+    let t96 = t91 + t94 + t95;
+    let t97 = t4 * t96;
+    let t98 = S::constant(p.l_f);
+    let t99 = t98.powi(2);
+    let t100 = t44 * t99;
+    let t101 = -t100;
+    let t102 = t97 + t101;
+    let f103 = t25 * t102;
+    let t104 = t90 + t93;
+    let t105 = t4 * t104;
+    let t106 = t14 * t36;
+    let t107 = t99 + t106;
+    let t108 = t44 * t107;
+    let t109 = t105 + t108;
+    let t110 = t25 * t109;
+    let t116 = S::constant(0.08333333333333333);
+    let t117 = t44 * t99 * t116;
+    let t118 = t5 * t44 * t99;
+    let t121 = S::constant(1.0);
+    Ok([f23, f27, f51, f59, f71, f74, f79, t8, t11, f88, f103, t110, t118, t117])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -795,90 +757,73 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
 
 /// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
 #[inline(always)]
-fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 19]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    let t4 = eta[0];
-    let t5 = eta[1];
-    let t6 = q[4];
-    let (t37, t7) = t6.sin_cos();
-    let t8 = S::constant(c[17]);
-    let t13 = S::constant(c[18]);
-    let t19 = S::constant(c[6]);
-    let t33 = S::constant(c[5]);
-    let t36 = S::constant(c[0]) * t7;
-    let t43 = S::constant(c[1]) * t37;
-    let t44 = t36 + t43;
-    let t45 = t7 * t44;
-    let t46 = S::constant(12.0);
-    let t57 = S::constant(24.0);
-    let t73 = S::constant(c[2]);
-    let t74 = t73 + t45;
-    let t75 = t7 * t74;
-    let t83 = S::constant(c[3]) * t37;
-    let t84 = t75 + t83;
-    let t85 = t7 * t84;
-    let t101 = S::constant(c[4]);
-    let t102 = t101 + t85;
-    let t103 = t4 * t5 * t102;
-    let t104 = t37.powi(3);
-    let t105 = t33 * t7;
-    let t106 = t19 * t37;
-    let t107 = t105 + t106;
-    let t108 = t107.powi(3);
-    let t109 = t46 * t104 * t108;
-    let t110 = -t109;
-    let t111 = t103 / t110;
-    let t112 = S::constant(c[7]) * t111;
-    let t114 = S::constant(c[8]);
-    let t115 = t46 * t107;
-    let t116 = t114 / t115;
-    let t119 = S::constant(c[9]) * t37;
-    let t120 = S::constant(c[10]) * t7;
-    let t121 = t119 + t120;
-    let t122 = t4 * t5 * t121;
-    let t123 = t107.powi(2);
-    let t124 = t46 * t123;
-    let t125 = t122 / t124;
-    let t126 = t116 * t125;
-    let t127 = t112 + t126;
-    let t128 = t7.powi(2);
-    let t133 = S::constant(c[11]) * t128;
-    let t141 = S::constant(c[12]);
-    let t142 = t141 + t133;
-    let t143 = t37.powi(2);
-    let t144 = t57 * t123 * t143;
-    let t145 = -t144;
-    let t146 = t142 / t145;
-    let t147 = t127 / t146;
-    let t148 = t111 * t116;
-    let t149 = S::constant(c[13]) * t128;
-    let t153 = S::constant(c[14]);
-    let t154 = t153 + t149;
-    let t155 = t46 * t123 * t143;
-    let t156 = -t155;
-    let t157 = t154 / t156;
-    let t158 = t125 * t157;
-    let t159 = t148 + t158;
-    let t160 = t159 / t146;
-    let t161 = q[2];
-    let (t167, t162) = t161.sin_cos();
-    let t163 = S::constant(c[15]) * t7 * t162;
-    let t164 = t37 * t107;
-    let t165 = t163 / t164;
-    let t166 = t4 * t165;
-    let t168 = S::constant(c[16]) * t7 * t167;
-    let t169 = t168 / t164;
-    let t170 = t4 * t169;
-    let t171 = t8 / t107;
-    let t172 = t4 * t171;
-    let t173 = t13 * t7;
-    let t174 = -t173;
-    let t175 = t106 + t174;
-    let t176 = t175 / t164;
-    let t177 = t4 * t176;
-    if !(t157.value() > 0.0 && t146.value() > 0.0) {
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 18]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = eta[0];
+    let t1 = eta[1];
+    let t2 = q[4];
+    let (t24, t3) = t2.sin_cos();
+    let t5 = S::constant(c[12]);
+    let t6 = S::constant(c[13]);
+    let t8 = S::constant(c[7]);
+    let t11 = S::constant(c[8]);
+    let t23 = S::constant(c[0]) * t3;
+    let t27 = S::constant(c[1]) * t24;
+    let t28 = t23 + t27;
+    let t29 = t3 * t28;
+    let t36 = S::constant(12.0);
+    let t51 = S::constant(c[2]) + t29;
+    let t52 = t3 * t51;
+    let t59 = S::constant(c[3]) * t24;
+    let t60 = t52 + t59;
+    let t61 = t3 * t60;
+    let t71 = S::constant(c[4]) + t61;
+    let t72 = t0 * t1 * t71;
+    let t73 = t3.powi(2);
+    let t74 = S::constant(c[5]) * t73;
+    let t79 = S::constant(c[6]) + t74;
+    let t80 = t8 * t3;
+    let t81 = t11 * t24;
+    let t82 = t80 + t81;
+    let t83 = t24 * t79 * t82;
+    let t84 = t72 / t83;
+    let t88 = S::constant(c[9]) * t0 * t1 * t3;
+    let t89 = t88 / t83;
+    let t90 = q[2];
+    let (t96, t91) = t90.sin_cos();
+    let t92 = S::constant(c[10]) * t3 * t91;
+    let t93 = t24 * t82;
+    let t94 = t92 / t93;
+    let t95 = t0 * t94;
+    let t97 = S::constant(c[11]) * t3 * t96;
+    let t98 = t97 / t93;
+    let t99 = t0 * t98;
+    let t100 = t5 / t82;
+    let t101 = t0 * t100;
+    let t102 = t6 * t3;
+    let t103 = -t102;
+    let t104 = t81 + t103;
+    let t105 = t104 / t93;
+    let t106 = t0 * t105;
+    let t120 = S::constant(c[14]) * t73;
+    let t127 = S::constant(c[15]);
+    let t128 = t127 + t120;
+    let t129 = t24.powi(2);
+    let t130 = t82.powi(2);
+    let t131 = t36 * t129 * t130;
+    let t132 = t128 / t131;
+    let t134 = S::constant(c[17]);
+    let t135 = S::constant(c[16]);
+    let t136 = t36 * t82;
+    let t137 = t135 / t136;
+    let t138 = S::constant(1.0);
+    let t139 = t138 / t132;
+    let t140 = t137 * t137 * t139;
+    let t141 = -t140;
+    let t142 = t134 + t141;
+    if !(t132.value() > 0.0 && t142.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
-    Ok(([t147, t160], [t166, t170, t172, t177, t5]))
+    Ok(([t84, t89], [t95, t99, t101, t106, t1]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
@@ -958,72 +903,55 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
-fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 15]) -> Result<[S; REDUCED_DIM], EvalError> {
-    let t4 = x[1];
-    let t5 = x[2];
-    let t6 = x[0];
-    let (t37, t7) = t6.sin_cos();
-    let t19 = S::constant(c[6]);
-    let t33 = S::constant(c[5]);
-    let t36 = S::constant(c[0]) * t7;
-    let t43 = S::constant(c[1]) * t37;
-    let t44 = t36 + t43;
-    let t45 = t7 * t44;
-    let t46 = S::constant(12.0);
-    let t57 = S::constant(24.0);
-    let t73 = S::constant(c[2]);
-    let t74 = t73 + t45;
-    let t75 = t7 * t74;
-    let t83 = S::constant(c[3]) * t37;
-    let t84 = t75 + t83;
-    let t85 = t7 * t84;
-    let t101 = S::constant(c[4]);
-    let t102 = t101 + t85;
-    let t103 = t4 * t5 * t102;
-    let t104 = t37.powi(3);
-    let t105 = t33 * t7;
-    let t106 = t19 * t37;
-    let t107 = t105 + t106;
-    let t108 = t107.powi(3);
-    let t109 = t46 * t104 * t108;
-    let t110 = -t109;
-    let t111 = t103 / t110;
-    let t112 = S::constant(c[7]) * t111;
-    let t114 = S::constant(c[8]);
-    let t115 = t46 * t107;
-    let t116 = t114 / t115;
-    let t119 = S::constant(c[9]) * t37;
-    let t120 = S::constant(c[10]) * t7;
-    let t121 = t119 + t120;
-    let t122 = t4 * t5 * t121;
-    let t123 = t107.powi(2);
-    let t124 = t46 * t123;
-    let t125 = t122 / t124;
-    let t126 = t116 * t125;
-    let t127 = t112 + t126;
-    let t128 = t7.powi(2);
-    let t133 = S::constant(c[11]) * t128;
-    let t141 = S::constant(c[12]);
-    let t142 = t141 + t133;
-    let t143 = t37.powi(2);
-    let t144 = t57 * t123 * t143;
-    let t145 = -t144;
-    let t146 = t142 / t145;
-    let t147 = t127 / t146;
-    let t148 = t111 * t116;
-    let t149 = S::constant(c[13]) * t128;
-    let t153 = S::constant(c[14]);
-    let t154 = t153 + t149;
-    let t155 = t46 * t123 * t143;
-    let t156 = -t155;
-    let t157 = t154 / t156;
-    let t158 = t125 * t157;
-    let t159 = t148 + t158;
-    let t160 = t159 / t146;
-    if !(t157.value() > 0.0 && t146.value() > 0.0) {
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 14]) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = x[1];
+    let t1 = x[2];
+    let t2 = x[0];
+    let (t24, t3) = t2.sin_cos();
+    let t8 = S::constant(c[7]);
+    let t11 = S::constant(c[8]);
+    let t23 = S::constant(c[0]) * t3;
+    let t27 = S::constant(c[1]) * t24;
+    let t28 = t23 + t27;
+    let t29 = t3 * t28;
+    let t36 = S::constant(12.0);
+    let t51 = S::constant(c[2]) + t29;
+    let t52 = t3 * t51;
+    let t59 = S::constant(c[3]) * t24;
+    let t60 = t52 + t59;
+    let t61 = t3 * t60;
+    let t71 = S::constant(c[4]) + t61;
+    let t72 = t0 * t1 * t71;
+    let t73 = t3.powi(2);
+    let t74 = S::constant(c[5]) * t73;
+    let t79 = S::constant(c[6]) + t74;
+    let t80 = t8 * t3;
+    let t81 = t11 * t24;
+    let t82 = t80 + t81;
+    let t83 = t24 * t79 * t82;
+    let t84 = t72 / t83;
+    let t88 = S::constant(c[9]) * t0 * t1 * t3;
+    let t89 = t88 / t83;
+    let t103 = S::constant(c[10]) * t73;
+    let t110 = S::constant(c[11]);
+    let t111 = t110 + t103;
+    let t112 = t24.powi(2);
+    let t113 = t82.powi(2);
+    let t114 = t36 * t112 * t113;
+    let t115 = t111 / t114;
+    let t117 = S::constant(c[13]);
+    let t118 = S::constant(c[12]);
+    let t119 = t36 * t82;
+    let t120 = t118 / t119;
+    let t121 = S::constant(1.0);
+    let t122 = t121 / t115;
+    let t123 = t120 * t120 * t122;
+    let t124 = -t123;
+    let t125 = t117 + t124;
+    if !(t115.value() > 0.0 && t125.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
-    Ok([t5, t147, t160])
+    Ok([t1, t84, t89])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.

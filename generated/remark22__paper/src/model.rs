@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 75 arithmetic operations as
 //! separate trees, 26 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 35 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 29 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 35 operations, 35 of them at run time with fixed parameters, against the structured path's 89 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 2.4e-16 (structured path: 4.9e-16; reference: double-double). Candidates (operations at run time / in all): `normal form` 35/35, `Cramer's rule on blocks` 44/44, `elimination of normal forms` 50/50, `Cramer's rule on block entries` 50/50, `elimination` 56/56.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`elimination of normal forms`): 29 operations, 29 of them at run time with fixed parameters, against the structured path's 89 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 2.4e-16 (structured path: 4.9e-16; reference: double-double). Candidates (operations at run time / in all): `elimination of normal forms` 29/29, `Cramer's rule on blocks` 29/29, `Cramer's rule on block entries` 29/29, `normal form` 29/29, `elimination` 46/46.
 //!
 //! **States.** Full: q = (q1, q2, q3) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (q1, q2, q3, eta1, eta2); eliminated: (), reconstructed from
@@ -262,6 +262,9 @@ impl Prepared {
 fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 0], EvalError> {
     let t6 = S::constant(1.0);
     let t28 = S::constant(0.0);
+    if !(t6.value() > 0.0 && t6.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
     Ok([])
 }
 
@@ -315,13 +318,6 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 0]) -> R
     let t26 = t6 / t13;
     let t27 = t0 * t26;
     let t28 = S::constant(0.0);
-    let t29 = t8.powi(2);
-    let t30 = t7 / t29;
-    let t31 = t13.powi(2);
-    let t32 = t12 / t31;
-    if !(t30.value() > 0.0 && t32.value() > 0.0) {
-        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
-    }
     Ok(([t19, t23], [t25, t27, t28]))
 }
 
