@@ -45,12 +45,7 @@ pub struct Baseline {
 
 impl Baseline {
     fn not_run() -> Baseline {
-        Baseline {
-            seconds: None,
-            status: "not run (use --sympy)".into(),
-            a_gamma_chars: None,
-            ratio: None,
-        }
+        Baseline::skipped("not run (use --sympy)".into())
     }
 
     fn cell(&self) -> String {
@@ -77,20 +72,20 @@ struct Choice<'a> {
     rows: Option<String>,
 }
 
-/// Run the SymPy script on one choice (`simplify`: its `--simplify` mode).
-fn sympy(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Baseline {
-    let (seconds, status, a_gamma_chars) = sympy_run(script, model, eta, timeout, simplify);
-    Baseline {
-        seconds,
-        status,
-        a_gamma_chars,
-        ratio: None,
+impl Baseline {
+    /// A run that gave no measurement, for this reason.
+    fn skipped(status: String) -> Baseline {
+        Baseline {
+            seconds: None,
+            status,
+            a_gamma_chars: None,
+            ratio: None,
+        }
     }
 }
 
-type Measured = (Option<f64>, String, Option<usize>);
-
-fn sympy_run(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Measured {
+/// Run the SymPy script on one choice (`simplify`: its `--simplify` mode).
+fn sympy(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Baseline {
     let mut command = Command::new("python3");
     command.arg(script).arg(model).arg(eta.name);
     if simplify {
@@ -107,7 +102,7 @@ fn sympy_run(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: 
         .spawn();
     let mut child = match child {
         Ok(c) => c,
-        Err(e) => return (None, format!("skipped: cannot run python3 ({e})"), None),
+        Err(e) => return Baseline::skipped(format!("skipped: cannot run python3 ({e})")),
     };
     // The script enforces its own timeout; this is a safety net.
     let deadline = Instant::now() + Duration::from_secs_f64(timeout + 60.0);
@@ -116,42 +111,45 @@ fn sympy_run(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: 
             Ok(Some(_)) => break,
             Ok(None) if Instant::now() > deadline => {
                 let _ = child.kill();
-                return (Some(timeout), "timeout".into(), None);
+                return Baseline {
+                    seconds: Some(timeout),
+                    ..Baseline::skipped("timeout".into())
+                };
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(50)),
-            Err(e) => return (None, format!("skipped: {e}"), None),
+            Err(e) => return Baseline::skipped(format!("skipped: {e}")),
         }
     }
-    let out = match child.wait_with_output() {
-        Ok(o) => o,
-        Err(e) => return (None, format!("skipped: {e}"), None),
-    };
+    match child.wait_with_output() {
+        Ok(out) => parse_output(&out),
+        Err(e) => Baseline::skipped(format!("skipped: {e}")),
+    }
+}
+
+/// The script's one JSON line (exit status 3: SymPy is missing).
+fn parse_output(out: &std::process::Output) -> Baseline {
     if out.status.code() == Some(3) {
-        return (
-            None,
-            "skipped: SymPy is not installed (pip install sympy)".into(),
-            None,
-        );
+        return Baseline::skipped("skipped: SymPy is not installed (pip install sympy)".into());
     }
     let text = String::from_utf8_lossy(&out.stdout);
-    let line = text.lines().rev().find(|l| l.trim_start().starts_with('{'));
-    match line.and_then(|l| serde_json::from_str::<serde_json::Value>(l).ok()) {
-        Some(v) => {
-            let status = v["status"].as_str().unwrap_or("?").to_string();
-            let chars = v["a_gamma_chars"].as_u64().map(|c| c as usize);
-            (v["seconds"].as_f64(), status, chars)
-        }
-        None => (
-            None,
-            format!(
-                "skipped: the script failed: {}",
-                String::from_utf8_lossy(&out.stderr)
-                    .lines()
-                    .last()
-                    .unwrap_or("")
-            ),
-            None,
-        ),
+    let json = text
+        .lines()
+        .rev()
+        .find_map(|l| serde_json::from_str::<serde_json::Value>(l.trim()).ok());
+    match json {
+        Some(v) => Baseline {
+            seconds: v["seconds"].as_f64(),
+            status: v["status"].as_str().unwrap_or("?").to_string(),
+            a_gamma_chars: v["a_gamma_chars"].as_u64().map(|c| c as usize),
+            ratio: None,
+        },
+        None => Baseline::skipped(format!(
+            "skipped: the script failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+        )),
     }
 }
 

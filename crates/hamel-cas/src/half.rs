@@ -294,19 +294,9 @@ pub(crate) fn half_factors(f: &FieldInner, p: &Poly) -> HalfFactors {
 }
 
 /// num / (c · ∏ bᵢ^eᵢ) in canonical form, given the factorisations of the bᵢ: trial division
-/// of the numerator's image by the known prime factors of the denominator's, instead of a gcd.
-pub(crate) fn canonical_over(
-    f: &FieldInner,
-    num: &Poly,
-    c: &Poly,
-    dens: &[(&HalfFactors, u32)],
-) -> (Poly, Poly) {
-    let (n, d, _) = canonical_over_factored(f, num, c, dens);
-    (n, d)
-}
-
-/// [`canonical_over`], with the half-angle factorisation of the resulting denominator (for
-/// printing it factored without factoring it again).
+/// of the numerator's image by the known prime factors of the denominator's, instead of a gcd;
+/// with the half-angle factorisation of the resulting denominator (for printing it factored
+/// without factoring it again).
 pub(crate) fn canonical_over_factored(
     f: &FieldInner,
     num: &Poly,

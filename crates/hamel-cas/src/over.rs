@@ -16,7 +16,7 @@ use std::rc::Rc;
 use symbolica::prelude::Factorize;
 
 use crate::field::{Ex, Field, Poly};
-use crate::half::{HalfFactors, canonical_over, canonical_over_factored, half_factors, has_angles};
+use crate::half::{HalfFactors, canonical_over_factored, half_factors, has_angles};
 
 struct Inner {
     field: Field,
@@ -27,6 +27,9 @@ struct Inner {
     /// The half-angle factorisation of each base (memo; [`crate::half::half_factors`]).
     half: RefCell<HashMap<usize, Rc<HalfFactors>>>,
 }
+
+/// Numerator, exponents of the factors and integer denominator ([`Over::lowest_terms`]).
+type Lowest = (Poly, Vec<u32>, Poly);
 
 /// A shared list of denominator factors. Cheap to clone.
 #[derive(Clone)]
@@ -163,14 +166,15 @@ impl Over {
     /// The value as a plain tree, in lowest terms, the denominator as a product of factors.
     pub fn to_expr(&self) -> hamel_expr::Expr {
         match self.canonical_factored() {
-            Some((e, hf)) => crate::export::to_expr_with(&e, &hf),
-            None => self.to_ex().to_expr(),
+            Ok((e, hf)) => crate::export::to_expr_with(&e, &hf),
+            Err(lowest) => self.plain(lowest).to_expr(),
         }
     }
 
     /// The value in normal form through the half-angle ring, with its denominator's half-angle
-    /// factorisation (`None` where [`Over::to_ex`] does not use the half-angle ring).
-    fn canonical_factored(&self) -> Option<(Ex, HalfFactors)> {
+    /// factorisation; where the half-angle ring is not needed, the lowest terms of
+    /// [`Over::lowest_terms`] instead.
+    fn canonical_factored(&self) -> Result<(Ex, HalfFactors), Lowest> {
         let field = &self.inner().field;
         let fi = field.inner();
         let (num, exps, cden) = self.lowest_terms();
@@ -180,7 +184,7 @@ impl Over {
             || used.is_empty()
             || !(has_angles(fi, &num) || used.iter().any(|&j| has_angles(fi, &bases[j])))
         {
-            return None;
+            return Err((num, exps, cden));
         }
         let factors: Vec<(Rc<HalfFactors>, u32)> = used
             .iter()
@@ -189,7 +193,7 @@ impl Over {
         let refs: Vec<(&HalfFactors, u32)> =
             factors.iter().map(|(h, e)| (h.as_ref(), *e)).collect();
         let (num, den, hf) = canonical_over_factored(fi, &num, &cden, &refs);
-        Some((
+        Ok((
             Ex {
                 f: field.0.clone(),
                 num,
@@ -200,7 +204,7 @@ impl Over {
     }
 
     /// Numerator, exponents and integer denominator in lowest terms.
-    fn lowest_terms(&self) -> (Poly, Vec<u32>, Poly) {
+    fn lowest_terms(&self) -> Lowest {
         let fi = self.inner().field.inner();
         let bases = self.inner().bases.borrow().clone();
         let mut num = self.num.clone();
@@ -238,29 +242,18 @@ impl Over {
     /// trial division by the factors' (memoised) half-angle factorisations; otherwise the
     /// integer content.
     pub fn to_ex(&self) -> Ex {
+        match self.canonical_factored() {
+            Ok((e, _)) => e,
+            Err(lowest) => self.plain(lowest),
+        }
+    }
+
+    /// Lowest terms without sin or cos in a fraction: the factors multiplied out (reduced when
+    /// a square-root kernel is among them).
+    fn plain(&self, (num, exps, cden): Lowest) -> Ex {
         let field = &self.inner().field;
         let fi = field.inner();
-        let (num, exps, cden) = self.lowest_terms();
         let bases = self.inner().bases.borrow().clone();
-        let used: Vec<usize> = (0..exps.len()).filter(|&j| exps[j] > 0).collect();
-        // A polynomial over an integer is canonical up to its content (as in `finish`).
-        if !num.is_zero()
-            && !used.is_empty()
-            && (has_angles(fi, &num) || used.iter().any(|&j| has_angles(fi, &bases[j])))
-        {
-            let factors: Vec<(Rc<HalfFactors>, u32)> = used
-                .iter()
-                .map(|&j| (self.base_half(j, &bases[j]), exps[j]))
-                .collect();
-            let refs: Vec<(&HalfFactors, u32)> =
-                factors.iter().map(|(h, e)| (h.as_ref(), *e)).collect();
-            let (num, den) = canonical_over(fi, &num, &cden, &refs);
-            return Ex {
-                f: field.0.clone(),
-                num,
-                den,
-            };
-        }
         let mut den = cden;
         for (j, &e) in exps.iter().enumerate() {
             for _ in 0..e {
