@@ -22,6 +22,7 @@ mod half;
 pub mod linalg;
 pub mod over;
 mod print;
+mod screen;
 mod worker;
 
 pub use field::{Ex, Field, FieldSpec};
