@@ -73,7 +73,7 @@ impl HalfRing {
     }
 
     /// 1 + t² for angle `a`.
-    fn h(&self, a: usize) -> Poly {
+    pub(crate) fn h(&self, a: usize) -> Poly {
         let t = self.var(self.t[a]);
         &self.zero.one() + &(&t * &t)
     }
@@ -276,9 +276,15 @@ fn half_pair(f: &FieldInner, n: &Poly, d: &Poly) -> (Poly, Poly) {
 /// in the field ([`from_half`]).
 pub(crate) fn canonical(f: &FieldInner, n: &Poly, d: &Poly) -> (Poly, Poly) {
     let (fn_, gd) = half_pair(f, n, d);
-    let g = fn_.gcd(&gd);
+    lowest_terms(f, &fn_, &gd)
+}
+
+/// The canonical N/D of the half-angle-ring quotient f/g (g ≠ 0): lowest terms there, then
+/// back to the field ([`from_half`]).
+pub(crate) fn lowest_terms(f: &FieldInner, fn_: &Poly, gd: &Poly) -> (Poly, Poly) {
+    let g = fn_.gcd(gd);
     if g.is_one() {
-        from_half(f, &fn_, &gd)
+        from_half(f, fn_, gd)
     } else {
         from_half(f, &fn_.quot_rem(&g, false).0, &gd.quot_rem(&g, false).0)
     }

@@ -14,6 +14,7 @@
 //! escape the worker thread.
 #![warn(missing_docs)]
 
+mod bareiss;
 mod convert;
 pub mod evaluator;
 mod export;

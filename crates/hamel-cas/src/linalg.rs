@@ -1,7 +1,7 @@
 //! Matrices over a field of expressions: products, exact inverse, determinant and rank.
 
 use crate::CasError;
-use crate::field::{Ex, Field};
+use crate::field::{Ex, Field, Poly};
 
 /// A dense matrix of expressions, row-major.
 #[derive(Clone, PartialEq)]
@@ -259,8 +259,30 @@ impl Matrix {
 
     /// The inverse and the determinant of a square matrix; `None` when the determinant is
     /// identically zero.
+    ///
+    /// By fraction-free elimination in the half-angle ring ([`crate::bareiss`]); fields with
+    /// square-root kernels by Gauss–Jordan in the field, each step in lowest terms.
     pub fn inverse(&self) -> Result<Option<(Matrix, Ex)>, CasError> {
         assert_eq!(self.rows, self.cols, "inverse of a non-square matrix");
+        let field = self.data[0].field();
+        let entries: Vec<(&Poly, &Poly)> = self.data.iter().map(|e| (&e.num, &e.den)).collect();
+        if let Ok(result) = crate::bareiss::inverse(field.inner(), self.rows, &entries) {
+            let ex = |(num, den): (Poly, Poly)| Ex {
+                f: field.0.clone(),
+                num,
+                den,
+            };
+            return Ok(result.map(|(inv, det)| {
+                let mut it = inv.into_iter();
+                let m = Matrix::from_fn(self.rows, self.cols, |_, _| ex(it.next().expect("n²")));
+                (m, ex(det))
+            }));
+        }
+        self.inverse_gauss_jordan()
+    }
+
+    /// [`Matrix::inverse`] by Gauss–Jordan over the field, every step in lowest terms.
+    pub(crate) fn inverse_gauss_jordan(&self) -> Result<Option<(Matrix, Ex)>, CasError> {
         let field = self.data[0].field();
         let id = Matrix::identity(&field, self.rows);
         let (_, inv, rank, det) = self.eliminate(Some(&id))?;
