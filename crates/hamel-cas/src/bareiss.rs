@@ -164,7 +164,7 @@ pub(crate) fn inverse(
 
 #[cfg(test)]
 mod tests {
-    use crate::{Field, FieldSpec, Matrix, run};
+    use crate::{Matrix, run};
     use hamel_expr::parse;
 
     /// Matrices like [Z; α]: trigonometric rows, parameters, fractions, a row that needs a
@@ -220,15 +220,7 @@ mod tests {
     fn fraction_free_inverse_equals_gauss_jordan_and_applies() {
         let n = run(|| {
             let all: Vec<&str> = MATRICES.iter().flat_map(|m| m.iter().copied()).collect();
-            let f = Field::new(&FieldSpec {
-                coordinates: vec!["x".into(), "theta".into(), "phi".into()],
-                parameters: vec!["m".into(), "l".into()],
-                free_functions: vec![],
-                free_order: 0,
-                unknowns: vec![],
-                expressions: all.iter().map(|s| parse(s).unwrap().expr).collect(),
-            })
-            .unwrap();
+            let f = crate::half::tests::field_of(&all);
             let mut checked = 0;
             for (k, texts) in MATRICES.iter().enumerate() {
                 let m = Matrix::from_fn(3, 3, |i, j| {

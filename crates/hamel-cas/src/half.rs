@@ -94,16 +94,7 @@ pub(crate) fn has_angles(f: &FieldInner, p: &Poly) -> bool {
 /// total degree of p in (sin u_a, cos u_a) per angle.
 pub(crate) fn to_half(f: &FieldInner, p: &Poly) -> (Poly, Vec<usize>) {
     let hr = &f.half;
-    let m: Vec<usize> = f
-        .angles
-        .iter()
-        .map(|av| {
-            p.into_iter()
-                .map(|t| (t.exponents[av.sin] + t.exponents[av.cos]) as usize)
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
+    let m = angle_degrees(f, p);
     // Group by the (sin, cos) exponents of every angle: p = Σ_K s^i c^j p_K.
     let mut groups: HashMap<Vec<(u16, u16)>, Poly> = HashMap::new();
     let mut exps = vec![0u16; hr.back.len()];
@@ -682,16 +673,7 @@ fn denominator_factors(
     cden: Poly,
     primes: &[(HalfPrime, i64)],
 ) -> HalfFactors {
-    let m: Vec<usize> = f
-        .angles
-        .iter()
-        .map(|av| {
-            d.into_iter()
-                .map(|t| (t.exponents[av.sin] + t.exponents[av.cos]) as usize)
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
+    let m = angle_degrees(f, d);
     let mut out: Vec<HalfPrime> = Vec::new();
     for (a, h) in hs.iter().enumerate() {
         let k = primes
@@ -933,7 +915,7 @@ pub(crate) fn trig_factors_of(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     //! The way back through preimages and the screen against the reference way back (the whole
     //! image mapped by [`to_field`], every trial division done).
     use super::*;
@@ -959,6 +941,11 @@ mod tests {
 
     fn field() -> Field {
         let all: Vec<&str> = FACTORS.iter().chain(BASES).copied().collect();
+        field_of(&all)
+    }
+
+    /// A field over x, θ, φ and the parameters m, l for these expressions.
+    pub(crate) fn field_of(all: &[&str]) -> Field {
         Field::new(&FieldSpec {
             coordinates: vec!["x".into(), "theta".into(), "phi".into()],
             parameters: vec!["m".into(), "l".into()],
