@@ -32,12 +32,7 @@ struct Augmented {
 }
 
 fn pow(p: &Poly, k: usize) -> Poly {
-    (0..k).fold(p.one(), |acc, _| &acc * p)
-}
-
-fn exact(p: &Poly, d: &Poly) -> Option<Poly> {
-    let (q, r) = p.quot_rem(d, false);
-    r.is_zero().then_some(q)
+    crate::half::pow(p, k, &p.one())
 }
 
 /// One row (N_j/D_j) of the matrix over one denominator: the row multiplied by
@@ -111,7 +106,7 @@ impl Augmented {
                 let aik = self.a[i][k].clone();
                 for j in (0..2 * n).filter(|&j| j != k) {
                     let t = &(&self.a[k][k] * &self.a[i][j]) - &(&aik * &self.a[k][j]);
-                    self.a[i][j] = exact(&t, &prev).ok_or(())?;
+                    self.a[i][j] = crate::half::exact_quotient(&t, &prev).ok_or(())?;
                     if self.a[i][j].nterms() > MINOR_TERMS {
                         return Err(());
                     }

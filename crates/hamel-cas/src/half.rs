@@ -79,7 +79,7 @@ impl HalfRing {
     }
 }
 
-fn pow(p: &Poly, k: usize, one: &Poly) -> Poly {
+pub(crate) fn pow(p: &Poly, k: usize, one: &Poly) -> Poly {
     (0..k).fold(one.clone(), |acc, _| &acc * p)
 }
 
@@ -820,7 +820,7 @@ impl Preimage {
 }
 
 /// p / d when d divides p as plain polynomials.
-fn exact_quotient(p: &Poly, d: &Poly) -> Option<Poly> {
+pub(crate) fn exact_quotient(p: &Poly, d: &Poly) -> Option<Poly> {
     let (q, r) = p.quot_rem(d, false);
     (r.is_zero() && &q * d == *p).then_some(q)
 }
