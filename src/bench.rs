@@ -247,3 +247,23 @@ pub fn table(rows: &[Row]) -> String {
     }
     s
 }
+
+/// Every `models/*.toml` of the repository, sorted.
+pub fn bundled_models() -> Result<Vec<PathBuf>, ModelError> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(|e| {
+            ModelError::new(
+                &dir.display().to_string(),
+                std::sync::Arc::new(String::new()),
+                None,
+                None,
+                format!("cannot list models: {e}"),
+            )
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    Ok(v)
+}

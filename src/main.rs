@@ -1,271 +1,26 @@
-//! `hamel`: the command-line front end.
+//! `hamel`: the command-line front end, a thin layer over the library crates.
 //!
 //! Each subcommand is one stage of the pipeline (model → derivation → analysis → code →
-//! simulation) run on a model file. Results go to stdout or to `--output FILE`; errors go to
-//! stderr with the file, the place and the reason, and a non-zero exit status; nothing is
+//! simulation) run on a model or scene file; the work is done by `hamel-derive`,
+//! `hamel-reduce`, `hamel-codegen` and `hamel-scene`, and this file only reads arguments,
+//! calls them and writes what they return. Results go to stdout or to `--output FILE`; errors
+//! go to stderr with the file, the place and the reason, and a non-zero exit status; nothing is
 //! written when a command fails.
 
 mod bench;
-mod choice;
-mod codegen;
+mod cli;
 mod output;
-mod plan;
-mod plot;
-mod scene_core;
 mod search;
-mod simulate;
-mod state;
-mod tradeoff;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::Parser;
 use hamel_model::{Model, ModelError};
 
+use crate::cli::{Cli, Command, Format, ReportFormat, SearchArgs, TableFormat, TrajectoryFormat};
 use crate::output::Output;
-
-#[derive(Parser)]
-#[command(
-    name = "hamel",
-    version,
-    about = "Boltzmann–Hamel equations of nonholonomic systems: derive, reduce, generate code, simulate"
-)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum Format {
-    Text,
-    Json,
-    Latex,
-}
-
-/// Output of `hamel bench`.
-#[derive(Clone, Copy, ValueEnum)]
-enum TableFormat {
-    /// A Markdown table.
-    Markdown,
-    Json,
-}
-
-/// Output of `hamel simulate`.
-#[derive(Clone, Copy, ValueEnum)]
-enum TrajectoryFormat {
-    Csv,
-    Json,
-}
-
-/// Output of `hamel reduce` and `hamel search`.
-#[derive(Clone, Copy, ValueEnum)]
-enum ReportFormat {
-    Text,
-    Json,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Derive the Boltzmann–Hamel equations of a model: Γ, Θ, δ, A_Γ, Q (true, paper's,
-    /// correction), the equations, the kinematic equations, the energy and the singular set.
-    Derive {
-        /// The model file (TOML).
-        model: PathBuf,
-        /// The quasi-velocity choice (a `[quasi_velocities.NAME]` of the model; default: the first).
-        #[arg(long)]
-        eta: Option<String>,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "text")]
-        format: Format,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
-    /// Decide which coordinates drop out of the equations: classification (31), block structure
-    /// (17)/(18), Properties 2.1–2.2, hypotheses H0–H6 with witnesses, the ground truth and the
-    /// reduced system.
-    Reduce {
-        /// The model file (TOML).
-        model: PathBuf,
-        /// The quasi-velocity choice (default: the first).
-        #[arg(long)]
-        eta: Option<String>,
-        /// Coordinates to eliminate, comma-separated (e.g. `x,y,theta`).
-        #[arg(long, value_delimiter = ',', required = true)]
-        eliminate: Vec<String>,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "text")]
-        format: ReportFormat,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
-    /// Write the equations as a standalone Rust crate (straight-line f64 code, an engine-free
-    /// runtime, an `eval` binary): the full and, with --eliminate, the reduced system.
-    Codegen {
-        /// The model file (TOML).
-        model: PathBuf,
-        /// The quasi-velocity choice (default: the first).
-        #[arg(long)]
-        eta: Option<String>,
-        /// Coordinates to eliminate (checked exactly, as `hamel reduce` does).
-        #[arg(long, value_delimiter = ',')]
-        eliminate: Vec<String>,
-        /// Directory of the crate to write.
-        #[arg(long)]
-        out: PathBuf,
-        /// Overwrite the generated files of a non-empty directory.
-        #[arg(long)]
-        force: bool,
-        /// Also write a `simulate` binary (vendors the integrators into the crate).
-        #[arg(long)]
-        with_simulator: bool,
-    },
-    /// Integrate a scene (model, quasi-velocities, parameters, initial state, integrator) and
-    /// write the trajectory; a one-line summary goes to stderr.
-    Simulate {
-        /// The scene file (TOML); its `model` path is relative to it.
-        scene: PathBuf,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "csv")]
-        format: TrajectoryFormat,
-        /// Write the trajectory to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-        /// Also draw the coordinates and quasi-velocities against time (FILE.svg or FILE.png).
-        #[arg(long)]
-        plot: Option<PathBuf>,
-        /// `compiled`: the scene's generated core, specialised for its parameters, built with
-        /// cargo on first use and cached (falls back to `interpreted`, with a warning, when it
-        /// cannot be built); `interpreted`: the structured evaluator, nothing compiled.
-        #[arg(long, value_enum, default_value = "compiled")]
-        engine: simulate::Engine,
-        /// Estimate the global error on the requested outputs with a check run (1/1000 of the
-        /// tolerances, or half the step) and report it (stderr, and `stats.error_estimate`).
-        /// Done without asking when a tolerance is loose (≥ 1e-3).
-        #[arg(long)]
-        estimate_error: bool,
-    },
-    /// Plan a scene: from the outputs it requests, which coordinates are integrated,
-    /// reconstructed or dropped, and the operation count of the right-hand side (all decided
-    /// exactly).
-    Plan {
-        /// The scene file (TOML).
-        scene: PathBuf,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "text")]
-        format: ReportFormat,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-        /// Also measure the plan: integrate the scene on its compiled core and the full
-        /// unreduced system (every coordinate, parameters not specialised) on its own compiled
-        /// core with the same integrator, and report both times and the largest difference
-        /// of the requested outputs.
-        #[arg(long)]
-        measure: bool,
-    },
-    /// Measure the speed–accuracy trade on a scene: every integrator over a range of
-    /// tolerances and fixed steps against a DOP853 reference at 1e-14; error on the requested
-    /// outputs, time, RHS evaluations, drifts; the fastest setting that meets the target.
-    Tradeoff {
-        /// The scene file (TOML).
-        scene: PathBuf,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "text")]
-        format: ReportFormat,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-        /// Also draw the work–precision diagram (FILE.svg or FILE.png).
-        #[arg(long)]
-        plot: Option<PathBuf>,
-        /// Instead, write the planned system as Python with the reference solution and hamel's
-        /// adaptive runs, for `bench/scipy_tradeoff.py` (JSON).
-        #[arg(long, conflicts_with_all = ["plot", "format"])]
-        export_python: Option<PathBuf>,
-        /// What the timed runs evaluate: the scene's compiled core (as `hamel simulate` runs
-        /// it; the interpreted evaluator, with a warning, when it cannot be built) or the
-        /// interpreted evaluator.
-        #[arg(long, value_enum, default_value = "compiled")]
-        engine: simulate::Engine,
-    },
-    /// Search for quasi-velocities that eliminate the given coordinates from the true
-    /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
-    Search {
-        /// The model file (TOML).
-        model: PathBuf,
-        /// Coordinates to eliminate, comma-separated.
-        #[arg(long, value_delimiter = ',', required = true)]
-        eliminate: Vec<String>,
-        /// Time budget in seconds for the whole command: it returns within the budget plus
-        /// about a second, with what it found and why it stopped (an exact check under way at
-        /// the deadline is abandoned, and named).
-        #[arg(long, default_value_t = 60.0)]
-        budget: f64,
-        /// Most reducing choices to collect from the finite ansatz.
-        #[arg(long, default_value_t = 12)]
-        max: usize,
-        /// Progress on stderr.
-        #[arg(long, value_enum, default_value = "auto")]
-        progress: search::ProgressMode,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "text")]
-        format: ReportFormat,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
-    /// The worker process of `hamel search` (internal: its output is a protocol).
-    #[command(hide = true)]
-    SearchWorker {
-        model: PathBuf,
-        #[arg(long, value_delimiter = ',', required = true)]
-        eliminate: Vec<String>,
-        #[arg(long)]
-        budget: f64,
-        #[arg(long)]
-        max: usize,
-    },
-    /// Evaluate the derived equations at states given as JSON: η̇ (true and paper's), q̇, energy.
-    Eval {
-        /// The model file (TOML).
-        model: PathBuf,
-        /// The quasi-velocity choice (default: the first).
-        #[arg(long)]
-        eta: Option<String>,
-        /// JSON file with one state object or a list of them (`-` for stdin):
-        /// {"q": {"x": 0.1, …}, "eta": [1.0, 0.5], "params": {"m": 2.0}, "functions": {"z13": "…"}}.
-        #[arg(long)]
-        state: String,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
-    /// Time the derivation of every model and choice; with --sympy, SymPy does the same
-    /// derivation in the same run as the baseline (bench/sympy_derive.py).
-    Bench {
-        /// Model files (default: every models/*.toml).
-        models: Vec<PathBuf>,
-        /// Derivations per model and choice (the median is reported).
-        #[arg(long, default_value_t = 5)]
-        repeat: usize,
-        /// Also run the SymPy baseline (needs python3 with sympy).
-        #[arg(long)]
-        sympy: bool,
-        /// Time limit for each SymPy derivation, seconds.
-        #[arg(long, default_value_t = 300.0)]
-        timeout: f64,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "markdown")]
-        format: TableFormat,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
-}
 
 fn main() -> ExitCode {
     // One line per message (`file:line:col: key: reason`), then the source snippet.
@@ -273,7 +28,7 @@ fn main() -> ExitCode {
         Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())
     }));
     let cli = Cli::parse();
-    match run(cli) {
+    match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("{:?}", miette::Report::new(e));
@@ -282,58 +37,27 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<(), ModelError> {
-    match cli.command {
+fn run(command: Command) -> Result<(), ModelError> {
+    match command {
         Command::Derive {
             model,
             eta,
             format,
             output,
-        } => {
-            let out = Output::new(output)?;
-            let model = choice::load_for(&model, eta.as_deref())?;
-            let started = Instant::now();
-            let d = hamel_derive::derive(&model, eta.as_deref())?;
-            eprintln!(
-                "derived {} with quasi-velocities `{}` in {:.3} s",
-                d.model,
-                d.eta_name,
-                started.elapsed().as_secs_f64()
-            );
-            let text = match format {
-                Format::Text => d.to_text(),
-                Format::Latex => d.to_latex(),
-                Format::Json => {
-                    serde_json::to_string_pretty(&d.json()).expect("serialisable") + "\n"
-                }
-            };
-            out.write(&text)
-        }
+        } => derive(&model, eta.as_deref(), format, Output::new(output)?),
         Command::Reduce {
             model,
             eta,
             eliminate,
             format,
             output,
-        } => {
-            let out = Output::new(output)?;
-            let model = choice::load_for(&model, eta.as_deref())?;
-            let started = Instant::now();
-            let r = hamel_reduce::reduce(&model, eta.as_deref(), &eliminate)?;
-            eprintln!(
-                "analysed {} with quasi-velocities `{}` in {:.3} s",
-                r.model,
-                r.eta_name,
-                started.elapsed().as_secs_f64()
-            );
-            let text = match format {
-                ReportFormat::Text => r.to_text(),
-                ReportFormat::Json => {
-                    serde_json::to_string_pretty(&r).expect("serialisable") + "\n"
-                }
-            };
-            out.write(&text)
-        }
+        } => reduce(
+            &model,
+            eta.as_deref(),
+            &eliminate,
+            format,
+            Output::new(output)?,
+        ),
         Command::Simulate {
             scene,
             format,
@@ -343,63 +67,22 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             estimate_error,
         } => {
             let out = Output::new(output)?;
-            plot::check(plot.as_deref())?;
-            let (traj, failure) = simulate::run(&scene, engine, estimate_error)?;
-            let text = match format {
-                TrajectoryFormat::Csv => traj.to_csv(),
-                TrajectoryFormat::Json => {
-                    serde_json::to_string_pretty(&traj).expect("serialisable") + "\n"
-                }
-            };
-            // A failure during the integration keeps what was computed, marked incomplete.
-            out.write(&text)?;
-            if let Some(p) = &plot {
-                plot::write(p, &traj)?;
-            }
-            eprintln!("{}", traj.summary());
-            match failure {
-                Some(e) => Err(e),
-                None => Ok(()),
-            }
+            hamel_scene::plot::check(plot.as_deref())?;
+            simulate(
+                &scene,
+                format,
+                out,
+                plot.as_deref(),
+                engine.into(),
+                estimate_error,
+            )
         }
         Command::Plan {
             scene,
             format,
             output,
             measure,
-        } => {
-            let out = Output::new(output)?;
-            let loaded = simulate::load(&scene)?;
-            let measured = if measure {
-                Some(simulate::measure_plan(&loaded)?)
-            } else {
-                None
-            };
-            let plan = &loaded.plan;
-            out.write(&match format {
-                ReportFormat::Text => {
-                    plan.to_text()
-                        + measured
-                            .as_ref()
-                            .map_or(String::new(), |m| m.to_text())
-                            .as_str()
-                }
-                ReportFormat::Json => {
-                    #[derive(serde::Serialize)]
-                    struct Measured<'a> {
-                        #[serde(flatten)]
-                        plan: &'a plan::Plan,
-                        #[serde(skip_serializing_if = "Option::is_none")]
-                        measured: Option<&'a simulate::Measured>,
-                    }
-                    let v = Measured {
-                        plan,
-                        measured: measured.as_ref(),
-                    };
-                    serde_json::to_string_pretty(&v).expect("serialisable") + "\n"
-                }
-            })
-        }
+        } => plan(&scene, format, Output::new(output)?, measure),
         Command::Tradeoff {
             scene,
             format,
@@ -407,29 +90,14 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             plot,
             export_python,
             engine,
-        } => {
-            if let Some(file) = export_python {
-                let out = Output::new(Some(file))?;
-                let loaded = simulate::load(&scene)?;
-                let v = tradeoff::export_python(&loaded, engine)?;
-                return out
-                    .write(&(serde_json::to_string_pretty(&v).expect("serialisable") + "\n"));
+        } => match export_python {
+            Some(file) => export_tradeoff(&scene, Output::new(Some(file))?, engine.into()),
+            None => {
+                let out = Output::new(output)?;
+                hamel_scene::plot::check(plot.as_deref())?;
+                tradeoff(&scene, format, out, plot.as_deref(), engine.into())
             }
-            let out = Output::new(output)?;
-            plot::check(plot.as_deref())?;
-            let loaded = simulate::load(&scene)?;
-            let table = tradeoff::table(&loaded, tradeoff::Range::All, engine)?;
-            out.write(&match format {
-                ReportFormat::Text => table.to_text(),
-                ReportFormat::Json => {
-                    serde_json::to_string_pretty(&table).expect("serialisable") + "\n"
-                }
-            })?;
-            if let Some(p) = &plot {
-                plot::write_tradeoff(p, &table)?;
-            }
-            Ok(())
-        }
+        },
         Command::Codegen {
             model,
             eta,
@@ -438,59 +106,16 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             force,
             with_simulator,
         } => {
-            let started = Instant::now();
-            let w = codegen::run(
-                &model,
-                eta.as_deref(),
-                &eliminate,
-                &out,
+            let options = hamel_codegen::write::WriteOptions {
                 force,
                 with_simulator,
-            )?;
-            eprintln!(
-                "wrote {} files to {} in {:.2} s; ingredients: {} operations as trees, {} shared",
-                w.files,
-                out.display(),
-                started.elapsed().as_secs_f64(),
-                w.ops_trees,
-                w.ops_shared
-            );
-            Ok(())
+            };
+            codegen(&model, eta.as_deref(), &eliminate, &out, options)
         }
-        Command::Search {
-            model,
-            eliminate,
-            budget,
-            max,
-            progress,
-            format,
-            output,
-        } => {
+        Command::Search(args) => {
             // The budget counts from here.
             let started = Instant::now();
-            let out = Output::new(output)?;
-            let loaded = Model::load(&model)?;
-            if !(budget.is_finite() && budget > 0.0) {
-                return Err(loaded.error(format!(
-                    "--budget must be a positive number of seconds, got {budget}"
-                )));
-            }
-            let budget = std::time::Duration::from_secs_f64(budget);
-            let job = search::Job {
-                model_path: &model,
-                model: &loaded,
-                eliminate: &eliminate,
-                budget,
-                max,
-                started,
-            };
-            let r = search::run(&job, progress)?;
-            out.write(&match format {
-                ReportFormat::Text => r.to_text(),
-                ReportFormat::Json => {
-                    serde_json::to_string_pretty(&r).expect("serialisable") + "\n"
-                }
-            })
+            search(args, started)
         }
         Command::SearchWorker {
             model,
@@ -500,19 +125,14 @@ fn run(cli: Cli) -> Result<(), ModelError> {
         } => {
             let model = Model::load(&model)?;
             let budget = std::time::Duration::from_secs_f64(budget.max(0.0));
-            search::work(&model, &eliminate, budget, max)
+            hamel_reduce::supervised::work(&model, &eliminate, budget, max)
         }
         Command::Eval {
             model,
             eta,
             state,
             output,
-        } => {
-            let out = Output::new(output)?;
-            let model = choice::load_for(&model, eta.as_deref())?;
-            let text = state::eval(&model, eta.as_deref(), &state)?;
-            out.write(&text)
-        }
+        } => eval(&model, eta.as_deref(), &state, Output::new(output)?),
         Command::Bench {
             models,
             repeat,
@@ -520,41 +140,220 @@ fn run(cli: Cli) -> Result<(), ModelError> {
             timeout,
             format,
             output,
-        } => {
-            let out = Output::new(output)?;
-            let models = if models.is_empty() {
-                bundled_models()?
-            } else {
-                models
-            };
-            let rows = bench::run(&models, repeat, sympy, timeout)?;
-            let text = match format {
-                TableFormat::Json => {
-                    serde_json::to_string_pretty(&rows).expect("serialisable") + "\n"
-                }
-                TableFormat::Markdown => bench::table(&rows),
-            };
-            out.write(&text)
-        }
+        } => bench(models, repeat, sympy, timeout, format, Output::new(output)?),
     }
 }
 
-/// Every `models/*.toml` of the repository, sorted.
-fn bundled_models() -> Result<Vec<PathBuf>, ModelError> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models");
-    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .map_err(|e| {
-            ModelError::new(
-                &dir.display().to_string(),
-                std::sync::Arc::new(String::new()),
-                None,
-                None,
-                format!("cannot list models: {e}"),
-            )
-        })?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    v.sort();
-    Ok(v)
+/// Pretty JSON, with the final newline.
+fn json<T: serde::Serialize>(value: &T) -> String {
+    serde_json::to_string_pretty(value).expect("serialisable") + "\n"
+}
+
+/// Load a model for a command that uses the choice `eta`; when that choice is the default
+/// hamel took (the file names no quasi-velocities), say so on stderr, with the table to paste.
+fn load_for(path: &Path, eta: Option<&str>) -> Result<Model, ModelError> {
+    let model = Model::load(path)?;
+    if let Some(note) = model
+        .choice(eta)
+        .ok()
+        .and_then(|c| model.default_choice_note(c))
+    {
+        eprintln!("{note}");
+    }
+    Ok(model)
+}
+
+fn derive(path: &Path, eta: Option<&str>, format: Format, out: Output) -> Result<(), ModelError> {
+    let model = load_for(path, eta)?;
+    let started = Instant::now();
+    let d = hamel_derive::derive(&model, eta)?;
+    eprintln!(
+        "derived {} with quasi-velocities `{}` in {:.3} s",
+        d.model,
+        d.eta_name,
+        started.elapsed().as_secs_f64()
+    );
+    out.write(&match format {
+        Format::Text => d.to_text(),
+        Format::Latex => d.to_latex(),
+        Format::Json => json(&d.json()),
+    })
+}
+
+fn reduce(
+    path: &Path,
+    eta: Option<&str>,
+    eliminate: &[String],
+    format: ReportFormat,
+    out: Output,
+) -> Result<(), ModelError> {
+    let model = load_for(path, eta)?;
+    let started = Instant::now();
+    let r = hamel_reduce::reduce(&model, eta, eliminate)?;
+    eprintln!(
+        "analysed {} with quasi-velocities `{}` in {:.3} s",
+        r.model,
+        r.eta_name,
+        started.elapsed().as_secs_f64()
+    );
+    out.write(&match format {
+        ReportFormat::Text => r.to_text(),
+        ReportFormat::Json => json(&r),
+    })
+}
+
+fn simulate(
+    scene: &Path,
+    format: TrajectoryFormat,
+    out: Output,
+    plot: Option<&Path>,
+    engine: hamel_scene::Engine,
+    estimate_error: bool,
+) -> Result<(), ModelError> {
+    let (traj, failure) = hamel_scene::simulate::run(scene, engine, estimate_error)?;
+    // A failure during the integration keeps what was computed, marked incomplete.
+    out.write(&match format {
+        TrajectoryFormat::Csv => traj.to_csv(),
+        TrajectoryFormat::Json => json(&traj),
+    })?;
+    if let Some(p) = plot {
+        hamel_scene::plot::write(p, &traj)?;
+    }
+    eprintln!("{}", traj.summary());
+    failure.map_or(Ok(()), Err)
+}
+
+fn plan(scene: &Path, format: ReportFormat, out: Output, measure: bool) -> Result<(), ModelError> {
+    let loaded = hamel_scene::load(scene)?;
+    let measured = if measure {
+        Some(hamel_scene::measure::measure_plan(&loaded)?)
+    } else {
+        None
+    };
+    let plan = &loaded.plan;
+    out.write(&match format {
+        ReportFormat::Text => {
+            plan.to_text()
+                + measured
+                    .as_ref()
+                    .map_or(String::new(), |m| m.to_text())
+                    .as_str()
+        }
+        ReportFormat::Json => {
+            #[derive(serde::Serialize)]
+            struct Measured<'a> {
+                #[serde(flatten)]
+                plan: &'a hamel_scene::Plan,
+                #[serde(skip_serializing_if = "Option::is_none")]
+                measured: Option<&'a hamel_scene::measure::Measured>,
+            }
+            json(&Measured {
+                plan,
+                measured: measured.as_ref(),
+            })
+        }
+    })
+}
+
+fn tradeoff(
+    scene: &Path,
+    format: ReportFormat,
+    out: Output,
+    plot: Option<&Path>,
+    engine: hamel_scene::Engine,
+) -> Result<(), ModelError> {
+    let loaded = hamel_scene::load(scene)?;
+    let table = hamel_scene::tradeoff::table(&loaded, hamel_scene::tradeoff::Range::All, engine)?;
+    out.write(&match format {
+        ReportFormat::Text => table.to_text(),
+        ReportFormat::Json => json(&table),
+    })?;
+    if let Some(p) = plot {
+        hamel_scene::plot::write_tradeoff(p, &table)?;
+    }
+    Ok(())
+}
+
+fn export_tradeoff(
+    scene: &Path,
+    out: Output,
+    engine: hamel_scene::Engine,
+) -> Result<(), ModelError> {
+    let loaded = hamel_scene::load(scene)?;
+    out.write(&json(&hamel_scene::tradeoff::export_python(
+        &loaded, engine,
+    )?))
+}
+
+fn codegen(
+    path: &Path,
+    eta: Option<&str>,
+    eliminate: &[String],
+    out: &Path,
+    options: hamel_codegen::write::WriteOptions,
+) -> Result<(), ModelError> {
+    let started = Instant::now();
+    let model = load_for(path, eta)?;
+    let w = hamel_codegen::write::write_crate(&model, eta, eliminate, out, options)?;
+    eprintln!(
+        "wrote {} files to {} in {:.2} s; ingredients: {} operations as trees, {} shared",
+        w.files,
+        out.display(),
+        started.elapsed().as_secs_f64(),
+        w.ops_trees,
+        w.ops_shared
+    );
+    Ok(())
+}
+
+fn search(args: SearchArgs, started: Instant) -> Result<(), ModelError> {
+    let out = Output::new(args.output)?;
+    let model = Model::load(&args.model)?;
+    let budget = args.budget;
+    if !(budget.is_finite() && budget > 0.0) {
+        return Err(model.error(format!(
+            "--budget must be a positive number of seconds, got {budget}"
+        )));
+    }
+    let job = hamel_reduce::supervised::Job {
+        model_path: &args.model,
+        model: &model,
+        eliminate: &args.eliminate,
+        budget: std::time::Duration::from_secs_f64(budget),
+        max: args.max,
+        started,
+    };
+    let r = search::run(&job, args.progress)?;
+    out.write(&match args.format {
+        ReportFormat::Text => r.to_text(),
+        ReportFormat::Json => json(&r),
+    })
+}
+
+fn eval(path: &Path, eta: Option<&str>, state: &str, out: Output) -> Result<(), ModelError> {
+    let model = load_for(path, eta)?;
+    let (file, text) = output::read_input(state)?;
+    out.write(&hamel_derive::states::evaluate_json(
+        &model, eta, &file, &text,
+    )?)
+}
+
+fn bench(
+    models: Vec<PathBuf>,
+    repeat: usize,
+    sympy: bool,
+    timeout: f64,
+    format: TableFormat,
+    out: Output,
+) -> Result<(), ModelError> {
+    let models = if models.is_empty() {
+        bench::bundled_models()?
+    } else {
+        models
+    };
+    let rows = bench::run(&models, repeat, sympy, timeout)?;
+    out.write(&match format {
+        TableFormat::Json => json(&rows),
+        TableFormat::Markdown => bench::table(&rows),
+    })
 }

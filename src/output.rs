@@ -60,3 +60,28 @@ impl Output {
         }
     }
 }
+
+/// The text of an input file, or of stdin for `-`: (its name for messages, the text).
+pub fn read_input(path: &str) -> Result<(String, String), ModelError> {
+    let (name, text) = if path == "-" {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut std::io::stdin(), &mut s).map(|_| ("<stdin>", s))
+    } else {
+        std::fs::read_to_string(path).map(|s| (path, s))
+    }
+    .map_err(|e| {
+        let (name, what) = if path == "-" {
+            ("<stdin>", "cannot read")
+        } else {
+            (path, "cannot read the file")
+        };
+        ModelError::new(
+            name,
+            Arc::new(String::new()),
+            None,
+            None,
+            format!("{what}: {e}"),
+        )
+    })?;
+    Ok((name.to_string(), text))
+}

@@ -9,6 +9,7 @@
 //!   with free functions kept symbolic and evaluated in double-double with the free functions'
 //!   values and first derivatives as inputs (in f64 their expanded forms cancel badly: see
 //!   docs/derivation.md).
+//!
 //! Choices with free functions use concrete test functions. The CAS runs in-process, on its one
 //! worker thread.
 

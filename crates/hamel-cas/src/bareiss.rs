@@ -14,8 +14,8 @@
 //! Fields with square-root kernels keep Gauss–Jordan in the field (their relations r² = G are
 //! not those of a polynomial ring).
 
-use crate::field::{FieldInner, Poly};
 use crate::half::{lowest_terms, to_half};
+use crate::vars::{FieldInner, Poly};
 
 /// The largest minor (in terms of the half-angle ring) the elimination lets grow before it
 /// gives way to Gauss–Jordan in the field. Minors are determinants, and a determinant that is

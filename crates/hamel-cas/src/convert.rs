@@ -22,7 +22,7 @@ use crate::CasError;
 use crate::field::{
     Angle, AngleVars, Ex, Field, FieldInner, FieldSpec, Kernel, Poly, Sym, VarKind,
 };
-use crate::half::HalfRing;
+use crate::vars::HalfRing;
 
 /// A rational constant value of a tree made only of numbers, if it is one.
 fn const_rational(e: &Expr) -> Option<Rational> {

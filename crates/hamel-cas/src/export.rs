@@ -9,7 +9,8 @@ use num_traits::{One, Signed};
 
 use symbolica::prelude::Factorize;
 
-use crate::field::{Angle, Ex, FieldInner, Poly, Sym, VarKind, integer_to_big};
+use crate::field::Ex;
+use crate::vars::{Angle, FieldInner, Poly, Sym, VarKind, integer_to_big};
 
 fn sym_name(f: &FieldInner, s: Sym) -> String {
     match s {
@@ -78,7 +79,7 @@ pub(crate) fn sorted_terms(p: &Poly) -> Vec<(BigInt, Vec<u16>)> {
     terms
 }
 
-fn monomial_factors(f: &FieldInner, exps: &[u16], var_cache: &mut Vec<Option<Expr>>) -> Vec<Expr> {
+fn monomial_factors(f: &FieldInner, exps: &[u16], var_cache: &mut [Option<Expr>]) -> Vec<Expr> {
     let mut out = Vec::new();
     for (v, &e) in exps.iter().enumerate() {
         if e == 0 {
@@ -95,12 +96,7 @@ fn monomial_factors(f: &FieldInner, exps: &[u16], var_cache: &mut Vec<Option<Exp
 }
 
 /// `p / scale` as a sum of terms with rational coefficients.
-fn poly_expr(
-    f: &FieldInner,
-    p: &Poly,
-    scale: Option<&BigInt>,
-    cache: &mut Vec<Option<Expr>>,
-) -> Expr {
+fn poly_expr(f: &FieldInner, p: &Poly, scale: Option<&BigInt>, cache: &mut [Option<Expr>]) -> Expr {
     let terms = sorted_terms(p);
     if terms.is_empty() {
         return Expr::int(0);
@@ -257,4 +253,12 @@ fn plain_factored(e: &Ex) -> Expr {
         return quotient_expr(&e.f, &e.num, &e.den, None);
     }
     factored_expr(&e.f, &e.num, &c, &factors)
+}
+
+impl Ex {
+    /// The expression as a plain tree (numerator over denominator, expanded), for printing,
+    /// numeric evaluation and code generation outside the worker.
+    pub fn to_expr(&self) -> Expr {
+        to_expr(self)
+    }
 }

@@ -26,8 +26,6 @@
 //! Arithmetic on large derivations runs without lowest terms ([`crate::over`]); the half-angle
 //! ring is used only to bring results to this normal form.
 
-use std::cell::RefCell;
-use std::collections::HashMap;
 use std::fmt;
 use std::rc::Rc;
 
@@ -36,61 +34,10 @@ use num_bigint::BigInt;
 use symbolica::prelude::*;
 
 use crate::CasError;
-
-/// Polynomials over the integers in the field variables.
-pub(crate) type Poly = MultivariatePolynomial<IntegerRing, u16>;
-
-/// A coordinate or a parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub(crate) enum Sym {
-    Coord(usize),
-    Param(usize),
-}
-
-/// What a field variable stands for.
-#[derive(Clone, Debug)]
-pub(crate) enum VarKind {
-    /// The coordinate itself (when it occurs outside sin/cos).
-    Coord(usize),
-    /// A parameter.
-    Param(usize),
-    /// der(q_i).
-    Velocity(usize),
-    /// sin of angle `a`.
-    Sin(usize),
-    /// cos of angle `a`.
-    Cos(usize),
-    /// A free function (index into `free`) differentiated `orders[j]` times in its j-th argument.
-    Free { func: usize, orders: Vec<u32> },
-    /// log, exp or sqrt of an argument (index into `kernels`).
-    Kernel(usize),
-    /// A plain symbol with no dependence on the coordinates.
-    Unknown(usize),
-}
-
-/// A base angle of the trigonometric variables.
-#[derive(Clone, Debug)]
-pub(crate) enum Angle {
-    /// `symbol / denom`.
-    Symbol { sym: Sym, denom: u32 },
-    /// An argument that is not a rational-linear combination of symbols.
-    Kernel { arg: (Poly, Poly) },
-}
-
-#[derive(Clone, Debug)]
-pub(crate) struct AngleVars {
-    pub angle: Angle,
-    pub sin: usize,
-    pub cos: usize,
-}
-
-/// A transcendental or algebraic kernel.
-#[derive(Clone, Debug)]
-pub(crate) struct Kernel {
-    pub func: Func,
-    /// The argument (for sqrt, the polynomial radicand G, with denominator 1).
-    pub arg: (Poly, Poly),
-}
+use crate::vars::int;
+pub(crate) use crate::vars::{
+    Angle, AngleVars, FieldInner, Kernel, Poly, Sym, VarKind, big_to_integer, integer_to_big,
+};
 
 /// What an expression depends on: the input to [`Field::new`].
 #[derive(Clone, Debug, Default)]
@@ -110,30 +57,6 @@ pub struct FieldSpec {
     pub expressions: Vec<Expr>,
 }
 
-pub(crate) struct FieldInner {
-    pub coordinates: Vec<String>,
-    pub parameters: Vec<String>,
-    pub free: Vec<(String, Vec<usize>)>,
-    pub unknowns: Vec<String>,
-    pub kinds: Vec<VarKind>,
-    pub angles: Vec<AngleVars>,
-    pub kernels: RefCell<Vec<Kernel>>,
-    /// (variable, G) with variable² = G, in creation order.
-    pub relations: RefCell<Vec<(usize, Poly)>>,
-    pub zero: Poly,
-    /// The half-angle ring, where lowest terms are computed ([`crate::half`]).
-    pub half: crate::half::HalfRing,
-    /// Index of each variable by kind, for lookups.
-    pub coord_var: Vec<Option<usize>>,
-    pub param_var: Vec<Option<usize>>,
-    pub velocity_var: Vec<usize>,
-    pub unknown_var: Vec<usize>,
-    pub free_var: HashMap<(usize, Vec<u32>), usize>,
-    pub kernel_var: Vec<usize>,
-    /// Memo of dv/dq_k.
-    pub dvar: RefCell<HashMap<(usize, usize), Option<(Poly, Poly)>>>,
-}
-
 /// A field of expressions over a fixed set of variables. Cheap to clone (shared).
 #[derive(Clone)]
 pub struct Field(pub(crate) Rc<FieldInner>);
@@ -145,18 +68,6 @@ pub struct Ex {
     pub(crate) f: Rc<FieldInner>,
     pub(crate) num: Poly,
     pub(crate) den: Poly,
-}
-
-fn int(n: i64) -> Integer {
-    Integer::from(n)
-}
-
-pub(crate) fn big_to_integer(b: &BigInt) -> Integer {
-    b.to_string().parse().expect("decimal integer")
-}
-
-pub(crate) fn integer_to_big(i: &Integer) -> BigInt {
-    i.to_string().parse().expect("decimal integer")
 }
 
 impl FieldInner {
@@ -816,12 +727,6 @@ impl Ex {
             .div(&(&d * &d))
             .expect("nonzero denominator")
     }
-
-    /// The expression as a plain tree (numerator over denominator, expanded), for printing,
-    /// numeric evaluation and code generation outside the worker.
-    pub fn to_expr(&self) -> Expr {
-        crate::export::to_expr(self)
-    }
 }
 
 impl Field {
@@ -975,12 +880,6 @@ impl Field {
 impl PartialEq for Ex {
     fn eq(&self, other: &Ex) -> bool {
         self.num == other.num && self.den == other.den
-    }
-}
-
-impl fmt::Display for Ex {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", crate::print::text(self))
     }
 }
 

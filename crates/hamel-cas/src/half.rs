@@ -21,51 +21,9 @@ use std::collections::HashMap;
 
 use symbolica::prelude::*;
 
-use crate::field::{FieldInner, Poly, VarKind};
-
-/// The variables of the half-angle ring and their correspondence with the field's.
-pub(crate) struct HalfRing {
-    /// The zero polynomial of the half-angle ring (carries its variable list).
-    pub zero: Poly,
-    /// Field variable → half-angle-ring variable (sin u and cos u → t of u).
-    pub of_var: Vec<usize>,
-    /// Angle → its t.
-    pub t: Vec<usize>,
-    /// Half-angle-ring variable → field variable (`None` for a t).
-    pub back: Vec<Option<usize>>,
-}
+use crate::vars::{FieldInner, HalfRing, Poly};
 
 impl HalfRing {
-    /// The half-angle ring for field variables of these kinds; `ring(n)` makes the zero
-    /// polynomial of a ring with n variables.
-    pub fn new(kinds: &[VarKind], ring: impl Fn(usize) -> Poly) -> HalfRing {
-        let (mut of_var, mut t, mut back) = (Vec::new(), Vec::new(), Vec::new());
-        for (v, k) in kinds.iter().enumerate() {
-            match k {
-                VarKind::Sin(a) | VarKind::Cos(a) => {
-                    if t.len() <= *a {
-                        t.resize(*a + 1, usize::MAX);
-                    }
-                    if t[*a] == usize::MAX {
-                        t[*a] = back.len();
-                        back.push(None);
-                    }
-                    of_var.push(t[*a]);
-                }
-                _ => {
-                    of_var.push(back.len());
-                    back.push(Some(v));
-                }
-            }
-        }
-        HalfRing {
-            zero: ring(back.len()),
-            of_var,
-            t,
-            back,
-        }
-    }
-
     fn var(&self, v: usize) -> Poly {
         let mut e = vec![0u16; self.back.len()];
         e[v] = 1;

@@ -24,6 +24,7 @@ pub mod linalg;
 pub mod over;
 mod print;
 mod screen;
+mod vars;
 mod worker;
 
 pub use field::{Ex, Field, FieldSpec};
@@ -32,26 +33,15 @@ pub use over::{Denominators, OMatrix, Over, sum_over};
 pub use worker::{on_worker, run};
 
 /// What can go wrong in symbolic work.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum CasError {
     /// Division by an expression that is identically zero.
+    #[error("division by an expression that is identically zero")]
     DivisionByZero,
     /// A construct the engine does not handle (with the reason).
+    #[error("{0}")]
     Unsupported(String),
     /// A bug or a failure of the worker thread.
+    #[error("internal error: {0}")]
     Internal(String),
 }
-
-impl std::fmt::Display for CasError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            CasError::DivisionByZero => {
-                write!(f, "division by an expression that is identically zero")
-            }
-            CasError::Unsupported(m) => write!(f, "{m}"),
-            CasError::Internal(m) => write!(f, "internal error: {m}"),
-        }
-    }
-}
-
-impl std::error::Error for CasError {}

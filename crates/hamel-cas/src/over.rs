@@ -31,6 +31,13 @@ struct Inner {
 /// Numerator, exponents of the factors and integer denominator ([`Over::lowest_terms`]).
 type Lowest = (Poly, Vec<u32>, Poly);
 
+/// A value's canonical form: through the half-angle ring, or its plain lowest terms where the
+/// half-angle ring is not needed.
+enum Canonical {
+    Half(Ex, HalfFactors),
+    Plain(Lowest),
+}
+
 /// A shared list of denominator factors. Cheap to clone.
 #[derive(Clone)]
 pub struct Denominators(Rc<Inner>);
@@ -166,15 +173,15 @@ impl Over {
     /// The value as a plain tree, in lowest terms, the denominator as a product of factors.
     pub fn to_expr(&self) -> hamel_expr::Expr {
         match self.canonical_factored() {
-            Ok((e, hf)) => crate::export::to_expr_with(&e, &hf),
-            Err(lowest) => self.plain(lowest).to_expr(),
+            Canonical::Half(e, hf) => crate::export::to_expr_with(&e, &hf),
+            Canonical::Plain(lowest) => self.plain(lowest).to_expr(),
         }
     }
 
     /// The value in normal form through the half-angle ring, with its denominator's half-angle
     /// factorisation; where the half-angle ring is not needed, the lowest terms of
     /// [`Over::lowest_terms`] instead.
-    fn canonical_factored(&self) -> Result<(Ex, HalfFactors), Lowest> {
+    fn canonical_factored(&self) -> Canonical {
         let field = &self.inner().field;
         let fi = field.inner();
         let (num, exps, cden) = self.lowest_terms();
@@ -184,7 +191,7 @@ impl Over {
             || used.is_empty()
             || !(has_angles(fi, &num) || used.iter().any(|&j| has_angles(fi, &bases[j])))
         {
-            return Err((num, exps, cden));
+            return Canonical::Plain((num, exps, cden));
         }
         let factors: Vec<(Rc<HalfFactors>, u32)> = used
             .iter()
@@ -193,14 +200,14 @@ impl Over {
         let refs: Vec<(&HalfFactors, u32)> =
             factors.iter().map(|(h, e)| (h.as_ref(), *e)).collect();
         let (num, den, hf) = canonical_over_factored(fi, &num, &cden, &refs);
-        Ok((
+        Canonical::Half(
             Ex {
                 f: field.0.clone(),
                 num,
                 den,
             },
             hf,
-        ))
+        )
     }
 
     /// Numerator, exponents and integer denominator in lowest terms.
@@ -243,8 +250,8 @@ impl Over {
     /// integer content.
     pub fn to_ex(&self) -> Ex {
         match self.canonical_factored() {
-            Ok((e, _)) => e,
-            Err(lowest) => self.plain(lowest),
+            Canonical::Half(e, _) => e,
+            Canonical::Plain(lowest) => self.plain(lowest),
         }
     }
 

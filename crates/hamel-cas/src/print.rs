@@ -7,3 +7,9 @@ use crate::field::Ex;
 pub(crate) fn text(e: &Ex) -> String {
     e.to_expr().to_string()
 }
+
+impl std::fmt::Display for Ex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", text(self))
+    }
+}

@@ -17,7 +17,7 @@ use std::collections::HashMap;
 
 use symbolica::prelude::*;
 
-use crate::field::{FieldInner, Poly, integer_to_big};
+use crate::vars::{FieldInner, Poly, integer_to_big};
 
 /// The prime modulus, 2⁶¹ − 1.
 const P: u64 = (1 << 61) - 1;

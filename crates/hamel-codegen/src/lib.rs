@@ -33,6 +33,7 @@ pub mod escape;
 pub mod manifest;
 pub mod python;
 pub mod registry;
+pub mod write;
 
 /// The runtime's double-double ([`DD_CORE`]).
 #[path = "../../hamel-expr/src/dd_core.rs"]
@@ -1522,54 +1523,9 @@ pub const SIMULATE_BIN: &str = include_str!("../runtime/simulate.rs");
 /// The `scene` binary (the integration job of `hamel simulate` on a compiled core).
 pub const SCENE_BIN: &str = include_str!("../runtime/scene.rs");
 
-/// The integrators (`crates/hamel-sim`), vendored into a generated crate by [`with_simulator`]:
-/// (path inside the crate, text).
-const SIM_SOURCES: &[(&str, &str)] = &[
-    (
-        "hamel-sim/src/lib.rs",
-        include_str!("../../hamel-sim/src/lib.rs"),
-    ),
-    (
-        "hamel-sim/src/control.rs",
-        include_str!("../../hamel-sim/src/control.rs"),
-    ),
-    (
-        "hamel-sim/src/dop853.rs",
-        include_str!("../../hamel-sim/src/dop853.rs"),
-    ),
-    (
-        "hamel-sim/src/dopri5.rs",
-        include_str!("../../hamel-sim/src/dopri5.rs"),
-    ),
-    (
-        "hamel-sim/src/driver.rs",
-        include_str!("../../hamel-sim/src/driver.rs"),
-    ),
-    (
-        "hamel-sim/src/explicit.rs",
-        include_str!("../../hamel-sim/src/explicit.rs"),
-    ),
-    (
-        "hamel-sim/src/gauss.rs",
-        include_str!("../../hamel-sim/src/gauss.rs"),
-    ),
-    (
-        "hamel-sim/src/rk4.rs",
-        include_str!("../../hamel-sim/src/rk4.rs"),
-    ),
-    (
-        "hamel-sim/src/solution.rs",
-        include_str!("../../hamel-sim/src/solution.rs"),
-    ),
-    (
-        "hamel-sim/src/system.rs",
-        include_str!("../../hamel-sim/src/system.rs"),
-    ),
-    (
-        "hamel-sim/src/testing.rs",
-        include_str!("../../hamel-sim/src/testing.rs"),
-    ),
-];
+/// The integrators (`crates/hamel-sim/src/*.rs`, listed by `build.rs`), vendored into a
+/// generated crate by [`with_simulator`]: (path inside the crate, text).
+const SIM_SOURCES: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/sim_sources.rs"));
 
 /// Add the `simulate` and `scene` binaries to a generated crate: the integrators of `crates/hamel-sim` are
 /// vendored as a path dependency inside the crate (they need nalgebra, serde and thiserror),

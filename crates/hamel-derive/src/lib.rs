@@ -19,6 +19,7 @@ pub mod conditioning;
 mod derivation;
 mod numeric;
 mod render;
+pub mod states;
 pub mod symbolic;
 
 pub use derivation::{Block, Checks, Derivation, DerivationJson, Entry, Ingredients, Mat, Size};

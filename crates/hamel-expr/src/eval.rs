@@ -178,13 +178,14 @@ impl<S: Scalar> Lu<S> {
             }
             a.swap(p, col);
             perm.swap(p, col);
-            for r in col + 1..n {
-                let f = a[r][col].clone() / a[col][col].clone();
-                for c in col + 1..n {
-                    let t = a[col][c].clone();
-                    a[r][c] = a[r][c].clone() - f.clone() * t;
+            let (top, below) = a.split_at_mut(col + 1);
+            let pivot_row = &top[col];
+            for row in below {
+                let f = row[col].clone() / pivot_row[col].clone();
+                for (x, t) in row[col + 1..].iter_mut().zip(&pivot_row[col + 1..]) {
+                    *x = x.clone() - f.clone() * t.clone();
                 }
-                a[r][col] = f;
+                row[col] = f;
             }
         }
         Some(Lu { lu: a, perm })

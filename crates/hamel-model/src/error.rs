@@ -10,8 +10,13 @@ use miette::{Diagnostic, LabeledSpan, SourceCode};
 ///
 /// `Display` gives a one-line `file:line:col: key: reason` form; as a [`miette::Diagnostic`] it
 /// renders the offending line with a label.
+///
+/// The details are boxed: a `Result<_, ModelError>` stays one pointer wide on the error side.
 #[derive(Clone, Debug)]
-pub struct ModelError {
+pub struct ModelError(Box<Located>);
+
+#[derive(Clone, Debug)]
+struct Located {
     file: String,
     source: Arc<String>,
     span: Option<Range<usize>>,
@@ -29,42 +34,42 @@ impl ModelError {
         key: Option<&str>,
         message: impl Into<String>,
     ) -> ModelError {
-        ModelError {
+        ModelError(Box::new(Located {
             file: file.to_string(),
             source,
             span,
             key: key.map(str::to_string),
             message: message.into(),
             help: None,
-        }
+        }))
     }
 
     /// Add a hint on how to fix it.
     pub fn with_help(mut self, help: impl Into<String>) -> ModelError {
-        self.help = Some(help.into());
+        self.0.help = Some(help.into());
         self
     }
 
     /// The file name as given.
     pub fn file(&self) -> &str {
-        &self.file
+        &self.0.file
     }
 
     /// The reason, without location.
     pub fn message(&self) -> &str {
-        &self.message
+        &self.0.message
     }
 
     /// The key path in the file (such as `constraints.no_slip`), if known.
     pub fn key(&self) -> Option<&str> {
-        self.key.as_deref()
+        self.0.key.as_deref()
     }
 
     /// 1-based line and column of the start of the span, if there is one.
     pub fn line_col(&self) -> Option<(usize, usize)> {
-        let span = self.span.as_ref()?;
-        let start = span.start.min(self.source.len());
-        let before = &self.source[..start];
+        let span = self.0.span.as_ref()?;
+        let start = span.start.min(self.0.source.len());
+        let before = &self.0.source[..start];
         let line = before.matches('\n').count() + 1;
         let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
         Some((line, col))
@@ -73,16 +78,16 @@ impl ModelError {
 
 impl fmt::Display for ModelError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file)?;
+        write!(f, "{}", self.0.file)?;
         if let Some((l, c)) = self.line_col() {
             write!(f, ":{l}:{c}")?;
         }
         write!(f, ": ")?;
-        if let Some(k) = &self.key {
+        if let Some(k) = &self.0.key {
             write!(f, "{k}: ")?;
         }
-        write!(f, "{}", self.message)?;
-        if let Some(h) = &self.help {
+        write!(f, "{}", self.0.message)?;
+        if let Some(h) = &self.0.help {
             write!(f, " (help: {h})")?;
         }
         Ok(())
@@ -94,13 +99,13 @@ impl std::error::Error for ModelError {}
 impl Diagnostic for ModelError {
     fn source_code(&self) -> Option<&dyn SourceCode> {
         // The file name and the help are part of the message itself (see Display).
-        Some(&*self.source as &dyn SourceCode)
+        Some(&*self.0.source as &dyn SourceCode)
     }
 
     fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
-        let span = self.span.clone()?;
+        let span = self.0.span.clone()?;
         let len = span.end.saturating_sub(span.start);
-        let label = match &self.key {
+        let label = match &self.0.key {
             Some(k) => format!("in {k}"),
             None => "here".to_string(),
         };

@@ -21,11 +21,14 @@ pub(crate) struct RawModel {
     pub quasi_velocities: IndexMap<String, Spanned<RawChoice>>,
 }
 
+/// A matrix of expressions as rows of strings, each with its place in the file.
+pub(crate) type RawMatrix = Vec<Spanned<Vec<Spanned<String>>>>;
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawLagrangian {
     pub kinetic: Option<Spanned<String>>,
-    pub mass_matrix: Option<Spanned<Vec<Spanned<Vec<Spanned<String>>>>>>,
+    pub mass_matrix: Option<Spanned<RawMatrix>>,
     pub potential: Option<Spanned<String>>,
 }
 

@@ -21,6 +21,7 @@ pub mod hypotheses;
 mod render;
 mod report;
 mod search;
+pub mod supervised;
 
 pub use report::{
     BlockStructure, Classification, CoordinateKind, GroundTruth, Hypothesis, KinematicEquation,

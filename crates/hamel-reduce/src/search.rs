@@ -559,13 +559,12 @@ impl Searcher<'_> {
         for (_, c) in &conditions {
             for factor in c.numerator_factors() {
                 for (fname, _) in &free {
-                    if let Some(sol) = factor.solve_for_free(fname) {
-                        if !branches
+                    if let Some(sol) = factor.solve_for_free(fname)
+                        && !branches
                             .iter()
                             .any(|(n, x)| n == fname && (x - &sol).is_zero())
-                        {
-                            branches.push((fname.clone(), sol));
-                        }
+                    {
+                        branches.push((fname.clone(), sol));
                     }
                 }
             }
@@ -728,10 +727,11 @@ pub(crate) fn search(
     // already uses), then the basis with the identity on each set S of σ velocities.
     let mut bases: Vec<Matrix> = Vec::new();
     for c in &model.choices {
-        if c.free_functions.is_empty() && !se.out_of_time() {
-            if let Ok(sc) = hamel_derive::symbolic(model, &c.name) {
-                bases.push(sc.gamma.clone());
-            }
+        if c.free_functions.is_empty()
+            && !se.out_of_time()
+            && let Ok(sc) = hamel_derive::symbolic(model, &c.name)
+        {
+            bases.push(sc.gamma.clone());
         }
     }
     let subsets = combinations(ell, sigma);
@@ -859,7 +859,7 @@ pub(crate) fn search(
     sort_candidates(&mut candidates);
     let none_found = candidates.is_empty().then(|| {
         let mut reasons: Vec<(String, usize)> = se.failures.into_iter().collect();
-        reasons.sort_by(|a, b| b.1.cmp(&a.1));
+        reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
         let list: Vec<String> = reasons
             .iter()
             .take(3)

@@ -13,9 +13,9 @@
 )]
 
 use crate::control::{Controller, Tolerances};
-use crate::driver::{AdaptiveStep, Interpolant, StepFailure};
 use crate::explicit::{Stages, Tableau};
-use crate::system::Evaluator;
+use crate::step::{AdaptiveStep, Interpolant};
+use crate::system::{Evaluator, StepFailure};
 
 /// Stages 1–12 of the method, stage 13 = f(t + h, y_new) (first of the next step), and the
 /// three extra stages 14–16 of the continuous extension.

@@ -7,9 +7,9 @@
 //! β = 0.04) are dopri5.f's defaults.
 
 use crate::control::{Controller, Tolerances};
-use crate::driver::{AdaptiveStep, Interpolant, StepFailure};
 use crate::explicit::{Stages, Tableau};
-use crate::system::Evaluator;
+use crate::step::{AdaptiveStep, Interpolant};
+use crate::system::{Evaluator, StepFailure};
 
 const TABLEAU: Tableau = Tableau {
     c: &[0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0],

@@ -2,13 +2,14 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::control::{Controller, Tolerances, Verdict, initial_step};
+use crate::control::{Tolerances, Verdict, initial_step};
 use crate::dop853::Dop853;
 use crate::dopri5::Dopri5;
 use crate::gauss::Gauss;
 use crate::rk4::Rk4;
 use crate::solution::{ErrorKind, IntegrationError, Solution, Stats};
-use crate::system::{Evaluator, OdeSystem, SystemError};
+use crate::step::{AdaptiveStep, FixedStep};
+use crate::system::{Evaluator, OdeSystem, StepFailure};
 
 /// An integration method.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -33,7 +34,58 @@ pub enum Method {
     },
 }
 
+/// An integrator by name, as scene files and reports spell it (`rk4`, `dopri5`, `dop853`,
+/// `gauss-legendre`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodName {
+    /// [`Method::Rk4`].
+    Rk4,
+    /// [`Method::Dopri5`].
+    Dopri5,
+    /// [`Method::Dop853`].
+    Dop853,
+    /// [`Method::GaussLegendre`].
+    GaussLegendre,
+}
+
+impl MethodName {
+    /// Every integrator.
+    pub const ALL: [MethodName; 4] = [
+        MethodName::Rk4,
+        MethodName::Dopri5,
+        MethodName::Dop853,
+        MethodName::GaussLegendre,
+    ];
+
+    /// The name as written.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MethodName::Rk4 => "rk4",
+            MethodName::Dopri5 => "dopri5",
+            MethodName::Dop853 => "dop853",
+            MethodName::GaussLegendre => "gauss-legendre",
+        }
+    }
+}
+
+impl std::fmt::Display for MethodName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 impl Method {
+    /// The integrator's name.
+    pub fn name(&self) -> MethodName {
+        match self {
+            Method::Rk4 { .. } => MethodName::Rk4,
+            Method::Dopri5 => MethodName::Dopri5,
+            Method::Dop853 => MethodName::Dop853,
+            Method::GaussLegendre { .. } => MethodName::GaussLegendre,
+        }
+    }
+
     /// Whether the step is chosen by error control (the tolerances apply), rather than fixed.
     pub fn is_adaptive(&self) -> bool {
         match self {
@@ -146,72 +198,6 @@ pub fn integrate(
         Ok(()) => Ok(solution),
         Err(failure) => Err(failure.into_error(solution)),
     }
-}
-
-/// Why a step could not be completed.
-#[derive(Debug)]
-pub(crate) enum StepFailure {
-    /// The system failed when evaluated at time `t`.
-    System { t: f64, error: SystemError },
-    /// The Newton iteration did not converge (or the iteration matrix was singular).
-    Newton,
-    /// The trial step or its error estimate is NaN or infinite.
-    NonFinite,
-}
-
-/// A one-step method used with a given step.
-pub(crate) trait FixedStep {
-    /// Advances `(t, y)` by `h` into `y_new`.
-    fn step(
-        &mut self,
-        ev: &mut Evaluator<'_>,
-        t: f64,
-        y: &[f64],
-        h: f64,
-        y_new: &mut [f64],
-    ) -> Result<(), StepFailure>;
-}
-
-/// A method with an error estimate, for the adaptive step loop.
-pub(crate) trait AdaptiveStep {
-    /// Order of the propagated solution (for the initial step heuristic).
-    fn order(&self) -> u32;
-    /// Hairer's step-size controller with this method's parameters.
-    fn controller(&self, beta: Option<f64>, h_max: f64) -> Controller;
-    /// Hands over `f(t0, y0)`.
-    fn start(&mut self, f0: &[f64]);
-    /// Attempts a step of size `h` from `(t, y)`: the candidate goes to `y_new`, the result is
-    /// the error estimate in the tolerance-scaled norm (at most 1 to pass).
-    fn attempt(
-        &mut self,
-        ev: &mut Evaluator<'_>,
-        tol: &Tolerances,
-        t: f64,
-        y: &[f64],
-        h: f64,
-        y_new: &mut [f64],
-    ) -> Result<f64, StepFailure>;
-    /// Accepts the step just attempted; with `dense`, also prepares the continuous extension
-    /// over it. After a failure the step counts as rejected and the method's state is as
-    /// before the attempt.
-    fn accept(
-        &mut self,
-        ev: &mut Evaluator<'_>,
-        t: f64,
-        y: &[f64],
-        h: f64,
-        y_new: &[f64],
-        dense: bool,
-    ) -> Result<(), StepFailure>;
-    /// The continuous extension of the last step accepted with `dense`, or None for a method
-    /// without one (the driver then ends a step on every output time).
-    fn interpolant(&self) -> Option<&dyn Interpolant>;
-}
-
-/// A continuous extension over one step.
-pub(crate) trait Interpolant {
-    /// The state at `t_old + theta·h`, `0 ≤ theta ≤ 1`.
-    fn interpolate(&self, theta: f64, out: &mut [f64]);
 }
 
 /// The reason, time and state of a failed integration.

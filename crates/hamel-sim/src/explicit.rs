@@ -2,8 +2,7 @@
 
 use std::ops::Range;
 
-use crate::driver::StepFailure;
-use crate::system::Evaluator;
+use crate::system::{Evaluator, StepFailure};
 
 /// An explicit Runge–Kutta tableau: the nodes `c` and the rows of the strictly lower
 /// triangular matrix `a` (row `s` has `s` entries, zeros included), as printed in

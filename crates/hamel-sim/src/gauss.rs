@@ -14,8 +14,8 @@
 use nalgebra::{DMatrix, DVector, Dyn, LU};
 
 use crate::control::{Controller, Tolerances};
-use crate::driver::{AdaptiveStep, FixedStep, Interpolant, StepFailure};
-use crate::system::Evaluator;
+use crate::step::{AdaptiveStep, FixedStep, Interpolant};
+use crate::system::{Evaluator, StepFailure};
 
 /// Most Newton iterations per stage solve.
 const MAX_NEWTON_ITERATIONS: usize = 20;

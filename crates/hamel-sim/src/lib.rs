@@ -51,10 +51,11 @@ mod explicit;
 mod gauss;
 mod rk4;
 mod solution;
+mod step;
 mod system;
 #[cfg(test)]
 mod testing;
 
-pub use driver::{Method, Options, integrate};
+pub use driver::{Method, MethodName, Options, integrate};
 pub use solution::{ErrorKind, IntegrationError, Solution, Stats};
 pub use system::{OdeSystem, SystemError};

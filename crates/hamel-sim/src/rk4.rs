@@ -2,9 +2,9 @@
 //!
 //! Tableau: Hairer, Nørsett & Wanner, "Solving ODEs I", Table II.1.2 (left).
 
-use crate::driver::{FixedStep, StepFailure};
 use crate::explicit::{Stages, Tableau};
-use crate::system::Evaluator;
+use crate::step::FixedStep;
+use crate::system::{Evaluator, StepFailure};
 
 const TABLEAU: Tableau = Tableau {
     c: &[0.0, 0.5, 0.5, 1.0],

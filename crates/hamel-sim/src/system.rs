@@ -1,6 +1,5 @@
 //! The system interface, and the counting evaluator every integrator calls it through.
 
-use crate::driver::StepFailure;
 use crate::solution::Stats;
 
 /// A failure of the system itself: a singularity, or a state outside the model's domain.
@@ -109,4 +108,15 @@ impl<'a> Evaluator<'a> {
         self.column = column;
         outcome
     }
+}
+
+/// Why a step could not be completed.
+#[derive(Debug)]
+pub(crate) enum StepFailure {
+    /// The system failed when evaluated at time `t`.
+    System { t: f64, error: SystemError },
+    /// The Newton iteration did not converge (or the iteration matrix was singular).
+    Newton,
+    /// The trial step or its error estimate is NaN or infinite.
+    NonFinite,
 }

@@ -1,8 +1,8 @@
 //! Test problems and measurements shared by the unit tests.
 
 use crate::control::Tolerances;
-use crate::driver::AdaptiveStep;
 use crate::explicit::Tableau;
+use crate::step::AdaptiveStep;
 use crate::system::{Evaluator, OdeSystem, SystemError};
 
 /// `y1' = y1 cos t`, `y2' = −y2²`, `y(0) = (1, 1)`: non-autonomous and nonlinear, with the exact

@@ -426,12 +426,13 @@ impl<S: Scalar, const L: usize> Lu<S, L> {
             m.swap(k, p);
             perm.swap(k, p);
             let pivot = m[k][k];
-            for i in k + 1..L {
-                let f = m[i][k] / pivot;
-                m[i][k] = f;
-                for j in k + 1..L {
-                    let t = m[k][j];
-                    m[i][j] = m[i][j] - f * t;
+            let (top, below) = m.split_at_mut(k + 1);
+            let pivot_row = &top[k];
+            for row in below {
+                let f = row[k] / pivot;
+                row[k] = f;
+                for (x, &t) in row[k + 1..].iter_mut().zip(&pivot_row[k + 1..]) {
+                    *x = *x - f * t;
                 }
             }
         }
@@ -643,22 +644,16 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
     let mut forcing = [zero; G];
     let mut a_gamma = [[zero; G]; G];
     for r in 0..G {
-        let mut ag = [zero; L]; // A Γ e_r
-        for i in 0..L {
-            for j in 0..L {
-                ag[i] = ag[i] + a(i, j) * gamma[j][r];
-            }
-        }
+        // A Γ e_r
+        let ag: [S; L] =
+            core::array::from_fn(|i| (0..L).fold(zero, |x, j| x + a(i, j) * gamma[j][r]));
         for s in 0..G {
-            let mut x = zero;
-            for i in 0..L {
-                x = x + gamma[i][s] * ag[i];
-            }
-            a_gamma[s][r] = x;
+            a_gamma[s][r] = gamma.iter().zip(&ag).fold(zero, |x, (g, &v)| x + g[s] * v);
         }
-        for i in 0..L {
-            forcing[r] = forcing[r] + gamma[i][r] * force[i];
-        }
+        forcing[r] = gamma
+            .iter()
+            .zip(&force)
+            .fold(zero, |x, (g, &f)| x + g[r] * f);
     }
     let ag = Lu::new(a_gamma).ok_or_else(|| EvalError("A_Γ is singular here".into()))?;
     let eta_dot = ag.solve(&forcing);
@@ -671,17 +666,13 @@ pub fn structured<S: Scalar, const L: usize, const M: usize, const G: usize>(
             let mut e = [zero; L];
             e[G + m_] = S::constant(1.0);
             let theta = lu.solve(&e);
-            let mut nu = zero;
-            for i in 0..L {
-                nu = nu + theta[i] * aq[i];
-            }
-            for h in 0..L {
-                let mut w = zero;
-                for k in 0..L {
-                    w = w + (dalpha(k, m_, h) - dalpha(h, m_, k)) * qd[k];
-                }
-                for r in 0..G {
-                    rhs[r] = rhs[r] + nu * gamma[h][r] * w;
+            let nu = theta.iter().zip(&aq).fold(zero, |x, (&t, &v)| x + t * v);
+            for (h, gamma_h) in gamma.iter().enumerate() {
+                let w = (0..L).fold(zero, |x, k| {
+                    x + (dalpha(k, m_, h) - dalpha(h, m_, k)) * qd[k]
+                });
+                for (x, &g) in rhs.iter_mut().zip(gamma_h) {
+                    *x = *x + nu * g * w;
                 }
             }
         }

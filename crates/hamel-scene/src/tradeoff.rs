@@ -11,21 +11,23 @@
 //! time (median of repeated runs up to ~50 ms); RHS evaluations; steps; energy and constraint
 //! drift. The recommendation is the fastest setting that meets the target.
 //!
-//! **Inputs**: a loaded scene ([`crate::simulate::Loaded`]). **Outputs**: a [`Table`].
+//! **Inputs**: a loaded scene ([`crate::Loaded`]). **Outputs**: a [`Table`].
 
 use std::time::{Duration, Instant};
 
 use hamel_model::ModelError;
-use hamel_sim::{Method, Options, Solution};
+use hamel_sim::{Method, MethodName, Options, Solution};
 use serde::Serialize;
 
-use crate::simulate::{Engine, Loaded};
+use crate::compare::{errors, outputs};
+use crate::integrate::Engine;
+use crate::load::Loaded;
 
 /// One setting of one integrator, measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
     /// `dop853`, `dopri5`, `gauss-legendre`, `rk4`.
-    pub method: String,
+    pub method: MethodName,
     /// The tolerance (rtol = atol) of an adaptive run.
     pub tol: Option<f64>,
     /// The step of a fixed-step run.
@@ -77,57 +79,6 @@ pub enum Range {
     All,
     /// The adaptive explicit ones only (what `hamel simulate` tries for an `[accuracy]`).
     Adaptive,
-}
-
-/// The requested outputs of a solution, per output time: the requested state components, the
-/// energy when requested (and `energy`), then the requested expressions.
-pub(crate) fn outputs(loaded: &Loaded, s: &Solution, energy: bool) -> Vec<Vec<f64>> {
-    let ix = loaded.requested_components();
-    let expressions = loaded.evaluate_expressions(s);
-    s.y.iter()
-        .zip(&s.energy)
-        .enumerate()
-        .map(|(j, (y, e))| {
-            ix.iter()
-                .map(|&i| y[i])
-                .chain((energy && loaded.request.energy).then(|| e.unwrap_or(f64::NAN)))
-                .chain(expressions.values().map(|v| v[j].unwrap_or(f64::NAN)))
-                .collect()
-        })
-        .collect()
-}
-
-/// (error at the end, error over the span, ratio to the target) of `got` against `reference`.
-pub(crate) fn errors(
-    got: &[Vec<f64>],
-    reference: &[Vec<f64>],
-    target: (f64, f64),
-) -> (f64, f64, f64) {
-    let (mut end, mut span, mut ratio) = (0.0_f64, 0.0_f64, 0.0_f64);
-    for (j, (g, r)) in got.iter().zip(reference).enumerate() {
-        for (a, b) in g.iter().zip(r) {
-            let d = (a - b).abs();
-            let e = if d.is_nan() {
-                f64::INFINITY
-            } else {
-                d / b.abs().max(1.0)
-            };
-            span = span.max(e);
-            ratio = ratio.max(if d.is_nan() {
-                f64::INFINITY
-            } else {
-                d / (target.1 + target.0 * b.abs())
-            });
-            if j + 1 == reference.len() {
-                end = end.max(e);
-            }
-        }
-    }
-    if got.len() < reference.len() {
-        // An incomplete run has no error to compare at the missing times.
-        return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
-    }
-    (end, span, ratio)
 }
 
 /// Run once, and time it. Interpreted: repeated while the total stays under ~50 ms (at most 20
@@ -192,7 +143,7 @@ fn measure(
     let (engine, _) = loaded.usable(engine);
     let target = loaded
         .accuracy
-        .unwrap_or((loaded.integrator.2.rtol, loaded.integrator.2.atol));
+        .unwrap_or((loaded.integrator.1.rtol, loaded.integrator.1.atol));
     let tight = |tol: f64| Options {
         rtol: tol,
         atol: tol,
@@ -208,7 +159,7 @@ fn measure(
         ));
     }
     let reference_out = outputs(loaded, &reference, energy);
-    let reference_check = errors(&outputs(loaded, &check, energy), &reference_out, target).1;
+    let reference_check = errors(&outputs(loaded, &check, energy), &reference_out, target).span;
     // Fixed steps end on every output time, so they are taken as fractions of the smallest
     // output interval.
     let interval = loaded
@@ -217,16 +168,15 @@ fn measure(
         .map(|w| (w[1] - w[0]).abs())
         .filter(|&d| d > 0.0)
         .fold(f64::INFINITY, f64::min);
-    let mut settings: Vec<(String, Method, Option<f64>, Option<f64>)> = Vec::new();
+    let mut settings: Vec<(Method, Option<f64>, Option<f64>)> = Vec::new();
     let tolerances: Vec<f64> = (3..=13).map(|k| 10f64.powi(-k)).collect();
     for &tol in &tolerances {
-        settings.push(("dop853".into(), Method::Dop853, Some(tol), None));
-        settings.push(("dopri5".into(), Method::Dopri5, Some(tol), None));
+        settings.push((Method::Dop853, Some(tol), None));
+        settings.push((Method::Dopri5, Some(tol), None));
     }
     if range == Range::All {
         for &tol in [1e-3, 1e-5, 1e-7, 1e-9, 1e-11].iter() {
             settings.push((
-                "gauss-legendre".into(),
                 Method::GaussLegendre {
                     stages: 3,
                     step: None,
@@ -237,9 +187,8 @@ fn measure(
         }
         for k in [1, 2, 4, 8, 16, 32, 64] {
             let h = interval / k as f64;
-            settings.push(("rk4".into(), Method::Rk4 { step: h }, None, Some(h)));
+            settings.push((Method::Rk4 { step: h }, None, Some(h)));
             settings.push((
-                "gauss-legendre".into(),
                 Method::GaussLegendre {
                     stages: 3,
                     step: Some(h),
@@ -250,7 +199,7 @@ fn measure(
         }
     }
     let mut rows = Vec::new();
-    for (name, method, tol, step) in settings {
+    for (method, tol, step) in settings {
         let options = Options {
             rtol: tol.unwrap_or(1e-10),
             atol: tol.unwrap_or(1e-10),
@@ -258,16 +207,15 @@ fn measure(
             ..Options::default()
         };
         let (s, complete, took) = timed(loaded, engine, method, &options)?;
-        let (error_end, error_span, target_ratio) =
-            errors(&outputs(loaded, &s, energy), &reference_out, target);
+        let e = errors(&outputs(loaded, &s, energy), &reference_out, target);
         rows.push(Row {
-            method: name,
+            method: method.name(),
             tol,
             step,
             complete,
-            error_end,
-            error_span,
-            target_ratio,
+            error_end: e.end,
+            error_span: e.span,
+            target_ratio: e.ratio,
             seconds: took.as_secs_f64(),
             rhs_evals: s.stats.rhs_evals,
             steps: s.stats.steps,
@@ -357,17 +305,22 @@ impl Row {
         match (self.tol, self.step) {
             (Some(t), _) => format!("{} rtol = atol = {t:.0e}", self.method),
             (_, Some(h)) => format!("{} step = {h:.3e}", self.method),
-            _ => self.method.clone(),
+            _ => self.method.to_string(),
         }
     }
 
     /// The method and options to run this setting.
     pub fn method(&self) -> (Method, Options) {
-        let method = match (self.method.as_str(), self.step) {
-            ("dop853", _) => Method::Dop853,
-            ("dopri5", _) => Method::Dopri5,
-            ("rk4", Some(h)) => Method::Rk4 { step: h },
-            (_, step) => Method::GaussLegendre { stages: 3, step },
+        let method = match self.method {
+            MethodName::Dop853 => Method::Dop853,
+            MethodName::Dopri5 => Method::Dopri5,
+            MethodName::Rk4 => Method::Rk4 {
+                step: self.step.expect("a fixed-step row has its step"),
+            },
+            MethodName::GaussLegendre => Method::GaussLegendre {
+                stages: 3,
+                step: self.step,
+            },
         };
         let tol = self.tol.unwrap_or(1e-10);
         (

@@ -1,26 +1,42 @@
-//! `hamel codegen`: a model's equations as a standalone Rust crate (see `hamel-codegen`).
+//! `hamel codegen`: a model's equations written as a standalone Rust crate — derived, the
+//! elimination checked exactly (`hamel-reduce`'s ground truth), generated and written.
 
 use std::path::Path;
 
-use hamel_model::ModelError;
+use hamel_model::{Model, ModelError};
 
 /// What was written.
 pub struct Written {
+    /// Files written.
     pub files: usize,
+    /// Operations of the ingredients as trees, and with common subexpressions shared.
     pub ops_trees: usize,
+    /// See `ops_trees`.
     pub ops_shared: usize,
 }
 
-/// Derive, check the elimination exactly, generate, and write the crate into `out`.
-pub fn run(
-    model_path: &Path,
+/// How to write the crate.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteOptions {
+    /// Overwrite the generated files of a non-empty directory.
+    pub force: bool,
+    /// Also write a `simulate` binary (vendors the integrators into the crate).
+    pub with_simulator: bool,
+}
+
+/// Derive `model` with the choice `eta`, check exactly that `eliminate` drops out, generate,
+/// and write the crate into `out`.
+pub fn write_crate(
+    model: &Model,
     eta: Option<&str>,
     eliminate: &[String],
     out: &Path,
-    force: bool,
-    with_simulator: bool,
+    options: WriteOptions,
 ) -> Result<Written, ModelError> {
-    let model = crate::choice::load_for(model_path, eta)?;
+    let WriteOptions {
+        force,
+        with_simulator,
+    } = options;
     let io_err = |what: String| {
         ModelError::new(
             &out.display().to_string(),
@@ -46,10 +62,10 @@ pub fn run(
     let (eliminated, d) = if eliminate.is_empty() {
         (
             Vec::new(),
-            hamel_derive::derive_for_code(&model, Some(&choice))?,
+            hamel_derive::derive_for_code(model, Some(&choice))?,
         )
     } else {
-        let (r, d) = hamel_reduce::reduce_with_derivation(&model, Some(&choice), eliminate)?;
+        let (r, d) = hamel_reduce::reduce_with_derivation(model, Some(&choice), eliminate)?;
         if !r.ground_truth.present.is_empty() || r.reduced_system.is_none() {
             let why = if let Some(w) = r.ground_truth.occurrences.first() {
                 format!(
@@ -66,20 +82,20 @@ pub fn run(
                 eliminate.join(", ")
             )));
         }
-        (hamel_reduce::coordinate_indices(&model, eliminate)?, d)
+        (hamel_reduce::coordinate_indices(model, eliminate)?, d)
     };
     let command = format!(
         "hamel codegen {} --eta {choice}{} --out DIR",
-        model_path.display(),
+        model.file,
         if eliminate.is_empty() {
             String::new()
         } else {
             format!(" --eliminate {}", eliminate.join(","))
         }
     );
-    let mut g = hamel_codegen::generate(&d, &eliminated, &command).map_err(|e| model.error(e))?;
+    let mut g = crate::generate(&d, &eliminated, &command).map_err(|e| model.error(e))?;
     if with_simulator {
-        g = hamel_codegen::with_simulator(g).map_err(|e| model.error(e))?;
+        g = crate::with_simulator(g).map_err(|e| model.error(e))?;
     }
     for (path, text) in &g.files {
         let p = out.join(path);

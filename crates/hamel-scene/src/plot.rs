@@ -7,8 +7,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use hamel_model::ModelError;
+use hamel_sim::MethodName;
 
-use crate::simulate::Trajectory;
+use crate::trajectory::Trajectory;
 
 /// Fonts tried for the labels.
 const FONTS: &[&str] = &[
@@ -128,9 +129,9 @@ where
         .iter()
         .filter(|r| r.complete && r.error_span.is_finite())
     {
-        let name = match (r.method.as_str(), r.step) {
-            ("gauss-legendre", Some(_)) => "gauss-legendre (fixed step)".to_string(),
-            ("gauss-legendre", None) => "gauss-legendre (adaptive)".to_string(),
+        let name = match (r.method, r.step) {
+            (MethodName::GaussLegendre, Some(_)) => "gauss-legendre (fixed step)".to_string(),
+            (MethodName::GaussLegendre, None) => "gauss-legendre (adaptive)".to_string(),
             (m, _) => m.to_string(),
         };
         let point = (r.error_span.max(1e-17), r.seconds.max(1e-7));

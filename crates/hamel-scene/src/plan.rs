@@ -19,7 +19,7 @@ use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
 use serde::Serialize;
 
-use crate::scene_core;
+use crate::cache;
 
 /// What a scene asks for (`request = [...]`; everything when absent).
 #[derive(Clone, Debug)]
@@ -131,7 +131,7 @@ pub struct Plan {
     pub cached: bool,
     /// The cache entry.
     #[serde(skip)]
-    pub entry: scene_core::Entry,
+    pub entry: cache::Entry,
     /// Indices of the integrated coordinates (model order).
     #[serde(skip)]
     pub integrated_ix: Vec<usize>,
@@ -174,7 +174,7 @@ fn close(set: &mut Vec<usize>, kinematics: &[Entry], coordinates: &[String]) {
 /// Plan the scene: `d` is the derivation of the scene's choice, `fixed` the scene's parameter
 /// values; the elimination of every coordinate not integrated is confirmed by `hamel reduce`
 /// (exact ground truth). The scene's code (specialised for `fixed`, the dropped coordinates
-/// eliminated) is taken from the cache or generated into it ([`scene_core`]); the operation
+/// eliminated) is taken from the cache or generated into it ([`cache`]); the operation
 /// counts are its solved form's.
 pub fn plan(
     model: &Model,
@@ -217,7 +217,7 @@ pub fn plan(
     // from the same symbolic pass.
     let absent: Vec<usize> = (0..d.ell).filter(|c| !integrated.contains(c)).collect();
     let names = |ix: &[usize]| -> Vec<String> { ix.iter().map(|&k| coords[k].clone()).collect() };
-    let key = scene_core::Key::new(&model.source, &d.eta_name, &names(&dropped), fixed);
+    let key = cache::Key::new(&model.source, &d.eta_name, &names(&dropped), fixed);
     let confirm = |r: &hamel_reduce::Reduction| -> Result<(), ModelError> {
         if !r.ground_truth.present.is_empty() || !r.ground_truth.kinematics_closed {
             return Err(model.error(format!(
@@ -229,7 +229,7 @@ pub fn plan(
         }
         Ok(())
     };
-    let entry = match scene_core::lookup(&key).map_err(|e| model.error(e))? {
+    let entry = match cache::lookup(&key).map_err(|e| model.error(e))? {
         Some(entry) => {
             if !absent.is_empty() {
                 confirm(&hamel_reduce::reduce(
@@ -262,7 +262,7 @@ pub fn plan(
             // The specialised crate's solved form has every coordinate's rate; the planned
             // state's are counted.
             let ops = |g: &hamel_codegen::Generated| ops_of(&g.solved, d.sigma, &state);
-            scene_core::store(
+            cache::store(
                 &key,
                 &code,
                 fixed,

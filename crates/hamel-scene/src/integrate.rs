@@ -1,0 +1,191 @@
+//! One integration of a loaded scene: on the interpreted evaluator ([`crate::system`]) or on the
+//! scene's compiled core ([`crate::cache`]), with the singular set watched.
+
+use hamel_model::ModelError;
+use hamel_sim::{Method, Options, Solution};
+use indexmap::IndexMap;
+use serde::Serialize;
+
+use crate::cache;
+use crate::load::Loaded;
+use crate::system::System;
+
+/// What evaluates the right-hand side.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Engine {
+    /// The scene's generated core, compiled and cached ([`crate::cache`]).
+    Compiled,
+    /// The structured evaluator of the derivation (a tape interpreter).
+    Interpreted,
+}
+
+/// One integration of a scene.
+pub struct Run {
+    /// What was computed (up to the failure, if any).
+    pub solution: Solution,
+    /// Why it stopped early.
+    pub failure: Option<ModelError>,
+    /// The largest condition number of [Z; α] met near the singular set, and when (computed
+    /// once |δ| has fallen below 1e-3 of its start).
+    pub max_condition: Option<(f64, f64)>,
+}
+
+impl Loaded {
+    /// The engine that can run this scene: `engine`, or the interpreted evaluator (with a
+    /// warning on stderr) when the scene's compiled core cannot be built; and whether this call
+    /// built the core.
+    pub fn usable(&self, engine: Engine) -> (Engine, bool) {
+        if engine == Engine::Interpreted {
+            return (engine, false);
+        }
+        match cache::binary(&self.plan.entry) {
+            Ok((_, built)) => (Engine::Compiled, built),
+            Err(e) => {
+                eprintln!(
+                    "warning: the scene's compiled core is not available, using the interpreted evaluator: {e}"
+                );
+                (Engine::Interpreted, false)
+            }
+        }
+    }
+
+    /// Integrate the planned state with `method`; on failure, what was computed and the error.
+    pub fn integrate(&self, method: Method, options: &Options) -> Result<Run, ModelError> {
+        let numeric = hamel_model::NumericModel::new(&self.model, &self.params)
+            .map_err(|e| self.error("parameters", e.to_string()))?;
+        let system = System {
+            compiled: &self.compiled,
+            params: self.params.clone(),
+            names: &self.d.coordinates,
+            ell: self.d.ell,
+            sigma: self.d.sigma,
+            state: self.state.clone(),
+            reference: self.reference,
+            energy: self.request.energy,
+            residual: self.request.constraint_residual,
+            delta0: self.delta0,
+            numeric,
+            watch: Default::default(),
+        };
+        let (solution, failure) = match hamel_sim::integrate(
+            &system,
+            method,
+            self.scene.t0,
+            &self.y0,
+            &self.times,
+            options,
+        ) {
+            Ok(s) => (s, None),
+            Err(e) => {
+                let m = self.error("integrator", e.to_string());
+                (*e.partial, Some(m))
+            }
+        };
+        Ok(Run {
+            solution,
+            failure,
+            max_condition: system.watch.get(),
+        })
+    }
+
+    /// Integrate the planned state on the scene's compiled core ([`crate::cache`]: built
+    /// on first use, cached): the run, the median time of one integration measured inside the
+    /// core over `repeat` runs, and whether this call compiled the core. The singular set is
+    /// watched at the output states (δ's sign, the condition number of [Z; α] once |δ| falls
+    /// below 1e-3 of its start): a sign change ends the output before it, as an error.
+    /// Errors: the core could not be built or run (the caller may fall back to [`Self::integrate`]).
+    pub fn integrate_compiled(
+        &self,
+        method: Method,
+        options: &Options,
+        repeat: usize,
+    ) -> Result<(Run, f64, bool), String> {
+        let (exe, built) = cache::binary(&self.plan.entry)?;
+        let n = self.state.len();
+        let mut kept = self.state.clone();
+        kept.sort_unstable();
+        let at = |k: usize| {
+            self.state
+                .iter()
+                .position(|&s| s == k)
+                .expect("kept = state")
+        };
+        let job = cache::Job {
+            t0: self.scene.t0,
+            times: &self.times,
+            y0: kept
+                .iter()
+                .map(|&k| self.y0[at(k)])
+                .chain(self.y0[n..].iter().copied())
+                .collect(),
+            method,
+            options: *options,
+            reference: self.reference,
+            energy: self.request.energy,
+            residual: self.request.constraint_residual,
+            repeat,
+            params: IndexMap::new(),
+        };
+        let (mut solution, error, seconds) = cache::run(&exe, &job)?;
+        // Back to the state order (integrated, then reconstructed).
+        let from: Vec<usize> = self
+            .state
+            .iter()
+            .map(|k| kept.iter().position(|x| x == k).expect("state = kept"))
+            .collect();
+        for y in solution.y.iter_mut() {
+            *y = from
+                .iter()
+                .map(|&i| y[i])
+                .chain(y[n..].iter().copied())
+                .collect();
+        }
+        let mut failure = error.map(|m| self.error("integrator", m));
+        let mut max_condition: Option<(f64, f64)> = None;
+        for j in 0..solution.t.len() {
+            let y = &solution.y[j];
+            let mut q = vec![self.reference; self.d.ell];
+            for (i, &k) in self.state.iter().enumerate() {
+                q[k] = y[i];
+            }
+            let delta = self
+                .compiled
+                .evaluate(&q, &y[n..], &self.params)
+                .map(|e| e.delta);
+            if let Ok(delta) = delta
+                && delta.signum() != self.delta0.signum()
+            {
+                failure = Some(self.error(
+                    "integrator",
+                    format!(
+                        "the path crosses the singular set of the quasi-velocities, det[Z; α] = 0, between t = {} and t = {} (δ = {delta:.3e} changed sign); choose other quasi-velocities there",
+                        solution.t[j.saturating_sub(1)],
+                        solution.t[j]
+                    ),
+                ));
+                solution.t.truncate(j);
+                solution.y.truncate(j);
+                solution.energy.truncate(j);
+                solution.constraint.truncate(j);
+                solution.complete = false;
+                break;
+            }
+            if delta.is_ok_and(|d| d.abs() < 1e-3 * self.delta0.abs())
+                && let Ok(cond) = self.compiled.condition(&q, &self.params)
+                && max_condition.is_none_or(|(c, _)| cond > c)
+            {
+                max_condition = Some((cond, solution.t[j]));
+            }
+        }
+        Ok((
+            Run {
+                solution,
+                failure,
+                max_condition,
+            },
+            seconds,
+            built,
+        ))
+    }
+}

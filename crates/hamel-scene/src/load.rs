@@ -1,0 +1,465 @@
+//! Read a scene, derive its equations, plan what to integrate and set up the initial state.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use hamel_derive::Compiled;
+use hamel_model::{Model, ModelError};
+use hamel_sim::{Method, MethodName, Options, Solution};
+use indexmap::IndexMap;
+
+use crate::expressions::{OutputExpression, ParsedExpression, parse_expressions};
+use crate::file::{Integrator, Outputs, Scene};
+use crate::initial::{Projection, initial_eta};
+use crate::plan::{Plan, Request};
+
+/// A scene read and checked, with its derivation, plan and initial state.
+pub struct Loaded {
+    pub(crate) scene: Scene,
+    pub(crate) compiled: Compiled,
+    pub(crate) model: Model,
+    pub(crate) d: hamel_derive::Derivation,
+    /// What the scene asks for.
+    pub request: Request,
+    /// What is integrated, reconstructed, dropped.
+    pub plan: Plan,
+    /// The integrator the scene names (or DOP853 at its `[accuracy]`).
+    pub integrator: (Method, Options),
+    /// The accuracy target (rtol, atol), when the scene gives one instead of an integrator.
+    pub accuracy: Option<(f64, f64)>,
+    pub(crate) params: IndexMap<String, f64>,
+    /// The scene's requested `[expressions]`, parameters substituted.
+    pub(crate) expressions: Vec<OutputExpression>,
+    /// The coordinates in the integrated state (integrated, then reconstructed).
+    pub(crate) state: Vec<usize>,
+    /// The initial configuration, every coordinate.
+    pub(crate) q0: Vec<f64>,
+    /// The initial state (those coordinates, then η) and the output times.
+    pub y0: Vec<f64>,
+    pub times: Vec<f64>,
+    /// The value at which the dropped coordinates are held, and δ = det[Z; α] there at the start.
+    pub(crate) reference: f64,
+    pub(crate) delta0: f64,
+    pub(crate) projection: Option<Projection>,
+    pub(crate) file: SceneFile,
+}
+
+/// The scene file's name and text, for located errors.
+#[derive(Clone)]
+pub(crate) struct SceneFile {
+    name: String,
+    source: Arc<String>,
+}
+
+impl SceneFile {
+    /// An error at `key` of the scene file (or at the file when `None`).
+    pub(crate) fn error(&self, key: Option<&str>, message: String) -> ModelError {
+        ModelError::new(&self.name, self.source.clone(), None, key, message)
+    }
+}
+
+/// Read a scene, derive its equations, plan what to integrate and set up the initial state;
+/// every error names the scene (or model) file, the key and the reason.
+pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
+    let (scene, file) = read(scene_path)?;
+    let err = |key: &str, m: String| file.error(Some(key), m);
+    let model_path = scene_path
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(&scene.model);
+    let model = Model::load(&model_path)?;
+    let parsed = parse_expressions(&scene.expressions, &model).map_err(|(k, m)| err(&k, m))?;
+    let (model, choice) = choose(model, &scene, &parsed, &file)?;
+    let d = hamel_derive::derive(&model, Some(&choice))?;
+    let request = request(&scene, &d, &parsed, &file)?;
+    let (method, options) = integrator(&scene, &file)?;
+    let compiled = d.compile().map_err(|e| err("eta", e.to_string()))?;
+    let params = d
+        .parameters_with(&scene.parameters)
+        .map_err(|e| err("parameters", e.to_string()))?;
+    let expressions = request
+        .expressions
+        .iter()
+        .map(|&i| parsed[i].specialised(&params, &d))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|(k, m)| err(&k, m))?;
+    let q0 = initial_q(&scene, &d, &file)?;
+    let (eta0, projection) = {
+        let numeric = hamel_model::NumericModel::new(&model, &params)
+            .map_err(|e| err("parameters", e.to_string()))?;
+        initial_eta(&scene.initial, &d, &numeric, &q0).map_err(|(key, m)| err(key, m))?
+    };
+    let times = output_times(&scene, &file)?;
+    let mut plan = crate::plan::plan(&model, &d, &request, &params)?;
+    plan.expressions = request
+        .expressions
+        .iter()
+        .map(|&i| (parsed[i].name.clone(), parsed[i].coordinate_names(&d)))
+        .collect();
+    let state: Vec<usize> = plan
+        .integrated_ix
+        .iter()
+        .chain(&plan.reconstructed_ix)
+        .copied()
+        .collect();
+    let (reference, delta0) =
+        start(&compiled, &plan, &q0, &eta0, &params).map_err(|m| err("initial", m))?;
+    let y0: Vec<f64> = state
+        .iter()
+        .map(|&k| q0[k])
+        .chain(eta0.iter().copied())
+        .collect();
+    Ok(Loaded {
+        accuracy: match (&scene.integrator, &scene.accuracy) {
+            (None, Some(a)) => Some((a.rtol, a.atol)),
+            _ => None,
+        },
+        compiled,
+        scene,
+        model,
+        d,
+        request,
+        plan,
+        integrator: (method, options),
+        params,
+        expressions,
+        state,
+        q0,
+        y0,
+        times,
+        reference,
+        delta0,
+        projection,
+        file,
+    })
+}
+
+/// Read and parse the scene file (its syntax and keys; nothing is checked against the model).
+fn read(scene_path: &Path) -> Result<(Scene, SceneFile), ModelError> {
+    let name = scene_path.display().to_string();
+    let text = std::fs::read_to_string(scene_path).map_err(|e| {
+        ModelError::new(
+            &name,
+            Arc::new(String::new()),
+            None,
+            None,
+            format!("cannot read the scene: {e}"),
+        )
+    })?;
+    let source = Arc::new(text);
+    let scene: Scene = toml::from_str(&source).map_err(|e| {
+        ModelError::new(
+            &name,
+            source.clone(),
+            e.span(),
+            None,
+            e.message().to_string(),
+        )
+    })?;
+    Ok((scene, SceneFile { name, source }))
+}
+
+/// The model and its quasi-velocity choice: the one the scene names (the default choice with
+/// hamel's note), or for `eta = "auto"` the one the search finds ([`crate::auto`]).
+fn choose(
+    model: Model,
+    scene: &Scene,
+    parsed: &[ParsedExpression],
+    file: &SceneFile,
+) -> Result<(Model, String), ModelError> {
+    if scene.eta.as_deref() != Some("auto") {
+        let chosen = model.choice(scene.eta.as_deref())?;
+        if let Some(note) = model.default_choice_note(chosen) {
+            eprintln!("{note}");
+        }
+        let choice = chosen.name.clone();
+        return Ok((model, choice));
+    }
+    if scene.initial.eta.is_some() {
+        return Err(file.error(
+            Some("initial.eta"),
+            "with eta = \"auto\" the quasi-velocities are chosen by the search, so their initial values cannot be given: give the initial velocities as `q_dot = { ... }`".into(),
+        ));
+    }
+    // The requested coordinates, and those the requested expressions need.
+    let auto_request: Option<Vec<String>> = scene.request.as_ref().map(|names| {
+        let mut v = names.clone();
+        for e in parsed.iter().filter(|e| names.contains(&e.name)) {
+            v.extend(e.coordinates.iter().map(|&k| model.coordinates[k].clone()));
+        }
+        v
+    });
+    crate::auto::auto_choice(model, auto_request.as_deref())
+}
+
+/// What the scene requests (everything when it says nothing), with the coordinates the
+/// requested expressions need.
+fn request(
+    scene: &Scene,
+    d: &hamel_derive::Derivation,
+    parsed: &[ParsedExpression],
+    file: &SceneFile,
+) -> Result<Request, ModelError> {
+    // The names `request` may use: the expressions' besides the model's outputs.
+    let expression_names: Vec<String> = parsed.iter().map(|e| e.name.clone()).collect();
+    let mut request = match &scene.request {
+        Some(names) => Request::parse(names, d, &expression_names)
+            .map_err(|m| file.error(Some("request"), m))?,
+        None => Request::everything(d.ell, parsed.len()),
+    };
+    for &i in &request.expressions {
+        for &k in &parsed[i].coordinates {
+            if !request.needed.contains(&k) {
+                request.needed.push(k);
+            }
+        }
+    }
+    Ok(request)
+}
+
+/// The integrator and its options: `[integrator]`, or DOP853 at the `[accuracy]` tolerances
+/// (which `hamel simulate` may replace by a faster setting that meets them), or DOP853 at
+/// rtol = 1e-10, atol = 1e-12.
+fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), ModelError> {
+    let err = |key: &str, m: String| file.error(Some(key), m);
+    let i = match (&scene.integrator, &scene.accuracy) {
+        (Some(_), Some(_)) => {
+            return Err(err(
+                "accuracy",
+                "give either [accuracy] (a target) or [integrator] (a method), not both".into(),
+            ));
+        }
+        (Some(i), None) => i.clone(),
+        (None, Some(a)) => {
+            if !(a.rtol > 0.0 && a.atol > 0.0 && a.rtol < 1.0) {
+                return Err(err(
+                    "accuracy",
+                    format!(
+                        "rtol must be in (0, 1) and atol > 0 (got {}, {})",
+                        a.rtol, a.atol
+                    ),
+                ));
+            }
+            Integrator {
+                rtol: a.rtol,
+                atol: a.atol,
+                ..Integrator::default()
+            }
+        }
+        (None, None) => Integrator::default(),
+    };
+    let method = match i.method {
+        MethodName::Rk4 => Method::Rk4 {
+            step: i
+                .step
+                .ok_or_else(|| err("integrator.step", "rk4 needs a step".into()))?,
+        },
+        MethodName::Dopri5 => Method::Dopri5,
+        MethodName::Dop853 => Method::Dop853,
+        MethodName::GaussLegendre => Method::GaussLegendre {
+            stages: i.stages.unwrap_or(3),
+            step: i.step,
+        },
+    };
+    // Tolerances the adaptive methods cannot meet are refused before anything runs.
+    let key = if scene.accuracy.is_some() {
+        "accuracy.rtol"
+    } else {
+        "integrator.rtol"
+    };
+    if !matches!(method, Method::Rk4 { .. }) && i.rtol <= 10.0 * f64::EPSILON {
+        return Err(err(
+            key,
+            format!(
+                "rtol = {:e} is below what f64 arithmetic can deliver: it must exceed 10·ε ≈ 2.2e-15",
+                i.rtol
+            ),
+        ));
+    }
+    let options = Options {
+        rtol: i.rtol,
+        atol: i.atol,
+        max_steps: i.max_steps.unwrap_or(Options::default().max_steps),
+        ..Options::default()
+    };
+    Ok((method, options))
+}
+
+/// The initial configuration, every coordinate of the model in its order.
+fn initial_q(
+    scene: &Scene,
+    d: &hamel_derive::Derivation,
+    file: &SceneFile,
+) -> Result<Vec<f64>, ModelError> {
+    let err = |m: String| file.error(Some("initial.q"), m);
+    if let Some(extra) = scene.initial.q.keys().find(|k| !d.coordinates.contains(k)) {
+        return Err(err(format!("`{extra}` is not a coordinate of the model")));
+    }
+    d.coordinates
+        .iter()
+        .map(|c| {
+            scene
+                .initial
+                .q
+                .get(c)
+                .copied()
+                .ok_or_else(|| err(format!("missing coordinate `{c}`")))
+        })
+        .collect()
+}
+
+/// The output times: a count spread evenly over [t0, t_end], or the times given.
+fn output_times(scene: &Scene, file: &SceneFile) -> Result<Vec<f64>, ModelError> {
+    if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
+        return Err(file.error(
+            Some("t_end"),
+            "t_end must be finite and differ from t0".into(),
+        ));
+    }
+    Ok(match &scene.outputs {
+        Outputs::Count(n) if *n >= 2 => (0..*n)
+            .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
+            .collect(),
+        Outputs::Count(n) => {
+            return Err(file.error(
+                Some("outputs"),
+                format!("needs at least 2 output times, got {n}"),
+            ));
+        }
+        Outputs::Times(t) => t.clone(),
+    })
+}
+
+/// The value at which the dropped coordinates are held, where the equations evaluate at the
+/// initial state (they are free of them; [Z; α] may still be singular at some values), and
+/// δ = det[Z; α] there. Error: why none of the values tried works.
+fn start(
+    compiled: &Compiled,
+    plan: &Plan,
+    q0: &[f64],
+    eta0: &[f64],
+    params: &IndexMap<String, f64>,
+) -> Result<(f64, f64), String> {
+    let references: &[f64] = if plan.dropped_ix.is_empty() {
+        &[0.0]
+    } else {
+        &[0.5, 1.25, 2.0]
+    };
+    let mut last = String::new();
+    for &reference in references {
+        let mut q = q0.to_vec();
+        for &k in &plan.dropped_ix {
+            q[k] = reference;
+        }
+        match compiled.evaluate(&q, eta0, params) {
+            Ok(e) => return Ok((reference, e.delta)),
+            Err(e) => last = e.to_string(),
+        }
+    }
+    Err(last)
+}
+
+impl Loaded {
+    /// An error about this scene, at `key`.
+    pub fn error(&self, key: &str, message: String) -> ModelError {
+        self.file.error(Some(key), message)
+    }
+
+    /// The requested `[expressions]` at the output states of `solution`, by name; a value
+    /// that cannot be computed (outside the expression's domain, not finite) is None, and a
+    /// warning on stderr names the expression and the first such time.
+    pub fn expression_values(&self, solution: &Solution) -> IndexMap<String, Vec<Option<f64>>> {
+        let values = self.evaluate_expressions(solution);
+        for (name, v) in &values {
+            if let Some(j) = v.iter().position(Option::is_none) {
+                eprintln!(
+                    "warning: expressions.{name} cannot be evaluated at t = {} (outside its domain or not finite): written as null",
+                    solution.t[j]
+                );
+            }
+        }
+        values
+    }
+
+    /// [`Self::expression_values`] without the warnings.
+    pub fn evaluate_expressions(&self, solution: &Solution) -> IndexMap<String, Vec<Option<f64>>> {
+        let n = self.state.len();
+        self.expressions
+            .iter()
+            .map(|e| {
+                let values: Vec<Option<f64>> = solution
+                    .y
+                    .iter()
+                    .map(|y| {
+                        let mut inputs = vec![self.reference; self.d.ell];
+                        for (i, &k) in self.state.iter().enumerate() {
+                            inputs[k] = y[i];
+                        }
+                        inputs.extend_from_slice(&y[n..]);
+                        e.tape
+                            .eval::<f64>(&inputs)
+                            .ok()
+                            .map(|v| v[0])
+                            .filter(|v| v.is_finite())
+                    })
+                    .collect();
+                (e.name.clone(), values)
+            })
+            .collect()
+    }
+
+    /// The coordinates in the integrated state, by index: integrated, then reconstructed.
+    pub fn state(&self) -> &[usize] {
+        &self.state
+    }
+
+    /// The model's name.
+    pub fn model_name(&self) -> &str {
+        &self.d.model
+    }
+
+    /// (ℓ, σ).
+    pub fn dims(&self) -> (usize, usize) {
+        (self.d.ell, self.d.sigma)
+    }
+
+    /// The scene's value of a parameter (the model's default unless overridden).
+    pub fn parameter(&self, name: &str) -> f64 {
+        self.params[name]
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The value at which the dropped coordinates are held.
+    pub fn reference_value(&self) -> f64 {
+        self.reference
+    }
+
+    /// The quasi-velocity choice's name.
+    pub fn eta_name(&self) -> &str {
+        &self.d.eta_name
+    }
+
+    /// The indices, in the integrated state, of the requested outputs (coordinates, then η).
+    pub fn requested_components(&self) -> Vec<usize> {
+        let n = self.state.len();
+        self.request
+            .coordinates
+            .iter()
+            .map(|&k| {
+                self.state
+                    .iter()
+                    .position(|&s| s == k)
+                    .expect("requested ⊆ state")
+            })
+            .chain(if self.request.eta {
+                n..n + self.d.sigma
+            } else {
+                n..n
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,152 @@
+//! `hamel plan --measure`: the planned computation against the full unreduced system, both on
+//! compiled cores.
+
+use hamel_model::ModelError;
+use hamel_sim::MethodName;
+use indexmap::IndexMap;
+use serde::Serialize;
+
+use crate::cache;
+use crate::load::Loaded;
+
+/// `hamel plan --measure`: the planned computation against the full unreduced system.
+#[derive(Debug, Serialize)]
+pub struct Measured {
+    /// The integrator both ran.
+    pub method: MethodName,
+    /// States integrated: planned, full.
+    pub states: (usize, usize),
+    /// Operations of the right-hand side: planned (specialised), full (parameters as inputs).
+    pub ops: (usize, usize),
+    /// Median time of one integration, seconds: planned, full (measured inside each core).
+    pub seconds: (f64, f64),
+    /// Right-hand side evaluations: planned, full.
+    pub rhs_evals: (usize, usize),
+    /// Full time over planned time.
+    pub speedup: f64,
+    /// The largest difference of the requested outputs between the two runs, relative to
+    /// max(1, |value|).
+    pub max_difference: f64,
+}
+
+impl Measured {
+    /// The measurement as text.
+    pub fn to_text(&self) -> String {
+        format!(
+            "measured ({}): planned {} states, {} operations, {:.3e} s, {} RHS evaluations; full {} states, {} operations, {:.3e} s, {} RHS evaluations; full / planned = {:.2}x; largest difference of the requested outputs {:.1e}\n",
+            self.method,
+            self.states.0,
+            self.ops.0,
+            self.seconds.0,
+            self.rhs_evals.0,
+            self.states.1,
+            self.ops.1,
+            self.seconds.1,
+            self.rhs_evals.1,
+            self.speedup,
+            self.max_difference
+        )
+    }
+}
+
+/// Integrate a scene on its compiled core and the full unreduced system (every coordinate,
+/// η; parameters not specialised, set at run time) on its own compiled core, both with the
+/// scene's integrator (DOP853 at the `[accuracy]` tolerances when it gives only a target),
+/// each repeated until it has run about 0.3 s; the median times and the outputs' agreement.
+pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
+    let (method, options) = loaded.integrator;
+    let fail = |e: String| loaded.error("integrator", e);
+    let repeats = |seconds: f64| ((0.3 / seconds.max(1e-9)) as usize).clamp(3, 10_000);
+    let (probe, first, _) = loaded
+        .integrate_compiled(method, &options, 1)
+        .map_err(fail)?;
+    if let Some(e) = probe.failure {
+        return Err(e);
+    }
+    let (planned, planned_seconds, _) = loaded
+        .integrate_compiled(method, &options, repeats(first))
+        .map_err(fail)?;
+    // The full system's core: nothing dropped, nothing specialised.
+    let model = &loaded.model;
+    let d = &loaded.d;
+    let none = IndexMap::new();
+    let key = cache::Key::new(&model.source, &d.eta_name, &[], &none);
+    let entry = match cache::lookup(&key).map_err(fail)? {
+        Some(e) => e,
+        None => {
+            let code = hamel_derive::derive_for_code(model, Some(&d.eta_name))?;
+            cache::store(
+                &key,
+                &code,
+                &none,
+                &[],
+                |_| Ok(loaded.plan.ops_full),
+                loaded.plan.ops_full,
+                &format!(
+                    "hamel plan --measure (full system of {}, {})",
+                    model.file, d.eta_name
+                ),
+            )
+            .map_err(fail)?
+        }
+    };
+    let (exe, _) = cache::binary(&entry).map_err(fail)?;
+    let full_job = |repeat: usize| cache::Job {
+        t0: loaded.scene.t0,
+        times: &loaded.times,
+        y0: loaded
+            .q0
+            .iter()
+            .chain(&loaded.y0[loaded.state.len()..])
+            .copied()
+            .collect(),
+        method,
+        options,
+        reference: 0.0,
+        energy: loaded.request.energy,
+        residual: loaded.request.constraint_residual,
+        repeat,
+        params: loaded.params.clone(),
+    };
+    let (_, _, first_full) = cache::run(&exe, &full_job(1)).map_err(fail)?;
+    let (full, error, full_seconds) =
+        cache::run(&exe, &full_job(repeats(first_full))).map_err(fail)?;
+    if let Some(e) = error {
+        return Err(fail(format!("the full system's run failed: {e}")));
+    }
+    let p = &planned.solution;
+    let n = loaded.state.len();
+    let mut max_difference = 0.0_f64;
+    for (yp, yf) in p.y.iter().zip(&full.y) {
+        let pairs = loaded
+            .request
+            .coordinates
+            .iter()
+            .map(|&k| {
+                (
+                    loaded
+                        .state
+                        .iter()
+                        .position(|&s| s == k)
+                        .expect("requested ⊆ state"),
+                    k,
+                )
+            })
+            .chain((0..d.sigma).map(|i| (n + i, d.ell + i)));
+        for (i, j) in pairs {
+            max_difference = max_difference.max((yp[i] - yf[j]).abs() / yf[j].abs().max(1.0));
+        }
+    }
+    if p.y.len() != full.y.len() {
+        max_difference = f64::INFINITY;
+    }
+    Ok(Measured {
+        method: method.name(),
+        states: (n + d.sigma, d.ell + d.sigma),
+        ops: (loaded.plan.ops, loaded.plan.ops_full),
+        seconds: (planned_seconds, full_seconds),
+        rhs_evals: (p.stats.rhs_evals, full.stats.rhs_evals),
+        speedup: full_seconds / planned_seconds,
+        max_difference,
+    })
+}

@@ -1,0 +1,140 @@
+//! The planned state as an ODE system for `hamel-sim`, evaluated by the derivation's
+//! structured evaluator (interpreted): y = (integrated and reconstructed coordinates, η).
+
+use hamel_derive::Compiled;
+use hamel_sim::{OdeSystem, SystemError};
+use indexmap::IndexMap;
+
+/// The planned state of a loaded scene as an ODE system.
+pub(crate) struct System<'a> {
+    pub(crate) compiled: &'a Compiled,
+    pub(crate) params: IndexMap<String, f64>,
+    pub(crate) names: &'a [String],
+    pub(crate) ell: usize,
+    pub(crate) sigma: usize,
+    /// The coordinates in the state (integrated, then reconstructed), model indices.
+    pub(crate) state: Vec<usize>,
+    /// The value at which the dropped coordinates are held (the equations are free of them).
+    pub(crate) reference: f64,
+    /// Whether the energy and the constraint residual are computed (requested).
+    pub(crate) energy: bool,
+    pub(crate) residual: bool,
+    /// δ = det[Z; α] at the start: a path that changes its sign crosses the singular set.
+    pub(crate) delta0: f64,
+    pub(crate) numeric: hamel_model::NumericModel<'a>,
+    /// The largest condition number of [Z; α] met, and when: computed whenever |δ| has fallen
+    /// below 1e-3 of its start (δ comes with every evaluation; the condition number costs an SVD).
+    pub(crate) watch: std::cell::Cell<Option<(f64, f64)>>,
+}
+
+impl System<'_> {
+    /// The full coordinates at state y: the state's, the dropped ones at the reference value.
+    pub(crate) fn full_q<T: Copy>(&self, y: &[T], reference: T) -> Vec<T> {
+        let mut q = vec![reference; self.ell];
+        for (i, &k) in self.state.iter().enumerate() {
+            q[k] = y[i];
+        }
+        q
+    }
+
+    pub(crate) fn at(&self, y: &[f64]) -> Result<hamel_derive::Evaluation, SystemError> {
+        let (qs, eta) = y.split_at(self.state.len());
+        let q = self.full_q(qs, self.reference);
+        let result = self
+            .compiled
+            .evaluate(&q, eta, &self.params)
+            .and_then(|e| {
+                if e.delta.signum() == self.delta0.signum() {
+                    Ok(e)
+                } else {
+                    Err(hamel_derive::NumericError(format!(
+                        "the path reaches the singular set of the quasi-velocities, det[Z; α] = 0 (δ = {:.3e} changed sign); choose other quasi-velocities there",
+                        e.delta
+                    )))
+                }
+            });
+        result.map_err(|e| {
+            let at: Vec<String> = self
+                .state
+                .iter()
+                .zip(qs)
+                .map(|(&k, v)| format!("{} = {v:.6}", self.names[k]))
+                .chain(
+                    eta.iter()
+                        .enumerate()
+                        .map(|(i, v)| format!("eta{} = {v:.6}", i + 1)),
+                )
+                .collect();
+            SystemError::new(format!("{e} (state {})", at.join(", ")))
+        })
+    }
+}
+
+impl OdeSystem for System<'_> {
+    fn dim(&self) -> usize {
+        self.state.len() + self.sigma
+    }
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+        let e = self.at(y)?;
+        if e.delta.abs() < 1e-3 * self.delta0.abs() {
+            let q = self.full_q(&y[..self.state.len()], self.reference);
+            if let Ok(cond) = self.compiled.condition(&q, &self.params)
+                && self.watch.get().is_none_or(|(c, _)| cond > c)
+            {
+                self.watch.set(Some((cond, t)));
+            }
+        }
+        let n = self.state.len();
+        for (i, &k) in self.state.iter().enumerate() {
+            dy[i] = e.q_dot[k];
+        }
+        dy[n..].copy_from_slice(&e.eta_dot);
+        Ok(())
+    }
+    fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
+        if !self.energy {
+            return None;
+        }
+        self.at(y).ok().map(|e| e.energy)
+    }
+    /// ‖α(q) q̇‖∞ with q̇ = Γη, from the model's own α (hamel-sim reports its maximum over the
+    /// outputs as the constraint drift). Requested, it keeps every coordinate in the state.
+    fn constraint_residual(&self, _t: f64, y: &[f64]) -> Option<f64> {
+        if !self.residual {
+            return None;
+        }
+        let e = self.at(y).ok()?;
+        let q = self.full_q(&y[..self.state.len()], self.reference);
+        hamel_oracle::constraint_residual(&self.numeric, &q, &e.q_dot).ok()
+    }
+    /// Exact Jacobian: the structured right-hand side over dual numbers, one column per
+    /// state component (used by the implicit Gauss–Legendre method).
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
+        use hamel_expr::Dual;
+        let n = y.len();
+        let ns = self.state.len();
+        for j in 0..n {
+            let yd: Vec<Dual> = y
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| Dual::new(v, if i == j { 1.0 } else { 0.0 }))
+                .collect();
+            let (qs, eta) = yd.split_at(ns);
+            let q = self.full_q(qs, Dual::new(self.reference, 0.0));
+            let r = match self.compiled.rhs::<Dual>(&q, eta, &self.params) {
+                Ok(r) => r,
+                Err(e) => return Some(Err(SystemError::new(format!("at t = {t}: {e}")))),
+            };
+            let rates = self.state.iter().map(|&k| &r.q_dot[k]);
+            for (i, v) in rates.chain(&r.eta_dot).enumerate() {
+                if !v.d.is_finite() {
+                    return Some(Err(SystemError::new(format!(
+                        "at t = {t}: the Jacobian is not finite"
+                    ))));
+                }
+                jac[i * n + j] = v.d;
+            }
+        }
+        Some(Ok(()))
+    }
+}

@@ -1,0 +1,181 @@
+//! The trajectory of a scene's requested outputs, as written (CSV, JSON) and summarised.
+
+use hamel_sim::MethodName;
+use indexmap::IndexMap;
+use serde::Serialize;
+
+use crate::initial::Projection;
+use crate::integrate::{Engine, Run};
+use crate::load::Loaded;
+
+/// The trajectory as written (`--format json`).
+#[derive(Serialize)]
+pub struct Trajectory {
+    pub model: String,
+    pub eta_name: String,
+    pub method: MethodName,
+    /// What evaluated the right-hand side.
+    pub engine: Engine,
+    pub t: Vec<f64>,
+    pub q: IndexMap<String, Vec<f64>>,
+    /// η at the output times (empty when not requested).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub eta: Vec<Vec<f64>>,
+    /// The energy (absent when not requested).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy: Option<Vec<Option<f64>>>,
+    /// The requested `[expressions]` at the output times (null where an expression cannot be
+    /// evaluated, e.g. outside its domain; stderr says where).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    pub expressions: IndexMap<String, Vec<Option<f64>>>,
+    pub stats: StatsOut,
+    pub complete: bool,
+    /// When the initial velocities were given as q̇: their projection onto the constraints.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial_projection: Option<Projection>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+#[derive(Serialize)]
+pub struct StatsOut {
+    pub steps: usize,
+    pub rejected: usize,
+    pub rhs_evals: usize,
+    pub energy_drift: Option<f64>,
+    pub constraint_drift: Option<f64>,
+    /// The largest condition number of [Z; α] over the output states, and where.
+    pub max_condition: Option<f64>,
+    pub max_condition_t: Option<f64>,
+    /// Estimated global error on the requested outputs (max |y − y_c| / max(1, |y_c|) over the
+    /// output times, y_c a check run at 1/1000 of the tolerances or half the step), computed
+    /// for loose tolerances and on `--estimate-error`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_estimate: Option<f64>,
+    /// How the check run was made.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_estimate_by: Option<String>,
+}
+
+impl Loaded {
+    /// The trajectory of the requested outputs.
+    pub fn trajectory(&self, method: MethodName, run: &Run) -> Trajectory {
+        let (solution, failure) = (&run.solution, run.failure.as_ref());
+        let n = self.state.len();
+        let d = &self.d;
+        Trajectory {
+            model: d.model.clone(),
+            eta_name: d.eta_name.clone(),
+            method,
+            engine: Engine::Interpreted,
+            t: solution.t.clone(),
+            q: self
+                .request
+                .coordinates
+                .iter()
+                .map(|&k| {
+                    let i = self
+                        .state
+                        .iter()
+                        .position(|&s| s == k)
+                        .expect("requested ⊆ state");
+                    (
+                        d.coordinates[k].clone(),
+                        solution.y.iter().map(|y| y[i]).collect(),
+                    )
+                })
+                .collect(),
+            eta: if self.request.eta {
+                solution.y.iter().map(|y| y[n..].to_vec()).collect()
+            } else {
+                Vec::new()
+            },
+            energy: if self.request.energy {
+                Some(solution.energy.clone())
+            } else {
+                None
+            },
+            expressions: self.expression_values(solution),
+            stats: StatsOut {
+                steps: solution.stats.steps,
+                rejected: solution.stats.rejected,
+                rhs_evals: solution.stats.rhs_evals,
+                energy_drift: solution.stats.energy_drift,
+                constraint_drift: solution.stats.constraint_drift,
+                max_condition: run.max_condition.map(|c| c.0),
+                max_condition_t: run.max_condition.map(|c| c.1),
+                error_estimate: None,
+                error_estimate_by: None,
+            },
+            complete: failure.is_none() && solution.complete,
+            initial_projection: self.projection.clone(),
+            error: failure.map(|e| e.message().to_string()),
+        }
+    }
+}
+
+impl Trajectory {
+    /// One line for stderr.
+    pub fn summary(&self) -> String {
+        let s = &self.stats;
+        format!(
+            "{} ({}), {}: {} steps ({} rejected), {} RHS evaluations, energy drift {}, constraint drift {}{}",
+            self.model,
+            self.eta_name,
+            self.method,
+            s.steps,
+            s.rejected,
+            s.rhs_evals,
+            s.energy_drift.map_or("n/a".into(), |x| format!("{x:.2e}")),
+            s.constraint_drift
+                .map_or("n/a".into(), |x| format!("{x:.2e}")),
+            if self.complete { "" } else { "; INCOMPLETE" }
+        ) + self
+            .initial_projection
+            .as_ref()
+            .map_or(String::new(), |p| {
+                format!(
+                    "\ninitial velocities projected onto the constraints: max |Δq̇| = {:.3e}, kinetic energy {:.6e} → {:.6e}",
+                    p.correction, p.kinetic_before, p.kinetic_after
+                )
+            })
+            .as_str()
+    }
+
+    /// CSV: t, the coordinates, eta1…, energy, the expressions (a `# incomplete` comment first
+    /// when cut short).
+    pub fn to_csv(&self) -> String {
+        let mut o = String::new();
+        if let Some(e) = &self.error {
+            o.push_str(&format!("# incomplete: {}\n", e.replace('\n', " ")));
+        }
+        let sigma = self.eta.first().map_or(0, Vec::len);
+        let mut header = vec!["t".to_string()];
+        header.extend(self.q.keys().cloned());
+        header.extend((1..=sigma).map(|i| format!("eta{i}")));
+        if self.energy.is_some() {
+            header.push("energy".into());
+        }
+        header.extend(self.expressions.keys().cloned());
+        o.push_str(&header.join(","));
+        o.push('\n');
+        for (j, t) in self.t.iter().enumerate() {
+            let mut row = vec![format!("{t:e}")];
+            row.extend(self.q.values().map(|v| format!("{:e}", v[j])));
+            if let Some(eta) = self.eta.get(j) {
+                row.extend(eta.iter().map(|v| format!("{v:e}")));
+            }
+            if let Some(energy) = &self.energy {
+                row.push(energy[j].map_or(String::new(), |e| format!("{e:e}")));
+            }
+            row.extend(
+                self.expressions
+                    .values()
+                    .map(|v| v[j].map_or(String::new(), |x| format!("{x:e}"))),
+            );
+            o.push_str(&row.join(","));
+            o.push('\n');
+        }
+        o
+    }
+}

@@ -1,0 +1,269 @@
+//! The command line: every subcommand and its options (clap). What each does is in
+//! `main.rs`; the work itself is in the library crates.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+#[derive(Parser)]
+#[command(
+    name = "hamel",
+    version,
+    about = "Boltzmann–Hamel equations of nonholonomic systems: derive, reduce, generate code, simulate"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Format {
+    Text,
+    Json,
+    Latex,
+}
+
+/// Output of `hamel bench`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum TableFormat {
+    /// A Markdown table.
+    Markdown,
+    Json,
+}
+
+/// Output of `hamel simulate`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum TrajectoryFormat {
+    Csv,
+    Json,
+}
+
+/// Output of `hamel reduce` and `hamel search`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ReportFormat {
+    Text,
+    Json,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Derive the Boltzmann–Hamel equations of a model: Γ, Θ, δ, A_Γ, Q (true, paper's,
+    /// correction), the equations, the kinematic equations, the energy and the singular set.
+    Derive {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (a `[quasi_velocities.NAME]` of the model; default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: Format,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
+    /// Decide which coordinates drop out of the equations: classification (31), block structure
+    /// (17)/(18), Properties 2.1–2.2, hypotheses H0–H6 with witnesses, the ground truth and the
+    /// reduced system.
+    Reduce {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// Coordinates to eliminate, comma-separated (e.g. `x,y,theta`).
+        #[arg(long, value_delimiter = ',', required = true)]
+        eliminate: Vec<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
+    /// Write the equations as a standalone Rust crate (straight-line f64 code, an engine-free
+    /// runtime, an `eval` binary): the full and, with --eliminate, the reduced system.
+    Codegen {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// Coordinates to eliminate (checked exactly, as `hamel reduce` does).
+        #[arg(long, value_delimiter = ',')]
+        eliminate: Vec<String>,
+        /// Directory of the crate to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Overwrite the generated files of a non-empty directory.
+        #[arg(long)]
+        force: bool,
+        /// Also write a `simulate` binary (vendors the integrators into the crate).
+        #[arg(long)]
+        with_simulator: bool,
+    },
+    /// Integrate a scene (model, quasi-velocities, parameters, initial state, integrator) and
+    /// write the trajectory; a one-line summary goes to stderr.
+    Simulate {
+        /// The scene file (TOML); its `model` path is relative to it.
+        scene: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "csv")]
+        format: TrajectoryFormat,
+        /// Write the trajectory to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Also draw the coordinates and quasi-velocities against time (FILE.svg or FILE.png).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// `compiled`: the scene's generated core, specialised for its parameters, built with
+        /// cargo on first use and cached (falls back to `interpreted`, with a warning, when it
+        /// cannot be built); `interpreted`: the structured evaluator, nothing compiled.
+        #[arg(long, value_enum, default_value = "compiled")]
+        engine: EngineArg,
+        /// Estimate the global error on the requested outputs with a check run (1/1000 of the
+        /// tolerances, or half the step) and report it (stderr, and `stats.error_estimate`).
+        /// Done without asking when a tolerance is loose (≥ 1e-3).
+        #[arg(long)]
+        estimate_error: bool,
+    },
+    /// Plan a scene: from the outputs it requests, which coordinates are integrated,
+    /// reconstructed or dropped, and the operation count of the right-hand side (all decided
+    /// exactly).
+    Plan {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Also measure the plan: integrate the scene on its compiled core and the full
+        /// unreduced system (every coordinate, parameters not specialised) on its own compiled
+        /// core with the same integrator, and report both times and the largest difference
+        /// of the requested outputs.
+        #[arg(long)]
+        measure: bool,
+    },
+    /// Measure the speed–accuracy trade on a scene: every integrator over a range of
+    /// tolerances and fixed steps against a DOP853 reference at 1e-14; error on the requested
+    /// outputs, time, RHS evaluations, drifts; the fastest setting that meets the target.
+    Tradeoff {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Also draw the work–precision diagram (FILE.svg or FILE.png).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Instead, write the planned system as Python with the reference solution and hamel's
+        /// adaptive runs, for `bench/scipy_tradeoff.py` (JSON).
+        #[arg(long, conflicts_with_all = ["plot", "format"])]
+        export_python: Option<PathBuf>,
+        /// What the timed runs evaluate: the scene's compiled core (as `hamel simulate` runs
+        /// it; the interpreted evaluator, with a warning, when it cannot be built) or the
+        /// interpreted evaluator.
+        #[arg(long, value_enum, default_value = "compiled")]
+        engine: EngineArg,
+    },
+    /// Search for quasi-velocities that eliminate the given coordinates from the true
+    /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
+    Search(SearchArgs),
+    /// The worker process of `hamel search` (internal: its output is a protocol).
+    #[command(hide = true)]
+    SearchWorker {
+        model: PathBuf,
+        #[arg(long, value_delimiter = ',', required = true)]
+        eliminate: Vec<String>,
+        #[arg(long)]
+        budget: f64,
+        #[arg(long)]
+        max: usize,
+    },
+    /// Evaluate the derived equations at states given as JSON: η̇ (true and paper's), q̇, energy.
+    Eval {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The quasi-velocity choice (default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// JSON file with one state object or a list of them (`-` for stdin):
+        /// {"q": {"x": 0.1, …}, "eta": [1.0, 0.5], "params": {"m": 2.0}, "functions": {"z13": "…"}}.
+        #[arg(long)]
+        state: String,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
+    /// Time the derivation of every model and choice; with --sympy, SymPy does the same
+    /// derivation in the same run as the baseline (bench/sympy_derive.py).
+    Bench {
+        /// Model files (default: every models/*.toml).
+        models: Vec<PathBuf>,
+        /// Derivations per model and choice (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        repeat: usize,
+        /// Also run the SymPy baseline (needs python3 with sympy).
+        #[arg(long)]
+        sympy: bool,
+        /// Time limit for each SymPy derivation, seconds.
+        #[arg(long, default_value_t = 300.0)]
+        timeout: f64,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "markdown")]
+        format: TableFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
+}
+
+/// What evaluates the right-hand side (`hamel_scene::Engine`).
+#[derive(Clone, Copy, ValueEnum)]
+pub enum EngineArg {
+    /// The scene's generated core, compiled and cached.
+    Compiled,
+    /// The structured evaluator of the derivation (a tape interpreter).
+    Interpreted,
+}
+
+impl From<EngineArg> for hamel_scene::Engine {
+    fn from(e: EngineArg) -> Self {
+        match e {
+            EngineArg::Compiled => hamel_scene::Engine::Compiled,
+            EngineArg::Interpreted => hamel_scene::Engine::Interpreted,
+        }
+    }
+}
+
+/// `hamel search`.
+#[derive(Args)]
+pub struct SearchArgs {
+    /// The model file (TOML).
+    pub model: PathBuf,
+    /// Coordinates to eliminate, comma-separated.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub eliminate: Vec<String>,
+    /// Time budget in seconds for the whole command: it returns within the budget plus
+    /// about a second, with what it found and why it stopped (an exact check under way at
+    /// the deadline is abandoned, and named).
+    #[arg(long, default_value_t = 60.0)]
+    pub budget: f64,
+    /// Most reducing choices to collect from the finite ansatz.
+    #[arg(long, default_value_t = 12)]
+    pub max: usize,
+    /// Progress on stderr.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub progress: crate::search::ProgressMode,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "text")]
+    pub format: ReportFormat,
+    /// Write the result to this file instead of stdout.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+}
