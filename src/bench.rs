@@ -84,10 +84,14 @@ impl Baseline {
     }
 }
 
+/// The SymPy baseline (`bench/sympy_derive.py`), carried in the binary so that an installed
+/// `hamel` runs it from anywhere (`python3 -c`).
+const SYMPY_SCRIPT: &str = include_str!("../bench/sympy_derive.py");
+
 /// Run the SymPy script on one choice (`simplify`: its `--simplify` mode).
-fn sympy(script: &Path, model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Baseline {
+fn sympy(model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Baseline {
     let mut command = Command::new("python3");
-    command.arg(script).arg(model).arg(eta.name);
+    command.arg("-c").arg(SYMPY_SCRIPT).arg(model).arg(eta.name);
     if simplify {
         command.arg("--simplify");
     }
@@ -160,7 +164,6 @@ pub fn run(
     with_sympy: bool,
     timeout: f64,
 ) -> Result<Vec<Row>, ModelError> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/sympy_derive.py");
     let mut rows = Vec::new();
     for path in models {
         let model = Model::load(path)?;
@@ -173,8 +176,8 @@ pub fn run(
                     rows: matches!(choice.origin, ChoiceOrigin::Independent)
                         .then(|| serde_json::to_string(&rows).expect("serialisable")),
                 };
-                row.sympy = sympy(&script, path, &eta, timeout, false);
-                row.sympy_simplify = sympy(&script, path, &eta, timeout, true);
+                row.sympy = sympy(path, &eta, timeout, false);
+                row.sympy_simplify = sympy(path, &eta, timeout, true);
             }
             for b in [&mut row.sympy, &mut row.sympy_simplify] {
                 if let (Some(s), "ok") = (b.seconds, b.status.as_str()) {
@@ -248,9 +251,10 @@ pub fn table(rows: &[Row]) -> String {
     s
 }
 
-/// Every `models/*.toml` of the repository, sorted.
+/// Every `models/*.toml` under the current directory (the repository's bundled models when run
+/// from a checkout), sorted.
 pub fn bundled_models() -> Result<Vec<PathBuf>, ModelError> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models");
+    let dir = PathBuf::from("models");
     let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
         .map_err(|e| {
             ModelError::new(
@@ -258,7 +262,9 @@ pub fn bundled_models() -> Result<Vec<PathBuf>, ModelError> {
                 std::sync::Arc::new(String::new()),
                 None,
                 None,
-                format!("cannot list models: {e}"),
+                format!(
+                    "cannot list models: {e} (give model files, or run `hamel bench` in a directory with models/)"
+                ),
             )
         })?
         .filter_map(|e| e.ok().map(|e| e.path()))

@@ -9,6 +9,7 @@
 
 mod bench;
 mod cli;
+mod messages;
 mod output;
 mod search;
 
@@ -27,6 +28,7 @@ fn main() -> ExitCode {
     let _ = miette::set_hook(Box::new(|_| {
         Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())
     }));
+    messages::init();
     let cli = Cli::parse();
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
@@ -225,6 +227,7 @@ fn simulate(
 
 fn plan(scene: &Path, format: ReportFormat, out: Output, measure: bool) -> Result<(), ModelError> {
     let loaded = hamel_scene::load(scene)?;
+    let core = loaded.core().map_err(|e| loaded.error("eta", e))?.summary();
     let measured = if measure {
         Some(hamel_scene::measure::measure_plan(&loaded)?)
     } else {
@@ -233,22 +236,22 @@ fn plan(scene: &Path, format: ReportFormat, out: Output, measure: bool) -> Resul
     let plan = &loaded.plan;
     out.write(&match format {
         ReportFormat::Text => {
-            plan.to_text()
-                + measured
-                    .as_ref()
-                    .map_or(String::new(), |m| m.to_text())
-                    .as_str()
+            let measured = measured.as_ref().map_or(String::new(), |m| m.to_text());
+            format!("{}{}{measured}", plan.to_text(), core.to_text())
         }
         ReportFormat::Json => {
             #[derive(serde::Serialize)]
-            struct Measured<'a> {
+            struct Report<'a> {
                 #[serde(flatten)]
                 plan: &'a hamel_scene::Plan,
+                #[serde(flatten)]
+                core: hamel_scene::cache::Summary,
                 #[serde(skip_serializing_if = "Option::is_none")]
                 measured: Option<&'a hamel_scene::measure::Measured>,
             }
-            json(&Measured {
+            json(&Report {
                 plan,
+                core,
                 measured: measured.as_ref(),
             })
         }

@@ -7,7 +7,8 @@
 use hamel_derive::derive;
 use hamel_expr::{DD, Env, Expr};
 use hamel_model::Model;
-use hamel_reduce::{Reduction, reduce};
+use hamel_reduce::hypotheses::{H0, H1, H2, H3, H4, H5, H6, Id};
+use hamel_reduce::{PropertyId, Reduction, reduce};
 use indexmap::IndexMap;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -26,13 +27,13 @@ fn run(model: &Model, eta: &str, eliminate: &str) -> Reduction {
     reduce(model, Some(eta), &names).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn holds(r: &Reduction, h: &str) -> bool {
-    r.hypotheses[h].holds
+fn holds(r: &Reduction, h: Id) -> bool {
+    r.hypotheses[&h].holds
 }
 
 /// The witness of a failed hypothesis: (object, coordinate).
-fn witness(r: &Reduction, h: &str) -> (String, Option<String>, String) {
-    let w = r.hypotheses[h]
+fn witness(r: &Reduction, h: Id) -> (String, Option<String>, String) {
+    let w = r.hypotheses[&h]
         .witness
         .as_ref()
         .unwrap_or_else(|| panic!("{h} has no witness"));
@@ -93,9 +94,9 @@ eta = ["der(x)", "der(theta)"]
 #[test]
 fn the_knife_meets_every_hypothesis_and_loses_every_coordinate() {
     let r = run(&bundled("knife"), "paper", "x,y,theta");
-    for h in ["H0", "H1", "H2", "H3", "H4", "H5", "H6"] {
-        assert!(holds(&r, h), "{h}: {:?}", r.hypotheses[h].witness);
-        assert!(r.hypotheses[h].witness.is_none());
+    for h in Id::ALL {
+        assert!(holds(&r, h), "{h}: {:?}", r.hypotheses[&h].witness);
+        assert!(r.hypotheses[&h].witness.is_none());
     }
     assert!(r.proposition_2_1);
     assert_eq!(r.ground_truth.absent, ["x", "y", "theta"]);
@@ -118,11 +119,11 @@ fn h0_fails_for_the_vertical_knife_on_theta_and_for_remark_2_2() {
     // Gravity along y: Γᵀ∇U = (−m g sin θ, 0) contains θ (Remark 3.1) but not y.
     let vk = bundled("vertical_knife");
     let r = run(&vk, "paper", "x,y");
-    assert!(holds(&r, "H0"));
+    assert!(holds(&r, H0));
     assert_eq!(r.ground_truth.absent, ["x", "y"]);
     let r = run(&vk, "paper", "x,y,theta");
-    assert!(!holds(&r, "H0"));
-    let (object, coordinate, expression) = witness(&r, "H0");
+    assert!(!holds(&r, H0));
+    let (object, coordinate, expression) = witness(&r, H0);
     assert_eq!(object, "Gamma^T grad U");
     assert_eq!(coordinate.as_deref(), Some("theta"));
     assert!(expression.contains("sin(theta)"), "{expression}");
@@ -131,8 +132,8 @@ fn h0_fails_for_the_vertical_knife_on_theta_and_for_remark_2_2() {
 
     // (33): the kept coordinate q2 has a row of Γ containing q1.
     let r = run(&bundled("remark22"), "paper", "q1");
-    assert!(!holds(&r, "H0"));
-    let (object, coordinate, _) = witness(&r, "H0");
+    assert!(!holds(&r, H0));
+    let (object, coordinate, _) = witness(&r, H0);
     assert_eq!(object, "Gamma");
     assert_eq!(coordinate.as_deref(), Some("q1"));
 }
@@ -141,15 +142,15 @@ fn h0_fails_for_the_vertical_knife_on_theta_and_for_remark_2_2() {
 fn h1_holds_for_the_momenta_and_fails_for_the_velocities_of_the_rolling_disk() {
     let disk = bundled("rolling_disk");
     let r = run(&disk, "momenta", "xC,yC,phi,psi");
-    assert!(holds(&r, "H1"));
-    assert!(r.properties["2.1"].holds);
+    assert!(holds(&r, H1));
+    assert!(r.properties[&PropertyId::P2_1].holds);
     let r = run(&disk, "velocities", "xC,yC,phi,psi");
-    assert!(!holds(&r, "H1"));
-    let (object, coordinate, _) = witness(&r, "H1");
+    assert!(!holds(&r, H1));
+    let (object, coordinate, _) = witness(&r, H1);
     assert_eq!(object, "alpha2");
     assert_eq!(coordinate, None);
     // Property 2.1: Γ₂ ≠ 0 exactly when (Z₂; α₂) ≠ 0.
-    assert!(!r.properties["2.1"].holds);
+    assert!(!r.properties[&PropertyId::P2_1].holds);
     // The hypotheses are only sufficient: φ drops out all the same.
     assert_eq!(r.ground_truth.absent, ["xC", "yC", "phi", "psi"]);
     assert!(
@@ -164,11 +165,11 @@ fn h2_fails_for_the_bar_with_a_blade_where_sin_phi_is_not_zero() {
     // The paper says (H2) holds for φ ≠ π/2; with the blade's inertia it holds only where
     // sin φ = 0. The witness is the entry of Γ₁ᵀA⁽¹'²⁾ (Property 2.2).
     let r = run(&bundled("bar_blade"), "paper", "x,y,theta");
-    assert!(!holds(&r, "H2"));
-    let (object, _, expression) = witness(&r, "H2");
+    assert!(!holds(&r, H2));
+    let (object, _, expression) = witness(&r, H2);
     assert_eq!(object, "Gamma1^T A12");
     assert!(expression.contains("sin(phi)"), "{expression}");
-    assert!(!r.properties["2.2"].holds);
+    assert!(!r.properties[&PropertyId::P2_2].holds);
     assert!(!r.proposition_2_1);
     assert_eq!(r.ground_truth.absent, ["x", "y", "theta"]);
     assert!(
@@ -177,7 +178,7 @@ fn h2_fails_for_the_bar_with_a_blade_where_sin_phi_is_not_zero() {
             .any(|f| f.starts_with("eliminated although H2"))
     );
     // Where it holds: the knife (no block-2 coupling in A).
-    assert!(holds(&run(&bundled("knife"), "paper", "theta"), "H2"));
+    assert!(holds(&run(&bundled("knife"), "paper", "theta"), H2));
 }
 
 #[test]
@@ -187,39 +188,39 @@ fn h3_fails_when_the_first_quasi_velocity_is_not_the_forward_speed() {
         "cartesian",
         "theta",
     );
-    assert!(!holds(&r, "H3"));
-    let (object, coordinate, expression) = witness(&r, "H3");
+    assert!(!holds(&r, H3));
+    let (object, coordinate, expression) = witness(&r, H3);
     assert_eq!(object, "b");
     assert_eq!(coordinate.as_deref(), Some("theta"));
     assert!(expression.contains("cos(theta)"), "{expression}");
     assert_eq!(r.ground_truth.present, ["theta"]);
-    assert!(holds(&run(&bundled("knife"), "paper", "theta"), "H3"));
+    assert!(holds(&run(&bundled("knife"), "paper", "theta"), H3));
 }
 
 #[test]
 fn h4_fails_when_the_block_2_inertia_contains_the_coordinate() {
     let r = run(&inline("knife_growing", KNIFE_GROWING), "paper", "x");
-    assert!(!holds(&r, "H4"));
-    let (object, coordinate, expression) = witness(&r, "H4");
+    assert!(!holds(&r, H4));
+    let (object, coordinate, expression) = witness(&r, H4);
     assert_eq!(object, "A22");
     assert_eq!(coordinate.as_deref(), Some("x"));
     assert!(expression.contains("x^2"), "{expression}");
     assert_eq!(r.ground_truth.present, ["x"]);
-    assert!(holds(&run(&bundled("knife"), "paper", "x"), "H4"));
+    assert!(holds(&run(&bundled("knife"), "paper", "x"), H4));
 }
 
 #[test]
 fn h5_fails_for_remark_2_2_where_a_gamma_is_free_of_q1_and_the_equations_are_not() {
     let r = run(&bundled("remark22"), "paper", "q1");
-    assert!(!holds(&r, "H5"));
-    let (object, coordinate, _) = witness(&r, "H5");
+    assert!(!holds(&r, H5));
+    let (object, coordinate, _) = witness(&r, H5);
     assert!(object.starts_with("(35)"), "{object}");
     assert_eq!(coordinate.as_deref(), Some("q1"));
     assert_eq!(r.ground_truth.present, ["q1"]);
     // The first occurrence is in a Q coefficient: A_Γ itself is free of q1 (Remark 2.2).
     let w = &r.ground_truth.occurrences[0];
     assert!(w.object.starts_with("Q("), "{}", w.object);
-    assert!(holds(&run(&bundled("knife"), "paper", "theta"), "H5"));
+    assert!(holds(&run(&bundled("knife"), "paper", "theta"), H5));
 }
 
 #[test]
@@ -229,13 +230,13 @@ fn h6_fails_for_the_sleigh_with_a_cartesian_quasi_velocity() {
         "cartesian",
         "theta",
     );
-    assert!(!holds(&r, "H6"));
-    let (object, coordinate, _) = witness(&r, "H6");
+    assert!(!holds(&r, H6));
+    let (object, coordinate, _) = witness(&r, H6);
     assert!(object.starts_with("Q_correction("), "{object}");
     assert_eq!(coordinate.as_deref(), Some("theta"));
     // With η₁ the forward speed the correction is free of θ.
     let r = run(&bundled("chaplygin_sleigh"), "paper_style", "x,y,theta");
-    assert!(holds(&r, "H6"));
+    assert!(holds(&r, H6));
     assert_eq!(r.ground_truth.absent, ["x", "y", "theta"]);
 }
 

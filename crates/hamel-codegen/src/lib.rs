@@ -991,478 +991,9 @@ fn list(items: impl IntoIterator<Item = String>) -> String {
 /// the true equations and from the kinematics still needed (`hamel reduce`'s reduced system).
 /// `command` is the command line that regenerates it (written into the files).
 pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<Generated, String> {
-    // Names become code (fields, match arms): they must be identifiers. Free text (the
-    // command, the model's and choice's names in comments and strings) is escaped where it
-    // lands (`escape`).
-    for name in d.coordinates.iter().chain(d.parameters.keys()) {
-        escape::rust_ident(name)?;
-    }
-    if !d.free_functions.is_empty() {
-        return Err(format!(
-            "the quasi-velocities use free functions ({}): define them in the model before generating code",
-            d.free_functions.join(", ")
-        ));
-    }
-    let exprs = d.ingredient_exprs().map_err(|e| e.to_string())?;
-    let params: Vec<String> = d.parameters.keys().cloned().collect();
-    let inputs: Vec<String> = d
-        .coordinates
-        .iter()
-        .cloned()
-        .chain(params.clone())
-        .collect();
-    let tape = Tape::compile(&exprs, &inputs)?;
-    let ops_trees: usize = exprs.iter().map(|e| e.tree_operations()).sum();
-    let ops_shared = tape.operation_count();
-    let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
-    let solved_inputs: Vec<String> = inputs
-        .iter()
-        .cloned()
-        .chain((0..d.sigma).map(eta_input))
-        .collect();
-    let full_slots = Slots {
-        coords: "q",
-        n: d.ell,
-        params: &params,
-        eta: "eta",
-        eta_at: 0,
-    };
-    let (choice, candidate, solved_tape) =
-        choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)?;
-    let solved = candidate.exprs;
-    let solved_ops = solved_tape.operation_count();
-    // The reduced solved form: η̇ and the kept rates as code of (kept q, η) alone. The
-    // eliminated coordinates are proven absent from A_Γ, Γᵀ∇U, Q⁽ⁱ⁾ and the kept rows of Γ, so
-    // the tape compiles without them as inputs; if it did not, `reduced` keeps evaluating the
-    // full form at reference values.
-    let kept_solved: Vec<&Expr> = solved[..d.sigma]
-        .iter()
-        .chain(kept.iter().map(|&k| &solved[d.sigma + k]))
-        .chain(&solved[d.sigma + d.ell..])
-        .collect();
-    let kept_inputs: Vec<String> = kept
-        .iter()
-        .map(|&k| d.coordinates[k].clone())
-        .chain(params.clone())
-        .chain((0..d.sigma).map(eta_input))
-        .collect();
-    let reduced_tape = if choice.solved && !eliminated.is_empty() {
-        Tape::compile(&kept_solved, &kept_inputs).ok()
-    } else {
-        None
-    };
-    let names = |ix: &[usize]| list(ix.iter().map(|&k| escape::rust_str(&d.coordinates[k])));
-    let reduced_state: Vec<String> = kept
-        .iter()
-        .map(|&k| d.coordinates[k].clone())
-        .chain((1..=d.sigma).map(|i| format!("eta{i}")))
-        .collect();
-
-    let solved_part = solved_body(
-        &solved_tape,
-        &full_slots,
-        choice.solved,
-        d.sigma,
-        d.ell,
-        |e, q| format!("([{e}], [{q}])"),
-    );
-    let reduced_part = match &reduced_tape {
-        Some(t) => solved_body(
-            t,
-            &Slots {
-                coords: "x",
-                n: kept.len(),
-                params: &params,
-                eta: "x",
-                eta_at: kept.len(),
-            },
-            true,
-            d.sigma,
-            kept.len(),
-            |e, q| format!("[{}]", list([q, e].into_iter().filter(|s| !s.is_empty()))),
-        ),
-        None => ("    Ok([])\n".into(), REDUCED_AT_REFERENCE.into(), 0),
-    };
-
-    let mut m = String::new();
-    let _ = write!(
-        m,
-        r#"{head}//! Do not edit: regenerate with
-//!
-//! ```text
-{command}//! ```
-//!
-//! Quasi-velocities η = Z(q)q̇:
-{eta_doc}//!
-//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): {ops_trees} arithmetic operations as
-//! separate trees, {ops_shared} with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): {solved_ops} shared operations.
-//!
-{path_doc}//!
-//! **States.** Full: q = ({coords}) and η = (eta1..eta{sigma}).
-//! Reduced (state vector `x`): ({reduced}); eliminated: ({elim}), reconstructed from
-//! [`reconstruction`]. The eliminated coordinates are absent from the reduced equations
-//! (decided exactly by `hamel reduce`), so the reduced right-hand side is code of the kept
-//! coordinates and η alone (when [`REDUCED_SOLVED`]), or else evaluates the
-//! full one with them at a reference value ([`REFERENCE`], the next one where [Z; α] is
-//! singular there).
-
-#![allow(clippy::all, unused_variables, unused_parens)]
-
-use crate::runtime::{{self, Dims, Dual, EvalError, Fixed, Layout, Rhs, Scalar}};
-
-/// Model name.
-pub const MODEL: &str = {model};
-/// Quasi-velocity choice.
-pub const ETA: &str = {eta};
-/// ℓ, μ, σ.
-pub const DIMS: Dims = Dims {{ ell: {ell}, mu: {mu}, sigma: {sigma} }};
-/// Where each ingredient sits in the output of [`ingredients`].
-pub const LAYOUT: Layout = Layout::new(DIMS);
-/// Number of ingredients.
-pub const LEN: usize = LAYOUT.len;
-const ELL: usize = {ell};
-const MU: usize = {mu};
-const SIGMA: usize = {sigma};
-/// Coordinates, in state order.
-pub const COORDINATES: [&str; {ell}] = [{coord_list}];
-/// Indices of the eliminated coordinates.
-pub const ELIMINATED: [usize; {np}] = [{elim_ix}];
-/// Indices of the coordinates kept in the reduced state.
-pub const KEPT: [usize; {nk}] = [{kept_ix}];
-/// Names of the reduced state's components.
-pub const REDUCED_STATE: [&str; {nr}] = [{reduced_list}];
-/// Size of the reduced state.
-pub const REDUCED_DIM: usize = {nr};
-/// Values tried in turn for the eliminated coordinates when evaluating the reduced system.
-pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
-/// Operation counts of the ingredients: as trees, and shared.
-pub const OPERATIONS: (usize, usize) = ({ops_trees}, {ops_shared});
-/// Whether [`fast`] uses the solved form (else the structured path).
-pub const SOLVED: bool = {solved};
-/// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
-/// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
-pub const REDUCED_SOLVED: bool = {reduced_solved};
-
-/// Parameters, with the model's defaults.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Parameters {{
-{param_fields}}}
-
-impl Default for Parameters {{
-    fn default() -> Self {{
-        Parameters {{
-{param_defaults}        }}
-    }}
-}}
-
-impl Parameters {{
-    /// Parameter names, in model order.
-    pub const NAMES: [&str; {npar}] = [{param_names}];
-
-    /// Set a parameter by name.
-    pub fn set(&mut self, name: &str, value: f64) -> Result<(), EvalError> {{
-        let slot: Option<&mut f64> = match name {{
-{param_set}            _ => None,
-        }};
-        match slot {{
-            Some(slot) => {{
-                *slot = value;
-                Ok(())
-            }}
-            None => Err(EvalError(format!("unknown parameter `{{name}}`"))),
-        }}
-    }}
-}}
-
-/// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
-pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {{
-{body}}}
-
-/// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
-/// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
-///
-/// In f64, an evaluation whose error estimate ([`runtime::f64_error_estimate`]) is above
-/// [`runtime::DOUBLE_DOUBLE_ABOVE`] is repeated in double-double and rounded.
-pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {{
-    let mut out = [S::constant(0.0); LEN];
-    ingredients(q, p, &mut out);
-    let mut r = runtime::structured::<S, ELL, MU, SIGMA>(&out, eta, paper)?;
-    if !S::CHECKED {{
-        return Ok(r);
-    }}
-    r.f64_error_estimate = runtime::f64_error_estimate::<S, ELL, MU, SIGMA>(&out, &r);
-    if r.f64_error_estimate > runtime::DOUBLE_DOUBLE_ABOVE {{
-        let (q, eta) = (runtime::widen::<S, runtime::DD, ELL>(q), runtime::widen::<S, runtime::DD, SIGMA>(eta));
-        let mut wide = rhs_fixed::<runtime::DD>(&q, &eta, p, paper)?.narrow::<S>();
-        wide.precision = runtime::Precision::DoubleDouble;
-        wide.f64_error_estimate = r.f64_error_estimate;
-        return Ok(wide);
-    }}
-    Ok(r)
-}}
-
-/// [`rhs_fixed`] without the estimate and the double-double repeat: the plain structured
-/// evaluation in `S` (a baseline for benchmarks and stability studies).
-pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {{
-    let mut out = [S::constant(0.0); LEN];
-    ingredients(q, p, &mut out);
-    runtime::structured::<S, ELL, MU, SIGMA>(&out, eta, paper)
-}}
-
-/// The full right-hand side at (q, η): η̇ (true and paper's), q̇ = Γη, A_Γ, F, energy.
-pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, EvalError> {{
-    rhs_fixed(q, eta, p, true).map(Rhs::from)
-}}
-
-/// Parameters with what the solved forms compute from them alone, made once by
-/// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
-/// [`full_into_with`], [`reduced_with`], …): {n_full} values for the full form, {n_reduced} for
-/// the reduced one. The functions taking [`Parameters`] prepare them at each call.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Prepared {{
-    /// The parameters.
-    pub p: Parameters,
-    full: [f64; {n_full}],
-    reduced: [f64; {n_reduced}],
-}}
-
-impl Prepared {{
-    /// Check the parameters (the definiteness tests of A_Γ that depend on them alone fail for
-    /// every state) and compute the parameter-only values of the solved forms.
-    pub fn new(p: &Parameters) -> Result<Prepared, EvalError> {{
-        Ok(Prepared {{
-            p: *p,
-            full: prepare_full::<f64>(p)?,
-            reduced: prepare_reduced::<f64>(p)?,
-        }})
-    }}
-}}
-
-/// The parameter-only values of [`solved_with`] (see [`Prepared`]).
-fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; {n_full}], EvalError> {{
-{prepare_full}}}
-
-/// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
-fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; {n_reduced}], EvalError> {{
-{prepare_reduced}}}
-
-/// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
-/// A_Γ η̇ = Γᵀ∇U − Σ Q⁽ⁱ⁾_rs η_r η_s (eq. (11)) by the candidate named in the module doc (A_Γ
-/// is symmetric positive definite; a pivot or leading minor ≤ 0 is an error), and q̇ = Γη
-/// (eq. (6)).
-pub fn solved_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
-    solved_from(q, eta, &prep.p, &prep.full)
-}}
-
-/// [`solved_with`], computing the parameter-only values first.
-pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
-    solved_from(q, eta, p, &prepare_full::<f64>(p)?)
-}}
-
-/// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
-#[inline(always)]
-fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; {n_full}]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
-{solved_body}}}
-
-/// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
-pub fn fast_with<S: Scalar>(q: &[S], eta: &[S], prep: &Prepared) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
-    if SOLVED {{
-        solved_with(q, eta, prep)
-    }} else {{
-        let r = rhs_fixed(q, eta, &prep.p, false)?;
-        Ok((r.eta_dot, r.q_dot))
-    }}
-}}
-
-/// [`fast_with`], computing the parameter-only values first (in a loop, prefer [`fast_with`]).
-pub fn fast<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGMA], [S; ELL]), EvalError> {{
-    if SOLVED {{
-        solved(q, eta, p)
-    }} else {{
-        let r = rhs_fixed(q, eta, p, false)?;
-        Ok((r.eta_dot, r.q_dot))
-    }}
-}}
-
-/// d(q, η)/dt at y = (q, η) into `dy`, without allocation (for integrators).
-pub fn full_into_with(y: &[f64], dy: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {{
-    let (eta_dot, q_dot) = fast_with(&y[..ELL], &y[ELL..], prep)?;
-    dy[..ELL].copy_from_slice(&q_dot);
-    dy[ELL..].copy_from_slice(&eta_dot);
-    runtime::finite("the right-hand side", dy)
-}}
-
-/// [`full_into_with`], computing the parameter-only values first.
-pub fn full_into(y: &[f64], dy: &mut [f64], p: &Parameters) -> Result<(), EvalError> {{
-    let (eta_dot, q_dot) = fast(&y[..ELL], &y[ELL..], p)?;
-    dy[..ELL].copy_from_slice(&q_dot);
-    dy[ELL..].copy_from_slice(&eta_dot);
-    runtime::finite("the right-hand side", dy)
-}}
-
-/// The full right-hand side in f64, checked: errors instead of non-finite values.
-pub fn full_rhs(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Rhs<f64>, EvalError> {{
-    let r = rhs(q, eta, p)?;
-    runtime::finite("η̇", &r.eta_dot)?;
-    runtime::finite("q̇", &r.q_dot)?;
-    Ok(r)
-}}
-
-/// A_Γ and F of A_Γ η̇ = F at (q, η), for callers that solve the linear system themselves.
-pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Vec<Vec<f64>>, Vec<f64>), EvalError> {{
-    let r = full_rhs(q, eta, p)?;
-    Ok((r.a_gamma, r.forcing))
-}}
-
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
-pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {{
-    Ok(full_rhs(q, eta, p)?.energy)
-}}
-
-/// The constraint residual α(q)q̇.
-pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {{
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
-    (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
-        .collect()
-}}
-
-/// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
-/// [`REDUCED_SOLVED`].
-pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {{
-    reduced_from(x, &prep.p, &prep.reduced)
-}}
-
-/// [`reduced_with`], computing the parameter-only values first.
-pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {{
-    reduced_from(x, p, &prepare_reduced::<f64>(p)?)
-}}
-
-/// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
-#[inline(always)]
-fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; {n_reduced}]) -> Result<[S; REDUCED_DIM], EvalError> {{
-{reduced_body}}}
-
-/// The reduced right-hand side in f64 into `dx`, checked, without allocation.
-pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {{
-    dx.copy_from_slice(&reduced_with(x, prep)?);
-    runtime::finite("the reduced right-hand side", dx)
-}}
-
-/// [`reduced_into_with`], computing the parameter-only values first.
-pub fn reduced_into(x: &[f64], dx: &mut [f64], p: &Parameters) -> Result<(), EvalError> {{
-    dx.copy_from_slice(&reduced(x, p)?);
-    runtime::finite("the reduced right-hand side", dx)
-}}
-
-/// The reduced right-hand side in f64, checked.
-pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {{
-    let v = reduced(x, p)?.to_vec();
-    runtime::finite("the reduced right-hand side", &v)?;
-    Ok(v)
-}}
-
-/// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
-pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {{
-    let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
-    let f = reduced_with(&xd, prep)?;
-    let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
-    runtime::finite("the Jacobian", &jac.concat())?;
-    Ok(jac)
-}}
-
-/// [`reduced_jacobian_with`], computing the parameter-only values first.
-pub fn reduced_jacobian(x: &[f64], p: &Parameters) -> Result<Vec<Vec<f64>>, EvalError> {{
-    reduced_jacobian_with(x, &Prepared::new(p)?)
-}}
-
-/// The rates of the eliminated coordinates, q̇_k = (Γ(q)η)_k, at the full state.
-pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {{
-    let r = full_rhs(q, eta, p)?;
-    Ok(ELIMINATED.iter().map(|&k| r.q_dot[k]).collect())
-}}
-"#,
-        head = escape::doc_comment(
-            "//!",
-            &format!(
-                "The numeric core of model `{}` with quasi-velocities `{}`, generated by hamel.",
-                d.model, d.eta_name
-            )
-        ),
-        command = escape::doc_comment("//!", command),
-        model = escape::rust_str(&d.model),
-        eta = escape::rust_str(&d.eta_name),
-        eta_doc = d
-            .eta
-            .iter()
-            .enumerate()
-            .map(|(i, e)| escape::doc_comment("//! *", &format!("eta{} = {e}", i + 1)))
-            .collect::<String>(),
-        coords = d.coordinates.join(", "),
-        sigma = d.sigma,
-        ell = d.ell,
-        mu = d.mu,
-        reduced = reduced_state.join(", "),
-        elim = eliminated
-            .iter()
-            .map(|&k| d.coordinates[k].clone())
-            .collect::<Vec<_>>()
-            .join(", "),
-        coord_list = names(&(0..d.ell).collect::<Vec<_>>()),
-        np = eliminated.len(),
-        elim_ix = list(eliminated.iter().map(|k| k.to_string())),
-        nk = kept.len(),
-        kept_ix = list(kept.iter().map(|k| k.to_string())),
-        nr = reduced_state.len(),
-        reduced_list = list(reduced_state.iter().map(|s| escape::rust_str(s))),
-        npar = params.len(),
-        param_names = list(params.iter().map(|s| escape::rust_str(s))),
-        param_fields = d
-            .parameters
-            .keys()
-            .map(|k| {
-                format!(
-                    "{}    pub {}: f64,\n",
-                    escape::doc_comment("    ///", &format!("`{k}`")),
-                    ident(k)
-                )
-            })
-            .collect::<String>(),
-        param_defaults = d
-            .parameters
-            .iter()
-            .map(|(k, v)| format!("            {}: {},\n", ident(k), lit(*v)))
-            .collect::<String>(),
-        param_set = d
-            .parameters
-            .keys()
-            .map(|k| format!(
-                "            {} => Some(&mut self.{}),\n",
-                escape::rust_str(k),
-                ident(k)
-            ))
-            .collect::<String>(),
-        body = straight_line(&tape, &full_slots),
-        solved_body = solved_part.1,
-        prepare_full = solved_part.0,
-        n_full = solved_part.2,
-        reduced_solved = reduced_tape.is_some(),
-        reduced_body = reduced_part.1,
-        prepare_reduced = reduced_part.0,
-        n_reduced = reduced_part.2,
-        solved = choice.solved,
-        path_doc = escape::doc_comment(
-            "//!",
-            &format!(
-                "**Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): {}",
-                choice.doc
-            )
-        ),
-    );
-
+    check_names(d)?;
+    let code = Code::new(d, eliminated)?;
+    let model = fill(MODEL_TEMPLATE, &code.fields(d, eliminated, command))?;
     let lib = "//! A numeric core generated by hamel (see `model.rs`). Engine-free: it needs no computer\n\
                //! algebra at run time.\n\npub mod dd;\npub mod model;\npub mod runtime;\n\npub use model::*;\n";
     let cargo = manifest::generated(&escape::package_name(&[
@@ -1476,18 +1007,317 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
             ("src/lib.rs".into(), lib.into()),
             ("src/runtime.rs".into(), RUNTIME.into()),
             ("src/dd.rs".into(), DD_CORE.into()),
-            ("src/model.rs".into(), m),
+            ("src/model.rs".into(), model),
             ("src/bin/eval.rs".into(), EVAL_BIN.into()),
         ],
-        ops_trees,
-        ops_shared,
+        ops_trees: code.ops_trees,
+        ops_shared: code.ops_shared,
         solved: SolvedForm {
-            name: candidate.name,
-            used: choice.solved,
-            exprs: solved[..d.sigma + d.ell].to_vec(),
-            inputs: solved_inputs,
+            name: code.candidate.name,
+            used: code.choice.solved,
+            exprs: code.candidate.exprs[..d.sigma + d.ell].to_vec(),
+            inputs: code.solved_inputs,
         },
     })
+}
+
+/// Names become code (fields, match arms): they must be identifiers. Free text (the command,
+/// the model's and choice's names in comments and strings) is escaped where it lands
+/// (`escape`). Free functions must be defined first.
+fn check_names(d: &Derivation) -> Result<(), String> {
+    for name in d.coordinates.iter().chain(d.parameters.keys()) {
+        escape::rust_ident(name)?;
+    }
+    if !d.free_functions.is_empty() {
+        return Err(format!(
+            "the quasi-velocities use free functions ({}): define them in the model before generating code",
+            d.free_functions.join(", ")
+        ));
+    }
+    Ok(())
+}
+
+/// `model.rs` as text with `@name@` placeholders ([`fill`]).
+const MODEL_TEMPLATE: &str = include_str!("../templates/model.rs.in");
+
+/// `template` with every `@name@` replaced by its value in `fields`. Errors: a placeholder
+/// without a value, or a value without a placeholder (the template and the generator disagree).
+fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, String> {
+    let mut out = String::with_capacity(template.len() * 2);
+    let mut used = vec![false; fields.len()];
+    let mut rest = template;
+    while let Some(at) = rest.find('@') {
+        out.push_str(&rest[..at]);
+        let after = &rest[at + 1..];
+        let end = after
+            .find('@')
+            .ok_or_else(|| "internal error: an unclosed @ in the model template".to_string())?;
+        let name = &after[..end];
+        let k = fields.iter().position(|(n, _)| *n == name).ok_or_else(|| {
+            format!("internal error: no value for @{name}@ of the model template")
+        })?;
+        used[k] = true;
+        out.push_str(&fields[k].1);
+        rest = &after[end + 1..];
+    }
+    out.push_str(rest);
+    match used.iter().position(|u| !u) {
+        Some(k) => Err(format!(
+            "internal error: the model template has no @{}@",
+            fields[k].0
+        )),
+        None => Ok(out),
+    }
+}
+
+/// The generated code's pieces: the ingredients' tape, the solved form chosen for the full
+/// system and, when it compiles without the eliminated coordinates, for the reduced one.
+struct Code {
+    tape: Tape,
+    ops_trees: usize,
+    ops_shared: usize,
+    params: Vec<String>,
+    kept: Vec<usize>,
+    solved_inputs: Vec<String>,
+    choice: PathChoice,
+    candidate: Candidate,
+    solved_ops: usize,
+    reduced_solved: bool,
+    /// (prepare, body, number of parameter-only values) of `solved_from` and `reduced_from`.
+    solved_part: (String, String, usize),
+    reduced_part: (String, String, usize),
+}
+
+impl Code {
+    fn new(d: &Derivation, eliminated: &[usize]) -> Result<Code, String> {
+        let exprs = d.ingredient_exprs().map_err(|e| e.to_string())?;
+        let params: Vec<String> = d.parameters.keys().cloned().collect();
+        let inputs: Vec<String> = d
+            .coordinates
+            .iter()
+            .cloned()
+            .chain(params.clone())
+            .collect();
+        let tape = Tape::compile(&exprs, &inputs)?;
+        let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
+        let solved_inputs: Vec<String> = inputs
+            .iter()
+            .cloned()
+            .chain((0..d.sigma).map(eta_input))
+            .collect();
+        let full_slots = Slots {
+            coords: "q",
+            n: d.ell,
+            params: &params,
+            eta: "eta",
+            eta_at: 0,
+        };
+        let (choice, candidate, solved_tape) =
+            choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)?;
+        let reduced_tape = (choice.solved && !eliminated.is_empty())
+            .then(|| reduced_tape(d, &candidate.exprs, &kept, &params))
+            .flatten();
+        let solved_part = solved_body(
+            &solved_tape,
+            &full_slots,
+            choice.solved,
+            d.sigma,
+            d.ell,
+            |e, q| format!("([{e}], [{q}])"),
+        );
+        let reduced_part = match &reduced_tape {
+            Some(t) => solved_body(
+                t,
+                &Slots {
+                    coords: "x",
+                    n: kept.len(),
+                    params: &params,
+                    eta: "x",
+                    eta_at: kept.len(),
+                },
+                true,
+                d.sigma,
+                kept.len(),
+                |e, q| format!("[{}]", list([q, e].into_iter().filter(|s| !s.is_empty()))),
+            ),
+            None => ("    Ok([])\n".into(), REDUCED_AT_REFERENCE.into(), 0),
+        };
+        Ok(Code {
+            ops_trees: exprs.iter().map(|e| e.tree_operations()).sum(),
+            ops_shared: tape.operation_count(),
+            solved_ops: solved_tape.operation_count(),
+            reduced_solved: reduced_tape.is_some(),
+            tape,
+            params,
+            kept,
+            solved_inputs,
+            choice,
+            candidate,
+            solved_part,
+            reduced_part,
+        })
+    }
+
+    /// The values of the model template's placeholders.
+    fn fields(
+        &self,
+        d: &Derivation,
+        eliminated: &[usize],
+        command: &str,
+    ) -> Vec<(&'static str, String)> {
+        let names = |ix: &[usize]| list(ix.iter().map(|&k| escape::rust_str(&d.coordinates[k])));
+        let reduced_state: Vec<String> = self
+            .kept
+            .iter()
+            .map(|&k| d.coordinates[k].clone())
+            .chain((1..=d.sigma).map(|i| format!("eta{i}")))
+            .collect();
+        let full_slots = Slots {
+            coords: "q",
+            n: d.ell,
+            params: &self.params,
+            eta: "eta",
+            eta_at: 0,
+        };
+        let mut f = vec![
+            (
+                "head",
+                escape::doc_comment(
+                    "//!",
+                    &format!(
+                        "The numeric core of model `{}` with quasi-velocities `{}`, generated by hamel.",
+                        d.model, d.eta_name
+                    ),
+                ),
+            ),
+            ("command", escape::doc_comment("//!", command)),
+            ("model", escape::rust_str(&d.model)),
+            ("eta", escape::rust_str(&d.eta_name)),
+            (
+                "eta_doc",
+                d.eta
+                    .iter()
+                    .enumerate()
+                    .map(|(i, e)| escape::doc_comment("//! *", &format!("eta{} = {e}", i + 1)))
+                    .collect::<String>(),
+            ),
+            ("coords", d.coordinates.join(", ")),
+            ("sigma", d.sigma.to_string()),
+            ("ell", d.ell.to_string()),
+            ("mu", d.mu.to_string()),
+            ("reduced", reduced_state.join(", ")),
+            (
+                "elim",
+                eliminated
+                    .iter()
+                    .map(|&k| d.coordinates[k].clone())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            ),
+            ("coord_list", names(&(0..d.ell).collect::<Vec<_>>())),
+            ("np", eliminated.len().to_string()),
+            ("elim_ix", list(eliminated.iter().map(|k| k.to_string()))),
+            ("nk", self.kept.len().to_string()),
+            ("kept_ix", list(self.kept.iter().map(|k| k.to_string()))),
+            ("nr", reduced_state.len().to_string()),
+            (
+                "reduced_list",
+                list(reduced_state.iter().map(|s| escape::rust_str(s))),
+            ),
+            ("ops_trees", self.ops_trees.to_string()),
+            ("ops_shared", self.ops_shared.to_string()),
+            ("solved_ops", self.solved_ops.to_string()),
+            ("body", straight_line(&self.tape, &full_slots)),
+            ("solved_body", self.solved_part.1.clone()),
+            ("prepare_full", self.solved_part.0.clone()),
+            ("n_full", self.solved_part.2.to_string()),
+            ("reduced_solved", self.reduced_solved.to_string()),
+            ("reduced_body", self.reduced_part.1.clone()),
+            ("prepare_reduced", self.reduced_part.0.clone()),
+            ("n_reduced", self.reduced_part.2.to_string()),
+            ("solved", self.choice.solved.to_string()),
+            (
+                "path_doc",
+                escape::doc_comment(
+                    "//!",
+                    &format!(
+                        "**Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): {}",
+                        self.choice.doc
+                    ),
+                ),
+            ),
+        ];
+        f.extend(parameter_fields(d));
+        f
+    }
+}
+
+/// The reduced solved form: η̇ and the kept rates as code of (kept q, η) alone. The eliminated
+/// coordinates are proven absent from A_Γ, Γᵀ∇U, Q⁽ⁱ⁾ and the kept rows of Γ, so the tape
+/// compiles without them as inputs; if it did not (`None`), `reduced` keeps evaluating the full
+/// form at reference values.
+fn reduced_tape(
+    d: &Derivation,
+    solved: &[Expr],
+    kept: &[usize],
+    params: &[String],
+) -> Option<Tape> {
+    let kept_solved: Vec<&Expr> = solved[..d.sigma]
+        .iter()
+        .chain(kept.iter().map(|&k| &solved[d.sigma + k]))
+        .chain(&solved[d.sigma + d.ell..])
+        .collect();
+    let kept_inputs: Vec<String> = kept
+        .iter()
+        .map(|&k| d.coordinates[k].clone())
+        .chain(params.iter().cloned())
+        .chain((0..d.sigma).map(eta_input))
+        .collect();
+    Tape::compile(&kept_solved, &kept_inputs).ok()
+}
+
+/// The placeholders of the `Parameters` struct: names, fields, defaults, setter arms.
+fn parameter_fields(d: &Derivation) -> Vec<(&'static str, String)> {
+    vec![
+        ("npar", d.parameters.len().to_string()),
+        (
+            "param_names",
+            list(d.parameters.keys().map(|s| escape::rust_str(s))),
+        ),
+        (
+            "param_fields",
+            d.parameters
+                .keys()
+                .map(|k| {
+                    format!(
+                        "{}    pub {}: f64,\n",
+                        escape::doc_comment("    ///", &format!("`{k}`")),
+                        ident(k)
+                    )
+                })
+                .collect::<String>(),
+        ),
+        (
+            "param_defaults",
+            d.parameters
+                .iter()
+                .map(|(k, v)| format!("            {}: {},\n", ident(k), lit(*v)))
+                .collect::<String>(),
+        ),
+        (
+            "param_set",
+            d.parameters
+                .keys()
+                .map(|k| {
+                    format!(
+                        "            {} => Some(&mut self.{}),\n",
+                        escape::rust_str(k),
+                        ident(k)
+                    )
+                })
+                .collect::<String>(),
+        ),
+    ]
 }
 
 /// The body of `reduced` without a reduced solved form: the full right-hand side with the

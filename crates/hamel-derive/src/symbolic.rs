@@ -18,7 +18,7 @@
 //! checked exactly for every derivation.
 
 use hamel_cas::{CasError, Denominators, Ex, Field, FieldSpec, Matrix, OMatrix, Over, sum_over};
-use hamel_model::{Item, Kinetic, Model, ModelError, Site};
+use hamel_model::{Item, Kinetic, Model, ModelError, QuasiVelocityChoice, Site};
 
 use crate::derivation::{Checks, Derivation, Entry, Ingredients, Mat};
 
@@ -460,274 +460,55 @@ fn solve_capped(mut a: Vec<Vec<Ex>>, mut b: Vec<Ex>, cap: usize) -> Option<Vec<E
 }
 
 /// The exact derivation of `model` for the choice `choice`. Must run on the CAS thread
-/// (inside [`hamel_cas::run`]).
+/// (inside [`hamel_cas::run`]). Step by step as in the paper: A, α, Z; (4)–(5) the inverse
+/// [Z; α]⁻¹ = [Γ Θ] and δ; (8) A_Γ and the forcing; Q from (9), the paper's (12)/(15) and the
+/// correction it drops; then the exact checks.
 pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
     let choice = model.choice(Some(choice))?.clone();
     let ctx = Ctx { model };
-    let (ell, mu, sigma) = (model.ell(), model.mu(), model.sigma());
-    let eta_names: Vec<String> = (1..=sigma).map(|i| format!("eta{i}")).collect();
-    let eta_dot_names: Vec<String> = (1..=sigma).map(|i| format!("eta{i}_dot")).collect();
-
-    let mut expressions = Vec::new();
-    match &model.kinetic {
-        Kinetic::Energy(t) => expressions.push(t.expr.clone()),
-        Kinetic::MassMatrix(rows) => {
-            expressions.extend(rows.iter().flatten().map(|i| i.expr.clone()))
-        }
-    }
-    expressions.push(model.potential.expr.clone());
-    expressions.extend(model.constraints.iter().map(|(_, c)| c.expr.clone()));
-    expressions.extend(choice.eta.iter().map(|e| e.expr.clone()));
-    let spec = FieldSpec {
-        coordinates: model.coordinates.clone(),
-        parameters: model.parameters.keys().cloned().collect(),
-        free_functions: choice.free_functions.clone(),
-        free_order: 2,
-        unknowns: eta_names.iter().chain(&eta_dot_names).cloned().collect(),
-        expressions,
-    };
-    let f = Field::new(&spec).map_err(|e| ctx.cas(None, e))?;
-    let half = f.rational(&1.into(), &2.into()).expect("1/2");
-
-    // A, α, Z.
-    let a = ctx.mass_matrix(&f)?;
-    let mut alpha_rows = Vec::new();
-    for (name, item) in &model.constraints {
-        let c = f
-            .convert(&item.expr)
-            .map_err(|e| ctx.cas(Some(&item.site), e))?;
-        alpha_rows.push(ctx.linear_row(&f, &c, &item.site, &format!("constraint `{name}`"))?);
-    }
-    let alpha = Matrix::from_fn(mu, ell, |i, j| alpha_rows[i][j].clone());
-    if mu > 0 {
-        let rank = alpha.rank().map_err(|e| ctx.cas(None, e))?;
-        if rank < mu {
-            let items: Vec<Item> = model.constraints.iter().map(|(_, i)| i.clone()).collect();
-            return Err(model
-                .error_at(&span_site("constraints".into(), &items), format!(
-                    "the constraint matrix α is rank-deficient: rank {rank} < μ = {mu} (the constraints are not independent)"
-                ))
-                .with_help("remove the constraints that are combinations of the others"));
-        }
-    }
-    let mut z_rows = Vec::new();
-    for (i, item) in choice.eta.iter().enumerate() {
-        let c = f
-            .convert(&item.expr)
-            .map_err(|e| ctx.cas(Some(&item.site), e))?;
-        z_rows.push(ctx.linear_row(&f, &c, &item.site, &format!("quasi-velocity η{}", i + 1))?);
-    }
-    let z = Matrix::from_fn(sigma, ell, |i, j| z_rows[i][j].clone());
-
-    // (4)–(5): [Z; α]⁻¹ = [Γ Θ], δ = det[Z; α].
-    let m = if mu > 0 { z.vstack(&alpha) } else { z.clone() };
-    let Some((minv, delta)) = m.inverse().map_err(|e| ctx.cas(None, e))? else {
-        return Err(model
-            .error_at(&span_site(format!("quasi_velocities.{}", choice.name), &choice.eta), "det[Z; α] is identically zero: these quasi-velocities are not independent of each other and of the constraints")
-            .with_help("each η must add a direction of motion that the constraints and the other η's do not fix"));
-    };
-    let gamma = minv.columns(0, sigma);
-    let theta = minv.columns(sigma, ell);
-
-    let mut singular: Vec<Ex> = delta.numerator_factors();
-    for e in gamma.entries() {
-        for d in e.denominator_factors() {
-            if !singular.contains(&d) {
-                singular.push(d);
-            }
-        }
-    }
-    singular.sort_by_cached_key(|e| e.to_string());
-
+    let f = field(&ctx, &choice)?;
+    let (a, alpha, z) = ctx.matrices(&f, &choice)?;
+    let (gamma, theta, delta) = ctx.inverse(&z, &alpha, &choice)?;
+    let singular = singular_set(&delta, &gamma);
     // Everything below is computed over the common denominator factors (see hamel_cas::over):
     // polynomial numerators, no gcd until the results are brought to lowest terms for output.
-    let seeds: Vec<&Ex> = a
-        .entries()
-        .iter()
-        .chain(alpha.entries())
-        .chain(z.entries())
-        .chain(gamma.entries())
-        .chain(theta.entries())
-        .collect();
-    let dens = Denominators::new(&f, &seeds);
-    let half = dens.over(&half);
-    let sum = |terms: Vec<Over>| sum_over(&dens, terms);
-    let a_o = OMatrix::from_matrix(&dens, &a);
-    let alpha_o = OMatrix::from_matrix(&dens, &alpha);
-    let z_o = OMatrix::from_matrix(&dens, &z);
-    let gamma_o = OMatrix::from_matrix(&dens, &gamma);
-    let theta_o = OMatrix::from_matrix(&dens, &theta);
-    let gamma_t = gamma_o.transpose();
-    let moves: Vec<bool> = (0..ell)
-        .map(|k| (0..sigma).any(|s| !gamma_o[(k, s)].is_zero()))
-        .collect();
-
+    let o = Parts::new(&f, &a, &alpha, &z, &gamma, &theta);
+    let (ell, sigma) = (o.ell, o.sigma);
     // (8)
-    let a_gamma = gamma_t.mul(&a_o).mul(&gamma_o);
+    let a_gamma = o.gamma_t.mul(&o.a).mul(&o.gamma);
     let u = f
         .convert(&model.potential.expr)
         .map_err(|e| ctx.cas(Some(&model.potential.site), e))?;
-    let u_o = dens.over(&u);
+    let u_o = o.dens.over(&u);
     let grad_u: Vec<Over> = (0..ell).map(|k| u_o.diff(k)).collect();
     let forcing: Vec<Over> = (0..sigma)
-        .map(|i| sum((0..ell).map(|h| gamma_o[(h, i)].mul(&grad_u[h])).collect()))
+        .map(|i| o.sum((0..ell).map(|h| o.gamma[(h, i)].mul(&grad_u[h])).collect()))
         .collect();
-
-    // True Q from (9): Q⁽ⁱ⁾_rs = sym[ Σ_k (Γᵀ ∂(AΓ)/∂q_k)_ir γ_ks − ½ Σ_j γ_ji (Γᵀ ∂A/∂q_j Γ)_rs ].
-    let b_mat = a_o.mul(&gamma_o);
-    let mut t1 = vec![OMatrix::zeros(&dens, sigma, sigma); sigma];
-    for k in (0..ell).filter(|&k| moves[k]) {
-        let db = b_mat.diff(k);
-        if db.is_zero() {
-            continue;
-        }
-        let g = gamma_t.mul(&db);
-        for (i, t) in t1.iter_mut().enumerate() {
-            for r in 0..sigma {
-                if g[(i, r)].is_zero() {
-                    continue;
-                }
-                for s in 0..sigma {
-                    t[(r, s)] = t[(r, s)].add(&g[(i, r)].mul(&gamma_o[(k, s)]));
-                }
-            }
-        }
-    }
-    let da: Vec<OMatrix> = (0..ell).map(|j| a_o.diff(j)).collect();
-    for (j, d) in da.iter().enumerate() {
-        if d.is_zero() || !(0..sigma).any(|i| !gamma_o[(j, i)].is_zero()) {
-            continue;
-        }
-        let h = gamma_t.mul(d).mul(&gamma_o);
-        for (i, t) in t1.iter_mut().enumerate() {
-            let c = gamma_o[(j, i)].mul(&half);
-            if c.is_zero() {
-                continue;
-            }
-            for r in 0..sigma {
-                for s in 0..sigma {
-                    t[(r, s)] = t[(r, s)].sub(&c.mul(&h[(r, s)]));
-                }
-            }
-        }
-    }
-    let q_true: Vec<OMatrix> = t1.iter().map(|t| sym(&dens, t, &half)).collect();
-
-    // The paper's Q, (12)/(15), with the second and third terms summed over h only.
+    let q_true = o.q_true();
     let d_agamma: Vec<OMatrix> = (0..ell)
         .map(|h| {
-            if moves[h] {
+            if o.moves[h] {
                 a_gamma.diff(h)
             } else {
-                OMatrix::zeros(&dens, sigma, sigma)
+                OMatrix::zeros(&o.dens, sigma, sigma)
             }
         })
         .collect();
-    let dz: Vec<OMatrix> = (0..ell).map(|k| z_o.diff(k)).collect();
-    let mut qp = vec![OMatrix::zeros(&dens, sigma, sigma); sigma];
-    for j in 0..sigma {
-        // (C_j)_hk = ∂z_jh/∂q_k − ∂z_jk/∂q_h
-        let c = OMatrix::from_fn(&dens, ell, ell, |h, k| dz[k][(j, h)].sub(&dz[h][(j, k)]));
-        if c.is_zero() {
-            continue;
-        }
-        let p = gamma_t.mul(&c).mul(&gamma_o);
-        for (i, t) in qp.iter_mut().enumerate() {
-            for r in 0..sigma {
-                for s in 0..sigma {
-                    t[(r, s)] = t[(r, s)].add(&a_gamma[(j, r)].mul(&p[(i, s)]));
-                }
-            }
-        }
-    }
-    for (h, dh) in d_agamma.iter().enumerate() {
-        if !moves[h] || dh.is_zero() {
-            continue;
-        }
-        for (i, t) in qp.iter_mut().enumerate() {
-            for r in 0..sigma {
-                for s in 0..sigma {
-                    let second = gamma_o[(h, s)].mul(&dh[(r, i)]);
-                    let third = gamma_o[(h, i)].mul(&dh[(r, s)]).mul(&half);
-                    t[(r, s)] = t[(r, s)].add(&second).sub(&third);
-                }
-            }
-        }
-    }
-    let q_paper: Vec<OMatrix> = qp.iter().map(|t| sym(&dens, t, &half)).collect();
-
-    // The correction Σ_m ν_m ΓᵀV_mΓη, ν = ΘᵀAΓη, (V_m)_hk = ∂α_mh/∂q_k − ∂α_mk/∂q_h.
-    let nu = theta_o.transpose().mul(&a_o).mul(&gamma_o);
-    let dalpha: Vec<OMatrix> = (0..ell).map(|k| alpha_o.diff(k)).collect();
-    let mut qc = vec![OMatrix::zeros(&dens, sigma, sigma); sigma];
-    for m_ in 0..mu {
-        let v = OMatrix::from_fn(&dens, ell, ell, |h, k| {
-            dalpha[k][(m_, h)].sub(&dalpha[h][(m_, k)])
-        });
-        if v.is_zero() {
-            continue;
-        }
-        let rm = gamma_t.mul(&v).mul(&gamma_o);
-        for (i, t) in qc.iter_mut().enumerate() {
-            for r in 0..sigma {
-                if nu[(m_, r)].is_zero() {
-                    continue;
-                }
-                for s in 0..sigma {
-                    t[(r, s)] = t[(r, s)].add(&nu[(m_, r)].mul(&rm[(i, s)]));
-                }
-            }
-        }
-    }
-    let q_correction: Vec<OMatrix> = qc.iter().map(|t| sym(&dens, t, &half)).collect();
-
-    // Exact checks.
-    let split_identity =
-        (0..sigma).all(|i| q_true[i].sub(&q_paper[i]).sub(&q_correction[i]).is_zero());
-    let paper_is_exact = q_correction.iter().all(OMatrix::is_zero);
-    let unknown = |n: &String| dens.over(&f.unknown(n).expect("declared symbol"));
-    let eta: Vec<Over> = eta_names.iter().map(unknown).collect();
-    let eta_dot: Vec<Over> = eta_dot_names.iter().map(unknown).collect();
-    let quad = |m: &OMatrix, x: &[Over], y: &[Over]| {
-        sum((0..m.rows())
-            .flat_map(|r| (0..m.cols()).map(move |s| (r, s)))
-            .filter(|&(r, s)| !m[(r, s)].is_zero())
-            .map(|(r, s)| m[(r, s)].mul(&x[r]).mul(&y[s]))
-            .collect())
+    let q_paper = o.q_paper(&a_gamma, &d_agamma);
+    let (nu, q_correction) = o.q_correction();
+    let ev = o.along_eta(&f, &q_true, &q_paper, &d_agamma);
+    let checks = Checks {
+        split_identity: (0..sigma)
+            .all(|i| q_true[i].sub(&q_paper[i]).sub(&q_correction[i]).is_zero()),
+        energy_conserved: ev.energy_rate(&ev.q_eta).is_zero(),
+        energy_conserved_paper: ev.energy_rate(&ev.q_eta_paper).is_zero(),
+        paper_is_exact: q_correction.iter().all(OMatrix::is_zero),
+        euler_lagrange: o.euler_lagrange(&f, &z, &q_true),
     };
-    let q_eta: Vec<Over> = q_true.iter().map(|m| quad(m, &eta, &eta)).collect();
-    let q_eta_paper: Vec<Over> = q_paper.iter().map(|m| quad(m, &eta, &eta)).collect();
-    let gamma_eta: Vec<Over> = (0..ell)
-        .map(|k| sum((0..sigma).map(|s| gamma_o[(k, s)].mul(&eta[s])).collect()))
-        .collect();
-    // dE/dt = −ηᵀQ(η) + ½ Σ_k (Γη)_k ηᵀ ∂A_Γ/∂q_k η along (11); the forcing terms cancel exactly.
-    let gyro = sum((0..ell)
-        .filter(|&k| moves[k])
-        .map(|k| gamma_eta[k].mul(&quad(&d_agamma[k], &eta, &eta)).mul(&half))
-        .collect());
-    let energy_rate =
-        |qe: &[Over]| gyro.sub(&sum((0..sigma).map(|i| eta[i].mul(&qe[i])).collect()));
-    let energy_conserved = energy_rate(&q_eta).is_zero();
-    let energy_conserved_paper = energy_rate(&q_eta_paper).is_zero();
-    let euler_lagrange = (mu == 0 && z.sub(&Matrix::identity(&f, ell)).is_zero()).then(|| {
-        (0..ell).all(|i| {
-            (0..ell).all(|r| {
-                (0..ell).all(|s| {
-                    // Christoffel symbol of the first kind.
-                    let christoffel = da[s][(i, r)]
-                        .add(&da[r][(i, s)])
-                        .sub(&da[i][(r, s)])
-                        .mul(&half);
-                    q_true[i][(r, s)].sub(&christoffel).is_zero()
-                })
-            })
-        })
-    });
-
-    let energy = quad(&a_gamma, &eta, &eta).mul(&half).sub(&u_o);
+    let energy = ev.quad(&a_gamma).mul(&o.half).sub(&u_o);
     Ok(Symbolic {
         field: f.clone(),
-        dens: dens.clone(),
+        dens: o.dens.clone(),
         a,
         alpha,
         z,
@@ -743,20 +524,400 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
         q_true,
         q_paper,
         q_correction,
-        eta,
-        eta_dot,
-        gamma_eta,
-        q_eta,
-        q_eta_paper,
+        eta: ev.eta,
+        eta_dot: ev.eta_dot,
+        gamma_eta: ev.gamma_eta,
+        q_eta: ev.q_eta,
+        q_eta_paper: ev.q_eta_paper,
         energy,
-        checks: Checks {
-            split_identity,
-            energy_conserved,
-            energy_conserved_paper,
-            paper_is_exact,
-            euler_lagrange,
-        },
+        checks,
         model: model.clone(),
         choice,
     })
+}
+
+/// The field of the model's expressions: its coordinates, parameters, the choice's free
+/// functions (to second order), and η₁…η_σ, η̇₁…η̇_σ as plain symbols.
+fn field(ctx: &Ctx, choice: &QuasiVelocityChoice) -> Result<Field, ModelError> {
+    let model = ctx.model;
+    let sigma = model.sigma();
+    let mut expressions = Vec::new();
+    match &model.kinetic {
+        Kinetic::Energy(t) => expressions.push(t.expr.clone()),
+        Kinetic::MassMatrix(rows) => {
+            expressions.extend(rows.iter().flatten().map(|i| i.expr.clone()))
+        }
+    }
+    expressions.push(model.potential.expr.clone());
+    expressions.extend(model.constraints.iter().map(|(_, c)| c.expr.clone()));
+    expressions.extend(choice.eta.iter().map(|e| e.expr.clone()));
+    let spec = FieldSpec {
+        coordinates: model.coordinates.clone(),
+        parameters: model.parameters.keys().cloned().collect(),
+        free_functions: choice.free_functions.clone(),
+        free_order: 2,
+        unknowns: eta_names(sigma).chain(eta_dot_names(sigma)).collect(),
+        expressions,
+    };
+    Field::new(&spec).map_err(|e| ctx.cas(None, e))
+}
+
+fn eta_names(sigma: usize) -> impl Iterator<Item = String> {
+    (1..=sigma).map(|i| format!("eta{i}"))
+}
+
+fn eta_dot_names(sigma: usize) -> impl Iterator<Item = String> {
+    (1..=sigma).map(|i| format!("eta{i}_dot"))
+}
+
+/// The singular set of the choice: the factors of δ and of Γ's denominators, sorted by text.
+fn singular_set(delta: &Ex, gamma: &Matrix) -> Vec<Ex> {
+    let mut singular: Vec<Ex> = delta.numerator_factors();
+    for e in gamma.entries() {
+        for d in e.denominator_factors() {
+            if !singular.contains(&d) {
+                singular.push(d);
+            }
+        }
+    }
+    singular.sort_by_cached_key(|e| e.to_string());
+    singular
+}
+
+impl Ctx<'_> {
+    /// A, α (checked of full rank μ) and Z, each row checked linear and homogeneous in q̇.
+    fn matrices(
+        &self,
+        f: &Field,
+        choice: &QuasiVelocityChoice,
+    ) -> Result<(Matrix, Matrix, Matrix), ModelError> {
+        let model = self.model;
+        let (ell, mu, sigma) = (model.ell(), model.mu(), model.sigma());
+        let a = self.mass_matrix(f)?;
+        let mut alpha_rows = Vec::new();
+        for (name, item) in &model.constraints {
+            let c = f
+                .convert(&item.expr)
+                .map_err(|e| self.cas(Some(&item.site), e))?;
+            alpha_rows.push(self.linear_row(f, &c, &item.site, &format!("constraint `{name}`"))?);
+        }
+        let alpha = Matrix::from_fn(mu, ell, |i, j| alpha_rows[i][j].clone());
+        if mu > 0 {
+            let rank = alpha.rank().map_err(|e| self.cas(None, e))?;
+            if rank < mu {
+                let items: Vec<Item> = model.constraints.iter().map(|(_, i)| i.clone()).collect();
+                return Err(model
+                    .error_at(&span_site("constraints".into(), &items), format!(
+                        "the constraint matrix α is rank-deficient: rank {rank} < μ = {mu} (the constraints are not independent)"
+                    ))
+                    .with_help("remove the constraints that are combinations of the others"));
+            }
+        }
+        let mut z_rows = Vec::new();
+        for (i, item) in choice.eta.iter().enumerate() {
+            let c = f
+                .convert(&item.expr)
+                .map_err(|e| self.cas(Some(&item.site), e))?;
+            let what = format!("quasi-velocity η{}", i + 1);
+            z_rows.push(self.linear_row(f, &c, &item.site, &what)?);
+        }
+        let z = Matrix::from_fn(sigma, ell, |i, j| z_rows[i][j].clone());
+        Ok((a, alpha, z))
+    }
+
+    /// (4)–(5): [Z; α]⁻¹ = [Γ Θ] and δ = det[Z; α] (checked not identically zero).
+    fn inverse(
+        &self,
+        z: &Matrix,
+        alpha: &Matrix,
+        choice: &QuasiVelocityChoice,
+    ) -> Result<(Matrix, Matrix, Ex), ModelError> {
+        let (ell, mu, sigma) = (self.model.ell(), self.model.mu(), self.model.sigma());
+        let m = if mu > 0 { z.vstack(alpha) } else { z.clone() };
+        let Some((minv, delta)) = m.inverse().map_err(|e| self.cas(None, e))? else {
+            return Err(self.model
+                .error_at(&span_site(format!("quasi_velocities.{}", choice.name), &choice.eta), "det[Z; α] is identically zero: these quasi-velocities are not independent of each other and of the constraints")
+                .with_help("each η must add a direction of motion that the constraints and the other η's do not fix"));
+        };
+        Ok((minv.columns(0, sigma), minv.columns(sigma, ell), delta))
+    }
+}
+
+/// A, α, Z, Γ, Θ over their common denominator factors, with what every step below needs.
+struct Parts {
+    dens: Denominators,
+    half: Over,
+    a: OMatrix,
+    alpha: OMatrix,
+    z: OMatrix,
+    gamma: OMatrix,
+    gamma_t: OMatrix,
+    theta: OMatrix,
+    /// Whether q_k moves at all (row k of Γ not zero).
+    moves: Vec<bool>,
+    ell: usize,
+    mu: usize,
+    sigma: usize,
+}
+
+impl Parts {
+    fn new(
+        f: &Field,
+        a: &Matrix,
+        alpha: &Matrix,
+        z: &Matrix,
+        gamma: &Matrix,
+        theta: &Matrix,
+    ) -> Parts {
+        let seeds: Vec<&Ex> = a
+            .entries()
+            .iter()
+            .chain(alpha.entries())
+            .chain(z.entries())
+            .chain(gamma.entries())
+            .chain(theta.entries())
+            .collect();
+        let dens = Denominators::new(f, &seeds);
+        let half = dens.over(&f.rational(&1.into(), &2.into()).expect("1/2"));
+        let gamma_o = OMatrix::from_matrix(&dens, gamma);
+        let (ell, sigma) = (gamma.rows(), gamma.cols());
+        let moves = (0..ell)
+            .map(|k| (0..sigma).any(|s| !gamma_o[(k, s)].is_zero()))
+            .collect();
+        Parts {
+            half,
+            a: OMatrix::from_matrix(&dens, a),
+            alpha: OMatrix::from_matrix(&dens, alpha),
+            z: OMatrix::from_matrix(&dens, z),
+            gamma_t: gamma_o.transpose(),
+            gamma: gamma_o,
+            theta: OMatrix::from_matrix(&dens, theta),
+            moves,
+            ell,
+            mu: alpha.rows(),
+            sigma,
+            dens,
+        }
+    }
+
+    fn sum(&self, terms: Vec<Over>) -> Over {
+        sum_over(&self.dens, terms)
+    }
+
+    fn zeros(&self) -> Vec<OMatrix> {
+        vec![OMatrix::zeros(&self.dens, self.sigma, self.sigma); self.sigma]
+    }
+
+    /// True Q from (9): Q⁽ⁱ⁾_rs = sym[ Σ_k (Γᵀ ∂(AΓ)/∂q_k)_ir γ_ks − ½ Σ_j γ_ji (Γᵀ ∂A/∂q_j Γ)_rs ].
+    fn q_true(&self) -> Vec<OMatrix> {
+        let (ell, sigma) = (self.ell, self.sigma);
+        let b_mat = self.a.mul(&self.gamma);
+        let mut t1 = self.zeros();
+        for k in (0..ell).filter(|&k| self.moves[k]) {
+            let db = b_mat.diff(k);
+            if db.is_zero() {
+                continue;
+            }
+            let g = self.gamma_t.mul(&db);
+            for (i, t) in t1.iter_mut().enumerate() {
+                for r in 0..sigma {
+                    if g[(i, r)].is_zero() {
+                        continue;
+                    }
+                    for s in 0..sigma {
+                        t[(r, s)] = t[(r, s)].add(&g[(i, r)].mul(&self.gamma[(k, s)]));
+                    }
+                }
+            }
+        }
+        for j in (0..ell).filter(|&j| self.moves[j]) {
+            let d = self.a.diff(j);
+            if d.is_zero() {
+                continue;
+            }
+            let h = self.gamma_t.mul(&d).mul(&self.gamma);
+            for (i, t) in t1.iter_mut().enumerate() {
+                let c = self.gamma[(j, i)].mul(&self.half);
+                if c.is_zero() {
+                    continue;
+                }
+                for r in 0..sigma {
+                    for s in 0..sigma {
+                        t[(r, s)] = t[(r, s)].sub(&c.mul(&h[(r, s)]));
+                    }
+                }
+            }
+        }
+        t1.iter().map(|t| sym(&self.dens, t, &self.half)).collect()
+    }
+
+    /// The paper's Q, (12)/(15), with the second and third terms summed over h only.
+    fn q_paper(&self, a_gamma: &OMatrix, d_agamma: &[OMatrix]) -> Vec<OMatrix> {
+        let (ell, sigma) = (self.ell, self.sigma);
+        let dz: Vec<OMatrix> = (0..ell).map(|k| self.z.diff(k)).collect();
+        let mut qp = self.zeros();
+        for j in 0..sigma {
+            // (C_j)_hk = ∂z_jh/∂q_k − ∂z_jk/∂q_h
+            let c = OMatrix::from_fn(&self.dens, ell, ell, |h, k| {
+                dz[k][(j, h)].sub(&dz[h][(j, k)])
+            });
+            if c.is_zero() {
+                continue;
+            }
+            let p = self.gamma_t.mul(&c).mul(&self.gamma);
+            for (i, t) in qp.iter_mut().enumerate() {
+                for r in 0..sigma {
+                    for s in 0..sigma {
+                        t[(r, s)] = t[(r, s)].add(&a_gamma[(j, r)].mul(&p[(i, s)]));
+                    }
+                }
+            }
+        }
+        for (h, dh) in d_agamma.iter().enumerate() {
+            if !self.moves[h] || dh.is_zero() {
+                continue;
+            }
+            for (i, t) in qp.iter_mut().enumerate() {
+                for r in 0..sigma {
+                    for s in 0..sigma {
+                        let second = self.gamma[(h, s)].mul(&dh[(r, i)]);
+                        let third = self.gamma[(h, i)].mul(&dh[(r, s)]).mul(&self.half);
+                        t[(r, s)] = t[(r, s)].add(&second).sub(&third);
+                    }
+                }
+            }
+        }
+        qp.iter().map(|t| sym(&self.dens, t, &self.half)).collect()
+    }
+
+    /// The correction the paper drops, Σ_m ν_m ΓᵀV_mΓη with ν = ΘᵀAΓη and
+    /// (V_m)_hk = ∂α_mh/∂q_k − ∂α_mk/∂q_h: ν's matrix ΘᵀAΓ and the coefficients.
+    fn q_correction(&self) -> (OMatrix, Vec<OMatrix>) {
+        let (ell, sigma) = (self.ell, self.sigma);
+        let nu = self.theta.transpose().mul(&self.a).mul(&self.gamma);
+        let dalpha: Vec<OMatrix> = (0..ell).map(|k| self.alpha.diff(k)).collect();
+        let mut qc = self.zeros();
+        for m_ in 0..self.mu {
+            let v = OMatrix::from_fn(&self.dens, ell, ell, |h, k| {
+                dalpha[k][(m_, h)].sub(&dalpha[h][(m_, k)])
+            });
+            if v.is_zero() {
+                continue;
+            }
+            let rm = self.gamma_t.mul(&v).mul(&self.gamma);
+            for (i, t) in qc.iter_mut().enumerate() {
+                for r in 0..sigma {
+                    if nu[(m_, r)].is_zero() {
+                        continue;
+                    }
+                    for s in 0..sigma {
+                        t[(r, s)] = t[(r, s)].add(&nu[(m_, r)].mul(&rm[(i, s)]));
+                    }
+                }
+            }
+        }
+        let q_correction = qc.iter().map(|t| sym(&self.dens, t, &self.half)).collect();
+        (nu, q_correction)
+    }
+
+    /// With Z = I and no constraints, Q must be the Christoffel symbols of the first kind of A
+    /// (the Euler–Lagrange equations); `None` otherwise.
+    fn euler_lagrange(&self, f: &Field, z: &Matrix, q_true: &[OMatrix]) -> Option<bool> {
+        let ell = self.ell;
+        if !(self.mu == 0 && z.sub(&Matrix::identity(f, ell)).is_zero()) {
+            return None;
+        }
+        let da: Vec<OMatrix> = (0..ell).map(|j| self.a.diff(j)).collect();
+        Some((0..ell).all(|i| {
+            (0..ell).all(|r| {
+                (0..ell).all(|s| {
+                    let christoffel = da[s][(i, r)]
+                        .add(&da[r][(i, s)])
+                        .sub(&da[i][(r, s)])
+                        .mul(&self.half);
+                    q_true[i][(r, s)].sub(&christoffel).is_zero()
+                })
+            })
+        }))
+    }
+
+    /// The equations along η: η, η̇ as symbols, Γη, ηᵀQ⁽ⁱ⁾η (true and paper's), and what the
+    /// energy check needs.
+    fn along_eta(
+        &self,
+        f: &Field,
+        q_true: &[OMatrix],
+        q_paper: &[OMatrix],
+        d_agamma: &[OMatrix],
+    ) -> AlongEta {
+        let unknown = |n: String| self.dens.over(&f.unknown(&n).expect("declared symbol"));
+        let eta: Vec<Over> = eta_names(self.sigma).map(unknown).collect();
+        let eta_dot: Vec<Over> = eta_dot_names(self.sigma).map(unknown).collect();
+        let mut ev = AlongEta {
+            dens: self.dens.clone(),
+            eta,
+            eta_dot,
+            gamma_eta: Vec::new(),
+            q_eta: Vec::new(),
+            q_eta_paper: Vec::new(),
+            gyro: self.dens.over(&f.zero()),
+        };
+        ev.q_eta = q_true.iter().map(|m| ev.quad(m)).collect();
+        ev.q_eta_paper = q_paper.iter().map(|m| ev.quad(m)).collect();
+        ev.gamma_eta = (0..self.ell)
+            .map(|k| {
+                self.sum(
+                    (0..self.sigma)
+                        .map(|s| self.gamma[(k, s)].mul(&ev.eta[s]))
+                        .collect(),
+                )
+            })
+            .collect();
+        // dE/dt = −ηᵀQ(η) + ½ Σ_k (Γη)_k ηᵀ ∂A_Γ/∂q_k η along (11); the forcing terms cancel
+        // exactly.
+        ev.gyro = self.sum(
+            (0..self.ell)
+                .filter(|&k| self.moves[k])
+                .map(|k| ev.gamma_eta[k].mul(&ev.quad(&d_agamma[k])).mul(&self.half))
+                .collect(),
+        );
+        ev
+    }
+}
+
+/// The quantities along η of [`Parts::along_eta`].
+struct AlongEta {
+    dens: Denominators,
+    eta: Vec<Over>,
+    eta_dot: Vec<Over>,
+    gamma_eta: Vec<Over>,
+    q_eta: Vec<Over>,
+    q_eta_paper: Vec<Over>,
+    /// ½ Σ_k (Γη)_k ηᵀ ∂A_Γ/∂q_k η.
+    gyro: Over,
+}
+
+impl AlongEta {
+    /// ηᵀ M η.
+    fn quad(&self, m: &OMatrix) -> Over {
+        sum_over(
+            &self.dens,
+            (0..m.rows())
+                .flat_map(|r| (0..m.cols()).map(move |s| (r, s)))
+                .filter(|&(r, s)| !m[(r, s)].is_zero())
+                .map(|(r, s)| m[(r, s)].mul(&self.eta[r]).mul(&self.eta[s]))
+                .collect::<Vec<_>>(),
+        )
+    }
+
+    /// dE/dt along (11) with the coefficients `q_eta` (ηᵀQ⁽ⁱ⁾η): zero iff energy is conserved.
+    fn energy_rate(&self, q_eta: &[Over]) -> Over {
+        let work = sum_over(
+            &self.dens,
+            (0..self.eta.len())
+                .map(|i| self.eta[i].mul(&q_eta[i]))
+                .collect::<Vec<_>>(),
+        );
+        self.gyro.sub(&work)
+    }
 }

@@ -408,8 +408,6 @@ impl Model {
         let err = |span: Range<usize>, key: &str, msg: String| {
             ModelError::new(file, source.clone(), Some(span), Some(key), msg)
         };
-
-        // Name, coordinates, parameters.
         if !is_identifier(raw.name.get_ref()) {
             return Err(err(
                 raw.name.span(),
@@ -420,80 +418,8 @@ impl Model {
                 ),
             ));
         }
-        let mut coordinates: Vec<String> = Vec::new();
-        for c in raw.coordinates.get_ref() {
-            let n = c.get_ref();
-            if !is_identifier(n) {
-                return Err(err(
-                    c.span(),
-                    "coordinates",
-                    format!("`{n}` is not an identifier"),
-                ));
-            }
-            if is_reserved(n) || is_eta_name(n) {
-                return Err(err(
-                    c.span(),
-                    "coordinates",
-                    format!("`{n}` is a reserved name"),
-                ));
-            }
-            if coordinates.contains(n) {
-                return Err(err(
-                    c.span(),
-                    "coordinates",
-                    format!("coordinate `{n}` is listed twice"),
-                ));
-            }
-            coordinates.push(n.clone());
-        }
-        if coordinates.is_empty() {
-            return Err(err(
-                raw.coordinates.span(),
-                "coordinates",
-                "the model needs at least one coordinate".into(),
-            ));
-        }
-        let mut parameters = IndexMap::new();
-        for (k, v) in &raw.parameters {
-            let key = format!("parameters.{k}");
-            if !is_identifier(k) || is_reserved(k) || is_eta_name(k) {
-                return Err(err(
-                    v.span(),
-                    &key,
-                    format!("`{k}` cannot be a parameter name (reserved or not an identifier)"),
-                ));
-            }
-            if coordinates.contains(k) {
-                return Err(err(
-                    v.span(),
-                    &key,
-                    format!("`{k}` is already a coordinate"),
-                ));
-            }
-            let value = match v.get_ref() {
-                toml::Value::Float(f) => *f,
-                toml::Value::Integer(i) => *i as f64,
-                other => {
-                    return Err(err(
-                        v.span(),
-                        &key,
-                        format!(
-                            "a parameter's default must be a number, found {}",
-                            other.type_str()
-                        ),
-                    ));
-                }
-            };
-            if !value.is_finite() {
-                return Err(err(
-                    v.span(),
-                    &key,
-                    "a parameter's default must be finite".into(),
-                ));
-            }
-            parameters.insert(k.clone(), value);
-        }
-
+        let coordinates = coordinates_of(&raw, &err)?;
+        let parameters = parameters_of(&raw, &coordinates, &err)?;
         let mut loader = Loader {
             file,
             source: source.clone(),
@@ -501,159 +427,16 @@ impl Model {
             parameters: parameters.clone(),
             free: BTreeMap::new(),
         };
-        let ell = coordinates.len();
-
-        // Lagrangian.
-        let RawLagrangian {
-            kinetic,
-            mass_matrix,
-            potential,
-        } = raw.lagrangian.get_ref();
-        let kinetic = match (kinetic, mass_matrix) {
-            (Some(t), None) => {
-                Kinetic::Energy(loader.item(t, "lagrangian.kinetic", FieldKind::Kinetic)?)
-            }
-            (None, Some(m)) => {
-                if m.get_ref().len() != ell {
-                    return Err(err(
-                        m.span(),
-                        "lagrangian.mass_matrix",
-                        format!(
-                            "the mass matrix must have {ell} rows (one per coordinate), found {}",
-                            m.get_ref().len()
-                        ),
-                    ));
-                }
-                let mut rows = Vec::new();
-                for (i, row) in m.get_ref().iter().enumerate() {
-                    if row.get_ref().len() != ell {
-                        return Err(err(
-                            row.span(),
-                            "lagrangian.mass_matrix",
-                            format!(
-                                "row {} must have {ell} entries, found {}",
-                                i + 1,
-                                row.get_ref().len()
-                            ),
-                        ));
-                    }
-                    let mut r = Vec::new();
-                    for (j, e) in row.get_ref().iter().enumerate() {
-                        let key = format!("lagrangian.mass_matrix[{}][{}]", i + 1, j + 1);
-                        r.push(loader.item(e, &key, FieldKind::Positional)?);
-                    }
-                    rows.push(r);
-                }
-                Kinetic::MassMatrix(rows)
-            }
-            (Some(t), Some(_)) => {
-                return Err(err(
-                    t.span(),
-                    "lagrangian",
-                    "give either `kinetic` or `mass_matrix`, not both".into(),
-                ));
-            }
-            (None, None) => {
-                return Err(err(
-                    raw.lagrangian.span(),
-                    "lagrangian",
-                    "missing the kinetic energy: give `kinetic` (T) or `mass_matrix` (A)".into(),
-                ));
-            }
-        };
-        let potential = match potential {
+        let kinetic = kinetic_of(&raw, &mut loader, &err)?;
+        let potential = match &raw.lagrangian.get_ref().potential {
             Some(u) => loader.item(u, "lagrangian.potential", FieldKind::Positional)?,
             None => Item::synthetic("lagrangian.potential", Expr::int(0)),
         };
-
-        // Constraints.
-        let mut constraints = Vec::new();
-        for (k, v) in &raw.constraints {
-            let key = format!("constraints.{k}");
-            let item = loader.item(v, &key, FieldKind::Constraint)?;
-            if !item.expr.has_velocity() {
-                return Err(err(
-                    v.span(),
-                    &key,
-                    "a constraint must involve the velocities der(q): it is α(q) q̇ = 0".into(),
-                ));
-            }
-            constraints.push((k.clone(), item));
-        }
-        let mu = constraints.len();
-        if mu >= ell {
-            let span = raw
-                .constraints
-                .values()
-                .next()
-                .map_or(raw.coordinates.span(), |v| v.span());
-            return Err(err(
-                span,
-                "constraints",
-                format!(
-                    "there are {mu} constraints for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)"
-                ),
-            ));
-        }
-        let sigma = ell - mu;
-
-        // Quasi-velocity choices.
-        let mut choices = Vec::new();
-        for (name, choice) in &raw.quasi_velocities {
-            let RawChoice { eta, description } = choice.get_ref();
-            let key = format!("quasi_velocities.{name}");
-            if !is_identifier(name) {
-                return Err(err(
-                    choice.span(),
-                    &key,
-                    format!("`{name}` is not an identifier"),
-                ));
-            }
-            if eta.get_ref().len() != sigma {
-                return Err(err(
-                    eta.span(),
-                    &format!("{key}.eta"),
-                    format!(
-                        "wrong number of quasi-velocities: need ℓ − μ = {ell} − {mu} = {sigma}, found {}",
-                        eta.get_ref().len()
-                    ),
-                ));
-            }
-            let mut items = Vec::new();
-            for (i, e) in eta.get_ref().iter().enumerate() {
-                let item = loader.item(e, &format!("{key}.eta[{}]", i + 1), FieldKind::Eta)?;
-                if !item.expr.has_velocity() {
-                    return Err(err(
-                        e.span(),
-                        &format!("{key}.eta[{}]", i + 1),
-                        "a quasi-velocity must be linear in the velocities der(q)".into(),
-                    ));
-                }
-                items.push(item);
-            }
-            let mut free: Vec<(String, Vec<String>)> = Vec::new();
-            for item in &items {
-                item.expr.visit(&mut |n| {
-                    if let Expr::Free { name, args, .. } = n
-                        && !free.iter().any(|(f, _)| f == name)
-                    {
-                        free.push((name.clone(), args.clone()));
-                    }
-                });
-            }
-            free.sort();
-            choices.push(QuasiVelocityChoice {
-                name: name.clone(),
-                description: description.clone(),
-                eta: items,
-                free_functions: free,
-                origin: ChoiceOrigin::File,
-            });
-        }
-        if mu == 0 && !choices.iter().any(|c| c.name == "identity") {
+        let constraints = constraints_of(&raw, &mut loader, &err)?;
+        let mut choices = choices_of(&raw, &mut loader, constraints.len(), &err)?;
+        if constraints.is_empty() && !choices.iter().any(|c| c.name == "identity") {
             choices.push(identity_choice(&coordinates));
         }
-
         let mut model = Model {
             file: file.to_string(),
             source,
@@ -790,6 +573,261 @@ fn identity_choice(coordinates: &[String]) -> QuasiVelocityChoice {
         free_functions: Vec::new(),
         origin: ChoiceOrigin::Holonomic,
     }
+}
+
+/// Makes an error at a span and key of the model file.
+type ErrorAt<'a> = dyn Fn(Range<usize>, &str, String) -> ModelError + 'a;
+
+/// `coordinates`: identifiers, not reserved, each once, at least one.
+fn coordinates_of(raw: &RawModel, err: &ErrorAt) -> Result<Vec<String>, ModelError> {
+    let mut coordinates: Vec<String> = Vec::new();
+    for c in raw.coordinates.get_ref() {
+        let n = c.get_ref();
+        if !is_identifier(n) {
+            return Err(err(
+                c.span(),
+                "coordinates",
+                format!("`{n}` is not an identifier"),
+            ));
+        }
+        if is_reserved(n) || is_eta_name(n) {
+            return Err(err(
+                c.span(),
+                "coordinates",
+                format!("`{n}` is a reserved name"),
+            ));
+        }
+        if coordinates.contains(n) {
+            return Err(err(
+                c.span(),
+                "coordinates",
+                format!("coordinate `{n}` is listed twice"),
+            ));
+        }
+        coordinates.push(n.clone());
+    }
+    if coordinates.is_empty() {
+        return Err(err(
+            raw.coordinates.span(),
+            "coordinates",
+            "the model needs at least one coordinate".into(),
+        ));
+    }
+    Ok(coordinates)
+}
+
+/// `[parameters]`: names that are not coordinates, with finite numeric defaults.
+fn parameters_of(
+    raw: &RawModel,
+    coordinates: &[String],
+    err: &ErrorAt,
+) -> Result<IndexMap<String, f64>, ModelError> {
+    let mut parameters = IndexMap::new();
+    for (k, v) in &raw.parameters {
+        let key = format!("parameters.{k}");
+        if !is_identifier(k) || is_reserved(k) || is_eta_name(k) {
+            return Err(err(
+                v.span(),
+                &key,
+                format!("`{k}` cannot be a parameter name (reserved or not an identifier)"),
+            ));
+        }
+        if coordinates.contains(k) {
+            return Err(err(
+                v.span(),
+                &key,
+                format!("`{k}` is already a coordinate"),
+            ));
+        }
+        let value = match v.get_ref() {
+            toml::Value::Float(f) => *f,
+            toml::Value::Integer(i) => *i as f64,
+            other => {
+                return Err(err(
+                    v.span(),
+                    &key,
+                    format!(
+                        "a parameter's default must be a number, found {}",
+                        other.type_str()
+                    ),
+                ));
+            }
+        };
+        if !value.is_finite() {
+            return Err(err(
+                v.span(),
+                &key,
+                "a parameter's default must be finite".into(),
+            ));
+        }
+        parameters.insert(k.clone(), value);
+    }
+
+    Ok(parameters)
+}
+
+/// `[lagrangian]`: the kinetic energy T, or the mass matrix A (ℓ × ℓ).
+fn kinetic_of(raw: &RawModel, loader: &mut Loader, err: &ErrorAt) -> Result<Kinetic, ModelError> {
+    let ell = loader.coordinates.len();
+    let RawLagrangian {
+        kinetic,
+        mass_matrix,
+        ..
+    } = raw.lagrangian.get_ref();
+    Ok(match (kinetic, mass_matrix) {
+        (Some(t), None) => {
+            Kinetic::Energy(loader.item(t, "lagrangian.kinetic", FieldKind::Kinetic)?)
+        }
+        (None, Some(m)) => {
+            if m.get_ref().len() != ell {
+                return Err(err(
+                    m.span(),
+                    "lagrangian.mass_matrix",
+                    format!(
+                        "the mass matrix must have {ell} rows (one per coordinate), found {}",
+                        m.get_ref().len()
+                    ),
+                ));
+            }
+            let mut rows = Vec::new();
+            for (i, row) in m.get_ref().iter().enumerate() {
+                if row.get_ref().len() != ell {
+                    return Err(err(
+                        row.span(),
+                        "lagrangian.mass_matrix",
+                        format!(
+                            "row {} must have {ell} entries, found {}",
+                            i + 1,
+                            row.get_ref().len()
+                        ),
+                    ));
+                }
+                let mut r = Vec::new();
+                for (j, e) in row.get_ref().iter().enumerate() {
+                    let key = format!("lagrangian.mass_matrix[{}][{}]", i + 1, j + 1);
+                    r.push(loader.item(e, &key, FieldKind::Positional)?);
+                }
+                rows.push(r);
+            }
+            Kinetic::MassMatrix(rows)
+        }
+        (Some(t), Some(_)) => {
+            return Err(err(
+                t.span(),
+                "lagrangian",
+                "give either `kinetic` or `mass_matrix`, not both".into(),
+            ));
+        }
+        (None, None) => {
+            return Err(err(
+                raw.lagrangian.span(),
+                "lagrangian",
+                "missing the kinetic energy: give `kinetic` (T) or `mass_matrix` (A)".into(),
+            ));
+        }
+    })
+}
+
+/// `[constraints]`: each linear in the velocities, fewer than the coordinates (ℓ > μ).
+fn constraints_of(
+    raw: &RawModel,
+    loader: &mut Loader,
+    err: &ErrorAt,
+) -> Result<Vec<(String, Item)>, ModelError> {
+    let ell = loader.coordinates.len();
+    let mut constraints = Vec::new();
+    for (k, v) in &raw.constraints {
+        let key = format!("constraints.{k}");
+        let item = loader.item(v, &key, FieldKind::Constraint)?;
+        if !item.expr.has_velocity() {
+            return Err(err(
+                v.span(),
+                &key,
+                "a constraint must involve the velocities der(q): it is α(q) q̇ = 0".into(),
+            ));
+        }
+        constraints.push((k.clone(), item));
+    }
+    let mu = constraints.len();
+    if mu >= ell {
+        let span = raw
+            .constraints
+            .values()
+            .next()
+            .map_or(raw.coordinates.span(), |v| v.span());
+        return Err(err(
+            span,
+            "constraints",
+            format!(
+                "there are {mu} constraints for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)"
+            ),
+        ));
+    }
+    Ok(constraints)
+}
+
+/// `[quasi_velocities.NAME]`: σ = ℓ − μ rows each, with the free functions they use.
+fn choices_of(
+    raw: &RawModel,
+    loader: &mut Loader,
+    mu: usize,
+    err: &ErrorAt,
+) -> Result<Vec<QuasiVelocityChoice>, ModelError> {
+    let ell = loader.coordinates.len();
+    let sigma = ell - mu;
+    let mut choices = Vec::new();
+    for (name, choice) in &raw.quasi_velocities {
+        let RawChoice { eta, description } = choice.get_ref();
+        let key = format!("quasi_velocities.{name}");
+        if !is_identifier(name) {
+            return Err(err(
+                choice.span(),
+                &key,
+                format!("`{name}` is not an identifier"),
+            ));
+        }
+        if eta.get_ref().len() != sigma {
+            return Err(err(
+                eta.span(),
+                &format!("{key}.eta"),
+                format!(
+                    "wrong number of quasi-velocities: need ℓ − μ = {ell} − {mu} = {sigma}, found {}",
+                    eta.get_ref().len()
+                ),
+            ));
+        }
+        let mut items = Vec::new();
+        for (i, e) in eta.get_ref().iter().enumerate() {
+            let item = loader.item(e, &format!("{key}.eta[{}]", i + 1), FieldKind::Eta)?;
+            if !item.expr.has_velocity() {
+                return Err(err(
+                    e.span(),
+                    &format!("{key}.eta[{}]", i + 1),
+                    "a quasi-velocity must be linear in the velocities der(q)".into(),
+                ));
+            }
+            items.push(item);
+        }
+        let mut free: Vec<(String, Vec<String>)> = Vec::new();
+        for item in &items {
+            item.expr.visit(&mut |n| {
+                if let Expr::Free { name, args, .. } = n
+                    && !free.iter().any(|(f, _)| f == name)
+                {
+                    free.push((name.clone(), args.clone()));
+                }
+            });
+        }
+        free.sort();
+        choices.push(QuasiVelocityChoice {
+            name: name.clone(),
+            description: description.clone(),
+            eta: items,
+            free_functions: free,
+            origin: ChoiceOrigin::File,
+        });
+    }
+    Ok(choices)
 }
 
 #[cfg(test)]

@@ -4,10 +4,10 @@
 use hamel_cas::Ex;
 use hamel_derive::Symbolic;
 use hamel_derive::symbolic::{entry, mat};
-use hamel_model::Model;
+use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
 
-use crate::hypotheses::{self as hyp, Blocks, Val, scan, witness};
+use crate::hypotheses::{self as hyp, Blocks, H0, H1, H2, H3, H4, H5, H6, Id, Val, scan, witness};
 use crate::report::*;
 
 /// The entries of the equations (11): A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ (true or the paper's).
@@ -96,14 +96,48 @@ pub(crate) fn dependence_conditions(s: &Symbolic, p: &[usize]) -> Vec<(String, E
     out
 }
 
-pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
+/// The whole analysis of eliminating `p` under the derivation `s`, step by step as in the
+/// paper: (31), (17)/(18), Properties 2.1–2.2, H0–H6, then the ground truth, the findings and
+/// the reduced system. Errors: a determinant the engine could not compute (a bug, named).
+pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduction, ModelError> {
     let names = s.field.coordinates().to_vec();
-    let ell = names.len();
-    let sigma = s.eta.len();
     let blocks = Blocks::of(&s.z);
+    let classification = classify(s, &names, p);
+    let structure = block_structure(s, &blocks, &names).map_err(|e| {
+        model.error(format!(
+            "internal error: δ_R of (18) could not be computed: {e}"
+        ))
+    })?;
+    let h1 = hyp::h1(s, &blocks);
+    let properties = properties(s, &blocks, &names, &h1);
+    let hypotheses = hypotheses(s, &blocks, p, h1);
+    let proposition_2_1 = Id::PROPOSITION_2_1.iter().all(|h| hypotheses[h].holds);
+    let truth = Truth::of(s, p);
+    let ground_truth = truth.report(&names, p);
+    let findings = findings(&hypotheses, &ground_truth, &names, p);
+    let reduced_system = truth.reduced_system(s, &names, p);
+    Ok(Reduction {
+        model: model.name.clone(),
+        eta_name: s.choice().name.clone(),
+        eta: s.choice().eta.iter().map(|e| e.expr.to_string()).collect(),
+        coordinates: names.clone(),
+        eliminate: p.iter().map(|&k| names[k].clone()).collect(),
+        classification,
+        structure,
+        properties,
+        hypotheses,
+        proposition_2_1,
+        paper_is_exact: s.checks.paper_is_exact,
+        ground_truth,
+        findings,
+        reduced_system,
+    })
+}
 
-    // (31)
-    let classification = (0..ell)
+/// (31): a coordinate is of type (B) when A, U or α depends on it, else of type (A).
+fn classify(s: &Symbolic, names: &[String], p: &[usize]) -> Vec<Classification> {
+    let ell = names.len();
+    (0..ell)
         .map(|k| {
             let sources = (0..ell)
                 .flat_map(|i| (i..ell).map(move |j| (i, j)))
@@ -141,9 +175,15 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
                 asked: p.contains(&k),
             }
         })
-        .collect();
+        .collect()
+}
 
-    // (17)/(18)
+/// (17)/(18): the blocks of Z, α and Γ, and δ_R = det[Z₁; α₁].
+fn block_structure(
+    s: &Symbolic,
+    blocks: &Blocks,
+    names: &[String],
+) -> Result<BlockStructure, hamel_cas::CasError> {
     let all_mu: Vec<usize> = (0..s.alpha.rows()).collect();
     let z1 = Blocks::sub(&s.z, &blocks.rows1, &blocks.j1);
     let z2 = Blocks::sub(&s.z, &blocks.rows1, &blocks.j2);
@@ -154,13 +194,13 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
     let delta_r = if z1.rows() + alpha1.rows() == 0 {
         s.field.one()
     } else if alpha1.rows() == 0 {
-        z1.det().unwrap_or_else(|_| s.field.zero())
+        z1.det()?
     } else if z1.rows() == 0 {
-        alpha1.det().unwrap_or_else(|_| s.field.zero())
+        alpha1.det()?
     } else {
-        z1.vstack(&alpha1).det().unwrap_or_else(|_| s.field.zero())
+        z1.vstack(&alpha1).det()?
     };
-    let structure = BlockStructure {
+    Ok(BlockStructure {
         v: blocks.v(),
         unit_rows: blocks
             .rows2
@@ -177,68 +217,74 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
         gamma1: mat(&gamma1),
         gamma2: mat(&gamma2),
         delta_r: entry(&delta_r),
-    };
+    })
+}
 
-    // Properties 2.1 and 2.2.
-    let mut properties = IndexMap::new();
-    let h1 = hyp::h1(s, &blocks);
+/// Properties 2.1 (Γ₂ = 0, (26)) and 2.2 (Γ₁ᵀA⁽¹'²⁾ = 0, (27)), with witnesses.
+fn properties(
+    s: &Symbolic,
+    blocks: &Blocks,
+    names: &[String],
+    h1: &Hypothesis,
+) -> IndexMap<PropertyId, Property> {
+    let gamma1 = Blocks::sub(&s.gamma, &blocks.j1, &blocks.rows1);
+    let gamma2 = Blocks::sub(&s.gamma, &blocks.j1, &blocks.rows2);
     let gamma2_nonzero = (0..gamma2.rows())
         .flat_map(|h| (0..gamma2.cols()).map(move |c| (h, c)))
         .find(|&(h, c)| !gamma2[(h, c)].is_zero());
-    properties.insert(
-        "2.1".to_string(),
-        Property {
-            statement: "Γ₂ = 0 (26), which holds iff (Z₂; α₂) = 0".to_string(),
-            holds: gamma2_nonzero.is_none(),
-            witness: gamma2_nonzero.map(|(h, c)| {
-                let mut w = witness(
-                    s,
-                    "Gamma2",
-                    vec![h + 1, c + 1],
-                    None,
-                    &Val::Ex(gamma2[(h, c)].clone()),
-                    "Γ₂ ≠ 0".to_string(),
-                );
-                if let Some(hw) = &h1.witness {
-                    w.note = format!("Γ₂ ≠ 0 because {}", hw.note);
-                }
-                w
-            }),
-        },
-    );
+    let p21 = Property {
+        statement: "Γ₂ = 0 (26), which holds iff (Z₂; α₂) = 0".to_string(),
+        holds: gamma2_nonzero.is_none(),
+        witness: gamma2_nonzero.map(|(h, c)| {
+            let mut w = witness(
+                s,
+                "Gamma2",
+                vec![h + 1, c + 1],
+                None,
+                &Val::Ex(gamma2[(h, c)].clone()),
+                "Γ₂ ≠ 0".to_string(),
+            );
+            if let Some(hw) = &h1.witness {
+                w.note = format!("Γ₂ ≠ 0 because {}", hw.note);
+            }
+            w
+        }),
+    };
     let a12 = Blocks::sub(&s.a, &blocks.j1, &blocks.j2);
     let g1a12 = gamma1.transpose().mul(&a12);
-    let p22 = (0..g1a12.rows())
+    let nonzero = (0..g1a12.rows())
         .flat_map(|r| (0..g1a12.cols()).map(move |c| (r, c)))
         .find(|&(r, c)| !g1a12[(r, c)].is_zero());
-    properties.insert(
-        "2.2".to_string(),
-        Property {
-            statement: "Γ₁ᵀA⁽¹'²⁾ = 0 (27), which holds iff the columns of A⁽¹'²⁾ are \
-                        combinations of the rows of α₁"
-                .to_string(),
-            holds: p22.is_none(),
-            witness: p22.map(|(r, c)| {
-                witness(
-                    s,
-                    "Gamma1^T A12",
-                    vec![r + 1, c + 1],
-                    None,
-                    &Val::Ex(g1a12[(r, c)].clone()),
-                    format!(
-                        "the column of A(1,2) for `{}` is not in the row space of α₁",
-                        names[blocks.j2[c]]
-                    ),
-                )
-            }),
-        },
-    );
+    let p22 = Property {
+        statement: "Γ₁ᵀA⁽¹'²⁾ = 0 (27), which holds iff the columns of A⁽¹'²⁾ are \
+                    combinations of the rows of α₁"
+            .to_string(),
+        holds: nonzero.is_none(),
+        witness: nonzero.map(|(r, c)| {
+            witness(
+                s,
+                "Gamma1^T A12",
+                vec![r + 1, c + 1],
+                None,
+                &Val::Ex(g1a12[(r, c)].clone()),
+                format!(
+                    "the column of A(1,2) for `{}` is not in the row space of α₁",
+                    names[blocks.j2[c]]
+                ),
+            )
+        }),
+    };
+    IndexMap::from([(PropertyId::P2_1, p21), (PropertyId::P2_2, p22)])
+}
 
-    // H0–H6.
-    let mut hypotheses = IndexMap::new();
-    hypotheses.insert("H0".to_string(), hyp::h0(s, p));
-    hypotheses.insert("H1".to_string(), h1);
-    let h2 = hyp::h2(s, &blocks).unwrap_or_else(|e| Hypothesis {
+/// H0–H6, each decided exactly with a witness when it fails.
+fn hypotheses(
+    s: &Symbolic,
+    blocks: &Blocks,
+    p: &[usize],
+    h1: Hypothesis,
+) -> IndexMap<Id, Hypothesis> {
+    let h2 = hyp::h2(s, blocks).unwrap_or_else(|e| Hypothesis {
         statement: "(H2)".to_string(),
         holds: false,
         witness: Some(Witness {
@@ -249,31 +295,133 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
             note: format!("the rank could not be computed: {e}"),
         }),
     });
-    hypotheses.insert("H2".to_string(), h2);
-    hypotheses.insert("H3".to_string(), hyp::h3(s, &blocks, p));
-    hypotheses.insert("H4".to_string(), hyp::h4(s, &blocks, p));
-    hypotheses.insert("H5".to_string(), hyp::h5(s, &blocks, p));
-    hypotheses.insert("H6".to_string(), hyp::h6(s, p));
-    let proposition_2_1 = ["H0", "H1", "H2", "H3", "H4", "H5"]
-        .iter()
-        .all(|h| hypotheses[*h].holds);
+    IndexMap::from([
+        (H0, hyp::h0(s, p)),
+        (H1, h1),
+        (H2, h2),
+        (H3, hyp::h3(s, blocks, p)),
+        (H4, hyp::h4(s, blocks, p)),
+        (H5, hyp::h5(s, blocks, p)),
+        (H6, hyp::h6(s, p)),
+    ])
+}
 
-    // Ground truth.
-    let entries_true = equation_entries(s, false);
-    let (present, occurrences_true) = occurrences(s, p, &entries_true);
-    let (paper_present, _) = occurrences(s, p, &equation_entries(s, true));
-    let lhs = s.lhs(&s.q_eta);
-    // The coordinates the equations (11) need: those their coefficients depend on (exactly).
-    let mut needed: Vec<usize> = Vec::new();
-    for (_, _, e) in &entries_true {
-        for k in e.dependence(ell) {
-            if !needed.contains(&k) {
-                needed.push(k);
+/// What the equations actually contain: the coordinates of `p` present in the true and in the
+/// paper's equations (11), the coordinates the equations need, closed under their kinematic
+/// equations, and the first kinematic equation that brings back an eliminated coordinate.
+struct Truth {
+    present: Vec<usize>,
+    occurrences: Vec<Witness>,
+    paper_present: Vec<usize>,
+    needed: Vec<usize>,
+    kinematics_witness: Option<Witness>,
+    /// The kinematic equations q̇_k = (Γη)_k.
+    rates: Vec<Ex>,
+}
+
+impl Truth {
+    fn of(s: &Symbolic, p: &[usize]) -> Truth {
+        let ell = s.gamma.rows();
+        let entries_true = equation_entries(s, false);
+        let (present, witnesses) = occurrences(s, p, &entries_true);
+        let (paper_present, _) = occurrences(s, p, &equation_entries(s, true));
+        // The coordinates the equations (11) need: those their coefficients depend on (exactly).
+        let mut needed: Vec<usize> = Vec::new();
+        for (_, _, e) in &entries_true {
+            for k in e.dependence(ell) {
+                if !needed.contains(&k) {
+                    needed.push(k);
+                }
             }
         }
+        let rates: Vec<Ex> = s.gamma_eta.iter().map(|e| e.to_ex()).collect();
+        let kinematics_witness = close_kinematics(s, p, &rates, &mut needed);
+        Truth {
+            present,
+            occurrences: witnesses,
+            paper_present,
+            needed,
+            kinematics_witness,
+            rates,
+        }
     }
-    // Close under the kinematic equations of the needed coordinates.
-    let rates: Vec<Ex> = s.gamma_eta.iter().map(|e| e.to_ex()).collect();
+
+    fn kinematics_closed(&self, p: &[usize]) -> bool {
+        !self.needed.iter().any(|k| p.contains(k))
+    }
+
+    fn report(&self, names: &[String], p: &[usize]) -> GroundTruth {
+        let list = |v: &[usize]| v.iter().map(|&k| names[k].clone()).collect::<Vec<_>>();
+        let absent: Vec<usize> = p
+            .iter()
+            .copied()
+            .filter(|k| !self.present.contains(k))
+            .collect();
+        let paper_absent: Vec<usize> = p
+            .iter()
+            .copied()
+            .filter(|k| !self.paper_present.contains(k))
+            .collect();
+        let kinematics_closed = self.kinematics_closed(p);
+        GroundTruth {
+            absent: list(&absent),
+            present: list(&self.present),
+            occurrences: self.occurrences.clone(),
+            paper_absent: list(&paper_absent),
+            paper_present: list(&self.paper_present),
+            kinematics_closed,
+            kinematics_witness: if kinematics_closed {
+                None
+            } else {
+                self.kinematics_witness.clone()
+            },
+        }
+    }
+
+    /// The reduced system, when every asked coordinate is absent and the kinematics close.
+    fn reduced_system(&self, s: &Symbolic, names: &[String], p: &[usize]) -> Option<ReducedSystem> {
+        if !(self.present.is_empty() && self.kinematics_closed(p)) {
+            return None;
+        }
+        let ell = names.len();
+        let needed = &self.needed;
+        // Canonical forms may still mention a coordinate they do not depend on (as in
+        // (1 − cos²θ)/sin θ): write the reduced equations without the dropped coordinates.
+        let dropped: Vec<usize> = (0..ell).filter(|k| !needed.contains(k)).collect();
+        let without = |e: Ex| -> Ex {
+            dropped
+                .iter()
+                .fold(e, |e, &k| e.without_coordinate(k).unwrap_or(e))
+        };
+        let kin = |k: usize| KinematicEquation {
+            coordinate: names[k].clone(),
+            rate: entry(&without(self.rates[k].clone())),
+        };
+        let sigma = s.eta.len();
+        let mut state: Vec<String> = (1..=sigma).map(|i| format!("eta{i}")).collect();
+        state.extend(needed.iter().map(|&k| names[k].clone()));
+        Some(ReducedSystem {
+            state,
+            equations: s
+                .lhs(&s.q_eta)
+                .iter()
+                .map(|e| entry(&without(e.to_ex())))
+                .collect(),
+            kinematics: needed.iter().map(|&k| kin(k)).collect(),
+            reconstruction: dropped.iter().map(|&k| kin(k)).collect(),
+        })
+    }
+}
+
+/// Close `needed` under the kinematic equations q̇_k = `rates`[k] of its members; the first
+/// equation of a kept coordinate that brings in one of `p`, as a witness.
+fn close_kinematics(
+    s: &Symbolic,
+    p: &[usize],
+    rates: &[Ex],
+    needed: &mut Vec<usize>,
+) -> Option<Witness> {
+    let names = s.field.coordinates();
     let mut kin_witness = None;
     let mut i = 0;
     while i < needed.len() {
@@ -300,33 +448,30 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
         i += 1;
     }
     needed.sort_unstable();
-    let kinematics_closed = !needed.iter().any(|k| p.contains(k));
-    let kinematics_witness = if kinematics_closed { None } else { kin_witness };
-    let list = |v: &[usize]| v.iter().map(|&k| names[k].clone()).collect::<Vec<_>>();
-    let absent: Vec<usize> = p.iter().copied().filter(|k| !present.contains(k)).collect();
-    let paper_absent: Vec<usize> = p
-        .iter()
-        .copied()
-        .filter(|k| !paper_present.contains(k))
-        .collect();
-    let ground_truth = GroundTruth {
-        absent: list(&absent),
-        present: list(&present),
-        occurrences: occurrences_true,
-        paper_absent: list(&paper_absent),
-        paper_present: list(&paper_present),
-        kinematics_closed,
-        kinematics_witness,
-    };
+    kin_witness
+}
 
-    // Findings.
-    let failing: Vec<&str> = ["H0", "H1", "H2", "H3", "H4", "H5"]
+/// Sentences comparing the verdict of Proposition 2.1 (and H6) with the ground truth.
+fn findings(
+    hypotheses: &IndexMap<Id, Hypothesis>,
+    truth: &GroundTruth,
+    names: &[String],
+    p: &[usize],
+) -> Vec<String> {
+    let failing: Vec<String> = Id::PROPOSITION_2_1
         .into_iter()
-        .filter(|h| !hypotheses[*h].holds)
+        .filter(|h| !hypotheses[h].holds)
+        .map(|h| h.to_string())
         .collect();
-    let eliminated = present.is_empty();
+    let proposition_2_1 = failing.is_empty();
+    let h6 = hypotheses[&H6].holds;
+    let eliminated = truth.present.is_empty();
+    let asked = p
+        .iter()
+        .map(|&k| names[k].as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
     let mut findings = Vec::new();
-    let asked = list(p).join(", ");
     if eliminated && !failing.is_empty() {
         findings.push(format!(
             "eliminated although {} fail{}: the true equations (11) are free of {asked}, \
@@ -335,7 +480,7 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
             if failing.len() == 1 { "s" } else { "" }
         ));
     }
-    if proposition_2_1 && !hypotheses["H6"].holds {
+    if proposition_2_1 && !h6 {
         findings.push(format!(
             "hypotheses hold but the paper's equations are not the true ones: H0–H5 hold, so \
              the paper's (11) are free of {asked}, but H6 fails{}",
@@ -346,7 +491,7 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
             }
         ));
     }
-    if proposition_2_1 && hypotheses["H6"].holds && !eliminated {
+    if proposition_2_1 && h6 && !eliminated {
         findings.push(
             "H0–H6 hold but the equations contain an eliminated coordinate: this contradicts \
              Proposition 2.1 and is a bug in hamel; please report it"
@@ -361,65 +506,25 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Reduction {
     if !eliminated {
         findings.push(format!(
             "not eliminated: the true equations (11) contain {}",
-            list(&present).join(", ")
+            truth.present.join(", ")
         ));
     }
-    if eliminated && !paper_present.is_empty() {
+    if eliminated && !truth.paper_present.is_empty() {
         findings.push(format!(
             "the paper's equations contain {} although the true ones do not",
-            list(&paper_present).join(", ")
+            truth.paper_present.join(", ")
         ));
-    } else if !eliminated && paper_present.is_empty() {
+    } else if !eliminated && truth.paper_present.is_empty() {
         findings.push(format!(
             "the paper's equations are free of {asked}, but they are not the true equations"
         ));
     }
-    if eliminated && !kinematics_closed {
+    if eliminated && !truth.kinematics_closed {
         findings.push(
             "the kinematic equations still needed (34) contain an eliminated coordinate, so \
              (11) cannot be solved apart from it"
                 .to_string(),
         );
     }
-
-    // The reduced system.
-    let reduced_system = (eliminated && kinematics_closed).then(|| {
-        // Canonical forms may still mention a coordinate they do not depend on (as in
-        // (1 − cos²θ)/sin θ): write the reduced equations without the dropped coordinates.
-        let dropped: Vec<usize> = (0..ell).filter(|k| !needed.contains(k)).collect();
-        let without = |e: Ex| -> Ex {
-            dropped
-                .iter()
-                .fold(e, |e, &k| e.without_coordinate(k).unwrap_or(e))
-        };
-        let kin = |k: usize| KinematicEquation {
-            coordinate: names[k].clone(),
-            rate: entry(&without(rates[k].clone())),
-        };
-        let mut state: Vec<String> = (1..=sigma).map(|i| format!("eta{i}")).collect();
-        state.extend(needed.iter().map(|&k| names[k].clone()));
-        ReducedSystem {
-            state,
-            equations: lhs.iter().map(|e| entry(&without(e.to_ex()))).collect(),
-            kinematics: needed.iter().map(|&k| kin(k)).collect(),
-            reconstruction: (0..ell).filter(|k| !needed.contains(k)).map(kin).collect(),
-        }
-    });
-
-    Reduction {
-        model: model.name.clone(),
-        eta_name: s.choice().name.clone(),
-        eta: s.choice().eta.iter().map(|e| e.expr.to_string()).collect(),
-        coordinates: names.clone(),
-        eliminate: list(p),
-        classification,
-        structure,
-        properties,
-        hypotheses,
-        proposition_2_1,
-        paper_is_exact: s.checks.paper_is_exact,
-        ground_truth,
-        findings,
-        reduced_system,
-    }
+    findings
 }

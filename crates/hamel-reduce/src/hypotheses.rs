@@ -11,6 +11,9 @@ use hamel_derive::Symbolic;
 
 use crate::report::{Hypothesis, Witness};
 
+pub use crate::report::HypothesisId as Id;
+pub use crate::report::HypothesisId::*;
+
 /// The block structure (17) of Z, as indices.
 #[derive(Clone, Debug)]
 pub struct Blocks {

@@ -25,7 +25,7 @@ pub mod supervised;
 
 pub use report::{
     BlockStructure, Classification, CoordinateKind, GroundTruth, Hypothesis, KinematicEquation,
-    Property, ReducedSystem, Reduction, Witness,
+    Property, PropertyId, ReducedSystem, Reduction, Witness,
 };
 
 pub use search::{
@@ -47,7 +47,7 @@ pub fn reduce(
     let model = model.clone();
     hamel_cas::run(move || {
         let s = hamel_derive::symbolic(&model, &name)?;
-        Ok(analysis::analyse(&model, &s, &p))
+        analysis::analyse(&model, &s, &p)
     })
     .map_err(model_error_from_cas)?
 }
@@ -65,9 +65,34 @@ pub fn reduce_with_derivation(
     hamel_cas::run(move || {
         let s = hamel_derive::symbolic(&model, &name)?;
         Ok((
-            analysis::analyse(&model, &s, &p),
+            analysis::analyse(&model, &s, &p)?,
             s.to_derivation_for_code(),
         ))
+    })
+    .map_err(model_error_from_cas)?
+}
+
+/// One symbolic pass for a computation that decides from the equations what it drops: derive
+/// the equations of `eta` (with the ingredients code generation uses,
+/// [`hamel_derive::derive_for_code`]), let `absent` pick from them the coordinates to leave out
+/// (indices), and analyse their elimination exactly ([`reduce`]; `None` when it picks none).
+pub fn derive_and_reduce(
+    model: &Model,
+    eta: Option<&str>,
+    absent: impl FnOnce(&hamel_derive::Derivation) -> Vec<usize> + Send + 'static,
+) -> Result<(hamel_derive::Derivation, Option<Reduction>), ModelError> {
+    let name = model.choice(eta)?.name.clone();
+    let model = model.clone();
+    hamel_cas::run(move || {
+        let s = hamel_derive::symbolic(&model, &name)?;
+        let d = s.to_derivation_for_code();
+        let p = absent(&d);
+        let r = if p.is_empty() {
+            None
+        } else {
+            Some(analysis::analyse(&model, &s, &p)?)
+        };
+        Ok((d, r))
     })
     .map_err(model_error_from_cas)?
 }

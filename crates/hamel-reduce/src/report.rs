@@ -135,6 +135,64 @@ pub struct ReducedSystem {
     pub reconstruction: Vec<KinematicEquation>,
 }
 
+/// A hypothesis: H0–H5 of Proposition 2.1, and H6 for the term the paper drops.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+pub enum HypothesisId {
+    /// (H0) Γ splits as (32)–(33) and Γᵀ∇U is free of q₁..q_p ([`crate::hypotheses::h0`]).
+    H0,
+    /// (H1) (Z₂; α₂) = 0, (17) and (23) ([`crate::hypotheses::h1`]).
+    H1,
+    /// (H2) the columns of A⁽¹'²⁾ are combinations of the rows of α₁ ([`crate::hypotheses::h2`]).
+    H2,
+    /// (H3) the expressions (22) are free of q₁..q_p ([`crate::hypotheses::h3`]).
+    H3,
+    /// (H4) A⁽²'²⁾ is free of q₁..q_p ([`crate::hypotheses::h4`]).
+    H4,
+    /// (H5) the expressions (35) are free of q₁..q_p ([`crate::hypotheses::h5`]).
+    H5,
+    /// (H6) the correction the paper drops is free of q₁..q_p ([`crate::hypotheses::h6`]).
+    H6,
+}
+
+impl HypothesisId {
+    /// The hypotheses of Proposition 2.1 (sufficient for the paper's equations).
+    pub const PROPOSITION_2_1: [HypothesisId; 6] = {
+        use HypothesisId::*;
+        [H0, H1, H2, H3, H4, H5]
+    };
+    /// Every hypothesis checked.
+    pub const ALL: [HypothesisId; 7] = {
+        use HypothesisId::*;
+        [H0, H1, H2, H3, H4, H5, H6]
+    };
+}
+
+impl std::fmt::Display for HypothesisId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{self:?}")
+    }
+}
+
+/// Property 2.1 or 2.2 of the paper.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub enum PropertyId {
+    /// Γ₂ = 0 (26).
+    #[serde(rename = "2.1")]
+    P2_1,
+    /// Γ₁ᵀA⁽¹'²⁾ = 0 (27).
+    #[serde(rename = "2.2")]
+    P2_2,
+}
+
+impl std::fmt::Display for PropertyId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            PropertyId::P2_1 => "2.1",
+            PropertyId::P2_2 => "2.2",
+        })
+    }
+}
+
 /// The full report of `hamel reduce`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Reduction {
@@ -153,9 +211,9 @@ pub struct Reduction {
     /// (17)/(18).
     pub structure: BlockStructure,
     /// Property 2.1 (Γ₂ = 0) and Property 2.2 (Γ₁ᵀA⁽¹'²⁾ = 0).
-    pub properties: IndexMap<String, Property>,
+    pub properties: IndexMap<PropertyId, Property>,
     /// H0–H6.
-    pub hypotheses: IndexMap<String, Hypothesis>,
+    pub hypotheses: IndexMap<HypothesisId, Hypothesis>,
     /// H0–H5 all hold (the paper's sufficient condition).
     pub proposition_2_1: bool,
     /// Whether the paper's equations are the true ones for this Z (correction ≡ 0).

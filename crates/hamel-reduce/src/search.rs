@@ -467,10 +467,7 @@ impl Searcher<'_> {
             eta: eta.clone(),
         });
         let t0 = Instant::now();
-        let trace = std::env::var_os("HAMEL_SEARCH_TRACE").is_some();
-        if trace {
-            eprintln!("   start  {family}: {}", eta.join(" ; "));
-        }
+        log::debug!("search: exact check of {family}: {}", eta.join(" ; "));
         let s: Symbolic = match hamel_derive::symbolic(&m2, &name) {
             Ok(s) => s,
             Err(e) => {
@@ -478,11 +475,19 @@ impl Searcher<'_> {
                 return false;
             }
         };
-        let r = analyse(&m2, &s, self.p);
+        let r = match analyse(&m2, &s, self.p) {
+            Ok(r) => r,
+            Err(e) => {
+                *self.failures.entry(e.message().to_string()).or_default() += 1;
+                return false;
+            }
+        };
         self.last = Some(s);
-        if trace {
-            eprintln!("{:>8.3} s  {}", t0.elapsed().as_secs_f64(), eta.join(" ; "));
-        }
+        log::debug!(
+            "search: {:.3} s for {}",
+            t0.elapsed().as_secs_f64(),
+            eta.join(" ; ")
+        );
         if !r.ground_truth.present.is_empty() {
             let w = &r.ground_truth.occurrences[0];
             let key = format!(
@@ -619,7 +624,9 @@ impl Searcher<'_> {
     }
 }
 
-/// Search (runs on the CAS thread).
+/// Search (runs on the CAS thread): the families in turn, simplest first — (b) a finite
+/// ansatz, (c) A-orthogonal choices, (a) unknown functions — each candidate checked exactly,
+/// within the budget.
 pub(crate) fn search(
     model: &Model,
     p: &[usize],
@@ -627,17 +634,14 @@ pub(crate) fn search(
     events: Events,
 ) -> Result<SearchReport, ModelError> {
     let started = Instant::now();
-    let names = model.coordinates.clone();
-    let (ell, mu, sigma) = (model.ell(), model.mu(), model.sigma());
+    let ell = model.ell();
     let base = model.choice(None)?.name.clone();
     let s0 = hamel_derive::symbolic(model, &base)?;
-    let f = s0.field.clone();
     let kept: Vec<usize> = (0..ell).filter(|k| !p.contains(k)).collect();
-    let samples = hamel_model::sample_configurations(ell, 6, 2015);
     let mut se = Searcher {
         model,
         p,
-        samples,
+        samples: hamel_model::sample_configurations(ell, 6, 2015),
         started,
         options,
         events,
@@ -651,12 +655,34 @@ pub(crate) fn search(
         last: None,
         unsolved: Vec::new(),
     };
+    let pool = ansatz_pool(model, &s0, &kept);
+    // The kept coordinates' velocities as unit rows when they fit, v rows from the pool.
+    let units: Vec<usize> = if kept.len() <= model.sigma() {
+        kept.clone()
+    } else {
+        vec![]
+    };
+    let ansatz_rows = se.ansatz(&pool, &units);
+    let bases = se.kernel_bases(&s0);
+    se.a_orthogonal(&s0, &bases);
+    se.unknown_functions(&pool, &ansatz_rows, &kept, &units);
+    let own = if se.found.is_empty() {
+        own_failures(model, p)
+    } else {
+        Vec::new()
+    };
+    Ok(se.report(own))
+}
 
-    // (b) finite ansatz: kept coordinates' velocities as unit rows, v rows from the basis.
+/// The rows of family (b): the velocities of the coordinates to eliminate, rotations by each
+/// angle of pairs of them, and the momenta (rows of A) of at most four terms.
+fn ansatz_pool(model: &Model, s0: &Symbolic, kept: &[usize]) -> Vec<Row> {
+    let names = &model.coordinates;
+    let ell = names.len();
     let mut pool: Vec<Row> = Vec::new();
     for j in 0..ell {
         if !kept.contains(&j) {
-            pool.push(unit(&names, j));
+            pool.push(unit(names, j));
         }
     }
     let trig = angles(model);
@@ -678,7 +704,7 @@ pub(crate) fn search(
     }
     for j in 0..ell {
         let row = row_text(
-            &names,
+            names,
             &(0..ell).map(|k| s0.a[(j, k)].clone()).collect::<Vec<_>>(),
         );
         // Momenta with more than four terms are left out: their exact checks can take
@@ -687,217 +713,255 @@ pub(crate) fn search(
             pool.push(row);
         }
     }
-    let units: Vec<usize> = if kept.len() <= sigma {
-        kept.clone()
-    } else {
-        vec![]
-    };
-    let v = sigma - units.len();
-    let mut combos: Vec<(usize, Vec<usize>)> = combinations(pool.len(), v)
-        .into_iter()
-        .map(|c| {
-            (
-                c.iter().map(|&i| pool[i].nonzero).sum::<usize>() + units.len(),
-                c,
-            )
-        })
-        .collect();
-    combos.sort_by_key(|(n, c)| (*n, c.clone()));
-    se.total += combos.len() as u64;
-    let mut ansatz_rows: Vec<usize> = Vec::new();
-    for (nonzero, c) in &combos {
-        if se.out_of_time() || se.found.len() >= se.options.max_candidates {
-            break;
-        }
-        // Rows that span the same velocities twice in the same way are skipped by δ ≡ 0.
-        let mut eta: Vec<String> = c.iter().map(|&i| pool[i].text.clone()).collect();
-        eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
-        if se.try_candidate("ansatz", eta, vec![], *nonzero) {
-            // The basis of family (a): the rows of the simplest reducing choices, v + 1 at most.
-            for &i in c {
-                if !ansatz_rows.contains(&i) && ansatz_rows.len() < v + 1 {
-                    ansatz_rows.push(i);
-                }
-            }
-        }
-    }
+    pool
+}
 
-    // (c) A-orthogonal: Z = Γ'ᵀA, Γ' a basis of ker α with the identity on σ columns S.
-    // Kernel bases: the Γ of the model's own choices first (momenta along the directions it
-    // already uses), then the basis with the identity on each set S of σ velocities.
-    let mut bases: Vec<Matrix> = Vec::new();
-    for c in &model.choices {
-        if c.free_functions.is_empty()
-            && !se.out_of_time()
-            && let Ok(sc) = hamel_derive::symbolic(model, &c.name)
-        {
-            bases.push(sc.gamma.clone());
-        }
-    }
-    let subsets = combinations(ell, sigma);
-    for sset in &subsets {
-        if se.out_of_time() {
-            break;
-        }
-        let rest: Vec<usize> = (0..ell).filter(|j| !sset.contains(j)).collect();
-        let gamma_p = if mu == 0 {
-            Matrix::identity(&f, ell)
-        } else {
-            let a_rest = Matrix::from_fn(mu, mu, |i, j| s0.alpha[(i, rest[j])].clone());
-            let a_s = Matrix::from_fn(mu, sigma, |i, j| s0.alpha[(i, sset[j])].clone());
-            let Ok(Some((inv, _))) = a_rest.inverse() else {
-                continue;
-            };
-            let solved = inv.mul(&a_s);
-            Matrix::from_fn(ell, sigma, |i, j| {
-                if let Some(r) = sset.iter().position(|&x| x == i) {
-                    if r == j { f.one() } else { f.zero() }
-                } else {
-                    let r = rest.iter().position(|&x| x == i).expect("partition");
-                    -&solved[(r, j)]
-                }
-            })
-        };
-        // Clear each basis vector of its denominators (the knife's (1, tan θ) becomes
-        // (cos θ, sin θ)): any nonzero multiple spans the same direction of ker α.
-        let gamma_p = Matrix::from_fn(ell, sigma, |i, j| {
-            let mut factors: Vec<Ex> = Vec::new();
-            for r in 0..ell {
-                for d in gamma_p[(r, j)].denominator_factors() {
-                    if !factors.contains(&d) {
-                        factors.push(d);
-                    }
-                }
-            }
-            factors.iter().fold(gamma_p[(i, j)].clone(), |e, d| &e * d)
-        });
-        bases.push(gamma_p);
-    }
-    se.total += bases.len() as u64;
-    for g in &bases {
-        if se.out_of_time() {
-            break;
-        }
-        let z = g.transpose().mul(&s0.a);
-        let rows: Vec<Row> = (0..sigma)
-            .map(|i| {
-                row_text(
-                    &names,
-                    &(0..ell).map(|j| z[(i, j)].clone()).collect::<Vec<_>>(),
+impl Searcher<'_> {
+    /// Family (b), a finite ansatz: every choice of v rows of `pool` with the unit rows `units`,
+    /// fewest nonzero entries first. The pool rows of the simplest reducing choices (v + 1 at
+    /// most), the basis of family (a).
+    fn ansatz(&mut self, pool: &[Row], units: &[usize]) -> Vec<usize> {
+        let names = &self.model.coordinates;
+        let v = self.model.sigma() - units.len();
+        let mut combos: Vec<(usize, Vec<usize>)> = combinations(pool.len(), v)
+            .into_iter()
+            .map(|c| {
+                (
+                    c.iter().map(|&i| pool[i].nonzero).sum::<usize>() + units.len(),
+                    c,
                 )
             })
             .collect();
-        let nonzero = rows.iter().map(|r| r.nonzero).sum();
-        se.try_candidate(
-            "a_orthogonal",
-            rows.into_iter().map(|r| r.text).collect(),
-            vec![],
-            nonzero,
-        );
-    }
-
-    // (a) unknown functions of the kept coordinates multiplying a basis of rows: the rows of
-    // the simplest reducing ansatz choices, then the simplest row that did not reduce
-    // (so that the conditions have something to decide), at most FUNCTIONS unknowns in all.
-    if !kept.is_empty() && !ansatz_rows.is_empty() && v > 0 && !se.out_of_time() {
-        let mut basis = ansatz_rows.clone();
-        for i in 0..pool.len() {
-            if basis.len() * v >= FUNCTIONS || basis.len() > ansatz_rows.len() {
+        combos.sort_by_key(|(n, c)| (*n, c.clone()));
+        self.total += combos.len() as u64;
+        let mut ansatz_rows: Vec<usize> = Vec::new();
+        for (nonzero, c) in &combos {
+            if self.out_of_time() || self.found.len() >= self.options.max_candidates {
                 break;
             }
-            if !basis.contains(&i) {
-                basis.push(i);
+            // Rows that span the same velocities twice in the same way are skipped by δ ≡ 0.
+            let mut eta: Vec<String> = c.iter().map(|&i| pool[i].text.clone()).collect();
+            eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
+            if self.try_candidate("ansatz", eta, vec![], *nonzero) {
+                // The basis of family (a): the rows of the simplest reducing choices, v + 1 at most.
+                for &i in c {
+                    if !ansatz_rows.contains(&i) && ansatz_rows.len() < v + 1 {
+                        ansatz_rows.push(i);
+                    }
+                }
             }
         }
-        let args: Vec<String> = kept.iter().map(|&k| names[k].clone()).collect();
-        let mut free = Vec::new();
-        let mut eta = Vec::new();
-        for r in 0..v {
-            let terms: Vec<String> = basis
-                .iter()
-                .enumerate()
-                .map(|(b, &i)| {
-                    let fname = format!("z{}{}", r + 1, b + 1);
-                    free.push((fname.clone(), args.clone()));
-                    format!("{fname}({})*({})", args.join(", "), pool[i].text)
-                })
-                .collect();
-            eta.push(terms.join(" + "));
-        }
-        eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
-        se.total += 1;
-        let depth = free.len();
-        se.solve_functions(eta, free, depth);
+
+        ansatz_rows
     }
 
-    // When nothing reduces, say what the model's own choices fail on (exactly).
-    let mut own = Vec::new();
-    if se.found.is_empty() {
-        for c in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
-            let Ok(sc) = hamel_derive::symbolic(model, &c.name) else {
-                continue;
-            };
-            let r = analyse(model, &sc, p);
-            if let Some(w) = r.ground_truth.occurrences.first() {
-                let where_ = if w.object.starts_with('Q') {
-                    "A_Γ and Γᵀ∇U are free of it, but the coefficient".to_string()
-                } else {
-                    "the entry".to_string()
-                };
-                own.push(format!(
-                    "under the model's choice `{}`, {where_} {}{:?} contains `{}`",
-                    c.name,
-                    w.object,
-                    w.index,
-                    w.coordinate.clone().unwrap_or_default()
-                ));
+    /// Bases Γ' of ker α for family (c): the Γ of the model's own choices first (momenta along
+    /// the directions it already uses), then the basis with the identity on each set S of σ
+    /// velocities, each column cleared of its denominators.
+    fn kernel_bases(&mut self, s0: &Symbolic) -> Vec<Matrix> {
+        let model = self.model;
+        let (ell, mu, sigma) = (model.ell(), model.mu(), model.sigma());
+        let f = s0.field.clone();
+        let mut bases: Vec<Matrix> = Vec::new();
+        for c in &model.choices {
+            if c.free_functions.is_empty()
+                && !self.out_of_time()
+                && let Ok(sc) = hamel_derive::symbolic(model, &c.name)
+            {
+                bases.push(sc.gamma.clone());
             }
         }
-    }
-    let candidates_full = se.found.len() >= se.options.max_candidates;
-    let mut candidates = se.found;
-    sort_candidates(&mut candidates);
-    let none_found = candidates.is_empty().then(|| {
-        let mut reasons: Vec<(String, usize)> = se.failures.into_iter().collect();
-        reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
-        let list: Vec<String> = reasons
-            .iter()
-            .take(3)
-            .map(|(r, n)| format!("{r} ({n} candidate{})", if *n == 1 { "" } else { "s" }))
-            .collect();
-        format!(
-            "no choice in these families eliminates {}: {}",
-            p.iter()
-                .map(|&k| names[k].as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
-            if list.is_empty() {
-                "no candidate could be tried".to_string()
-            } else {
-                list.join("; ")
+        let subsets = combinations(ell, sigma);
+        for sset in &subsets {
+            if self.out_of_time() {
+                break;
             }
-        ) + own
-            .iter()
-            .map(|o| format!("; {o}"))
-            .collect::<String>()
-            .as_str()
-    });
-    Ok(SearchReport {
-        model: model.name.clone(),
-        eliminate: p.iter().map(|&k| names[k].clone()).collect(),
-        candidates,
-        families: se.families,
-        none_found,
-        unsolved_conditions: se.unsolved,
-        stop: if se.exhausted {
-            StopReason::Budget
-        } else if candidates_full {
-            StopReason::MaxCandidates
-        } else {
-            StopReason::Completed
-        },
-        seconds: started.elapsed().as_secs_f64(),
-    })
+            let rest: Vec<usize> = (0..ell).filter(|j| !sset.contains(j)).collect();
+            let gamma_p = if mu == 0 {
+                Matrix::identity(&f, ell)
+            } else {
+                let a_rest = Matrix::from_fn(mu, mu, |i, j| s0.alpha[(i, rest[j])].clone());
+                let a_s = Matrix::from_fn(mu, sigma, |i, j| s0.alpha[(i, sset[j])].clone());
+                let Ok(Some((inv, _))) = a_rest.inverse() else {
+                    continue;
+                };
+                let solved = inv.mul(&a_s);
+                Matrix::from_fn(ell, sigma, |i, j| {
+                    if let Some(r) = sset.iter().position(|&x| x == i) {
+                        if r == j { f.one() } else { f.zero() }
+                    } else {
+                        let r = rest.iter().position(|&x| x == i).expect("partition");
+                        -&solved[(r, j)]
+                    }
+                })
+            };
+            // Clear each basis vector of its denominators (the knife's (1, tan θ) becomes
+            // (cos θ, sin θ)): any nonzero multiple spans the same direction of ker α.
+            let gamma_p = Matrix::from_fn(ell, sigma, |i, j| {
+                let mut factors: Vec<Ex> = Vec::new();
+                for r in 0..ell {
+                    for d in gamma_p[(r, j)].denominator_factors() {
+                        if !factors.contains(&d) {
+                            factors.push(d);
+                        }
+                    }
+                }
+                factors.iter().fold(gamma_p[(i, j)].clone(), |e, d| &e * d)
+            });
+            bases.push(gamma_p);
+        }
+        bases
+    }
+
+    /// Family (c), A-orthogonal: Z = Γ'ᵀA for each basis Γ' of ker α.
+    fn a_orthogonal(&mut self, s0: &Symbolic, bases: &[Matrix]) {
+        let names = &self.model.coordinates;
+        let (ell, sigma) = (self.model.ell(), self.model.sigma());
+        self.total += bases.len() as u64;
+        for g in bases {
+            if self.out_of_time() {
+                break;
+            }
+            let z = g.transpose().mul(&s0.a);
+            let rows: Vec<Row> = (0..sigma)
+                .map(|i| {
+                    row_text(
+                        names,
+                        &(0..ell).map(|j| z[(i, j)].clone()).collect::<Vec<_>>(),
+                    )
+                })
+                .collect();
+            let nonzero = rows.iter().map(|r| r.nonzero).sum();
+            self.try_candidate(
+                "a_orthogonal",
+                rows.into_iter().map(|r| r.text).collect(),
+                vec![],
+                nonzero,
+            );
+        }
+    }
+
+    /// Family (a): unknown functions of the kept coordinates multiplying a basis of rows — the
+    /// rows of the simplest reducing ansatz choices, then the simplest row that did not reduce
+    /// (so that the conditions have something to decide), at most FUNCTIONS unknowns in all.
+    fn unknown_functions(
+        &mut self,
+        pool: &[Row],
+        ansatz_rows: &[usize],
+        kept: &[usize],
+        units: &[usize],
+    ) {
+        let names = &self.model.coordinates;
+        let v = self.model.sigma() - units.len();
+        if !kept.is_empty() && !ansatz_rows.is_empty() && v > 0 && !self.out_of_time() {
+            let mut basis = ansatz_rows.to_vec();
+            for i in 0..pool.len() {
+                if basis.len() * v >= FUNCTIONS || basis.len() > ansatz_rows.len() {
+                    break;
+                }
+                if !basis.contains(&i) {
+                    basis.push(i);
+                }
+            }
+            let args: Vec<String> = kept.iter().map(|&k| names[k].clone()).collect();
+            let mut free = Vec::new();
+            let mut eta = Vec::new();
+            for r in 0..v {
+                let terms: Vec<String> = basis
+                    .iter()
+                    .enumerate()
+                    .map(|(b, &i)| {
+                        let fname = format!("z{}{}", r + 1, b + 1);
+                        free.push((fname.clone(), args.clone()));
+                        format!("{fname}({})*({})", args.join(", "), pool[i].text)
+                    })
+                    .collect();
+                eta.push(terms.join(" + "));
+            }
+            eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
+            self.total += 1;
+            let depth = free.len();
+            self.solve_functions(eta, free, depth);
+        }
+    }
+
+    /// The report: the candidates simplest first, why the search stopped and, when nothing was
+    /// found, the most common reasons and `own` (what the model's own choices fail on).
+    fn report(self, own: Vec<String>) -> SearchReport {
+        let (p, names) = (self.p, &self.model.coordinates);
+        let candidates_full = self.found.len() >= self.options.max_candidates;
+        let mut candidates = self.found;
+        sort_candidates(&mut candidates);
+        let none_found = candidates.is_empty().then(|| {
+            let mut reasons: Vec<(String, usize)> = self.failures.into_iter().collect();
+            reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
+            let list: Vec<String> = reasons
+                .iter()
+                .take(3)
+                .map(|(r, n)| format!("{r} ({n} candidate{})", if *n == 1 { "" } else { "s" }))
+                .collect();
+            format!(
+                "no choice in these families eliminates {}: {}",
+                p.iter()
+                    .map(|&k| names[k].as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if list.is_empty() {
+                    "no candidate could be tried".to_string()
+                } else {
+                    list.join("; ")
+                }
+            ) + own
+                .iter()
+                .map(|o| format!("; {o}"))
+                .collect::<String>()
+                .as_str()
+        });
+        SearchReport {
+            model: self.model.name.clone(),
+            eliminate: p.iter().map(|&k| names[k].clone()).collect(),
+            candidates,
+            families: self.families,
+            none_found,
+            unsolved_conditions: self.unsolved,
+            stop: if self.exhausted {
+                StopReason::Budget
+            } else if candidates_full {
+                StopReason::MaxCandidates
+            } else {
+                StopReason::Completed
+            },
+            seconds: self.started.elapsed().as_secs_f64(),
+        }
+    }
+}
+
+/// When nothing reduces: what each of the model's own choices fails on (exactly).
+fn own_failures(model: &Model, p: &[usize]) -> Vec<String> {
+    let mut own = Vec::new();
+    for c in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
+        let Ok(sc) = hamel_derive::symbolic(model, &c.name) else {
+            continue;
+        };
+        let Ok(r) = analyse(model, &sc, p) else {
+            continue;
+        };
+        if let Some(w) = r.ground_truth.occurrences.first() {
+            let where_ = if w.object.starts_with('Q') {
+                "A_Γ and Γᵀ∇U are free of it, but the coefficient".to_string()
+            } else {
+                "the entry".to_string()
+            };
+            own.push(format!(
+                "under the model's choice `{}`, {where_} {}{:?} contains `{}`",
+                c.name,
+                w.object,
+                w.index,
+                w.coordinate.clone().unwrap_or_default()
+            ));
+        }
+    }
+    own
 }
 
 /// Simplest first: fewest free functions, then fewest nonzero entries (stable: in the order

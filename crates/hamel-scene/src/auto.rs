@@ -21,7 +21,7 @@ pub(crate) fn auto_choice(
         None => Vec::new(),
     };
     if eliminate.is_empty() {
-        eprintln!(
+        log::info!(
             "eta = auto: every coordinate is requested, nothing to eliminate: using the model's first choice `{first}`"
         );
         return Ok((model, first));
@@ -57,7 +57,7 @@ pub(crate) fn auto_choice(
         .or((!usable.is_empty()).then_some(0));
     match pick.map(|i| usable.into_iter().nth(i).expect("in range")) {
         Some((m, name, regular)) => {
-            eprintln!(
+            log::info!(
                 "eta = auto: using `{name}` (found by search; it eliminates {} from the equations{})",
                 eliminate.join(", "),
                 if regular {
@@ -69,7 +69,7 @@ pub(crate) fn auto_choice(
             Ok((m, name))
         }
         None => {
-            eprintln!(
+            log::info!(
                 "eta = auto: search found no quasi-velocities without free functions that eliminate {}: using the model's first choice `{first}`",
                 eliminate.join(", ")
             );

@@ -39,11 +39,11 @@ impl Loaded {
         if engine == Engine::Interpreted {
             return (engine, false);
         }
-        match cache::binary(&self.plan.entry) {
+        match self.core().and_then(cache::binary) {
             Ok((_, built)) => (Engine::Compiled, built),
             Err(e) => {
-                eprintln!(
-                    "warning: the scene's compiled core is not available, using the interpreted evaluator: {e}"
+                log::warn!(
+                    "the scene's compiled core is not available, using the interpreted evaluator: {e}"
                 );
                 (Engine::Interpreted, false)
             }
@@ -101,7 +101,7 @@ impl Loaded {
         options: &Options,
         repeat: usize,
     ) -> Result<(Run, f64, bool), String> {
-        let (exe, built) = cache::binary(&self.plan.entry)?;
+        let (exe, built) = cache::binary(self.core()?)?;
         let n = self.state.len();
         let mut kept = self.state.clone();
         kept.sort_unstable();

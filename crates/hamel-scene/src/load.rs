@@ -1,5 +1,6 @@
 //! Read a scene, derive its equations, plan what to integrate and set up the initial state.
 
+use std::cell::OnceCell;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -8,6 +9,7 @@ use hamel_model::{Model, ModelError};
 use hamel_sim::{Method, MethodName, Options, Solution};
 use indexmap::IndexMap;
 
+use crate::cache;
 use crate::expressions::{OutputExpression, ParsedExpression, parse_expressions};
 use crate::file::{Integrator, Outputs, Scene};
 use crate::initial::{Projection, initial_eta};
@@ -42,6 +44,8 @@ pub struct Loaded {
     pub(crate) delta0: f64,
     pub(crate) projection: Option<Projection>,
     pub(crate) file: SceneFile,
+    /// The scene's compiled core, prepared on first use ([`Loaded::core`]).
+    pub(crate) core: OnceCell<Result<cache::Entry, String>>,
 }
 
 /// The scene file's name and text, for located errors.
@@ -70,8 +74,8 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
     let model = Model::load(&model_path)?;
     let parsed = parse_expressions(&scene.expressions, &model).map_err(|(k, m)| err(&k, m))?;
     let (model, choice) = choose(model, &scene, &parsed, &file)?;
-    let d = hamel_derive::derive(&model, Some(&choice))?;
-    let request = request(&scene, &d, &parsed, &file)?;
+    let request = request(&scene, &model, &parsed, &file)?;
+    let (mut plan, d) = crate::plan::plan(&model, &choice, &request)?;
     let (method, options) = integrator(&scene, &file)?;
     let compiled = d.compile().map_err(|e| err("eta", e.to_string()))?;
     let params = d
@@ -90,7 +94,6 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         initial_eta(&scene.initial, &d, &numeric, &q0).map_err(|(key, m)| err(key, m))?
     };
     let times = output_times(&scene, &file)?;
-    let mut plan = crate::plan::plan(&model, &d, &request, &params)?;
     plan.expressions = request
         .expressions
         .iter()
@@ -131,6 +134,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         delta0,
         projection,
         file,
+        core: OnceCell::new(),
     })
 }
 
@@ -170,7 +174,7 @@ fn choose(
     if scene.eta.as_deref() != Some("auto") {
         let chosen = model.choice(scene.eta.as_deref())?;
         if let Some(note) = model.default_choice_note(chosen) {
-            eprintln!("{note}");
+            log::info!("{note}");
         }
         let choice = chosen.name.clone();
         return Ok((model, choice));
@@ -196,16 +200,16 @@ fn choose(
 /// requested expressions need.
 fn request(
     scene: &Scene,
-    d: &hamel_derive::Derivation,
+    model: &Model,
     parsed: &[ParsedExpression],
     file: &SceneFile,
 ) -> Result<Request, ModelError> {
     // The names `request` may use: the expressions' besides the model's outputs.
     let expression_names: Vec<String> = parsed.iter().map(|e| e.name.clone()).collect();
     let mut request = match &scene.request {
-        Some(names) => Request::parse(names, d, &expression_names)
+        Some(names) => Request::parse(names, &model.coordinates, model.sigma(), &expression_names)
             .map_err(|m| file.error(Some("request"), m))?,
-        None => Request::everything(d.ell, parsed.len()),
+        None => Request::everything(model.coordinates.len(), parsed.len()),
     };
     for &i in &request.expressions {
         for &k in &parsed[i].coordinates {
@@ -360,6 +364,15 @@ fn start(
 }
 
 impl Loaded {
+    /// The scene's core: its generated code in the cache, found there or written on the first
+    /// call ([`cache::prepare`]); built by [`cache::binary`] when first run.
+    pub fn core(&self) -> Result<&cache::Entry, String> {
+        self.core
+            .get_or_init(|| cache::prepare(&self.model, &self.d, &self.plan, &self.params))
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
     /// An error about this scene, at `key`.
     pub fn error(&self, key: &str, message: String) -> ModelError {
         self.file.error(Some(key), message)
@@ -372,8 +385,8 @@ impl Loaded {
         let values = self.evaluate_expressions(solution);
         for (name, v) in &values {
             if let Some(j) = v.iter().position(Option::is_none) {
-                eprintln!(
-                    "warning: expressions.{name} cannot be evaluated at t = {} (outside its domain or not finite): written as null",
+                log::warn!(
+                    "expressions.{name} cannot be evaluated at t = {} (outside its domain or not finite): written as null",
                     solution.t[j]
                 );
             }

@@ -66,6 +66,8 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let (planned, planned_seconds, _) = loaded
         .integrate_compiled(method, &options, repeats(first))
         .map_err(fail)?;
+    let planned_core = loaded.core().map_err(fail)?;
+    let ops = (planned_core.meta.ops, planned_core.meta.ops_full);
     // The full system's core: nothing dropped, nothing specialised.
     let model = &loaded.model;
     let d = &loaded.d;
@@ -73,22 +75,19 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let key = cache::Key::new(&model.source, &d.eta_name, &[], &none);
     let entry = match cache::lookup(&key).map_err(fail)? {
         Some(e) => e,
-        None => {
-            let code = hamel_derive::derive_for_code(model, Some(&d.eta_name))?;
-            cache::store(
-                &key,
-                &code,
-                &none,
-                &[],
-                |_| Ok(loaded.plan.ops_full),
-                loaded.plan.ops_full,
-                &format!(
-                    "hamel plan --measure (full system of {}, {})",
-                    model.file, d.eta_name
-                ),
-            )
-            .map_err(fail)?
-        }
+        None => cache::store(
+            &key,
+            d,
+            &none,
+            &[],
+            |_| Ok(ops.1),
+            ops.1,
+            &format!(
+                "hamel plan --measure (full system of {}, {})",
+                model.file, d.eta_name
+            ),
+        )
+        .map_err(fail)?,
     };
     let (exe, _) = cache::binary(&entry).map_err(fail)?;
     let full_job = |repeat: usize| cache::Job {
@@ -143,7 +142,7 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     Ok(Measured {
         method: method.name(),
         states: (n + d.sigma, d.ell + d.sigma),
-        ops: (loaded.plan.ops, loaded.plan.ops_full),
+        ops,
         seconds: (planned_seconds, full_seconds),
         rhs_evals: (p.stats.rhs_evals, full.stats.rhs_evals),
         speedup: full_seconds / planned_seconds,

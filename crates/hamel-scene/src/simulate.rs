@@ -45,8 +45,8 @@ pub fn run_loaded(
     if let Some((cond, t)) = run.max_condition
         && cond > CONDITION_WARNING
     {
-        eprintln!(
-            "warning: the path comes near the singular set of the quasi-velocities: the condition number of [Z; α] reaches {cond:.1e} at t = {t} (accuracy degrades like cond·ε; docs/stability.md)"
+        log::warn!(
+            "the path comes near the singular set of the quasi-velocities: the condition number of [Z; α] reaches {cond:.1e} at t = {t} (accuracy degrades like cond·ε; docs/stability.md)"
         );
     }
     let mut traj = loaded.trajectory(method.name(), &run);
@@ -56,12 +56,13 @@ pub fn run_loaded(
         match loaded.error_estimate(&run.solution, engine, method, &options) {
             Ok((error, by)) => {
                 if loose {
-                    eprintln!(
-                        "warning: rtol = {:.0e}, atol = {:.0e} is loose: the error on the requested outputs is about {error:.1e} (difference from a run {by})",
-                        options.rtol, options.atol
+                    log::warn!(
+                        "rtol = {:.0e}, atol = {:.0e} is loose: the error on the requested outputs is about {error:.1e} (difference from a run {by})",
+                        options.rtol,
+                        options.atol
                     );
                 } else {
-                    eprintln!(
+                    log::info!(
                         "error estimate: {error:.1e} on the requested outputs (difference from a run {by})"
                     );
                 }
@@ -69,7 +70,7 @@ pub fn run_loaded(
                 traj.stats.error_estimate_by = Some(by);
             }
             // The trajectory stands; only its estimate is missing, and stderr says why.
-            Err(e) => eprintln!("warning: no error estimate: {}", e.message()),
+            Err(e) => log::warn!("no error estimate: {}", e.message()),
         }
     }
     Ok((traj, run.failure))
@@ -84,7 +85,7 @@ fn integrator_for(loaded: &Loaded, engine: Engine) -> Result<(Method, Options), 
         match table.recommended {
             Some(i) => {
                 let row = &table.rows[i];
-                eprintln!(
+                log::info!(
                     "accuracy rtol = {rtol:.0e}, atol = {atol:.0e}: using {} (error {:.1e} of the target against a DOP853 reference at 1e-14, the fastest of {} adaptive settings that meet it)",
                     row.setting(),
                     row.target_ratio,
@@ -92,8 +93,8 @@ fn integrator_for(loaded: &Loaded, engine: Engine) -> Result<(Method, Options), 
                 );
                 (method, options) = row.method();
             }
-            None => eprintln!(
-                "warning: no adaptive setting measured meets rtol = {rtol:.0e}, atol = {atol:.0e}; using DOP853 at those tolerances"
+            None => log::warn!(
+                "no adaptive setting measured meets rtol = {rtol:.0e}, atol = {atol:.0e}; using DOP853 at those tolerances"
             ),
         }
     }
@@ -117,24 +118,26 @@ fn integrate_on(
             // not finite; the interpreted evaluator checks δ and A_Γ at every evaluation and
             // names the cause, so a failed run is repeated with it for the diagnosis.
             Ok((run, _, _)) if run.failure.is_some() => {
-                eprintln!(
+                log::info!(
                     "note: the compiled core stopped ({}); integrating again with the interpreted evaluator, which watches the singular set at every evaluation",
                     run.failure.as_ref().map_or("", |e| e.message())
                 );
                 (loaded.integrate(method, &options)?, Engine::Interpreted)
             }
             Ok((run, _, _)) => {
-                eprintln!(
-                    "compiled core ({} operations): {} {}",
-                    loaded.plan.ops,
-                    if built { "built into" } else { "cached in" },
-                    loaded.plan.entry.dir.display()
-                );
+                if let Ok(core) = loaded.core() {
+                    log::info!(
+                        "compiled core ({} operations): {} {}",
+                        core.meta.ops,
+                        if built { "built into" } else { "cached in" },
+                        core.dir.display()
+                    );
+                }
                 (run, Engine::Compiled)
             }
             Err(e) => {
-                eprintln!(
-                    "warning: the scene's compiled core is not available, using the interpreted evaluator: {e}"
+                log::warn!(
+                    "the scene's compiled core is not available, using the interpreted evaluator: {e}"
                 );
                 (loaded.integrate(method, &options)?, Engine::Interpreted)
             }

@@ -252,8 +252,7 @@ pub fn export_python(loaded: &Loaded, engine: Engine) -> Result<serde_json::Valu
     let (table, reference) = measure(loaded, Range::Adaptive, engine, false)?;
     let (ell, sigma) = loaded.dims();
     // The general solved form (parameters as inputs, written below as the scene's numbers).
-    let code = hamel_derive::derive_for_code(loaded.model(), Some(loaded.eta_name()))?;
-    let generated = hamel_codegen::generate(&code, &[], "export")
+    let generated = hamel_codegen::generate(&loaded.d, &[], "export")
         .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
     let solved = &generated.solved;
     let state = loaded.state();
