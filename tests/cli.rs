@@ -1879,3 +1879,31 @@ fn search_budget_is_a_wall_even_during_an_exact_check() {
     let o = hamel(&["derive", "models/knife.toml", "--format", "json"], None);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// Planning is pure: loading a scene and integrating it on the interpreted evaluator writes
+/// nothing to the code cache (it is not even created); `hamel plan`, which reports the core's
+/// operation counts, prepares the scene's core there, and nothing else.
+#[test]
+fn the_interpreted_engine_leaves_the_code_cache_alone() {
+    let dir = scratch("pure_plan");
+    let cache = dir.join("cache");
+    let o = hamel_with_cache(
+        &["simulate", "scenes/knife.toml", "--engine", "interpreted"],
+        None,
+        &cache,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        !cache.exists(),
+        "the interpreted run created the code cache"
+    );
+    let o = hamel_with_cache(&["plan", "scenes/knife.toml"], None, &cache);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let entries: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != "build.lock" && n != "target")
+        .collect();
+    assert_eq!(entries.len(), 1, "one entry, the scene's core: {entries:?}");
+    assert!(!cache.join("target").exists(), "plan builds nothing");
+}
