@@ -52,13 +52,5 @@ fn derive_with(model: &Model, eta: Option<&str>, code: bool) -> Result<Derivatio
             s.to_derivation()
         })
     })
-    .map_err(|e| {
-        hamel_model::ModelError::new(
-            "hamel",
-            std::sync::Arc::new(String::new()),
-            None,
-            None,
-            e.to_string(),
-        )
-    })?
+    .map_err(ModelError::engine)?
 }

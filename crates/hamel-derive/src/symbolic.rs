@@ -84,10 +84,13 @@ struct Ctx<'m> {
 }
 
 impl Ctx<'_> {
+    /// A CAS error while working on `site`: the input's (division by zero, a construct the
+    /// engine does not handle), located there; or the engine's own failure, typed as such.
     fn cas(&self, site: Option<&Site>, e: CasError) -> ModelError {
-        match site {
-            Some(s) => self.model.error_at(s, e.to_string()),
-            None => self.model.error(e.to_string()),
+        match (site, e) {
+            (_, e @ CasError::Internal(_)) => ModelError::engine(e),
+            (Some(s), e) => self.model.error_at(s, e.to_string()),
+            (None, e) => self.model.error(e.to_string()),
         }
     }
 

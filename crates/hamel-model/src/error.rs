@@ -1,4 +1,5 @@
-//! Located errors.
+//! The error of every hamel library call: located in an input file, or a failure of the
+//! computer-algebra engine.
 
 use std::fmt;
 use std::ops::Range;
@@ -6,7 +7,9 @@ use std::sync::Arc;
 
 use miette::{Diagnostic, LabeledSpan, SourceCode};
 
-/// An error in a model (or scene, or state) file: the file, where in it, and why.
+/// Why a hamel library call failed: a [`ErrorKind::Input`] error in a model (or scene, or
+/// state) file — the file, where in it, and why — or an [`ErrorKind::Engine`] failure of the
+/// computer-algebra engine, which is not the input's fault and names no file.
 ///
 /// `Display` gives a one-line `file:line:col: key: reason` form; as a [`miette::Diagnostic`] it
 /// renders the offending line with a label.
@@ -15,8 +18,19 @@ use miette::{Diagnostic, LabeledSpan, SourceCode};
 #[derive(Clone, Debug)]
 pub struct ModelError(Box<Located>);
 
+/// What kind of failure a [`ModelError`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorKind {
+    /// The input: a file, located in it.
+    Input,
+    /// The computer-algebra engine failed (its worker thread, or a construct it does not
+    /// handle): a bug to report, whatever the input.
+    Engine,
+}
+
 #[derive(Clone, Debug)]
 struct Located {
+    kind: ErrorKind,
     file: String,
     source: Arc<String>,
     span: Option<Range<usize>>,
@@ -35,6 +49,7 @@ impl ModelError {
         message: impl Into<String>,
     ) -> ModelError {
         ModelError(Box::new(Located {
+            kind: ErrorKind::Input,
             file: file.to_string(),
             source,
             span,
@@ -44,15 +59,33 @@ impl ModelError {
         }))
     }
 
+    /// A failure of the computer-algebra engine (no file, no place: it is not the input's).
+    pub fn engine(failure: impl fmt::Display) -> ModelError {
+        ModelError(Box::new(Located {
+            kind: ErrorKind::Engine,
+            file: String::new(),
+            source: Arc::new(String::new()),
+            span: None,
+            key: None,
+            message: failure.to_string(),
+            help: Some("this is a bug in hamel, not in the input: please report it".into()),
+        }))
+    }
+
     /// Add a hint on how to fix it.
     pub fn with_help(mut self, help: impl Into<String>) -> ModelError {
         self.0.help = Some(help.into());
         self
     }
 
-    /// The file name as given.
-    pub fn file(&self) -> &str {
-        &self.0.file
+    /// What kind of failure it is.
+    pub fn kind(&self) -> ErrorKind {
+        self.0.kind
+    }
+
+    /// The file name as given (`None` for an engine failure).
+    pub fn file(&self) -> Option<&str> {
+        (self.0.kind == ErrorKind::Input).then_some(self.0.file.as_str())
     }
 
     /// The reason, without location.
@@ -78,11 +111,16 @@ impl ModelError {
 
 impl fmt::Display for ModelError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.0.file)?;
-        if let Some((l, c)) = self.line_col() {
-            write!(f, ":{l}:{c}")?;
+        match self.0.kind {
+            ErrorKind::Engine => write!(f, "the computer-algebra engine failed: ")?,
+            ErrorKind::Input => {
+                write!(f, "{}", self.0.file)?;
+                if let Some((l, c)) = self.line_col() {
+                    write!(f, ":{l}:{c}")?;
+                }
+                write!(f, ": ")?;
+            }
         }
-        write!(f, ": ")?;
         if let Some(k) = &self.0.key {
             write!(f, "{k}: ")?;
         }
@@ -99,7 +137,7 @@ impl std::error::Error for ModelError {}
 impl Diagnostic for ModelError {
     fn source_code(&self) -> Option<&dyn SourceCode> {
         // The file name and the help are part of the message itself (see Display).
-        Some(&*self.0.source as &dyn SourceCode)
+        (self.0.kind == ErrorKind::Input).then_some(&*self.0.source as &dyn SourceCode)
     }
 
     fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
@@ -114,5 +152,29 @@ impl Diagnostic for ModelError {
             span.start,
             len,
         ))))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An engine failure is typed as such and names no file (it is not the input's); an input
+    /// error names its file, line and column.
+    #[test]
+    fn engine_failures_name_no_file_and_input_errors_do() {
+        let e = ModelError::engine("the computer-algebra thread has stopped");
+        assert_eq!(e.kind(), ErrorKind::Engine);
+        assert_eq!(e.file(), None);
+        assert!(e.source_code().is_none());
+        assert!(
+            e.to_string()
+                .starts_with("the computer-algebra engine failed: the computer-algebra thread")
+        );
+        let source = Arc::new("a = 1\nb = oops\n".to_string());
+        let i = ModelError::new("m.toml", source, Some(10..14), Some("b"), "not a number");
+        assert_eq!(i.kind(), ErrorKind::Input);
+        assert_eq!(i.file(), Some("m.toml"));
+        assert_eq!(i.to_string(), "m.toml:2:5: b: not a number");
     }
 }

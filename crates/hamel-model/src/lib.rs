@@ -23,6 +23,6 @@ mod numeric;
 mod schema;
 
 pub use default_choice::combinations;
-pub use error::ModelError;
+pub use error::{ErrorKind, ModelError};
 pub use model::{ChoiceOrigin, Item, Kinetic, Model, QuasiVelocityChoice, Site};
 pub use numeric::{NumericModel, sample_configurations};

@@ -49,7 +49,7 @@ pub fn reduce(
         let s = hamel_derive::symbolic(&model, &name)?;
         analysis::analyse(&model, &s, &p)
     })
-    .map_err(model_error_from_cas)?
+    .map_err(ModelError::engine)?
 }
 
 /// [`reduce`] and the derivation it analysed, from one symbolic pass (for code generation,
@@ -69,7 +69,7 @@ pub fn reduce_with_derivation(
             s.to_derivation_for_code(),
         ))
     })
-    .map_err(model_error_from_cas)?
+    .map_err(ModelError::engine)?
 }
 
 /// One symbolic pass for a computation that decides from the equations what it drops: derive
@@ -94,7 +94,7 @@ pub fn derive_and_reduce(
         };
         Ok((d, r))
     })
-    .map_err(model_error_from_cas)?
+    .map_err(ModelError::engine)?
 }
 
 /// Search for quasi-velocity choices that eliminate `eliminate` from the true equations
@@ -111,7 +111,7 @@ pub fn search(
     let p = coordinate_indices(model, eliminate)?;
     let model = model.clone();
     hamel_cas::run(move || search::search(&model, &p, options, events))
-        .map_err(model_error_from_cas)?
+        .map_err(ModelError::engine)?
 }
 
 /// The indices of the named coordinates, or an error naming the unknown one.
@@ -140,14 +140,4 @@ pub fn coordinate_indices(model: &Model, names: &[String]) -> Result<Vec<usize>,
         }
     }
     Ok(p)
-}
-
-fn model_error_from_cas(e: hamel_cas::CasError) -> ModelError {
-    ModelError::new(
-        "hamel",
-        std::sync::Arc::new(String::new()),
-        None,
-        None,
-        e.to_string(),
-    )
 }
