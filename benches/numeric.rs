@@ -89,7 +89,7 @@ fn rhs(c: &mut Criterion) {
         // wrote (parameters as inputs, like the generated code), timed on the CAS worker thread.
         let solved = hamel_derive::derive_for_code(&model, Some(core.eta))
             .map_err(|e| e.to_string())
-            .and_then(|d| hamel_codegen::generate(&d, &[], "bench"))
+            .and_then(|d| hamel_codegen::generate(&d, &[], "bench").map_err(|e| e.to_string()))
             .expect("generates")
             .solved;
         let at: Vec<f64> = q

@@ -227,7 +227,10 @@ fn simulate(
 
 fn plan(scene: &Path, format: ReportFormat, out: Output, measure: bool) -> Result<(), ModelError> {
     let loaded = hamel_scene::load(scene)?;
-    let core = loaded.core().map_err(|e| loaded.error("eta", e))?.summary();
+    let core = loaded
+        .core()
+        .map_err(|e| loaded.error("eta", e.to_string()))?
+        .summary();
     let measured = if measure {
         Some(hamel_scene::measure::measure_plan(&loaded)?)
     } else {

@@ -238,7 +238,7 @@ fn a_bad_model_is_an_error_with_file_place_and_reason_and_writes_nothing() {
     );
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
-    assert!(err.contains("tests/filetests/unknown_symbol.toml:14:16: constraints.no_slip: unknown symbol `thetta`"), "{err}");
+    assert!(err.contains("tests/filetests/unknown_symbol.toml:11:16: constraints.no_slip: unknown symbol `thetta`"), "{err}");
     assert!(!out.exists(), "no output may be written on error");
     assert!(
         String::from_utf8_lossy(&o.stdout).find('{').is_none(),

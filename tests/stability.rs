@@ -209,7 +209,7 @@ impl hamel_sim::OdeSystem for Multipliers<'_> {
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), hamel_sim::SystemError> {
         let ell = y.len() / 2;
         let a = hamel_oracle::accelerations::<f64>(&self.0, &y[..ell], &y[ell..])
-            .map_err(hamel_sim::SystemError::new)?;
+            .map_err(|e| hamel_sim::SystemError::new(e.to_string()))?;
         dy[..ell].copy_from_slice(&y[ell..]);
         dy[ell..].copy_from_slice(&a.q_ddot);
         Ok(())

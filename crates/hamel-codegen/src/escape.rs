@@ -24,6 +24,8 @@
 //! a crate generated with hostile text in every free-text slot parses to the same items as one
 //! generated with plain text.
 
+use crate::CodegenError;
+
 /// At most this many characters of free text go into one comment; the rest is replaced by a
 /// note of how many were left out.
 pub const MAX_COMMENT: usize = 1000;
@@ -105,7 +107,7 @@ fn quoted(text: &str, unicode: impl Fn(char) -> String + Copy) -> String {
 
 /// `text` if it is an ASCII Rust identifier (letters, digits, `_`, not starting with a digit,
 /// not a keyword hamel's code uses), else an error naming it.
-pub fn rust_ident(text: &str) -> Result<&str, String> {
+pub fn rust_ident(text: &str) -> Result<&str, CodegenError> {
     const KEYWORDS: [&str; 12] = [
         "self", "Self", "super", "crate", "type", "fn", "let", "mut", "pub", "use", "mod", "_",
     ];
@@ -116,10 +118,7 @@ pub fn rust_ident(text: &str) -> Result<&str, String> {
     if ok {
         Ok(text)
     } else {
-        Err(format!(
-            "{} is not an identifier (ASCII letters, digits and _, not a keyword)",
-            rust_str(text)
-        ))
+        Err(CodegenError::NotAnIdentifier(text.to_string()))
     }
 }
 

@@ -23,12 +23,15 @@ use hamel_derive::Derivation;
 use hamel_derive::conditioning::STATED_MULTIPLE;
 use hamel_expr::{Expr, Func, Op, Tape};
 
+pub use error::CodegenError;
+
 /// The runtime every generated crate carries (and `crates/hamel-models` compiles once).
 pub const RUNTIME: &str = include_str!("../runtime/runtime.rs");
 /// The double-double arithmetic the runtime repeats ill-conditioned evaluations in (the one
 /// copy is hamel-expr's, which depends on `std` alone).
 pub const DD_CORE: &str = include_str!("../../hamel-expr/src/dd_core.rs");
 
+mod error;
 pub mod escape;
 pub mod manifest;
 pub mod python;
@@ -282,7 +285,8 @@ fn choose_path(
     let mut tried: Vec<(usize, usize, Candidate, Tape)> = candidates
         .into_iter()
         .map(|c| {
-            let tape = Tape::compile(&c.exprs.iter().collect::<Vec<_>>(), inputs)?;
+            let tape = Tape::compile(&c.exprs.iter().collect::<Vec<_>>(), inputs)
+                .map_err(|e| e.to_string())?;
             Ok((
                 tape.varying_operation_count(|i| slots.varying(i)),
                 tape.operation_count(),
@@ -990,7 +994,11 @@ fn list(items: impl IntoIterator<Item = String>) -> String {
 /// Generate the crate for a derivation; `eliminated` are coordinate indices proven absent from
 /// the true equations and from the kinematics still needed (`hamel reduce`'s reduced system).
 /// `command` is the command line that regenerates it (written into the files).
-pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<Generated, String> {
+pub fn generate(
+    d: &Derivation,
+    eliminated: &[usize],
+    command: &str,
+) -> Result<Generated, CodegenError> {
     check_names(d)?;
     let code = Code::new(d, eliminated)?;
     let model = fill(MODEL_TEMPLATE, &code.fields(d, eliminated, command))?;
@@ -1024,15 +1032,12 @@ pub fn generate(d: &Derivation, eliminated: &[usize], command: &str) -> Result<G
 /// Names become code (fields, match arms): they must be identifiers. Free text (the command,
 /// the model's and choice's names in comments and strings) is escaped where it lands
 /// (`escape`). Free functions must be defined first.
-fn check_names(d: &Derivation) -> Result<(), String> {
+fn check_names(d: &Derivation) -> Result<(), CodegenError> {
     for name in d.coordinates.iter().chain(d.parameters.keys()) {
         escape::rust_ident(name)?;
     }
     if !d.free_functions.is_empty() {
-        return Err(format!(
-            "the quasi-velocities use free functions ({}): define them in the model before generating code",
-            d.free_functions.join(", ")
-        ));
+        return Err(CodegenError::FreeFunctions(d.free_functions.join(", ")));
     }
     Ok(())
 }
@@ -1042,7 +1047,7 @@ const MODEL_TEMPLATE: &str = include_str!("../templates/model.rs.in");
 
 /// `template` with every `@name@` replaced by its value in `fields`. Errors: a placeholder
 /// without a value, or a value without a placeholder (the template and the generator disagree).
-fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, String> {
+fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, CodegenError> {
     let mut out = String::with_capacity(template.len() * 2);
     let mut used = vec![false; fields.len()];
     let mut rest = template;
@@ -1051,10 +1056,10 @@ fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, String> {
         let after = &rest[at + 1..];
         let end = after
             .find('@')
-            .ok_or_else(|| "internal error: an unclosed @ in the model template".to_string())?;
+            .ok_or_else(|| CodegenError::Internal("an unclosed @ in the model template".into()))?;
         let name = &after[..end];
         let k = fields.iter().position(|(n, _)| *n == name).ok_or_else(|| {
-            format!("internal error: no value for @{name}@ of the model template")
+            CodegenError::Internal(format!("no value for @{name}@ of the model template"))
         })?;
         used[k] = true;
         out.push_str(&fields[k].1);
@@ -1062,10 +1067,10 @@ fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, String> {
     }
     out.push_str(rest);
     match used.iter().position(|u| !u) {
-        Some(k) => Err(format!(
-            "internal error: the model template has no @{}@",
+        Some(k) => Err(CodegenError::Internal(format!(
+            "the model template has no @{}@",
             fields[k].0
-        )),
+        ))),
         None => Ok(out),
     }
 }
@@ -1089,8 +1094,10 @@ struct Code {
 }
 
 impl Code {
-    fn new(d: &Derivation, eliminated: &[usize]) -> Result<Code, String> {
-        let exprs = d.ingredient_exprs().map_err(|e| e.to_string())?;
+    fn new(d: &Derivation, eliminated: &[usize]) -> Result<Code, CodegenError> {
+        let exprs = d
+            .ingredient_exprs()
+            .map_err(|e| CodegenError::Ingredients(e.to_string()))?;
         let params: Vec<String> = d.parameters.keys().cloned().collect();
         let inputs: Vec<String> = d
             .coordinates
@@ -1113,7 +1120,8 @@ impl Code {
             eta_at: 0,
         };
         let (choice, candidate, solved_tape) =
-            choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)?;
+            choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)
+                .map_err(CodegenError::Path)?;
         let reduced_tape = (choice.solved && !eliminated.is_empty())
             .then(|| reduced_tape(d, &candidate.exprs, &kept, &params))
             .flatten();
@@ -1360,7 +1368,7 @@ const SIM_SOURCES: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/sim_sou
 /// Add the `simulate` and `scene` binaries to a generated crate: the integrators of `crates/hamel-sim` are
 /// vendored as a path dependency inside the crate (they need nalgebra, serde and thiserror),
 /// so the crate still builds on its own.
-pub fn with_simulator(mut g: Generated) -> Result<Generated, String> {
+pub fn with_simulator(mut g: Generated) -> Result<Generated, CodegenError> {
     g.edit_manifest(|doc| manifest::add_path_dependency(doc, "hamel-sim", "hamel-sim"))?;
     g.files
         .push(("hamel-sim/Cargo.toml".into(), manifest::simulator()));
@@ -1378,12 +1386,12 @@ impl Generated {
     pub fn edit_manifest(
         &mut self,
         edit: impl FnOnce(&mut toml_edit::DocumentMut),
-    ) -> Result<(), String> {
+    ) -> Result<(), CodegenError> {
         let (_, text) = self
             .files
             .iter_mut()
             .find(|(path, _)| path == "Cargo.toml")
-            .ok_or("internal error: a generated crate without Cargo.toml")?;
+            .ok_or_else(|| CodegenError::Internal("a generated crate without Cargo.toml".into()))?;
         *text = manifest::edit(text, edit)?;
         Ok(())
     }

@@ -57,10 +57,13 @@ fn with_features(version: &str, features: &[&str]) -> InlineTable {
 }
 
 /// Edit a manifest: parse it, apply `edit`, write it back.
-pub fn edit(text: &str, edit: impl FnOnce(&mut DocumentMut)) -> Result<String, String> {
-    let mut doc: DocumentMut = text
-        .parse()
-        .map_err(|e| format!("internal error: a generated manifest does not parse: {e}"))?;
+pub fn edit(
+    text: &str,
+    edit: impl FnOnce(&mut DocumentMut),
+) -> Result<String, crate::CodegenError> {
+    let mut doc: DocumentMut = text.parse().map_err(|e| {
+        crate::CodegenError::Internal(format!("a generated manifest does not parse: {e}"))
+    })?;
     edit(&mut doc);
     Ok(doc.to_string())
 }

@@ -16,7 +16,7 @@ pub struct Member {
 
 /// The text of `crates/hamel-models/src/lib.rs` for the given members (sorted by the caller).
 /// Errors: a member's directory is not an identifier (it names a module).
-pub fn models_lib(members: &[Member]) -> Result<String, String> {
+pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
     for m in members {
         rust_ident(&m.dir)?;
     }

@@ -93,9 +93,10 @@ pub fn write_crate(
             format!(" --eliminate {}", eliminate.join(","))
         }
     );
-    let mut g = crate::generate(&d, &eliminated, &command).map_err(|e| model.error(e))?;
+    let mut g =
+        crate::generate(&d, &eliminated, &command).map_err(|e| model.error(e.to_string()))?;
     if with_simulator {
-        g = crate::with_simulator(g).map_err(|e| model.error(e))?;
+        g = crate::with_simulator(g).map_err(|e| model.error(e.to_string()))?;
     }
     for (path, text) in &g.files {
         let p = out.join(path);

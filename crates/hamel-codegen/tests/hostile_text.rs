@@ -169,10 +169,17 @@ fn names_that_become_code_must_be_identifiers() {
     d.parameters
         .insert(format!("{name}: f64, pub injected"), value);
     let e = generate(&d, &[], "x").unwrap_err();
-    assert!(e.contains("is not an identifier"), "{e}");
+    assert!(
+        matches!(&e, hamel_codegen::CodegenError::NotAnIdentifier(n) if n.ends_with("pub injected")),
+        "{e}"
+    );
+    assert!(e.to_string().contains("is not an identifier"), "{e}");
     let mut d = knife();
     d.coordinates[0] = "x\n".into();
-    assert!(generate(&d, &[], "x").is_err());
+    assert!(matches!(
+        generate(&d, &[], "x"),
+        Err(hamel_codegen::CodegenError::NotAnIdentifier(_))
+    ));
 }
 
 #[test]

@@ -273,14 +273,17 @@ impl Derivation {
     /// ([`Expr::specialise`]); they leave [`Derivation::parameters`]. The exact checks are
     /// those of the general derivation (they hold for every value). Errors name a parameter
     /// that is not the model's or a value that is not finite.
-    pub fn specialise(&self, values: &IndexMap<String, f64>) -> Result<Derivation, String> {
+    pub fn specialise(
+        &self,
+        values: &IndexMap<String, f64>,
+    ) -> Result<Derivation, SpecialiseError> {
         let mut exact = std::collections::HashMap::new();
         for (name, &v) in values {
             if !self.parameters.contains_key(name) {
-                return Err(format!("`{name}` is not a parameter of the model"));
+                return Err(SpecialiseError::UnknownParameter(name.clone()));
             }
             let r = hamel_expr::rational_of_f64(v)
-                .ok_or_else(|| format!("parameter `{name}` = {v} is not finite"))?;
+                .ok_or_else(|| SpecialiseError::NotFinite(name.clone(), v))?;
             exact.insert(name.clone(), r);
         }
         let f = |e: &Expr| e.specialise(&exact);
@@ -331,4 +334,15 @@ impl Derivation {
             ..self.clone()
         })
     }
+}
+
+/// Why a derivation could not be specialised for parameter values.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SpecialiseError {
+    /// A name that is not a parameter of the model.
+    #[error("`{0}` is not a parameter of the model")]
+    UnknownParameter(String),
+    /// A value that is not a finite number.
+    #[error("parameter `{0}` = {1} is not finite")]
+    NotFinite(String, f64),
 }

@@ -22,7 +22,9 @@ mod render;
 pub mod states;
 pub mod symbolic;
 
-pub use derivation::{Block, Checks, Derivation, DerivationJson, Entry, Ingredients, Mat, Size};
+pub use derivation::{
+    Block, Checks, Derivation, DerivationJson, Entry, Ingredients, Mat, Size, SpecialiseError,
+};
 pub use hamel_model::{Model, ModelError};
 pub use numeric::{
     Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,

@@ -255,7 +255,7 @@ impl Derivation {
             .cloned()
             .chain(self.parameters.keys().cloned())
             .collect();
-        let tape = Tape::compile(&exprs, &inputs).map_err(NumericError)?;
+        let tape = Tape::compile(&exprs, &inputs).map_err(|e| NumericError(e.to_string()))?;
         Ok(Compiled {
             tape,
             layout: Layout {
@@ -301,7 +301,7 @@ impl Derivation {
             .chain((1..=self.sigma).map(|i| format!("eta{i}")))
             .chain(free.iter().cloned())
             .collect();
-        let tape = Tape::compile(&exprs, &inputs).map_err(NumericError)?;
+        let tape = Tape::compile(&exprs, &inputs).map_err(|e| NumericError(e.to_string()))?;
         Ok(SymbolicCompiled {
             tape,
             free,

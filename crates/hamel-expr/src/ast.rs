@@ -192,14 +192,14 @@ impl Expr {
 
     /// Replace the free function `name` (of any arguments) by `by`, an expression in its
     /// argument names; fails for derivative nodes of it (substitute before differentiating).
-    pub fn substitute_free(&self, name: &str, by: &Expr) -> Result<Expr, String> {
+    pub fn substitute_free(&self, name: &str, by: &Expr) -> Result<Expr, SubstituteError> {
         let mut err = None;
         let out = self.map(&mut |e| match e {
             Expr::Free {
                 name: n, orders, ..
             } if n == name => {
                 if orders.iter().any(|&o| o != 0) {
-                    err = Some(format!("cannot substitute a derivative of `{name}`"));
+                    err = Some(SubstituteError::Derivative(name.to_string()));
                 }
                 by.clone()
             }
@@ -272,4 +272,12 @@ impl Expr {
             }
         }
     }
+}
+
+/// Why a free function could not be substituted.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SubstituteError {
+    /// The expression holds a derivative of the function (substitute before differentiating).
+    #[error("cannot substitute a derivative of `{0}`")]
+    Derivative(String),
 }

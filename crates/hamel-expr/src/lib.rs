@@ -25,10 +25,10 @@ mod parse;
 mod specialise;
 mod tape;
 
-pub use ast::{Expr, Func, Rational};
+pub use ast::{Expr, Func, Rational, SubstituteError};
 pub use dd::DD;
 pub use eval::{Dual, Env, EvalError, Lu, Scalar, solve};
 pub use latex::latex_name;
 pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
 pub use specialise::rational_of_f64;
-pub use tape::{Op, Tape};
+pub use tape::{Op, Tape, TapeError};

@@ -76,15 +76,15 @@ impl Builder<'_> {
         self.ops.len() - 1
     }
 
-    fn input(&mut self, name: &str) -> Result<usize, String> {
+    fn input(&mut self, name: &str) -> Result<usize, TapeError> {
         let slot = *self
             .slots
             .get(name)
-            .ok_or_else(|| format!("no input named `{name}`"))?;
+            .ok_or_else(|| TapeError::UnknownInput(name.to_string()))?;
         Ok(self.push(Op::Input(slot)))
     }
 
-    fn expr(&mut self, e: &Expr) -> Result<usize, String> {
+    fn expr(&mut self, e: &Expr) -> Result<usize, TapeError> {
         Ok(match e {
             Expr::Num(r) => self.push(Op::Const(r.clone())),
             Expr::Sym(n) => self.input(n)?,
@@ -132,10 +132,18 @@ impl Builder<'_> {
     }
 }
 
+/// Why expressions could not be compiled to a tape.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TapeError {
+    /// An expression uses a name that is not among the inputs.
+    #[error("no input named `{0}`")]
+    UnknownInput(String),
+}
+
 impl Tape {
     /// Compile `exprs`; `inputs` names the input slots (coordinates, parameters, `der(q)`,
     /// free functions as printed, …). A name not in `inputs` is an error.
-    pub fn compile(exprs: &[&Expr], inputs: &[String]) -> Result<Tape, String> {
+    pub fn compile(exprs: &[&Expr], inputs: &[String]) -> Result<Tape, TapeError> {
         let mut b = Builder {
             slots: inputs
                 .iter()

@@ -540,7 +540,7 @@ impl Model {
                 item.expr = item
                     .expr
                     .substitute_free(name, by)
-                    .map_err(|e| self.error(e))?;
+                    .map_err(|e| self.error(e.to_string()))?;
             }
             c.free_functions.retain(|(f, _)| f != name);
         }

@@ -32,8 +32,23 @@ pub struct Accelerations<S = f64> {
     pub lambda: Vec<S>,
 }
 
-fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
+/// Why the oracle has no answer at a state.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum OracleError {
+    /// The model's own expressions could not be evaluated there.
+    #[error(transparent)]
+    Eval(#[from] hamel_expr::EvalError),
+    /// [A αᵀ; α 0] is singular: no unique accelerations and multipliers.
+    #[error("the Lagrange-multiplier system is singular at this state")]
+    Singular,
+    /// ααᵀ is singular.
+    #[error("α has dependent rows at this configuration")]
+    DependentConstraints,
+    /// The kinetic-metric projection's system is singular.
+    #[error(
+        "the constraints cannot be applied here (A is singular on them, or α has dependent rows)"
+    )]
+    CannotProject,
 }
 
 fn duals<S: Scalar>(q: &[S], dir: &[S]) -> Vec<Dual<S>> {
@@ -54,23 +69,21 @@ pub fn accelerations<S: Scalar>(
     nm: &NumericModel<'_>,
     q: &[S],
     qd: &[S],
-) -> Result<Accelerations<S>, String> {
+) -> Result<Accelerations<S>, OracleError> {
     let ell = q.len();
     let zero = || S::constant(0.0);
-    let a = nm.mass_matrix::<S>(q).map_err(err)?;
-    let alpha = nm.constraint_matrix::<S>(q).map_err(err)?;
+    let a = nm.mass_matrix::<S>(q)?;
+    let alpha = nm.constraint_matrix::<S>(q)?;
     let mu = alpha.len();
     // Ȧ and α̇ along q̇.
-    let a_dot = nm.mass_matrix::<Dual<S>>(&duals(q, qd)).map_err(err)?;
-    let alpha_dot = nm
-        .constraint_matrix::<Dual<S>>(&duals(q, qd))
-        .map_err(err)?;
+    let a_dot = nm.mass_matrix::<Dual<S>>(&duals(q, qd))?;
+    let alpha_dot = nm.constraint_matrix::<Dual<S>>(&duals(q, qd))?;
     // ∇_q T = ½ q̇ᵀ (∂A/∂q_j) q̇ and ∇U, one direction at a time.
     let mut grad_t = Vec::with_capacity(ell);
     let mut grad_u = Vec::with_capacity(ell);
     for j in 0..ell {
         let dq = duals(q, &unit::<S>(ell, j));
-        let daj = nm.mass_matrix::<Dual<S>>(&dq).map_err(err)?;
+        let daj = nm.mass_matrix::<Dual<S>>(&dq)?;
         let mut s = zero();
         for r in 0..ell {
             for c in 0..ell {
@@ -78,7 +91,7 @@ pub fn accelerations<S: Scalar>(
             }
         }
         grad_t.push(s * S::constant(0.5));
-        grad_u.push(nm.potential::<Dual<S>>(&dq).map_err(err)?.d);
+        grad_u.push(nm.potential::<Dual<S>>(&dq)?.d);
     }
     let n = ell + mu;
     let mut m = vec![vec![zero(); n]; n];
@@ -100,8 +113,7 @@ pub fn accelerations<S: Scalar>(
         }
         rhs[ell + r] = -s;
     }
-    let sol = solve(m, rhs)
-        .ok_or_else(|| "the Lagrange-multiplier system is singular at this state".to_string())?;
+    let sol = solve(m, rhs).ok_or(OracleError::Singular)?;
     Ok(Accelerations {
         q_ddot: sol[..ell].to_vec(),
         lambda: sol[ell..].to_vec(),
@@ -109,8 +121,8 @@ pub fn accelerations<S: Scalar>(
 }
 
 /// Project a velocity onto the constraint manifold: q̇ − α⁺αq̇ with α⁺ = αᵀ(ααᵀ)⁻¹.
-pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, String> {
-    let alpha = nm.constraint_matrix::<f64>(q).map_err(err)?;
+pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, OracleError> {
+    let alpha = nm.constraint_matrix::<f64>(q)?;
     if alpha.is_empty() {
         return Ok(v.to_vec());
     }
@@ -121,7 +133,7 @@ pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, 
     let y = gram
         .lu()
         .solve(&(&al * &vv))
-        .ok_or_else(|| "α has dependent rows at this configuration".to_string())?;
+        .ok_or(OracleError::DependentConstraints)?;
     let out = vv - al.transpose() * y;
     Ok(out.iter().copied().collect())
 }
@@ -130,9 +142,13 @@ pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, 
 /// v in ½(w − v)ᵀA(w − v), i.e. the velocity just after the constraints act impulsively
 /// (Gauss), from [A αᵀ; α 0][w; μ] = [A v; 0]. Unlike [`project`] it does not mix units
 /// (lengths and angles), and it never raises the kinetic energy.
-pub fn project_kinetic(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, String> {
-    let alpha = nm.constraint_matrix::<f64>(q).map_err(err)?;
-    let a = nm.mass_matrix::<f64>(q).map_err(err)?;
+pub fn project_kinetic(
+    nm: &NumericModel<'_>,
+    q: &[f64],
+    v: &[f64],
+) -> Result<Vec<f64>, OracleError> {
+    let alpha = nm.constraint_matrix::<f64>(q)?;
+    let a = nm.mass_matrix::<f64>(q)?;
     let (ell, mu) = (q.len(), alpha.len());
     let n = ell + mu;
     let mut m = vec![vec![0.0; n]; n];
@@ -149,16 +165,17 @@ pub fn project_kinetic(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Ve
             m[j][ell + r] = row[j];
         }
     }
-    let sol = solve(m, rhs).ok_or_else(|| {
-        "the constraints cannot be applied here (A is singular on them, or α has dependent rows)"
-            .to_string()
-    })?;
+    let sol = solve(m, rhs).ok_or(OracleError::CannotProject)?;
     Ok(sol[..ell].to_vec())
 }
 
 /// Residual ‖α(q) q̇‖∞.
-pub fn constraint_residual(nm: &NumericModel<'_>, q: &[f64], qd: &[f64]) -> Result<f64, String> {
-    let alpha = nm.constraint_matrix::<f64>(q).map_err(err)?;
+pub fn constraint_residual(
+    nm: &NumericModel<'_>,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<f64, OracleError> {
+    let alpha = nm.constraint_matrix::<f64>(q)?;
     Ok(alpha
         .iter()
         .map(|row| row.iter().zip(qd).map(|(a, v)| a * v).sum::<f64>().abs())

@@ -33,6 +33,73 @@ use serde::{Deserialize, Serialize};
 
 use crate::plan::Plan;
 
+/// Why the code cache could not give a scene's core, or the core could not run.
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum CacheError {
+    /// The cache directory is refused: hamel would build and run code others could change.
+    #[error(
+        "refusing the code cache {}: {why}. hamel compiles and runs code from it, so it must be a directory of your own that nobody else can write to (chmod 700 it, or set HAMEL_CACHE to another directory)",
+        dir.display()
+    )]
+    Refused {
+        /// The directory.
+        dir: PathBuf,
+        /// What is wrong with it.
+        why: String,
+    },
+    /// Reading or writing the cache failed.
+    #[error("{what}: {source}")]
+    Io {
+        /// What was being done.
+        what: String,
+        /// The system's error.
+        #[source]
+        source: std::sync::Arc<std::io::Error>,
+    },
+    /// The scene's code could not be generated.
+    #[error("cannot generate the planned right-hand side: {0}")]
+    Codegen(#[from] hamel_codegen::CodegenError),
+    /// The derivation could not be specialised for the scene's parameter values.
+    #[error("cannot generate the planned right-hand side: {0}")]
+    Specialise(#[from] hamel_derive::SpecialiseError),
+    /// cargo could not be started.
+    #[error("cannot run cargo ({}): {source}", cargo.display())]
+    NoCargo {
+        /// The cargo command tried.
+        cargo: PathBuf,
+        /// The system's error.
+        #[source]
+        source: std::sync::Arc<std::io::Error>,
+    },
+    /// cargo failed on the entry's crate (the last lines of its output).
+    #[error("cargo {command} failed for the scene's core in {}:\n{log}", dir.display())]
+    Cargo {
+        /// `build` or `clean`.
+        command: String,
+        /// The entry's directory.
+        dir: PathBuf,
+        /// The end of cargo's error output.
+        log: String,
+    },
+    /// The built core could not run the job, or answered with something unreadable.
+    #[error("{}: {why}", binary.display())]
+    Core {
+        /// The core's binary.
+        binary: PathBuf,
+        /// What went wrong.
+        why: String,
+    },
+}
+
+impl CacheError {
+    fn io(what: String) -> impl FnOnce(std::io::Error) -> CacheError {
+        move |e| CacheError::Io {
+            what,
+            source: std::sync::Arc::new(e),
+        }
+    }
+}
+
 /// Where the cache lives: `$HAMEL_CACHE`, else `$XDG_CACHE_HOME/hamel`, else
 /// `~/.cache/hamel`, else `hamel-cache` in the temporary directory. Not checked: see [`root`].
 pub fn location() -> PathBuf {
@@ -51,15 +118,13 @@ pub fn location() -> PathBuf {
 /// The cache directory, created private (mode 0700) when missing. hamel builds and runs
 /// code from it, so it refuses a directory that another user could write to: one not owned
 /// by the user running hamel, or writable by its group or by others.
-pub fn root() -> Result<PathBuf, String> {
+pub fn root() -> Result<PathBuf, CacheError> {
     let dir = location();
     if !dir.exists() {
-        create_private(&dir).map_err(|e| {
-            format!(
-                "cannot create the code cache {}: {e} (set HAMEL_CACHE to a directory of your own)",
-                dir.display()
-            )
-        })?;
+        create_private(&dir).map_err(CacheError::io(format!(
+            "cannot create the code cache {} (set HAMEL_CACHE to a directory of your own)",
+            dir.display()
+        )))?;
     }
     check_private(&dir)?;
     Ok(dir)
@@ -83,15 +148,16 @@ fn create_private(dir: &Path) -> std::io::Result<()> {
 /// owned by the effective user, or writable by group or others, and a symbolic link to it that
 /// another user owns.
 #[cfg(unix)]
-fn check_private(dir: &Path) -> Result<(), String> {
+fn check_private(dir: &Path) -> Result<(), CacheError> {
     use std::os::unix::fs::MetadataExt;
     let refuse = |why: String| {
-        Err(format!(
-            "refusing the code cache {}: {why}. hamel compiles and runs code from it, so it must be a directory of your own that nobody else can write to (chmod 700 it, or set HAMEL_CACHE to another directory)",
-            dir.display()
-        ))
+        Err(CacheError::Refused {
+            dir: dir.to_path_buf(),
+            why,
+        })
     };
-    let m = std::fs::metadata(dir).map_err(|e| format!("code cache {}: {e}", dir.display()))?;
+    let m =
+        std::fs::metadata(dir).map_err(CacheError::io(format!("code cache {}", dir.display())))?;
     // SAFETY: geteuid has no preconditions and cannot fail.
     let me = unsafe { libc::geteuid() };
     if !m.is_dir() {
@@ -128,7 +194,7 @@ fn check_private(dir: &Path) -> Result<(), String> {
 }
 
 #[cfg(not(unix))]
-fn check_private(_dir: &Path) -> Result<(), String> {
+fn check_private(_dir: &Path) -> Result<(), CacheError> {
     Ok(())
 }
 
@@ -214,7 +280,7 @@ pub struct Entry {
 
 /// The entry for `key`, if the cache holds it. Errors: the cache directory is refused
 /// ([`root`]).
-pub fn lookup(key: &Key) -> Result<Option<Entry>, String> {
+pub fn lookup(key: &Key) -> Result<Option<Entry>, CacheError> {
     let dir = root()?.join(key.hash());
     let Some(meta) = std::fs::read_to_string(dir.join("meta.json"))
         .ok()
@@ -236,10 +302,10 @@ pub fn store(
     d: &Derivation,
     fixed: &IndexMap<String, f64>,
     dropped: &[usize],
-    ops_of: impl Fn(&Generated) -> Result<usize, String>,
+    ops_of: impl Fn(&Generated) -> Result<usize, CacheError>,
     ops_full: usize,
     command: &str,
-) -> Result<Entry, String> {
+) -> Result<Entry, CacheError> {
     let special = d.specialise(fixed)?;
     let mut generated =
         hamel_codegen::with_simulator(hamel_codegen::generate(&special, dropped, command)?)?;
@@ -262,7 +328,7 @@ pub fn store(
         binary_sha256: None,
     };
     let tmp = root.join(format!("{}.tmp{}", key.hash(), std::process::id()));
-    let io = |e: std::io::Error| format!("cannot write the code cache in {}: {e}", root.display());
+    let io = |e| CacheError::io(format!("cannot write the code cache in {}", root.display()))(e);
     let _ = std::fs::remove_dir_all(&tmp);
     for (path, text) in &generated.files {
         let path = match path.as_str() {
@@ -296,15 +362,13 @@ pub fn prepare(
     d: &Derivation,
     plan: &Plan,
     fixed: &IndexMap<String, f64>,
-) -> Result<Entry, String> {
+) -> Result<Entry, CacheError> {
     let key = Key::new(&model.source, &d.eta_name, &plan.dropped, fixed);
     if let Some(entry) = lookup(&key)? {
         return Ok(entry);
     }
-    let cannot = |e: String| format!("cannot generate the planned right-hand side: {e}");
-    let full = hamel_codegen::generate(d, &[], "plan").map_err(cannot)?;
-    let ops_full =
-        ops_of(&full.solved, d.sigma, &(0..d.ell).collect::<Vec<_>>()).map_err(cannot)?;
+    let full = hamel_codegen::generate(d, &[], "plan")?;
+    let ops_full = ops_of(&full.solved, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
     // The specialised crate's solved form has every coordinate's rate; the planned state's are
     // counted.
     let state: Vec<usize> = plan
@@ -323,7 +387,6 @@ pub fn prepare(
         ops_full,
         &format!("hamel simulate (scene of {}, {})", model.file, d.eta_name),
     )
-    .map_err(cannot)
 }
 
 /// Operations of η̇ and the rates of `coords` in a solved form, common subexpressions shared.
@@ -331,14 +394,14 @@ fn ops_of(
     solved: &hamel_codegen::SolvedForm,
     sigma: usize,
     coords: &[usize],
-) -> Result<usize, String> {
+) -> Result<usize, CacheError> {
     let exprs: Vec<&Expr> = solved.exprs[..sigma]
         .iter()
         .chain(coords.iter().map(|&k| &solved.exprs[sigma + k]))
         .collect();
     Tape::compile(&exprs, &solved.inputs)
         .map(|t| t.operation_count())
-        .map_err(|e| format!("internal error: {e}"))
+        .map_err(|e| CacheError::Codegen(e.into()))
 }
 
 /// What `hamel plan` reports of an entry.
@@ -391,13 +454,13 @@ fn bin_name(dir: &Path) -> String {
 /// path and whether this call built it. A binary whose SHA-256 is not the one recorded in
 /// `meta.json` when hamel built it (planted, altered, or built by something else) is never
 /// run: it is rebuilt from the entry's source, with a warning.
-pub fn binary(entry: &Entry) -> Result<(PathBuf, bool), String> {
+pub fn binary(entry: &Entry) -> Result<(PathBuf, bool), CacheError> {
     let exe = entry.dir.join("scene");
     let root = root()?;
     if verify(&entry.dir, &exe)? == Check::Good {
         return Ok((exe, false));
     }
-    let io = |e: std::io::Error| format!("code cache {}: {e}", root.display());
+    let io = |e| CacheError::io(format!("code cache {}", root.display()))(e);
     // One build at a time: the shared target directory has one `release/scene`.
     let lock = std::fs::File::create(root.join("build.lock")).map_err(io)?;
     lock.lock().map_err(io)?;
@@ -443,11 +506,11 @@ enum Check {
 
 /// Compare the binary with the hash recorded in the entry's `meta.json` (read now: another
 /// process may have built it since the entry was looked up).
-fn verify(dir: &Path, exe: &Path) -> Result<Check, String> {
+fn verify(dir: &Path, exe: &Path) -> Result<Check, CacheError> {
     if !exe.exists() {
         return Ok(Check::Missing);
     }
-    let found = sha256(exe).map_err(|e| format!("cannot read {}: {e}", exe.display()))?;
+    let found = sha256(exe).map_err(CacheError::io(format!("cannot read {}", exe.display())))?;
     let recorded = std::fs::read_to_string(dir.join("meta.json"))
         .ok()
         .and_then(|text| serde_json::from_str::<Meta>(&text).ok())
@@ -461,7 +524,7 @@ fn verify(dir: &Path, exe: &Path) -> Result<Check, String> {
 
 /// Run cargo on the entry's crate with the cache's shared target directory; `args` end with
 /// the option that takes the package's binary (`--bin`) or package (`--package`) name.
-fn cargo(entry: &Entry, root: &Path, args: &[&str]) -> Result<(), String> {
+fn cargo(entry: &Entry, root: &Path, args: &[&str]) -> Result<(), CacheError> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let bin = bin_name(&entry.dir);
     let name = if args.last() == Some(&"--package") {
@@ -477,16 +540,18 @@ fn cargo(entry: &Entry, root: &Path, args: &[&str]) -> Result<(), String> {
         .env("CARGO_TARGET_DIR", root.join("target"))
         .stdin(Stdio::null())
         .output()
-        .map_err(|e| format!("cannot run cargo ({}): {e}", Path::new(&cargo).display()))?;
+        .map_err(|e| CacheError::NoCargo {
+            cargo: PathBuf::from(&cargo),
+            source: std::sync::Arc::new(e),
+        })?;
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
         let tail: Vec<&str> = err.lines().rev().take(15).collect();
-        return Err(format!(
-            "cargo {} failed for the scene's core in {}:\n{}",
-            args[0],
-            entry.dir.display(),
-            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
-        ));
+        return Err(CacheError::Cargo {
+            command: args[0].to_string(),
+            dir: entry.dir.clone(),
+            log: tail.into_iter().rev().collect::<Vec<_>>().join("\n"),
+        });
     }
     Ok(())
 }
@@ -544,30 +609,31 @@ struct Answer {
 
 /// Run `job` on the binary: the solution (partial on failure), the failure, the median time
 /// of one integration measured inside the binary.
-pub fn run(binary: &Path, job: &Job) -> Result<(Solution, Option<String>, f64), String> {
+pub fn run(binary: &Path, job: &Job) -> Result<(Solution, Option<String>, f64), CacheError> {
+    let core = |why: String| CacheError::Core {
+        binary: binary.to_path_buf(),
+        why,
+    };
     let mut child = Command::new(binary)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .map_err(|e| format!("cannot run {}: {e}", binary.display()))?;
+        .map_err(|e| core(format!("cannot run it: {e}")))?;
     child
         .stdin
         .take()
         .expect("piped")
         .write_all(serde_json::to_string(job).expect("serialisable").as_bytes())
-        .map_err(|e| format!("cannot send the job to {}: {e}", binary.display()))?;
-    let out = child
-        .wait_with_output()
-        .map_err(|e| format!("{}: {e}", binary.display()))?;
+        .map_err(|e| core(format!("cannot send it the job: {e}")))?;
+    let out = child.wait_with_output().map_err(|e| core(e.to_string()))?;
     if !out.status.success() {
-        return Err(format!(
-            "{} failed: {}",
-            binary.display(),
+        return Err(core(format!(
+            "failed: {}",
             String::from_utf8_lossy(&out.stderr).trim()
-        ));
+        )));
     }
-    let a: Answer = serde_json::from_slice(&out.stdout)
-        .map_err(|e| format!("{}: unreadable answer: {e}", binary.display()))?;
+    let a: Answer =
+        serde_json::from_slice(&out.stdout).map_err(|e| core(format!("unreadable answer: {e}")))?;
     Ok((a.solution, a.error, a.seconds))
 }

@@ -37,8 +37,8 @@ pub(crate) fn initial_eta(
                     ))
                 })
                 .collect::<Result<_, _>>()?;
-            let w =
-                hamel_oracle::project_kinetic(numeric, q, &v).map_err(|e| ("initial.q_dot", e))?;
+            let w = hamel_oracle::project_kinetic(numeric, q, &v)
+                .map_err(|e| ("initial.q_dot", e.to_string()))?;
             let kinetic = |x: &[f64]| -> Result<f64, KeyedError> {
                 let a = numeric
                     .mass_matrix::<f64>(q)

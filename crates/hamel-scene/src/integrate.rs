@@ -100,7 +100,7 @@ impl Loaded {
         method: Method,
         options: &Options,
         repeat: usize,
-    ) -> Result<(Run, f64, bool), String> {
+    ) -> Result<(Run, f64, bool), cache::CacheError> {
         let (exe, built) = cache::binary(self.core()?)?;
         let n = self.state.len();
         let mut kept = self.state.clone();

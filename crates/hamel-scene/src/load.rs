@@ -45,7 +45,7 @@ pub struct Loaded {
     pub(crate) projection: Option<Projection>,
     pub(crate) file: SceneFile,
     /// The scene's compiled core, prepared on first use ([`Loaded::core`]).
-    pub(crate) core: OnceCell<Result<cache::Entry, String>>,
+    pub(crate) core: OnceCell<Result<cache::Entry, cache::CacheError>>,
 }
 
 /// The scene file's name and text, for located errors.
@@ -366,7 +366,7 @@ fn start(
 impl Loaded {
     /// The scene's core: its generated code in the cache, found there or written on the first
     /// call ([`cache::prepare`]); built by [`cache::binary`] when first run.
-    pub fn core(&self) -> Result<&cache::Entry, String> {
+    pub fn core(&self) -> Result<&cache::Entry, cache::CacheError> {
         self.core
             .get_or_init(|| cache::prepare(&self.model, &self.d, &self.plan, &self.params))
             .as_ref()

@@ -55,7 +55,7 @@ impl Measured {
 /// each repeated until it has run about 0.3 s; the median times and the outputs' agreement.
 pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let (method, options) = loaded.integrator;
-    let fail = |e: String| loaded.error("integrator", e);
+    let fail = |e: cache::CacheError| loaded.error("integrator", e.to_string());
     let repeats = |seconds: f64| ((0.3 / seconds.max(1e-9)) as usize).clamp(3, 10_000);
     let (probe, first, _) = loaded
         .integrate_compiled(method, &options, 1)
@@ -111,7 +111,7 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let (full, error, full_seconds) =
         cache::run(&exe, &full_job(repeats(first_full))).map_err(fail)?;
     if let Some(e) = error {
-        return Err(fail(format!("the full system's run failed: {e}")));
+        return Err(loaded.error("integrator", format!("the full system's run failed: {e}")));
     }
     let p = &planned.solution;
     let n = loaded.state.len();

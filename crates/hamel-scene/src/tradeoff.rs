@@ -92,7 +92,9 @@ fn timed(
     options: &Options,
 ) -> Result<(Solution, bool, Duration), ModelError> {
     if engine == Engine::Compiled {
-        let fail = |e: String| loaded.error("integrator", format!("the compiled core failed: {e}"));
+        let fail = |e: crate::cache::CacheError| {
+            loaded.error("integrator", format!("the compiled core failed: {e}"))
+        };
         let (run, first, _) = loaded
             .integrate_compiled(method, options, 1)
             .map_err(fail)?;
