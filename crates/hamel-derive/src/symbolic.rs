@@ -656,6 +656,8 @@ struct Parts {
     gamma: OMatrix,
     gamma_t: OMatrix,
     theta: OMatrix,
+    /// ∂A/∂q_j, every j.
+    da: Vec<OMatrix>,
     /// Whether q_k moves at all (row k of Γ not zero).
     moves: Vec<bool>,
     ell: usize,
@@ -687,9 +689,11 @@ impl Parts {
         let moves = (0..ell)
             .map(|k| (0..sigma).any(|s| !gamma_o[(k, s)].is_zero()))
             .collect();
+        let a_o = OMatrix::from_matrix(&dens, a);
         Parts {
             half,
-            a: OMatrix::from_matrix(&dens, a),
+            da: (0..ell).map(|j| a_o.diff(j)).collect(),
+            a: a_o,
             alpha: OMatrix::from_matrix(&dens, alpha),
             z: OMatrix::from_matrix(&dens, z),
             gamma_t: gamma_o.transpose(),
@@ -733,12 +737,11 @@ impl Parts {
                 }
             }
         }
-        for j in (0..ell).filter(|&j| self.moves[j]) {
-            let d = self.a.diff(j);
-            if d.is_zero() {
+        for (j, d) in self.da.iter().enumerate() {
+            if !self.moves[j] || d.is_zero() {
                 continue;
             }
-            let h = self.gamma_t.mul(&d).mul(&self.gamma);
+            let h = self.gamma_t.mul(d).mul(&self.gamma);
             for (i, t) in t1.iter_mut().enumerate() {
                 let c = self.gamma[(j, i)].mul(&self.half);
                 if c.is_zero() {
@@ -830,7 +833,7 @@ impl Parts {
         if !(self.mu == 0 && z.sub(&Matrix::identity(f, ell)).is_zero()) {
             return None;
         }
-        let da: Vec<OMatrix> = (0..ell).map(|j| self.a.diff(j)).collect();
+        let da = &self.da;
         Some((0..ell).all(|i| {
             (0..ell).all(|r| {
                 (0..ell).all(|s| {

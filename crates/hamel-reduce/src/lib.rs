@@ -74,25 +74,26 @@ pub fn reduce_with_derivation(
 
 /// One symbolic pass for a computation that decides from the equations what it drops: derive
 /// the equations of `eta` (with the ingredients code generation uses,
-/// [`hamel_derive::derive_for_code`]), let `absent` pick from them the coordinates to leave out
-/// (indices), and analyse their elimination exactly ([`reduce`]; `None` when it picks none).
-pub fn derive_and_reduce(
+/// [`hamel_derive::derive_for_code`]), let `decide` make its decision from them — a value and
+/// the coordinates (indices) it leaves out — and analyse their elimination exactly
+/// ([`reduce`]; `None` when it leaves none out).
+pub fn derive_and_reduce<T: Send + 'static>(
     model: &Model,
     eta: Option<&str>,
-    absent: impl FnOnce(&hamel_derive::Derivation) -> Vec<usize> + Send + 'static,
-) -> Result<(hamel_derive::Derivation, Option<Reduction>), ModelError> {
+    decide: impl FnOnce(&hamel_derive::Derivation) -> (T, Vec<usize>) + Send + 'static,
+) -> Result<(hamel_derive::Derivation, T, Option<Reduction>), ModelError> {
     let name = model.choice(eta)?.name.clone();
     let model = model.clone();
     hamel_cas::run(move || {
         let s = hamel_derive::symbolic(&model, &name)?;
         let d = s.to_derivation_for_code();
-        let p = absent(&d);
+        let (decision, p) = decide(&d);
         let r = if p.is_empty() {
             None
         } else {
             Some(analysis::analyse(&model, &s, &p)?)
         };
-        Ok((d, r))
+        Ok((d, decision, r))
     })
     .map_err(ModelError::engine)?
 }

@@ -371,12 +371,7 @@ pub fn prepare(
     let ops_full = ops_of(&full.solved, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
     // The specialised crate's solved form has every coordinate's rate; the planned state's are
     // counted.
-    let state: Vec<usize> = plan
-        .integrated_ix
-        .iter()
-        .chain(&plan.reconstructed_ix)
-        .copied()
-        .collect();
+    let state = plan.state();
     let ops = |g: &Generated| ops_of(&g.solved, d.sigma, &state);
     store(
         &key,

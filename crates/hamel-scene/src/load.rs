@@ -99,12 +99,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         .iter()
         .map(|&i| (parsed[i].name.clone(), parsed[i].coordinate_names(&d)))
         .collect();
-    let state: Vec<usize> = plan
-        .integrated_ix
-        .iter()
-        .chain(&plan.reconstructed_ix)
-        .copied()
-        .collect();
+    let state = plan.state();
     let (reference, delta0) =
         start(&compiled, &plan, &q0, &eta0, &params).map_err(|m| err("initial", m))?;
     let y0: Vec<f64> = state

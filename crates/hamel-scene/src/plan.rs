@@ -164,11 +164,12 @@ fn close(set: &mut Vec<usize>, kinematics: &[Entry], coordinates: &[String]) {
 /// prepared separately, [`crate::cache::prepare`]). The plan and the derivation.
 pub fn plan(model: &Model, eta: &str, request: &Request) -> Result<(Plan, Derivation), ModelError> {
     let wanted = request.clone();
-    let (d, reduction) = hamel_reduce::derive_and_reduce(model, Some(eta), move |d| {
-        let integrated = decide(d, &wanted).0;
-        (0..d.ell).filter(|c| !integrated.contains(c)).collect()
-    })?;
-    let (integrated, reconstructed, dropped) = decide(&d, request);
+    let (d, (integrated, reconstructed, dropped), reduction) =
+        hamel_reduce::derive_and_reduce(model, Some(eta), move |d| {
+            let decision = decide(d, &wanted);
+            let absent = (0..d.ell).filter(|c| !decision.0.contains(c)).collect();
+            (decision, absent)
+        })?;
     let coords = &d.coordinates;
     let names = |ix: &[usize]| -> Vec<String> { ix.iter().map(|&k| coords[k].clone()).collect() };
     if let Some(r) = reduction
@@ -236,6 +237,15 @@ pub fn decide(d: &Derivation, request: &Request) -> (Vec<usize>, Vec<usize>, Vec
 }
 
 impl Plan {
+    /// The coordinates in the integrated state, by index: integrated, then reconstructed.
+    pub fn state(&self) -> Vec<usize> {
+        self.integrated_ix
+            .iter()
+            .chain(&self.reconstructed_ix)
+            .copied()
+            .collect()
+    }
+
     /// The plan as text.
     pub fn to_text(&self) -> String {
         let list = |v: &[String]| {

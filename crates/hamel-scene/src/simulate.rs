@@ -110,10 +110,9 @@ fn integrate_on(
     method: Method,
     options: &Options,
 ) -> Result<(crate::Run, Engine), ModelError> {
-    let options = *options;
     Ok(match engine {
-        Engine::Interpreted => (loaded.integrate(method, &options)?, Engine::Interpreted),
-        Engine::Compiled => match loaded.integrate_compiled(method, &options, 1) {
+        Engine::Interpreted => (loaded.integrate(method, options)?, Engine::Interpreted),
+        Engine::Compiled => match loaded.integrate_compiled(method, options, 1) {
             // The compiled core sees a singularity only as a failed step or a value that is
             // not finite; the interpreted evaluator checks δ and A_Γ at every evaluation and
             // names the cause, so a failed run is repeated with it for the diagnosis.
@@ -122,7 +121,7 @@ fn integrate_on(
                     "note: the compiled core stopped ({}); integrating again with the interpreted evaluator, which watches the singular set at every evaluation",
                     run.failure.as_ref().map_or("", |e| e.message())
                 );
-                (loaded.integrate(method, &options)?, Engine::Interpreted)
+                (loaded.integrate(method, options)?, Engine::Interpreted)
             }
             Ok((run, _, _)) => {
                 if let Ok(core) = loaded.core() {
@@ -139,7 +138,7 @@ fn integrate_on(
                 log::warn!(
                     "the scene's compiled core is not available, using the interpreted evaluator: {e}"
                 );
-                (loaded.integrate(method, &options)?, Engine::Interpreted)
+                (loaded.integrate(method, options)?, Engine::Interpreted)
             }
         },
     })
