@@ -11,7 +11,7 @@ use common::rel_error;
 use hamel_derive::conditioning::{STATED_MULTIPLE, problem_condition};
 use hamel_model::NumericModel;
 use hamel_models::MODELS;
-use hamel_models::runtime::Dual;
+use hamel_models::runtime::DualN as Dual;
 use indexmap::IndexMap;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -450,7 +450,7 @@ fn long_horizon_energy_drift_over_a_million_periods() {
 /// terms scale by 1e±12 against gravity, which stays).
 #[test]
 fn very_fast_and_very_slow_motions_against_the_oracle() {
-    use hamel_models::runtime::Dual as GDual;
+    use hamel_models::runtime::DualN as GDual;
     let models = common::models();
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     println!("| core | η × | states | worst rel. error of q̈ |");

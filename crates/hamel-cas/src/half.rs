@@ -330,7 +330,7 @@ pub(crate) fn canonical_over_factored(
 
 /// [`canonical_over_factored`]; `preimages: false` maps back by [`to_field`] only (the
 /// reference the fast path is tested against).
-fn canonical_over_impl(
+pub(crate) fn canonical_over_impl(
     f: &FieldInner,
     num: &Poly,
     c: &Poly,
@@ -870,106 +870,4 @@ pub(crate) fn trig_factors_of(
     }
     let (kappa, r) = p.quot_rem(&prod, false);
     (r.is_zero() && kappa.is_constant()).then(|| (kappa.lcoeff(), out))
-}
-
-#[cfg(test)]
-pub(crate) mod tests {
-    //! The way back through preimages and the screen against the reference way back (the whole
-    //! image mapped by [`to_field`], every trial division done).
-    use super::*;
-    use crate::{Field, FieldSpec, run};
-    use hamel_expr::parse;
-
-    const FACTORS: &[&str] = &[
-        "sin(theta)",
-        "1 + cos(theta)",
-        "1 - cos(theta)",
-        "sin(theta)*cos(phi) + 2",
-        "m*sin(theta) + l*cos(phi)",
-        "m*cos(theta)^2 + l",
-        "sin(phi)",
-        "l*sin(theta)*sin(phi) - m*cos(phi)",
-    ];
-    const BASES: &[&str] = &[
-        "1",
-        "x + m*cos(theta)",
-        "l*sin(phi) - m",
-        "sin(theta) + x*cos(phi)",
-    ];
-
-    fn field() -> Field {
-        let all: Vec<&str> = FACTORS.iter().chain(BASES).copied().collect();
-        field_of(&all)
-    }
-
-    /// A field over x, θ, φ and the parameters m, l for these expressions.
-    pub(crate) fn field_of(all: &[&str]) -> Field {
-        Field::new(&FieldSpec {
-            coordinates: vec!["x".into(), "theta".into(), "phi".into()],
-            parameters: vec!["m".into(), "l".into()],
-            free_functions: vec![],
-            free_order: 0,
-            unknowns: vec![],
-            expressions: all.iter().map(|s| parse(s).unwrap().expr).collect(),
-        })
-        .unwrap()
-    }
-
-    fn poly(f: &Field, s: &str) -> Poly {
-        f.convert(&parse(s).unwrap().expr).unwrap().num
-    }
-
-    /// Factors of the numerator, its base, and the denominator's factors with exponents.
-    type Case = (Vec<usize>, usize, Vec<(usize, u32)>);
-
-    /// Every case: products of factors over products of factors, numerators sharing some of the
-    /// denominators' factors.
-    fn cases() -> Vec<Case> {
-        let mut out = Vec::new();
-        for base in 0..BASES.len() {
-            for i in 0..FACTORS.len() {
-                for j in 0..FACTORS.len() {
-                    let num = vec![i, (i + j) % FACTORS.len()];
-                    let den = vec![(j, 1 + (i % 2) as u32), ((j + 3) % FACTORS.len(), 1)];
-                    out.push((num, base, den));
-                }
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn the_fast_way_back_gives_the_reference_canonical_form() {
-        let checked = run(|| {
-            let f = field();
-            let fi = f.inner();
-            let mut checked = 0;
-            for (num, base, den) in cases() {
-                let mut n = poly(&f, BASES[base]);
-                for &k in &num {
-                    n = fi.reduce(&n * &poly(&f, FACTORS[k]));
-                }
-                let hfs: Vec<(HalfFactors, u32)> = den
-                    .iter()
-                    .map(|&(k, e)| (half_factors(fi, &poly(&f, FACTORS[k])), e))
-                    .collect();
-                let refs: Vec<(&HalfFactors, u32)> = hfs.iter().map(|(h, e)| (h, *e)).collect();
-                let c = fi.one();
-                let fast = canonical_over_impl(fi, &n, &c, &refs, true);
-                let slow = canonical_over_impl(fi, &n, &c, &refs, false);
-                let case = format!("{num:?} {base} {den:?}");
-                assert_eq!(fast.0, slow.0, "numerator, case {case}");
-                assert_eq!(fast.1, slow.1, "denominator, case {case}");
-                let primes = |h: &HalfFactors| -> Vec<(Poly, u32)> {
-                    h.primes.iter().map(|p| (p.image.clone(), p.exp)).collect()
-                };
-                assert_eq!(primes(&fast.2), primes(&slow.2), "factors, case {case}");
-                assert_eq!(fast.2.m, slow.2.m, "degrees, case {case}");
-                checked += 1;
-            }
-            checked
-        })
-        .unwrap();
-        assert_eq!(checked, cases().len());
-    }
 }

@@ -24,6 +24,8 @@ pub mod linalg;
 pub mod over;
 mod print;
 mod screen;
+#[doc(hidden)]
+pub mod selfcheck;
 mod vars;
 mod worker;
 

@@ -4,8 +4,9 @@
 use toml_edit::{Array, DocumentMut, InlineTable, Item, Table, value};
 
 /// The manifest of a generated crate: package `package` (made a valid package name by
-/// [`crate::escape::package_name`]), the library `hamel_generated`, serde and serde_json, and an
-/// empty `[workspace]` so that the crate is not a member of any enclosing workspace.
+/// [`crate::escape::package_name`]), the library `hamel_generated`, the vendored
+/// `hamel-runtime` (`vendor/hamel-runtime` inside the crate), serde and serde_json, and an empty
+/// `[workspace]` so that the crate is not a member of any enclosing workspace.
 pub fn generated(package: &str) -> String {
     let mut doc = DocumentMut::new();
     doc["package"] = package_table(package);
@@ -14,6 +15,9 @@ pub fn generated(package: &str) -> String {
     lib["path"] = value("src/lib.rs");
     doc["lib"] = Item::Table(lib);
     let mut deps = Table::new();
+    let mut runtime = InlineTable::new();
+    runtime.insert("path", "vendor/hamel-runtime".into());
+    deps["hamel-runtime"] = value(runtime);
     deps["serde"] = value(with_features("1", &["derive"]));
     deps["serde_json"] = value("1");
     doc["dependencies"] = Item::Table(deps);
@@ -22,6 +26,14 @@ pub fn generated(package: &str) -> String {
         .decor_mut()
         .set_prefix("\n# Standalone: not a member of any enclosing workspace.\n");
     doc["workspace"] = Item::Table(workspace);
+    doc.to_string()
+}
+
+/// The manifest of the vendored numeric runtime (`vendor/hamel-runtime` in a generated crate;
+/// std only).
+pub fn runtime() -> String {
+    let mut doc = DocumentMut::new();
+    doc["package"] = package_table("hamel-runtime");
     doc.to_string()
 }
 

@@ -24,13 +24,13 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
         "//! The generated numeric cores of every bundled model, compiled together.\n\
          //!\n\
          //! **Job**: give tests and benchmarks the generated code of `generated/*` (written by\n\
-         //! `hamel codegen`) with one copy of the runtime, and a table [`MODELS`] to iterate.\n\
+         //! `hamel codegen`) over the one runtime (`hamel-runtime`), and a table [`MODELS`] to iterate.\n\
          //! **Inputs**: none at run time; **outputs**: right-hand sides, Jacobians, reconstructions.\n\
          //! **Invariant**: engine-free (no computer algebra). This file is generated too: regenerate\n\
          //! with `UPDATE_GENERATED=1 cargo test --release --test codegen`.\n\n\
          #![allow(non_snake_case)]\n\n\
-         #[path = \"../../hamel-expr/src/dd_core.rs\"]\npub mod dd;\n#[path = \"../../hamel-codegen/runtime/runtime.rs\"]\npub mod runtime;\n\n\
-         use runtime::{Dims, Dual, EvalError, Rhs};\n\n",
+         pub use hamel_runtime as runtime;\n\n\
+         use runtime::{Dims, DualN, EvalError, Rhs};\n\n",
     );
     for m in members {
         let _ = writeln!(
@@ -41,7 +41,7 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
     }
     o.push_str(
         "\n/// A full right-hand side at (q, η) in f64.\npub type FullFn = fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>;\n\
-         /// A full right-hand side over dual numbers.\npub type FullDualFn = fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>;\n\
+         /// A full right-hand side over dual numbers.\npub type FullDualFn = fn(&[DualN<1>], &[DualN<1>]) -> Result<Rhs<DualN<1>>, EvalError>;\n\
          /// A function of (q, η) giving a vector.\npub type VectorFn = fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>;\n\
          /// A Jacobian of the reduced state.\npub type MatrixFn = fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>;\n\
          \n/// One generated core, at the model's default parameters.\npub struct Core {\n    \

@@ -13,7 +13,7 @@ use hamel_expr::{DD, Dual, Expr};
 use indexmap::IndexMap;
 
 use crate::derivation::Derivation;
-use crate::numeric::{Compiled, NumericError};
+use hamel_eval::{Compiled, NumericError};
 
 /// The bound hamel states near singular configurations: a relative error of η̇ of at most
 /// 32 (κ + 1)·ε, κ from [`problem_condition`].

@@ -25,10 +25,10 @@ pub mod symbolic;
 pub use derivation::{
     Block, Checks, Derivation, DerivationJson, Entry, Ingredients, Mat, Size, SpecialiseError,
 };
-pub use hamel_model::{Model, ModelError};
-pub use numeric::{
+pub use hamel_eval::{
     Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,
 };
+pub use hamel_model::{Model, ModelError};
 pub use symbolic::{SOLUTION_TERMS, Symbolic, symbolic};
 
 /// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first

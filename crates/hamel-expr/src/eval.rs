@@ -1,218 +1,26 @@
 //! Numeric evaluation over a generic scalar.
 
-use std::ops::{Add, Div, Mul, Neg, Sub};
+use hamel_runtime::{RationalParts, Scalar};
+use num_traits::ToPrimitive;
 
 use crate::ast::{Expr, Func, Rational};
 
-/// A number type expressions can be evaluated in.
-pub trait Scalar:
-    Clone
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-{
-    /// A constant.
-    fn constant(v: f64) -> Self;
-    /// An exact rational literal, as accurately as the type allows.
-    fn rational(r: &Rational) -> Self {
-        Self::constant(Expr::rational_to_f64(r))
-    }
-    /// The value part (for domain checks).
-    fn value(&self) -> f64;
-    /// sine
-    fn sin(&self) -> Self;
-    /// cosine
-    fn cos(&self) -> Self;
-    /// square root
-    fn sqrt(&self) -> Self;
-    /// exponential
-    fn exp(&self) -> Self;
-    /// natural logarithm
-    fn ln(&self) -> Self;
-    /// integer power
-    fn powi(&self, n: i32) -> Self;
-    /// real power `self^e` of a positive base
-    fn powf(&self, e: &Self) -> Self {
-        (self.ln() * e.clone()).exp()
-    }
-}
-
-impl Scalar for f64 {
-    fn constant(v: f64) -> Self {
-        v
-    }
-    fn value(&self) -> f64 {
-        *self
-    }
-    fn sin(&self) -> Self {
-        f64::sin(*self)
-    }
-    fn cos(&self) -> Self {
-        f64::cos(*self)
-    }
-    fn sqrt(&self) -> Self {
-        f64::sqrt(*self)
-    }
-    fn exp(&self) -> Self {
-        f64::exp(*self)
-    }
-    fn ln(&self) -> Self {
-        f64::ln(*self)
-    }
-    fn powi(&self, n: i32) -> Self {
-        f64::powi(*self, n)
-    }
-    fn powf(&self, e: &Self) -> Self {
-        f64::powf(*self, *e)
-    }
-}
-
-/// A first-order dual number `v + d ε` with ε² = 0: evaluating `f(x + ε ẋ)` gives `f(x)` and the
-/// exact directional derivative `f'(x) ẋ` (forward-mode automatic differentiation), over any
-/// [`Scalar`] (f64 by default).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Dual<T = f64> {
-    /// Value.
-    pub v: T,
-    /// Derivative part.
-    pub d: T,
-}
-
-impl<T> Dual<T> {
-    /// `v + d ε`.
-    pub fn new(v: T, d: T) -> Dual<T> {
-        Dual { v, d }
-    }
-}
-
-impl<T: Scalar> Add for Dual<T> {
-    type Output = Dual<T>;
-    fn add(self, o: Dual<T>) -> Dual<T> {
-        Dual::new(self.v + o.v, self.d + o.d)
-    }
-}
-impl<T: Scalar> Sub for Dual<T> {
-    type Output = Dual<T>;
-    fn sub(self, o: Dual<T>) -> Dual<T> {
-        Dual::new(self.v - o.v, self.d - o.d)
-    }
-}
-impl<T: Scalar> Mul for Dual<T> {
-    type Output = Dual<T>;
-    fn mul(self, o: Dual<T>) -> Dual<T> {
-        Dual::new(self.v.clone() * o.v.clone(), self.d * o.v + self.v * o.d)
-    }
-}
-impl<T: Scalar> Div for Dual<T> {
-    type Output = Dual<T>;
-    fn div(self, o: Dual<T>) -> Dual<T> {
-        let q = self.v.clone() / o.v.clone();
-        Dual::new(q.clone(), (self.d - q * o.d) / o.v)
-    }
-}
-impl<T: Scalar> Neg for Dual<T> {
-    type Output = Dual<T>;
-    fn neg(self) -> Dual<T> {
-        Dual::new(-self.v, -self.d)
-    }
-}
-
-impl<T: Scalar> Scalar for Dual<T> {
-    fn constant(v: f64) -> Self {
-        Dual::new(T::constant(v), T::constant(0.0))
-    }
-    fn rational(r: &Rational) -> Self {
-        Dual::new(T::rational(r), T::constant(0.0))
-    }
-    fn value(&self) -> f64 {
-        self.v.value()
-    }
-    fn sin(&self) -> Self {
-        Dual::new(self.v.sin(), self.d.clone() * self.v.cos())
-    }
-    fn cos(&self) -> Self {
-        Dual::new(self.v.cos(), -(self.d.clone() * self.v.sin()))
-    }
-    fn sqrt(&self) -> Self {
-        let s = self.v.sqrt();
-        Dual::new(s.clone(), self.d.clone() / (s.clone() + s))
-    }
-    fn exp(&self) -> Self {
-        let e = self.v.exp();
-        Dual::new(e.clone(), self.d.clone() * e)
-    }
-    fn ln(&self) -> Self {
-        Dual::new(self.v.ln(), self.d.clone() / self.v.clone())
-    }
-    fn powi(&self, n: i32) -> Self {
-        if n == 0 {
-            return Dual::constant(1.0);
+/// An exact rational literal in the form the scalars take it ([`RationalParts`]): numerator
+/// and denominator each split into two doubles, and the nearest f64.
+pub fn rational_parts(r: &Rational) -> RationalParts {
+    let split = |n: &num_bigint::BigInt| -> (f64, f64) {
+        let hi = n.to_f64().unwrap_or(f64::INFINITY);
+        if !hi.is_finite() {
+            return (hi, 0.0);
         }
-        Dual::new(
-            self.v.powi(n),
-            self.d.clone() * T::constant(n as f64) * self.v.powi(n - 1),
-        )
+        let rest = n - num_bigint::BigInt::from(hi as i128);
+        (hi, rest.to_f64().unwrap_or(0.0))
+    };
+    RationalParts {
+        numer: split(r.numer()),
+        denom: split(r.denom()),
+        nearest: Expr::rational_to_f64(r),
     }
-}
-
-/// An LU factorisation with partial pivoting over any [`Scalar`] (pivots chosen by the
-/// magnitude of their f64 value).
-#[derive(Clone, Debug)]
-pub struct Lu<S> {
-    lu: Vec<Vec<S>>,
-    perm: Vec<usize>,
-}
-
-impl<S: Scalar> Lu<S> {
-    /// Factor a square matrix; `None` when a pivot is exactly zero (singular).
-    pub fn new(mut a: Vec<Vec<S>>) -> Option<Lu<S>> {
-        let n = a.len();
-        let mut perm: Vec<usize> = (0..n).collect();
-        for col in 0..n {
-            let p = (col..n)
-                .max_by(|&i, &j| a[i][col].value().abs().total_cmp(&a[j][col].value().abs()))?;
-            if a[p][col].value() == 0.0 {
-                return None;
-            }
-            a.swap(p, col);
-            perm.swap(p, col);
-            let (top, below) = a.split_at_mut(col + 1);
-            let pivot_row = &top[col];
-            for row in below {
-                let f = row[col].clone() / pivot_row[col].clone();
-                for (x, t) in row[col + 1..].iter_mut().zip(&pivot_row[col + 1..]) {
-                    *x = x.clone() - f.clone() * t.clone();
-                }
-                row[col] = f;
-            }
-        }
-        Some(Lu { lu: a, perm })
-    }
-
-    /// Solve `a x = b`.
-    pub fn solve(&self, b: &[S]) -> Vec<S> {
-        let n = b.len();
-        let mut y: Vec<S> = self.perm.iter().map(|&i| b[i].clone()).collect();
-        for r in 0..n {
-            for c in 0..r {
-                y[r] = y[r].clone() - self.lu[r][c].clone() * y[c].clone();
-            }
-        }
-        for r in (0..n).rev() {
-            for c in r + 1..n {
-                y[r] = y[r].clone() - self.lu[r][c].clone() * y[c].clone();
-            }
-            y[r] = y[r].clone() / self.lu[r][r].clone();
-        }
-        y
-    }
-}
-
-/// Solve the square system `a x = b` (LU with partial pivoting); `None` when singular.
-pub fn solve<S: Scalar>(a: Vec<Vec<S>>, b: Vec<S>) -> Option<Vec<S>> {
-    Lu::new(a).map(|lu| lu.solve(&b))
 }
 
 /// Why an evaluation failed.
@@ -270,7 +78,7 @@ impl Expr {
     /// results are errors, never NaN.
     pub fn eval<S: Scalar>(&self, env: &dyn Env<S>) -> Result<S, EvalError> {
         let out = match self {
-            Expr::Num(r) => S::rational(r),
+            Expr::Num(r) => S::rational(&rational_parts(r)),
             Expr::Sym(n) => env.symbol(n).ok_or_else(|| EvalError::Unbound(n.clone()))?,
             Expr::Der(q) => env
                 .velocity(q)
@@ -322,7 +130,7 @@ impl Expr {
                                 brief(self)
                             )));
                         }
-                        base.powf(&e.eval(env)?)
+                        base.powf(e.eval(env)?)
                     }
                 }
             }
@@ -377,6 +185,7 @@ impl Expr {
 mod tests {
     use super::*;
     use crate::parse;
+    use hamel_runtime::Dual;
 
     fn env(x: f64) -> impl Fn(&str) -> Option<f64> {
         move |n: &str| (n == "x").then_some(x)
@@ -398,25 +207,6 @@ mod tests {
         let exact = (3.0 * x * x * x.sin() + x.powi(3) * x.cos()) / (1.0 + x * x)
             - x.powi(3) * x.sin() * 2.0 * x / (1.0 + x * x).powi(2);
         assert!((d.d - exact).abs() < 1e-14, "{} vs {}", d.d, exact);
-    }
-
-    #[test]
-    fn lu_solves_with_pivoting() {
-        let a = vec![
-            vec![0.0, 2.0, 1.0],
-            vec![1.0, 1.0, 0.0],
-            vec![3.0, 0.0, 1.0],
-        ];
-        let x = [1.0, -2.0, 0.5];
-        let b: Vec<f64> = a
-            .iter()
-            .map(|r| r.iter().zip(&x).map(|(p, q)| p * q).sum())
-            .collect();
-        let got = solve(a, b).unwrap();
-        for (g, e) in got.iter().zip(&x) {
-            assert!((g - e).abs() < 1e-14);
-        }
-        assert!(solve(vec![vec![1.0, 2.0], vec![2.0, 4.0]], vec![1.0, 2.0]).is_none());
     }
 
     #[test]

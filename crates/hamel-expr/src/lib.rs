@@ -3,8 +3,8 @@
 //! **Job**: the plain, engine-free representation of a mathematical expression: the abstract
 //! syntax tree [`Expr`] with exact rational literals, the parser for the model-file expression
 //! grammar (with byte spans for error messages), a printer in the same syntax, and numeric
-//! evaluation over any [`Scalar`] (plain `f64`, or the dual numbers [`Dual`] for exact
-//! directional derivatives).
+//! evaluation over any [`Scalar`] of the numeric runtime (plain `f64`, the dual numbers
+//! [`Dual`] for exact directional derivatives, double-double [`DD`]).
 //!
 //! **Inputs**: expression text (from model files, state files, scenes), or trees built by the
 //! symbolic stage when it exports its canonical results.
@@ -15,8 +15,6 @@
 #![warn(missing_docs)]
 
 mod ast;
-mod dd;
-mod dd_core;
 mod display;
 mod eval;
 mod horner;
@@ -26,8 +24,10 @@ mod specialise;
 mod tape;
 
 pub use ast::{Expr, Func, Rational, SubstituteError};
-pub use dd::DD;
-pub use eval::{Dual, Env, EvalError, Lu, Scalar, solve};
+pub use eval::{Env, EvalError, rational_parts};
+/// The numeric runtime's scalars and LU (`hamel-runtime`), re-exported: expressions evaluate
+/// over them.
+pub use hamel_runtime::{DD, Dual, Lu, Scalar, solve_system as solve};
 pub use latex::latex_name;
 pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
 pub use specialise::rational_of_f64;

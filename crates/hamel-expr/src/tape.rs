@@ -7,7 +7,8 @@
 use std::collections::HashMap;
 
 use crate::ast::{Expr, Func, Rational};
-use crate::eval::{EvalError, Scalar};
+use crate::eval::EvalError;
+use hamel_runtime::Scalar;
 
 /// One instruction; operands are indices of earlier instructions.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -219,32 +220,47 @@ impl Tape {
     /// Evaluate every output. Division by zero, domain errors and non-finite values are
     /// errors, never NaN.
     pub fn eval<S: Scalar>(&self, inputs: &[S]) -> Result<Vec<S>, EvalError> {
+        let mut v = Vec::with_capacity(self.ops.len());
+        let mut out = vec![S::constant(0.0); self.outputs.len()];
+        self.eval_into(inputs, &mut v, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Tape::eval`] into caller storage: `values` holds the intermediate values (reused
+    /// between calls), `out` receives the outputs.
+    pub fn eval_into<S: Scalar>(
+        &self,
+        inputs: &[S],
+        values: &mut Vec<S>,
+        out: &mut [S],
+    ) -> Result<(), EvalError> {
         assert_eq!(inputs.len(), self.inputs.len(), "tape input count");
-        let mut v: Vec<S> = Vec::with_capacity(self.ops.len());
+        let v = values;
+        v.clear();
         for op in &self.ops {
             let x = match op {
-                Op::Input(i) => inputs[*i].clone(),
-                Op::Const(r) => S::rational(r),
+                Op::Input(i) => inputs[*i],
+                Op::Const(r) => S::rational(&crate::eval::rational_parts(r)),
                 Op::Add(a) => {
-                    let mut acc = v[a[0]].clone();
+                    let mut acc = v[a[0]];
                     for &k in &a[1..] {
-                        acc = acc + v[k].clone();
+                        acc = acc + v[k];
                     }
                     acc
                 }
                 Op::Mul(a) => {
-                    let mut acc = v[a[0]].clone();
+                    let mut acc = v[a[0]];
                     for &k in &a[1..] {
-                        acc = acc * v[k].clone();
+                        acc = acc * v[k];
                     }
                     acc
                 }
-                Op::Neg(a) => -v[*a].clone(),
+                Op::Neg(a) => -v[*a],
                 Op::Div(a, b) => {
                     if v[*b].value() == 0.0 {
                         return Err(EvalError::Domain("division by zero".into()));
                     }
-                    v[*a].clone() / v[*b].clone()
+                    v[*a] / v[*b]
                 }
                 Op::PowI(a, n) => {
                     if *n < 0 && v[*a].value() == 0.0 {
@@ -258,7 +274,7 @@ impl Tape {
                             "non-integer power of a non-positive number".into(),
                         ));
                     }
-                    v[*a].powf(&v[*b])
+                    v[*a].powf(v[*b])
                 }
                 Op::Call(f, a) => {
                     let x = &v[*a];
@@ -297,7 +313,10 @@ impl Tape {
             }
             v.push(x);
         }
-        Ok(self.outputs.iter().map(|&i| v[i].clone()).collect())
+        for (o, &i) in out.iter_mut().zip(&self.outputs) {
+            *o = v[i];
+        }
+        Ok(())
     }
 }
 

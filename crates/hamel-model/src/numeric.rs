@@ -27,13 +27,13 @@ struct Point<'a, S> {
 impl<S: Scalar> Env<S> for Point<'_, S> {
     fn symbol(&self, name: &str) -> Option<S> {
         if let Some(i) = self.coordinates.iter().position(|c| c == name) {
-            return Some(self.q[i].clone());
+            return Some(self.q[i]);
         }
         self.params.get(name).map(|&v| S::constant(v))
     }
     fn velocity(&self, coordinate: &str) -> Option<S> {
         let i = self.coordinates.iter().position(|c| c == coordinate)?;
-        self.v.map(|v| v[i].clone())
+        self.v.map(|v| v[i])
     }
 }
 
@@ -89,11 +89,11 @@ impl<'m> NumericModel<'m> {
                 }
                 let mut a = vec![vec![S::constant(0.0); ell]; ell];
                 for i in 0..ell {
-                    a[i][i] = diag[i].clone() * S::constant(2.0);
+                    a[i][i] = diag[i] * S::constant(2.0);
                     for j in 0..i {
                         let tij = self.eval(&t.expr, q, Some(&unit(&[i, j])))?;
-                        let aij = tij - diag[i].clone() - diag[j].clone();
-                        a[i][j] = aij.clone();
+                        let aij = tij - diag[i] - diag[j];
+                        a[i][j] = aij;
                         a[j][i] = aij;
                     }
                 }
@@ -141,7 +141,7 @@ impl<'m> NumericModel<'m> {
                     .map(|j| {
                         let mut e = zero.clone();
                         e[j] = S::constant(1.0);
-                        Ok(self.eval(&c.expr, q, Some(&e))? - at0.clone())
+                        Ok(self.eval(&c.expr, q, Some(&e))? - at0)
                     })
                     .collect()
             })
@@ -176,7 +176,7 @@ impl<'m> NumericModel<'m> {
                     .map(|j| {
                         let mut e = zero.clone();
                         e[j] = S::constant(1.0);
-                        Ok(self.eval(&row.expr, q, Some(&e))? - at0.clone())
+                        Ok(self.eval(&row.expr, q, Some(&e))? - at0)
                     })
                     .collect()
             })

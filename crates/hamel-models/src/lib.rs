@@ -1,19 +1,16 @@
 //! The generated numeric cores of every bundled model, compiled together.
 //!
 //! **Job**: give tests and benchmarks the generated code of `generated/*` (written by
-//! `hamel codegen`) with one copy of the runtime, and a table [`MODELS`] to iterate.
+//! `hamel codegen`) over the one runtime (`hamel-runtime`), and a table [`MODELS`] to iterate.
 //! **Inputs**: none at run time; **outputs**: right-hand sides, Jacobians, reconstructions.
 //! **Invariant**: engine-free (no computer algebra). This file is generated too: regenerate
 //! with `UPDATE_GENERATED=1 cargo test --release --test codegen`.
 
 #![allow(non_snake_case)]
 
-#[path = "../../hamel-expr/src/dd_core.rs"]
-pub mod dd;
-#[path = "../../hamel-codegen/runtime/runtime.rs"]
-pub mod runtime;
+pub use hamel_runtime as runtime;
 
-use runtime::{Dims, Dual, EvalError, Rhs};
+use runtime::{Dims, DualN, EvalError, Rhs};
 
 #[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/bar_blade__paper/src/model.rs"]
@@ -61,7 +58,7 @@ pub mod vertical_knife__paper;
 /// A full right-hand side at (q, η) in f64.
 pub type FullFn = fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>;
 /// A full right-hand side over dual numbers.
-pub type FullDualFn = fn(&[Dual<1>], &[Dual<1>]) -> Result<Rhs<Dual<1>>, EvalError>;
+pub type FullDualFn = fn(&[DualN<1>], &[DualN<1>]) -> Result<Rhs<DualN<1>>, EvalError>;
 /// A function of (q, η) giving a vector.
 pub type VectorFn = fn(&[f64], &[f64]) -> Result<Vec<f64>, EvalError>;
 /// A Jacobian of the reduced state.

@@ -52,10 +52,7 @@ pub enum OracleError {
 }
 
 fn duals<S: Scalar>(q: &[S], dir: &[S]) -> Vec<Dual<S>> {
-    q.iter()
-        .zip(dir)
-        .map(|(v, d)| Dual::new(v.clone(), d.clone()))
-        .collect()
+    q.iter().zip(dir).map(|(v, d)| Dual::new(*v, *d)).collect()
 }
 
 fn unit<S: Scalar>(ell: usize, j: usize) -> Vec<S> {
@@ -87,7 +84,7 @@ pub fn accelerations<S: Scalar>(
         let mut s = zero();
         for r in 0..ell {
             for c in 0..ell {
-                s = s + qd[r].clone() * daj[r][c].d.clone() * qd[c].clone();
+                s = s + qd[r] * daj[r][c].d * qd[c];
             }
         }
         grad_t.push(s * S::constant(0.5));
@@ -99,17 +96,17 @@ pub fn accelerations<S: Scalar>(
     for i in 0..ell {
         let mut adq = zero();
         for j in 0..ell {
-            m[i][j] = a[i][j].clone();
-            adq = adq + a_dot[i][j].d.clone() * qd[j].clone();
+            m[i][j] = a[i][j];
+            adq = adq + a_dot[i][j].d * qd[j];
         }
-        rhs[i] = grad_u[i].clone() - (adq - grad_t[i].clone());
+        rhs[i] = grad_u[i] - (adq - grad_t[i]);
     }
     for (r, row) in alpha.iter().enumerate() {
         let mut s = zero();
         for j in 0..ell {
-            m[ell + r][j] = row[j].clone();
-            m[j][ell + r] = row[j].clone();
-            s = s + alpha_dot[r][j].d.clone() * qd[j].clone();
+            m[ell + r][j] = row[j];
+            m[j][ell + r] = row[j];
+            s = s + alpha_dot[r][j].d * qd[j];
         }
         rhs[ell + r] = -s;
     }

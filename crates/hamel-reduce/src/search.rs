@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use hamel_cas::{Ex, Matrix};
 use hamel_derive::Symbolic;
-use hamel_expr::{Dual, parse};
+use hamel_expr::{Dual, Expr, Func};
 use hamel_model::{
     ChoiceOrigin, Item, Model, ModelError, NumericModel, QuasiVelocityChoice, combinations,
 };
@@ -183,65 +183,80 @@ pub struct SearchOptions {
     pub max_candidates: usize,
 }
 
+/// A row of Z (a quasi-velocity as a combination of velocities) and its number of nonzero
+/// entries.
+#[derive(Clone, Debug)]
 struct Row {
-    text: String,
+    expr: Expr,
     nonzero: usize,
+}
+
+/// `der(q)`.
+fn der(names: &[String], j: usize) -> Expr {
+    Expr::Der(names[j].clone())
 }
 
 fn unit(names: &[String], j: usize) -> Row {
     Row {
-        text: format!("der({})", names[j]),
+        expr: der(names, j),
         nonzero: 1,
     }
 }
 
-fn row_text(names: &[String], coeffs: &[Ex]) -> Row {
-    let mut terms = Vec::new();
-    let mut nonzero = 0;
-    for (j, c) in coeffs.iter().enumerate() {
-        if c.is_zero() {
-            continue;
-        }
-        nonzero += 1;
-        let t = c.to_expr().to_string();
-        terms.push(if c.is_one() {
-            format!("der({})", names[j])
-        } else {
-            format!("({t})*der({})", names[j])
-        });
-    }
+/// Σ_j c_j der(q_j) over the nonzero coefficients.
+fn row_of(names: &[String], coeffs: &[Ex]) -> Row {
+    let terms: Vec<Expr> = coeffs
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| !c.is_zero())
+        .map(|(j, c)| {
+            if c.is_one() {
+                der(names, j)
+            } else {
+                Expr::Mul(vec![c.to_expr(), der(names, j)])
+            }
+        })
+        .collect();
     Row {
-        text: terms.join(" + "),
-        nonzero,
+        nonzero: terms.len(),
+        expr: Expr::Add(terms).tidy(),
     }
 }
 
-/// Coordinates that occur as arguments of sin or cos in the model's kinetic energy or
+/// The rotation of (der(q_i), der(q_j)) by the angle q_a: its two rows.
+fn rotation(names: &[String], (i, j, a): (usize, usize, usize)) -> [Row; 2] {
+    let angle = Expr::sym(&names[a]);
+    let (sin, cos) = (
+        Expr::call(Func::Sin, angle.clone()),
+        Expr::call(Func::Cos, angle),
+    );
+    let times = |f: &Expr, k: usize| Expr::Mul(vec![f.clone(), der(names, k)]);
+    [
+        Expr::Add(vec![times(&cos, i), times(&sin, j)]),
+        Expr::Add(vec![Expr::Neg(Box::new(times(&sin, i))), times(&cos, j)]),
+    ]
+    .map(|expr| Row { expr, nonzero: 2 })
+}
+
+/// Coordinates that occur in the argument of sin, cos or tan in the model's kinetic energy or
 /// constraints (the angles that may rotate velocities).
 fn angles(model: &Model) -> Vec<usize> {
-    let mut texts: Vec<String> = model
-        .constraints
-        .iter()
-        .map(|(_, c)| c.text.clone())
-        .collect();
+    let mut items: Vec<&Expr> = model.constraints.iter().map(|(_, c)| &c.expr).collect();
     match &model.kinetic {
-        hamel_model::Kinetic::Energy(t) => texts.push(t.text.clone()),
+        hamel_model::Kinetic::Energy(t) => items.push(&t.expr),
         hamel_model::Kinetic::MassMatrix(rows) => {
-            texts.extend(rows.iter().flatten().map(|i| i.text.clone()))
+            items.extend(rows.iter().flatten().map(|i| &i.expr))
         }
     }
-    let all = texts.join(" ");
     (0..model.ell())
         .filter(|&k| {
-            let c = &model.coordinates[k];
-            ["sin(", "cos("].iter().any(|f| {
-                all.match_indices(f).any(|(i, _)| {
-                    let rest = all[i + f.len()..].trim_start();
-                    rest.starts_with(c.as_str())
-                        && !rest[c.len()..]
-                            .chars()
-                            .next()
-                            .is_some_and(|ch| ch.is_alphanumeric() || ch == '_')
+            let q = &model.coordinates[k];
+            items.iter().any(|e| {
+                e.any(&mut |n| match n {
+                    Expr::Call(Func::Sin | Func::Cos | Func::Tan, arg) => {
+                        arg.any(&mut |x| matches!(x, Expr::Sym(s) if s == q))
+                    }
+                    _ => false,
                 })
             })
         })
@@ -249,17 +264,12 @@ fn angles(model: &Model) -> Vec<usize> {
 }
 
 /// The model with one more choice.
-fn with_choice(
-    model: &Model,
-    name: &str,
-    eta: &[String],
-    free: &[(String, Vec<String>)],
-) -> Option<Model> {
-    let mut items = Vec::new();
-    for e in eta {
-        let p = parse(e).ok()?;
-        items.push(Item::synthetic(&format!("quasi_velocities.{name}"), p.expr));
-    }
+fn with_choice(model: &Model, name: &str, eta: &[Expr], free: &[(String, Vec<String>)]) -> Model {
+    let key = format!("quasi_velocities.{name}");
+    let items = eta
+        .iter()
+        .map(|e| Item::synthetic(&key, e.clone()))
+        .collect();
     let mut m = model.clone();
     m.choices.retain(|c| c.name != name);
     m.choices.push(QuasiVelocityChoice {
@@ -269,7 +279,7 @@ fn with_choice(
         free_functions: free.to_vec(),
         origin: ChoiceOrigin::Search,
     });
-    Some(m)
+    m
 }
 
 /// η̇ at (q, η) from the Lagrange-multiplier oracle: q̇ = Γη, η̇ = Żq̇ + Zq̈. `None` where
@@ -401,7 +411,7 @@ impl Searcher<'_> {
     fn try_candidate(
         &mut self,
         family: &str,
-        eta: Vec<String>,
+        eta: Vec<Expr>,
         free: Vec<(String, Vec<String>)>,
         nonzero: usize,
     ) -> bool {
@@ -420,11 +430,12 @@ impl Searcher<'_> {
     fn decide(
         &mut self,
         family: &str,
-        eta: Vec<String>,
+        rows: Vec<Expr>,
         free: Vec<(String, Vec<String>)>,
         nonzero: usize,
     ) -> bool {
         let stats = &mut self.families[family];
+        let eta: Vec<String> = rows.iter().map(Expr::to_string).collect();
         if !self.seen.insert(eta.join("; ")) {
             stats.duplicates += 1;
             return false;
@@ -441,9 +452,7 @@ impl Searcher<'_> {
             return false;
         }
         let name = format!("{family}_{}", stats.generated);
-        let Some(m2) = with_choice(self.model, &name, &eta, &free) else {
-            return false;
-        };
+        let m2 = with_choice(self.model, &name, &rows, &free);
         if free.is_empty() {
             match screen(&m2, &name, self.p, &self.samples) {
                 Screen::Singular => {
@@ -537,14 +546,17 @@ impl Searcher<'_> {
     /// found.
     fn solve_functions(
         &mut self,
-        eta: Vec<String>,
+        eta: Vec<Expr>,
         free: Vec<(String, Vec<String>)>,
         depth: usize,
     ) -> bool {
+        let mentions = |e: &Expr, name: &str| {
+            e.any(&mut |x| matches!(x, Expr::Free { name: n, .. } if n == name))
+        };
         let nonzero = free.len()
             + eta
                 .iter()
-                .filter(|e| !free.iter().any(|(n, _)| e.contains(&format!("{n}("))))
+                .filter(|e| !free.iter().any(|(n, _)| mentions(e, n)))
                 .count();
         self.last = None;
         if self.try_candidate("functions", eta.clone(), free.clone(), nonzero) {
@@ -603,13 +615,10 @@ impl Searcher<'_> {
                 return false;
             }
             let by = sol.to_expr();
-            let Some(next): Option<Vec<String>> = eta
+            let Ok(next) = eta
                 .iter()
-                .map(|e| {
-                    let p = parse(e).ok()?;
-                    Some(p.expr.substitute_free(&fname, &by).ok()?.tidy().to_string())
-                })
-                .collect()
+                .map(|e| e.substitute_free(&fname, &by).map(Expr::tidy))
+                .collect::<Result<Vec<Expr>, _>>()
             else {
                 continue;
             };
@@ -691,19 +700,11 @@ fn ansatz_pool(model: &Model, s0: &Symbolic, kept: &[usize]) -> Vec<Row> {
             continue;
         }
         for &a in &trig {
-            let (qi, qj, qa) = (&names[i], &names[j], &names[a]);
-            pool.push(Row {
-                text: format!("cos({qa})*der({qi}) + sin({qa})*der({qj})"),
-                nonzero: 2,
-            });
-            pool.push(Row {
-                text: format!("-sin({qa})*der({qi}) + cos({qa})*der({qj})"),
-                nonzero: 2,
-            });
+            pool.extend(rotation(names, (i, j, a)));
         }
     }
     for j in 0..ell {
-        let row = row_text(
+        let row = row_of(
             names,
             &(0..ell).map(|k| s0.a[(j, k)].clone()).collect::<Vec<_>>(),
         );
@@ -740,8 +741,8 @@ impl Searcher<'_> {
                 break;
             }
             // Rows that span the same velocities twice in the same way are skipped by δ ≡ 0.
-            let mut eta: Vec<String> = c.iter().map(|&i| pool[i].text.clone()).collect();
-            eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
+            let mut eta: Vec<Expr> = c.iter().map(|&i| pool[i].expr.clone()).collect();
+            eta.extend(units.iter().map(|&j| der(names, j)));
             if self.try_candidate("ansatz", eta, vec![], *nonzero) {
                 // The basis of family (a): the rows of the simplest reducing choices, v + 1 at most.
                 for &i in c {
@@ -825,7 +826,7 @@ impl Searcher<'_> {
             let z = g.transpose().mul(&s0.a);
             let rows: Vec<Row> = (0..sigma)
                 .map(|i| {
-                    row_text(
+                    row_of(
                         names,
                         &(0..ell).map(|j| z[(i, j)].clone()).collect::<Vec<_>>(),
                     )
@@ -834,7 +835,7 @@ impl Searcher<'_> {
             let nonzero = rows.iter().map(|r| r.nonzero).sum();
             self.try_candidate(
                 "a_orthogonal",
-                rows.into_iter().map(|r| r.text).collect(),
+                rows.into_iter().map(|r| r.expr).collect(),
                 vec![],
                 nonzero,
             );
@@ -867,18 +868,23 @@ impl Searcher<'_> {
             let mut free = Vec::new();
             let mut eta = Vec::new();
             for r in 0..v {
-                let terms: Vec<String> = basis
+                let terms: Vec<Expr> = basis
                     .iter()
                     .enumerate()
                     .map(|(b, &i)| {
-                        let fname = format!("z{}{}", r + 1, b + 1);
-                        free.push((fname.clone(), args.clone()));
-                        format!("{fname}({})*({})", args.join(", "), pool[i].text)
+                        let name = format!("z{}{}", r + 1, b + 1);
+                        free.push((name.clone(), args.clone()));
+                        let f = Expr::Free {
+                            name,
+                            args: args.clone(),
+                            orders: vec![0; args.len()],
+                        };
+                        Expr::Mul(vec![f, pool[i].expr.clone()])
                     })
                     .collect();
-                eta.push(terms.join(" + "));
+                eta.push(Expr::Add(terms));
             }
-            eta.extend(units.iter().map(|&j| format!("der({})", names[j])));
+            eta.extend(units.iter().map(|&j| der(names, j)));
             self.total += 1;
             let depth = free.len();
             self.solve_functions(eta, free, depth);

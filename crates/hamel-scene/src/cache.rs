@@ -578,7 +578,7 @@ fn record_hash(dir: &Path, hash: &str) -> std::io::Result<()> {
     std::fs::rename(&tmp, &path)
 }
 
-/// One integration job for a core's `scene` binary (see `runtime/scene.rs`).
+/// One integration job for a core's `scene` binary (see `crates/hamel-codegen/bins/scene.rs`).
 #[derive(Serialize)]
 pub struct Job<'a> {
     pub t0: f64,

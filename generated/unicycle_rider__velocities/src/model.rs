@@ -27,7 +27,10 @@
 
 #![allow(clippy::all, unused_variables, unused_parens)]
 
-use crate::runtime::{self, Dims, Dual, EvalError, Fixed, Layout, Rhs, Scalar};
+use hamel_runtime::{self as runtime, Dims, DualN, EvalError, Fixed, Layout, Rhs, Scalar};
+
+/// Storage of one structured evaluation, on the stack (sizes from [`DIMS`]).
+type Storage<S> = runtime::Storage<S, { DIMS.scalars() }, { DIMS.indices() }, { DIMS.reals() }>;
 
 /// Model name.
 pub const MODEL: &str = "unicycle_rider";
@@ -40,7 +43,6 @@ pub const LAYOUT: Layout = Layout::new(DIMS);
 /// Number of ingredients.
 pub const LEN: usize = LAYOUT.len;
 const ELL: usize = 6;
-const MU: usize = 2;
 const SIGMA: usize = 4;
 /// Coordinates, in state order.
 pub const COORDINATES: [&str; 6] = ["xC", "yC", "phi", "psi", "theta", "theta1"];
@@ -798,16 +800,19 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
-/// In f64, an evaluation whose error estimate ([`runtime::f64_error_estimate`]) is above
+/// In f64, an evaluation whose error estimate ([`runtime::Structured::f64_error_estimate`]) is above
 /// [`runtime::DOUBLE_DOUBLE_ABOVE`] is repeated in double-double and rounded.
 pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {
     let mut out = [S::constant(0.0); LEN];
     ingredients(q, p, &mut out);
-    let mut r = runtime::structured::<S, ELL, MU, SIGMA>(&out, eta, paper)?;
+    let mut storage = Storage::<S>::new();
+    let mut s = storage.structured(DIMS)?;
+    s.evaluate(&out, eta, paper)?;
+    let mut r = Fixed::read(&s);
     if !S::CHECKED {
         return Ok(r);
     }
-    r.f64_error_estimate = runtime::f64_error_estimate::<S, ELL, MU, SIGMA>(&out, &r);
+    r.f64_error_estimate = s.f64_error_estimate(&out);
     if r.f64_error_estimate > runtime::DOUBLE_DOUBLE_ABOVE {
         let (q, eta) = (runtime::widen::<S, runtime::DD, ELL>(q), runtime::widen::<S, runtime::DD, SIGMA>(eta));
         let mut wide = rhs_fixed::<runtime::DD>(&q, &eta, p, paper)?.narrow::<S>();
@@ -823,7 +828,10 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
 pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<Fixed<S, ELL, SIGMA>, EvalError> {
     let mut out = [S::constant(0.0); LEN];
     ingredients(q, p, &mut out);
-    runtime::structured::<S, ELL, MU, SIGMA>(&out, eta, paper)
+    let mut storage = Storage::<S>::new();
+    let mut s = storage.structured(DIMS)?;
+    s.evaluate(&out, eta, paper)?;
+    Ok(Fixed::read(&s))
 }
 
 /// The full right-hand side at (q, η): η̇ (true and paper's), q̇ = Γη, A_Γ, F, energy.
@@ -1438,7 +1446,7 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
 pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
-    let xd: Vec<Dual<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| Dual::variable(v, i)).collect();
+    let xd: Vec<DualN<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| DualN::variable(v, i)).collect();
     let f = reduced_with(&xd, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;

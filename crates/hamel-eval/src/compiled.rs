@@ -1,0 +1,375 @@
+//! Structured evaluation of a derivation's ingredients ([`Compiled`]): the tape gives Z, α, A,
+//! U, ∇U and the exact derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k at q; the runtime's
+//! [`Structured`] assembles (6), (9), (11) from them, exactly as in generated code.
+
+use hamel_expr::Tape;
+use hamel_runtime::lu::Pivot;
+use hamel_runtime::{Buffers, DD, Dims, Failure, Layout, Scalar, Structured};
+use indexmap::IndexMap;
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// Why an evaluation failed (the caller adds which state it was).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NumericError(pub String);
+
+impl std::fmt::Display for NumericError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+impl std::error::Error for NumericError {}
+
+impl From<hamel_runtime::EvalError> for NumericError {
+    fn from(e: hamel_runtime::EvalError) -> Self {
+        NumericError(e.0)
+    }
+}
+
+/// The right-hand side at a state, checked (see [`Compiled::evaluate`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Evaluation {
+    /// η̇ from the true equations.
+    pub eta_dot: Vec<f64>,
+    /// q̇ = Γη.
+    pub q_dot: Vec<f64>,
+    /// E = ½ηᵀA_Γη − U.
+    pub energy: f64,
+    /// η̇ from the paper's equations (11)/(15).
+    pub eta_dot_paper: Vec<f64>,
+    /// Condition number of [Z; α] at q (distance to the singular set).
+    pub condition: f64,
+    /// δ = det[Z; α] at q (its sign changes where a path crosses the singular set).
+    pub delta: f64,
+    /// The arithmetic the values were computed in (see [`Compiled::evaluate`]).
+    pub precision: Precision,
+    /// An estimate of the relative error of η̇ in f64 here
+    /// ([`Structured::f64_error_estimate`]).
+    pub f64_error_estimate: f64,
+}
+
+impl Evaluation {
+    /// The values of `r` rounded to f64, with what the evaluation knew about the state:
+    /// (condition number of [Z; α], δ, the f64 error estimate).
+    fn of<S: Scalar>(
+        r: &Rhs<S>,
+        precision: Precision,
+        (condition, delta, bound): (f64, f64, f64),
+    ) -> Evaluation {
+        let values = |v: &[S]| v.iter().map(Scalar::value).collect::<Vec<_>>();
+        Evaluation {
+            eta_dot: values(&r.eta_dot),
+            q_dot: values(&r.q_dot),
+            energy: r.energy.value(),
+            eta_dot_paper: values(&r.eta_dot_paper),
+            condition,
+            delta,
+            precision,
+            f64_error_estimate: bound,
+        }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.eta_dot
+            .iter()
+            .chain(&self.eta_dot_paper)
+            .chain(&self.q_dot)
+            .chain([&self.energy])
+            .all(|x| x.is_finite())
+    }
+}
+
+/// The arithmetic of an [`Evaluation`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    /// IEEE double precision.
+    F64,
+    /// Double-double (about 32 digits), rounded to f64 at the end.
+    DoubleDouble,
+}
+
+/// The right-hand side in any scalar type, unchecked.
+#[derive(Clone, Debug)]
+pub struct Rhs<S> {
+    /// η̇ from the true equations.
+    pub eta_dot: Vec<S>,
+    /// η̇ from the paper's equations.
+    pub eta_dot_paper: Vec<S>,
+    /// q̇ = Γη.
+    pub q_dot: Vec<S>,
+    /// Energy.
+    pub energy: S,
+    /// A_Γ.
+    pub a_gamma: Vec<Vec<S>>,
+    /// Γ.
+    pub gamma: Vec<Vec<S>>,
+    /// The size of the terms the forcing is summed from ([`Structured::forcing_scale`]).
+    pub forcing_scale: Vec<f64>,
+}
+
+impl<S: Scalar> Rhs<S> {
+    fn read(r: &Structured<'_, S>) -> Rhs<S> {
+        let d = r.dims();
+        let rows = |v: &[S], cols: usize| v.chunks(cols).map(<[S]>::to_vec).collect();
+        Rhs {
+            eta_dot: r.eta_dot().to_vec(),
+            eta_dot_paper: r.eta_dot_paper().to_vec(),
+            q_dot: r.q_dot().to_vec(),
+            energy: r.energy(),
+            a_gamma: rows(r.a_gamma(), d.sigma.max(1)),
+            gamma: rows(r.gamma(), d.sigma.max(1)),
+            forcing_scale: r.forcing_scale().to_vec(),
+        }
+    }
+}
+
+/// A derivation's ingredients compiled for structured numeric evaluation.
+#[derive(Clone, Debug)]
+pub struct Compiled {
+    tape: Tape,
+    dims: Dims,
+    coordinates: Vec<String>,
+    parameters: IndexMap<String, f64>,
+    singular: String,
+}
+
+impl Compiled {
+    /// The ingredients on `tape` (outputs in the order of [`Layout`], inputs the coordinates
+    /// then the parameters), with the derivation's names and parameter defaults, and its
+    /// singular set as text (for messages). An error when the tape does not fit.
+    pub fn new(
+        tape: Tape,
+        dims: Dims,
+        coordinates: Vec<String>,
+        parameters: IndexMap<String, f64>,
+        singular: String,
+    ) -> Result<Compiled, NumericError> {
+        let fits = dims.ell == dims.mu + dims.sigma
+            && coordinates.len() == dims.ell
+            && tape.outputs().len() == Layout::new(dims).len
+            && tape.inputs().len() == dims.ell + parameters.len();
+        if !fits {
+            return Err(NumericError(
+                "the compiled ingredients do not fit the derivation's sizes".into(),
+            ));
+        }
+        Ok(Compiled {
+            tape,
+            dims,
+            coordinates,
+            parameters,
+            singular,
+        })
+    }
+
+    /// Number of arithmetic operations of the compiled ingredients.
+    pub fn operation_count(&self) -> usize {
+        self.tape.operation_count()
+    }
+
+    /// Coordinate names, in order.
+    pub fn coordinates(&self) -> &[String] {
+        &self.coordinates
+    }
+
+    /// ℓ, μ, σ.
+    pub fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    /// The ingredients at q (see [`Layout`]).
+    fn ingredients<S: Scalar>(
+        &self,
+        q: &[S],
+        params: &IndexMap<String, f64>,
+    ) -> Result<Vec<S>, NumericError> {
+        let mut inputs: Vec<S> = q.to_vec();
+        inputs.extend(
+            self.parameters
+                .iter()
+                .map(|(k, v)| S::constant(params.get(k).copied().unwrap_or(*v))),
+        );
+        self.tape
+            .eval(&inputs)
+            .map_err(|e| NumericError(e.to_string()))
+    }
+
+    /// [Z; α] at q, row-major, from the ingredients.
+    fn m_values<S: Scalar>(&self, out: &[S]) -> Vec<S> {
+        let (l, g) = (self.dims.ell, self.dims.sigma);
+        let lay = Layout::new(self.dims);
+        (0..l)
+            .flat_map(|i| {
+                let at = if i < g {
+                    lay.z + i * l
+                } else {
+                    lay.alpha + (i - g) * l
+                };
+                out[at..at + l].to_vec()
+            })
+            .collect()
+    }
+
+    /// Γ(q) (columns 0..σ of [Z; α]⁻¹) in any scalar type (dual numbers give Γ̇ along a
+    /// direction).
+    pub fn gamma<S: Scalar>(
+        &self,
+        q: &[S],
+        params: &IndexMap<String, f64>,
+    ) -> Result<Vec<Vec<S>>, NumericError> {
+        let (l, g) = (self.dims.ell, self.dims.sigma);
+        let m = self.m_values(&self.ingredients(q, params)?);
+        let factors = hamel_runtime::Lu::from_row_major(l, m, Pivot::Exact)
+            .ok_or_else(|| self.singular_error("det[Z; α] = 0"))?;
+        let columns: Vec<Vec<S>> = (0..g)
+            .map(|s| {
+                let e: Vec<S> = (0..l).map(|i| S::constant(f64::from(i == s))).collect();
+                factors.solve(&e)
+            })
+            .collect();
+        Ok((0..l)
+            .map(|i| columns.iter().map(|c| c[i]).collect())
+            .collect())
+    }
+
+    fn singular_error(&self, what: &str) -> NumericError {
+        NumericError(format!(
+            "the quasi-velocity map is singular at this configuration: {what}; singular where {}",
+            shorten(&self.singular)
+        ))
+    }
+
+    /// [Z; α] at q as a matrix.
+    fn m_matrix(
+        &self,
+        q: &[f64],
+        params: &IndexMap<String, f64>,
+    ) -> Result<DMatrix<f64>, NumericError> {
+        let l = self.dims.ell;
+        let m = self.m_values(&self.ingredients(q, params)?);
+        Ok(DMatrix::from_row_slice(l, l, &m))
+    }
+
+    /// Condition number of [Z; α] at q (∞ when singular).
+    pub fn condition(
+        &self,
+        q: &[f64],
+        params: &IndexMap<String, f64>,
+    ) -> Result<f64, NumericError> {
+        Ok(condition_number(&self.m_matrix(q, params)?))
+    }
+
+    /// The right-hand side at (q, η) in any scalar type, unchecked.
+    pub fn rhs<S: Scalar>(
+        &self,
+        q: &[S],
+        eta: &[S],
+        params: &IndexMap<String, f64>,
+    ) -> Result<Rhs<S>, NumericError> {
+        Ok(self.structured(q, eta, params)?.0)
+    }
+
+    /// [`Compiled::rhs`] with the f64 error estimate (for types other than f64, 0).
+    fn structured<S: Scalar>(
+        &self,
+        q: &[S],
+        eta: &[S],
+        params: &IndexMap<String, f64>,
+    ) -> Result<(Rhs<S>, f64), NumericError> {
+        let out = self.ingredients(q, params)?;
+        let mut buffers = Buffers::<S>::new(self.dims);
+        // Exact pivots: `evaluate` checks the conditioning and the definiteness itself, and the
+        // unchecked `rhs` serves studies that approach the singular set on purpose.
+        let mut r = buffers.structured().with_pivot(Pivot::Exact);
+        r.evaluate(&out, eta, true).map_err(|e| match e {
+            Failure::QuasiVelocityMap => self.singular_error("det[Z; α] = 0"),
+            Failure::AGamma => NumericError("A_Γ is singular at this configuration".into()),
+            Failure::Inputs => NumericError(e.to_string()),
+        })?;
+        let estimate = if S::CHECKED {
+            r.f64_error_estimate(&out)
+        } else {
+            0.0
+        };
+        Ok((Rhs::read(&r), estimate))
+    }
+
+    /// η̇, q̇, energy and the paper's η̇ at the state (q, η) for the given parameter values.
+    /// Singular configurations (det[Z; α] ≈ 0, A_Γ not positive definite) and non-finite values
+    /// are errors, never NaN. An f64 evaluation whose error estimate exceeds
+    /// [`hamel_runtime::DOUBLE_DOUBLE_ABOVE`] is repeated in double-double.
+    pub fn evaluate(
+        &self,
+        q: &[f64],
+        eta: &[f64],
+        params: &IndexMap<String, f64>,
+    ) -> Result<Evaluation, NumericError> {
+        self.check_state(q, eta)?;
+        let m = self.m_matrix(q, params)?;
+        let (condition, delta) = (condition_number(&m), m.determinant());
+        if condition > 1e12 {
+            return Err(
+                self.singular_error(&format!("det[Z; α] ≈ 0 (condition number {condition:.3e})"))
+            );
+        }
+        let (r, bound) = self.structured(q, eta, params)?;
+        let sigma = self.dims.sigma;
+        let ag = DMatrix::from_fn(sigma, sigma, |i, j| r.a_gamma[i][j]);
+        if ag.cholesky().is_none() {
+            return Err(NumericError(
+                "A_Γ is not positive definite at this configuration (the mass matrix A is degenerate here)".into(),
+            ));
+        }
+        let at = (condition, delta, bound);
+        let out = if bound > hamel_runtime::DOUBLE_DOUBLE_ABOVE {
+            let to_dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
+            let r = self.rhs::<DD>(&to_dd(q), &to_dd(eta), params)?;
+            Evaluation::of(&r, Precision::DoubleDouble, at)
+        } else {
+            Evaluation::of(&r, Precision::F64, at)
+        };
+        if !out.is_finite() {
+            return Err(NumericError(
+                "the equations give a non-finite value at this state".into(),
+            ));
+        }
+        Ok(out)
+    }
+
+    fn check_state(&self, q: &[f64], eta: &[f64]) -> Result<(), NumericError> {
+        if q.len() != self.dims.ell || eta.len() != self.dims.sigma {
+            return Err(NumericError(format!(
+                "a state needs {} coordinates and {} quasi-velocities, got {} and {}",
+                self.dims.ell,
+                self.dims.sigma,
+                q.len(),
+                eta.len()
+            )));
+        }
+        if q.iter().chain(eta).any(|x| !x.is_finite()) {
+            return Err(NumericError("the state has a non-finite value".into()));
+        }
+        Ok(())
+    }
+}
+
+/// σ_max/σ_min (∞ when singular).
+fn condition_number(m: &DMatrix<f64>) -> f64 {
+    let sv = m.singular_values();
+    let (max, min) = (sv.max(), sv.min());
+    if min == 0.0 { f64::INFINITY } else { max / min }
+}
+
+fn shorten(s: &str) -> String {
+    if s.chars().count() <= 200 {
+        s.to_string()
+    } else {
+        format!(
+            "{}… ({} characters)",
+            s.chars().take(200).collect::<String>(),
+            s.chars().count()
+        )
+    }
+}
