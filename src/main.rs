@@ -229,7 +229,7 @@ fn plan(scene: &Path, format: ReportFormat, out: Output, measure: bool) -> Resul
     let loaded = hamel_scene::load(scene)?;
     let core = loaded
         .core()
-        .map_err(|e| loaded.error("eta", e.to_string()))?
+        .map_err(|e| loaded.core_error(e, ""))?
         .summary();
     let measured = if measure {
         Some(hamel_scene::measure::measure_plan(&loaded)?)

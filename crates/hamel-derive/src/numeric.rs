@@ -46,10 +46,7 @@ impl Derivation {
     /// same offsets).
     pub fn ingredient_exprs(&self) -> Result<Vec<&hamel_expr::Expr>, NumericError> {
         let ing = &self.ingredients;
-        let u = ing
-            .potential
-            .as_ref()
-            .ok_or_else(|| NumericError("the derivation carries no ingredients".into()))?;
+        let u = ing.potential.as_ref().ok_or(NumericError::NoIngredients)?;
         let mut exprs = Vec::new();
         add_mat(&mut exprs, &self.z);
         add_mat(&mut exprs, &self.alpha);
@@ -68,10 +65,7 @@ impl Derivation {
         let exprs = self.ingredient_exprs()?;
         let free = free_inputs(&exprs);
         if !free.is_empty() {
-            return Err(NumericError(format!(
-                "the quasi-velocities use free functions ({}): give them definitions to evaluate numerically",
-                self.free_functions.join(", ")
-            )));
+            return Err(NumericError::FreeFunctions(self.free_functions.join(", ")));
         }
         let inputs: Vec<String> = self
             .coordinates
@@ -79,7 +73,7 @@ impl Derivation {
             .cloned()
             .chain(self.parameters.keys().cloned())
             .collect();
-        let tape = Tape::compile(&exprs, &inputs).map_err(|e| NumericError(e.to_string()))?;
+        let tape = Tape::compile(&exprs, &inputs)?;
         let dims = Dims {
             ell: self.ell,
             mu: self.mu,
@@ -118,7 +112,7 @@ impl Derivation {
             .chain((1..=self.sigma).map(|i| format!("eta{i}")))
             .chain(free.iter().cloned())
             .collect();
-        let tape = Tape::compile(&exprs, &inputs).map_err(|e| NumericError(e.to_string()))?;
+        let tape = Tape::compile(&exprs, &inputs)?;
         let layout = SymbolicLayout {
             sigma: self.sigma,
             a_gamma,
@@ -156,7 +150,7 @@ impl Derivation {
         for (k, v) in overrides {
             match p.get_mut(k) {
                 Some(slot) => *slot = *v,
-                None => return Err(NumericError(format!("unknown parameter `{k}`"))),
+                None => return Err(NumericError::UnknownParameter(k.clone())),
             }
         }
         Ok(p)

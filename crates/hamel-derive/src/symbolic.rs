@@ -508,7 +508,9 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
         paper_is_exact: q_correction.iter().all(OMatrix::is_zero),
         euler_lagrange: o.euler_lagrange(&f, &z, &q_true),
     };
-    let energy = ev.quad(&a_gamma).mul(&o.half).sub(&u_o);
+    let energy = quadratic_form(&ev.dens, &ev.eta, &a_gamma)
+        .mul(&o.half)
+        .sub(&u_o);
     Ok(Symbolic {
         field: f.clone(),
         dens: o.dens.clone(),
@@ -859,35 +861,35 @@ impl Parts {
         let unknown = |n: String| self.dens.over(&f.unknown(&n).expect("declared symbol"));
         let eta: Vec<Over> = eta_names(self.sigma).map(unknown).collect();
         let eta_dot: Vec<Over> = eta_dot_names(self.sigma).map(unknown).collect();
-        let mut ev = AlongEta {
-            dens: self.dens.clone(),
-            eta,
-            eta_dot,
-            gamma_eta: Vec::new(),
-            q_eta: Vec::new(),
-            q_eta_paper: Vec::new(),
-            gyro: self.dens.over(&f.zero()),
-        };
-        ev.q_eta = q_true.iter().map(|m| ev.quad(m)).collect();
-        ev.q_eta_paper = q_paper.iter().map(|m| ev.quad(m)).collect();
-        ev.gamma_eta = (0..self.ell)
+        let quad = |m: &OMatrix| quadratic_form(&self.dens, &eta, m);
+        let q_eta = q_true.iter().map(quad).collect();
+        let q_eta_paper = q_paper.iter().map(quad).collect();
+        let gamma_eta: Vec<Over> = (0..self.ell)
             .map(|k| {
                 self.sum(
                     (0..self.sigma)
-                        .map(|s| self.gamma[(k, s)].mul(&ev.eta[s]))
+                        .map(|s| self.gamma[(k, s)].mul(&eta[s]))
                         .collect(),
                 )
             })
             .collect();
         // dE/dt = −ηᵀQ(η) + ½ Σ_k (Γη)_k ηᵀ ∂A_Γ/∂q_k η along (11); the forcing terms cancel
         // exactly.
-        ev.gyro = self.sum(
+        let gyro = self.sum(
             (0..self.ell)
                 .filter(|&k| self.moves[k])
-                .map(|k| ev.gamma_eta[k].mul(&ev.quad(&d_agamma[k])).mul(&self.half))
+                .map(|k| gamma_eta[k].mul(&quad(&d_agamma[k])).mul(&self.half))
                 .collect(),
         );
-        ev
+        AlongEta {
+            dens: self.dens.clone(),
+            eta,
+            eta_dot,
+            gamma_eta,
+            q_eta,
+            q_eta_paper,
+            gyro,
+        }
     }
 }
 
@@ -903,19 +905,19 @@ struct AlongEta {
     gyro: Over,
 }
 
-impl AlongEta {
-    /// ηᵀ M η.
-    fn quad(&self, m: &OMatrix) -> Over {
-        sum_over(
-            &self.dens,
-            (0..m.rows())
-                .flat_map(|r| (0..m.cols()).map(move |s| (r, s)))
-                .filter(|&(r, s)| !m[(r, s)].is_zero())
-                .map(|(r, s)| m[(r, s)].mul(&self.eta[r]).mul(&self.eta[s]))
-                .collect::<Vec<_>>(),
-        )
-    }
+/// ηᵀ M η.
+fn quadratic_form(dens: &Denominators, eta: &[Over], m: &OMatrix) -> Over {
+    sum_over(
+        dens,
+        (0..m.rows())
+            .flat_map(|r| (0..m.cols()).map(move |s| (r, s)))
+            .filter(|&(r, s)| !m[(r, s)].is_zero())
+            .map(|(r, s)| m[(r, s)].mul(&eta[r]).mul(&eta[s]))
+            .collect::<Vec<_>>(),
+    )
+}
 
+impl AlongEta {
     /// dE/dt along (11) with the coefficients `q_eta` (ηᵀQ⁽ⁱ⁾η): zero iff energy is conserved.
     fn energy_rate(&self, q_eta: &[Over]) -> Over {
         let work = sum_over(

@@ -9,22 +9,73 @@ use indexmap::IndexMap;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-/// Why an evaluation failed (the caller adds which state it was).
-#[derive(Clone, Debug, PartialEq)]
-pub struct NumericError(pub String);
-
-impl std::fmt::Display for NumericError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}", self.0)
-    }
-}
-
-impl std::error::Error for NumericError {}
-
-impl From<hamel_runtime::EvalError> for NumericError {
-    fn from(e: hamel_runtime::EvalError) -> Self {
-        NumericError(e.0)
-    }
+/// Why compiling or evaluating failed (the caller adds which state it was).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NumericError {
+    /// [Z; α] is (numerically) singular at the configuration.
+    #[error(
+        "the quasi-velocity map is singular at this configuration: {what}; singular where {singular_set}"
+    )]
+    SingularMap {
+        /// How it shows (det[Z; α] = 0, or its condition number).
+        what: String,
+        /// The singular set, as text (shortened).
+        singular_set: String,
+    },
+    /// A path crossed the singular set between two evaluations (δ changed sign).
+    #[error(
+        "the path reaches the singular set of the quasi-velocities, det[Z; α] = 0 (δ = {delta:.3e} changed sign); choose other quasi-velocities there"
+    )]
+    CrossedSingularSet {
+        /// δ = det[Z; α] at the evaluation.
+        delta: f64,
+    },
+    /// A_Γ is exactly singular at the configuration.
+    #[error("A_Γ is singular at this configuration")]
+    SingularAGamma,
+    /// A_Γ is not positive definite at the configuration.
+    #[error(
+        "A_Γ is not positive definite at this configuration (the mass matrix A is degenerate here)"
+    )]
+    NotPositiveDefinite,
+    /// A result is not finite.
+    #[error("the equations give a non-finite value at this state")]
+    NonFinite,
+    /// The state has the wrong number of components.
+    #[error("a state needs {ell} coordinates and {sigma} quasi-velocities, got {q} and {eta}")]
+    StateSize {
+        /// ℓ
+        ell: usize,
+        /// σ
+        sigma: usize,
+        /// Coordinates given.
+        q: usize,
+        /// Quasi-velocities given.
+        eta: usize,
+    },
+    /// The state has a value that is not finite.
+    #[error("the state has a non-finite value")]
+    NonFiniteState,
+    /// An expression could not be evaluated (outside its domain).
+    #[error("{0}")]
+    Evaluation(#[from] hamel_expr::EvalError),
+    /// An expression could not be compiled onto a tape.
+    #[error("{0}")]
+    Compile(#[from] hamel_expr::TapeError),
+    /// A parameter override names no parameter.
+    #[error("unknown parameter `{0}`")]
+    UnknownParameter(String),
+    /// The quasi-velocities use free functions without definitions.
+    #[error(
+        "the quasi-velocities use free functions ({0}): give them definitions to evaluate numerically"
+    )]
+    FreeFunctions(String),
+    /// The derivation was made without the ingredients of the structured evaluation.
+    #[error("the derivation carries no ingredients")]
+    NoIngredients,
+    /// The compiled ingredients do not have the sizes the derivation says.
+    #[error("the compiled ingredients do not fit the derivation's sizes")]
+    Sizes,
 }
 
 /// The right-hand side at a state, checked (see [`Compiled::evaluate`]).
@@ -151,9 +202,7 @@ impl Compiled {
             && tape.outputs().len() == Layout::new(dims).len
             && tape.inputs().len() == dims.ell + parameters.len();
         if !fits {
-            return Err(NumericError(
-                "the compiled ingredients do not fit the derivation's sizes".into(),
-            ));
+            return Err(NumericError::Sizes);
         }
         Ok(Compiled {
             tape,
@@ -191,9 +240,7 @@ impl Compiled {
                 .iter()
                 .map(|(k, v)| S::constant(params.get(k).copied().unwrap_or(*v))),
         );
-        self.tape
-            .eval(&inputs)
-            .map_err(|e| NumericError(e.to_string()))
+        Ok(self.tape.eval(&inputs)?)
     }
 
     /// [Z; α] at q, row-major, from the ingredients.
@@ -235,10 +282,10 @@ impl Compiled {
     }
 
     fn singular_error(&self, what: &str) -> NumericError {
-        NumericError(format!(
-            "the quasi-velocity map is singular at this configuration: {what}; singular where {}",
-            shorten(&self.singular)
-        ))
+        NumericError::SingularMap {
+            what: what.into(),
+            singular_set: shorten(&self.singular),
+        }
     }
 
     /// [Z; α] at q as a matrix.
@@ -285,8 +332,8 @@ impl Compiled {
         let mut r = buffers.structured().with_pivot(Pivot::Exact);
         r.evaluate(&out, eta, true).map_err(|e| match e {
             Failure::QuasiVelocityMap => self.singular_error("det[Z; α] = 0"),
-            Failure::AGamma => NumericError("A_Γ is singular at this configuration".into()),
-            Failure::Inputs => NumericError(e.to_string()),
+            Failure::AGamma => NumericError::SingularAGamma,
+            Failure::Inputs => NumericError::Sizes,
         })?;
         let estimate = if S::CHECKED {
             r.f64_error_estimate(&out)
@@ -318,9 +365,7 @@ impl Compiled {
         let sigma = self.dims.sigma;
         let ag = DMatrix::from_fn(sigma, sigma, |i, j| r.a_gamma[i][j]);
         if ag.cholesky().is_none() {
-            return Err(NumericError(
-                "A_Γ is not positive definite at this configuration (the mass matrix A is degenerate here)".into(),
-            ));
+            return Err(NumericError::NotPositiveDefinite);
         }
         let at = (condition, delta, bound);
         let out = if bound > hamel_runtime::DOUBLE_DOUBLE_ABOVE {
@@ -331,25 +376,22 @@ impl Compiled {
             Evaluation::of(&r, Precision::F64, at)
         };
         if !out.is_finite() {
-            return Err(NumericError(
-                "the equations give a non-finite value at this state".into(),
-            ));
+            return Err(NumericError::NonFinite);
         }
         Ok(out)
     }
 
     fn check_state(&self, q: &[f64], eta: &[f64]) -> Result<(), NumericError> {
         if q.len() != self.dims.ell || eta.len() != self.dims.sigma {
-            return Err(NumericError(format!(
-                "a state needs {} coordinates and {} quasi-velocities, got {} and {}",
-                self.dims.ell,
-                self.dims.sigma,
-                q.len(),
-                eta.len()
-            )));
+            return Err(NumericError::StateSize {
+                ell: self.dims.ell,
+                sigma: self.dims.sigma,
+                q: q.len(),
+                eta: eta.len(),
+            });
         }
         if q.iter().chain(eta).any(|x| !x.is_finite()) {
-            return Err(NumericError("the state has a non-finite value".into()));
+            return Err(NumericError::NonFiniteState);
         }
         Ok(())
     }

@@ -74,16 +74,12 @@ impl SymbolicCompiled {
         );
         inputs.extend(eta.iter().copied());
         inputs.extend(free.iter().copied());
-        let out = self
-            .tape
-            .eval(&inputs)
-            .map_err(|e| NumericError(e.to_string()))?;
+        let out = self.tape.eval(&inputs)?;
         let a_gamma = out[l.a_gamma..l.a_gamma + sigma * sigma]
             .chunks(sigma.max(1))
             .map(<[S]>::to_vec)
             .collect();
-        let lu = Lu::new(a_gamma)
-            .ok_or_else(|| NumericError("A_Γ is singular at this configuration".into()))?;
+        let lu = Lu::new(a_gamma).ok_or(NumericError::SingularAGamma)?;
         let solve = |at: usize| -> Vec<S> {
             let rhs: Vec<S> = (0..sigma)
                 .map(|i| {

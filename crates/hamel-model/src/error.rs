@@ -26,6 +26,9 @@ pub enum ErrorKind {
     /// The computer-algebra engine failed (its worker thread, or a construct it does not
     /// handle): a bug to report, whatever the input.
     Engine,
+    /// The machine, not the input: a directory, a tool or the file system (the code cache,
+    /// cargo).
+    Environment,
 }
 
 #[derive(Clone, Debug)]
@@ -72,6 +75,19 @@ impl ModelError {
         }))
     }
 
+    /// A failure of the machine hamel runs on (no file, no place: it is not the input's).
+    pub fn environment(failure: impl fmt::Display) -> ModelError {
+        ModelError(Box::new(Located {
+            kind: ErrorKind::Environment,
+            file: String::new(),
+            source: Arc::new(String::new()),
+            span: None,
+            key: None,
+            message: failure.to_string(),
+            help: None,
+        }))
+    }
+
     /// Add a hint on how to fix it.
     pub fn with_help(mut self, help: impl Into<String>) -> ModelError {
         self.0.help = Some(help.into());
@@ -113,6 +129,7 @@ impl fmt::Display for ModelError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.0.kind {
             ErrorKind::Engine => write!(f, "the computer-algebra engine failed: ")?,
+            ErrorKind::Environment => {}
             ErrorKind::Input => {
                 write!(f, "{}", self.0.file)?;
                 if let Some((l, c)) = self.line_col() {
@@ -176,5 +193,8 @@ mod tests {
         assert_eq!(i.kind(), ErrorKind::Input);
         assert_eq!(i.file(), Some("m.toml"));
         assert_eq!(i.to_string(), "m.toml:2:5: b: not a number");
+        let m = ModelError::environment("cannot run cargo");
+        assert_eq!((m.kind(), m.file()), (ErrorKind::Environment, None));
+        assert_eq!(m.to_string(), "cannot run cargo");
     }
 }

@@ -26,7 +26,7 @@ use std::process::{Command, Stdio};
 use hamel_codegen::Generated;
 use hamel_derive::Derivation;
 use hamel_expr::{Expr, Tape};
-use hamel_model::Model;
+use hamel_model::{Model, ModelError};
 use hamel_sim::Solution;
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
@@ -92,9 +92,31 @@ pub enum CacheError {
 }
 
 impl CacheError {
-    fn io(what: String) -> impl FnOnce(std::io::Error) -> CacheError {
-        move |e| CacheError::Io {
-            what,
+    /// As a [`ModelError`], after `context` (such as "the check run failed"; may be empty):
+    /// never located in the scene file, since it is not the input's. The machine's
+    /// ([`hamel_model::ErrorKind::Environment`]: the cache directory, the file system, cargo)
+    /// or hamel's own ([`hamel_model::ErrorKind::Engine`]: code generation, the built core).
+    pub fn into_model_error(self, context: &str) -> ModelError {
+        let message = if context.is_empty() {
+            self.to_string()
+        } else {
+            format!("{context}: {self}")
+        };
+        match self {
+            CacheError::Refused { .. }
+            | CacheError::Io { .. }
+            | CacheError::NoCargo { .. }
+            | CacheError::Cargo { .. } => ModelError::environment(message),
+            CacheError::Codegen(_) | CacheError::Specialise(_) | CacheError::Core { .. } => {
+                ModelError::engine(message)
+            }
+        }
+    }
+
+    /// An I/O failure on `what`.
+    fn io(what: impl Into<String>, e: std::io::Error) -> CacheError {
+        CacheError::Io {
+            what: what.into(),
             source: std::sync::Arc::new(e),
         }
     }
@@ -121,10 +143,13 @@ pub fn location() -> PathBuf {
 pub fn root() -> Result<PathBuf, CacheError> {
     let dir = location();
     if !dir.exists() {
-        create_private(&dir).map_err(CacheError::io(format!(
-            "cannot create the code cache {} (set HAMEL_CACHE to a directory of your own)",
-            dir.display()
-        )))?;
+        create_private(&dir).map_err(|e| {
+            let what = format!(
+                "cannot create the code cache {} (set HAMEL_CACHE to a directory of your own)",
+                dir.display()
+            );
+            CacheError::io(what, e)
+        })?;
     }
     check_private(&dir)?;
     Ok(dir)
@@ -156,8 +181,8 @@ fn check_private(dir: &Path) -> Result<(), CacheError> {
             why,
         })
     };
-    let m =
-        std::fs::metadata(dir).map_err(CacheError::io(format!("code cache {}", dir.display())))?;
+    let m = std::fs::metadata(dir)
+        .map_err(|e| CacheError::io(format!("code cache {}", dir.display()), e))?;
     // SAFETY: geteuid has no preconditions and cannot fail.
     let me = unsafe { libc::geteuid() };
     if !m.is_dir() {
@@ -328,7 +353,12 @@ pub fn store(
         binary_sha256: None,
     };
     let tmp = root.join(format!("{}.tmp{}", key.hash(), std::process::id()));
-    let io = |e| CacheError::io(format!("cannot write the code cache in {}", root.display()))(e);
+    let io = |e| {
+        CacheError::io(
+            format!("cannot write the code cache in {}", root.display()),
+            e,
+        )
+    };
     let _ = std::fs::remove_dir_all(&tmp);
     for (path, text) in &generated.files {
         let path = match path.as_str() {
@@ -364,24 +394,34 @@ pub fn prepare(
     fixed: &IndexMap<String, f64>,
 ) -> Result<Entry, CacheError> {
     let key = Key::new(&model.source, &d.eta_name, &plan.dropped, fixed);
-    if let Some(entry) = lookup(&key)? {
-        return Ok(entry);
+    cached(&key, || {
+        let full = hamel_codegen::generate(d, &[], "plan")?;
+        let ops_full = ops_of(&full.solved, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
+        // The specialised crate's solved form has every coordinate's rate; the planned
+        // state's are counted.
+        let state = plan.state();
+        let ops = |g: &Generated| ops_of(&g.solved, d.sigma, &state);
+        store(
+            &key,
+            d,
+            fixed,
+            &plan.dropped_ix,
+            ops,
+            ops_full,
+            &format!("hamel simulate (scene of {}, {})", model.file, d.eta_name),
+        )
+    })
+}
+
+/// The entry for `key`: the stored one, else what `make` stores.
+pub fn cached(
+    key: &Key,
+    make: impl FnOnce() -> Result<Entry, CacheError>,
+) -> Result<Entry, CacheError> {
+    match lookup(key)? {
+        Some(entry) => Ok(entry),
+        None => make(),
     }
-    let full = hamel_codegen::generate(d, &[], "plan")?;
-    let ops_full = ops_of(&full.solved, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
-    // The specialised crate's solved form has every coordinate's rate; the planned state's are
-    // counted.
-    let state = plan.state();
-    let ops = |g: &Generated| ops_of(&g.solved, d.sigma, &state);
-    store(
-        &key,
-        d,
-        fixed,
-        &plan.dropped_ix,
-        ops,
-        ops_full,
-        &format!("hamel simulate (scene of {}, {})", model.file, d.eta_name),
-    )
 }
 
 /// Operations of η̇ and the rates of `coords` in a solved form, common subexpressions shared.
@@ -455,7 +495,7 @@ pub fn binary(entry: &Entry) -> Result<(PathBuf, bool), CacheError> {
     if verify(&entry.dir, &exe)? == Check::Good {
         return Ok((exe, false));
     }
-    let io = |e| CacheError::io(format!("code cache {}", root.display()))(e);
+    let io = |e| CacheError::io(format!("code cache {}", root.display()), e);
     // One build at a time: the shared target directory has one `release/scene`.
     let lock = std::fs::File::create(root.join("build.lock")).map_err(io)?;
     lock.lock().map_err(io)?;
@@ -505,7 +545,8 @@ fn verify(dir: &Path, exe: &Path) -> Result<Check, CacheError> {
     if !exe.exists() {
         return Ok(Check::Missing);
     }
-    let found = sha256(exe).map_err(CacheError::io(format!("cannot read {}", exe.display())))?;
+    let found =
+        sha256(exe).map_err(|e| CacheError::io(format!("cannot read {}", exe.display()), e))?;
     let recorded = std::fs::read_to_string(dir.join("meta.json"))
         .ok()
         .and_then(|text| serde_json::from_str::<Meta>(&text).ok())

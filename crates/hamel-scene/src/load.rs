@@ -373,6 +373,19 @@ impl Loaded {
         self.file.error(Some(key), message)
     }
 
+    /// A failure of the scene's compiled core (the cache, cargo, the core itself) as a
+    /// [`ModelError`] ([`cache::CacheError::into_model_error`]): naming the scene, but not
+    /// located at a key of it, since it is not the input's. `context` says what was being done
+    /// (empty: preparing the core).
+    pub fn core_error(&self, e: cache::CacheError, context: &str) -> ModelError {
+        let doing = if context.is_empty() {
+            "the compiled core"
+        } else {
+            context
+        };
+        e.into_model_error(&format!("{}: {doing}", self.file.name))
+    }
+
     /// The requested `[expressions]` at the output states of `solution`, by name; a value
     /// that cannot be computed (outside the expression's domain, not finite) is None, and a
     /// warning on stderr names the expression and the first such time.

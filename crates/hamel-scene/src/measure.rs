@@ -55,7 +55,7 @@ impl Measured {
 /// each repeated until it has run about 0.3 s; the median times and the outputs' agreement.
 pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let (method, options) = loaded.integrator;
-    let fail = |e: cache::CacheError| loaded.error("integrator", e.to_string());
+    let fail = |e: cache::CacheError| loaded.core_error(e, "");
     let repeats = |seconds: f64| ((0.3 / seconds.max(1e-9)) as usize).clamp(3, 10_000);
     let (probe, first, _) = loaded
         .integrate_compiled(method, &options, 1)
@@ -73,22 +73,14 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let d = &loaded.d;
     let none = IndexMap::new();
     let key = cache::Key::new(&model.source, &d.eta_name, &[], &none);
-    let entry = match cache::lookup(&key).map_err(fail)? {
-        Some(e) => e,
-        None => cache::store(
-            &key,
-            d,
-            &none,
-            &[],
-            |_| Ok(ops.1),
-            ops.1,
-            &format!(
-                "hamel plan --measure (full system of {}, {})",
-                model.file, d.eta_name
-            ),
-        )
-        .map_err(fail)?,
-    };
+    let command = format!(
+        "hamel plan --measure (full system of {}, {})",
+        model.file, d.eta_name
+    );
+    let entry = cache::cached(&key, || {
+        cache::store(&key, d, &none, &[], |_| Ok(ops.1), ops.1, &command)
+    })
+    .map_err(fail)?;
     let (exe, _) = cache::binary(&entry).map_err(fail)?;
     let full_job = |repeat: usize| cache::Job {
         t0: loaded.scene.t0,

@@ -185,7 +185,7 @@ impl Loaded {
             Engine::Compiled => self
                 .integrate_compiled(check, &tight, 1)
                 .map(|r| r.0)
-                .map_err(|e| self.error("integrator", format!("the check run failed: {e}")))?,
+                .map_err(|e| self.core_error(e, "the check run failed"))?,
             Engine::Interpreted => self.integrate(check, &tight)?,
         };
         if let Some(e) = run.failure {

@@ -40,19 +40,13 @@ impl System<'_> {
     pub(crate) fn at(&self, y: &[f64]) -> Result<hamel_derive::Evaluation, SystemError> {
         let (qs, eta) = y.split_at(self.state.len());
         let q = self.full_q(qs, self.reference);
-        let result = self
-            .compiled
-            .evaluate(&q, eta, &self.params)
-            .and_then(|e| {
-                if e.delta.signum() == self.delta0.signum() {
-                    Ok(e)
-                } else {
-                    Err(hamel_derive::NumericError(format!(
-                        "the path reaches the singular set of the quasi-velocities, det[Z; α] = 0 (δ = {:.3e} changed sign); choose other quasi-velocities there",
-                        e.delta
-                    )))
-                }
-            });
+        let result = self.compiled.evaluate(&q, eta, &self.params).and_then(|e| {
+            if e.delta.signum() == self.delta0.signum() {
+                Ok(e)
+            } else {
+                Err(hamel_derive::NumericError::CrossedSingularSet { delta: e.delta })
+            }
+        });
         result.map_err(|e| {
             let at: Vec<String> = self
                 .state

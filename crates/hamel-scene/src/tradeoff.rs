@@ -92,9 +92,7 @@ fn timed(
     options: &Options,
 ) -> Result<(Solution, bool, Duration), ModelError> {
     if engine == Engine::Compiled {
-        let fail = |e: crate::cache::CacheError| {
-            loaded.error("integrator", format!("the compiled core failed: {e}"))
-        };
+        let fail = |e: crate::cache::CacheError| loaded.core_error(e, "the compiled core failed");
         let (run, first, _) = loaded
             .integrate_compiled(method, options, 1)
             .map_err(fail)?;
