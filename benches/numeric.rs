@@ -234,7 +234,7 @@ impl OdeSystem for Full {
         self.0.dims.ell + self.0.dims.sigma
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        (self.0.full_into)(y, dy).map_err(|e| SystemError::new(e.0))
+        (self.0.full_into)(y, dy).map_err(|e| SystemError::new(e.to_string()))
     }
 }
 
@@ -243,7 +243,7 @@ impl OdeSystem for Reduced {
         self.0.kept.len() + self.0.dims.sigma
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        (self.0.reduced_into)(y, dy).map_err(|e| SystemError::new(e.0))
+        (self.0.reduced_into)(y, dy).map_err(|e| SystemError::new(e.to_string()))
     }
 }
 

@@ -178,7 +178,7 @@ impl hamel_sim::OdeSystem for Disk {
         self.0.dims.ell + self.0.dims.sigma
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), hamel_sim::SystemError> {
-        (self.0.full_into)(y, dy).map_err(|e| hamel_sim::SystemError::new(e.0))
+        (self.0.full_into)(y, dy).map_err(|e| hamel_sim::SystemError::new(e.to_string()))
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
         let ell = self.0.dims.ell;

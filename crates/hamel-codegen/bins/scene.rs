@@ -66,7 +66,7 @@ impl OdeSystem for Reduced {
         REDUCED_DIM
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        reduced_into_with(y, dy, &self.prep).map_err(|e| SystemError::new(e.0))
+        reduced_into_with(y, dy, &self.prep).map_err(|e| SystemError::new(e.to_string()))
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
         if !self.energy {
@@ -93,7 +93,7 @@ impl OdeSystem for Reduced {
                         jac[i * REDUCED_DIM..(i + 1) * REDUCED_DIM].copy_from_slice(row);
                     }
                 })
-                .map_err(|e| SystemError::new(e.0)),
+                .map_err(|e| SystemError::new(e.to_string())),
         )
     }
 }
@@ -114,10 +114,10 @@ fn run() -> Result<String, String> {
     }
     let mut p = Parameters::default();
     for (k, &v) in &job.params {
-        p.set(k, v).map_err(|e| format!("bad job: {}", e.0))?;
+        p.set(k, v).map_err(|e| format!("bad job: {e}"))?;
     }
     let system = Reduced {
-        prep: Prepared::new(&p).map_err(|e| e.0)?,
+        prep: Prepared::new(&p).map_err(|e| e.to_string())?,
         reference: job.reference,
         energy: job.energy,
         residual: job.residual,

@@ -34,7 +34,7 @@ impl OdeSystem for Full {
         DIMS.ell + DIMS.sigma
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        full_into_with(y, dy, &self.0).map_err(|e| SystemError::new(e.0))
+        full_into_with(y, dy, &self.0).map_err(|e| SystemError::new(e.to_string()))
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
         energy(&y[..DIMS.ell], &y[DIMS.ell..], &self.0.p).ok()
@@ -46,7 +46,7 @@ impl OdeSystem for Reduced {
         REDUCED_DIM
     }
     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        reduced_into_with(y, dy, &self.0).map_err(|e| SystemError::new(e.0))
+        reduced_into_with(y, dy, &self.0).map_err(|e| SystemError::new(e.to_string()))
     }
     /// The generated Jacobian (dual numbers), for the implicit Gauss–Legendre method.
     fn jacobian(&self, _t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
@@ -57,7 +57,7 @@ impl OdeSystem for Reduced {
                         jac[i * REDUCED_DIM..(i + 1) * REDUCED_DIM].copy_from_slice(row);
                     }
                 })
-                .map_err(|e| SystemError::new(e.0)),
+                .map_err(|e| SystemError::new(e.to_string())),
         )
     }
 }
@@ -96,7 +96,7 @@ fn run() -> Result<(String, Option<String>), String> {
     let mut p = Parameters::default();
     for (k, v) in &s.params {
         let v = v.as_f64().ok_or_else(|| format!("{path}: params.{k} must be a number"))?;
-        p.set(k, v).map_err(|e| format!("{path}: {}", e.0))?;
+        p.set(k, v).map_err(|e| format!("{path}: {e}"))?;
     }
     let mut q = Vec::new();
     for c in COORDINATES {
@@ -145,7 +145,7 @@ fn run() -> Result<(String, Option<String>), String> {
             q.iter().chain(&s.eta).copied().collect(),
         )
     };
-    let p = Prepared::new(&p).map_err(|e| format!("{path}: {}", e.0))?;
+    let p = Prepared::new(&p).map_err(|e| format!("{path}: {e}"))?;
     let result = if reduced {
         hamel_sim::integrate(&Reduced(p), method, 0.0, &y0, &times, &options)
     } else {

@@ -33,6 +33,7 @@ struct Out {
     energy: f64,
     eta_dot_paper: Vec<f64>,
     /// `f64`, or `double_double` where f64 would have lost digits (docs/stability.md).
+    #[serde(serialize_with = "hamel_eval::serialize_precision")]
     precision: crate::Precision,
     /// The estimate that decided it: the relative error an f64 evaluation may have here.
     f64_error_estimate: f64,

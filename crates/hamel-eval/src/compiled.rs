@@ -1,10 +1,10 @@
 //! Structured evaluation of a derivation's ingredients ([`Compiled`]): the tape gives Z, α, A,
 //! U, ∇U and the exact derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k at q; the runtime's
-//! [`Structured`] assembles (6), (9), (11) from them, exactly as in generated code.
+//! [`hamel_runtime::Structured`] assembles (6), (9), (11) from them, exactly as in generated code.
 
 use hamel_expr::Tape;
 use hamel_runtime::lu::Pivot;
-use hamel_runtime::{Buffers, DD, Dims, Failure, Layout, Scalar, Structured};
+use hamel_runtime::{Buffers, DD, Dims, Failure, Layout, Precision, Rhs, Scalar};
 use indexmap::IndexMap;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -94,9 +94,10 @@ pub struct Evaluation {
     /// δ = det[Z; α] at q (its sign changes where a path crosses the singular set).
     pub delta: f64,
     /// The arithmetic the values were computed in (see [`Compiled::evaluate`]).
+    #[serde(serialize_with = "serialize_precision")]
     pub precision: Precision,
     /// An estimate of the relative error of η̇ in f64 here
-    /// ([`Structured::f64_error_estimate`]).
+    /// ([`hamel_runtime::Structured::f64_error_estimate`]).
     pub f64_error_estimate: f64,
 }
 
@@ -131,49 +132,12 @@ impl Evaluation {
     }
 }
 
-/// The arithmetic of an [`Evaluation`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Precision {
-    /// IEEE double precision.
-    F64,
-    /// Double-double (about 32 digits), rounded to f64 at the end.
-    DoubleDouble,
-}
-
-/// The right-hand side in any scalar type, unchecked.
-#[derive(Clone, Debug)]
-pub struct Rhs<S> {
-    /// η̇ from the true equations.
-    pub eta_dot: Vec<S>,
-    /// η̇ from the paper's equations.
-    pub eta_dot_paper: Vec<S>,
-    /// q̇ = Γη.
-    pub q_dot: Vec<S>,
-    /// Energy.
-    pub energy: S,
-    /// A_Γ.
-    pub a_gamma: Vec<Vec<S>>,
-    /// Γ.
-    pub gamma: Vec<Vec<S>>,
-    /// The size of the terms the forcing is summed from ([`Structured::forcing_scale`]).
-    pub forcing_scale: Vec<f64>,
-}
-
-impl<S: Scalar> Rhs<S> {
-    fn read(r: &Structured<'_, S>) -> Rhs<S> {
-        let d = r.dims();
-        let rows = |v: &[S], cols: usize| v.chunks(cols).map(<[S]>::to_vec).collect();
-        Rhs {
-            eta_dot: r.eta_dot().to_vec(),
-            eta_dot_paper: r.eta_dot_paper().to_vec(),
-            q_dot: r.q_dot().to_vec(),
-            energy: r.energy(),
-            a_gamma: rows(r.a_gamma(), d.sigma.max(1)),
-            gamma: rows(r.gamma(), d.sigma.max(1)),
-            forcing_scale: r.forcing_scale().to_vec(),
-        }
-    }
+/// Serialises a [`Precision`] as `hamel eval` prints it: `f64` or `double_double`.
+pub fn serialize_precision<Ser: serde::Serializer>(
+    p: &Precision,
+    s: Ser,
+) -> Result<Ser::Ok, Ser::Error> {
+    s.serialize_str(p.name())
 }
 
 /// A derivation's ingredients compiled for structured numeric evaluation.
@@ -245,18 +209,7 @@ impl Compiled {
 
     /// [Z; α] at q, row-major, from the ingredients.
     fn m_values<S: Scalar>(&self, out: &[S]) -> Vec<S> {
-        let (l, g) = (self.dims.ell, self.dims.sigma);
-        let lay = Layout::new(self.dims);
-        (0..l)
-            .flat_map(|i| {
-                let at = if i < g {
-                    lay.z + i * l
-                } else {
-                    lay.alpha + (i - g) * l
-                };
-                out[at..at + l].to_vec()
-            })
-            .collect()
+        out[Layout::new(self.dims).m(self.dims)].to_vec()
     }
 
     /// Γ(q) (columns 0..σ of [Z; α]⁻¹) in any scalar type (dual numbers give Γ̇ along a
@@ -333,7 +286,7 @@ impl Compiled {
         r.evaluate(&out, eta, true).map_err(|e| match e {
             Failure::QuasiVelocityMap => self.singular_error("det[Z; α] = 0"),
             Failure::AGamma => NumericError::SingularAGamma,
-            Failure::Inputs => NumericError::Sizes,
+            Failure::Inputs | Failure::Storage => NumericError::Sizes,
         })?;
         let estimate = if S::CHECKED {
             r.f64_error_estimate(&out)

@@ -21,6 +21,7 @@
 mod compiled;
 mod symbolic;
 
-pub use compiled::{Compiled, Evaluation, NumericError, Precision, Rhs};
+pub use compiled::{Compiled, Evaluation, NumericError, serialize_precision};
 pub use hamel_runtime::DOUBLE_DOUBLE_ABOVE;
+pub use hamel_runtime::{Precision, Rhs};
 pub use symbolic::{SymbolicCompiled, SymbolicLayout};

@@ -113,7 +113,7 @@ impl Parameters {
                 *slot = value;
                 Ok(())
             }
-            None => Err(EvalError(format!("unknown parameter `{name}`"))),
+            None => Err(EvalError::UnknownParameter(name.into())),
         }
     }
 }

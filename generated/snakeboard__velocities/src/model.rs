@@ -110,7 +110,7 @@ impl Parameters {
                 *slot = value;
                 Ok(())
             }
-            None => Err(EvalError(format!("unknown parameter `{name}`"))),
+            None => Err(EvalError::UnknownParameter(name.into())),
         }
     }
 }

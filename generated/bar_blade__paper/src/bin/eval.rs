@@ -73,7 +73,7 @@ fn one(i: usize, v: Value) -> Result<Out, String> {
     let mut p = Parameters::default();
     for (k, v) in &s.params {
         p.set(k, number(v, &format!("params.{k}")).map_err(tag)?)
-            .map_err(|e| tag(e.0))?;
+            .map_err(|e| tag(e.to_string()))?;
     }
     let r = full_rhs(&q, &s.eta, &p).map_err(|e| {
         let at: Vec<String> = COORDINATES

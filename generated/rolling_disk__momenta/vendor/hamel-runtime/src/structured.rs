@@ -12,7 +12,6 @@
 //! does not. [`Structured::f64_error_estimate`] says when an f64 evaluation should be repeated
 //! in double-double ([`DOUBLE_DOUBLE_ABOVE`]).
 
-use crate::error::EvalError;
 use crate::lu::{self, EVALUATOR_PIVOT, Pivot};
 use crate::scalar::Scalar;
 
@@ -77,14 +76,29 @@ impl Layout {
             len,
         }
     }
+
+    /// Where M = [Z; α] lies in the ingredients, row-major: α's rows follow Z's, so M is
+    /// one contiguous ℓ×ℓ block.
+    pub const fn m(&self, d: Dims) -> std::ops::Range<usize> {
+        self.z..self.z + d.ell * d.ell
+    }
+
+    /// Where row `i` of ∂M/∂q_k = [∂Z/∂q_k; ∂α/∂q_k] starts in the ingredients.
+    pub const fn dm_row(&self, d: Dims, k: usize, i: usize) -> usize {
+        let (l, m, g) = (d.ell, d.mu, d.sigma);
+        if i < g {
+            self.dz + k * g * l + i * l
+        } else {
+            self.dalpha + k * m * l + (i - g) * l
+        }
+    }
 }
 
 impl Dims {
     /// Scalars of storage a [`Structured`] needs: the results (η̇, the paper's η̇, q̇, A_Γ, F,
     /// the energy, Γ) and the scratch of the evaluation.
     pub const fn scalars(self) -> usize {
-        let (l, g) = (self.ell, self.sigma);
-        RESULTS_BEFORE_GAMMA * g + l + 2 * g * g + 1 + l * g + l * l + SCRATCH_VECTORS * l
+        part(self, PARTS - 1).end
     }
 
     /// Indices of storage a [`Structured`] needs (the pivots of [Z; α] and of A_Γ).
@@ -100,10 +114,54 @@ impl Dims {
     }
 }
 
-/// η̇, the paper's η̇ and F: the σ-vectors among the results.
-const RESULTS_BEFORE_GAMMA: usize = 3;
-/// Ṁq̇, Ȧq̇, ∇_qT, Γ̇η, Aq̇, the ℓ-terms of F, AΓ̇η, a column, a solve's temporary.
-const SCRATCH_VECTORS: usize = 9;
+/// The parts of the scalar storage, by index, in the order [`Parts::carve`] lays them out:
+/// the results (read by the accessors of [`Structured`]), then the scratch of an evaluation.
+const ETA_DOT: usize = 0;
+const ETA_DOT_PAPER: usize = 1;
+const Q_DOT: usize = 2;
+const A_GAMMA: usize = 3;
+const FORCING: usize = 4;
+const ENERGY: usize = 5;
+const GAMMA: usize = 6;
+const PARTS: usize = 18;
+
+/// The lengths of the parts: η̇, the paper's η̇, q̇, A_Γ, F, E, Γ; then the scratch M's factors,
+/// A_Γ's factors, Ṁq̇, Ȧq̇, ∇_qT, Γ̇η, Aq̇, the ℓ-terms of F, AΓ̇η, a column, a solve's
+/// temporary.
+const fn part_lengths(d: Dims) -> [usize; PARTS] {
+    let (l, g) = (d.ell, d.sigma);
+    [
+        g,
+        g,
+        l,
+        g * g,
+        g,
+        1,
+        l * g,
+        l * l,
+        g * g,
+        l,
+        l,
+        l,
+        l,
+        l,
+        l,
+        l,
+        l,
+        l,
+    ]
+}
+
+/// Where part `k` lies in the scalar storage.
+const fn part(d: Dims, k: usize) -> std::ops::Range<usize> {
+    let len = part_lengths(d);
+    let (mut start, mut i) = (0, 0);
+    while i < k {
+        start += len[i];
+        i += 1;
+    }
+    start..start + len[k]
+}
 
 /// An f64 evaluation is repeated in double-double when [`Structured::f64_error_estimate`]
 /// exceeds this: 16 units of rounding. Solving with [Z; α] or with the Gram matrix
@@ -121,6 +179,8 @@ pub enum Failure {
     AGamma,
     /// Fewer ingredients or quasi-velocities than the sizes say.
     Inputs,
+    /// Storage smaller than the sizes need, or sizes with ℓ ≠ μ + σ.
+    Storage,
 }
 
 impl std::fmt::Display for Failure {
@@ -129,13 +189,8 @@ impl std::fmt::Display for Failure {
             Failure::QuasiVelocityMap => "the quasi-velocity map is singular here: det[Z; α] ≈ 0",
             Failure::AGamma => "A_Γ is singular here",
             Failure::Inputs => "structured evaluation: too few inputs",
+            Failure::Storage => "structured evaluation: storage too small for the sizes",
         })
-    }
-}
-
-impl From<Failure> for EvalError {
-    fn from(f: Failure) -> Self {
-        EvalError(f.to_string())
     }
 }
 
@@ -184,50 +239,52 @@ fn take<'b, T>(buf: &mut &'b mut [T], n: usize) -> &'b mut [T] {
 impl<'b, S> Parts<'b, S> {
     #[inline(always)]
     fn carve(d: Dims, mut s: &'b mut [S]) -> Parts<'b, S> {
-        let (l, g) = (d.ell, d.sigma);
-        let s = &mut s;
+        let len = part_lengths(d);
+        let mut k = 0;
+        let mut next = || {
+            k += 1;
+            take(&mut s, len[k - 1])
+        };
+        // fields are initialised in the order written: the order of `part_lengths`
         Parts {
-            eta_dot: take(s, g),
-            eta_dot_paper: take(s, g),
-            q_dot: take(s, l),
-            a_gamma: take(s, g * g),
-            forcing: take(s, g),
-            energy: take(s, 1),
-            gamma: take(s, l * g),
-            m: take(s, l * l),
-            ag_lu: take(s, g * g),
-            mdot_qd: take(s, l),
-            adot_qd: take(s, l),
-            grad_t: take(s, l),
-            gdot: take(s, l),
-            aq: take(s, l),
-            force: take(s, l),
-            a_gdot: take(s, l),
-            col: take(s, l),
-            tmp: take(s, l),
+            eta_dot: next(),
+            eta_dot_paper: next(),
+            q_dot: next(),
+            a_gamma: next(),
+            forcing: next(),
+            energy: next(),
+            gamma: next(),
+            m: next(),
+            ag_lu: next(),
+            mdot_qd: next(),
+            adot_qd: next(),
+            grad_t: next(),
+            gdot: next(),
+            aq: next(),
+            force: next(),
+            a_gdot: next(),
+            col: next(),
+            tmp: next(),
         }
     }
 }
 
 impl<'a, S: Scalar> Structured<'a, S> {
     /// Storage for sizes `d`: `s`, `idx` and `re` at least [`Dims::scalars`],
-    /// [`Dims::indices`] and [`Dims::reals`] long (an error otherwise).
+    /// [`Dims::indices`] and [`Dims::reals`] long ([`Failure::Storage`] otherwise).
     #[inline(always)]
     pub fn new(
         d: Dims,
         s: &'a mut [S],
         idx: &'a mut [usize],
         re: &'a mut [f64],
-    ) -> Result<Self, EvalError> {
+    ) -> Result<Self, Failure> {
         if d.ell != d.mu + d.sigma
             || s.len() < d.scalars()
             || idx.len() < d.indices()
             || re.len() < d.reals()
         {
-            return Err(EvalError(format!(
-                "structured evaluation: storage too small for ℓ = {}, μ = {}, σ = {}",
-                d.ell, d.mu, d.sigma
-            )));
+            return Err(Failure::Storage);
         }
         Ok(Structured {
             d,
@@ -288,45 +345,37 @@ impl<'a, S: Scalar> Structured<'a, S> {
 
     /// η̇ from the true equations (11).
     pub fn eta_dot(&self) -> &[S] {
-        &self.s[..self.d.sigma]
+        &self.s[part(self.d, ETA_DOT)]
     }
 
     /// η̇ from the paper's equations (equal to [`Structured::eta_dot`] when not asked for).
     pub fn eta_dot_paper(&self) -> &[S] {
-        let g = self.d.sigma;
-        &self.s[g..2 * g]
+        &self.s[part(self.d, ETA_DOT_PAPER)]
     }
 
     /// q̇ = Γη (6).
     pub fn q_dot(&self) -> &[S] {
-        let g = self.d.sigma;
-        &self.s[2 * g..2 * g + self.d.ell]
+        &self.s[part(self.d, Q_DOT)]
     }
 
     /// A_Γ = ΓᵀAΓ, σ×σ row-major.
     pub fn a_gamma(&self) -> &[S] {
-        let (l, g) = (self.d.ell, self.d.sigma);
-        &self.s[2 * g + l..2 * g + l + g * g]
+        &self.s[part(self.d, A_GAMMA)]
     }
 
     /// F, the right side of A_Γ η̇ = F (true equations).
     pub fn forcing(&self) -> &[S] {
-        let (l, g) = (self.d.ell, self.d.sigma);
-        let at = 2 * g + l + g * g;
-        &self.s[at..at + g]
+        &self.s[part(self.d, FORCING)]
     }
 
     /// E = ½ q̇ᵀAq̇ − U.
     pub fn energy(&self) -> S {
-        let (l, g) = (self.d.ell, self.d.sigma);
-        self.s[3 * g + l + g * g]
+        self.s[part(self.d, ENERGY).start]
     }
 
     /// Γ, ℓ×σ row-major.
     pub fn gamma(&self) -> &[S] {
-        let (l, g) = (self.d.ell, self.d.sigma);
-        let at = 3 * g + l + g * g + 1;
-        &self.s[at..at + l * g]
+        &self.s[part(self.d, GAMMA)]
     }
 
     /// |Γ|ᵀ(|∇U| + |∇_q T| + |Ȧq̇| + |AΓ̇η|), values only: the size of the terms F is summed
@@ -348,7 +397,7 @@ fn gamma_and_velocities<S: Scalar>(
     pivot: Pivot,
 ) -> Result<(), Failure> {
     let (l, g) = (d.ell, d.sigma);
-    write_m(d, lay, out, p.m);
+    p.m.copy_from_slice(&out[lay.m(d)]);
     if !lu::factor(l, p.m, perm_m, pivot) {
         return Err(Failure::QuasiVelocityMap);
     }
@@ -371,20 +420,6 @@ fn gamma_and_velocities<S: Scalar>(
     Ok(())
 }
 
-/// M = [Z; α] from the ingredients, row-major into `m`.
-#[inline(always)]
-fn write_m<S: Scalar>(d: Dims, lay: Layout, out: &[S], m: &mut [S]) {
-    let (l, g) = (d.ell, d.sigma);
-    for i in 0..l {
-        let at = if i < g {
-            lay.z + i * l
-        } else {
-            lay.alpha + (i - g) * l
-        };
-        m[i * l..(i + 1) * l].copy_from_slice(&out[at..at + l]);
-    }
-}
-
 /// Ṁq̇, Ȧq̇, ∇_qT, Γ̇η, Aq̇ and the forcing F = Γᵀ(∇U + ∇_qT − Ȧq̇ − AΓ̇η) of (11) with Q
 /// from (9); for f64, the sizes of its terms.
 #[inline(always)]
@@ -397,7 +432,7 @@ fn forcing<S: Scalar>(
     terms: &mut [f64],
     forcing_scale: &mut [f64],
 ) {
-    let (l, m, g) = (d.ell, d.mu, d.sigma);
+    let (l, g) = (d.ell, d.sigma);
     let zero = S::constant(0.0);
     let qd = &*p.q_dot;
     p.mdot_qd.fill(zero);
@@ -405,11 +440,7 @@ fn forcing<S: Scalar>(
     for k in 0..l {
         let mut gt = zero;
         for i in 0..l {
-            let dm_row = if i < g {
-                lay.dz + k * g * l + i * l
-            } else {
-                lay.dalpha + k * m * l + (i - g) * l
-            };
+            let dm_row = lay.dm_row(d, k, i);
             let da_row = lay.da + k * l * l + i * l;
             let (mut dmq, mut daq) = (zero, zero);
             for j in 0..l {
@@ -533,21 +564,13 @@ impl<S: Scalar> Structured<'_, S> {
             .eta_dot()
             .iter()
             .fold(0.0_f64, |a, x| a.max(x.value().abs()));
-        let ag_at = 2 * g + l;
-        let ag = &self.s[ag_at..ag_at + g * g];
+        let ag = &self.s[part(d, A_GAMMA)];
         let (head, work) = self.re.split_at_mut(l + g);
         let forcing_scale = &head[l..];
         let perm = &mut self.idx[..l];
         let (mat, rest) = work.split_at_mut(l * l);
-        for i in 0..l {
-            let at = if i < g {
-                lay.z + i * l
-            } else {
-                lay.alpha + (i - g) * l
-            };
-            for j in 0..l {
-                mat[i * l + j] = out[at + j].value();
-            }
+        for (x, m) in mat.iter_mut().zip(&out[lay.m(d)]) {
+            *x = m.value();
         }
         let kappa_m = skeel(l, mat, None, perm, rest);
         let scale = |i: usize| ag[i * g + i].value().abs().sqrt().recip();
@@ -654,6 +677,51 @@ mod tests {
         s2.evaluate(&out, &eta, false).unwrap();
         let fixed: Fixed<f64, 3, 2> = Fixed::read(&s2);
         assert_eq!(fixed.eta_dot.to_vec(), r.eta_dot().to_vec());
+    }
+
+    #[test]
+    fn the_accessors_read_the_parts_an_evaluation_writes() {
+        let d = Dims {
+            ell: 4,
+            mu: 1,
+            sigma: 3,
+        };
+        let mut buffers = Buffers::<f64>::new(d);
+        let r = buffers.structured();
+        let p = Parts::carve(d, &mut *r.s);
+        let results = [
+            p.eta_dot,
+            p.eta_dot_paper,
+            p.q_dot,
+            p.a_gamma,
+            p.forcing,
+            p.energy,
+            p.gamma,
+        ];
+        for (mark, part) in results.into_iter().enumerate() {
+            part.fill(mark as f64);
+        }
+        for part in [
+            p.m, p.ag_lu, p.mdot_qd, p.adot_qd, p.grad_t, p.gdot, p.aq, p.force,
+        ] {
+            part.fill(-1.0);
+        }
+        for part in [p.a_gdot, p.col, p.tmp] {
+            part.fill(-1.0);
+        }
+        let read: [&[f64]; 7] = [
+            r.eta_dot(),
+            r.eta_dot_paper(),
+            r.q_dot(),
+            r.a_gamma(),
+            r.forcing(),
+            &[r.energy()],
+            r.gamma(),
+        ];
+        let lengths = [3, 3, 4, 9, 3, 1, 12];
+        for (mark, (v, n)) in read.into_iter().zip(lengths).enumerate() {
+            assert_eq!(v, vec![mark as f64; n], "result {mark}");
+        }
     }
 
     #[test]

@@ -1,9 +1,8 @@
 //! The right-hand side in fixed-size arrays ([`Fixed`], for generated code: L = ℓ, M = μ,
 //! G = σ known at compile time, no allocation) and in vectors ([`Rhs`]).
 
-use crate::error::EvalError;
 use crate::scalar::Scalar;
-use crate::structured::{Dims, Structured};
+use crate::structured::{Dims, Failure, Structured};
 
 /// The arithmetic of a result.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,7 +108,7 @@ impl<S: Scalar, const W: usize, const I: usize, const R: usize> Storage<S, W, I,
 
     /// A structured evaluation for sizes `d` in this storage.
     #[inline(always)]
-    pub fn structured(&mut self, d: Dims) -> Result<Structured<'_, S>, EvalError> {
+    pub fn structured(&mut self, d: Dims) -> Result<Structured<'_, S>, Failure> {
         Structured::new(d, &mut self.s, &mut self.idx, &mut self.re)
     }
 }
@@ -166,6 +165,24 @@ pub struct Rhs<S> {
     pub precision: Precision,
     /// The estimate that decided it (see [`Fixed::f64_error_estimate`]).
     pub f64_error_estimate: f64,
+}
+
+impl<S: Scalar> Rhs<S> {
+    /// The results of an evaluation, copied out of its storage (as computed: in the scalar
+    /// type's own arithmetic, the f64 error estimate not yet computed).
+    pub fn read(r: &Structured<'_, S>) -> Self {
+        let sigma = r.dims().sigma.max(1);
+        Rhs {
+            eta_dot: r.eta_dot().to_vec(),
+            eta_dot_paper: r.eta_dot_paper().to_vec(),
+            q_dot: r.q_dot().to_vec(),
+            a_gamma: r.a_gamma().chunks(sigma).map(<[S]>::to_vec).collect(),
+            forcing: r.forcing().to_vec(),
+            energy: r.energy(),
+            precision: Precision::F64,
+            f64_error_estimate: 0.0,
+        }
+    }
 }
 
 impl<S: Copy, const L: usize, const G: usize> From<Fixed<S, L, G>> for Rhs<S> {
