@@ -62,6 +62,16 @@ pub enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
+    /// Print a model in the hand-typed form: T as its mass matrix, U, the rows of α and the
+    /// holonomic constraints. For a model of bodies, frames and wheels, this is what hamel
+    /// derives from them; the output loads like any model file.
+    Expand {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
     /// Decide which coordinates drop out of the equations: classification (31), block structure
     /// (17)/(18), Properties 2.1–2.2, hypotheses H0–H6 with witnesses, the ground truth and the
     /// reduced system.

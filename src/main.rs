@@ -47,6 +47,10 @@ fn run(command: Command) -> Result<(), ModelError> {
             format,
             output,
         } => derive(&model, eta.as_deref(), format, Output::new(output)?),
+        Command::Expand { model, output } => {
+            let out = Output::new(output)?;
+            out.write(&Model::load(&model)?.to_lagrangian_toml())
+        }
         Command::Reduce {
             model,
             eta,

@@ -360,26 +360,7 @@ fn eta_input(s: usize) -> String {
 /// Expression builders that fold exact zeros and ones, so that structural zeros of Γ, A_Γ and
 /// Q⁽ⁱ⁾ vanish from the solved form (in floating point 0·x is not 0 for every x, so the
 /// compiler could not do this).
-mod fold {
-    use hamel_expr::Expr;
-
-    pub fn add(a: Expr, b: Expr) -> Expr {
-        Expr::Add(vec![a, b]).tidy()
-    }
-    pub fn sub(a: Expr, b: Expr) -> Expr {
-        add(a, Expr::Neg(Box::new(b)).tidy())
-    }
-    pub fn mul(a: Expr, b: Expr) -> Expr {
-        Expr::Mul(vec![a, b]).tidy()
-    }
-    pub fn div(a: Expr, b: Expr) -> Expr {
-        if a.is_zero_literal() || b.is_one_literal() {
-            a
-        } else {
-            Expr::Div(Box::new(a), Box::new(b))
-        }
-    }
-}
+use hamel_expr::build as fold;
 
 /// A candidate solved form: outputs η̇ (σ), q̇ = Γη (ℓ, eq. (6)) and σ definiteness tests (the
 /// pivots of A_Γ = L D Lᵀ, or the leading minors of its blocks); one ≤ 0 means A_Γ is not

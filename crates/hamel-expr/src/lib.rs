@@ -2,7 +2,8 @@
 //!
 //! **Job**: the plain, engine-free representation of a mathematical expression: the abstract
 //! syntax tree [`Expr`] with exact rational literals, the parser for the model-file expression
-//! grammar (with byte spans for error messages), a printer in the same syntax, and numeric
+//! grammar (with byte spans for error messages), a printer in the same syntax, builders that
+//! fold exact zeros ([`build`]), exact differentiation ([`Expr::diff`]), and numeric
 //! evaluation over any [`Scalar`] of the numeric runtime (plain `f64`, the dual numbers
 //! [`Dual`] for exact directional derivatives, double-double [`DD`]).
 //!
@@ -15,6 +16,8 @@
 #![warn(missing_docs)]
 
 mod ast;
+pub mod build;
+mod diff;
 mod display;
 mod eval;
 mod horner;
@@ -24,6 +27,7 @@ mod specialise;
 mod tape;
 
 pub use ast::{Expr, Func, Rational, SubstituteError};
+pub use diff::DiffError;
 pub use eval::{Env, EvalError, rational_parts};
 /// The numeric runtime's scalars and LU (`hamel-runtime`), re-exported: expressions evaluate
 /// over them.

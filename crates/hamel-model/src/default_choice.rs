@@ -14,7 +14,8 @@ use indexmap::IndexMap;
 use nalgebra::DMatrix;
 
 use crate::error::ModelError;
-use crate::model::{ChoiceOrigin, Item, Model, QuasiVelocityChoice};
+use crate::loader::Item;
+use crate::model::{ChoiceOrigin, Model, QuasiVelocityChoice};
 use crate::numeric::{NumericModel, sample_configurations};
 
 /// Sample configurations over which the conditioning of each candidate set is measured.

@@ -16,13 +16,19 @@
 //! stage finds it, points into the file the same way.
 #![warn(missing_docs)]
 
+mod bodies;
 pub mod default_choice;
 mod error;
+mod expand;
+mod loader;
 mod model;
 mod numeric;
+mod parameters;
 mod schema;
 
 pub use default_choice::combinations;
 pub use error::{ErrorKind, ModelError};
-pub use model::{ChoiceOrigin, Item, Kinetic, Model, QuasiVelocityChoice, Site};
+pub use hamel_bodies::{Completion, CompletionError, HolonomicConstraint};
+pub use loader::{Item, Kinetic, Origin, Site};
+pub use model::{ChoiceOrigin, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};

@@ -1,72 +1,21 @@
-//! The resolved model and its loader.
+//! The resolved model: reading a file into a [`Model`], and what a model answers.
 
-use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::Path;
 use std::sync::Arc;
 
-use hamel_expr::{Expr, Func, Occurrence, OccurrenceKind};
+use hamel_expr::Expr;
 use indexmap::IndexMap;
 use toml::Spanned;
 
+use hamel_bodies::{Completion, HolonomicConstraint};
+
 use crate::error::ModelError;
+use crate::loader::{
+    Dynamics, ErrorAt, FieldKind, Item, Kinetic, Loader, Origin, Site, is_eta_name, is_identifier,
+    is_reserved,
+};
 use crate::schema::{RawChoice, RawLagrangian, RawModel};
-
-/// Where an expression (or a value) sits in the model file.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Site {
-    /// Key path, such as `constraints.no_slip` or `quasi_velocities.paper.eta[1]`.
-    pub key: String,
-    /// Byte range of the value in the file.
-    pub span: Range<usize>,
-}
-
-/// One expression of the model with its origin.
-#[derive(Clone, Debug)]
-pub struct Item {
-    /// The expression text as written.
-    pub text: String,
-    /// The parsed expression.
-    pub expr: Expr,
-    /// Where it is.
-    pub site: Site,
-    /// File offset of the first character of `text`, when the text maps one-to-one onto the
-    /// file (no escapes), so that positions inside the expression can be reported exactly.
-    text_offset: Option<usize>,
-}
-
-impl Item {
-    /// An item not read from a file (built by a program, such as the `identity` choice).
-    pub fn synthetic(key: &str, expr: Expr) -> Item {
-        Item {
-            text: expr.to_string(),
-            expr,
-            site: Site {
-                key: key.to_string(),
-                span: 0..0,
-            },
-            text_offset: None,
-        }
-    }
-
-    /// The file span of a byte range inside the expression text (the whole value if the text
-    /// does not map exactly).
-    pub fn span_of(&self, inner: Range<usize>) -> Range<usize> {
-        match self.text_offset {
-            Some(o) => o + inner.start..o + inner.end.max(inner.start),
-            None => self.site.span.clone(),
-        }
-    }
-}
-
-/// The kinetic energy as given in the file.
-#[derive(Clone, Debug)]
-pub enum Kinetic {
-    /// T as an expression in the velocities.
-    Energy(Item),
-    /// The mass matrix A (T = ½ q̇ᵀAq̇), row by row.
-    MassMatrix(Vec<Vec<Item>>),
-}
 
 /// A named choice of quasi-velocities η = Z(q) q̇.
 #[derive(Clone, Debug)]
@@ -112,268 +61,29 @@ pub struct Model {
     pub description: Option<String>,
     /// Coordinates q₁..q_ℓ.
     pub coordinates: Vec<String>,
-    /// Parameters and their default values.
+    /// Parameters and their default values (derived ones included, with the values of their
+    /// expressions).
     pub parameters: IndexMap<String, f64>,
+    /// Derived parameters: their expressions in the other parameters.
+    pub derived: IndexMap<String, Item>,
     /// T or A.
     pub kinetic: Kinetic,
     /// U (L = T + U).
     pub potential: Item,
-    /// Constraints, in file order (rows of α).
+    /// Constraints, rows of α: from the bodies (wheels, blades), then `[constraints]` in file
+    /// order, then dh/dt = 0 for each holonomic constraint.
     pub constraints: Vec<(String, Item)>,
+    /// Holonomic constraints h(q) = 0 with their dependent coordinates (their velocity rows are
+    /// among `constraints`).
+    pub holonomic: Vec<HolonomicConstraint>,
+    /// Solves the holonomic constraints for their dependent coordinates.
+    pub completion: Completion,
+    /// Where L and α come from.
+    pub origin: Origin,
+    /// What the expansion of bodies simplified, and how.
+    pub notes: Vec<String>,
     /// Quasi-velocity choices, in file order.
     pub choices: Vec<QuasiVelocityChoice>,
-}
-
-const RESERVED: [&str; 3] = ["der", "t", "pi"];
-
-fn is_identifier(s: &str) -> bool {
-    let mut chars = s.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-}
-
-fn is_reserved(s: &str) -> bool {
-    Func::from_name(s).is_some() || RESERVED.contains(&s)
-}
-
-/// Levenshtein distance, for "did you mean" hints.
-fn distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = vec![i + 1];
-        for (j, cb) in b.iter().enumerate() {
-            let sub = prev[j] + usize::from(ca != *cb);
-            cur.push(sub.min(prev[j + 1] + 1).min(cur[j] + 1));
-        }
-        prev = cur;
-    }
-    prev[b.len()]
-}
-
-fn closest<'a>(name: &str, candidates: impl Iterator<Item = &'a String>) -> Option<&'a String> {
-    candidates
-        .map(|c| (distance(name, c), c))
-        .filter(|(d, c)| *d <= 2.max(c.len() / 3))
-        .min_by_key(|(d, _)| *d)
-        .map(|(_, c)| c)
-}
-
-/// What an expression field may contain.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum FieldKind {
-    /// T: velocities allowed.
-    Kinetic,
-    /// Entries of A and U: no velocities.
-    Positional,
-    /// Constraints: velocities allowed.
-    Constraint,
-    /// Quasi-velocities: velocities and free functions allowed.
-    Eta,
-}
-
-struct Loader<'a> {
-    file: &'a str,
-    source: Arc<String>,
-    coordinates: Vec<String>,
-    parameters: IndexMap<String, f64>,
-    /// Free function name → (arguments, first use) across the whole model.
-    free: BTreeMap<String, (Vec<String>, Range<usize>)>,
-}
-
-impl Loader<'_> {
-    fn err(&self, span: Range<usize>, key: &str, msg: impl Into<String>) -> ModelError {
-        ModelError::new(self.file, self.source.clone(), Some(span), Some(key), msg)
-    }
-
-    /// Parse the text of a `Spanned<String>` value into an [`Item`] and resolve its names.
-    fn item(
-        &mut self,
-        value: &Spanned<String>,
-        key: &str,
-        kind: FieldKind,
-    ) -> Result<Item, ModelError> {
-        let span = value.span();
-        let text = value.get_ref().clone();
-        let text_offset = text_offset(&self.source, span.clone(), &text);
-        let at = |inner: Range<usize>| match text_offset {
-            Some(o) => o + inner.start..o + inner.end.max(inner.start),
-            None => span.clone(),
-        };
-        let parsed = hamel_expr::parse(&text).map_err(|e| {
-            self.err(
-                at(e.span.clone()),
-                key,
-                format!("syntax error: {}", e.message),
-            )
-        })?;
-        for occ in &parsed.occurrences {
-            self.resolve(occ, key, kind, at(occ.span.clone()))?;
-        }
-        self.check_powers(&parsed.expr, key, span.clone())?;
-        Ok(Item {
-            text,
-            expr: parsed.expr,
-            site: Site {
-                key: key.to_string(),
-                span,
-            },
-            text_offset,
-        })
-    }
-
-    fn resolve(
-        &mut self,
-        occ: &Occurrence,
-        key: &str,
-        kind: FieldKind,
-        span: Range<usize>,
-    ) -> Result<(), ModelError> {
-        let name = &occ.name;
-        let is_coord = self.coordinates.contains(name);
-        match &occ.kind {
-            OccurrenceKind::Symbol => {
-                if is_coord || self.parameters.contains_key(name) {
-                    return Ok(());
-                }
-                let mut e = self.err(span, key, format!("unknown symbol `{name}`"));
-                let all: Vec<String> = self
-                    .coordinates
-                    .iter()
-                    .chain(self.parameters.keys())
-                    .cloned()
-                    .collect();
-                e = match closest(name, all.iter()) {
-                    Some(c) => e.with_help(format!("did you mean `{c}`?")),
-                    None => e.with_help(
-                        "symbols must be coordinates or parameters declared in [parameters]",
-                    ),
-                };
-                Err(e)
-            }
-            OccurrenceKind::Velocity => {
-                if !is_coord {
-                    let mut e = self.err(
-                        span,
-                        key,
-                        format!("`der({name})`: `{name}` is not a coordinate"),
-                    );
-                    if let Some(c) = closest(name, self.coordinates.iter()) {
-                        e = e.with_help(format!("did you mean `der({c})`?"));
-                    }
-                    return Err(e);
-                }
-                if kind == FieldKind::Positional {
-                    return Err(self.err(
-                        span,
-                        key,
-                        format!("velocity `der({name})` is not allowed here: this expression depends on the configuration only"),
-                    ));
-                }
-                Ok(())
-            }
-            OccurrenceKind::FreeFunction(args) => {
-                if kind != FieldKind::Eta {
-                    return Err(self
-                        .err(span, key, format!("`{name}` is not a built-in function"))
-                        .with_help("free functions such as `z13(phi)` are allowed only in quasi-velocity expressions; built-ins are sin cos tan sqrt exp log"));
-                }
-                if is_coord || self.parameters.contains_key(name) || is_reserved(name) {
-                    return Err(self.err(
-                        span,
-                        key,
-                        format!("`{name}` is a symbol, not a function"),
-                    ));
-                }
-                for a in args {
-                    if !self.coordinates.contains(a) {
-                        return Err(self.err(
-                            span,
-                            key,
-                            format!("free function `{name}` must take coordinates as arguments; `{a}` is not a coordinate"),
-                        ));
-                    }
-                }
-                let mut sorted = args.clone();
-                sorted.sort();
-                sorted.dedup();
-                if sorted.len() != args.len() {
-                    return Err(self.err(
-                        span,
-                        key,
-                        format!("free function `{name}` repeats an argument"),
-                    ));
-                }
-                match self.free.get(name) {
-                    Some((prev, _)) if prev != args => Err(self.err(
-                        span,
-                        key,
-                        format!(
-                            "free function `{name}` is called with ({}) here but with ({}) elsewhere",
-                            args.join(", "),
-                            prev.join(", ")
-                        ),
-                    )),
-                    Some(_) => Ok(()),
-                    None => {
-                        self.free.insert(name.clone(), (args.clone(), span));
-                        Ok(())
-                    }
-                }
-            }
-        }
-    }
-
-    /// `^` needs an integer exponent unless the base is a positive constant.
-    fn check_powers(&self, e: &Expr, key: &str, span: Range<usize>) -> Result<(), ModelError> {
-        let mut bad = None;
-        e.visit(&mut |node| {
-            if let Expr::Pow(base, exp) = node {
-                let exp_const =
-                    !exp.any(&mut |x| matches!(x, Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. }));
-                let base_const = !base.any(&mut |x| {
-                    matches!(x, Expr::Sym(s) if self.coordinates.contains(s))
-                        || matches!(x, Expr::Der(_) | Expr::Free { .. })
-                });
-                let integer = exp.as_integer().is_some();
-                if bad.is_none() && !(integer || (exp_const && base_const)) {
-                    bad = Some(node.to_string());
-                }
-            }
-        });
-        match bad {
-            Some(p) => Err(self
-                .err(
-                    span,
-                    key,
-                    format!("`{p}`: the exponent must be an integer (or the base a constant)"),
-                )
-                .with_help("write square roots as sqrt(...)")),
-            None => Ok(()),
-        }
-    }
-}
-
-/// File offset where the characters of a TOML string value start, if the value maps one-to-one.
-fn text_offset(source: &str, span: Range<usize>, value: &str) -> Option<usize> {
-    let raw = source.get(span.clone())?;
-    let (skip, end_skip) = if raw.starts_with("\"\"\"") || raw.starts_with("'''") {
-        let after = &raw[3..];
-        let nl = if after.starts_with("\r\n") {
-            2
-        } else if after.starts_with('\n') {
-            1
-        } else {
-            0
-        };
-        (3 + nl, 3)
-    } else if raw.starts_with('"') || raw.starts_with('\'') {
-        (1, 1)
-    } else {
-        return None;
-    };
-    let inner = raw.get(skip..raw.len().checked_sub(end_skip)?)?;
-    (inner == value).then_some(span.start + skip)
 }
 
 impl Model {
@@ -419,20 +129,24 @@ impl Model {
             ));
         }
         let coordinates = coordinates_of(&raw, &err)?;
-        let parameters = parameters_of(&raw, &coordinates, &err)?;
-        let mut loader = Loader {
+        let crate::parameters::Parameters {
+            values: parameters,
+            derived,
+        } = crate::parameters::parameters_of(&raw, &coordinates, &err)?;
+        let mut loader = Loader::new(
             file,
-            source: source.clone(),
-            coordinates: coordinates.clone(),
-            parameters: parameters.clone(),
-            free: BTreeMap::new(),
+            source.clone(),
+            coordinates.clone(),
+            parameters.clone(),
+        );
+        let dynamics = if crate::bodies::describes_bodies(&raw) {
+            crate::bodies::dynamics(&raw, &mut loader, &err)?
+        } else {
+            lagrangian_dynamics(&raw, &mut loader, &err)?
         };
-        let kinetic = kinetic_of(&raw, &mut loader, &err)?;
-        let potential = match &raw.lagrangian.get_ref().potential {
-            Some(u) => loader.item(u, "lagrangian.potential", FieldKind::Positional)?,
-            None => Item::synthetic("lagrangian.potential", Expr::int(0)),
-        };
-        let constraints = constraints_of(&raw, &mut loader, &err)?;
+        let mut constraints = dynamics.rows;
+        constraints.extend(constraints_of(&raw, &mut loader)?);
+        check_count(&raw, coordinates.len(), constraints.len(), &err)?;
         let mut choices = choices_of(&raw, &mut loader, constraints.len(), &err)?;
         if constraints.is_empty() && !choices.iter().any(|c| c.name == "identity") {
             choices.push(identity_choice(&coordinates));
@@ -445,9 +159,14 @@ impl Model {
             description: raw.description.clone(),
             coordinates,
             parameters,
-            kinetic,
-            potential,
+            derived,
+            kinetic: dynamics.kinetic,
+            potential: dynamics.potential,
             constraints,
+            holonomic: dynamics.holonomic,
+            completion: dynamics.completion,
+            origin: dynamics.origin,
+            notes: dynamics.notes,
             choices,
         };
         model.check_mass_matrix_numerically()?;
@@ -548,11 +267,6 @@ impl Model {
     }
 }
 
-fn is_eta_name(s: &str) -> bool {
-    s.strip_prefix("eta")
-        .is_some_and(|rest| !rest.is_empty() && rest.chars().all(|c| c.is_ascii_digit()))
-}
-
 fn identity_choice(coordinates: &[String]) -> QuasiVelocityChoice {
     QuasiVelocityChoice {
         name: "identity".to_string(),
@@ -574,9 +288,6 @@ fn identity_choice(coordinates: &[String]) -> QuasiVelocityChoice {
         origin: ChoiceOrigin::Holonomic,
     }
 }
-
-/// Makes an error at a span and key of the model file.
-type ErrorAt<'a> = dyn Fn(Range<usize>, &str, String) -> ModelError + 'a;
 
 /// `coordinates`: identifiers, not reserved, each once, at least one.
 fn coordinates_of(raw: &RawModel, err: &ErrorAt) -> Result<Vec<String>, ModelError> {
@@ -616,64 +327,18 @@ fn coordinates_of(raw: &RawModel, err: &ErrorAt) -> Result<Vec<String>, ModelErr
     Ok(coordinates)
 }
 
-/// `[parameters]`: names that are not coordinates, with finite numeric defaults.
-fn parameters_of(
-    raw: &RawModel,
-    coordinates: &[String],
-    err: &ErrorAt,
-) -> Result<IndexMap<String, f64>, ModelError> {
-    let mut parameters = IndexMap::new();
-    for (k, v) in &raw.parameters {
-        let key = format!("parameters.{k}");
-        if !is_identifier(k) || is_reserved(k) || is_eta_name(k) {
-            return Err(err(
-                v.span(),
-                &key,
-                format!("`{k}` cannot be a parameter name (reserved or not an identifier)"),
-            ));
-        }
-        if coordinates.contains(k) {
-            return Err(err(
-                v.span(),
-                &key,
-                format!("`{k}` is already a coordinate"),
-            ));
-        }
-        let value = match v.get_ref() {
-            toml::Value::Float(f) => *f,
-            toml::Value::Integer(i) => *i as f64,
-            other => {
-                return Err(err(
-                    v.span(),
-                    &key,
-                    format!(
-                        "a parameter's default must be a number, found {}",
-                        other.type_str()
-                    ),
-                ));
-            }
-        };
-        if !value.is_finite() {
-            return Err(err(
-                v.span(),
-                &key,
-                "a parameter's default must be finite".into(),
-            ));
-        }
-        parameters.insert(k.clone(), value);
-    }
-
-    Ok(parameters)
-}
-
 /// `[lagrangian]`: the kinetic energy T, or the mass matrix A (ℓ × ℓ).
-fn kinetic_of(raw: &RawModel, loader: &mut Loader, err: &ErrorAt) -> Result<Kinetic, ModelError> {
+fn kinetic_of(
+    lagrangian: &Spanned<RawLagrangian>,
+    loader: &mut Loader,
+    err: &ErrorAt,
+) -> Result<Kinetic, ModelError> {
     let ell = loader.coordinates.len();
     let RawLagrangian {
         kinetic,
         mass_matrix,
         ..
-    } = raw.lagrangian.get_ref();
+    } = lagrangian.get_ref();
     Ok(match (kinetic, mass_matrix) {
         (Some(t), None) => {
             Kinetic::Energy(loader.item(t, "lagrangian.kinetic", FieldKind::Kinetic)?)
@@ -720,7 +385,7 @@ fn kinetic_of(raw: &RawModel, loader: &mut Loader, err: &ErrorAt) -> Result<Kine
         }
         (None, None) => {
             return Err(err(
-                raw.lagrangian.span(),
+                lagrangian.span(),
                 "lagrangian",
                 "missing the kinetic energy: give `kinetic` (T) or `mass_matrix` (A)".into(),
             ));
@@ -728,42 +393,71 @@ fn kinetic_of(raw: &RawModel, loader: &mut Loader, err: &ErrorAt) -> Result<Kine
     })
 }
 
-/// `[constraints]`: each linear in the velocities, fewer than the coordinates (ℓ > μ).
-fn constraints_of(
+/// L and α typed in by hand: `[lagrangian]`, and the rows of `[holonomic]`.
+fn lagrangian_dynamics(
     raw: &RawModel,
     loader: &mut Loader,
     err: &ErrorAt,
-) -> Result<Vec<(String, Item)>, ModelError> {
-    let ell = loader.coordinates.len();
+) -> Result<Dynamics, ModelError> {
+    let Some(lagrangian) = &raw.lagrangian else {
+        return Err(err(
+            0..0,
+            "lagrangian",
+            "missing [lagrangian] (T and U), or the bodies ([world], [frames], [bodies]) to derive them from".into(),
+        ));
+    };
+    let kinetic = kinetic_of(lagrangian, loader, err)?;
+    let potential = match &lagrangian.get_ref().potential {
+        Some(u) => loader.item(u, "lagrangian.potential", FieldKind::Positional)?,
+        None => Item::synthetic("lagrangian.potential", Expr::int(0)),
+    };
+    let h = crate::bodies::holonomic_of(raw, loader, err)?;
+    Ok(Dynamics {
+        kinetic,
+        potential,
+        rows: h.rows,
+        holonomic: h.constraints,
+        completion: h.completion,
+        origin: Origin::Lagrangian,
+        notes: Vec::new(),
+    })
+}
+
+/// `[constraints]`: each linear in the velocities.
+fn constraints_of(raw: &RawModel, loader: &mut Loader) -> Result<Vec<(String, Item)>, ModelError> {
     let mut constraints = Vec::new();
     for (k, v) in &raw.constraints {
         let key = format!("constraints.{k}");
         let item = loader.item(v, &key, FieldKind::Constraint)?;
         if !item.expr.has_velocity() {
-            return Err(err(
+            return Err(loader.err(
                 v.span(),
                 &key,
-                "a constraint must involve the velocities der(q): it is α(q) q̇ = 0".into(),
+                "a constraint must involve the velocities der(q): it is α(q) q̇ = 0",
             ));
         }
         constraints.push((k.clone(), item));
     }
-    let mu = constraints.len();
-    if mu >= ell {
-        let span = raw
-            .constraints
-            .values()
-            .next()
-            .map_or(raw.coordinates.span(), |v| v.span());
-        return Err(err(
-            span,
-            "constraints",
-            format!(
-                "there are {mu} constraints for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)"
-            ),
-        ));
-    }
     Ok(constraints)
+}
+
+/// Fewer constraints than coordinates (ℓ > μ).
+fn check_count(raw: &RawModel, ell: usize, mu: usize, err: &ErrorAt) -> Result<(), ModelError> {
+    if mu < ell {
+        return Ok(());
+    }
+    let span = raw
+        .constraints
+        .values()
+        .next()
+        .map_or(raw.coordinates.span(), |v| v.span());
+    Err(err(
+        span,
+        "constraints",
+        format!(
+            "there are {mu} constraints for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)"
+        ),
+    ))
 }
 
 /// `[quasi_velocities.NAME]`: σ = ℓ − μ rows each, with the free functions they use.

@@ -8,7 +8,8 @@ use indexmap::IndexMap;
 use nalgebra::DMatrix;
 
 use crate::error::ModelError;
-use crate::model::{Kinetic, Model};
+use crate::loader::Kinetic;
+use crate::model::Model;
 
 /// A model with parameter values fixed, ready to evaluate A(q), α(q), U(q) at points.
 #[derive(Clone, Debug)]

@@ -14,9 +14,20 @@ pub(crate) struct RawModel {
     pub coordinates: Spanned<Vec<Spanned<String>>>,
     #[serde(default)]
     pub parameters: IndexMap<String, Spanned<toml::Value>>,
-    pub lagrangian: Spanned<RawLagrangian>,
+    pub lagrangian: Option<Spanned<RawLagrangian>>,
     #[serde(default)]
     pub constraints: IndexMap<String, Spanned<String>>,
+    pub world: Option<Spanned<RawWorld>>,
+    #[serde(default)]
+    pub frames: IndexMap<String, Spanned<RawFrame>>,
+    #[serde(default)]
+    pub bodies: IndexMap<String, Spanned<RawBody>>,
+    #[serde(default)]
+    pub wheels: IndexMap<String, Spanned<RawWheel>>,
+    #[serde(default)]
+    pub blades: IndexMap<String, Spanned<RawBlade>>,
+    #[serde(default)]
+    pub holonomic: IndexMap<String, Spanned<RawHolonomic>>,
     #[serde(default)]
     pub quasi_velocities: IndexMap<String, Spanned<RawChoice>>,
 }
@@ -38,4 +49,102 @@ pub(crate) struct RawChoice {
     pub eta: Spanned<Vec<Spanned<String>>>,
     #[serde(default)]
     pub description: Option<String>,
+}
+
+/// A scalar written as an expression string or as a number.
+#[derive(Deserialize, Clone)]
+#[serde(untagged)]
+pub(crate) enum RawScalar {
+    Text(String),
+    Integer(i64),
+    Float(f64),
+}
+
+impl RawScalar {
+    /// The expression text.
+    pub fn text(&self) -> String {
+        match self {
+            RawScalar::Text(t) => t.clone(),
+            RawScalar::Integer(i) => i.to_string(),
+            RawScalar::Float(f) => format!("{f:?}"),
+        }
+    }
+}
+
+/// A vector of three scalars.
+pub(crate) type RawVector = Spanned<Vec<Spanned<RawScalar>>>;
+
+/// A direction: an axis name (`x`, `-z`, …) or a vector.
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(crate) enum RawDirection {
+    Axis(String),
+    Vector(Vec<RawScalar>),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawWorld {
+    pub up: Spanned<String>,
+    pub gravity: Option<Spanned<RawScalar>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawRotation {
+    pub axis: Spanned<RawDirection>,
+    pub angle: Spanned<RawScalar>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawFrame {
+    pub parent: Option<Spanned<String>>,
+    pub origin: Option<RawVector>,
+    #[serde(default)]
+    pub rotations: Vec<Spanned<RawRotation>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawInertia {
+    pub xx: Spanned<RawScalar>,
+    pub yy: Spanned<RawScalar>,
+    pub zz: Spanned<RawScalar>,
+    pub xy: Option<Spanned<RawScalar>>,
+    pub xz: Option<Spanned<RawScalar>>,
+    pub yz: Option<Spanned<RawScalar>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawBody {
+    pub frame: Spanned<String>,
+    pub mass: Spanned<RawScalar>,
+    pub centre_of_mass: Option<RawVector>,
+    pub inertia: Option<Spanned<RawInertia>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawWheel {
+    pub frame: Spanned<String>,
+    pub axis: Spanned<RawDirection>,
+    pub radius: Spanned<RawScalar>,
+    pub dependent: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawBlade {
+    pub frame: Spanned<String>,
+    pub point: Option<RawVector>,
+    pub direction: Spanned<RawDirection>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawHolonomic {
+    pub h: Spanned<String>,
+    pub dependent: Spanned<String>,
 }

@@ -1,0 +1,167 @@
+//! Contacts with the ground: rolling wheels and blades. Each gives rows of α (the velocity of
+//! the material contact point may not have the components a contact forbids); a wheel kept on
+//! the ground by a holonomic constraint also gives that constraint.
+//!
+//! **Wheel** (a thin disk of radius r, spin axis a, centre at its frame's origin). With `up` the
+//! up direction, k = up − (up·a)a points from the centre towards the highest point, and the
+//! contact is c = centre − r k/|k|, at height h = height(centre) − r|k|. The material point at
+//! c moves with v = v_centre + ω × (c − centre); no slip makes its two horizontal components
+//! vanish. When the frames do not keep the wheel on the ground, h = 0 is a holonomic constraint
+//! (the wheel's `dependent` coordinate), whose velocity row is dh/dt like any other's.
+//!
+//! The vectors are taken in the axes of the frame the wheel turns in ([`crate::carry`]), so that
+//! the spin angle does not enter k. When k has a single nonzero component there, |k| is that
+//! component, signed as it is at the reference configuration (the wheel above the ground), k/|k|
+//! is a signed axis, and neither a square root nor a division enters the equations.
+
+use hamel_expr::build::{div, mul, neg, sub};
+use hamel_expr::{Expr, Func};
+
+use crate::carry::carry;
+use crate::error::{BodiesError, Place, Problem, Section};
+use crate::frames::Tree;
+use crate::mechanism::{Blade, Direction, Frame, Wheel};
+use crate::numeric::Point;
+use crate::vector::{V3, cross, dot, scale};
+
+/// A row of α, named.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// Its name, such as `front_no_slip_x`.
+    pub name: String,
+    /// The coefficients of q̇₁..q̇_ℓ.
+    pub coefficients: Vec<Expr>,
+}
+
+/// What a wheel contributes.
+pub(crate) struct Rolling {
+    /// The no-slip rows.
+    pub rows: Vec<Row>,
+    /// The contact's height above the ground.
+    pub height: Expr,
+    /// How |k| was taken, when it was simplified.
+    pub note: Option<String>,
+}
+
+/// The rows and contact height of a wheel. `reference`: the reference configuration, where the
+/// sign of a simplified |k| is read.
+pub(crate) fn wheel(
+    tree: &Tree,
+    frames: &[Frame],
+    w: &Wheel,
+    coordinates: &[String],
+    reference: &Point,
+) -> Result<Rolling, BodiesError> {
+    let at = |field| Place::new(Section::Wheels, &w.name, field);
+    let spin_axis = match &w.axis {
+        Direction::Axis(a) => Some(a.index),
+        Direction::Vector(_) => None,
+    };
+    let symmetric = |i: usize| spin_axis == Some(i);
+    let zero = crate::vector::zero();
+    let c = carry(tree, frames, &w.frame, zero, &symmetric, coordinates)
+        .map_err(|e| BodiesError::new(at("frame"), e))?;
+    let k_c = c.kinematics;
+    let up = &k_c.up;
+    let k = horizontal_part(up, &w.axis);
+    let (norm, unit) = length(&k, reference).map_err(|e| BodiesError::new(at("axis"), e))?;
+    let offset = scale(&neg(w.radius.clone()), &unit);
+    let v_centre = c
+        .velocity(coordinates)
+        .map_err(|e| BodiesError::new(at("frame"), e))?;
+    let v = v_centre.plus(&c.omega().cross(&offset));
+    let mut rows = Vec::new();
+    for (j, axis) in k_c.world_axes.iter().enumerate() {
+        if j != tree.up.index {
+            rows.push(Row {
+                name: format!("{}_no_slip_{}", w.name, ["x", "y", "z"][j]),
+                coefficients: v.dot(axis),
+            });
+        }
+    }
+    let height = sub(c.height(), mul(w.radius.clone(), norm.value));
+    Ok(Rolling {
+        rows,
+        height,
+        note: norm.note,
+    })
+}
+
+/// k = up − (up·a)a; about a coordinate axis, exactly `up` without that component (the
+/// general formula would leave u − u, which no folding removes).
+fn horizontal_part(up: &V3, axis: &Direction) -> V3 {
+    match axis {
+        Direction::Axis(ax) => {
+            let mut k = up.clone();
+            k[ax.index] = Expr::int(0);
+            k
+        }
+        Direction::Vector(a) => {
+            std::array::from_fn(|i| sub(up[i].clone(), mul(dot(up, a), a[i].clone())))
+        }
+    }
+}
+
+/// |k|, and how it was taken.
+struct Length {
+    value: Expr,
+    note: Option<String>,
+}
+
+/// |k| and k/|k|: for a k with one nonzero component, that component signed as it is at the
+/// reference configuration and the signed unit vector along it (exactly, no division); otherwise
+/// sqrt(k·k) and k/sqrt(k·k).
+fn length(k: &V3, reference: &Point) -> Result<(Length, V3), Problem> {
+    let nonzero: Vec<usize> = (0..3).filter(|&i| !k[i].is_zero_literal()).collect();
+    if let [i] = nonzero.as_slice() {
+        let value = reference.value(&k[*i])?;
+        if value == 0.0 {
+            return Err(Problem::FlatWheel);
+        }
+        let sign = if value > 0.0 { 1 } else { -1 };
+        let norm = if sign > 0 {
+            k[*i].clone()
+        } else {
+            neg(k[*i].clone())
+        };
+        let note = format!(
+            "|k| = sqrt(({})^2) taken as {norm}, positive at the reference configuration",
+            k[*i]
+        );
+        let length = Length {
+            value: norm,
+            note: Some(note),
+        };
+        return Ok((length, crate::vector::unit(*i, sign)));
+    }
+    if nonzero.is_empty() || reference.value(&dot(k, k))? <= 0.0 {
+        return Err(Problem::FlatWheel);
+    }
+    let norm = Expr::call(Func::Sqrt, dot(k, k));
+    let unit = scale(&div(Expr::int(1), norm.clone()), k);
+    Ok((
+        Length {
+            value: norm,
+            note: None,
+        },
+        unit,
+    ))
+}
+
+/// The row of a blade: the contact point's velocity across the blade, in the ground plane.
+pub(crate) fn blade(tree: &Tree, b: &Blade, reference: &Point) -> Result<Row, BodiesError> {
+    let k = tree.get(&b.frame);
+    let v = k.velocity.plus(&k.omega.cross(&b.point));
+    let across = cross(&k.up, &b.direction.vector());
+    let place = Place::new(Section::Blades, &b.name, "direction");
+    let size = reference
+        .value(&dot(&across, &across))
+        .map_err(|e| BodiesError::new(place.clone(), e))?;
+    if size <= 1e-24 {
+        return Err(BodiesError::new(place, Problem::VerticalBlade));
+    }
+    Ok(Row {
+        name: format!("{}_no_sideslip", b.name),
+        coefficients: v.dot(&across),
+    })
+}

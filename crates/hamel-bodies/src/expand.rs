@@ -1,0 +1,383 @@
+//! The whole expansion: the kinetic energy's matrix A, the potential U, the rows of α and the
+//! holonomic constraints of a [`Mechanism`], with the checks the description allows at the
+//! default parameters.
+//!
+//! * A = Σ_bodies m V_kᵀV_j + W_kᵀ I W_j, with V_k, W_k the velocity of the centre of mass and
+//!   the angular velocity per unit q̇_k (T = ½ q̇ᵀAq̇);
+//! * U = −Σ_bodies m g height(centre of mass) (L = T + U, the applied force is +∇U);
+//! * α: the rows of the wheels and blades, then one row dh/dt = Σ_k ∂h/∂q_k q̇_k per holonomic
+//!   constraint.
+
+use hamel_expr::Expr;
+use hamel_expr::build::{add, mul, neg, product};
+use indexmap::IndexMap;
+
+use crate::contact::{self, Row};
+use crate::error::{BodiesError, Place, Problem, Section};
+use crate::frames::{self, Tree};
+use crate::mechanism::{Body, Direction, Mechanism};
+use crate::numeric::{Completion, Point};
+use crate::vector::{Rate, dot};
+
+/// A holonomic constraint of the expansion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HolonomicConstraint {
+    /// Its name (a wheel's `NAME_contact`, or the key under `[holonomic]`).
+    pub name: String,
+    /// h(q) = 0.
+    pub h: Expr,
+    /// The coordinate it determines.
+    pub dependent: String,
+}
+
+/// A mechanism as L = T + U and α.
+#[derive(Clone, Debug)]
+pub struct Expansion {
+    /// A (ℓ×ℓ, symmetric): T = ½ q̇ᵀAq̇.
+    pub mass_matrix: Vec<Vec<Expr>>,
+    /// U.
+    pub potential: Expr,
+    /// The rows of α, in order: wheels, blades, holonomic constraints.
+    pub rows: Vec<Row>,
+    /// The holonomic constraints (their velocity rows are among `rows`).
+    pub holonomic: Vec<HolonomicConstraint>,
+    /// How the expansion simplified what it could not leave exact in general.
+    pub notes: Vec<String>,
+    /// Solves the holonomic constraints for their dependent coordinates.
+    pub completion: Completion,
+}
+
+/// Expand `m` at the default parameter values `values`. `samples`: configurations where a
+/// wheel without a dependent coordinate must touch the ground.
+pub fn expand(
+    m: &Mechanism,
+    values: &IndexMap<String, f64>,
+    samples: &[Vec<f64>],
+) -> Result<Expansion, BodiesError> {
+    let ell = m.coordinates.len();
+    let zeros = vec![0.0; ell];
+    let reference = Point {
+        coordinates: &m.coordinates,
+        q: &zeros,
+        values,
+    };
+    check_world(m, &reference)?;
+    check_rotations(m, &reference)?;
+    let tree = frames::build(m)?;
+    let mut a = vec![vec![Expr::int(0); ell]; ell];
+    let mut potential = Expr::int(0);
+    for b in &m.bodies {
+        let (va, u) = body(&tree, m, b, &reference)?;
+        for (row, add_row) in a.iter_mut().zip(va) {
+            for (x, y) in row.iter_mut().zip(add_row) {
+                *x = add(std::mem::replace(x, Expr::int(0)), y);
+            }
+        }
+        potential = add(potential, u);
+    }
+    let mut out = Expansion {
+        mass_matrix: a,
+        potential,
+        rows: Vec::new(),
+        holonomic: Vec::new(),
+        notes: Vec::new(),
+        completion: Completion::new(&m.coordinates, vec![], vec![]).map_err(world_error)?,
+    };
+    wheels(m, &tree, values, samples, &reference, &mut out)?;
+    for b in &m.blades {
+        check_frame(&tree, Section::Blades, &b.name, &b.frame)?;
+        check_direction(&b.direction, &reference)
+            .map_err(|e| BodiesError::new(Place::new(Section::Blades, &b.name, "direction"), e))?;
+        out.rows.push(contact::blade(&tree, b, &reference)?);
+    }
+    out.holonomic
+        .extend(m.holonomic.iter().map(|c| HolonomicConstraint {
+            name: c.name.clone(),
+            h: c.h.clone(),
+            dependent: c.dependent.clone(),
+        }));
+    let place = |c: &HolonomicConstraint, field| holonomic_place(m, c, field);
+    let (rows, completion) = holonomic_rows(&m.coordinates, &out.holonomic, values, &place)?;
+    out.rows.extend(rows);
+    out.completion = completion;
+    Ok(out)
+}
+
+fn world_error(p: Problem) -> BodiesError {
+    BodiesError::new(
+        Place {
+            section: Section::World,
+            name: None,
+            field: "gravity",
+        },
+        p,
+    )
+}
+
+fn check_world(m: &Mechanism, at: &Point) -> Result<(), BodiesError> {
+    at.value(&m.world.gravity).map(|_| ()).map_err(world_error)
+}
+
+fn check_rotations(m: &Mechanism, at: &Point) -> Result<(), BodiesError> {
+    for f in &m.frames {
+        for r in &f.rotations {
+            check_direction(&r.axis, at).map_err(|e| {
+                BodiesError::new(Place::new(Section::Frames, &f.name, "rotations"), e)
+            })?;
+        }
+    }
+    Ok(())
+}
+
+fn check_frame(tree: &Tree, section: Section, name: &str, frame: &str) -> Result<(), BodiesError> {
+    if tree.contains(frame) {
+        Ok(())
+    } else {
+        let place = Place::new(section, name, "frame");
+        Err(BodiesError::new(
+            place,
+            Problem::UnknownFrame(frame.to_string()),
+        ))
+    }
+}
+
+/// A body's share of A and of U.
+fn body(
+    tree: &Tree,
+    m: &Mechanism,
+    b: &Body,
+    at: &Point,
+) -> Result<(Vec<Vec<Expr>>, Expr), BodiesError> {
+    check_frame(tree, Section::Bodies, &b.name, &b.frame)?;
+    check_body(b, at)?;
+    let symmetric = |i: usize| {
+        b.inertia
+            .as_ref()
+            .is_none_or(|inertia| inertia.is_symmetric_about(i))
+    };
+    let place = Place::new(Section::Bodies, &b.name, "frame");
+    let carried = crate::carry::carry(
+        tree,
+        &m.frames,
+        &b.frame,
+        b.centre_of_mass.clone(),
+        &symmetric,
+        &m.coordinates,
+    )
+    .map_err(|e| BodiesError::new(place.clone(), e))?;
+    let v: Rate = carried
+        .velocity(&m.coordinates)
+        .map_err(|e| BodiesError::new(place, e))?;
+    let omega = carried.omega();
+    let w = &omega.columns;
+    let iw: Option<Vec<_>> = b.inertia.as_ref().map(|i| {
+        let inertia = i.matrix();
+        w.iter()
+            .map(|col| crate::vector::apply(&inertia, col))
+            .collect()
+    });
+    let ell = m.coordinates.len();
+    let entry = |i: usize, j: usize| {
+        let translation = mul(b.mass.clone(), dot(&v.columns[i], &v.columns[j]));
+        match &iw {
+            Some(iw) => add(translation, dot(&w[i], &iw[j])),
+            None => translation,
+        }
+    };
+    let a = (0..ell)
+        .map(|i| (0..ell).map(|j| entry(i, j)).collect())
+        .collect();
+    let u = neg(product([
+        b.mass.clone(),
+        m.world.gravity.clone(),
+        carried.height(),
+    ]));
+    Ok((a, u))
+}
+
+/// Mass positive and inertia positive definite at the defaults.
+fn check_body(b: &Body, at: &Point) -> Result<(), BodiesError> {
+    let place = |field| Place::new(Section::Bodies, &b.name, field);
+    let mass = at
+        .value(&b.mass)
+        .map_err(|e| BodiesError::new(place("mass"), e))?;
+    if mass <= 0.0 {
+        return Err(BodiesError::new(place("mass"), Problem::Mass(mass)));
+    }
+    let Some(inertia) = &b.inertia else {
+        return Ok(());
+    };
+    let i = inertia.matrix();
+    let mut n = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for c in 0..3 {
+            n[r][c] = at
+                .value(&i[r][c])
+                .map_err(|e| BodiesError::new(place("inertia"), e))?;
+        }
+    }
+    let minors = [
+        n[0][0],
+        n[0][0] * n[1][1] - n[0][1] * n[1][0],
+        n[0][0] * (n[1][1] * n[2][2] - n[1][2] * n[2][1])
+            - n[0][1] * (n[1][0] * n[2][2] - n[1][2] * n[2][0])
+            + n[0][2] * (n[1][0] * n[2][1] - n[1][1] * n[2][0]),
+    ];
+    if let Some(k) = minors.iter().position(|&d| d <= 0.0) {
+        let detail = format!("leading minor {} is {:.6e}", k + 1, minors[k]);
+        return Err(BodiesError::new(place("inertia"), Problem::Inertia(detail)));
+    }
+    Ok(())
+}
+
+/// A direction of unit length at the defaults (coordinate axes are).
+pub(crate) fn check_direction(d: &Direction, at: &Point) -> Result<(), Problem> {
+    if let Direction::Vector(v) = d {
+        let length = at.value(&dot(v, v))?.sqrt();
+        if length == 0.0 {
+            return Err(Problem::ZeroAxis);
+        }
+        if (length - 1.0).abs() > 1e-12 {
+            return Err(Problem::NotUnit(length));
+        }
+    }
+    Ok(())
+}
+
+fn wheels(
+    m: &Mechanism,
+    tree: &Tree,
+    values: &IndexMap<String, f64>,
+    samples: &[Vec<f64>],
+    reference: &Point,
+    out: &mut Expansion,
+) -> Result<(), BodiesError> {
+    for w in &m.wheels {
+        let place = |field| Place::new(Section::Wheels, &w.name, field);
+        check_frame(tree, Section::Wheels, &w.name, &w.frame)?;
+        check_direction(&w.axis, reference).map_err(|e| BodiesError::new(place("axis"), e))?;
+        let r = reference
+            .value(&w.radius)
+            .map_err(|e| BodiesError::new(place("radius"), e))?;
+        if r <= 0.0 {
+            return Err(BodiesError::new(place("radius"), Problem::Radius(r)));
+        }
+        let rolling = contact::wheel(tree, &m.frames, w, &m.coordinates, reference)?;
+        out.rows.extend(rolling.rows);
+        out.notes
+            .extend(rolling.note.map(|n| format!("wheel {}: {n}", w.name)));
+        match &w.dependent {
+            Some(q) => out.holonomic.push(HolonomicConstraint {
+                name: format!("{}_contact", w.name),
+                h: rolling.height,
+                dependent: q.clone(),
+            }),
+            None => on_the_ground(m, w, &rolling.height, values, samples)?,
+        }
+    }
+    Ok(())
+}
+
+/// A wheel without a dependent coordinate must touch the ground at every sample (its frames
+/// keep it there by construction).
+fn on_the_ground(
+    m: &Mechanism,
+    w: &crate::mechanism::Wheel,
+    h: &Expr,
+    values: &IndexMap<String, f64>,
+    samples: &[Vec<f64>],
+) -> Result<(), BodiesError> {
+    let place = Place::new(Section::Wheels, &w.name, "dependent");
+    for q in samples {
+        let at = Point {
+            coordinates: &m.coordinates,
+            q,
+            values,
+        };
+        let height = at
+            .value(h)
+            .map_err(|e| BodiesError::new(place.clone(), e))?;
+        let scale = at
+            .value(&w.radius)
+            .map_err(|e| BodiesError::new(place.clone(), e))?;
+        if height.abs() > 1e-12 * scale.abs().max(1.0) {
+            return Err(BodiesError::new(
+                place,
+                Problem::OffGround {
+                    height,
+                    at: q.clone(),
+                },
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The holonomic constraints' velocity rows dh/dt = Σ_k ∂h/∂q_k q̇_k, in order, and the
+/// completion that solves them for their dependent coordinates, which must succeed at the
+/// reference configuration q = 0. `place` says where each constraint was declared.
+pub fn holonomic_rows(
+    coordinates: &[String],
+    constraints: &[HolonomicConstraint],
+    values: &IndexMap<String, f64>,
+    place: &dyn Fn(&HolonomicConstraint, &'static str) -> Place,
+) -> Result<(Vec<Row>, Completion), BodiesError> {
+    let mut rows = Vec::new();
+    let mut dependent = Vec::new();
+    for (i, c) in constraints.iter().enumerate() {
+        let coefficients = coordinates
+            .iter()
+            .map(|q| c.h.diff(q))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| BodiesError::new(place(c, "h"), e))?;
+        rows.push(Row {
+            name: c.name.clone(),
+            coefficients,
+        });
+        let at = place(c, "dependent");
+        let j = coordinates
+            .iter()
+            .position(|q| *q == c.dependent)
+            .ok_or_else(|| {
+                BodiesError::new(at.clone(), Problem::UnknownCoordinate(c.dependent.clone()))
+            })?;
+        if dependent[..i].contains(&j) {
+            return Err(BodiesError::new(
+                at,
+                Problem::DependentTwice(c.dependent.clone()),
+            ));
+        }
+        dependent.push(j);
+    }
+    let h = constraints.iter().map(|c| c.h.clone()).collect();
+    let first = constraints.first().map(|c| place(c, "dependent"));
+    let err = |p: Problem| {
+        BodiesError::new(
+            first.clone().expect("a failing completion has constraints"),
+            p,
+        )
+    };
+    let completion = Completion::new(coordinates, h, dependent).map_err(err)?;
+    let mut q = vec![0.0; coordinates.len()];
+    completion.complete(&mut q, values).map_err(|e| {
+        let names: Vec<&str> = constraints.iter().map(|c| c.dependent.as_str()).collect();
+        err(Problem::Undetermined {
+            coordinate: names.join(", "),
+            reason: e.to_string(),
+        })
+    })?;
+    Ok((rows, completion))
+}
+
+/// Where a holonomic constraint of a mechanism was declared: a wheel's `dependent`, or
+/// `[holonomic.NAME]`.
+fn holonomic_place(m: &Mechanism, c: &HolonomicConstraint, field: &'static str) -> Place {
+    match m
+        .wheels
+        .iter()
+        .find(|w| format!("{}_contact", w.name) == c.name)
+    {
+        Some(w) => Place::new(Section::Wheels, &w.name, "dependent"),
+        None => Place::new(Section::Holonomic, &c.name, field),
+    }
+}

@@ -1,0 +1,183 @@
+//! Numbers at the default parameters: evaluating the description's expressions for its checks,
+//! and completing a configuration by solving the holonomic constraints for their dependent
+//! coordinates (Newton's method on the exact Jacobian).
+
+use hamel_expr::{Env, Expr};
+use indexmap::IndexMap;
+
+use crate::error::Problem;
+
+/// A configuration and parameter values, as an environment for evaluation.
+pub struct Point<'a> {
+    /// Coordinate names.
+    pub coordinates: &'a [String],
+    /// Their values.
+    pub q: &'a [f64],
+    /// Parameter values.
+    pub values: &'a IndexMap<String, f64>,
+}
+
+impl Env<f64> for Point<'_> {
+    fn symbol(&self, name: &str) -> Option<f64> {
+        match self.coordinates.iter().position(|c| c == name) {
+            Some(i) => self.q.get(i).copied(),
+            None => self.values.get(name).copied(),
+        }
+    }
+}
+
+impl Point<'_> {
+    /// The value of `e` here.
+    pub fn value(&self, e: &Expr) -> Result<f64, Problem> {
+        let v = e
+            .eval(self)
+            .map_err(|err| Problem::Evaluation(err.to_string()))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(Problem::Evaluation(format!("`{e}` is not finite")))
+        }
+    }
+}
+
+/// Holonomic constraints h_i(q) = 0 with the exact partial derivatives by their dependent
+/// coordinates, ready for Newton's method.
+#[derive(Clone, Debug)]
+pub struct Completion {
+    coordinates: Vec<String>,
+    h: Vec<Expr>,
+    dependent: Vec<usize>,
+    /// ∂h_i/∂q_{dependent[j]}
+    jacobian: Vec<Vec<Expr>>,
+}
+
+/// Why a configuration could not be completed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CompletionError {
+    /// Newton's method did not converge.
+    #[error(
+        "Newton's method did not converge in {iterations} iterations (residual {residual:.3e})"
+    )]
+    NoConvergence {
+        /// Iterations made.
+        iterations: usize,
+        /// max |h_i| at the end.
+        residual: f64,
+    },
+    /// The Jacobian by the dependent coordinates is singular.
+    #[error("the constraints' Jacobian by the dependent coordinates is singular at q = {0:?}")]
+    Singular(Vec<f64>),
+    /// An expression could not be evaluated.
+    #[error("{0}")]
+    Evaluation(String),
+}
+
+impl Completion {
+    /// The constraints `h` (functions of `coordinates` and parameters) for the coordinates
+    /// `dependent` (indices, one per constraint).
+    pub fn new(
+        coordinates: &[String],
+        h: Vec<Expr>,
+        dependent: Vec<usize>,
+    ) -> Result<Completion, Problem> {
+        let jacobian = h
+            .iter()
+            .map(|hi| {
+                dependent
+                    .iter()
+                    .map(|&j| hi.diff(&coordinates[j]))
+                    .collect::<Result<Vec<_>, _>>()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Completion {
+            coordinates: coordinates.to_vec(),
+            h,
+            dependent,
+            jacobian,
+        })
+    }
+
+    /// The dependent coordinates' indices.
+    pub fn dependent(&self) -> &[usize] {
+        &self.dependent
+    }
+
+    /// Solve h(q) = 0 for the dependent coordinates of `q`, starting from their values in `q`
+    /// and keeping the others; at most 50 iterations, to |h| ≤ 1e-14·(1 + scale).
+    pub fn complete(
+        &self,
+        q: &mut [f64],
+        values: &IndexMap<String, f64>,
+    ) -> Result<(), CompletionError> {
+        if self.h.is_empty() {
+            return Ok(());
+        }
+        const ITERATIONS: usize = 50;
+        let mut residual = f64::INFINITY;
+        for _ in 0..ITERATIONS {
+            let (h, jac) = self.linearise(q, values)?;
+            residual = h.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            let step =
+                hamel_expr::solve(jac, h).ok_or_else(|| CompletionError::Singular(q.to_vec()))?;
+            let mut moved = 0.0_f64;
+            for (&j, s) in self.dependent.iter().zip(&step) {
+                q[j] -= s;
+                moved = moved.max(s.abs() / (1.0 + q[j].abs()));
+            }
+            if moved <= 4.0 * f64::EPSILON && residual < 1e-10 {
+                return Ok(());
+            }
+        }
+        Err(CompletionError::NoConvergence {
+            iterations: ITERATIONS,
+            residual,
+        })
+    }
+
+    /// h(q) and its Jacobian by the dependent coordinates.
+    fn linearise(
+        &self,
+        q: &[f64],
+        values: &IndexMap<String, f64>,
+    ) -> Result<(Vec<f64>, Vec<Vec<f64>>), CompletionError> {
+        let at = Point {
+            coordinates: &self.coordinates,
+            q,
+            values,
+        };
+        let eval = |e: &Expr| {
+            at.value(e)
+                .map_err(|p| CompletionError::Evaluation(p.to_string()))
+        };
+        let h = self.h.iter().map(eval).collect::<Result<Vec<_>, _>>()?;
+        let jac = self
+            .jacobian
+            .iter()
+            .map(|row| row.iter().map(eval).collect::<Result<Vec<_>, _>>())
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((h, jac))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn newton_solves_a_circle_for_its_dependent_coordinate() {
+        let coords = vec!["x".to_string(), "y".to_string()];
+        let h = hamel_expr::parse("x^2 + y^2 - r^2").unwrap().expr;
+        let c = Completion::new(&coords, vec![h], vec![1]).unwrap();
+        let values = IndexMap::from([("r".to_string(), 2.0)]);
+        let mut q = [1.2, 1.0];
+        c.complete(&mut q, &values).unwrap();
+        assert!((q[1] - (4.0_f64 - 1.44).sqrt()).abs() < 1e-14);
+        let mut q = [1.2, 0.0];
+        assert!(matches!(
+            c.complete(&mut q, &values),
+            Err(CompletionError::Singular(_))
+        ));
+        let mut q = [3.0, 1.0];
+        assert!(c.complete(&mut q, &values).is_err());
+    }
+}

@@ -1,0 +1,600 @@
+//! Reading a model given by bodies, frames and rolling wheels (`[world]`, `[frames.*]`,
+//! `[bodies.*]`, `[wheels.*]`, `[blades.*]`, `[holonomic.*]`): every field parsed and resolved
+//! with its place in the file, the mechanism expanded by `hamel-bodies` into A, U and the rows
+//! of α, and any problem it finds located at the field it names.
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use hamel_bodies::{
+    Axis, Blade, BodiesError, Body, Completion, Direction, Frame, Holonomic, HolonomicConstraint,
+    Inertia, Mechanism, Place, Rotation, Row, Section, WORLD, Wheel, World,
+};
+use hamel_expr::Expr;
+use toml::Spanned;
+
+use crate::error::ModelError;
+use crate::loader::{Dynamics, ErrorAt, FieldKind, Item, Kinetic, Loader, Origin};
+use crate::schema::{RawDirection, RawModel, RawScalar, RawVector};
+
+/// The places of the description's fields: key path → span.
+#[derive(Default)]
+pub(crate) struct Sites(HashMap<String, Range<usize>>);
+
+impl Sites {
+    /// The span of `key`, or of its nearest enclosing entry.
+    pub fn span(&self, key: &str) -> Range<usize> {
+        let mut k = key;
+        loop {
+            if let Some(s) = self.0.get(k) {
+                return s.clone();
+            }
+            match k.rfind('.') {
+                Some(i) => k = &k[..i],
+                None => return 0..0,
+            }
+        }
+    }
+
+    fn note(&mut self, key: &str, span: Range<usize>) {
+        self.0.insert(key.to_string(), span);
+    }
+}
+
+/// Whether the file describes bodies (then it gives no `[lagrangian]`).
+pub(crate) fn describes_bodies(raw: &RawModel) -> bool {
+    raw.world.is_some() || !raw.frames.is_empty() || !raw.bodies.is_empty()
+}
+
+/// L and α from the file's bodies: A, U and the rows of α expanded by `hamel-bodies`, any
+/// problem located at the field it names.
+pub(crate) fn dynamics(
+    raw: &RawModel,
+    loader: &mut Loader,
+    err: &ErrorAt,
+) -> Result<Dynamics, ModelError> {
+    if let Some(l) = &raw.lagrangian {
+        return Err(err(
+            l.span(),
+            "lagrangian",
+            "a model of bodies derives T and U from them: give [lagrangian] or bodies, not both"
+                .into(),
+        ));
+    }
+    let mut sites = Sites::default();
+    let mechanism = mechanism(raw, loader, &mut sites, err)?;
+    let samples = crate::sample_configurations(mechanism.coordinates.len(), 8, 23);
+    let values = loader.parameters.clone();
+    let e =
+        hamel_bodies::expand(&mechanism, &values, &samples).map_err(|e| located(&sites, err, e))?;
+    let span = |key: &str| sites.span(key);
+    let ell = mechanism.coordinates.len();
+    let kinetic = Kinetic::MassMatrix(
+        (0..ell)
+            .map(|i| {
+                (0..ell)
+                    .map(|j| {
+                        let key = format!("bodies: A[{}][{}]", i + 1, j + 1);
+                        Item::expanded(&key, e.mass_matrix[i][j].clone(), span("bodies"))
+                    })
+                    .collect()
+            })
+            .collect(),
+    );
+    let potential = Item::expanded("bodies: U", e.potential.clone(), span("bodies"));
+    let rows = e
+        .rows
+        .iter()
+        .map(|r| {
+            (
+                r.name.clone(),
+                row_item(r, &mechanism.coordinates, span(&row_section(r, &mechanism))),
+            )
+        })
+        .collect();
+    Ok(Dynamics {
+        kinetic,
+        potential,
+        rows,
+        holonomic: e.holonomic,
+        completion: e.completion,
+        origin: Origin::Bodies,
+        notes: e.notes,
+    })
+}
+
+/// The key of the entry a row comes from.
+fn row_section(r: &Row, m: &Mechanism) -> String {
+    let from = |names: Vec<&str>, section: &str| {
+        names
+            .into_iter()
+            .find(|n| r.name.starts_with(&format!("{n}_")) || r.name == *n)
+            .map(|n| format!("{section}.{n}"))
+    };
+    from(m.wheels.iter().map(|w| w.name.as_str()).collect(), "wheels")
+        .or_else(|| from(m.blades.iter().map(|b| b.name.as_str()).collect(), "blades"))
+        .unwrap_or_else(|| format!("holonomic.{}", r.name))
+}
+
+/// The constraint Σ_k coefficient_k der(q_k) = 0 of a row.
+fn row_item(r: &Row, coordinates: &[String], span: Range<usize>) -> Item {
+    let terms = r
+        .coefficients
+        .iter()
+        .zip(coordinates)
+        .map(|(c, q)| hamel_expr::build::mul(c.clone(), Expr::Der(q.clone())));
+    Item::expanded(
+        &format!("constraints.{}", r.name),
+        hamel_expr::build::sum(terms),
+        span,
+    )
+}
+
+fn located(sites: &Sites, err: &ErrorAt, e: BodiesError) -> ModelError {
+    let key = e.place.key();
+    err(sites.span(&key), &key, e.problem.to_string())
+}
+
+/// The holonomic constraints of a model typed in by hand.
+pub(crate) struct HolonomicRows {
+    /// Their velocity rows, named as the constraints.
+    pub rows: Vec<(String, Item)>,
+    pub constraints: Vec<HolonomicConstraint>,
+    pub completion: Completion,
+}
+
+/// The `[holonomic]` constraints of a model typed in by hand: their velocity rows and their
+/// completion.
+pub(crate) fn holonomic_of(
+    raw: &RawModel,
+    loader: &mut Loader,
+    err: &ErrorAt,
+) -> Result<HolonomicRows, ModelError> {
+    let mut sites = Sites::default();
+    let mut constraints = Vec::new();
+    for (name, h) in &raw.holonomic {
+        let c = holonomic(loader, &mut sites, name, h, err)?;
+        constraints.push(HolonomicConstraint {
+            name: c.name,
+            h: c.h,
+            dependent: c.dependent,
+        });
+    }
+    let place = |c: &HolonomicConstraint, field| Place::new(Section::Holonomic, &c.name, field);
+    let (rows, completion) = hamel_bodies::holonomic_rows(
+        &loader.coordinates,
+        &constraints,
+        &loader.parameters,
+        &place,
+    )
+    .map_err(|e| located(&sites, err, e))?;
+    let coordinates = loader.coordinates.clone();
+    let items = rows
+        .iter()
+        .map(|r| {
+            (
+                r.name.clone(),
+                row_item(
+                    r,
+                    &coordinates,
+                    sites.span(&format!("holonomic.{}", r.name)),
+                ),
+            )
+        })
+        .collect();
+    Ok(HolonomicRows {
+        rows: items,
+        constraints,
+        completion,
+    })
+}
+
+fn mechanism(
+    raw: &RawModel,
+    loader: &mut Loader,
+    sites: &mut Sites,
+    err: &ErrorAt,
+) -> Result<Mechanism, ModelError> {
+    let Some(world) = &raw.world else {
+        return Err(err(
+            0..0,
+            "world",
+            "a model of bodies needs [world] with `up` (and `gravity`)".into(),
+        ));
+    };
+    sites.note("world", world.span());
+    let w = world.get_ref();
+    let up = Axis::parse(w.up.get_ref()).ok_or_else(|| {
+        err(
+            w.up.span(),
+            "world.up",
+            format!(
+                "`{}` is not an axis: write x, y, z, -x, -y or -z",
+                w.up.get_ref()
+            ),
+        )
+    })?;
+    let gravity = match &w.gravity {
+        Some(g) => scalar(loader, g, "world.gravity")?,
+        None => Expr::int(0),
+    };
+    let mut frames = Vec::new();
+    for (name, f) in &raw.frames {
+        frames.push(frame(loader, sites, name, f)?);
+    }
+    let mut m = Mechanism {
+        coordinates: loader.coordinates.clone(),
+        world: World { up, gravity },
+        frames,
+        bodies: Vec::new(),
+        wheels: Vec::new(),
+        blades: Vec::new(),
+        holonomic: Vec::new(),
+    };
+    for (name, b) in &raw.bodies {
+        m.bodies.push(body(loader, sites, name, b)?);
+    }
+    for (name, w) in &raw.wheels {
+        m.wheels.push(wheel(loader, sites, name, w, err)?);
+    }
+    for (name, b) in &raw.blades {
+        m.blades.push(blade(loader, sites, name, b)?);
+    }
+    for (name, h) in &raw.holonomic {
+        m.holonomic.push(holonomic(loader, sites, name, h, err)?);
+    }
+    Ok(m)
+}
+
+/// One scalar expression of the configuration.
+fn scalar(loader: &mut Loader, v: &Spanned<RawScalar>, key: &str) -> Result<Expr, ModelError> {
+    let text = Spanned::new(v.span(), v.get_ref().text());
+    Ok(loader.item(&text, key, FieldKind::Positional)?.expr)
+}
+
+/// Three scalars (zero when absent).
+fn vector(loader: &mut Loader, v: Option<&RawVector>, key: &str) -> Result<[Expr; 3], ModelError> {
+    let Some(v) = v else {
+        return Ok(hamel_bodies::vector::zero());
+    };
+    if v.get_ref().len() != 3 {
+        return Err(loader.err(
+            v.span(),
+            key,
+            format!("a vector needs 3 components, found {}", v.get_ref().len()),
+        ));
+    }
+    let c = |i: usize, loader: &mut Loader| {
+        scalar(loader, &v.get_ref()[i], &format!("{key}[{}]", i + 1))
+    };
+    Ok([c(0, loader)?, c(1, loader)?, c(2, loader)?])
+}
+
+fn direction(
+    loader: &mut Loader,
+    d: &Spanned<RawDirection>,
+    key: &str,
+) -> Result<Direction, ModelError> {
+    match d.get_ref() {
+        RawDirection::Axis(name) => Axis::parse(name).map(Direction::Axis).ok_or_else(|| {
+            loader.err(
+                d.span(),
+                key,
+                format!("`{name}` is not an axis: write x, y, z, -x, -y, -z or a vector [a, b, c]"),
+            )
+        }),
+        RawDirection::Vector(v) => {
+            let items = v
+                .iter()
+                .map(|x| Spanned::new(d.span(), x.clone()))
+                .collect();
+            let spanned = Spanned::new(d.span(), items);
+            Ok(Direction::Vector(vector(loader, Some(&spanned), key)?))
+        }
+    }
+}
+
+fn frame(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    name: &str,
+    f: &Spanned<crate::schema::RawFrame>,
+) -> Result<Frame, ModelError> {
+    let key = format!("frames.{name}");
+    sites.note(&key, f.span());
+    let raw = f.get_ref();
+    let parent = match &raw.parent {
+        Some(p) => {
+            sites.note(&format!("{key}.parent"), p.span());
+            p.get_ref().clone()
+        }
+        None => WORLD.to_string(),
+    };
+    if let Some(o) = &raw.origin {
+        sites.note(&format!("{key}.origin"), o.span());
+    }
+    let origin = vector(loader, raw.origin.as_ref(), &format!("{key}.origin"))?;
+    let mut rotations = Vec::new();
+    for (i, r) in raw.rotations.iter().enumerate() {
+        let rkey = format!("{key}.rotations[{}]", i + 1);
+        sites.note(&format!("{key}.rotations"), r.span());
+        rotations.push(Rotation {
+            axis: direction(loader, &r.get_ref().axis, &format!("{rkey}.axis"))?,
+            angle: scalar(loader, &r.get_ref().angle, &format!("{rkey}.angle"))?,
+        });
+    }
+    Ok(Frame {
+        name: name.to_string(),
+        parent,
+        origin,
+        rotations,
+    })
+}
+
+fn body(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    name: &str,
+    b: &Spanned<crate::schema::RawBody>,
+) -> Result<Body, ModelError> {
+    let key = format!("bodies.{name}");
+    sites.note(&key, b.span());
+    let raw = b.get_ref();
+    sites.note(&format!("{key}.frame"), raw.frame.span());
+    sites.note(&format!("{key}.mass"), raw.mass.span());
+    let inertia = match &raw.inertia {
+        Some(i) => Some(inertia(loader, sites, &key, i)?),
+        None => None,
+    };
+    Ok(Body {
+        name: name.to_string(),
+        frame: raw.frame.get_ref().clone(),
+        mass: scalar(loader, &raw.mass, &format!("{key}.mass"))?,
+        centre_of_mass: vector(
+            loader,
+            raw.centre_of_mass.as_ref(),
+            &format!("{key}.centre_of_mass"),
+        )?,
+        inertia,
+    })
+}
+
+fn inertia(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    key: &str,
+    i: &Spanned<crate::schema::RawInertia>,
+) -> Result<Inertia, ModelError> {
+    let ikey = format!("{key}.inertia");
+    sites.note(&ikey, i.span());
+    let i = i.get_ref();
+    let entry = |v: &Option<Spanned<RawScalar>>, field: &str, loader: &mut Loader| match v {
+        Some(v) => scalar(loader, v, &format!("{ikey}.{field}")),
+        None => Ok(Expr::int(0)),
+    };
+    let entries = [
+        scalar(loader, &i.xx, &format!("{ikey}.xx"))?,
+        scalar(loader, &i.yy, &format!("{ikey}.yy"))?,
+        scalar(loader, &i.zz, &format!("{ikey}.zz"))?,
+        entry(&i.xy, "xy", loader)?,
+        entry(&i.xz, "xz", loader)?,
+        entry(&i.yz, "yz", loader)?,
+    ];
+    Ok(Inertia { entries })
+}
+
+fn coordinate(
+    loader: &Loader,
+    c: &Spanned<String>,
+    key: &str,
+    err: &ErrorAt,
+) -> Result<String, ModelError> {
+    let name = c.get_ref();
+    if loader.coordinates.contains(name) {
+        Ok(name.clone())
+    } else {
+        Err(err(c.span(), key, format!("`{name}` is not a coordinate")))
+    }
+}
+
+fn wheel(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    name: &str,
+    w: &Spanned<crate::schema::RawWheel>,
+    err: &ErrorAt,
+) -> Result<Wheel, ModelError> {
+    let key = format!("wheels.{name}");
+    sites.note(&key, w.span());
+    let raw = w.get_ref();
+    sites.note(&format!("{key}.frame"), raw.frame.span());
+    sites.note(&format!("{key}.axis"), raw.axis.span());
+    sites.note(&format!("{key}.radius"), raw.radius.span());
+    let dependent = match &raw.dependent {
+        Some(d) => {
+            sites.note(&format!("{key}.dependent"), d.span());
+            Some(coordinate(loader, d, &format!("{key}.dependent"), err)?)
+        }
+        None => None,
+    };
+    Ok(Wheel {
+        name: name.to_string(),
+        frame: raw.frame.get_ref().clone(),
+        axis: direction(loader, &raw.axis, &format!("{key}.axis"))?,
+        radius: scalar(loader, &raw.radius, &format!("{key}.radius"))?,
+        dependent,
+    })
+}
+
+fn blade(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    name: &str,
+    b: &Spanned<crate::schema::RawBlade>,
+) -> Result<Blade, ModelError> {
+    let key = format!("blades.{name}");
+    sites.note(&key, b.span());
+    let raw = b.get_ref();
+    sites.note(&format!("{key}.frame"), raw.frame.span());
+    sites.note(&format!("{key}.direction"), raw.direction.span());
+    Ok(Blade {
+        name: name.to_string(),
+        frame: raw.frame.get_ref().clone(),
+        point: vector(loader, raw.point.as_ref(), &format!("{key}.point"))?,
+        direction: direction(loader, &raw.direction, &format!("{key}.direction"))?,
+    })
+}
+
+fn holonomic(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    name: &str,
+    h: &Spanned<crate::schema::RawHolonomic>,
+    err: &ErrorAt,
+) -> Result<Holonomic, ModelError> {
+    let key = format!("holonomic.{name}");
+    sites.note(&key, h.span());
+    let raw = h.get_ref();
+    sites.note(&format!("{key}.h"), raw.h.span());
+    sites.note(&format!("{key}.dependent"), raw.dependent.span());
+    Ok(Holonomic {
+        name: name.to_string(),
+        h: loader
+            .item(&raw.h, &format!("{key}.h"), FieldKind::Positional)?
+            .expr,
+        dependent: coordinate(loader, &raw.dependent, &format!("{key}.dependent"), err)?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{Model, ModelError, Origin};
+
+    /// A disk rolling on the plane, from its body; the variants below break one thing each.
+    const DISK: &str = r#"
+name = "disk"
+title = "test"
+coordinates = ["x", "y", "phi", "psi", "theta"]
+[parameters]
+R = 0.5
+m = 2.0
+g = 9.81
+[world]
+up = "z"
+gravity = "g"
+[frames.heading]
+origin = ["x", "y", 0]
+rotations = [{ axis = "z", angle = "phi" }]
+[frames.lean]
+parent = "heading"
+rotations = [{ axis = "-x", angle = "theta" }]
+[frames.disk]
+parent = "lean"
+origin = [0, 0, "R"]
+rotations = [{ axis = "y", angle = "psi" }]
+[bodies.disk]
+frame = "disk"
+mass = "m"
+inertia = { xx = "m*R^2/4", yy = "m*R^2/2", zz = "m*R^2/4" }
+[wheels.disk]
+frame = "disk"
+axis = "y"
+radius = "R"
+"#;
+
+    fn bad(text: &str) -> ModelError {
+        Model::from_source("bad.toml", text).unwrap_err()
+    }
+
+    /// The message, and the line of the file it points at.
+    fn at(e: &ModelError) -> (String, usize) {
+        (e.to_string(), e.line_col().map_or(0, |(l, _)| l))
+    }
+
+    #[test]
+    fn a_disk_from_its_body() {
+        let m = Model::from_source("disk.toml", DISK).unwrap();
+        assert_eq!(m.origin, Origin::Bodies);
+        assert_eq!((m.ell(), m.mu()), (5, 2));
+        assert!(
+            m.notes.iter().any(|n| n.contains("cos(theta)")),
+            "{:?}",
+            m.notes
+        );
+    }
+
+    #[test]
+    fn an_unknown_parent_frame_is_located() {
+        let (msg, line) = at(&bad(
+            &DISK.replace("parent = \"heading\"", "parent = \"headng\"")
+        ));
+        assert!(
+            msg.contains("frames.lean.parent: unknown frame `headng`"),
+            "{msg}"
+        );
+        assert_eq!(line, 16, "{msg}");
+    }
+
+    #[test]
+    fn a_cycle_among_frames_is_located() {
+        let text = DISK.replace(
+            "[frames.heading]\n",
+            "[frames.heading]\nparent = \"disk\"\n",
+        );
+        let (msg, _) = at(&bad(&text));
+        assert!(msg.contains("the frames form a cycle"), "{msg}");
+    }
+
+    #[test]
+    fn an_inertia_that_is_not_positive_definite_is_located() {
+        let text = DISK.replace("zz = \"m*R^2/4\"", "zz = \"-m*R^2/4\"");
+        let (msg, line) = at(&bad(&text));
+        assert!(
+            msg.contains("bodies.disk.inertia: the inertia is not positive definite"),
+            "{msg}"
+        );
+        assert_eq!(line, 25, "{msg}");
+    }
+
+    #[test]
+    fn a_zero_wheel_axis_is_located() {
+        let text = DISK.replace("axis = \"y\"\nradius", "axis = [0, 0, 0]\nradius");
+        let (msg, line) = at(&bad(&text));
+        assert!(
+            msg.contains("wheels.disk.axis: the direction is zero"),
+            "{msg}"
+        );
+        assert_eq!(line, 28, "{msg}");
+    }
+
+    #[test]
+    fn a_wheel_off_the_ground_needs_a_dependent_coordinate() {
+        let text = DISK.replace("origin = [0, 0, \"R\"]", "origin = [0, 0, \"2*R\"]");
+        let (msg, _) = at(&bad(&text));
+        assert!(
+            msg.contains("wheels.disk.dependent: the wheel's contact leaves the ground"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn a_holonomic_constraint_must_determine_its_coordinate() {
+        let text = format!("{DISK}[holonomic.stuck]\nh = \"x^2 + 1\"\ndependent = \"x\"\n");
+        let (msg, line) = at(&bad(&text));
+        assert!(
+            msg.contains("holonomic.stuck.dependent: the constraint does not determine `x`"),
+            "{msg}"
+        );
+        assert_eq!(line, 32, "{msg}");
+    }
+
+    #[test]
+    fn derived_parameters_are_evaluated_in_order() {
+        let text = DISK.replace("R = 0.5\n", "R = \"D/2\"\nD = \"cos(pi/3)*2\"\n");
+        let m = Model::from_source("disk.toml", &text).unwrap();
+        assert!((m.parameters["R"] - 0.5).abs() < 1e-15);
+        assert_eq!(m.derived["R"].text, "D/2");
+        let e = bad(&DISK.replace("R = 0.5\n", "R = \"D/2\"\nD = \"2*R\"\n"));
+        assert!(e.to_string().contains("cycle"), "{e}");
+    }
+}

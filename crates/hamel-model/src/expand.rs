@@ -1,0 +1,132 @@
+//! A model written back as a file of the hand-typed form (`[lagrangian]` with the mass matrix,
+//! `[constraints]`, `[holonomic]`): what `hamel expand` prints, so that a user sees what hamel
+//! derived from the bodies, and can load it like any other model.
+
+use toml_edit::{Array, DocumentMut, Item as TomlItem, Table, value};
+
+use crate::loader::{Kinetic, Origin};
+use crate::model::{ChoiceOrigin, Model};
+
+impl Model {
+    /// The model as an L/α model file: T as its mass matrix, U, the rows of α that are not
+    /// holonomic in `[constraints]`, the holonomic constraints in `[holonomic]`, the parameters
+    /// (derived ones as their expressions) and the file's quasi-velocity choices. Loading it
+    /// gives the same A, U and α.
+    pub fn to_lagrangian_toml(&self) -> String {
+        let mut doc = DocumentMut::new();
+        doc["name"] = value(self.name.as_str());
+        doc["title"] = value(self.title.as_str());
+        if let Some(d) = &self.description {
+            doc["description"] = value(d.as_str());
+        }
+        doc["coordinates"] = value(strings(self.coordinates.iter().map(String::as_str)));
+        doc["parameters"] = TomlItem::Table(self.parameter_table());
+        doc["lagrangian"] = TomlItem::Table(self.lagrangian_table());
+        let constraints = self.row_table();
+        if !constraints.is_empty() {
+            doc["constraints"] = TomlItem::Table(constraints);
+        }
+        if !self.holonomic.is_empty() {
+            doc["holonomic"] = TomlItem::Table(self.holonomic_table());
+        }
+        let choices = self.choice_table();
+        if !choices.is_empty() {
+            doc["quasi_velocities"] = TomlItem::Table(choices);
+        }
+        format!("{}{doc}", self.header())
+    }
+
+    fn header(&self) -> String {
+        let from = match self.origin {
+            Origin::Bodies => "from its bodies, frames and contacts",
+            Origin::Lagrangian => "as typed",
+        };
+        let mut h = format!(
+            "# {}: L = T + U and α {from}, written out by `hamel expand`.\n",
+            self.file
+        );
+        for n in &self.notes {
+            h += &format!("# note: {n}\n");
+        }
+        h
+    }
+
+    fn parameter_table(&self) -> Table {
+        let mut t = Table::new();
+        for (k, v) in &self.parameters {
+            match self.derived.get(k) {
+                Some(item) => t[k] = value(item.text.as_str()),
+                None => t[k] = value(*v),
+            }
+        }
+        t
+    }
+
+    fn lagrangian_table(&self) -> Table {
+        let mut t = Table::new();
+        match &self.kinetic {
+            Kinetic::Energy(item) => t["kinetic"] = value(item.expr.to_string()),
+            Kinetic::MassMatrix(rows) => {
+                let mut m = Array::new();
+                for row in rows {
+                    let mut r = strings(row.iter().map(|i| i.expr.to_string()));
+                    r.decor_mut().set_prefix("\n  ");
+                    m.push_formatted(r.into());
+                }
+                m.set_trailing("\n");
+                t["mass_matrix"] = value(m);
+            }
+        }
+        t["potential"] = value(self.potential.expr.to_string());
+        t
+    }
+
+    /// The rows of α that are not the velocity rows of holonomic constraints.
+    fn row_table(&self) -> Table {
+        let mut t = Table::new();
+        for (name, item) in &self.constraints {
+            if !self.holonomic.iter().any(|h| h.name == *name) {
+                t[name.as_str()] = value(item.expr.to_string());
+            }
+        }
+        t
+    }
+
+    fn holonomic_table(&self) -> Table {
+        let mut t = Table::new();
+        t.set_implicit(true);
+        for h in &self.holonomic {
+            let mut c = Table::new();
+            c["h"] = value(h.h.to_string());
+            c["dependent"] = value(h.dependent.as_str());
+            t[h.name.as_str()] = TomlItem::Table(c);
+        }
+        t
+    }
+
+    fn choice_table(&self) -> Table {
+        let mut t = Table::new();
+        t.set_implicit(true);
+        for c in self
+            .choices
+            .iter()
+            .filter(|c| c.origin == ChoiceOrigin::File)
+        {
+            let mut ct = Table::new();
+            ct["eta"] = value(strings(c.eta.iter().map(|i| i.text.clone())));
+            if let Some(d) = &c.description {
+                ct["description"] = value(d.as_str());
+            }
+            t[c.name.as_str()] = TomlItem::Table(ct);
+        }
+        t
+    }
+}
+
+fn strings<S: Into<String>>(items: impl Iterator<Item = S>) -> Array {
+    let mut a = Array::new();
+    for s in items {
+        a.push(s.into());
+    }
+    a
+}

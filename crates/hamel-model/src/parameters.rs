@@ -1,0 +1,188 @@
+//! `[parameters]`: names that are not coordinates, each with a finite default value, or with an
+//! expression of other parameters (a derived parameter, such as `d1 = "(w + c)*cos(lambda) -
+//! rR*sin(lambda)"`), evaluated in dependency order. `pi` is π in these expressions.
+
+use std::ops::Range;
+
+use hamel_expr::{Env, Expr};
+use indexmap::IndexMap;
+use toml::Spanned;
+
+use crate::error::ModelError;
+use crate::loader::{ErrorAt, Item, Site, is_eta_name, is_identifier, is_reserved};
+use crate::schema::RawModel;
+
+/// The parameters of a file.
+pub(crate) struct Parameters {
+    /// Every parameter's value, derived ones computed, in file order.
+    pub values: IndexMap<String, f64>,
+    /// The derived parameters' expressions.
+    pub derived: IndexMap<String, Item>,
+}
+
+/// The parameters' values (derived ones computed) and the derived parameters' expressions.
+pub(crate) fn parameters_of(
+    raw: &RawModel,
+    coordinates: &[String],
+    err: &ErrorAt,
+) -> Result<Parameters, ModelError> {
+    let mut values = IndexMap::new();
+    let mut pending: IndexMap<String, (Item, Range<usize>)> = IndexMap::new();
+    for (k, v) in &raw.parameters {
+        let key = format!("parameters.{k}");
+        check_name(k, &key, v, coordinates, err)?;
+        match v.get_ref() {
+            toml::Value::Float(f) => values.insert(k.clone(), finite(*f, &key, v, err)?),
+            toml::Value::Integer(i) => values.insert(k.clone(), *i as f64),
+            toml::Value::String(text) => {
+                let expr = hamel_expr::parse(text)
+                    .map_err(|e| err(v.span(), &key, format!("syntax error: {}", e.message)))?
+                    .expr;
+                pending.insert(
+                    k.clone(),
+                    (derived_item(&key, text, expr, v.span()), v.span()),
+                );
+                None
+            }
+            other => {
+                let found = other.type_str();
+                let msg = format!(
+                    "a parameter's default must be a number or an expression of other parameters, found {found}"
+                );
+                return Err(err(v.span(), &key, msg));
+            }
+        };
+    }
+    let derived: IndexMap<String, Item> = pending
+        .iter()
+        .map(|(k, (i, _))| (k.clone(), i.clone()))
+        .collect();
+    evaluate_in_order(&mut values, pending, raw, err)?;
+    let ordered = raw
+        .parameters
+        .keys()
+        .map(|k| (k.clone(), values[k]))
+        .collect();
+    Ok(Parameters {
+        values: ordered,
+        derived,
+    })
+}
+
+fn check_name(
+    k: &str,
+    key: &str,
+    v: &Spanned<toml::Value>,
+    coordinates: &[String],
+    err: &ErrorAt,
+) -> Result<(), ModelError> {
+    if !is_identifier(k) || is_reserved(k) || is_eta_name(k) {
+        return Err(err(
+            v.span(),
+            key,
+            format!("`{k}` cannot be a parameter name (reserved or not an identifier)"),
+        ));
+    }
+    if coordinates.iter().any(|c| c == k) {
+        return Err(err(v.span(), key, format!("`{k}` is already a coordinate")));
+    }
+    Ok(())
+}
+
+fn finite(f: f64, key: &str, v: &Spanned<toml::Value>, err: &ErrorAt) -> Result<f64, ModelError> {
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        Err(err(
+            v.span(),
+            key,
+            "a parameter's default must be finite".into(),
+        ))
+    }
+}
+
+fn derived_item(key: &str, text: &str, expr: Expr, span: Range<usize>) -> Item {
+    let mut item = Item::synthetic(key, expr);
+    item.text = text.to_string();
+    item.site = Site {
+        key: key.to_string(),
+        span,
+    };
+    item
+}
+
+/// The values known so far, and π.
+struct Known<'a>(&'a IndexMap<String, f64>);
+
+impl Env<f64> for Known<'_> {
+    fn symbol(&self, name: &str) -> Option<f64> {
+        match name {
+            "pi" => Some(std::f64::consts::PI),
+            _ => self.0.get(name).copied(),
+        }
+    }
+}
+
+/// Evaluate the derived parameters, each once the ones it uses are known; an unknown name or a
+/// cycle is an error at the first parameter that cannot be evaluated.
+fn evaluate_in_order(
+    values: &mut IndexMap<String, f64>,
+    mut pending: IndexMap<String, (Item, Range<usize>)>,
+    raw: &RawModel,
+    err: &ErrorAt,
+) -> Result<(), ModelError> {
+    while !pending.is_empty() {
+        let ready = pending.iter().position(|(_, (item, _))| {
+            uses(&item.expr)
+                .iter()
+                .all(|n| n == "pi" || values.contains_key(n))
+        });
+        let Some(i) = ready else {
+            let (k, (item, span)) = pending.first().expect("pending is not empty");
+            let unknown: Vec<String> = uses(&item.expr)
+                .into_iter()
+                .filter(|n| n != "pi" && !values.contains_key(n))
+                .collect();
+            let why = if unknown.iter().all(|n| raw.parameters.contains_key(n)) {
+                format!(
+                    "the derived parameters depend on one another in a cycle (through {})",
+                    unknown.join(", ")
+                )
+            } else {
+                format!(
+                    "unknown name(s) {}: a derived parameter may use only other parameters and pi",
+                    unknown.join(", ")
+                )
+            };
+            return Err(err(span.clone(), &format!("parameters.{k}"), why));
+        };
+        let (k, (item, span)) = pending.shift_remove_index(i).expect("index from position");
+        let v = item
+            .expr
+            .eval(&Known(values))
+            .map_err(|e| err(span.clone(), &format!("parameters.{k}"), e.to_string()))?;
+        if !v.is_finite() {
+            return Err(err(
+                span,
+                &format!("parameters.{k}"),
+                format!("`{}` is not finite", item.text),
+            ));
+        }
+        values.insert(k, v);
+    }
+    Ok(())
+}
+
+/// The symbols an expression uses (velocities and free functions count as unknown names).
+fn uses(e: &Expr) -> Vec<String> {
+    let mut names = Vec::new();
+    e.visit(&mut |n| match n {
+        Expr::Sym(s) => names.push(s.clone()),
+        Expr::Der(q) => names.push(format!("der({q})")),
+        Expr::Free { name, .. } => names.push(format!("{name}(…)")),
+        _ => {}
+    });
+    names.sort();
+    names.dedup();
+    names
+}
