@@ -11,6 +11,7 @@ mod bench;
 mod cli;
 mod messages;
 mod output;
+mod progress;
 mod search;
 
 use std::path::{Path, PathBuf};
@@ -172,7 +173,9 @@ fn load_for(path: &Path, eta: Option<&str>) -> Result<Model, ModelError> {
 fn derive(path: &Path, eta: Option<&str>, format: Format, out: Output) -> Result<(), ModelError> {
     let model = load_for(path, eta)?;
     let started = Instant::now();
-    let d = hamel_derive::derive(&model, eta)?;
+    let d = progress::while_deriving(&format!("deriving {}", model.name), || {
+        hamel_derive::derive(&model, eta)
+    })?;
     eprintln!(
         "derived {} with quasi-velocities `{}` in {:.3} s",
         d.model,
@@ -195,7 +198,9 @@ fn reduce(
 ) -> Result<(), ModelError> {
     let model = load_for(path, eta)?;
     let started = Instant::now();
-    let r = hamel_reduce::reduce(&model, eta, eliminate)?;
+    let r = progress::while_deriving(&format!("reducing {}", model.name), || {
+        hamel_reduce::reduce(&model, eta, eliminate)
+    })?;
     eprintln!(
         "analysed {} with quasi-velocities `{}` in {:.3} s",
         r.model,

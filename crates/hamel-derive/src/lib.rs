@@ -18,6 +18,7 @@
 pub mod conditioning;
 mod derivation;
 mod numeric;
+pub mod progress;
 mod render;
 pub mod states;
 pub mod symbolic;

@@ -469,13 +469,17 @@ fn solve_capped(mut a: Vec<Vec<Ex>>, mut b: Vec<Ex>, cap: usize) -> Option<Vec<E
 pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
     let choice = model.choice(Some(choice))?.clone();
     let ctx = Ctx { model };
+    let mut stage = Stage::start(&model.name, "A, α and Z in canonical form, rank of α");
     let f = field(&ctx, &choice)?;
     let (a, alpha, z) = ctx.matrices(&f, &choice)?;
+    stage.next("[Z; α]⁻¹ = [Γ Θ], δ and the singular set (4)–(6)");
     let (gamma, theta, delta) = ctx.inverse(&z, &alpha, &choice)?;
     let singular = singular_set(&delta, &gamma);
+    stage.next("common denominators, ∂A/∂q");
     // Everything below is computed over the common denominator factors (see hamel_cas::over):
     // polynomial numerators, no gcd until the results are brought to lowest terms for output.
     let o = Parts::new(&f, &a, &alpha, &z, &gamma, &theta);
+    stage.next("A_Γ (8) and Γᵀ∇U");
     let (ell, sigma) = (o.ell, o.sigma);
     // (8)
     let a_gamma = o.gamma_t.mul(&o.a).mul(&o.gamma);
@@ -487,7 +491,9 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
     let forcing: Vec<Over> = (0..sigma)
         .map(|i| o.sum((0..ell).map(|h| o.gamma[(h, i)].mul(&grad_u[h])).collect()))
         .collect();
+    stage.next("Q⁽ⁱ⁾ of the true equations (9)/(11)");
     let q_true = o.q_true();
+    stage.next("the paper's Q⁽ⁱ⁾ (15) and the correction");
     let d_agamma: Vec<OMatrix> = (0..ell)
         .map(|h| {
             if o.moves[h] {
@@ -499,6 +505,7 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
         .collect();
     let q_paper = o.q_paper(&a_gamma, &d_agamma);
     let (nu, q_correction) = o.q_correction();
+    stage.next("the equations along η and the exact checks");
     let ev = o.along_eta(&f, &q_true, &q_paper, &d_agamma);
     let checks = Checks {
         split_identity: (0..sigma)
@@ -539,6 +546,41 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
         model: model.clone(),
         choice,
     })
+}
+
+/// The stages of a derivation: each is announced to [`crate::progress`] as it starts, and its
+/// time is logged at debug level as it ends (`HAMEL_LOG=debug`).
+struct Stage {
+    model: String,
+    name: &'static str,
+    at: std::time::Instant,
+}
+
+impl Stage {
+    fn start(model: &str, first: &'static str) -> Stage {
+        crate::progress::set(Some(first));
+        Stage {
+            model: model.to_string(),
+            name: first,
+            at: std::time::Instant::now(),
+        }
+    }
+
+    /// End this stage and start `next`.
+    fn next(&mut self, next: &'static str) {
+        let elapsed = self.at.elapsed().as_secs_f64();
+        log::debug!("{}: {}: {elapsed:.3} s", self.model, self.name);
+        crate::progress::set(Some(next));
+        self.name = next;
+        self.at = std::time::Instant::now();
+    }
+}
+
+impl Drop for Stage {
+    fn drop(&mut self) {
+        self.next("");
+        crate::progress::set(None);
+    }
 }
 
 /// The field of the model's expressions: its coordinates, parameters, the choice's free
