@@ -75,32 +75,39 @@ pub fn expand(
         }
         potential = add(potential, u);
     }
-    let mut out = Expansion {
-        mass_matrix: a,
-        potential,
-        rows: Vec::new(),
-        holonomic: Vec::new(),
-        notes: Vec::new(),
-        completion: Completion::new(&m.coordinates, vec![], vec![]).map_err(world_error)?,
-    };
-    wheels(m, &tree, values, samples, &reference, &mut out)?;
+    let mut rolling = wheels(m, &tree, values, samples, &reference)?;
     for b in &m.blades {
         check_frame(&tree, Section::Blades, &b.name, &b.frame)?;
         check_direction(&b.direction, &reference)
             .map_err(|e| BodiesError::new(Place::new(Section::Blades, &b.name, "direction"), e))?;
-        out.rows.push(contact::blade(&tree, b, &reference)?);
+        rolling.rows.push(contact::blade(&tree, b, &reference)?);
     }
-    out.holonomic
+    rolling
+        .holonomic
         .extend(m.holonomic.iter().map(|c| HolonomicConstraint {
             name: c.name.clone(),
             h: c.h.clone(),
             dependent: c.dependent.clone(),
         }));
     let place = |c: &HolonomicConstraint, field| holonomic_place(m, c, field);
-    let (rows, completion) = holonomic_rows(&m.coordinates, &out.holonomic, values, &place)?;
-    out.rows.extend(rows);
-    out.completion = completion;
-    Ok(out)
+    let (rows, completion) = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
+    rolling.rows.extend(rows);
+    Ok(Expansion {
+        mass_matrix: a,
+        potential,
+        rows: rolling.rows,
+        holonomic: rolling.holonomic,
+        notes: rolling.notes,
+        completion,
+    })
+}
+
+/// What the contacts give: rows of α, holonomic constraints, notes.
+#[derive(Default)]
+struct Contacts {
+    rows: Vec<Row>,
+    holonomic: Vec<HolonomicConstraint>,
+    notes: Vec<String>,
 }
 
 fn world_error(p: Problem) -> BodiesError {
@@ -250,8 +257,8 @@ fn wheels(
     values: &IndexMap<String, f64>,
     samples: &[Vec<f64>],
     reference: &Point,
-    out: &mut Expansion,
-) -> Result<(), BodiesError> {
+) -> Result<Contacts, BodiesError> {
+    let mut out = Contacts::default();
     for w in &m.wheels {
         let place = |field| Place::new(Section::Wheels, &w.name, field);
         check_frame(tree, Section::Wheels, &w.name, &w.frame)?;
@@ -275,7 +282,7 @@ fn wheels(
             None => on_the_ground(m, w, &rolling.height, values, samples)?,
         }
     }
-    Ok(())
+    Ok(out)
 }
 
 /// A wheel without a dependent coordinate must touch the ground at every sample (its frames
