@@ -56,11 +56,7 @@ pub fn expand(
 ) -> Result<Expansion, BodiesError> {
     let ell = m.coordinates.len();
     let zeros = vec![0.0; ell];
-    let reference = Point {
-        coordinates: &m.coordinates,
-        q: &zeros,
-        values,
-    };
+    let reference = Point::at(&m.coordinates, &zeros, values);
     check_world(m, &reference)?;
     check_rotations(m, &reference)?;
     let tree = frames::build(m)?;
@@ -296,11 +292,7 @@ fn on_the_ground(
 ) -> Result<(), BodiesError> {
     let place = Place::new(Section::Wheels, &w.name, "dependent");
     for q in samples {
-        let at = Point {
-            coordinates: &m.coordinates,
-            q,
-            values,
-        };
+        let at = Point::at(&m.coordinates, q, values);
         let height = at
             .value(h)
             .map_err(|e| BodiesError::new(place.clone(), e))?;

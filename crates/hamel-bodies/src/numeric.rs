@@ -2,32 +2,52 @@
 //! and completing a configuration by solving the holonomic constraints for their dependent
 //! coordinates (Newton's method on the exact Jacobian).
 
-use hamel_expr::{Env, Expr};
+use hamel_expr::{Env, Expr, Scalar};
 use indexmap::IndexMap;
 
 use crate::error::Problem;
 
-/// A configuration and parameter values, as an environment for evaluation.
-pub struct Point<'a> {
+/// A configuration (and, when given, velocities) with parameter values: the environment a
+/// model's expressions are evaluated in, over any scalar.
+pub struct Point<'a, S = f64> {
     /// Coordinate names.
     pub coordinates: &'a [String],
     /// Their values.
-    pub q: &'a [f64],
+    pub q: &'a [S],
+    /// The velocities der(q), if the expressions may hold them.
+    pub velocities: Option<&'a [S]>,
     /// Parameter values.
     pub values: &'a IndexMap<String, f64>,
 }
 
-impl Env<f64> for Point<'_> {
-    fn symbol(&self, name: &str) -> Option<f64> {
-        match self.coordinates.iter().position(|c| c == name) {
-            Some(i) => self.q.get(i).copied(),
-            None => self.values.get(name).copied(),
+impl<'a, S> Point<'a, S> {
+    /// The configuration `q` of `coordinates`, without velocities.
+    pub fn at(coordinates: &'a [String], q: &'a [S], values: &'a IndexMap<String, f64>) -> Self {
+        Point {
+            coordinates,
+            q,
+            velocities: None,
+            values,
         }
     }
 }
 
+impl<S: Scalar> Env<S> for Point<'_, S> {
+    fn symbol(&self, name: &str) -> Option<S> {
+        match self.coordinates.iter().position(|c| c == name) {
+            Some(i) => self.q.get(i).copied(),
+            None => self.values.get(name).map(|&v| S::constant(v)),
+        }
+    }
+
+    fn velocity(&self, coordinate: &str) -> Option<S> {
+        let i = self.coordinates.iter().position(|c| c == coordinate)?;
+        self.velocities.and_then(|v| v.get(i).copied())
+    }
+}
+
 impl Point<'_> {
-    /// The value of `e` here.
+    /// The value of `e` here, finite.
     pub fn value(&self, e: &Expr) -> Result<f64, Problem> {
         let v = e
             .eval(self)
@@ -140,11 +160,7 @@ impl Completion {
         q: &[f64],
         values: &IndexMap<String, f64>,
     ) -> Result<(Vec<f64>, Vec<Vec<f64>>), CompletionError> {
-        let at = Point {
-            coordinates: &self.coordinates,
-            q,
-            values,
-        };
+        let at = Point::at(&self.coordinates, q, values);
         let eval = |e: &Expr| {
             at.value(e)
                 .map_err(|p| CompletionError::Evaluation(p.to_string()))

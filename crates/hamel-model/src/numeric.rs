@@ -3,11 +3,13 @@
 //! This is what the independent oracle and the positive-definiteness check stand on: A, α and U
 //! are read straight from the file's expressions at a point, never from a derivation.
 
-use hamel_expr::{Env, EvalError, Expr, Scalar};
+use hamel_expr::{EvalError, Expr, Scalar};
 use indexmap::IndexMap;
 use nalgebra::DMatrix;
 
 use crate::error::ModelError;
+use hamel_bodies::Point;
+
 use crate::loader::Kinetic;
 use crate::model::Model;
 
@@ -16,26 +18,6 @@ use crate::model::Model;
 pub struct NumericModel<'m> {
     model: &'m Model,
     params: IndexMap<String, f64>,
-}
-
-struct Point<'a, S> {
-    coordinates: &'a [String],
-    q: &'a [S],
-    v: Option<&'a [S]>,
-    params: &'a IndexMap<String, f64>,
-}
-
-impl<S: Scalar> Env<S> for Point<'_, S> {
-    fn symbol(&self, name: &str) -> Option<S> {
-        if let Some(i) = self.coordinates.iter().position(|c| c == name) {
-            return Some(self.q[i]);
-        }
-        self.params.get(name).map(|&v| S::constant(v))
-    }
-    fn velocity(&self, coordinate: &str) -> Option<S> {
-        let i = self.coordinates.iter().position(|c| c == coordinate)?;
-        self.v.map(|v| v[i])
-    }
 }
 
 impl<'m> NumericModel<'m> {
@@ -63,8 +45,8 @@ impl<'m> NumericModel<'m> {
         let point = Point {
             coordinates: &self.model.coordinates,
             q,
-            v,
-            params: &self.params,
+            velocities: v,
+            values: &self.params,
         };
         e.eval(&point)
     }
