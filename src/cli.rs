@@ -23,6 +23,28 @@ pub enum Format {
     Latex,
 }
 
+/// Which form of the equations `hamel derive` computes.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum FormArg {
+    /// The closed form when exact elimination of [Z; α] stays within its budget, else
+    /// structured.
+    Auto,
+    /// The closed form (Γ, A_Γ, Q, … expanded), or an error when it is too large.
+    Closed,
+    /// The structured form: A, α, Z, U exact, the equations evaluated from them.
+    Structured,
+}
+
+impl From<FormArg> for hamel_derive::FormRequest {
+    fn from(f: FormArg) -> Self {
+        match f {
+            FormArg::Auto => hamel_derive::FormRequest::Auto,
+            FormArg::Closed => hamel_derive::FormRequest::Closed,
+            FormArg::Structured => hamel_derive::FormRequest::Structured,
+        }
+    }
+}
+
 /// Output of `hamel bench`.
 #[derive(Clone, Copy, ValueEnum)]
 pub enum TableFormat {
@@ -58,6 +80,10 @@ pub enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
+        /// Closed form (every object expanded and canonical) or structured form (the
+        /// ingredients A, α, Z, U exact; for models too large to expand, such as the bicycle).
+        #[arg(long, value_enum, default_value = "auto")]
+        form: FormArg,
         /// Write the result to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,

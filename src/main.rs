@@ -21,7 +21,9 @@ use std::time::Instant;
 use clap::Parser;
 use hamel_model::{Model, ModelError};
 
-use crate::cli::{Cli, Command, Format, ReportFormat, SearchArgs, TableFormat, TrajectoryFormat};
+use crate::cli::{
+    Cli, Command, FormArg, Format, ReportFormat, SearchArgs, TableFormat, TrajectoryFormat,
+};
 use crate::output::Output;
 
 fn main() -> ExitCode {
@@ -46,8 +48,9 @@ fn run(command: Command) -> Result<(), ModelError> {
             model,
             eta,
             format,
+            form,
             output,
-        } => derive(&model, eta.as_deref(), format, Output::new(output)?),
+        } => derive(&model, eta.as_deref(), format, form, Output::new(output)?),
         Command::Expand { model, output } => {
             let out = Output::new(output)?;
             out.write(&Model::load(&model)?.to_lagrangian_toml())
@@ -170,11 +173,17 @@ fn load_for(path: &Path, eta: Option<&str>) -> Result<Model, ModelError> {
     Ok(model)
 }
 
-fn derive(path: &Path, eta: Option<&str>, format: Format, out: Output) -> Result<(), ModelError> {
+fn derive(
+    path: &Path,
+    eta: Option<&str>,
+    format: Format,
+    form: FormArg,
+    out: Output,
+) -> Result<(), ModelError> {
     let model = load_for(path, eta)?;
     let started = Instant::now();
     let d = progress::while_deriving(&format!("deriving {}", model.name), || {
-        hamel_derive::derive(&model, eta)
+        hamel_derive::derive_with(&model, eta, form.into(), false)
     })?;
     eprintln!(
         "derived {} with quasi-velocities `{}` in {:.3} s",

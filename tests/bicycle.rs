@@ -153,7 +153,6 @@ fn basu_mandal_table_one_by_the_oracle() {
 
 /// The same from hamel's Boltzmann–Hamel equations in the benchmark's quasi-velocities.
 #[test]
-#[ignore = "the symbolic derivation of the bicycle does not finish in 300 s yet (issue 17)"]
 fn basu_mandal_table_one() {
     let model = bicycle();
     let params = model.parameters.clone();

@@ -31,12 +31,13 @@ fn flat(d: &Derivation) -> Vec<(String, Vec<Expr>)> {
             .map(|e| e.expr.clone())
             .collect::<Vec<_>>()
     };
+    let c = d.closed().expect("the small models derive in closed form");
     let mut out = vec![
         ("A".into(), mat(&d.a)),
-        ("A_Γ".into(), mat(&d.a_gamma)),
+        ("A_Γ".into(), mat(&c.a_gamma)),
         (
             "forcing".into(),
-            d.forcing.iter().map(|e| e.expr.clone()).collect(),
+            c.forcing.iter().map(|e| e.expr.clone()).collect(),
         ),
         (
             "U".into(),
@@ -49,7 +50,7 @@ fn flat(d: &Derivation) -> Vec<(String, Vec<Expr>)> {
             ],
         ),
     ];
-    for (i, q) in d.q.iter().enumerate() {
+    for (i, q) in c.q.iter().enumerate() {
         out.push((format!("Q({})", i + 1), mat(q)));
     }
     out

@@ -413,7 +413,8 @@ fn a_model_is_l_and_alpha_its_default_choice_derives_and_search_candidates_paste
         );
         let d = derive(&m, None).unwrap_or_else(|e| panic!("{model}: {e}"));
         assert!(
-            d.checks.split_identity && d.checks.energy_conserved,
+            d.closed().unwrap().checks.split_identity
+                && d.closed().unwrap().checks.energy_conserved,
             "{model}"
         );
         // The first candidate of the search, pasted back, is confirmed by `reduce` (Remark 2.2

@@ -662,7 +662,7 @@ fn every_evaluator_near_every_singular_configuration_is_within_a_multiple_of_the
             let sigma = d.eta.len();
             let mut targets: Vec<(String, Vec<f64>, usize)> = Vec::new();
             for p in singular_points(&d, &params, 14) {
-                let g = &d.singular_set[p.factor].text;
+                let g = &d.singular_set()[p.factor].text;
                 let label = if g.chars().count() <= 40 {
                     format!("{g} = 0")
                 } else {
@@ -679,7 +679,7 @@ fn every_evaluator_near_every_singular_configuration_is_within_a_multiple_of_the
                     "| {} ({}) | singular nowhere in q ({}) | | | | | |",
                     model.name,
                     d.eta_name,
-                    if d.singular_set.is_empty() {
+                    if d.singular_set().is_empty() {
                         "δ has no factor".to_string()
                     } else {
                         "factors of parameters only".to_string()

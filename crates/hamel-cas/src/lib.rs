@@ -43,6 +43,12 @@ pub enum CasError {
     /// A construct the engine does not handle (with the reason).
     #[error("{0}")]
     Unsupported(String),
+    /// An exact elimination that outgrew its budget of work ([`linalg::Budget`]): the caller
+    /// decides another way (a certified evaluation, a structured form) instead of waiting.
+    #[error(
+        "exact elimination stopped: it would exceed its budget ({0} units of work, no product of operands larger than 10⁴ terms²)"
+    )]
+    TooLarge(usize),
     /// A bug or a failure of the worker thread.
     #[error("internal error: {0}")]
     Internal(String),

@@ -172,15 +172,19 @@ impl Matrix {
 
     /// Gaussian elimination on a copy: returns (row echelon form, rank, determinant for square
     /// matrices). Pivots are chosen among the exactly-nonzero entries of the column, smallest
-    /// first (the fewest terms), to keep intermediate expressions small.
+    /// first (the fewest terms), to keep intermediate expressions small. Stops with
+    /// [`CasError::TooLarge`] when its work outgrows `budget` ([`Budget`]).
     fn eliminate(
         &self,
         augment: Option<&Matrix>,
+        budget: &mut Budget,
     ) -> Result<(Matrix, Option<Matrix>, usize, Ex), CasError> {
         let field = self.data[0].field();
         let mut a = self.clone();
         let mut b = augment.cloned();
         let mut det = field.one();
+        // The determinant (a product of pivots) is formed for square matrices only.
+        let square = a.rows == a.cols;
         let mut rank = 0;
         let mut row = 0;
         for col in 0..a.cols {
@@ -206,13 +210,19 @@ impl Matrix {
                 det = -det;
             }
             let pv = a[(row, col)].clone();
-            det = &det * &pv;
+            budget.progress(row, a.rows);
+            if square {
+                budget.charge(&det, &pv)?;
+                det = &det * &pv;
+            }
             let inv = pv.inv()?;
             for j in 0..a.cols {
+                budget.charge(&a[(row, j)], &inv)?;
                 a[(row, j)] = &a[(row, j)] * &inv;
             }
             if let Some(b) = b.as_mut() {
                 for j in 0..b.cols {
+                    budget.charge(&b[(row, j)], &inv)?;
                     b[(row, j)] = &b[(row, j)] * &inv;
                 }
             }
@@ -223,13 +233,13 @@ impl Matrix {
                 let factor = a[(r, col)].clone();
                 for j in 0..a.cols {
                     if !a[(row, j)].is_zero() {
-                        a[(r, j)] = &a[(r, j)] - &(&factor * &a[(row, j)]);
+                        a[(r, j)] = budget.update(&a[(r, j)], &factor, &a[(row, j)])?;
                     }
                 }
                 if let Some(b) = b.as_mut() {
                     for j in 0..b.cols {
                         if !b[(row, j)].is_zero() {
-                            b[(r, j)] = &b[(r, j)] - &(&factor * &b[(row, j)]);
+                            b[(r, j)] = budget.update(&b[(r, j)], &factor, &b[(row, j)])?;
                         }
                     }
                 }
@@ -243,26 +253,46 @@ impl Matrix {
         Ok((a, b, rank, det))
     }
 
-    /// The rank over the field of expressions (exact).
+    /// The rank over the field of expressions (exact), or [`CasError::TooLarge`] past
+    /// [`ELIMINATION_WORK`].
     pub fn rank(&self) -> Result<usize, CasError> {
+        self.rank_within(ELIMINATION_WORK)
+    }
+
+    /// [`Matrix::rank`] within a budget of `work` ([`Budget`]).
+    pub fn rank_within(&self, work: usize) -> Result<usize, CasError> {
         if self.data.is_empty() {
             return Ok(0);
         }
-        Ok(self.eliminate(None)?.2)
+        Ok(self
+            .eliminate(None, &mut Budget::new(&self.data[0].field(), work))?
+            .2)
     }
 
-    /// The determinant of a square matrix (exact).
+    /// The determinant of a square matrix (exact), or [`CasError::TooLarge`] past
+    /// [`ELIMINATION_WORK`].
     pub fn det(&self) -> Result<Ex, CasError> {
         assert_eq!(self.rows, self.cols, "determinant of a non-square matrix");
-        Ok(self.eliminate(None)?.3)
+        Ok(self
+            .eliminate(
+                None,
+                &mut Budget::new(&self.data[0].field(), ELIMINATION_WORK),
+            )?
+            .3)
     }
 
     /// The inverse and the determinant of a square matrix; `None` when the determinant is
-    /// identically zero.
+    /// identically zero; [`CasError::TooLarge`] when Gauss–Jordan outgrows
+    /// [`ELIMINATION_WORK`].
     ///
     /// By fraction-free elimination in the half-angle ring ([`crate::bareiss`]); fields with
     /// square-root kernels by Gauss–Jordan in the field, each step in lowest terms.
     pub fn inverse(&self) -> Result<Option<(Matrix, Ex)>, CasError> {
+        self.inverse_within(ELIMINATION_WORK)
+    }
+
+    /// [`Matrix::inverse`] with Gauss–Jordan (where it is used) within a budget of `work`.
+    pub fn inverse_within(&self, work: usize) -> Result<Option<(Matrix, Ex)>, CasError> {
         assert_eq!(self.rows, self.cols, "inverse of a non-square matrix");
         let field = self.data[0].field();
         let entries: Vec<(&Poly, &Poly)> = self.data.iter().map(|e| (&e.num, &e.den)).collect();
@@ -278,17 +308,105 @@ impl Matrix {
                 (m, ex(det))
             }));
         }
-        self.inverse_gauss_jordan()
+        self.gauss_jordan(&mut Budget::new(&field, work))
     }
 
     /// [`Matrix::inverse`] by Gauss–Jordan over the field, every step in lowest terms.
     pub(crate) fn inverse_gauss_jordan(&self) -> Result<Option<(Matrix, Ex)>, CasError> {
+        self.gauss_jordan(&mut Budget::new(&self.data[0].field(), ELIMINATION_WORK))
+    }
+
+    fn gauss_jordan(&self, budget: &mut Budget) -> Result<Option<(Matrix, Ex)>, CasError> {
         let field = self.data[0].field();
         let id = Matrix::identity(&field, self.rows);
-        let (_, inv, rank, det) = self.eliminate(Some(&id))?;
+        let (_, inv, rank, det) = self.eliminate(Some(&id), budget)?;
         if rank < self.rows {
             return Ok(None);
         }
         Ok(Some((inv.expect("augmented"), det)))
+    }
+}
+
+/// The default budget of exact elimination in the field, in units of [`Budget`]: far above
+/// what the bundled models' eliminations use (at most a few thousand units).
+pub const ELIMINATION_WORK: usize = 2_000_000;
+
+/// The largest single product an elimination forms, size(x)·size(y): 10⁴, products of two
+/// 100-term expressions. In a field with a square-root kernel, lowest terms of larger ones
+/// cost seconds each: the bicycle's dependent block (entries of 126 terms with the front
+/// contact's kernel) spent 94 s on 12 products of about 1.6·10⁴ units
+/// (docs/design/bicycle-derivation-speed.md).
+pub const ELIMINATION_PRODUCT: usize = 10_000;
+
+/// The charge per unit in a field with square-root kernels. Measured on the bicycle: about
+/// 0.4 ms per unit there, against microseconds without kernels; with this weight its first
+/// product of a 126-term entry stops the elimination.
+pub const KERNEL_WEIGHT: usize = 100;
+
+/// The work of an exact elimination, counted deterministically as Σ size(x)·size(y) over the
+/// products it forms (sizes in terms of numerator and denominator): the cost of a product, and
+/// of the gcd that brings it to lowest terms, grows with it. Past the limit, or before one
+/// product larger than [`ELIMINATION_PRODUCT`], the elimination stops with
+/// [`CasError::TooLarge`], so the caller can decide another way (a certified evaluation, a
+/// structured form) instead of waiting.
+pub struct Budget {
+    limit: usize,
+    weight: usize,
+    work: usize,
+    started: std::time::Instant,
+}
+
+impl Budget {
+    /// A budget of `limit` units for elimination in `field`. In a field with square-root
+    /// kernels every product is charged [`KERNEL_WEIGHT`] times: lowest terms there take gcds
+    /// in an algebraic extension.
+    pub fn new(field: &Field, limit: usize) -> Budget {
+        let fi = field.inner();
+        let kernels = fi
+            .relations
+            .borrow()
+            .iter()
+            .any(|(v, _)| fi.kernel_var.contains(v));
+        Budget {
+            limit,
+            weight: if kernels { KERNEL_WEIGHT } else { 1 },
+            work: 0,
+            started: std::time::Instant::now(),
+        }
+    }
+
+    fn charge(&mut self, x: &Ex, y: &Ex) -> Result<(), CasError> {
+        let product = x
+            .size()
+            .saturating_mul(y.size())
+            .saturating_mul(self.weight);
+        self.work = self.work.saturating_add(product);
+        if self.work > self.limit || product > ELIMINATION_PRODUCT {
+            log::debug!(
+                "elimination stopped after {:.3} s: work {} > {}",
+                self.started.elapsed().as_secs_f64(),
+                self.work,
+                self.limit
+            );
+            return Err(CasError::TooLarge(self.limit));
+        }
+        Ok(())
+    }
+
+    /// target − factor·entry, charged.
+    fn update(&mut self, target: &Ex, factor: &Ex, entry: &Ex) -> Result<Ex, CasError> {
+        self.charge(factor, entry)?;
+        let product = factor * entry;
+        self.charge(target, &product)?;
+        Ok(target - &product)
+    }
+
+    fn progress(&self, row: usize, rows: usize) {
+        log::debug!(
+            "elimination: pivot {} of {rows}, work {} after {:.3} s",
+            row + 1,
+            self.work,
+            self.started.elapsed().as_secs_f64()
+        );
     }
 }

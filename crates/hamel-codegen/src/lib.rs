@@ -530,6 +530,10 @@ fn cramer_on_entries(a: &[Vec<Expr>], b: &[Expr]) -> (Vec<Expr>, Vec<Expr>) {
 /// polynomials in the parameters alone (hoisted out of loops with fixed parameters).
 fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
     use fold::*;
+    // A structured derivation has no closed form to solve: the structured path only.
+    let Some(c) = d.closed() else {
+        return Vec::new();
+    };
     let (l, g) = (d.ell, d.sigma);
     let params: Vec<&String> = d.parameters.keys().collect();
     let late = |f: &Expr| {
@@ -557,14 +561,14 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
         (0..l)
             .map(|i| {
                 (0..g).fold(Expr::int(0), |acc, s| {
-                    add(acc, mul(h(&d.gamma.entries[i][s].expr), eta[s].clone()))
+                    add(acc, mul(h(&c.gamma.entries[i][s].expr), eta[s].clone()))
                 })
             })
             .collect()
     };
     let a_gamma = |h: &dyn Fn(&Expr) -> Expr| -> Vec<Vec<Expr>> {
         (0..g)
-            .map(|r| (0..g).map(|s| h(&d.a_gamma.entries[r][s].expr)).collect())
+            .map(|r| (0..g).map(|s| h(&c.a_gamma.entries[r][s].expr)).collect())
             .collect()
     };
     let assemble = |name, x: Vec<Expr>, q_dot: Vec<Expr>, pivots: Vec<Expr>| Candidate {
@@ -575,10 +579,10 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
 
     let b_trees: Vec<Expr> = (0..g)
         .map(|i| {
-            let mut x = d.forcing[i].expr.clone();
+            let mut x = c.forcing[i].expr.clone();
             for r in 0..g {
                 let row = (0..g).fold(Expr::int(0), |acc, s| {
-                    add(acc, mul(d.q[i].entries[r][s].expr.clone(), eta[s].clone()))
+                    add(acc, mul(c.q[i].entries[r][s].expr.clone(), eta[s].clone()))
                 });
                 x = sub(x, mul(row, eta[r].clone()));
             }

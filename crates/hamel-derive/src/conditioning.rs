@@ -48,7 +48,7 @@ pub fn problem_condition(
 /// A configuration on the singular set of the quasi-velocities.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SingularPoint {
-    /// Index of the factor of δ in [`Derivation::singular_set`].
+    /// Index of the factor of δ in [`Derivation::singular_set`] (the closed form's).
     pub factor: usize,
     /// The configuration (every |q_k| < 10).
     pub q: Vec<f64>,
@@ -88,7 +88,7 @@ pub fn singular_points(
         (state.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
     };
     let mut points = Vec::new();
-    for (factor, g) in d.singular_set.iter().enumerate() {
+    for (factor, g) in d.singular_set().iter().enumerate() {
         let Some(k) = d.coordinates.iter().position(|c| mentions(&g.expr, c)) else {
             continue;
         };

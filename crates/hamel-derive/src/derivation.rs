@@ -4,6 +4,8 @@ use hamel_expr::Expr;
 use indexmap::IndexMap;
 use serde::{Serialize, Serializer};
 
+use crate::certify::Certificate;
+
 /// One derived expression: its canonical text and its tree.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Entry {
@@ -93,6 +95,22 @@ pub struct Derivation {
     pub alpha: Mat,
     /// Z (σ×ℓ).
     pub z: Mat,
+    /// ∇U.
+    pub grad_u: Vec<Entry>,
+    /// The equations: in closed form (Γ, A_Γ, Q, … as canonical expressions), or structured
+    /// (evaluated from the ingredients only, for derivations too large to expand). Serialised
+    /// in place: the closed form's fields, or `structured` and `certificate`.
+    #[serde(flatten)]
+    pub form: Form,
+    /// Ingredients of the structured numeric evaluation (not serialised): U and the exact
+    /// partial derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k, k = 1..ℓ.
+    #[serde(skip)]
+    pub ingredients: Ingredients,
+}
+
+/// The equations in closed form: every derived object as one canonical expression.
+#[derive(Clone, Debug, Serialize)]
+pub struct Closed {
     /// Γ (ℓ×σ): q̇ = Γη (5)–(6).
     pub gamma: Mat,
     /// Θ (ℓ×μ): [Z; α]⁻¹ = [Γ Θ] (5).
@@ -104,8 +122,6 @@ pub struct Derivation {
     pub singular_set: Vec<Entry>,
     /// A_Γ = ΓᵀAΓ (8).
     pub a_gamma: Mat,
-    /// ∇U.
-    pub grad_u: Vec<Entry>,
     /// Γᵀ∇U.
     pub forcing: Vec<Entry>,
     /// ΘᵀAΓ (μ×σ): ν = ΘᵀAΓη are the momenta along the constrained directions.
@@ -126,10 +142,94 @@ pub struct Derivation {
     pub energy: Entry,
     /// Exact checks.
     pub checks: Checks,
-    /// Ingredients of the structured numeric evaluation (not serialised): U and the exact
-    /// partial derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k, k = 1..ℓ.
-    #[serde(skip)]
-    pub ingredients: Ingredients,
+}
+
+/// How a derivation gives its equations.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum Form {
+    /// Γ, Θ, δ, A_Γ, Q, the equations and the exact checks, each a canonical expression.
+    Closed(Box<Closed>),
+    /// Only the ingredients (A, α, Z, U and their exact derivatives) are canonical; the
+    /// equations are evaluated from them ([`hamel_runtime::Structured`]), and the
+    /// nonsingularity of [Z; α] is certified at a point ([`crate::certify`]).
+    Structured(StructuredForm),
+}
+
+/// Why a derivation is in structured form, and the proof that its quasi-velocities are valid.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StructuredForm {
+    /// Why the closed form was not computed.
+    #[serde(serialize_with = "crate::derivation::as_text")]
+    pub structured: Why,
+    /// A point where [Z; α] is certainly nonsingular (so δ = det[Z; α] is not identically
+    /// zero, and α has full rank).
+    pub certificate: Certificate,
+}
+
+/// Why the closed form of a derivation was not computed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Why {
+    /// The user asked for the structured form.
+    Requested,
+    /// Exact elimination for [Z; α]⁻¹ outgrew its budget of work
+    /// ([`hamel_cas::linalg::Budget`], this many units).
+    TooLarge(usize),
+}
+
+impl std::fmt::Display for Why {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Why::Requested => write!(f, "requested (--form structured)"),
+            Why::TooLarge(n) => write!(
+                f,
+                "the exact inverse [Z; α]⁻¹ = [Γ Θ] outgrows the budget of exact elimination ({n} units of work, no product above 10⁴ terms²); the equations are evaluated from the ingredients"
+            ),
+        }
+    }
+}
+
+pub(crate) fn as_text<T: std::fmt::Display, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&v.to_string())
+}
+
+/// The closed form was needed and the derivation is structured.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "the derivation of `{model}` for `{eta}` is in structured form ({why}); {needs} needs the closed form"
+)]
+pub struct NotClosed {
+    /// Model name.
+    pub model: String,
+    /// The quasi-velocity choice.
+    pub eta: String,
+    /// Why it is structured.
+    pub why: Why,
+    /// What needed the closed form.
+    pub needs: &'static str,
+}
+
+impl Derivation {
+    /// The closed form, when the derivation has one.
+    pub fn closed(&self) -> Option<&Closed> {
+        match &self.form {
+            Form::Closed(c) => Some(c),
+            Form::Structured(_) => None,
+        }
+    }
+
+    /// The closed form, or an error saying that `needs` needs it.
+    pub fn closed_for(&self, needs: &'static str) -> Result<&Closed, NotClosed> {
+        match &self.form {
+            Form::Closed(c) => Ok(c),
+            Form::Structured(s) => Err(NotClosed {
+                model: self.model.clone(),
+                eta: self.eta_name.clone(),
+                why: s.structured.clone(),
+                needs,
+            }),
+        }
+    }
 }
 
 /// Small exact expressions from which the equations are evaluated numerically without
@@ -242,21 +342,30 @@ impl Derivation {
     /// equations and the energy).
     pub fn sizes(&self) -> IndexMap<&'static str, Size> {
         let mats = |v: &[Mat]| Size::of(v.iter().flat_map(Mat::all));
+        let Some(c) = self.closed() else {
+            // Structured: the ingredients are what is derived.
+            return IndexMap::from([
+                ("a", Size::of(self.a.all())),
+                ("alpha", Size::of(self.alpha.all())),
+                ("z", Size::of(self.z.all())),
+                ("grad_u", Size::of(&self.grad_u)),
+            ]);
+        };
         IndexMap::from([
-            ("gamma", Size::of(self.gamma.all())),
-            ("theta", Size::of(self.theta.all())),
-            ("delta", Size::of([&self.delta])),
-            ("singular_set", Size::of(&self.singular_set)),
-            ("a_gamma", Size::of(self.a_gamma.all())),
-            ("forcing", Size::of(&self.forcing)),
-            ("nu", Size::of(self.nu.all())),
-            ("q", mats(&self.q)),
-            ("q_paper", mats(&self.q_paper)),
-            ("q_correction", mats(&self.q_correction)),
-            ("equations", Size::of(&self.equations)),
-            ("equations_paper", Size::of(&self.equations_paper)),
-            ("kinematics", Size::of(&self.kinematics)),
-            ("energy", Size::of([&self.energy])),
+            ("gamma", Size::of(c.gamma.all())),
+            ("theta", Size::of(c.theta.all())),
+            ("delta", Size::of([&c.delta])),
+            ("singular_set", Size::of(&c.singular_set)),
+            ("a_gamma", Size::of(c.a_gamma.all())),
+            ("forcing", Size::of(&c.forcing)),
+            ("nu", Size::of(c.nu.all())),
+            ("q", mats(&c.q)),
+            ("q_paper", mats(&c.q_paper)),
+            ("q_correction", mats(&c.q_correction)),
+            ("equations", Size::of(&c.equations)),
+            ("equations_paper", Size::of(&c.equations_paper)),
+            ("kinematics", Size::of(&c.kinematics)),
+            ("energy", Size::of([&c.energy])),
         ])
     }
 
@@ -300,21 +409,11 @@ impl Derivation {
             a: self.a.map_expr(&f),
             alpha: self.alpha.map_expr(&f),
             z: self.z.map_expr(&f),
-            gamma: self.gamma.map_expr(&f),
-            theta: self.theta.map_expr(&f),
-            delta: self.delta.map_expr(&f),
-            singular_set: entries(&self.singular_set),
-            a_gamma: self.a_gamma.map_expr(&f),
             grad_u: entries(&self.grad_u),
-            forcing: entries(&self.forcing),
-            nu: self.nu.map_expr(&f),
-            q: mats(&self.q),
-            q_paper: mats(&self.q_paper),
-            q_correction: mats(&self.q_correction),
-            kinematics: entries(&self.kinematics),
-            equations: entries(&self.equations),
-            equations_paper: entries(&self.equations_paper),
-            energy: self.energy.map_expr(&f),
+            form: match &self.form {
+                Form::Closed(c) => Form::Closed(Box::new(c.map_expr(&f))),
+                Form::Structured(st) => Form::Structured(st.clone()),
+            },
             ingredients: Ingredients {
                 potential: ing.potential.as_ref().map(|e| e.map_expr(&f)),
                 da: mats(&ing.da),
@@ -333,6 +432,30 @@ impl Derivation {
             },
             ..self.clone()
         })
+    }
+}
+
+impl Closed {
+    fn map_expr(&self, f: &dyn Fn(&Expr) -> Expr) -> Closed {
+        let mats = |v: &[Mat]| map_all(v, |m| m.map_expr(f));
+        let entries = |v: &[Entry]| map_all(v, |e| e.map_expr(f));
+        Closed {
+            gamma: self.gamma.map_expr(f),
+            theta: self.theta.map_expr(f),
+            delta: self.delta.map_expr(f),
+            singular_set: entries(&self.singular_set),
+            a_gamma: self.a_gamma.map_expr(f),
+            forcing: entries(&self.forcing),
+            nu: self.nu.map_expr(f),
+            q: mats(&self.q),
+            q_paper: mats(&self.q_paper),
+            q_correction: mats(&self.q_correction),
+            kinematics: entries(&self.kinematics),
+            equations: entries(&self.equations),
+            equations_paper: entries(&self.equations_paper),
+            energy: self.energy.map_expr(f),
+            checks: self.checks.clone(),
+        }
     }
 }
 

@@ -15,6 +15,7 @@
 //! ([`hamel_cas::run`]); everything returned is engine-free and `Send`.
 #![warn(missing_docs)]
 
+pub mod certify;
 pub mod conditioning;
 mod derivation;
 mod numeric;
@@ -24,36 +25,39 @@ pub mod states;
 pub mod symbolic;
 
 pub use derivation::{
-    Block, Checks, Derivation, DerivationJson, Entry, Ingredients, Mat, Size, SpecialiseError,
+    Block, Checks, Closed, Derivation, DerivationJson, Entry, Form, Ingredients, Mat, NotClosed,
+    Size, SpecialiseError, StructuredForm, Why,
 };
 pub use hamel_eval::{
     Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,
 };
 pub use hamel_model::{Model, ModelError};
-pub use symbolic::{SOLUTION_TERMS, Symbolic, symbolic};
+pub use symbolic::{
+    Derived, FormRequest, SOLUTION_TERMS, StructuredSymbolic, Symbolic, derive_form, symbolic,
+};
 
 /// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first
-/// choice when `None`).
+/// choice when `None`): in closed form when it stays within the budget of exact elimination,
+/// else structured ([`FormRequest::Auto`]).
 pub fn derive(model: &Model, eta: Option<&str>) -> Result<Derivation, ModelError> {
-    derive_with(model, eta, false)
+    derive_with(model, eta, FormRequest::Auto, false)
 }
 
 /// [`derive`] with the ingredients code generation uses
 /// ([`Symbolic::to_derivation_for_code`]).
 pub fn derive_for_code(model: &Model, eta: Option<&str>) -> Result<Derivation, ModelError> {
-    derive_with(model, eta, true)
+    derive_with(model, eta, FormRequest::Auto, true)
 }
 
-fn derive_with(model: &Model, eta: Option<&str>, code: bool) -> Result<Derivation, ModelError> {
+/// [`derive`] (`code`: [`derive_for_code`]) in the form `form` asks for.
+pub fn derive_with(
+    model: &Model,
+    eta: Option<&str>,
+    form: FormRequest,
+    code: bool,
+) -> Result<Derivation, ModelError> {
     let name = model.choice(eta)?.name.clone();
     let model = model.clone();
-    hamel_cas::run(move || {
-        let s = symbolic::symbolic(&model, &name)?;
-        Ok(if code {
-            s.to_derivation_for_code()
-        } else {
-            s.to_derivation()
-        })
-    })
-    .map_err(ModelError::engine)?
+    hamel_cas::run(move || Ok(symbolic::derive_form(&model, &name, form)?.to_derivation(code)))
+        .map_err(ModelError::engine)?
 }

@@ -92,15 +92,18 @@ impl Derivation {
     /// values of the free functions and their derivatives named by
     /// [`SymbolicCompiled::free_inputs`]).
     pub fn compile_symbolic(&self) -> Result<SymbolicCompiled, NumericError> {
+        let c = self
+            .closed_for("evaluating the expanded equations")
+            .map_err(|e| NumericError::NotClosed(e.to_string()))?;
         let mut exprs = Vec::new();
-        let a_gamma = add_mat(&mut exprs, &self.a_gamma);
-        let forcing = add_list(&mut exprs, &self.forcing);
+        let a_gamma = add_mat(&mut exprs, &c.a_gamma);
+        let forcing = add_list(&mut exprs, &c.forcing);
         let q = exprs.len();
-        for m in &self.q {
+        for m in &c.q {
             add_mat(&mut exprs, m);
         }
         let q_paper = exprs.len();
-        for m in &self.q_paper {
+        for m in &c.q_paper {
             add_mat(&mut exprs, m);
         }
         let free = free_inputs(&exprs);
@@ -128,12 +131,22 @@ impl Derivation {
         ))
     }
 
-    /// The singular set as `f1 = 0 or f2 = 0 …` (or "nowhere").
+    /// The factors of the singular set (none for a structured derivation, whose δ is not
+    /// expanded).
+    pub fn singular_set(&self) -> &[Entry] {
+        self.closed().map_or(&[], |c| &c.singular_set)
+    }
+
+    /// The singular set as `f1 = 0 or f2 = 0 …` (or "nowhere"; for a structured derivation,
+    /// that it is not computed).
     pub fn singular_set_text(&self) -> String {
-        if self.singular_set.is_empty() {
+        if self.closed().is_none() {
+            "not computed (structured form: [Z; α] is factored numerically at every evaluation)"
+                .into()
+        } else if self.singular_set().is_empty() {
             "nowhere".into()
         } else {
-            self.singular_set
+            self.singular_set()
                 .iter()
                 .map(|e| format!("{} = 0", e.text))
                 .collect::<Vec<_>>()

@@ -4,7 +4,7 @@ use std::fmt::Write;
 
 use hamel_expr::latex_name;
 
-use crate::derivation::{Derivation, Entry, Mat};
+use crate::derivation::{Closed, Derivation, Entry, Form, Mat, StructuredForm};
 
 fn mat_text(out: &mut String, name: &str, m: &Mat) {
     if m.rows == 0 || m.cols == 0 {
@@ -27,6 +27,106 @@ fn list_text(out: &mut String, name: &str, v: &[Entry]) {
 
 fn yes(b: bool) -> &'static str {
     if b { "verified" } else { "FAILS" }
+}
+
+/// The closed form: Γ, Θ, δ, A_Γ, Q, the equations and the exact checks.
+fn closed_text(o: &mut String, d: &Derivation, c: &Closed) {
+    let _ = writeln!(o, "δ = det[Z; α] = {}", c.delta.text);
+    let _ = writeln!(o, "singular set: {}", d.singular_set_text());
+    mat_text(o, "Γ (q̇ = Γη)", &c.gamma);
+    mat_text(o, "Θ", &c.theta);
+    mat_text(o, "A_Γ = ΓᵀAΓ", &c.a_gamma);
+    list_text(o, "Γᵀ∇U", &c.forcing);
+    mat_text(o, "ΘᵀAΓ (ν = ΘᵀAΓη)", &c.nu);
+    for i in 0..d.sigma {
+        mat_text(o, &format!("Q({}) (true, symmetric)", i + 1), &c.q[i]);
+        mat_text(o, &format!("Q({}) paper (12)/(15)", i + 1), &c.q_paper[i]);
+        mat_text(o, &format!("Q({}) correction", i + 1), &c.q_correction[i]);
+    }
+    o.push('\n');
+    let _ = writeln!(o, "equations of motion (true, from (9)):");
+    for (i, e) in c.equations.iter().enumerate() {
+        let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
+    }
+    let _ = writeln!(o, "equations as printed in the paper (11)/(12):");
+    for (i, e) in c.equations_paper.iter().enumerate() {
+        let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
+    }
+    let _ = writeln!(o, "kinematic equations (6):");
+    for (k, e) in c.kinematics.iter().enumerate() {
+        let _ = writeln!(o, "  der({}) = {}", d.coordinates[k], e.text);
+    }
+    let _ = writeln!(o, "energy E = T − U = {}", c.energy.text);
+    o.push('\n');
+    let checks = &c.checks;
+    let _ = writeln!(o, "checks (exact):");
+    let _ = writeln!(
+        o,
+        "  Q = Q_paper + Q_correction: {}",
+        yes(checks.split_identity)
+    );
+    let _ = writeln!(
+        o,
+        "  dE/dt = 0 along the true equations: {}",
+        yes(checks.energy_conserved)
+    );
+    let _ = writeln!(
+        o,
+        "  dE/dt = 0 along the paper's equations: {}",
+        yes(checks.energy_conserved_paper)
+    );
+    let _ = writeln!(
+        o,
+        "  paper's equations exact for this Z: {}",
+        if checks.paper_is_exact {
+            "yes (Q_correction ≡ 0)"
+        } else {
+            "NO: the paper's (11)/(15) miss Q_correction"
+        }
+    );
+    if let Some(el) = checks.euler_lagrange {
+        let _ = writeln!(
+            o,
+            "  holonomic, Z = I: equations are Euler–Lagrange: {}",
+            yes(el)
+        );
+    }
+}
+
+/// The structured form: what the equations are made of, and the certificate.
+fn structured_text(o: &mut String, d: &Derivation, st: &StructuredForm) {
+    let _ = writeln!(
+        o,
+        "U = {}",
+        d.ingredients
+            .potential
+            .as_ref()
+            .map_or("", |u| u.text.as_str())
+    );
+    list_text(o, "∇U", &d.grad_u);
+    let _ = writeln!(o, "\nstructured form: {}", st.structured);
+    let _ = writeln!(
+        o,
+        "equations (evaluated from A, α, Z, U and their exact derivatives):"
+    );
+    let _ = writeln!(
+        o,
+        "  [Z; α] q̇ = [η; 0]                        q̇ = Γη (6), Γ from [Z; α] at each state"
+    );
+    let _ = writeln!(
+        o,
+        "  A_Γ η̇ = Γᵀ∇U − Γᵀ (d/dt(AΓ)) η + ½ Γᵀ∇_q(q̇ᵀAq̇)   (9), A_Γ = ΓᵀAΓ (8)"
+    );
+    let _ = writeln!(o, "singular set: {}", d.singular_set_text());
+    let c = &st.certificate;
+    let at: Vec<String> = c.point.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+    let _ = writeln!(
+        o,
+        "certified (interval arithmetic): [Z; α] is nonsingular at {}, every pivot at least {:.3e} in magnitude; so δ = det[Z; α] is not identically zero and α has full rank μ = {}",
+        at.join(", "),
+        c.smallest_pivot,
+        d.mu
+    );
 }
 
 impl Derivation {
@@ -53,73 +153,9 @@ impl Derivation {
         mat_text(&mut o, "A (T = ½ q̇ᵀAq̇)", &self.a);
         mat_text(&mut o, "α (constraints α q̇ = 0)", &self.alpha);
         mat_text(&mut o, "Z (η = Z q̇)", &self.z);
-        let _ = writeln!(o, "δ = det[Z; α] = {}", self.delta.text);
-        let _ = writeln!(o, "singular set: {}", self.singular_set_text());
-        mat_text(&mut o, "Γ (q̇ = Γη)", &self.gamma);
-        mat_text(&mut o, "Θ", &self.theta);
-        mat_text(&mut o, "A_Γ = ΓᵀAΓ", &self.a_gamma);
-        list_text(&mut o, "Γᵀ∇U", &self.forcing);
-        mat_text(&mut o, "ΘᵀAΓ (ν = ΘᵀAΓη)", &self.nu);
-        for i in 0..self.sigma {
-            mat_text(
-                &mut o,
-                &format!("Q({}) (true, symmetric)", i + 1),
-                &self.q[i],
-            );
-            mat_text(
-                &mut o,
-                &format!("Q({}) paper (12)/(15)", i + 1),
-                &self.q_paper[i],
-            );
-            mat_text(
-                &mut o,
-                &format!("Q({}) correction", i + 1),
-                &self.q_correction[i],
-            );
-        }
-        o.push('\n');
-        let _ = writeln!(o, "equations of motion (true, from (9)):");
-        for (i, e) in self.equations.iter().enumerate() {
-            let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
-        }
-        let _ = writeln!(o, "equations as printed in the paper (11)/(12):");
-        for (i, e) in self.equations_paper.iter().enumerate() {
-            let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
-        }
-        let _ = writeln!(o, "kinematic equations (6):");
-        for (k, e) in self.kinematics.iter().enumerate() {
-            let _ = writeln!(o, "  der({}) = {}", self.coordinates[k], e.text);
-        }
-        let _ = writeln!(o, "energy E = T − U = {}", self.energy.text);
-        o.push('\n');
-        let c = &self.checks;
-        let _ = writeln!(o, "checks (exact):");
-        let _ = writeln!(o, "  Q = Q_paper + Q_correction: {}", yes(c.split_identity));
-        let _ = writeln!(
-            o,
-            "  dE/dt = 0 along the true equations: {}",
-            yes(c.energy_conserved)
-        );
-        let _ = writeln!(
-            o,
-            "  dE/dt = 0 along the paper's equations: {}",
-            yes(c.energy_conserved_paper)
-        );
-        let _ = writeln!(
-            o,
-            "  paper's equations exact for this Z: {}",
-            if c.paper_is_exact {
-                "yes (Q_correction ≡ 0)"
-            } else {
-                "NO: the paper's (11)/(15) miss Q_correction"
-            }
-        );
-        if let Some(el) = c.euler_lagrange {
-            let _ = writeln!(
-                o,
-                "  holonomic, Z = I: equations are Euler–Lagrange: {}",
-                yes(el)
-            );
+        match &self.form {
+            Form::Closed(c) => closed_text(&mut o, self, c),
+            Form::Structured(st) => structured_text(&mut o, self, st),
         }
         o
     }
@@ -157,14 +193,19 @@ impl Derivation {
         let _ = writeln!(o, "A &= {} \\\\", tex_mat(&self.a));
         let _ = writeln!(o, "\\alpha &= {} \\\\", tex_mat(&self.alpha));
         let _ = writeln!(o, "Z &= {} \\\\", tex_mat(&self.z));
-        let _ = writeln!(o, "\\delta &= {} \\\\", self.delta.expr.to_latex());
-        let _ = writeln!(o, "\\Gamma &= {} \\\\", tex_mat(&self.gamma));
-        let _ = writeln!(o, "A_\\Gamma &= {}", tex_mat(&self.a_gamma));
+        let Some(c) = self.closed() else {
+            let _ = writeln!(o, "\\end{{align*}}");
+            let _ = writeln!(o, "% structured form: the equations are not expanded");
+            return o;
+        };
+        let _ = writeln!(o, "\\delta &= {} \\\\", c.delta.expr.to_latex());
+        let _ = writeln!(o, "\\Gamma &= {} \\\\", tex_mat(&c.gamma));
+        let _ = writeln!(o, "A_\\Gamma &= {}", tex_mat(&c.a_gamma));
         let _ = writeln!(o, "\\end{{align*}}");
         let _ = writeln!(o, "% true equations (from (9))");
         let _ = writeln!(o, "\\begin{{align*}}");
-        for (i, e) in self.equations.iter().enumerate() {
-            let sep = if i + 1 < self.equations.len() {
+        for (i, e) in c.equations.iter().enumerate() {
+            let sep = if i + 1 < c.equations.len() {
                 " \\\\"
             } else {
                 ""
@@ -174,8 +215,8 @@ impl Derivation {
         let _ = writeln!(o, "\\end{{align*}}");
         let _ = writeln!(o, "% kinematic equations (6)");
         let _ = writeln!(o, "\\begin{{align*}}");
-        for (k, e) in self.kinematics.iter().enumerate() {
-            let sep = if k + 1 < self.kinematics.len() {
+        for (k, e) in c.kinematics.iter().enumerate() {
+            let sep = if k + 1 < c.kinematics.len() {
                 " \\\\"
             } else {
                 ""
@@ -184,14 +225,14 @@ impl Derivation {
             let _ = writeln!(o, "\\dot{{{l}}} &= {}{sep}", e.expr.to_latex());
         }
         let _ = writeln!(o, "\\end{{align*}}");
-        if !self.checks.paper_is_exact {
+        if !c.checks.paper_is_exact {
             let _ = writeln!(
                 o,
                 "% the paper's equations (11)/(15) differ: they miss the correction term"
             );
             let _ = writeln!(o, "\\begin{{align*}}");
-            for (i, e) in self.equations_paper.iter().enumerate() {
-                let sep = if i + 1 < self.equations_paper.len() {
+            for (i, e) in c.equations_paper.iter().enumerate() {
+                let sep = if i + 1 < c.equations_paper.len() {
                     " \\\\"
                 } else {
                     ""

@@ -18,9 +18,13 @@
 //! checked exactly for every derivation.
 
 use hamel_cas::{CasError, Denominators, Ex, Field, FieldSpec, Matrix, OMatrix, Over, sum_over};
+use hamel_expr::Expr;
 use hamel_model::{Item, Kinetic, Model, ModelError, QuasiVelocityChoice, Site};
 
-use crate::derivation::{Checks, Derivation, Entry, Ingredients, Mat};
+use crate::certify::Certificate;
+use crate::derivation::{
+    Checks, Closed, Derivation, Entry, Form, Ingredients, Mat, StructuredForm, Why,
+};
 
 /// An exact value as plain data (canonical text and tree).
 pub fn entry(e: &Ex) -> Entry {
@@ -304,22 +308,24 @@ impl Symbolic {
             a: mat(&self.a),
             alpha: mat(&self.alpha),
             z: mat(&self.z),
-            gamma: mat(&self.gamma),
-            theta: mat(&self.theta),
-            delta: entry(&self.delta),
-            singular_set: self.singular.iter().map(entry).collect(),
-            a_gamma: mat_over(&self.a_gamma),
             grad_u: to_list(&self.grad_u),
-            forcing: to_list(&self.forcing),
-            nu: mat_over(&self.nu),
-            q: to_mats(&self.q_true),
-            q_paper: to_mats(&self.q_paper),
-            q_correction: to_mats(&self.q_correction),
-            kinematics: to_list(&self.gamma_eta),
-            equations: to_list(&self.lhs(&self.q_eta)),
-            equations_paper: to_list(&self.lhs(&self.q_eta_paper)),
-            energy: entry_over(&self.energy),
-            checks: self.checks.clone(),
+            form: Form::Closed(Box::new(Closed {
+                gamma: mat(&self.gamma),
+                theta: mat(&self.theta),
+                delta: entry(&self.delta),
+                singular_set: self.singular.iter().map(entry).collect(),
+                a_gamma: mat_over(&self.a_gamma),
+                forcing: to_list(&self.forcing),
+                nu: mat_over(&self.nu),
+                q: to_mats(&self.q_true),
+                q_paper: to_mats(&self.q_paper),
+                q_correction: to_mats(&self.q_correction),
+                kinematics: to_list(&self.gamma_eta),
+                equations: to_list(&self.lhs(&self.q_eta)),
+                equations_paper: to_list(&self.lhs(&self.q_eta_paper)),
+                energy: entry_over(&self.energy),
+                checks: self.checks.clone(),
+            })),
             ingredients: Ingredients {
                 potential: Some(entry(&self.u)),
                 da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
@@ -462,18 +468,261 @@ fn solve_capped(mut a: Vec<Vec<Ex>>, mut b: Vec<Ex>, cap: usize) -> Option<Vec<E
     Some(x)
 }
 
-/// The exact derivation of `model` for the choice `choice`. Must run on the CAS thread
-/// (inside [`hamel_cas::run`]). Step by step as in the paper: A, α, Z; (4)–(5) the inverse
-/// [Z; α]⁻¹ = [Γ Θ] and δ; (8) A_Γ and the forcing; Q from (9), the paper's (12)/(15) and the
-/// correction it drops; then the exact checks.
-pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
+/// The budget of the exact inverse of [Z; α] in closed form (units of
+/// [`hamel_cas::linalg::Budget`]): past it, [`FormRequest::Auto`] derives the structured form.
+pub const CLOSED_FORM_WORK: usize = hamel_cas::linalg::ELIMINATION_WORK;
+
+/// Which form of the equations a derivation computes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FormRequest {
+    /// The closed form when exact elimination of [Z; α] stays within its budget
+    /// ([`CLOSED_FORM_WORK`]), else the structured form.
+    #[default]
+    Auto,
+    /// The closed form, or an error when it is too large.
+    Closed,
+    /// The structured form: the ingredients only.
+    Structured,
+}
+
+/// A derivation on the CAS thread, in the form computed.
+pub enum Derived {
+    /// Closed form: every object canonical.
+    Closed(Box<Symbolic>),
+    /// Structured form: the ingredients canonical, [Z; α] certified nonsingular at a point.
+    Structured(Box<StructuredSymbolic>),
+}
+
+impl Derived {
+    /// Plain data; `code` adds what code generation simplifies with (closed form only).
+    pub fn to_derivation(&self, code: bool) -> Derivation {
+        match self {
+            Derived::Closed(s) if code => s.to_derivation_for_code(),
+            Derived::Closed(s) => s.to_derivation(),
+            Derived::Structured(s) => s.to_derivation(),
+        }
+    }
+}
+
+/// The exact ingredients of a structured derivation: A, α, Z, U in canonical form, and the
+/// certificate that [Z; α] is nonsingular somewhere.
+pub struct StructuredSymbolic {
+    /// The field of the expressions.
+    pub field: Field,
+    /// A (ℓ×ℓ).
+    pub a: Matrix,
+    /// α (μ×ℓ).
+    pub alpha: Matrix,
+    /// Z (σ×ℓ).
+    pub z: Matrix,
+    /// U.
+    pub u: Ex,
+    /// Why the closed form was not computed.
+    pub why: Why,
+    /// Where [Z; α] is certainly nonsingular.
+    pub certificate: Certificate,
+    model: Model,
+    choice: QuasiVelocityChoice,
+}
+
+impl StructuredSymbolic {
+    /// Plain data: the ingredients, and the structured form with its certificate. The
+    /// derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k, ∇U are taken on the trees of the canonical forms
+    /// ([`Expr::diff`]): exact, and evaluated numerically only, so they need no lowest terms
+    /// (which cost seconds per entry in a field with square-root kernels).
+    pub fn to_derivation(&self) -> Derivation {
+        let (model, choice) = (&self.model, &self.choice);
+        let ell = model.ell();
+        let (a, alpha, z) = (mat(&self.a), mat(&self.alpha), mat(&self.z));
+        let u = entry(&self.u);
+        let d = |m: &Mat, k: usize| -> Mat {
+            Mat {
+                rows: m.rows,
+                cols: m.cols,
+                entries: m
+                    .entries
+                    .iter()
+                    .map(|r| {
+                        r.iter()
+                            .map(|e| tree_diff(e, &model.coordinates[k]))
+                            .collect()
+                    })
+                    .collect(),
+            }
+        };
+        let ingredients = Ingredients {
+            potential: Some(u.clone()),
+            da: (0..ell).map(|k| d(&a, k)).collect(),
+            dz: (0..ell).map(|k| d(&z, k)).collect(),
+            dalpha: (0..ell).map(|k| d(&alpha, k)).collect(),
+            eta_rhs: Vec::new(),
+            eta_dot: None,
+            blocks: None,
+        };
+        Derivation {
+            model: model.name.clone(),
+            title: model.title.clone(),
+            eta_name: choice.name.clone(),
+            eta: choice.eta.iter().map(|e| e.expr.to_string()).collect(),
+            free_functions: choice
+                .free_functions
+                .iter()
+                .map(|(n, a)| format!("{n}({})", a.join(", ")))
+                .collect(),
+            coordinates: model.coordinates.clone(),
+            parameters: model.parameters.clone(),
+            ell,
+            mu: model.mu(),
+            sigma: model.sigma(),
+            grad_u: (0..ell)
+                .map(|k| tree_diff(&u, &model.coordinates[k]))
+                .collect(),
+            a,
+            alpha,
+            z,
+            form: Form::Structured(StructuredForm {
+                structured: self.why.clone(),
+                certificate: self.certificate.clone(),
+            }),
+            ingredients,
+        }
+    }
+}
+
+/// ∂e/∂x on e's tree. The trees of canonical forms of A, α, Z and U hold no velocities, so
+/// the derivative exists; a velocity would be a bug upstream, kept visible as a symbol that
+/// evaluation rejects.
+fn tree_diff(e: &Entry, x: &str) -> Entry {
+    let expr = e
+        .expr
+        .diff(x)
+        .unwrap_or_else(|err| Expr::sym(&format!("<{err}>")));
+    Entry {
+        text: expr.to_string(),
+        expr,
+    }
+}
+
+/// A, α and Z of a derivation that has begun: converted, checked, α of full rank.
+struct Begun {
+    choice: QuasiVelocityChoice,
+    f: Field,
+    a: Matrix,
+    alpha: Matrix,
+    z: Matrix,
+    stage: Stage,
+}
+
+fn begin(model: &Model, choice: &str) -> Result<Begun, ModelError> {
     let choice = model.choice(Some(choice))?.clone();
     let ctx = Ctx { model };
-    let mut stage = Stage::start(&model.name, "A, α and Z in canonical form, rank of α");
+    let stage = Stage::start(&model.name, "A, α and Z in canonical form, rank of α");
     let f = field(&ctx, &choice)?;
     let (a, alpha, z) = ctx.matrices(&f, &choice)?;
-    stage.next("[Z; α]⁻¹ = [Γ Θ], δ and the singular set (4)–(6)");
-    let (gamma, theta, delta) = ctx.inverse(&z, &alpha, &choice)?;
+    Ok(Begun {
+        choice,
+        f,
+        a,
+        alpha,
+        z,
+        stage,
+    })
+}
+
+/// The exact derivation of `model` for the choice `choice` in closed form; an error when the
+/// exact inverse of [Z; α] outgrows its budget. Must run on the CAS thread (inside
+/// [`hamel_cas::run`]).
+pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
+    let mut b = begin(model, choice)?;
+    let ctx = Ctx { model };
+    b.stage
+        .next("[Z; α]⁻¹ = [Γ Θ], δ and the singular set (4)–(6)");
+    match ctx.inverse(&b.z, &b.alpha, &b.choice)? {
+        Ok(inverse) => closed(model, b, inverse),
+        Err(terms) => Err(model
+            .error(format!(
+                "the closed form of the equations is too large: the exact inverse [Z; α]⁻¹ outgrows the budget of exact elimination ({terms} units of work, no product above 10⁴ terms²)"
+            ))
+            .with_help("derive in structured form (`hamel derive --form structured`): the equations are then evaluated from A, α, Z and U")),
+    }
+}
+
+/// The derivation of `model` for `choice` in the form `request` asks for. Must run on the CAS
+/// thread.
+pub fn derive_form(
+    model: &Model,
+    choice: &str,
+    request: FormRequest,
+) -> Result<Derived, ModelError> {
+    let ctx = Ctx { model };
+    match request {
+        FormRequest::Closed => return Ok(Derived::Closed(Box::new(symbolic(model, choice)?))),
+        FormRequest::Structured => {
+            let b = begin(model, choice)?;
+            return structured(&ctx, b, Why::Requested);
+        }
+        FormRequest::Auto => {}
+    }
+    let mut b = begin(model, choice)?;
+    b.stage
+        .next("[Z; α]⁻¹ = [Γ Θ], δ and the singular set (4)–(6)");
+    match ctx.inverse(&b.z, &b.alpha, &b.choice)? {
+        Ok(inverse) => Ok(Derived::Closed(Box::new(closed(model, b, inverse)?))),
+        Err(terms) => structured(&ctx, b, Why::TooLarge(terms)),
+    }
+}
+
+/// The structured form: U converted, and [Z; α] certified nonsingular at a point.
+fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> {
+    let model = ctx.model;
+    b.stage
+        .next("[Z; α] certified nonsingular at a point (interval arithmetic)");
+    let rows: Vec<Vec<Expr>> = (0..b.z.rows())
+        .map(|i| (0..b.z.cols()).map(|j| b.z[(i, j)].to_expr()).collect())
+        .chain((0..b.alpha.rows()).map(|i| {
+            (0..b.alpha.cols())
+                .map(|j| b.alpha[(i, j)].to_expr())
+                .collect()
+        }))
+        .collect();
+    let refs: Vec<Vec<&Expr>> = rows.iter().map(|r| r.iter().collect()).collect();
+    let Some(certificate) = crate::certify::full_rank(&refs, &model.coordinates, &model.parameters)
+    else {
+        return Err(model
+            .error_at(&span_site(format!("quasi_velocities.{}", b.choice.name), &b.choice.eta), format!(
+                "det[Z; α] could not be certified nonzero at {} points, and its exact elimination is too large: these quasi-velocities may not be independent of each other and of the constraints",
+                crate::certify::ATTEMPTS
+            ))
+            .with_help("each η must add a direction of motion that the constraints and the other η's do not fix"));
+    };
+    let u =
+        b.f.convert(&model.potential.expr)
+            .map_err(|e| ctx.cas(Some(&model.potential.site), e))?;
+    Ok(Derived::Structured(Box::new(StructuredSymbolic {
+        field: b.f,
+        a: b.a,
+        alpha: b.alpha,
+        z: b.z,
+        u,
+        why,
+        certificate,
+        model: model.clone(),
+        choice: b.choice,
+    })))
+}
+
+/// Everything from Γ on, in closed form ((8), (9)/(11), (12)/(15), the correction, the checks).
+fn closed(model: &Model, b: Begun, inverse: (Matrix, Matrix, Ex)) -> Result<Symbolic, ModelError> {
+    let ctx = Ctx { model };
+    let Begun {
+        choice,
+        f,
+        a,
+        alpha,
+        z,
+        mut stage,
+    } = b;
+    let (gamma, theta, delta) = inverse;
     let singular = singular_set(&delta, &gamma);
     stage.next("common denominators, ∂A/∂q");
     // Everything below is computed over the common denominator factors (see hamel_cas::over):
@@ -649,8 +898,16 @@ impl Ctx<'_> {
             alpha_rows.push(self.linear_row(f, &c, &item.site, &format!("constraint `{name}`"))?);
         }
         let alpha = Matrix::from_fn(mu, ell, |i, j| alpha_rows[i][j].clone());
-        if mu > 0 {
-            let rank = alpha.rank().map_err(|e| self.cas(None, e))?;
+        if mu > 0 && !self.certified_full_rank(&alpha) {
+            let rank = match alpha.rank() {
+                Err(CasError::TooLarge(n)) => {
+                    return Err(model.error(format!(
+                        "the rank of α could not be decided: it was not certified full at {} points, and exact elimination outgrows its budget ({n} units of work)",
+                        crate::certify::ATTEMPTS
+                    )));
+                }
+                other => other.map_err(|e| self.cas(None, e))?,
+            };
             if rank < mu {
                 let items: Vec<Item> = model.constraints.iter().map(|(_, i)| i.clone()).collect();
                 return Err(model
@@ -672,21 +929,40 @@ impl Ctx<'_> {
         Ok((a, alpha, z))
     }
 
-    /// (4)–(5): [Z; α]⁻¹ = [Γ Θ] and δ = det[Z; α] (checked not identically zero).
+    /// Whether α is certified of full rank at some point ([`crate::certify`]): a proof, so the
+    /// exact rank is needed only when this fails (free functions, or a deficient rank).
+    fn certified_full_rank(&self, alpha: &Matrix) -> bool {
+        let rows: Vec<Vec<Expr>> = (0..alpha.rows())
+            .map(|i| (0..alpha.cols()).map(|j| alpha[(i, j)].to_expr()).collect())
+            .collect();
+        let refs: Vec<Vec<&Expr>> = rows.iter().map(|r| r.iter().collect()).collect();
+        crate::certify::full_rank(&refs, &self.model.coordinates, &self.model.parameters).is_some()
+    }
+
+    /// (4)–(5): [Z; α]⁻¹ = [Γ Θ] and δ = det[Z; α] (checked not identically zero); `Err(n)`
+    /// inside when exact elimination outgrows n terms per entry.
+    #[allow(clippy::type_complexity)]
     fn inverse(
         &self,
         z: &Matrix,
         alpha: &Matrix,
         choice: &QuasiVelocityChoice,
-    ) -> Result<(Matrix, Matrix, Ex), ModelError> {
+    ) -> Result<Result<(Matrix, Matrix, Ex), usize>, ModelError> {
         let (ell, mu, sigma) = (self.model.ell(), self.model.mu(), self.model.sigma());
         let m = if mu > 0 { z.vstack(alpha) } else { z.clone() };
-        let Some((minv, delta)) = m.inverse().map_err(|e| self.cas(None, e))? else {
-            return Err(self.model
+        let (minv, delta) = match m.inverse_within(CLOSED_FORM_WORK) {
+            Ok(Some(found)) => found,
+            Ok(None) => return Err(self.model
                 .error_at(&span_site(format!("quasi_velocities.{}", choice.name), &choice.eta), "det[Z; α] is identically zero: these quasi-velocities are not independent of each other and of the constraints")
-                .with_help("each η must add a direction of motion that the constraints and the other η's do not fix"));
+                .with_help("each η must add a direction of motion that the constraints and the other η's do not fix")),
+            Err(CasError::TooLarge(n)) => return Ok(Err(n)),
+            Err(e) => return Err(self.cas(None, e)),
         };
-        Ok((minv.columns(0, sigma), minv.columns(sigma, ell), delta))
+        Ok(Ok((
+            minv.columns(0, sigma),
+            minv.columns(sigma, ell),
+            delta,
+        )))
     }
 }
 

@@ -76,6 +76,10 @@ pub enum NumericError {
     /// The compiled ingredients do not have the sizes the derivation says.
     #[error("the compiled ingredients do not fit the derivation's sizes")]
     Sizes,
+    /// The closed-form equations were needed and the derivation is structured (the message
+    /// says why and what needed them).
+    #[error("{0}")]
+    NotClosed(String),
 }
 
 /// The right-hand side at a state, checked (see [`Compiled::evaluate`]).

@@ -44,10 +44,8 @@ pub(crate) fn auto_choice(
         .filter_map(|c| {
             let text = format!("{}\n{}\n", model.source, c.toml);
             let m = Model::from_source(&model.file, &text).ok()?;
-            let regular = hamel_derive::derive(&m, Some(&c.name))
-                .ok()?
-                .singular_set
-                .is_empty();
+            let d = hamel_derive::derive(&m, Some(&c.name)).ok()?;
+            let regular = d.closed().is_some_and(|c| c.singular_set.is_empty());
             Some((m, c.name.clone(), regular))
         })
         .collect();

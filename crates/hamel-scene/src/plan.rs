@@ -205,19 +205,36 @@ pub fn plan(model: &Model, eta: &str, request: &Request) -> Result<(Plan, Deriva
 /// needs, when requested), closed under theirs; the others.
 pub fn decide(d: &Derivation, request: &Request) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
     let coords = &d.coordinates;
+    let no_kinematics: &[Entry] = &[];
+    // A structured derivation has no expanded equations: the coordinates its ingredients
+    // mention (A, α, Z, U, which Γ, A_Γ and Q are made of) are integrated, and Γ's rows need
+    // no closing (they mention only coordinates of Z and α).
+    let (equations, kinematics): (Vec<&Expr>, &[Entry]) = match d.closed() {
+        Some(c) => (c.equations.iter().map(|e| &e.expr).collect(), &c.kinematics),
+        None => (d.ingredient_exprs().unwrap_or_default(), no_kinematics),
+    };
     let mut integrated: Vec<usize> = Vec::new();
-    for e in &d.equations {
-        for c in occurring(&e.expr, coords) {
+    for e in equations {
+        for c in occurring(e, coords) {
             if !integrated.contains(&c) {
                 integrated.push(c);
             }
         }
     }
-    close(&mut integrated, &d.kinematics, coords);
+    close(&mut integrated, kinematics, coords);
     let mut wanted: Vec<usize> = request.coordinates.clone();
     wanted.extend(&request.needed);
     if request.energy {
-        wanted.extend(occurring(&d.energy.expr, coords));
+        match d.closed() {
+            Some(c) => wanted.extend(occurring(&c.energy.expr, coords)),
+            // E = ½q̇ᵀAq̇ − U.
+            None => {
+                let terms = d.a.entries.iter().flatten().map(|e| &e.expr);
+                for e in terms.chain(d.ingredients.potential.as_ref().map(|u| &u.expr)) {
+                    wanted.extend(occurring(e, coords));
+                }
+            }
+        }
     }
     if request.constraint_residual {
         wanted.extend(0..d.ell);
@@ -228,7 +245,7 @@ pub fn decide(d: &Derivation, request: &Request) -> (Vec<usize>, Vec<usize>, Vec
             reconstructed.push(c);
         }
     }
-    close(&mut reconstructed, &d.kinematics, coords);
+    close(&mut reconstructed, kinematics, coords);
     reconstructed.retain(|c| !integrated.contains(c));
     let dropped: Vec<usize> = (0..d.ell)
         .filter(|c| !integrated.contains(c) && !reconstructed.contains(c))
