@@ -14,7 +14,7 @@
 //! component, signed as it is at the reference configuration (the wheel above the ground), k/|k|
 //! is a signed axis, and neither a square root nor a division enters the equations.
 
-use hamel_expr::build::{div, mul, neg, sub};
+use hamel_expr::build::{mul, neg, sub};
 use hamel_expr::{Expr, Func};
 
 use crate::carry::carry;
@@ -65,11 +65,27 @@ pub(crate) fn wheel(
     let up = &k_c.up;
     let k = horizontal_part(up, &w.axis);
     let (norm, unit) = length(&k, reference).map_err(|e| BodiesError::new(at("axis"), e))?;
-    let offset = scale(&neg(w.radius.clone()), &unit);
     let v_centre = c
         .velocity(coordinates)
         .map_err(|e| BodiesError::new(at("frame"), e))?;
-    let v = v_centre.plus(&c.omega().cross(&offset));
+    // v = v_centre + ω × (−r k/|k|). When |k| is a square root, the rows are those of |k|·v
+    // = |k| v_centre + ω × (−r k) instead: the same constraints (|k| > 0 unless the wheel lies
+    // flat), with no square root in a denominator.
+    let (v, note) = match unit {
+        Some(unit) => {
+            let offset = scale(&neg(w.radius.clone()), &unit);
+            (v_centre.plus(&c.omega().cross(&offset)), norm.note)
+        }
+        None => {
+            let offset = scale(&neg(w.radius.clone()), &k);
+            let v = v_centre.scale(&norm.value).plus(&c.omega().cross(&offset));
+            let note = format!(
+                "its no-slip rows are multiplied by |k| = {} (positive unless the wheel lies flat), so that no square root divides them",
+                norm.value
+            );
+            (v, Some(note))
+        }
+    };
     let mut rows = Vec::new();
     for (j, axis) in k_c.world_axes.iter().enumerate() {
         if j != tree.up.index {
@@ -80,11 +96,7 @@ pub(crate) fn wheel(
         }
     }
     let height = sub(c.height(), mul(w.radius.clone(), norm.value));
-    Ok(Rolling {
-        rows,
-        height,
-        note: norm.note,
-    })
+    Ok(Rolling { rows, height, note })
 }
 
 /// k = up − (up·a)a; about a coordinate axis, exactly `up` without that component (the
@@ -110,8 +122,8 @@ struct Length {
 
 /// |k| and k/|k|: for a k with one nonzero component, that component signed as it is at the
 /// reference configuration and the signed unit vector along it (exactly, no division); otherwise
-/// sqrt(k·k) and k/sqrt(k·k).
-fn length(k: &V3, reference: &Point) -> Result<(Length, V3), Problem> {
+/// sqrt(k·k), and k/sqrt(k·k) left to the caller (`None`).
+fn length(k: &V3, reference: &Point) -> Result<(Length, Option<V3>), Problem> {
     let nonzero: Vec<usize> = (0..3).filter(|&i| !k[i].is_zero_literal()).collect();
     if let [i] = nonzero.as_slice() {
         let value = reference.value(&k[*i])?;
@@ -132,19 +144,18 @@ fn length(k: &V3, reference: &Point) -> Result<(Length, V3), Problem> {
             value: norm,
             note: Some(note),
         };
-        return Ok((length, crate::vector::unit(*i, sign)));
+        return Ok((length, Some(crate::vector::unit(*i, sign))));
     }
     if nonzero.is_empty() || reference.value(&dot(k, k))? <= 0.0 {
         return Err(Problem::FlatWheel);
     }
     let norm = Expr::call(Func::Sqrt, dot(k, k));
-    let unit = scale(&div(Expr::int(1), norm.clone()), k);
     Ok((
         Length {
             value: norm,
             note: None,
         },
-        unit,
+        None,
     ))
 }
 

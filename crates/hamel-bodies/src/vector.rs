@@ -134,6 +134,11 @@ impl Rate {
         self.map(|c| apply_transpose(m, c))
     }
 
+    /// s·self (each column), for s not depending on the velocities.
+    pub fn scale(&self, s: &Expr) -> Rate {
+        self.map(|c| scale(s, c))
+    }
+
     /// self × r, for r not depending on the velocities.
     pub fn cross(&self, r: &V3) -> Rate {
         self.map(|c| cross(c, r))
