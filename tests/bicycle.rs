@@ -198,3 +198,31 @@ fn basu_mandal_table_one() {
     }
     check_centre_acceleration(&q, &ev.q_dot, &q_ddot, rr);
 }
+
+/// The structured reduction: x, y and both wheel angles are of type (A) (31) and Z avoids
+/// them, so they drop out exactly; the roll is proved present by a certified derivative.
+#[test]
+fn the_bicycle_drops_its_position_and_wheel_angles() {
+    let model = bicycle();
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let r = hamel_reduce::reduce(
+        &model,
+        Some("benchmark"),
+        &names(&["x", "y", "rear_wheel", "front_wheel"]),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let gt = &r.ground_truth;
+    assert_eq!(gt.absent, names(&["x", "y", "rear_wheel", "front_wheel"]));
+    assert!(gt.present.is_empty() && gt.undecided.is_empty() && gt.kinematics_closed);
+    let reduced = r.reduced_system.expect("a reduced system");
+    assert_eq!(
+        reduced.state,
+        names(&["eta1", "eta2", "eta3", "yaw", "roll", "pitch", "steer"])
+    );
+    assert!(r.structure.is_none() && r.hypotheses.is_empty());
+    let r = hamel_reduce::reduce(&model, Some("benchmark"), &names(&["roll"])).unwrap();
+    assert_eq!(r.ground_truth.present, names(&["roll"]));
+    let w = &r.ground_truth.occurrences[0];
+    assert_eq!(w.object, "eta_dot");
+    assert!(w.note.contains("certified nonzero"), "{}", w.note);
+}

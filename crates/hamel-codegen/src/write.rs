@@ -74,6 +74,11 @@ pub fn write_crate(
                     w.object,
                     w.index
                 )
+            } else if !r.ground_truth.undecided.is_empty() {
+                format!(
+                    "the structured form cannot decide whether the equations contain {}",
+                    r.ground_truth.undecided.join(", ")
+                )
             } else {
                 "the kinematic equations still needed contain an eliminated coordinate".into()
             };

@@ -250,9 +250,8 @@ fn certified_full_rank(mut m: Vec<Vec<Interval>>) -> Option<f64> {
     Some(smallest)
 }
 
-/// A deterministic value in (−1.2, 1.2) for attempt `a`, variable `i` (a fixed hash, so the
-/// same model is always certified at the same point).
-fn generic(a: usize, i: usize) -> f64 {
+/// A deterministic value in (−1.2, 1.2) for attempt `a`, index `i`.
+pub fn generic(a: usize, i: usize) -> f64 {
     // splitmix64 of (attempt, index)
     let mut x = ((a as u64) << 32 | i as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
     x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -263,8 +262,9 @@ fn generic(a: usize, i: usize) -> f64 {
 }
 
 /// The points tried: coordinates at generic values with the parameters at their defaults,
-/// then with the parameters perturbed (a default of zero replaced by a generic value).
-fn point(
+/// then with the parameters perturbed (a default of zero replaced by a generic value). The same
+/// attempt always gives the same point.
+pub fn point(
     a: usize,
     coordinates: &[String],
     parameters: &IndexMap<String, f64>,

@@ -1,13 +1,15 @@
 //! Assemble a [`Reduction`]: classification (31), structure (17)/(18), Properties 2.1–2.2,
 //! hypotheses, ground truth and the reduced system. Runs on the CAS thread.
 
-use hamel_cas::Ex;
+use hamel_cas::{Ex, Matrix};
 use hamel_derive::Symbolic;
 use hamel_derive::symbolic::{entry, mat};
 use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
 
-use crate::hypotheses::{self as hyp, Blocks, H0, H1, H2, H3, H4, H5, H6, Id, Val, scan, witness};
+use crate::hypotheses::{
+    self as hyp, Blocks, H0, H1, H2, H3, H4, H5, H6, Id, Val, scan, scan_names, witness,
+};
 use crate::report::*;
 
 /// The entries of the equations (11): A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ (true or the paper's).
@@ -123,11 +125,11 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduct
         coordinates: names.clone(),
         eliminate: p.iter().map(|&k| names[k].clone()).collect(),
         classification,
-        structure,
+        structure: Some(structure),
         properties,
         hypotheses,
-        proposition_2_1,
-        paper_is_exact: s.checks.paper_is_exact,
+        proposition_2_1: Some(proposition_2_1),
+        paper_is_exact: Some(s.checks.paper_is_exact),
         ground_truth,
         findings,
         reduced_system,
@@ -136,6 +138,18 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduct
 
 /// (31): a coordinate is of type (B) when A, U or α depends on it, else of type (A).
 fn classify(s: &Symbolic, names: &[String], p: &[usize]) -> Vec<Classification> {
+    classify_parts(names, &s.a, &s.u, &s.alpha, &s.z, p)
+}
+
+/// (31) from A, U, α and Z themselves (shared with the structured reduction).
+pub(crate) fn classify_parts(
+    names: &[String],
+    a: &Matrix,
+    u: &Ex,
+    alpha: &Matrix,
+    z: &Matrix,
+    p: &[usize],
+) -> Vec<Classification> {
     let ell = names.len();
     (0..ell)
         .map(|k| {
@@ -145,24 +159,24 @@ fn classify(s: &Symbolic, names: &[String], p: &[usize]) -> Vec<Classification> 
                     (
                         "A".to_string(),
                         vec![i + 1, j + 1],
-                        Val::Ex(s.a[(i, j)].clone()),
+                        Val::Ex(a[(i, j)].clone()),
                     )
                 })
                 .chain(std::iter::once((
                     "U".to_string(),
                     vec![],
-                    Val::Ex(s.u.clone()),
+                    Val::Ex(u.clone()),
                 )))
-                .chain((0..s.alpha.rows()).flat_map(|m| {
+                .chain((0..alpha.rows()).flat_map(|m| {
                     (0..ell).map(move |j| {
                         (
                             "alpha".to_string(),
                             vec![m + 1, j + 1],
-                            Val::Ex(s.alpha[(m, j)].clone()),
+                            Val::Ex(alpha[(m, j)].clone()),
                         )
                     })
                 }));
-            let occurs_in = scan(s, &[k], sources, "so it is of type (B)");
+            let occurs_in = scan_names(names, &[k], sources, "so it is of type (B)");
             Classification {
                 coordinate: names[k].clone(),
                 kind: if occurs_in.is_some() {
@@ -171,7 +185,7 @@ fn classify(s: &Symbolic, names: &[String], p: &[usize]) -> Vec<Classification> 
                     CoordinateKind::A
                 },
                 occurs_in,
-                in_z: s.z.entries().iter().any(|e| e.depends_on(k)),
+                in_z: z.entries().iter().any(|e| e.depends_on(k)),
                 asked: p.contains(&k),
             }
         })
@@ -375,6 +389,7 @@ impl Truth {
             } else {
                 self.kinematics_witness.clone()
             },
+            undecided: Vec::new(),
         }
     }
 

@@ -124,11 +124,27 @@ pub fn scan(
     entries: impl IntoIterator<Item = (String, Vec<usize>, Val)>,
     what: &str,
 ) -> Option<Witness> {
+    scan_names(s.field.coordinates(), p, entries, what)
+}
+
+/// [`scan`] with the coordinates' names.
+pub fn scan_names(
+    names: &[String],
+    p: &[usize],
+    entries: impl IntoIterator<Item = (String, Vec<usize>, Val)>,
+    what: &str,
+) -> Option<Witness> {
     for (object, index, e) in entries {
         if let Some(k) = first_dependence(&e, p) {
-            let name = &s.field.coordinates()[k];
+            let name = &names[k];
             let note = format!("{object}{index:?} contains `{name}`: {what}");
-            return Some(witness(s, &object, index, Some(k), &e, note));
+            return Some(Witness {
+                object: object.clone(),
+                index,
+                coordinate: Some(name.clone()),
+                expression: e.text(),
+                note,
+            });
         }
     }
     None

@@ -21,6 +21,7 @@ pub mod hypotheses;
 mod render;
 mod report;
 mod search;
+mod structured;
 pub mod supervised;
 
 pub use report::{
@@ -33,6 +34,7 @@ pub use search::{
     sort_candidates,
 };
 
+use hamel_derive::{Derived, FormRequest};
 use hamel_model::{Model, ModelError};
 
 /// Analyse the elimination of `eliminate` from the equations of `model` under the choice
@@ -46,10 +48,19 @@ pub fn reduce(
     let p = coordinate_indices(model, eliminate)?;
     let model = model.clone();
     hamel_cas::run(move || {
-        let s = hamel_derive::symbolic(&model, &name)?;
-        analysis::analyse(&model, &s, &p)
+        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
+        analyse(&model, &derived, &p)
     })
     .map_err(ModelError::engine)?
+}
+
+/// The analysis of a derivation in either form: the whole one ([`analysis`]) for the closed
+/// form, what the ingredients decide ([`structured`]) for the structured form.
+fn analyse(model: &Model, derived: &Derived, p: &[usize]) -> Result<Reduction, ModelError> {
+    match derived {
+        Derived::Closed(s) => analysis::analyse(model, s, p),
+        Derived::Structured(s) => structured::analyse(model, s, p),
+    }
 }
 
 /// [`reduce`] and the derivation it analysed, from one symbolic pass (for code generation,
@@ -63,11 +74,8 @@ pub fn reduce_with_derivation(
     let p = coordinate_indices(model, eliminate)?;
     let model = model.clone();
     hamel_cas::run(move || {
-        let s = hamel_derive::symbolic(&model, &name)?;
-        Ok((
-            analysis::analyse(&model, &s, &p)?,
-            s.to_derivation_for_code(),
-        ))
+        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
+        Ok((analyse(&model, &derived, &p)?, derived.to_derivation(true)))
     })
     .map_err(ModelError::engine)?
 }
@@ -85,13 +93,13 @@ pub fn derive_and_reduce<T: Send + 'static>(
     let name = model.choice(eta)?.name.clone();
     let model = model.clone();
     hamel_cas::run(move || {
-        let s = hamel_derive::symbolic(&model, &name)?;
-        let d = s.to_derivation_for_code();
+        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
+        let d = derived.to_derivation(true);
         let (decision, p) = decide(&d);
         let r = if p.is_empty() {
             None
         } else {
-            Some(analysis::analyse(&model, &s, &p)?)
+            Some(analyse(&model, &derived, &p)?)
         };
         Ok((d, decision, r))
     })

@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 
-use crate::report::{CoordinateKind, Reduction, Witness};
+use crate::report::{BlockStructure, CoordinateKind, Reduction, Witness};
 
 fn witness_line(w: &Witness) -> String {
     let idx: Vec<String> = w.index.iter().map(|i| i.to_string()).collect();
@@ -13,6 +13,25 @@ fn witness_line(w: &Witness) -> String {
         w.expression,
         w.note
     )
+}
+
+/// (17)/(18) as text.
+fn structure_text(o: &mut String, st: &BlockStructure) {
+    let _ = writeln!(o, "\nBlock structure (17)/(18): v = {}", st.v);
+    let _ = writeln!(o, "  block 1 (μ + v): {}", st.block1.join(", "));
+    let _ = writeln!(
+        o,
+        "  block 2 (σ − v): {}",
+        if st.block2.is_empty() {
+            "(none)".to_string()
+        } else {
+            st.block2.join(", ")
+        }
+    );
+    for (i, q) in &st.unit_rows {
+        let _ = writeln!(o, "  eta{i} = der({q})");
+    }
+    let _ = writeln!(o, "  δ_R = {}", st.delta_r.text);
 }
 
 impl Reduction {
@@ -52,76 +71,82 @@ impl Reduction {
                 if c.in_z { "; Z depends on it" } else { "" }
             );
         }
-        let st = &self.structure;
-        let _ = writeln!(o, "\nBlock structure (17)/(18): v = {}", st.v);
-        let _ = writeln!(o, "  block 1 (μ + v): {}", st.block1.join(", "));
-        let _ = writeln!(
-            o,
-            "  block 2 (σ − v): {}",
-            if st.block2.is_empty() {
-                "(none)".to_string()
-            } else {
-                st.block2.join(", ")
+        match &self.structure {
+            Some(st) => structure_text(&mut o, st),
+            None => {
+                let _ = writeln!(
+                    o,
+                    "\nStructured form: the block structure (17)/(18), the Properties and H0–H6 need Γ in closed form (not computed)"
+                );
             }
-        );
-        for (i, q) in &st.unit_rows {
-            let _ = writeln!(o, "  eta{i} = der({q})");
         }
-        let _ = writeln!(o, "  δ_R = {}", st.delta_r.text);
-        let _ = writeln!(o, "\nProperties:");
-        for (name, p) in &self.properties {
+        if !self.properties.is_empty() || !self.hypotheses.is_empty() {
+            let _ = writeln!(o, "\nProperties:");
+            for (name, p) in &self.properties {
+                let _ = writeln!(
+                    o,
+                    "  {name}: {} — {}",
+                    if p.holds { "holds" } else { "fails" },
+                    p.statement
+                );
+                if let Some(w) = &p.witness {
+                    let _ = writeln!(o, "      {}", witness_line(w));
+                }
+            }
+            let _ = writeln!(o, "\nHypotheses:");
+            for (name, h) in &self.hypotheses {
+                let _ = writeln!(
+                    o,
+                    "  {name}: {:<5}  {}",
+                    if h.holds { "holds" } else { "FAILS" },
+                    h.statement
+                );
+                if let Some(w) = &h.witness {
+                    let _ = writeln!(o, "      {}", witness_line(w));
+                }
+            }
+        }
+        if let Some(applies) = self.proposition_2_1 {
             let _ = writeln!(
                 o,
-                "  {name}: {} — {}",
-                if p.holds { "holds" } else { "fails" },
-                p.statement
+                "\nProposition 2.1 (H0–H5 ⇒ the paper's (11) are free of them): {}",
+                if applies { "applies" } else { "does not apply" }
             );
-            if let Some(w) = &p.witness {
-                let _ = writeln!(o, "      {}", witness_line(w));
-            }
         }
-        let _ = writeln!(o, "\nHypotheses:");
-        for (name, h) in &self.hypotheses {
-            let _ = writeln!(
-                o,
-                "  {name}: {:<5}  {}",
-                if h.holds { "holds" } else { "FAILS" },
-                h.statement
-            );
-            if let Some(w) = &h.witness {
-                let _ = writeln!(o, "      {}", witness_line(w));
-            }
-        }
-        let _ = writeln!(
-            o,
-            "\nProposition 2.1 (H0–H5 ⇒ the paper's (11) are free of them): {}",
-            if self.proposition_2_1 {
-                "applies"
-            } else {
-                "does not apply"
-            }
-        );
         let gt = &self.ground_truth;
-        let _ = writeln!(o, "\nGround truth (decided exactly on the true equations):");
+        let _ = writeln!(
+            o,
+            "\nGround truth (decided exactly on the true equations{}):",
+            if self.structure.is_none() {
+                "; structured form: absent by (31), present by a certified derivative"
+            } else {
+                ""
+            }
+        );
         let _ = writeln!(o, "  absent:  {}", gt.absent.join(", "));
         let _ = writeln!(o, "  present: {}", gt.present.join(", "));
+        if !gt.undecided.is_empty() {
+            let _ = writeln!(o, "  undecided: {}", gt.undecided.join(", "));
+        }
         for w in &gt.occurrences {
             let _ = writeln!(o, "      {}", witness_line(w));
         }
-        let _ = writeln!(
-            o,
-            "  in the paper's equations: absent {}; present {}",
-            if gt.paper_absent.is_empty() {
-                "(none)".to_string()
-            } else {
-                gt.paper_absent.join(", ")
-            },
-            if gt.paper_present.is_empty() {
-                "(none)".to_string()
-            } else {
-                gt.paper_present.join(", ")
-            }
-        );
+        if self.paper_is_exact.is_some() {
+            let _ = writeln!(
+                o,
+                "  in the paper's equations: absent {}; present {}",
+                if gt.paper_absent.is_empty() {
+                    "(none)".to_string()
+                } else {
+                    gt.paper_absent.join(", ")
+                },
+                if gt.paper_present.is_empty() {
+                    "(none)".to_string()
+                } else {
+                    gt.paper_present.join(", ")
+                }
+            );
+        }
         if let Some(w) = &gt.kinematics_witness {
             let _ = writeln!(o, "  kinematics not closed: {}", witness_line(w));
         }

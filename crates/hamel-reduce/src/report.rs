@@ -111,6 +111,10 @@ pub struct GroundTruth {
     pub kinematics_closed: bool,
     /// When not closed: the kinematic equation that needs an eliminated coordinate.
     pub kinematics_witness: Option<Witness>,
+    /// Asked-about coordinates neither proved absent nor proved present (structured form
+    /// only: see `hamel_reduce::structured`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub undecided: Vec<String>,
 }
 
 /// q̇_k = (Γη)_k.
@@ -208,16 +212,22 @@ pub struct Reduction {
     pub eliminate: Vec<String>,
     /// (31) for every coordinate.
     pub classification: Vec<Classification>,
-    /// (17)/(18).
-    pub structure: BlockStructure,
-    /// Property 2.1 (Γ₂ = 0) and Property 2.2 (Γ₁ᵀA⁽¹'²⁾ = 0).
+    /// (17)/(18); `None` for a structured derivation (it needs Γ in closed form).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure: Option<BlockStructure>,
+    /// Property 2.1 (Γ₂ = 0) and Property 2.2 (Γ₁ᵀA⁽¹'²⁾ = 0) (empty for a structured
+    /// derivation).
     pub properties: IndexMap<PropertyId, Property>,
-    /// H0–H6.
+    /// H0–H6 (empty for a structured derivation).
     pub hypotheses: IndexMap<HypothesisId, Hypothesis>,
-    /// H0–H5 all hold (the paper's sufficient condition).
-    pub proposition_2_1: bool,
-    /// Whether the paper's equations are the true ones for this Z (correction ≡ 0).
-    pub paper_is_exact: bool,
+    /// H0–H5 all hold (the paper's sufficient condition); `None` when not evaluated
+    /// (structured derivation).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub proposition_2_1: Option<bool>,
+    /// Whether the paper's equations are the true ones for this Z (correction ≡ 0); `None` for
+    /// a structured derivation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_is_exact: Option<bool>,
     /// What the equations actually contain.
     pub ground_truth: GroundTruth,
     /// Sentences comparing the verdict with the truth.

@@ -528,7 +528,7 @@ impl Searcher<'_> {
                 .map(|(n, a)| format!("{n}({})", a.join(", ")))
                 .collect(),
             reduced_state: reduced.state,
-            paper_is_exact: r.paper_is_exact,
+            paper_is_exact: r.paper_is_exact == Some(true),
             nonzero,
             eta,
         };

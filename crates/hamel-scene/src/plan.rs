@@ -173,7 +173,9 @@ pub fn plan(model: &Model, eta: &str, request: &Request) -> Result<(Plan, Deriva
     let coords = &d.coordinates;
     let names = |ix: &[usize]| -> Vec<String> { ix.iter().map(|&k| coords[k].clone()).collect() };
     if let Some(r) = reduction
-        && (!r.ground_truth.present.is_empty() || !r.ground_truth.kinematics_closed)
+        && (!r.ground_truth.present.is_empty()
+            || !r.ground_truth.undecided.is_empty()
+            || !r.ground_truth.kinematics_closed)
     {
         let absent: Vec<usize> = (0..d.ell).filter(|c| !integrated.contains(c)).collect();
         return Err(model.error(format!(
