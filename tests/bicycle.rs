@@ -200,24 +200,46 @@ fn basu_mandal_table_one() {
 }
 
 /// The structured reduction: x, y and both wheel angles are of type (A) (31) and Z avoids
-/// them, so they drop out exactly; the roll is proved present by a certified derivative.
+/// them, so they drop out exactly; the yaw drops out by the rotation about the vertical, checked
+/// exactly; the roll is proved present by a certified derivative.
 #[test]
-fn the_bicycle_drops_its_position_and_wheel_angles() {
+fn the_bicycle_drops_its_position_heading_and_wheel_angles() {
     let model = bicycle();
     let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-    let r = hamel_reduce::reduce(
-        &model,
-        Some("benchmark"),
-        &names(&["x", "y", "rear_wheel", "front_wheel"]),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let all = names(&["x", "y", "yaw", "rear_wheel", "front_wheel"]);
+    let r = hamel_reduce::reduce(&model, Some("benchmark"), &all).unwrap_or_else(|e| panic!("{e}"));
     let gt = &r.ground_truth;
-    assert_eq!(gt.absent, names(&["x", "y", "rear_wheel", "front_wheel"]));
+    assert_eq!(gt.absent, all);
     assert!(gt.present.is_empty() && gt.undecided.is_empty() && gt.kinematics_closed);
+    assert!(
+        r.findings
+            .iter()
+            .any(|f| f.contains("symmetry `vertical_rotation`") && f.ends_with("free of yaw")),
+        "{:?}",
+        r.findings
+    );
     let reduced = r.reduced_system.expect("a reduced system");
     assert_eq!(
         reduced.state,
-        names(&["eta1", "eta2", "eta3", "yaw", "roll", "pitch", "steer"])
+        names(&["eta1", "eta2", "eta3", "roll", "pitch", "steer"])
+    );
+    // Keeping x and y: the yaw is still absent from (11), but the rates of x and y, which the
+    // rotation moves, contain it.
+    let r = hamel_reduce::reduce(&model, Some("benchmark"), &names(&["yaw"])).unwrap();
+    assert_eq!(r.ground_truth.absent, names(&["yaw"]));
+    assert!(!r.ground_truth.kinematics_closed && r.reduced_system.is_none());
+    // A claimed symmetry that is not one is rejected by the exact check, and proves nothing.
+    let text = format!("{}\n[symmetries.bogus]\nroll = \"1\"\n", model.source);
+    let mut bogus = Model::from_source(&model.file, &text).unwrap();
+    bogus.symmetries.retain(|s| s.name == "bogus");
+    let r = hamel_reduce::reduce(&bogus, Some("benchmark"), &names(&["yaw"])).unwrap();
+    assert_eq!(r.ground_truth.undecided, names(&["yaw"]));
+    assert!(
+        r.findings
+            .iter()
+            .any(|f| f.contains("`bogus`") && f.contains("is not a symmetry")),
+        "{:?}",
+        r.findings
     );
     assert!(r.structure.is_none() && r.hypotheses.is_empty());
     let r = hamel_reduce::reduce(&model, Some("benchmark"), &names(&["roll"])).unwrap();

@@ -45,6 +45,9 @@ pub struct Expansion {
     pub notes: Vec<String>,
     /// Solves the holonomic constraints for their dependent coordinates.
     pub completion: Completion,
+    /// Symmetries the construction suggests ([`crate::vertical_rotation`]): candidates, to be
+    /// checked exactly by whoever uses them.
+    pub symmetries: Vec<crate::Symmetry>,
 }
 
 /// Expand `m` at the default parameter values `values`. `samples`: configurations where a
@@ -95,6 +98,7 @@ pub fn expand(
         holonomic: rolling.holonomic,
         notes: rolling.notes,
         completion,
+        symmetries: crate::vertical_rotation(m).into_iter().collect(),
     })
 }
 

@@ -29,6 +29,7 @@ mod expand;
 mod frames;
 mod mechanism;
 mod numeric;
+mod symmetry;
 pub mod vector;
 
 pub use contact::Row;
@@ -39,3 +40,4 @@ pub use mechanism::{
     World,
 };
 pub use numeric::{Completion, CompletionError, Point};
+pub use symmetry::{Symmetry, vertical_rotation};

@@ -847,6 +847,12 @@ fn field(ctx: &Ctx, choice: &QuasiVelocityChoice) -> Result<Field, ModelError> {
     expressions.push(model.potential.expr.clone());
     expressions.extend(model.constraints.iter().map(|(_, c)| c.expr.clone()));
     expressions.extend(choice.eta.iter().map(|e| e.expr.clone()));
+    expressions.extend(
+        model
+            .symmetries
+            .iter()
+            .flat_map(|s| s.components.iter().map(|(_, i)| i.expr.clone())),
+    );
     let spec = FieldSpec {
         coordinates: model.coordinates.clone(),
         parameters: model.parameters.keys().cloned().collect(),

@@ -100,6 +100,7 @@ pub(crate) fn dynamics(
         completion: e.completion,
         origin: Origin::Bodies,
         notes: e.notes,
+        symmetries: crate::symmetry::from_bodies(&e.symmetries, span("frames")),
     })
 }
 

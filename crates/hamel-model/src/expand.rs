@@ -33,6 +33,9 @@ impl Model {
         if !choices.is_empty() {
             doc["quasi_velocities"] = TomlItem::Table(choices);
         }
+        if !self.symmetries.is_empty() {
+            doc["symmetries"] = TomlItem::Table(self.symmetry_table());
+        }
         format!("{}{doc}", self.header())
     }
 
@@ -100,6 +103,19 @@ impl Model {
             c["h"] = value(h.h.to_string());
             c["dependent"] = value(h.dependent.as_str());
             t[h.name.as_str()] = TomlItem::Table(c);
+        }
+        t
+    }
+
+    fn symmetry_table(&self) -> Table {
+        let mut t = Table::new();
+        t.set_implicit(true);
+        for s in &self.symmetries {
+            let mut st = Table::new();
+            for (q, e) in &s.components {
+                st[q.as_str()] = value(e.expr.to_string());
+            }
+            t[s.name.as_str()] = TomlItem::Table(st);
         }
         t
     }

@@ -25,6 +25,7 @@ mod model;
 mod numeric;
 mod parameters;
 mod schema;
+mod symmetry;
 
 pub use default_choice::combinations;
 pub use error::{ErrorKind, ModelError};
@@ -32,3 +33,4 @@ pub use hamel_bodies::{Completion, CompletionError, HolonomicConstraint};
 pub use loader::{Item, Kinetic, Origin, Site};
 pub use model::{ChoiceOrigin, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};
+pub use symmetry::Symmetry;

@@ -87,6 +87,7 @@ pub(crate) struct Dynamics {
     pub completion: Completion,
     pub origin: Origin,
     pub notes: Vec<String>,
+    pub symmetries: Vec<crate::Symmetry>,
 }
 
 /// The kinetic energy as given in the file.

@@ -84,6 +84,9 @@ pub struct Model {
     pub notes: Vec<String>,
     /// Quasi-velocity choices, in file order.
     pub choices: Vec<QuasiVelocityChoice>,
+    /// Vector fields claimed to be symmetries (`[symmetries]`, and those a model of bodies
+    /// suggests), checked exactly where they are used (`hamel reduce`).
+    pub symmetries: Vec<crate::Symmetry>,
 }
 
 impl Model {
@@ -144,6 +147,8 @@ impl Model {
         } else {
             lagrangian_dynamics(&raw, &mut loader, &err)?
         };
+        let mut symmetries = dynamics.symmetries;
+        symmetries.extend(crate::symmetry::declared(&raw.symmetries, &mut loader)?);
         let mut constraints = dynamics.rows;
         constraints.extend(constraints_of(&raw, &mut loader)?);
         check_count(&raw, coordinates.len(), constraints.len(), &err)?;
@@ -167,6 +172,7 @@ impl Model {
             completion: dynamics.completion,
             origin: dynamics.origin,
             notes: dynamics.notes,
+            symmetries,
             choices,
         };
         model.check_mass_matrix_numerically()?;
@@ -420,6 +426,7 @@ fn lagrangian_dynamics(
         completion: h.completion,
         origin: Origin::Lagrangian,
         notes: Vec::new(),
+        symmetries: Vec::new(),
     })
 }
 

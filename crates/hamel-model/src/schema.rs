@@ -30,6 +30,8 @@ pub(crate) struct RawModel {
     pub holonomic: IndexMap<String, Spanned<RawHolonomic>>,
     #[serde(default)]
     pub quasi_velocities: IndexMap<String, Spanned<RawChoice>>,
+    #[serde(default)]
+    pub symmetries: IndexMap<String, Spanned<IndexMap<String, Spanned<String>>>>,
 }
 
 /// A matrix of expressions as rows of strings, each with its place in the file.

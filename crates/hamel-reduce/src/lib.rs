@@ -18,6 +18,7 @@
 
 mod analysis;
 pub mod hypotheses;
+mod invariance;
 mod render;
 mod report;
 mod search;

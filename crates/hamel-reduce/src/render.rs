@@ -118,7 +118,7 @@ impl Reduction {
             o,
             "\nGround truth (decided exactly on the true equations{}):",
             if self.structure.is_none() {
-                "; structured form: absent by (31), present by a certified derivative"
+                "; structured form: absent by (31) or by a symmetry, present by a certified derivative"
             } else {
                 ""
             }
@@ -160,6 +160,12 @@ impl Reduction {
             }
             Some(r) => {
                 let _ = writeln!(o, "\nReduced system, state ({}):", r.state.join(", "));
+                if r.equations.is_empty() && self.structure.is_none() {
+                    let _ = writeln!(
+                        o,
+                        "  (structured form: (11) and the kinematic equations are evaluated from A, α, Z and U)"
+                    );
+                }
                 for (i, e) in r.equations.iter().enumerate() {
                     let _ = writeln!(o, "  (11.{}) 0 = {}", i + 1, e.text);
                 }

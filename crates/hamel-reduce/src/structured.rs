@@ -16,6 +16,8 @@
 
 use hamel_derive::certify::{Interval, generic, point};
 use hamel_derive::{Compiled, StructuredSymbolic};
+
+use crate::invariance::{by_symmetry, symmetries, symmetry_findings};
 use hamel_expr::Dual;
 use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
@@ -27,8 +29,10 @@ use crate::report::*;
 const ATTEMPTS: usize = 4;
 
 /// What was decided about one asked coordinate.
-enum Verdict {
+pub(crate) enum Verdict {
     Absent,
+    /// Absent by the invariance under this symmetry.
+    BySymmetry(String),
     Present(Witness),
     Undecided,
 }
@@ -45,12 +49,21 @@ pub(crate) fn analyse(
     let compiled = d
         .compile()
         .map_err(|e| model.error(format!("the structured equations do not compile: {e}")))?;
+    let mut absent_all: Vec<bool> = classification
+        .iter()
+        .map(|c| c.kind == CoordinateKind::A && !c.in_z)
+        .collect();
+    let (invariant, rejected) = symmetries(model, s);
+    let by_symmetry = by_symmetry(&invariant, &mut absent_all);
     let verdicts: Vec<Verdict> = p
         .iter()
         .map(|&k| {
             let c = &classification[k];
             if c.kind == CoordinateKind::A && !c.in_z {
                 return Verdict::Absent;
+            }
+            if let Some(name) = &by_symmetry[k] {
+                return Verdict::BySymmetry(name.clone());
             }
             match dependence(&compiled, &d.parameters, &names, k) {
                 Some(w) => Verdict::Present(w),
@@ -65,7 +78,7 @@ pub(crate) fn analyse(
             .map(|(&k, _)| names[k].clone())
             .collect()
     };
-    let absent = pick(|v| matches!(v, Verdict::Absent));
+    let absent = pick(|v| matches!(v, Verdict::Absent | Verdict::BySymmetry(_)));
     let undecided = pick(|v| matches!(v, Verdict::Undecided));
     let occurrences: Vec<Witness> = verdicts
         .iter()
@@ -75,20 +88,46 @@ pub(crate) fn analyse(
         })
         .collect();
     let present = pick(|v| matches!(v, Verdict::Present(_)));
-    // Every asked coordinate absent means each is of type (A) and not in Z: Γ, hence every
-    // kinematic equation, is free of them.
-    let all_absent = absent.len() == p.len();
+    // Every asked coordinate absent by (31) leaves Γ, hence every kinematic equation, free of
+    // them. One absent by a symmetry leaves free of it the rates of the coordinates the
+    // symmetry does not move: each kept coordinate must be one of those.
+    let moved: Vec<&str> = verdicts
+        .iter()
+        .filter_map(|v| match v {
+            Verdict::BySymmetry(n) => Some(n.as_str()),
+            _ => None,
+        })
+        .flat_map(|n| invariant.iter().filter(move |i| i.name == n))
+        .flat_map(|i| i.moves.iter().map(String::as_str))
+        .collect();
+    let kept_moved = (0..names.len())
+        .filter(|k| !p.contains(k))
+        .find(|&k| moved.contains(&names[k].as_str()));
+    let all_absent = absent.len() == p.len() && kept_moved.is_none();
+    let kinematics_witness = kept_moved.map(|k| Witness {
+        object: "kinematics".into(),
+        index: vec![k + 1],
+        coordinate: None,
+        expression: format!("der({}) = (Γη)_{}", names[k], k + 1),
+        note: format!(
+            "`{}` is kept but moved by the symmetry that proves the others absent, so its rate may contain them",
+            names[k]
+        ),
+    });
     let ground_truth = GroundTruth {
         absent,
         present,
         occurrences,
         paper_absent: Vec::new(),
         paper_present: Vec::new(),
-        kinematics_closed: all_absent,
-        kinematics_witness: None,
+        kinematics_closed: kinematics_witness.is_none(),
+        kinematics_witness,
         undecided,
     };
-    let findings = findings(&ground_truth, &names, p);
+    let mut findings = findings(&ground_truth, &names, p);
+    findings.extend(symmetry_findings(
+        &invariant, &rejected, &verdicts, p, &names,
+    ));
     let reduced_system = all_absent.then(|| ReducedSystem {
         state: (1..=d.sigma)
             .map(|i| format!("eta{i}"))
@@ -190,7 +229,7 @@ fn findings(truth: &GroundTruth, names: &[String], p: &[usize]) -> Vec<String> {
     ];
     if truth.absent.len() == p.len() {
         out.push(format!(
-            "eliminated: {} are of type (A) (31) and Z does not contain them, so A, α, Z and U, from which the equations are built, are free of them",
+            "eliminated: the true equations (11) are free of {}",
             asked.join(", ")
         ));
     }
