@@ -1,6 +1,6 @@
 //! The Whipple bicycle from its bodies: the nonlinear benchmark of Basu-Mandal, Chatterjee &
 //! Papadopoulos (2007, Table 1), a state with large lean and steer and its accelerations,
-//! reproduced to 1e-10 from `models/bodies/whipple_bicycle.toml` with the benchmark parameters:
+//! reproduced to 1e-10 from `models/whipple_bicycle.toml` with the benchmark parameters:
 //! by the Lagrange-multiplier oracle straight from the T, U and α hamel derives from the bodies,
 //! and (once the derivation of the bicycle finishes in time) by the Boltzmann–Hamel equations.
 //!
@@ -16,7 +16,7 @@ use hamel_model::{Model, NumericModel};
 
 fn bicycle() -> Model {
     Model::load(format!(
-        "{}/models/bodies/whipple_bicycle.toml",
+        "{}/models/whipple_bicycle.toml",
         env!("CARGO_MANIFEST_DIR")
     ))
     .unwrap_or_else(|e| panic!("{e}"))

@@ -30,6 +30,11 @@ const TOL: f64 = 1e-10;
 /// the comparison measures rounding, not the equations; the stability study covers it).
 const MAX_CONDITION: f64 = 1e6;
 
+/// Largest cond[Z; α] at which the f64 evaluation is compared (double-double is compared up to
+/// [`MAX_CONDITION`]). Beyond it hamel's f64 error grows like cond·ε through Γ: 1.8e-10 at
+/// cond 1.6e4 for the bicycle with its front wheel turned 90° (docs/derivation.md §5).
+const F64_CONDITION: f64 = 1e4;
+
 /// Concrete test functions for free functions: smooth, nonconstant, different for each name so
 /// that nothing cancels by accident.
 fn test_function(name: &str, args: &[String]) -> Expr {
@@ -137,6 +142,8 @@ fn dd(v: &[f64]) -> Vec<DD> {
 
 #[derive(Default)]
 struct Worst {
+    /// The derivation was structured (no expanded symbolic forms to compare).
+    structured_form: bool,
     structured_f64: f64,
     structured_dd: f64,
     symbolic_dd: f64,
@@ -173,7 +180,10 @@ fn compare(model: &Model, choice: &str, seed: u64) -> Worst {
     let nm = NumericModel::new(&concrete, &IndexMap::new()).unwrap();
     let params = d.parameters.clone();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut w = Worst::default();
+    let mut w = Worst {
+        structured_form: d.closed().is_none(),
+        ..Worst::default()
+    };
     let mut attempts = 0;
     while w.states < STATES {
         attempts += 1;
@@ -203,10 +213,10 @@ fn compare(model: &Model, choice: &str, seed: u64) -> Worst {
             "{}/{choice}: q̇ = Γη differs",
             model.name
         );
-        w.structured_f64 = w.structured_f64.max(rel_error(
-            &q_ddot(&c, &q, &eta, &r.eta_dot, &r.q_dot, &params),
-            &oracle.q_ddot,
-        ));
+        let mine = q_ddot(&c, &q, &eta, &r.eta_dot, &r.q_dot, &params);
+        if c.condition(&q, &params).unwrap() <= F64_CONDITION {
+            w.structured_f64 = w.structured_f64.max(rel_error(&mine, &oracle.q_ddot));
+        }
 
         // Structured and symbolic, double-double.
         // The state in double-double: q̇ = Γη computed in double-double lies on the constraint
@@ -247,9 +257,17 @@ fn every_model_and_choice_matches_the_lagrange_multiplier_oracle() {
     for (mi, model) in models().iter().enumerate() {
         for (ci, choice) in model.choices.iter().enumerate() {
             let w = compare(model, &choice.name, 1000 * mi as u64 + ci as u64);
+            let symbolic = if w.structured_form {
+                "symbolic: none (structured form)".to_string()
+            } else {
+                format!(
+                    "symbolic dd {:.1e} (paper's form {:.1e})",
+                    w.symbolic_dd, w.paper_dd
+                )
+            };
             report.push(format!(
-                "{}/{}: {} states; max rel. error: structured f64 {:.1e}, structured dd {:.1e}, symbolic dd {:.1e} (paper's form {:.1e})",
-                model.name, choice.name, w.states, w.structured_f64, w.structured_dd, w.symbolic_dd, w.paper_dd
+                "{}/{}: {} states; max rel. error: structured f64 {:.1e}, structured dd {:.1e}, {symbolic}",
+                model.name, choice.name, w.states, w.structured_f64, w.structured_dd
             ));
             let line = report.last().unwrap();
             assert!(
@@ -260,35 +278,15 @@ fn every_model_and_choice_matches_the_lagrange_multiplier_oracle() {
     }
     eprintln!("{}", report.join("\n"));
     assert!(
-        report.len() >= 14,
+        report.len() >= 15,
         "expected every model and choice, got {}",
         report.len()
     );
-}
-
-/// The Whipple bicycle, derived in structured form (its closed form is too large): its
-/// equations, evaluated from the ingredients, against the oracle at random states.
-#[test]
-fn the_structured_bicycle_matches_the_lagrange_multiplier_oracle() {
-    let bicycle = Model::load(format!(
-        "{}/models/bodies/whipple_bicycle.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap_or_else(|e| panic!("{e}"));
-    let d = derive(&bicycle, Some("benchmark")).unwrap_or_else(|e| panic!("{e}"));
+    // The bicycle is among them, in structured form (its closed form is too large).
     assert!(
-        d.closed().is_none(),
-        "the bicycle derives in structured form"
-    );
-    let w = compare(&bicycle, "benchmark", 17);
-    let line = format!(
-        "whipple_bicycle/benchmark: {} states; structured f64 {:.1e}, structured dd {:.1e}",
-        w.states, w.structured_f64, w.structured_dd
-    );
-    eprintln!("{line}");
-    assert!(
-        w.structured_f64 <= TOL && w.structured_dd <= 1e-20,
-        "{line}"
+        report
+            .iter()
+            .any(|l| l.starts_with("whipple_bicycle/benchmark"))
     );
 }
 
@@ -303,6 +301,9 @@ fn the_structured_form_evaluates_as_the_closed_form() {
         for choice in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
             let name = format!("{}/{}", model.name, choice.name);
             let closed = derive(&model, Some(&choice.name)).unwrap();
+            if closed.closed().is_none() {
+                continue; // the bicycle: structured already
+            }
             let structured =
                 derive_with(&model, Some(&choice.name), FormRequest::Structured, false)
                     .unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -398,6 +398,7 @@ fn a_model_is_l_and_alpha_its_default_choice_derives_and_search_candidates_paste
         ("unicycle_rider", "xC,yC,phi,psi"),
         ("vertical_knife", "x,y"),
         ("snakeboard", "x,y,theta"),
+        ("whipple_bicycle", "x,y,yaw,rear_wheel,front_wheel"),
     ]
     .into();
     for model in bundled_names() {
@@ -412,11 +413,13 @@ fn a_model_is_l_and_alpha_its_default_choice_derives_and_search_candidates_paste
                 .contains("eta = [\"der(")
         );
         let d = derive(&m, None).unwrap_or_else(|e| panic!("{model}: {e}"));
-        assert!(
-            d.closed().unwrap().checks.split_identity
-                && d.closed().unwrap().checks.energy_conserved,
-            "{model}"
-        );
+        // The bicycle derives in structured form: no closed-form checks to read.
+        if let Some(closed) = d.closed() {
+            assert!(
+                closed.checks.split_identity && closed.checks.energy_conserved,
+                "{model}"
+            );
+        }
         // The first candidate of the search, pasted back, is confirmed by `reduce` (Remark 2.2
         // is the paper's example where nothing is eliminated).
         let Some(eliminate) = eliminate.get(model.as_str()) else {
@@ -435,7 +438,9 @@ fn a_model_is_l_and_alpha_its_default_choice_derives_and_search_candidates_paste
         assert_eq!(pasted.choice(None).unwrap().name, first.name);
         let red = run(&pasted, &first.name, eliminate);
         assert!(
-            red.ground_truth.present.is_empty() && red.ground_truth.kinematics_closed,
+            red.ground_truth.present.is_empty()
+                && red.ground_truth.undecided.is_empty()
+                && red.ground_truth.kinematics_closed,
             "{model}: {:?}",
             red.ground_truth.present
         );

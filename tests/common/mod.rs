@@ -13,6 +13,7 @@ pub const ELIMINATE: &[(&str, &str)] = &[
     ("snakeboard", "x,y,theta"),
     ("unicycle_rider", "xC,yC,phi,psi"),
     ("vertical_knife", "x,y,theta"),
+    ("whipple_bicycle", "x,y,yaw,rear_wheel,front_wheel"),
 ];
 
 /// The bundled models, sorted by file name.

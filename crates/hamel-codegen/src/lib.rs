@@ -265,15 +265,23 @@ fn near_singular_set(
 /// set ([`near_singular_states`], [`near_singular_set`]). Its expanded forms
 /// can cancel badly in floating point (derivation.md §4), hence the check; the decision only
 /// selects a code path, exactness is not at stake. Returns the choice and the candidate used
-/// (the cheapest one when the structured path is taken) with its tape.
+/// (the cheapest one when the structured path is taken) with its tape; no candidate for a
+/// structured derivation, which has no closed form to solve.
 fn choose_path(
     d: &Derivation,
     ingredients: &Tape,
     candidates: Vec<Candidate>,
     inputs: &[String],
     slots: &Slots,
-) -> Result<(PathChoice, Candidate, Tape), String> {
+) -> Result<(PathChoice, Option<(Candidate, Tape)>), String> {
     let ell = d.ell;
+    if candidates.is_empty() {
+        let doc = format!(
+            "structured (the derivation is in structured form, docs/derivation.md §6: no closed form to solve; estimate: {} operations = ingredients + ℓ³ + σ²ℓ²)",
+            ingredients.operation_count() + ell.pow(3) + d.sigma.pow(2) * ell.pow(2)
+        );
+        return Ok((PathChoice { solved: false, doc }, None));
+    }
     let mut tried: Vec<(usize, usize, Candidate, Tape)> = candidates
         .into_iter()
         .map(|c| {
@@ -349,7 +357,7 @@ fn choose_path(
         )
     );
     let (_, _, c, tape) = tried.swap_remove(k);
-    Ok((PathChoice { solved, doc }, c, tape))
+    Ok((PathChoice { solved, doc }, Some((c, tape))))
 }
 
 /// Names of the η inputs of the solved tape (not valid model names, so they cannot clash).
@@ -1006,11 +1014,19 @@ pub fn generate(
         files,
         ops_trees: code.ops_trees,
         ops_shared: code.ops_shared,
-        solved: SolvedForm {
-            name: code.candidate.name,
-            used: code.choice.solved,
-            exprs: code.candidate.exprs[..d.sigma + d.ell].to_vec(),
-            inputs: code.solved_inputs,
+        solved: match code.candidate {
+            Some(c) => SolvedForm {
+                name: c.name,
+                used: code.choice.solved,
+                exprs: c.exprs[..d.sigma + d.ell].to_vec(),
+                inputs: code.solved_inputs,
+            },
+            None => SolvedForm {
+                name: "none (structured derivation)",
+                used: false,
+                exprs: Vec::new(),
+                inputs: code.solved_inputs,
+            },
         },
     })
 }
@@ -1071,7 +1087,7 @@ struct Code {
     kept: Vec<usize>,
     solved_inputs: Vec<String>,
     choice: PathChoice,
-    candidate: Candidate,
+    candidate: Option<Candidate>,
     solved_ops: usize,
     reduced_solved: bool,
     /// (prepare, body, number of parameter-only values) of `solved_from` and `reduced_from`.
@@ -1105,20 +1121,30 @@ impl Code {
             eta: "eta",
             eta_at: 0,
         };
-        let (choice, candidate, solved_tape) =
+        let (choice, solved) =
             choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)
                 .map_err(CodegenError::Path)?;
-        let reduced_tape = (choice.solved && !eliminated.is_empty())
-            .then(|| reduced_tape(d, &candidate.exprs, &kept, &params))
-            .flatten();
-        let solved_part = solved_body(
-            &solved_tape,
-            &full_slots,
-            choice.solved,
-            d.sigma,
-            d.ell,
-            |e, q| format!("([{e}], [{q}])"),
-        );
+        let reduced_tape = solved.as_ref().and_then(|(candidate, _)| {
+            (choice.solved && !eliminated.is_empty())
+                .then(|| reduced_tape(d, &candidate.exprs, &kept, &params))
+                .flatten()
+        });
+        let solved_part = match &solved {
+            Some((_, solved_tape)) => solved_body(
+                solved_tape,
+                &full_slots,
+                choice.solved,
+                d.sigma,
+                d.ell,
+                |e, q| format!("([{e}], [{q}])"),
+            ),
+            // No closed form: `solved` is the structured path.
+            None => (
+                "    Ok([])\n".to_string(),
+                "    let _ = c;\n    let r = rhs_fixed(q, eta, p, false)?;\n    Ok((r.eta_dot, r.q_dot))\n".to_string(),
+                0,
+            ),
+        };
         let reduced_part = match &reduced_tape {
             Some(t) => solved_body(
                 t,
@@ -1139,14 +1165,14 @@ impl Code {
         Ok(Code {
             ops_trees: exprs.iter().map(|e| e.tree_operations()).sum(),
             ops_shared: tape.operation_count(),
-            solved_ops: solved_tape.operation_count(),
+            solved_ops: solved.as_ref().map_or(0, |(_, t)| t.operation_count()),
             reduced_solved: reduced_tape.is_some(),
             tape,
             params,
             kept,
             solved_inputs,
             choice,
-            candidate,
+            candidate: solved.map(|(c, _)| c),
             solved_part,
             reduced_part,
         })

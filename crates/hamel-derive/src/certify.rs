@@ -216,8 +216,15 @@ impl Interval {
 pub struct Certificate {
     /// The value of every coordinate and parameter at the point.
     pub point: IndexMap<String, f64>,
-    /// The least magnitude among the pivots' intervals (each excludes zero).
+    /// The least magnitude among the pivots' intervals (each excludes zero). Serialised with
+    /// three significant digits, so that output does not depend on the last bits of the
+    /// platform's sin and cos.
+    #[serde(serialize_with = "three_digits")]
     pub smallest_pivot: f64,
+}
+
+fn three_digits<S: serde::Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&format!("{v:.2e}"))
 }
 
 /// Rank μ of a μ×n (μ ≤ n) interval matrix, certified: Gaussian elimination with complete

@@ -21,7 +21,7 @@
 use std::time::{Duration, Instant};
 
 use hamel_cas::{Ex, Matrix};
-use hamel_derive::Symbolic;
+use hamel_derive::{Derived, FormRequest, Symbolic};
 use hamel_expr::{Dual, Expr, Func};
 use hamel_model::{
     ChoiceOrigin, Item, Model, ModelError, NumericModel, QuasiVelocityChoice, combinations,
@@ -29,7 +29,7 @@ use hamel_model::{
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
-use crate::analysis::{analyse, dependence_conditions};
+use crate::analysis::dependence_conditions;
 
 /// One reducing choice.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -477,21 +477,32 @@ impl Searcher<'_> {
         });
         let t0 = Instant::now();
         log::debug!("search: exact check of {family}: {}", eta.join(" ; "));
-        let s: Symbolic = match hamel_derive::symbolic(&m2, &name) {
-            Ok(s) => s,
+        let derived = match hamel_derive::derive_form(&m2, &name, FormRequest::Auto) {
+            Ok(d) => d,
             Err(e) => {
                 *self.failures.entry(e.message().to_string()).or_default() += 1;
                 return false;
             }
         };
-        let r = match analyse(&m2, &s, self.p) {
+        let r = match crate::analyse(&m2, &derived, self.p) {
             Ok(r) => r,
             Err(e) => {
                 *self.failures.entry(e.message().to_string()).or_default() += 1;
                 return false;
             }
         };
-        self.last = Some(s);
+        if !r.ground_truth.undecided.is_empty() {
+            let key = format!(
+                "the structured form cannot decide whether the equations contain {}",
+                r.ground_truth.undecided.join(", ")
+            );
+            *self.failures.entry(key).or_default() += 1;
+            return false;
+        }
+        self.last = match derived {
+            Derived::Closed(s) => Some(*s),
+            Derived::Structured(_) => None,
+        };
         log::debug!(
             "search: {:.3} s for {}",
             t0.elapsed().as_secs_f64(),
@@ -645,7 +656,10 @@ pub(crate) fn search(
     let started = Instant::now();
     let ell = model.ell();
     let base = model.choice(None)?.name.clone();
-    let s0 = hamel_derive::symbolic(model, &base)?;
+    let s0 = match hamel_derive::derive_form(model, &base, FormRequest::Auto)? {
+        Derived::Closed(s) => Some(*s),
+        Derived::Structured(_) => None,
+    };
     let kept: Vec<usize> = (0..ell).filter(|k| !p.contains(k)).collect();
     let mut se = Searcher {
         model,
@@ -664,17 +678,40 @@ pub(crate) fn search(
         last: None,
         unsolved: Vec::new(),
     };
-    let pool = ansatz_pool(model, &s0, &kept);
-    // The kept coordinates' velocities as unit rows when they fit, v rows from the pool.
-    let units: Vec<usize> = if kept.len() <= model.sigma() {
-        kept.clone()
+    let a = match &s0 {
+        Some(s) => s.a.clone(),
+        None => structured_mass_matrix(model, &base)?,
+    };
+    let pool = ansatz_pool(model, &a, &kept);
+    // The kept coordinates' velocities as unit rows when they fit, v rows from the pool. The
+    // velocity of a coordinate a holonomic constraint determines is no quasi-velocity.
+    let free_kept: Vec<usize> = kept
+        .iter()
+        .copied()
+        .filter(|&k| {
+            !model
+                .holonomic
+                .iter()
+                .any(|h| h.dependent == model.coordinates[k])
+        })
+        .collect();
+    let units: Vec<usize> = if free_kept.len() <= model.sigma() {
+        free_kept
     } else {
         vec![]
     };
     let ansatz_rows = se.ansatz(&pool, &units);
-    let bases = se.kernel_bases(&s0);
-    se.a_orthogonal(&s0, &bases);
-    se.unknown_functions(&pool, &ansatz_rows, &kept, &units);
+    match &s0 {
+        Some(s0) => {
+            let bases = se.kernel_bases(s0);
+            se.a_orthogonal(s0, &bases);
+            se.unknown_functions(&pool, &ansatz_rows, &kept, &units);
+        }
+        None => {
+            let why = "families (c) A-orthogonal and (a) unknown functions need Γ in closed form: not tried for a structured derivation";
+            se.failures.insert(why.to_string(), 0);
+        }
+    }
     let own = if se.found.is_empty() {
         own_failures(model, p)
     } else {
@@ -685,7 +722,7 @@ pub(crate) fn search(
 
 /// The rows of family (b): the velocities of the coordinates to eliminate, rotations by each
 /// angle of pairs of them, and the momenta (rows of A) of at most four terms.
-fn ansatz_pool(model: &Model, s0: &Symbolic, kept: &[usize]) -> Vec<Row> {
+fn ansatz_pool(model: &Model, a: &Matrix, kept: &[usize]) -> Vec<Row> {
     let names = &model.coordinates;
     let ell = names.len();
     let mut pool: Vec<Row> = Vec::new();
@@ -706,7 +743,7 @@ fn ansatz_pool(model: &Model, s0: &Symbolic, kept: &[usize]) -> Vec<Row> {
     for j in 0..ell {
         let row = row_of(
             names,
-            &(0..ell).map(|k| s0.a[(j, k)].clone()).collect::<Vec<_>>(),
+            &(0..ell).map(|k| a[(j, k)].clone()).collect::<Vec<_>>(),
         );
         // Momenta with more than four terms are left out: their exact checks can take
         // minutes and cannot be interrupted (see MAX_TEXT).
@@ -942,14 +979,22 @@ impl Searcher<'_> {
     }
 }
 
+/// A of a model whose derivation is structured (its canonical form, for the momenta rows).
+fn structured_mass_matrix(model: &Model, choice: &str) -> Result<Matrix, ModelError> {
+    match hamel_derive::derive_form(model, choice, FormRequest::Structured)? {
+        Derived::Structured(s) => Ok(s.a.clone()),
+        Derived::Closed(s) => Ok(s.a.clone()),
+    }
+}
+
 /// When nothing reduces: what each of the model's own choices fails on (exactly).
 fn own_failures(model: &Model, p: &[usize]) -> Vec<String> {
     let mut own = Vec::new();
     for c in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
-        let Ok(sc) = hamel_derive::symbolic(model, &c.name) else {
+        let Ok(derived) = hamel_derive::derive_form(model, &c.name, FormRequest::Auto) else {
             continue;
         };
-        let Ok(r) = analyse(model, &sc, p) else {
+        let Ok(r) = crate::analyse(model, &derived, p) else {
             continue;
         };
         if let Some(w) = r.ground_truth.occurrences.first() {
