@@ -188,10 +188,15 @@ impl Scalar for Interval {
         let (lo, hi) = (self.lo.ln(), self.hi.ln());
         Interval::libm(lo.abs().max(hi.abs()), lo, hi)
     }
+    /// By repeated squaring (each product encloses, so the result does).
     fn powi(self, n: i32) -> Self {
-        let mut acc = Interval::point(1.0);
-        for _ in 0..n.unsigned_abs() {
-            acc = acc * self;
+        let (mut acc, mut base, mut k) = (Interval::point(1.0), self, n.unsigned_abs());
+        while k > 0 {
+            if k & 1 == 1 {
+                acc = acc * base;
+            }
+            base = base * base;
+            k >>= 1;
         }
         if n < 0 {
             Interval::point(1.0) / acc
@@ -355,6 +360,10 @@ mod tests {
         assert!(s.hi - s.lo < 1e-14);
         let q = Interval::point(2.0).sqrt();
         assert!(q.lo * q.lo <= 2.0 && q.hi * q.hi >= 2.0);
+        let p = Interval::outward(1.1, 1.1).powi(13);
+        assert!(p.lo <= 1.1f64.powi(13) && 1.1f64.powi(13) <= p.hi && p.hi - p.lo < 1e-13);
+        let r = Interval::point(2.0).powi(-3);
+        assert!(r.lo <= 0.125 && 0.125 <= r.hi);
         assert!(!(Interval::point(1.0) / Interval { lo: -1.0, hi: 1.0 }).excludes_zero());
     }
 

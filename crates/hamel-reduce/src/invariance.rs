@@ -74,30 +74,26 @@ pub(crate) fn by_symmetry(invariant: &[Invariant], absent: &mut [bool]) -> Vec<O
     }
 }
 
-/// Sentences on the symmetries: which proved what, and which were rejected.
+/// Sentences on the symmetries: which proved what (`proved`: coordinate name and the symmetry
+/// that proved it absent), and which were rejected.
 pub(crate) fn symmetry_findings(
     invariant: &[Invariant],
     rejected: &[String],
-    verdicts: &[crate::structured::Verdict],
-    p: &[usize],
-    names: &[String],
+    proved: &[(String, String)],
 ) -> Vec<String> {
     let mut out = Vec::new();
     for inv in invariant {
-        let proved: Vec<&str> = p
+        let these: Vec<&str> = proved
             .iter()
-            .zip(verdicts)
-            .filter(
-                |(_, v)| matches!(v, crate::structured::Verdict::BySymmetry(n) if *n == inv.name),
-            )
-            .map(|(&k, _)| names[k].as_str())
+            .filter(|(_, by)| *by == inv.name)
+            .map(|(q, _)| q.as_str())
             .collect();
-        if !proved.is_empty() {
+        if !these.is_empty() {
             out.push(format!(
                 "absent by the symmetry `{}` (ξ: {}): L_ξA = 0, L_ξU = 0, L_ξα = Cα and L_ξZ = Dα hold exactly, and the other coordinates ξ moves are absent, so the equations are free of {}",
                 inv.name,
                 inv.text,
-                proved.join(", ")
+                these.join(", ")
             ));
         }
     }

@@ -29,7 +29,7 @@ use crate::report::*;
 const ATTEMPTS: usize = 4;
 
 /// What was decided about one asked coordinate.
-pub(crate) enum Verdict {
+enum Verdict {
     Absent,
     /// Absent by the invariance under this symmetry.
     BySymmetry(String),
@@ -125,9 +125,15 @@ pub(crate) fn analyse(
         undecided,
     };
     let mut findings = findings(&ground_truth, &names, p);
-    findings.extend(symmetry_findings(
-        &invariant, &rejected, &verdicts, p, &names,
-    ));
+    let proved: Vec<(String, String)> = p
+        .iter()
+        .zip(&verdicts)
+        .filter_map(|(&k, v)| match v {
+            Verdict::BySymmetry(by) => Some((names[k].clone(), by.clone())),
+            _ => None,
+        })
+        .collect();
+    findings.extend(symmetry_findings(&invariant, &rejected, &proved));
     let reduced_system = all_absent.then(|| ReducedSystem {
         state: (1..=d.sigma)
             .map(|i| format!("eta{i}"))
