@@ -256,17 +256,11 @@ impl Matrix {
     /// The rank over the field of expressions (exact), or [`CasError::TooLarge`] past
     /// [`ELIMINATION_WORK`].
     pub fn rank(&self) -> Result<usize, CasError> {
-        self.rank_within(ELIMINATION_WORK)
-    }
-
-    /// [`Matrix::rank`] within a budget of `work` ([`Budget`]).
-    pub fn rank_within(&self, work: usize) -> Result<usize, CasError> {
         if self.data.is_empty() {
             return Ok(0);
         }
-        Ok(self
-            .eliminate(None, &mut Budget::new(&self.data[0].field(), work))?
-            .2)
+        let mut budget = Budget::new(&self.data[0].field(), ELIMINATION_WORK);
+        Ok(self.eliminate(None, &mut budget)?.2)
     }
 
     /// The determinant of a square matrix (exact), or [`CasError::TooLarge`] past
@@ -288,11 +282,6 @@ impl Matrix {
     /// By fraction-free elimination in the half-angle ring ([`crate::bareiss`]); fields with
     /// square-root kernels by Gauss–Jordan in the field, each step in lowest terms.
     pub fn inverse(&self) -> Result<Option<(Matrix, Ex)>, CasError> {
-        self.inverse_within(ELIMINATION_WORK)
-    }
-
-    /// [`Matrix::inverse`] with Gauss–Jordan (where it is used) within a budget of `work`.
-    pub fn inverse_within(&self, work: usize) -> Result<Option<(Matrix, Ex)>, CasError> {
         assert_eq!(self.rows, self.cols, "inverse of a non-square matrix");
         let field = self.data[0].field();
         let entries: Vec<(&Poly, &Poly)> = self.data.iter().map(|e| (&e.num, &e.den)).collect();
@@ -308,7 +297,7 @@ impl Matrix {
                 (m, ex(det))
             }));
         }
-        self.gauss_jordan(&mut Budget::new(&field, work))
+        self.gauss_jordan(&mut Budget::new(&field, ELIMINATION_WORK))
     }
 
     /// [`Matrix::inverse`] by Gauss–Jordan over the field, every step in lowest terms.

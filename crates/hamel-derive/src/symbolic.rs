@@ -287,55 +287,44 @@ impl Symbolic {
     /// Plain data for output and numeric evaluation.
     pub fn to_derivation(&self) -> Derivation {
         let (model, choice) = (&self.model, &self.choice);
-        let (mu, sigma) = (model.mu(), model.sigma());
         let to_list = |v: &[Over]| -> Vec<Entry> { v.iter().map(entry_over).collect() };
         let to_mats = |v: &[OMatrix]| -> Vec<Mat> { v.iter().map(mat_over).collect() };
-        Derivation {
-            model: model.name.clone(),
-            title: model.title.clone(),
-            eta_name: choice.name.clone(),
-            eta: choice.eta.iter().map(|e| e.expr.to_string()).collect(),
-            free_functions: choice
-                .free_functions
-                .iter()
-                .map(|(n, a)| format!("{n}({})", a.join(", ")))
-                .collect(),
-            coordinates: model.coordinates.clone(),
-            parameters: model.parameters.clone(),
-            ell: model.ell(),
-            mu,
-            sigma,
-            a: mat(&self.a),
-            alpha: mat(&self.alpha),
-            z: mat(&self.z),
-            grad_u: to_list(&self.grad_u),
-            form: Form::Closed(Box::new(Closed {
-                gamma: mat(&self.gamma),
-                theta: mat(&self.theta),
-                delta: entry(&self.delta),
-                singular_set: self.singular.iter().map(entry).collect(),
-                a_gamma: mat_over(&self.a_gamma),
-                forcing: to_list(&self.forcing),
-                nu: mat_over(&self.nu),
-                q: to_mats(&self.q_true),
-                q_paper: to_mats(&self.q_paper),
-                q_correction: to_mats(&self.q_correction),
-                kinematics: to_list(&self.gamma_eta),
-                equations: to_list(&self.lhs(&self.q_eta)),
-                equations_paper: to_list(&self.lhs(&self.q_eta_paper)),
-                energy: entry_over(&self.energy),
-                checks: self.checks.clone(),
-            })),
-            ingredients: Ingredients {
-                potential: Some(entry(&self.u)),
-                da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
-                dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
-                dalpha: (0..model.ell()).map(|k| mat(&self.alpha.diff(k))).collect(),
-                eta_rhs: Vec::new(),
-                eta_dot: None,
-                blocks: None,
+        derivation(
+            model,
+            choice,
+            Computed {
+                a: mat(&self.a),
+                alpha: mat(&self.alpha),
+                z: mat(&self.z),
+                grad_u: to_list(&self.grad_u),
+                form: Form::Closed(Box::new(Closed {
+                    gamma: mat(&self.gamma),
+                    theta: mat(&self.theta),
+                    delta: entry(&self.delta),
+                    singular_set: self.singular.iter().map(entry).collect(),
+                    a_gamma: mat_over(&self.a_gamma),
+                    forcing: to_list(&self.forcing),
+                    nu: mat_over(&self.nu),
+                    q: to_mats(&self.q_true),
+                    q_paper: to_mats(&self.q_paper),
+                    q_correction: to_mats(&self.q_correction),
+                    kinematics: to_list(&self.gamma_eta),
+                    equations: to_list(&self.lhs(&self.q_eta)),
+                    equations_paper: to_list(&self.lhs(&self.q_eta_paper)),
+                    energy: entry_over(&self.energy),
+                    checks: self.checks.clone(),
+                })),
+                ingredients: Ingredients {
+                    potential: Some(entry(&self.u)),
+                    da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
+                    dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
+                    dalpha: (0..model.ell()).map(|k| mat(&self.alpha.diff(k))).collect(),
+                    eta_rhs: Vec::new(),
+                    eta_dot: None,
+                    blocks: None,
+                },
             },
-        }
+        )
     }
 
     /// [`Symbolic::to_derivation`] with the ingredients code generation simplifies with: the
@@ -468,15 +457,11 @@ fn solve_capped(mut a: Vec<Vec<Ex>>, mut b: Vec<Ex>, cap: usize) -> Option<Vec<E
     Some(x)
 }
 
-/// The budget of the exact inverse of [Z; α] in closed form (units of
-/// [`hamel_cas::linalg::Budget`]): past it, [`FormRequest::Auto`] derives the structured form.
-pub const CLOSED_FORM_WORK: usize = hamel_cas::linalg::ELIMINATION_WORK;
-
 /// Which form of the equations a derivation computes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FormRequest {
     /// The closed form when exact elimination of [Z; α] stays within its budget
-    /// ([`CLOSED_FORM_WORK`]), else the structured form.
+    /// ([`hamel_cas::linalg::ELIMINATION_WORK`]), else the structured form.
     #[default]
     Auto,
     /// The closed form, or an error when it is too large.
@@ -559,33 +544,59 @@ impl StructuredSymbolic {
             eta_dot: None,
             blocks: None,
         };
-        Derivation {
-            model: model.name.clone(),
-            title: model.title.clone(),
-            eta_name: choice.name.clone(),
-            eta: choice.eta.iter().map(|e| e.expr.to_string()).collect(),
-            free_functions: choice
-                .free_functions
-                .iter()
-                .map(|(n, a)| format!("{n}({})", a.join(", ")))
-                .collect(),
-            coordinates: model.coordinates.clone(),
-            parameters: model.parameters.clone(),
-            ell,
-            mu: model.mu(),
-            sigma: model.sigma(),
-            grad_u: (0..ell)
-                .map(|k| tree_diff(&u, &model.coordinates[k]))
-                .collect(),
-            a,
-            alpha,
-            z,
-            form: Form::Structured(StructuredForm {
-                structured: self.why.clone(),
-                certificate: self.certificate.clone(),
-            }),
-            ingredients,
-        }
+        derivation(
+            model,
+            choice,
+            Computed {
+                grad_u: (0..ell)
+                    .map(|k| tree_diff(&u, &model.coordinates[k]))
+                    .collect(),
+                a,
+                alpha,
+                z,
+                form: Form::Structured(StructuredForm {
+                    structured: self.why.clone(),
+                    certificate: self.certificate.clone(),
+                }),
+                ingredients,
+            },
+        )
+    }
+}
+
+/// What a derivation adds to the model's and the choice's own data.
+struct Computed {
+    a: Mat,
+    alpha: Mat,
+    z: Mat,
+    grad_u: Vec<Entry>,
+    form: Form,
+    ingredients: Ingredients,
+}
+
+/// The plain-data derivation of `model` for `choice` with `parts`.
+fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> Derivation {
+    Derivation {
+        model: model.name.clone(),
+        title: model.title.clone(),
+        eta_name: choice.name.clone(),
+        eta: choice.eta.iter().map(|e| e.expr.to_string()).collect(),
+        free_functions: choice
+            .free_functions
+            .iter()
+            .map(|(n, a)| format!("{n}({})", a.join(", ")))
+            .collect(),
+        coordinates: model.coordinates.clone(),
+        parameters: model.parameters.clone(),
+        ell: model.ell(),
+        mu: model.mu(),
+        sigma: model.sigma(),
+        a: parts.a,
+        alpha: parts.alpha,
+        z: parts.z,
+        grad_u: parts.grad_u,
+        form: parts.form,
+        ingredients: parts.ingredients,
     }
 }
 
@@ -956,7 +967,7 @@ impl Ctx<'_> {
     ) -> Result<Result<(Matrix, Matrix, Ex), usize>, ModelError> {
         let (ell, mu, sigma) = (self.model.ell(), self.model.mu(), self.model.sigma());
         let m = if mu > 0 { z.vstack(alpha) } else { z.clone() };
-        let (minv, delta) = match m.inverse_within(CLOSED_FORM_WORK) {
+        let (minv, delta) = match m.inverse() {
             Ok(Some(found)) => found,
             Ok(None) => return Err(self.model
                 .error_at(&span_site(format!("quasi_velocities.{}", choice.name), &choice.eta), "det[Z; α] is identically zero: these quasi-velocities are not independent of each other and of the constraints")

@@ -50,17 +50,26 @@ pub fn reduce(
     let model = model.clone();
     hamel_cas::run(move || {
         let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
-        analyse(&model, &derived, &p)
+        analyse(&model, &derived, &p, None)
     })
     .map_err(ModelError::engine)?
 }
 
 /// The analysis of a derivation in either form: the whole one ([`analysis`]) for the closed
-/// form, what the ingredients decide ([`structured`]) for the structured form.
-fn analyse(model: &Model, derived: &Derived, p: &[usize]) -> Result<Reduction, ModelError> {
+/// form, what the ingredients decide ([`structured`]) for the structured form, which evaluates
+/// its plain data `d` (made here when the caller has none).
+fn analyse(
+    model: &Model,
+    derived: &Derived,
+    p: &[usize],
+    d: Option<&hamel_derive::Derivation>,
+) -> Result<Reduction, ModelError> {
     match derived {
         Derived::Closed(s) => analysis::analyse(model, s, p),
-        Derived::Structured(s) => structured::analyse(model, s, p),
+        Derived::Structured(s) => match d {
+            Some(d) => structured::analyse(model, s, d, p),
+            None => structured::analyse(model, s, &s.to_derivation(), p),
+        },
     }
 }
 
@@ -76,7 +85,8 @@ pub fn reduce_with_derivation(
     let model = model.clone();
     hamel_cas::run(move || {
         let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
-        Ok((analyse(&model, &derived, &p)?, derived.to_derivation(true)))
+        let d = derived.to_derivation(true);
+        Ok((analyse(&model, &derived, &p, Some(&d))?, d))
     })
     .map_err(ModelError::engine)?
 }
@@ -100,7 +110,7 @@ pub fn derive_and_reduce<T: Send + 'static>(
         let r = if p.is_empty() {
             None
         } else {
-            Some(analyse(&model, &derived, &p)?)
+            Some(analyse(&model, &derived, &p, Some(&d))?)
         };
         Ok((d, decision, r))
     })

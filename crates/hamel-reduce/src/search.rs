@@ -484,7 +484,7 @@ impl Searcher<'_> {
                 return false;
             }
         };
-        let r = match crate::analyse(&m2, &derived, self.p) {
+        let r = match crate::analyse(&m2, &derived, self.p, None) {
             Ok(r) => r,
             Err(e) => {
                 *self.failures.entry(e.message().to_string()).or_default() += 1;
@@ -994,7 +994,7 @@ fn own_failures(model: &Model, p: &[usize]) -> Vec<String> {
         let Ok(derived) = hamel_derive::derive_form(model, &c.name, FormRequest::Auto) else {
             continue;
         };
-        let Ok(r) = crate::analyse(model, &derived, p) else {
+        let Ok(r) = crate::analyse(model, &derived, p, None) else {
             continue;
         };
         if let Some(w) = r.ground_truth.occurrences.first() {

@@ -15,7 +15,7 @@
 //! Γ in closed form; a structured reduction does not make them.
 
 use hamel_derive::certify::{Interval, generic, point};
-use hamel_derive::{Compiled, StructuredSymbolic};
+use hamel_derive::{Compiled, Derivation, StructuredSymbolic};
 
 use crate::invariance::{by_symmetry, symmetries, symmetry_findings};
 use hamel_expr::Dual;
@@ -37,29 +37,29 @@ enum Verdict {
     Undecided,
 }
 
-/// The structured analysis of eliminating `p`.
+/// The structured analysis of eliminating `p`; `d` is `s` as plain data.
 pub(crate) fn analyse(
     model: &Model,
     s: &StructuredSymbolic,
+    d: &Derivation,
     p: &[usize],
 ) -> Result<Reduction, ModelError> {
     let names = model.coordinates.clone();
     let classification = classify_parts(&names, &s.a, &s.u, &s.alpha, &s.z, p);
-    let d = s.to_derivation();
     let compiled = d
         .compile()
         .map_err(|e| model.error(format!("the structured equations do not compile: {e}")))?;
-    let mut absent_all: Vec<bool> = classification
+    // (31): type (A) and not in Z.
+    let by_31: Vec<bool> = classification
         .iter()
         .map(|c| c.kind == CoordinateKind::A && !c.in_z)
         .collect();
     let (invariant, rejected) = symmetries(model, s);
-    let by_symmetry = by_symmetry(&invariant, &mut absent_all);
+    let by_symmetry = by_symmetry(&invariant, &mut by_31.clone());
     let verdicts: Vec<Verdict> = p
         .iter()
         .map(|&k| {
-            let c = &classification[k];
-            if c.kind == CoordinateKind::A && !c.in_z {
+            if by_31[k] {
                 return Verdict::Absent;
             }
             if let Some(name) = &by_symmetry[k] {

@@ -208,12 +208,22 @@ pub fn plan(model: &Model, eta: &str, request: &Request) -> Result<(Plan, Deriva
 pub fn decide(d: &Derivation, request: &Request) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
     let coords = &d.coordinates;
     let no_kinematics: &[Entry] = &[];
-    // A structured derivation has no expanded equations: the coordinates its ingredients
-    // mention (A, α, Z, U, which Γ, A_Γ and Q are made of) are integrated, and Γ's rows need
+    // A structured derivation has no expanded equations: the coordinates A, α, Z and U mention
+    // (Γ, A_Γ and Q are made of them and their derivatives) are integrated, and Γ's rows need
     // no closing (they mention only coordinates of Z and α).
     let (equations, kinematics): (Vec<&Expr>, &[Entry]) = match d.closed() {
         Some(c) => (c.equations.iter().map(|e| &e.expr).collect(), &c.kinematics),
-        None => (d.ingredient_exprs().unwrap_or_default(), no_kinematics),
+        None => {
+            let matrices = [&d.a, &d.alpha, &d.z];
+            let entries = matrices
+                .into_iter()
+                .flat_map(|m| m.entries.iter().flatten());
+            let potential = d.ingredients.potential.iter();
+            (
+                entries.chain(potential).map(|e| &e.expr).collect(),
+                no_kinematics,
+            )
+        }
     };
     let mut integrated: Vec<usize> = Vec::new();
     for e in equations {
