@@ -238,6 +238,9 @@ impl Derivation {
 pub struct Ingredients {
     /// U.
     pub potential: Option<Entry>,
+    /// The model's own trees of the ingredients, for structured derivations: evaluated in place
+    /// of the canonical forms, with `da`, `dz`, `dalpha` their derivatives.
+    pub trees: Option<Trees>,
     /// ∂A/∂q_k.
     pub da: Vec<Mat>,
     /// ∂Z/∂q_k.
@@ -255,6 +258,37 @@ pub struct Ingredients {
     /// ordering): each block's rows, its determinant, adjugate and leading principal minors
     /// as normal forms (Cramer's rule per block; Sylvester's criterion for definiteness).
     pub blocks: Option<Vec<Block>>,
+}
+
+/// A, α, Z, U and ∇U as the model writes them: for a model of bodies, built frame by frame and
+/// never expanded; α and Z the coefficients of the velocities in the rows as written; ∇U taken
+/// on U's tree. Each converts to the canonical form of the derivation (which is computed from
+/// them), so they are equal by construction; they are for evaluation, the canonical forms for
+/// deciding. The bicycle's A is 860 operations shared as a tree, 14,000 expanded.
+#[derive(Clone, Debug)]
+pub struct Trees {
+    /// A (ℓ×ℓ).
+    pub a: Mat,
+    /// α (μ×ℓ).
+    pub alpha: Mat,
+    /// Z (σ×ℓ).
+    pub z: Mat,
+    /// U.
+    pub u: Entry,
+    /// ∇U (ℓ).
+    pub grad_u: Vec<Entry>,
+}
+
+impl Trees {
+    fn map_expr(&self, f: &dyn Fn(&Expr) -> Expr) -> Trees {
+        Trees {
+            a: self.a.map_expr(f),
+            alpha: self.alpha.map_expr(f),
+            z: self.z.map_expr(f),
+            u: self.u.map_expr(f),
+            grad_u: self.grad_u.iter().map(|e| e.map_expr(f)).collect(),
+        }
+    }
 }
 
 /// A diagonal block of A_Γ (the rows `rows`, coupled to no other row), for Cramer's rule.
@@ -283,13 +317,18 @@ impl Entry {
 
 impl Mat {
     fn map_expr(&self, f: &dyn Fn(&Expr) -> Expr) -> Mat {
+        self.map_entries(|e| e.map_expr(f))
+    }
+
+    /// The matrix of `f` of each entry.
+    pub(crate) fn map_entries(&self, f: impl Fn(&Entry) -> Entry) -> Mat {
         Mat {
             rows: self.rows,
             cols: self.cols,
             entries: self
                 .entries
                 .iter()
-                .map(|r| r.iter().map(|e| e.map_expr(f)).collect())
+                .map(|r| r.iter().map(&f).collect())
                 .collect(),
         }
     }
@@ -416,6 +455,7 @@ impl Derivation {
             },
             ingredients: Ingredients {
                 potential: ing.potential.as_ref().map(|e| e.map_expr(&f)),
+                trees: ing.trees.as_ref().map(|t| t.map_expr(&f)),
                 da: mats(&ing.da),
                 dz: mats(&ing.dz),
                 dalpha: mats(&ing.dalpha),

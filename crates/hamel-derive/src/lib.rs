@@ -26,7 +26,7 @@ pub mod symbolic;
 
 pub use derivation::{
     Block, Checks, Closed, Derivation, DerivationJson, Entry, Form, Ingredients, Mat, NotClosed,
-    Size, SpecialiseError, StructuredForm, Why,
+    Size, SpecialiseError, StructuredForm, Trees, Why,
 };
 pub use hamel_eval::{
     Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,

@@ -41,18 +41,30 @@ fn free_inputs(exprs: &[&hamel_expr::Expr]) -> Vec<String> {
 
 impl Derivation {
     /// The ingredients of the structured evaluation, in order: Z (σ×ℓ, row-major), α (μ×ℓ),
-    /// A (ℓ×ℓ), U, ∇U (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks μ×ℓ).
+    /// A (ℓ×ℓ), U, ∇U (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks
+    /// μ×ℓ); the first five from the model's [`Trees`](crate::Trees) where there are.
     /// Compiled here and printed as Rust by the code generator (whose runtime `Layout` has the
     /// same offsets).
     pub fn ingredient_exprs(&self) -> Result<Vec<&hamel_expr::Expr>, NumericError> {
         let ing = &self.ingredients;
         let u = ing.potential.as_ref().ok_or(NumericError::NoIngredients)?;
         let mut exprs = Vec::new();
-        add_mat(&mut exprs, &self.z);
-        add_mat(&mut exprs, &self.alpha);
-        add_mat(&mut exprs, &self.a);
-        exprs.push(&u.expr);
-        add_list(&mut exprs, &self.grad_u);
+        match &ing.trees {
+            Some(t) => {
+                add_mat(&mut exprs, &t.z);
+                add_mat(&mut exprs, &t.alpha);
+                add_mat(&mut exprs, &t.a);
+                exprs.push(&t.u.expr);
+                add_list(&mut exprs, &t.grad_u);
+            }
+            None => {
+                add_mat(&mut exprs, &self.z);
+                add_mat(&mut exprs, &self.alpha);
+                add_mat(&mut exprs, &self.a);
+                exprs.push(&u.expr);
+                add_list(&mut exprs, &self.grad_u);
+            }
+        }
         for m in ing.da.iter().chain(&ing.dz).chain(&ing.dalpha) {
             add_mat(&mut exprs, m);
         }

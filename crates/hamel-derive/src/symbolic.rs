@@ -23,7 +23,7 @@ use hamel_model::{Item, Kinetic, Model, ModelError, QuasiVelocityChoice, Site};
 
 use crate::certify::Certificate;
 use crate::derivation::{
-    Checks, Closed, Derivation, Entry, Form, Ingredients, Mat, StructuredForm, Why,
+    Checks, Closed, Derivation, Entry, Form, Ingredients, Mat, StructuredForm, Trees, Why,
 };
 
 /// An exact value as plain data (canonical text and tree).
@@ -316,6 +316,7 @@ impl Symbolic {
                 })),
                 ingredients: Ingredients {
                     potential: Some(entry(&self.u)),
+                    trees: None,
                     da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
                     dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
                     dalpha: (0..model.ell()).map(|k| mat(&self.alpha.diff(k))).collect(),
@@ -518,32 +519,19 @@ impl StructuredSymbolic {
     pub fn to_derivation(&self) -> Derivation {
         let (model, choice) = (&self.model, &self.choice);
         let ell = model.ell();
-        let (a, alpha, z) = (mat(&self.a), mat(&self.alpha), mat(&self.z));
-        let u = entry(&self.u);
-        let d = |m: &Mat, k: usize| -> Mat {
-            Mat {
-                rows: m.rows,
-                cols: m.cols,
-                entries: m
-                    .entries
-                    .iter()
-                    .map(|r| {
-                        r.iter()
-                            .map(|e| tree_diff(e, &model.coordinates[k]))
-                            .collect()
-                    })
-                    .collect(),
-            }
-        };
+        let trees = model_trees(model, choice);
+        let d = |m: &Mat, k: usize| m.map_entries(|e| tree_diff(e, &model.coordinates[k]));
         let ingredients = Ingredients {
-            potential: Some(u.clone()),
-            da: (0..ell).map(|k| d(&a, k)).collect(),
-            dz: (0..ell).map(|k| d(&z, k)).collect(),
-            dalpha: (0..ell).map(|k| d(&alpha, k)).collect(),
+            potential: Some(entry(&self.u)),
+            da: (0..ell).map(|k| d(&trees.a, k)).collect(),
+            dz: (0..ell).map(|k| d(&trees.z, k)).collect(),
+            dalpha: (0..ell).map(|k| d(&trees.alpha, k)).collect(),
+            trees: Some(trees),
             eta_rhs: Vec::new(),
             eta_dot: None,
             blocks: None,
         };
+        let u = entry(&self.u);
         derivation(
             model,
             choice,
@@ -551,9 +539,9 @@ impl StructuredSymbolic {
                 grad_u: (0..ell)
                     .map(|k| tree_diff(&u, &model.coordinates[k]))
                     .collect(),
-                a,
-                alpha,
-                z,
+                a: mat(&self.a),
+                alpha: mat(&self.alpha),
+                z: mat(&self.z),
                 form: Form::Structured(StructuredForm {
                     structured: self.why.clone(),
                     certificate: self.certificate.clone(),
@@ -561,6 +549,60 @@ impl StructuredSymbolic {
                 ingredients,
             },
         )
+    }
+}
+
+/// The model's own trees of the ingredients ([`Trees`]): A as written (a model of bodies gives
+/// it entry by entry, built frame by frame) or the second velocity derivatives of T's tree; α
+/// and Z the velocity coefficients of the rows as written; U and ∇U on U's tree. The canonical
+/// forms of the derivation are the conversions of these same rows (checked linear there), so
+/// the two are equal.
+fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
+    let coords = &model.coordinates;
+    let leaf = |expr: Expr| Entry {
+        text: expr.to_string(),
+        expr,
+    };
+    let matrix = |entries: Vec<Vec<Entry>>| Mat {
+        rows: entries.len(),
+        cols: coords.len(),
+        entries,
+    };
+    let rows = |items: &mut dyn Iterator<Item = &Expr>| {
+        matrix(
+            items
+                .map(|e| {
+                    coords
+                        .iter()
+                        .map(|q| leaf(e.velocity_coefficient(q)))
+                        .collect()
+                })
+                .collect(),
+        )
+    };
+    let a = match &model.kinetic {
+        Kinetic::MassMatrix(m) => m
+            .iter()
+            .map(|r| r.iter().map(|i| leaf(i.expr.clone())).collect())
+            .collect(),
+        Kinetic::Energy(t) => coords
+            .iter()
+            .map(|qi| {
+                let row = t.expr.velocity_coefficient(qi);
+                coords
+                    .iter()
+                    .map(|qj| leaf(row.velocity_coefficient(qj)))
+                    .collect()
+            })
+            .collect(),
+    };
+    let u = leaf(model.potential.expr.clone());
+    Trees {
+        a: matrix(a),
+        alpha: rows(&mut model.constraints.iter().map(|(_, i)| &i.expr)),
+        z: rows(&mut choice.eta.iter().map(|i| &i.expr)),
+        grad_u: coords.iter().map(|q| tree_diff(&u, q)).collect(),
+        u,
     }
 }
 

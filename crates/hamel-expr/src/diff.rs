@@ -33,6 +33,13 @@ impl Expr {
         Ok(self.d(x))
     }
 
+    /// ∂self/∂der(q): the coefficient of the velocity `der(q)` in an expression linear in the
+    /// velocities (for one of higher degree, the partial derivative), taken on the tree as
+    /// [`Expr::diff`] does, so that the structure of the expression is kept.
+    pub fn velocity_coefficient(&self, q: &str) -> Expr {
+        self.d_by(&Var::Velocity(q))
+    }
+
     /// The first velocity `der(q)` in the tree, if any.
     fn velocity(&self) -> Option<String> {
         let mut found = None;
@@ -46,28 +53,33 @@ impl Expr {
 
     /// ∂self/∂x for a tree without velocities.
     fn d(&self, x: &str) -> Expr {
-        if !self.mentions(x) {
+        self.d_by(&Var::Symbol(x))
+    }
+
+    /// ∂self/∂x.
+    fn d_by(&self, x: &Var) -> Expr {
+        if !x.in_tree(self) {
             return Expr::int(0);
         }
         match self {
-            Expr::Num(_) | Expr::Der(_) => Expr::int(0),
-            Expr::Sym(_) => Expr::int(1),
-            Expr::Add(v) => sum(v.iter().map(|t| t.d(x))),
+            Expr::Num(_) => Expr::int(0),
+            Expr::Sym(_) | Expr::Der(_) => Expr::int(1),
+            Expr::Add(v) => sum(v.iter().map(|t| t.d_by(x))),
             Expr::Mul(v) => sum((0..v.len()).map(|i| {
                 let others = v.iter().enumerate().filter(|&(j, _)| j != i);
-                product(others.map(|(_, f)| f.clone()).chain([v[i].d(x)]))
+                product(others.map(|(_, f)| f.clone()).chain([v[i].d_by(x)]))
             })),
-            Expr::Neg(a) => neg(a.d(x)),
-            Expr::Div(a, b) if !b.mentions(x) => div(a.d(x), (**b).clone()),
+            Expr::Neg(a) => neg(a.d_by(x)),
+            Expr::Div(a, b) if !x.in_tree(b) => div(a.d_by(x), (**b).clone()),
             Expr::Div(a, b) => {
                 let (a, b) = (&**a, &**b);
-                let top = sub(mul(a.d(x), b.clone()), mul(a.clone(), b.d(x)));
+                let top = sub(mul(a.d_by(x), b.clone()), mul(a.clone(), b.d_by(x)));
                 div(top, powi(b.clone(), 2))
             }
             Expr::Pow(a, e) => power_rule(a, e, x),
-            Expr::Call(f, a) => mul(outer_derivative(*f, a), a.d(x)),
+            Expr::Call(f, a) => mul(outer_derivative(*f, a), a.d_by(x)),
             Expr::Free { name, args, orders } => sum(args.iter().enumerate().map(|(j, arg)| {
-                if arg != x {
+                if !x.is_symbol(arg) {
                     return Expr::int(0);
                 }
                 let mut orders = orders.clone();
@@ -83,18 +95,42 @@ impl Expr {
 }
 
 /// ∂(aᵉ)/∂x: e·a^(e−1)·a' for a constant exponent, aᵉ·(e'·log a + e·a'/a) otherwise.
-fn power_rule(a: &Expr, e: &Expr, x: &str) -> Expr {
+fn power_rule(a: &Expr, e: &Expr, x: &Var) -> Expr {
     let pow = Expr::Pow(Box::new(a.clone()), Box::new(e.clone()));
-    if !e.mentions(x) {
+    if !x.in_tree(e) {
         let lowered = match e.as_integer() {
             Some(n) => powi(a.clone(), n - 1),
             None => Expr::Pow(Box::new(a.clone()), Box::new(sub(e.clone(), Expr::int(1)))),
         };
-        return product([e.clone(), lowered, a.d(x)]);
+        return product([e.clone(), lowered, a.d_by(x)]);
     }
     let log_a = call(Func::Log, a.clone());
-    let inner = add(mul(e.d(x), log_a), div(mul(e.clone(), a.d(x)), a.clone()));
+    let inner = add(
+        mul(e.d_by(x), log_a),
+        div(mul(e.clone(), a.d_by(x)), a.clone()),
+    );
     mul(pow, inner)
+}
+
+/// What is differentiated by: a symbol (a coordinate or parameter), or a velocity `der(q)`.
+enum Var<'a> {
+    Symbol(&'a str),
+    Velocity(&'a str),
+}
+
+impl Var<'_> {
+    /// Whether the variable occurs in `e` (a symbol also as a free function's argument).
+    fn in_tree(&self, e: &Expr) -> bool {
+        match *self {
+            Var::Symbol(x) => e.mentions(x),
+            Var::Velocity(q) => e.any(&mut |n| matches!(n, Expr::Der(p) if p == q)),
+        }
+    }
+
+    /// Whether the symbol `name` is the variable.
+    fn is_symbol(&self, name: &str) -> bool {
+        matches!(*self, Var::Symbol(x) if x == name)
+    }
 }
 
 /// f'(a) for a built-in f.
@@ -166,5 +202,32 @@ mod tests {
         assert!(v.diff("x").is_err());
         let f = parse("z13(x, y)").unwrap().expr;
         assert_eq!(f.diff("y").unwrap().to_string(), "z13_dy(x, y)");
+    }
+
+    /// The coefficient of der(q), against the value of the row with der(q) = 1 and the other
+    /// velocities 0, at a point; the coefficients keep the tree (no expansion).
+    #[test]
+    fn velocity_coefficients_are_the_rows_entries() {
+        let row = parse("cos(x)*(a*der(x) - sin(y)*der(y)) + der(x)/(1 + y^2) - 3*der(z)")
+            .unwrap()
+            .expr;
+        let point = [("x", 0.7), ("y", -1.3), ("a", 2.1), ("z", 0.2)];
+        for q in ["x", "y", "z"] {
+            let at = At(point.iter().map(|&(n, v)| (n, Dual::new(v, 0.0))).collect());
+            let with_unit = row.map(&mut |e| match e {
+                Expr::Der(p) => Expr::int(i64::from(p == q)),
+                other => other,
+            });
+            let coefficient = row.velocity_coefficient(q);
+            assert!(!coefficient.has_velocity());
+            let (c, v) = (
+                coefficient.eval(&at).unwrap().v,
+                with_unit.eval(&at).unwrap().v,
+            );
+            assert!((c - v).abs() <= 1e-14, "der({q}): {c} vs {v}");
+        }
+        assert_eq!(row.velocity_coefficient("w"), Expr::int(0));
+        let product = parse("der(x)*cos(y)*a").unwrap().expr;
+        assert_eq!(product.velocity_coefficient("x").to_string(), "cos(y)*a");
     }
 }

@@ -54,6 +54,9 @@ pub mod unicycle_rider__velocities;
 #[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/vertical_knife__paper/src/model.rs"]
 pub mod vertical_knife__paper;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/whipple_bicycle__benchmark/src/model.rs"]
+pub mod whipple_bicycle__benchmark;
 
 /// A full right-hand side at (q, η) in f64.
 pub type FullFn = fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>;
@@ -151,4 +154,5 @@ pub const MODELS: &[Core] = &[
     core!(unicycle_rider__momenta, "unicycle_rider", "momenta"),
     core!(unicycle_rider__velocities, "unicycle_rider", "velocities"),
     core!(vertical_knife__paper, "vertical_knife", "paper"),
+    core!(whipple_bicycle__benchmark, "whipple_bicycle", "benchmark"),
 ];

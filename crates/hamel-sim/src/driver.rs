@@ -298,6 +298,9 @@ impl Run<'_, '_> {
                     return Err(self.step_failure(StepFailure::NonFinite, h));
                 }
                 self.ev.stats.steps += 1;
+                self.ev
+                    .project(t_next, &mut y_new, true)
+                    .map_err(|failure| self.step_failure(failure, h))?;
                 self.t = t_next;
                 std::mem::swap(&mut self.y, &mut y_new);
             }
@@ -405,6 +408,10 @@ impl Run<'_, '_> {
             }
             controller.accepted(err);
             self.ev.stats.steps += 1;
+            let projected = self
+                .ev
+                .project(t_new, &mut y_new, true)
+                .map_err(|failure| self.step_failure(failure, h_try))?;
 
             while let Some(&t_out) = self.outputs.get(next) {
                 if (t_out - t_new) * direction > 0.0 {
@@ -421,9 +428,19 @@ impl Run<'_, '_> {
                             format!("dense output at t = {t_out} is not finite"),
                         ));
                     }
+                    self.ev
+                        .project(t_out, &mut dense_out, false)
+                        .map_err(|failure| self.step_failure(failure, h_try))?;
                     self.recorder.push(t_out, &dense_out);
                 }
                 next += 1;
+            }
+            // After the outputs: the continuous extension may read the step's last stage.
+            if projected {
+                self.ev
+                    .rhs(t_new, &y_new, &mut f0)
+                    .map_err(|failure| self.step_failure(failure, h_try))?;
+                stepper.start(&f0);
             }
             self.t = t_new;
             std::mem::swap(&mut self.y, &mut y_new);

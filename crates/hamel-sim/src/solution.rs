@@ -43,6 +43,17 @@ pub struct Stats {
     pub energy_drift: Option<f64>,
     /// `max |residual|` over the outputs, if the system has a constraint residual.
     pub constraint_drift: Option<f64>,
+    /// Steps after which the state was projected ([`OdeSystem::project`](crate::OdeSystem::project)).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub projections: usize,
+    /// The largest residual found before a projection (the drift one step makes), if the
+    /// system projects.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub projection_drift: Option<f64>,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// Why an integration stopped early.

@@ -41,6 +41,14 @@ pub trait OdeSystem {
     fn constraint_residual(&self, _t: f64, _y: &[f64]) -> Option<f64> {
         None
     }
+
+    /// Optional projection onto a manifold the exact solution never leaves (holonomic
+    /// constraints h(q) = 0), called after every accepted step: move `y` onto it and return
+    /// the residual found before moving (for instance max |h_i|), or 0 when `y` was left
+    /// unchanged. Default None: no projection.
+    fn project(&self, _t: f64, _y: &mut [f64]) -> Option<Result<f64, SystemError>> {
+        None
+    }
 }
 
 /// The system as the integrators see it: every call counted in [`Stats`], failures tagged with
@@ -69,6 +77,27 @@ impl<'a> Evaluator<'a> {
         self.system
             .rhs(t, y, dy)
             .map_err(|error| StepFailure::System { t, error })
+    }
+
+    /// Project `y` (the state just accepted at `t`, or with `step` false an output read from
+    /// the continuous extension) if the system asks for it; true when `y` moved, so that a
+    /// derivative kept from before (FSAL) is stale. Only steps count in `projections`.
+    pub(crate) fn project(
+        &mut self,
+        t: f64,
+        y: &mut [f64],
+        step: bool,
+    ) -> Result<bool, StepFailure> {
+        let Some(result) = self.system.project(t, y) else {
+            return Ok(false);
+        };
+        let residual = result.map_err(|error| StepFailure::System { t, error })?;
+        let drift = self.stats.projection_drift.get_or_insert(0.0);
+        *drift = drift.max(residual);
+        if residual > 0.0 && step {
+            self.stats.projections += 1;
+        }
+        Ok(residual > 0.0)
     }
 
     /// `jac = df/dy (t, y)`, row-major; `f0` must be `f(t, y)`.

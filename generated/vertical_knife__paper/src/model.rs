@@ -27,6 +27,12 @@
 
 use hamel_runtime::{self as runtime, Dims, DualN, EvalError, Fixed, Layout, Rhs, Scalar};
 
+/// The double-double type of the repeat of an ill-conditioned f64 evaluation, and the dual
+/// numbers of the Jacobian: inlined, as the ingredients have 13 shared operations, at most 1000.
+type Wide = runtime::DD;
+/// See [`Wide`].
+type Jet = DualN<REDUCED_DIM>;
+
 /// Storage of one structured evaluation, on the stack (sizes from [`DIMS`]).
 type Storage<S> = runtime::Storage<S, { DIMS.scalars() }, { DIMS.indices() }, { DIMS.reals() }>;
 
@@ -62,9 +68,11 @@ pub const SOLVED: bool = true;
 /// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
 pub const REDUCED_SOLVED: bool = false;
 
-/// Parameters, with the model's defaults.
+/// Parameters, with the model's defaults, under the model's own names (`IRxx`, `mB`: the
+/// benchmark's notation, not snake case).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[allow(non_snake_case)]
 pub struct Parameters {
     /// `m`
     pub m: f64,
@@ -220,8 +228,8 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     }
     r.f64_error_estimate = s.f64_error_estimate(&out);
     if r.f64_error_estimate > runtime::DOUBLE_DOUBLE_ABOVE {
-        let (q, eta) = (runtime::widen::<S, runtime::DD, ELL>(q), runtime::widen::<S, runtime::DD, SIGMA>(eta));
-        let mut wide = rhs_fixed::<runtime::DD>(&q, &eta, p, paper)?.narrow::<S>();
+        let (q, eta) = (runtime::widen::<S, Wide, ELL>(q), runtime::widen::<S, Wide, SIGMA>(eta));
+        let mut wide = rhs_fixed::<Wide>(&q, &eta, p, paper)?.narrow::<S>();
         wide.precision = runtime::Precision::DoubleDouble;
         wide.f64_error_estimate = r.f64_error_estimate;
         return Ok(wide);
@@ -439,9 +447,9 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
 pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
-    let xd: Vec<DualN<REDUCED_DIM>> = x.iter().enumerate().map(|(i, &v)| DualN::variable(v, i)).collect();
+    let xd: Vec<Jet> = x.iter().enumerate().map(|(i, &v)| Jet::from(DualN::variable(v, i))).collect();
     let f = reduced_with(&xd, prep)?;
-    let jac: Vec<Vec<f64>> = f.iter().map(|fi| fi.d.to_vec()).collect();
+    let jac: Vec<Vec<f64>> = f.iter().map(|fi| AsRef::<DualN<REDUCED_DIM>>::as_ref(fi).d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
 }

@@ -103,6 +103,14 @@ pub struct DualN<const N: usize> {
     pub d: [f64; N],
 }
 
+/// The identity, so that code generic over [`Cold`](crate::Cold)`<DualN<N>>` and `DualN<N>`
+/// reads the derivatives the same way.
+impl<const N: usize> AsRef<DualN<N>> for DualN<N> {
+    fn as_ref(&self) -> &DualN<N> {
+        self
+    }
+}
+
 impl<const N: usize> DualN<N> {
     /// The variable number `i` at value `v` (derivative e_i).
     pub fn variable(v: f64, i: usize) -> Self {

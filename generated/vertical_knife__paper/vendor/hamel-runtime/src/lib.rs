@@ -17,6 +17,7 @@
 //! (`hamel_derive::Compiled`) and the simulator evaluate the same code.
 #![warn(missing_docs)]
 
+mod cold;
 mod dd;
 mod dual;
 mod error;
@@ -25,6 +26,7 @@ pub mod lu;
 mod scalar;
 mod structured;
 
+pub use cold::Cold;
 pub use dd::DD;
 pub use dual::{Dual, DualN};
 pub use error::{EvalError, cold_error, finite};
