@@ -154,6 +154,30 @@ impl Completion {
         })
     }
 
+    /// max |h_i(q)|: how far `q` is from the constraints (0 without constraints).
+    pub fn residual(
+        &self,
+        q: &[f64],
+        values: &IndexMap<String, f64>,
+    ) -> Result<f64, CompletionError> {
+        let at = Point::at(&self.coordinates, q, values);
+        self.h.iter().try_fold(0.0_f64, |m, hi| {
+            at.value(hi)
+                .map(|v| m.max(v.abs()))
+                .map_err(|p| CompletionError::Evaluation(p.to_string()))
+        })
+    }
+
+    /// Whether some constraint depends on the coordinate `k`.
+    pub fn mentions(&self, k: usize) -> bool {
+        self.h.iter().any(|h| h.mentions(&self.coordinates[k]))
+    }
+
+    /// Whether there are constraints to solve.
+    pub fn is_empty(&self) -> bool {
+        self.h.is_empty()
+    }
+
     /// h(q) and its Jacobian by the dependent coordinates.
     fn linearise(
         &self,
@@ -186,8 +210,10 @@ mod tests {
         let c = Completion::new(&coords, vec![h], vec![1]).unwrap();
         let values = IndexMap::from([("r".to_string(), 2.0)]);
         let mut q = [1.2, 1.0];
+        assert!((c.residual(&q, &values).unwrap() - 1.56).abs() < 1e-14);
         c.complete(&mut q, &values).unwrap();
         assert!((q[1] - (4.0_f64 - 1.44).sqrt()).abs() < 1e-14);
+        assert!(c.residual(&q, &values).unwrap() < 1e-15);
         let mut q = [1.2, 0.0];
         assert!(matches!(
             c.complete(&mut q, &values),

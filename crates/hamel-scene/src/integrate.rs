@@ -39,6 +39,12 @@ impl Loaded {
         if engine == Engine::Interpreted {
             return (engine, false);
         }
+        if self.projects() {
+            log::info!(
+                "the scene's model has holonomic constraints and the compiled core does not project onto them yet: using the interpreted evaluator, which does"
+            );
+            return (Engine::Interpreted, false);
+        }
         match self.core().and_then(cache::binary) {
             Ok((_, built)) => (Engine::Compiled, built),
             Err(e) => {
@@ -48,6 +54,16 @@ impl Loaded {
                 (Engine::Interpreted, false)
             }
         }
+    }
+
+    /// Whether the integration projects onto the holonomic constraints: the model has some, and
+    /// the state holds every coordinate they depend on.
+    pub fn projects(&self) -> bool {
+        let c = &self.model.completion;
+        !c.is_empty()
+            && (0..self.d.ell)
+                .filter(|&k| c.mentions(k))
+                .all(|k| self.state.contains(&k))
     }
 
     /// Integrate the planned state with `method`; on failure, what was computed and the error.
@@ -67,6 +83,7 @@ impl Loaded {
             delta0: self.delta0,
             numeric,
             watch: Default::default(),
+            holonomic: self.projects().then_some(&self.model.completion),
         };
         let (solution, failure) = match hamel_sim::integrate(
             &system,

@@ -12,7 +12,7 @@ use indexmap::IndexMap;
 use crate::cache;
 use crate::expressions::{OutputExpression, ParsedExpression, parse_expressions};
 use crate::file::{Integrator, Outputs, Scene};
-use crate::initial::{Projection, initial_eta};
+use crate::initial::{Completed, Projection, complete_initial, initial_eta};
 use crate::plan::{Plan, Request};
 
 /// A scene read and checked, with its derivation, plan and initial state.
@@ -43,6 +43,8 @@ pub struct Loaded {
     pub(crate) reference: f64,
     pub(crate) delta0: f64,
     pub(crate) projection: Option<Projection>,
+    /// The dependent coordinates completed from the holonomic constraints at the start.
+    pub(crate) completed: Vec<Completed>,
     pub(crate) file: SceneFile,
     /// The scene's compiled core, prepared on first use ([`Loaded::core`]).
     pub(crate) core: OnceCell<Result<cache::Entry, cache::CacheError>>,
@@ -87,7 +89,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         .map(|&i| parsed[i].specialised(&params, &d))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|(k, m)| err(&k, m))?;
-    let q0 = initial_q(&scene, &d, &file)?;
+    let (q0, completed) = initial_q(&scene, &model, &params, &file)?;
     let (eta0, projection) = {
         let numeric = hamel_model::NumericModel::new(&model, &params)
             .map_err(|e| err("parameters", e.to_string()))?;
@@ -128,6 +130,7 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
         reference,
         delta0,
         projection,
+        completed,
         file,
         core: OnceCell::new(),
     })
@@ -285,26 +288,39 @@ fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), Mode
 }
 
 /// The initial configuration, every coordinate of the model in its order.
+/// The initial configuration: every coordinate given, except the dependent coordinates of
+/// holonomic constraints, which are completed from h(q) = 0 (Newton, from the value given or 0).
 fn initial_q(
     scene: &Scene,
-    d: &hamel_derive::Derivation,
+    model: &Model,
+    params: &IndexMap<String, f64>,
     file: &SceneFile,
-) -> Result<Vec<f64>, ModelError> {
+) -> Result<(Vec<f64>, Vec<Completed>), ModelError> {
     let err = |m: String| file.error(Some("initial.q"), m);
-    if let Some(extra) = scene.initial.q.keys().find(|k| !d.coordinates.contains(k)) {
+    if let Some(extra) = scene
+        .initial
+        .q
+        .keys()
+        .find(|k| !model.coordinates.contains(k))
+    {
         return Err(err(format!("`{extra}` is not a coordinate of the model")));
     }
-    d.coordinates
+    let dependent = model.completion.dependent();
+    let mut q = Vec::with_capacity(model.coordinates.len());
+    for (k, c) in model.coordinates.iter().enumerate() {
+        match scene.initial.q.get(c) {
+            Some(&v) => q.push(v),
+            None if dependent.contains(&k) => q.push(0.0),
+            None => return Err(err(format!("missing coordinate `{c}`"))),
+        }
+    }
+    let given: Vec<bool> = model
+        .coordinates
         .iter()
-        .map(|c| {
-            scene
-                .initial
-                .q
-                .get(c)
-                .copied()
-                .ok_or_else(|| err(format!("missing coordinate `{c}`")))
-        })
-        .collect()
+        .map(|c| scene.initial.q.contains_key(c))
+        .collect();
+    let completed = complete_initial(model, params, &mut q, &given).map_err(err)?;
+    Ok((q, completed))
 }
 
 /// The output times: a count spread evenly over [t0, t_end], or the times given.

@@ -144,9 +144,11 @@ fn occurring(e: &Expr, coordinates: &[String]) -> Vec<usize> {
 }
 
 /// Add to `set` every coordinate the kinematic equations of its members need, until closed.
+/// Without kinematic equations (a structured derivation: Γ's rows mention only coordinates of
+/// Z and α, which are integrated), `set` is closed already.
 fn close(set: &mut Vec<usize>, kinematics: &[Entry], coordinates: &[String]) {
     let mut k = 0;
-    while k < set.len() {
+    while k < set.len() && !kinematics.is_empty() {
         for c in occurring(&kinematics[set[k]].expr, coordinates) {
             if !set.contains(&c) {
                 set.push(c);

@@ -25,6 +25,9 @@ pub(crate) struct System<'a> {
     /// The largest condition number of [Z; α] met, and when: computed whenever |δ| has fallen
     /// below 1e-3 of its start (δ comes with every evaluation; the condition number costs an SVD).
     pub(crate) watch: std::cell::Cell<Option<(f64, f64)>>,
+    /// The holonomic constraints, when the state holds every coordinate they depend on:
+    /// projected onto after each step.
+    pub(crate) holonomic: Option<&'a hamel_model::Completion>,
 }
 
 impl System<'_> {
@@ -101,6 +104,31 @@ impl OdeSystem for System<'_> {
         let q = self.full_q(&y[..self.state.len()], self.reference);
         hamel_oracle::constraint_residual(&self.numeric, &q, &e.q_dot).ok()
     }
+    /// Back onto h(q) = 0: the dependent coordinates by Newton, the others kept. The
+    /// velocities need nothing: q̇ = Γη satisfies dh/dt = 0 at every q. Returns max |h| before.
+    fn project(&self, _t: f64, y: &mut [f64]) -> Option<Result<f64, SystemError>> {
+        let c = self.holonomic?;
+        let n = self.state.len();
+        let mut q = self.full_q(&y[..n], self.reference);
+        let fail = |e: hamel_model::CompletionError| {
+            SystemError::new(format!("projection onto the holonomic constraints: {e}"))
+        };
+        let residual = match c.residual(&q, &self.params) {
+            Ok(r) => r,
+            Err(e) => return Some(Err(fail(e))),
+        };
+        if residual == 0.0 {
+            return Some(Ok(0.0));
+        }
+        if let Err(e) = c.complete(&mut q, &self.params) {
+            return Some(Err(fail(e)));
+        }
+        for (i, &k) in self.state.iter().enumerate() {
+            y[i] = q[k];
+        }
+        Some(Ok(residual))
+    }
+
     /// Exact Jacobian: the structured right-hand side over dual numbers, one column per
     /// state component (used by the implicit Gauss–Legendre method).
     fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {

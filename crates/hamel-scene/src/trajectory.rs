@@ -4,7 +4,7 @@ use hamel_sim::MethodName;
 use indexmap::IndexMap;
 use serde::Serialize;
 
-use crate::initial::Projection;
+use crate::initial::{Completed, Projection};
 use crate::integrate::{Engine, Run};
 use crate::load::Loaded;
 
@@ -33,6 +33,9 @@ pub struct Trajectory {
     /// When the initial velocities were given as q̇: their projection onto the constraints.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub initial_projection: Option<Projection>,
+    /// The dependent coordinates of holonomic constraints, completed from h(q) = 0 at the start.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub initial_completion: Vec<Completed>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
 }
@@ -55,6 +58,21 @@ pub struct StatsOut {
     /// How the check run was made.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error_estimate_by: Option<String>,
+    /// Holonomic constraints: steps after which the state was projected back onto h(q) = 0,
+    /// the largest max |h| found before a projection, and max |h| over the output states.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub holonomic: Option<HolonomicDrift>,
+}
+
+/// How well h(q) = 0 was kept.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct HolonomicDrift {
+    /// Steps after which the state was projected.
+    pub projections: usize,
+    /// The largest max |h| found before a projection (what one step lets drift).
+    pub before_projection: f64,
+    /// max |h| over the output states.
+    pub at_outputs: f64,
 }
 
 impl Loaded {
@@ -106,11 +124,36 @@ impl Loaded {
                 max_condition_t: run.max_condition.map(|c| c.1),
                 error_estimate: None,
                 error_estimate_by: None,
+                holonomic: self.holonomic_drift(solution),
             },
             complete: failure.is_none() && solution.complete,
             initial_projection: self.projection.clone(),
+            initial_completion: self.completed.clone(),
             error: failure.map(|e| e.message().to_string()),
         }
+    }
+}
+
+impl Loaded {
+    /// The drift of the holonomic constraints over a run that projected onto them.
+    fn holonomic_drift(&self, solution: &hamel_sim::Solution) -> Option<HolonomicDrift> {
+        if !self.projects() {
+            return None;
+        }
+        let n = self.state.len();
+        let at_outputs = solution.y.iter().fold(0.0_f64, |m, y| {
+            let mut q = vec![self.reference; self.d.ell];
+            for (i, &k) in self.state.iter().enumerate() {
+                q[k] = y[..n][i];
+            }
+            let r = self.model.completion.residual(&q, &self.params);
+            m.max(r.unwrap_or(f64::NAN))
+        });
+        Some(HolonomicDrift {
+            projections: solution.stats.projections,
+            before_projection: solution.stats.projection_drift.unwrap_or(0.0),
+            at_outputs,
+        })
     }
 }
 
@@ -140,6 +183,29 @@ impl Trajectory {
                 )
             })
             .as_str()
+            + self
+                .stats
+                .holonomic
+                .map_or(String::new(), |h| {
+                    format!(
+                        "\nholonomic constraints: projected after {} steps (largest |h| before projection {:.2e}); max |h| at the outputs {:.2e}",
+                        h.projections, h.before_projection, h.at_outputs
+                    )
+                })
+                .as_str()
+            + self
+                .initial_completion
+                .iter()
+                .map(|c| {
+                    format!(
+                        "\n{} completed from the holonomic constraints: {} → {:.15}",
+                        c.coordinate,
+                        c.given.map_or("not given".into(), |g| g.to_string()),
+                        c.value
+                    )
+                })
+                .collect::<String>()
+                .as_str()
     }
 
     /// CSV: t, the coordinates, eta1…, energy, the expressions (a `# incomplete` comment first
