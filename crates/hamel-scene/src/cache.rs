@@ -396,11 +396,11 @@ pub fn prepare(
     let key = Key::new(&model.source, &d.eta_name, &plan.dropped, fixed);
     cached(&key, || {
         let full = hamel_codegen::generate(d, &[], "plan")?;
-        let ops_full = ops_of(&full.solved, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
+        let ops_full = ops_of(&full, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
         // The specialised crate's solved form has every coordinate's rate; the planned
         // state's are counted.
         let state = plan.state();
-        let ops = |g: &Generated| ops_of(&g.solved, d.sigma, &state);
+        let ops = |g: &Generated| ops_of(g, d.sigma, &state);
         store(
             &key,
             d,
@@ -424,12 +424,14 @@ pub fn cached(
     }
 }
 
-/// Operations of η̇ and the rates of `coords` in a solved form, common subexpressions shared.
-fn ops_of(
-    solved: &hamel_codegen::SolvedForm,
-    sigma: usize,
-    coords: &[usize],
-) -> Result<usize, CacheError> {
+/// Operations of η̇ and the rates of `coords` in the solved form of `g`, common subexpressions
+/// shared; without a solved form (a structured derivation), those of the ingredients, which
+/// every state needs whole (the LU of [Z; α] and the contractions of (11) come on top).
+fn ops_of(g: &Generated, sigma: usize, coords: &[usize]) -> Result<usize, CacheError> {
+    let solved = &g.solved;
+    if solved.exprs.is_empty() {
+        return Ok(g.ops_shared);
+    }
     let exprs: Vec<&Expr> = solved.exprs[..sigma]
         .iter()
         .chain(coords.iter().map(|&k| &solved.exprs[sigma + k]))
