@@ -8,11 +8,15 @@ baseline of the bicycle's derivation time and size (docs/models/whipple_bicycle.
 The test's code is read from the installed SymPy and run as it is written there, stopping after
 `kanes_equations`. The linearisation that follows in the test is not run. Prints one JSON line:
 
-    {"sympy": VERSION, "seconds": wall time of the derivation (imports excluded),
+    {"sympy": VERSION, "status": "ok", "seconds": wall time of the derivation (imports excluded),
      "ops_m_f": count_ops of the full mass matrix and forcing vector,
      "ops_cse": count_ops after sympy.cse}
 
 the two counts only with --count (they take longer than the derivation).
+
+`hamel bench --sympy` runs it as the baseline of the bicycle's `benchmark` row (SymPy's
+derivation of the same bicycle, by Kane's method, in place of bench/sympy_derive.py's
+Boltzmann–Hamel derivation).
 
 Exit status: 0; 3 when SymPy, or its test file, is missing.
 """
@@ -44,7 +48,7 @@ def main():
     started = time.perf_counter()
     exec(code, scope)
     seconds = time.perf_counter() - started
-    out = {"sympy": sp.__version__, "seconds": seconds}
+    out = {"sympy": sp.__version__, "status": "ok", "seconds": seconds}
     if "--count" in sys.argv[1:]:
         km = scope["KM"]
         exprs = list(km.mass_matrix_full) + list(km.forcing_full)

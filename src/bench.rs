@@ -1,7 +1,9 @@
 //! `hamel bench`: derivation time and size per model and choice, with SymPy doing the same
 //! derivation in the same run as the baseline, twice: with its polynomial normal form (`cancel`)
 //! and with `simplify` (optional: `bench/sympy_derive.py`, skipped with a message when Python or
-//! SymPy is missing).
+//! SymPy is missing). The Whipple bicycle's baseline is SymPy's own bicycle instead
+//! (`bench/sympy_bicycle.py`: test_kane3, Kane's method with Cramer's rule), as SymPy users
+//! derive it.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -20,8 +22,9 @@ pub struct Row {
     hamel_seconds: f64,
     /// Fastest repeat, seconds.
     hamel_min_seconds: f64,
-    /// Characters of A_Γ as hamel prints it (all entries).
-    hamel_a_gamma_chars: usize,
+    /// Characters of A_Γ as hamel prints it (all entries); none for a structured derivation,
+    /// which has no closed A_Γ (docs/derivation.md §6).
+    hamel_a_gamma_chars: Option<usize>,
     /// Characters of the whole derivation's printed objects ([`hamel_derive::Derivation::sizes`]).
     hamel_total_chars: usize,
     /// SymPy with its polynomial normal form (`cancel` modulo sin² + cos² − 1).
@@ -41,6 +44,9 @@ pub struct Baseline {
     a_gamma_chars: Option<usize>,
     /// SymPy time / hamel time (median), when it finished.
     ratio: Option<f64>,
+    /// How SymPy derived: "boltzmann-hamel" (`bench/sympy_derive.py`, hamel's algorithm), or
+    /// "kane" (SymPy's own model of the same system, [`KANE_BASELINES`]).
+    method: &'static str,
 }
 
 impl Baseline {
@@ -50,6 +56,7 @@ impl Baseline {
 
     fn cell(&self) -> String {
         match (self.seconds, self.status.as_str()) {
+            (Some(t), "ok") if self.method == "kane" => format!("{t:.3} s (Kane, test_kane3)"),
             (Some(t), "ok") => format!("{t:.3} s"),
             (Some(t), "timeout") => format!("> {t:.0} s (timeout)"),
             (_, other) => other.to_string(),
@@ -80,6 +87,7 @@ impl Baseline {
             status,
             a_gamma_chars: None,
             ratio: None,
+            method: "boltzmann-hamel",
         }
     }
 }
@@ -87,6 +95,14 @@ impl Baseline {
 /// The SymPy baseline (`bench/sympy_derive.py`), carried in the binary so that an installed
 /// `hamel` runs it from anywhere (`python3 -c`).
 const SYMPY_SCRIPT: &str = include_str!("../bench/sympy_derive.py");
+
+/// SymPy's own Whipple bicycle (`bench/sympy_bicycle.py`: test_kane3, KanesMethod with
+/// Cramer's rule), the baseline of the bicycle's row in place of [`SYMPY_SCRIPT`].
+const SYMPY_BICYCLE: &str = include_str!("../bench/sympy_bicycle.py");
+
+/// The models whose SymPy baseline is SymPy's own derivation of the same system by Kane's
+/// method, and the choice it corresponds to (the same independent speeds).
+const KANE_BASELINES: [(&str, &str, &str); 1] = [("whipple_bicycle", "benchmark", SYMPY_BICYCLE)];
 
 /// Run the SymPy script on one choice (`simplify`: its `--simplify` mode).
 fn sympy(model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Baseline {
@@ -98,9 +114,26 @@ fn sympy(model: &Path, eta: &Choice, timeout: f64, simplify: bool) -> Baseline {
     if let Some(rows) = &eta.rows {
         command.arg("--eta-rows").arg(rows);
     }
+    command.arg("--timeout").arg(format!("{timeout}"));
+    run_script(command, timeout)
+}
+
+/// The Kane baseline of `model`'s choice `eta`, if it has one ([`KANE_BASELINES`]).
+fn kane(model: &str, eta: &str, timeout: f64) -> Option<Baseline> {
+    let (_, _, script) = KANE_BASELINES
+        .iter()
+        .find(|(m, e, _)| *m == model && *e == eta)?;
+    let mut command = Command::new("python3");
+    command.arg("-c").arg(script);
+    Some(Baseline {
+        method: "kane",
+        ..run_script(command, timeout)
+    })
+}
+
+/// Run a baseline script, killed `timeout` + 60 s after the start, and read its JSON line.
+fn run_script(mut command: Command, timeout: f64) -> Baseline {
     let child = command
-        .arg("--timeout")
-        .arg(format!("{timeout}"))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn();
@@ -146,6 +179,7 @@ fn parse_output(out: &std::process::Output) -> Baseline {
             status: v["status"].as_str().unwrap_or("?").to_string(),
             a_gamma_chars: v["a_gamma_chars"].as_u64().map(|c| c as usize),
             ratio: None,
+            method: "boltzmann-hamel",
         },
         None => Baseline::skipped(format!(
             "skipped: the script failed: {}",
@@ -176,8 +210,18 @@ pub fn run(
                     rows: matches!(choice.origin, ChoiceOrigin::Independent)
                         .then(|| serde_json::to_string(&rows).expect("serialisable")),
                 };
-                row.sympy = sympy(path, &eta, timeout, false);
-                row.sympy_simplify = sympy(path, &eta, timeout, true);
+                match kane(&model.name, &choice.name, timeout) {
+                    Some(baseline) => {
+                        row.sympy = baseline;
+                        row.sympy_simplify = Baseline::skipped(
+                            "n/a: SymPy's own bicycle (Kane) is the baseline".into(),
+                        );
+                    }
+                    None => {
+                        row.sympy = sympy(path, &eta, timeout, false);
+                        row.sympy_simplify = sympy(path, &eta, timeout, true);
+                    }
+                }
             }
             for b in [&mut row.sympy, &mut row.sympy_simplify] {
                 if let (Some(s), "ok") = (b.seconds, b.status.as_str()) {
@@ -218,7 +262,7 @@ fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError
         sigma: d.sigma,
         hamel_seconds: times[times.len() / 2],
         hamel_min_seconds: times[0],
-        hamel_a_gamma_chars: sizes["a_gamma"].characters,
+        hamel_a_gamma_chars: sizes.get("a_gamma").map(|s| s.characters),
         hamel_total_chars: sizes.values().map(|s| s.characters).sum(),
         sympy: Baseline::not_run(),
         sympy_simplify: Baseline::not_run(),
@@ -243,7 +287,7 @@ pub fn table(rows: &[Row]) -> String {
             r.sympy.ratio_cell(r.hamel_seconds),
             r.sympy_simplify.cell(),
             r.sympy_simplify.ratio_cell(r.hamel_seconds),
-            r.hamel_a_gamma_chars,
+            chars(r.hamel_a_gamma_chars),
             chars(r.sympy.a_gamma_chars),
             chars(r.sympy_simplify.a_gamma_chars),
         ));

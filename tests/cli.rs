@@ -1907,3 +1907,26 @@ fn the_interpreted_engine_leaves_the_code_cache_alone() {
     assert_eq!(entries.len(), 1, "one entry, the scene's core: {entries:?}");
     assert!(!cache.join("target").exists(), "plan builds nothing");
 }
+
+/// `hamel bench` on a structured derivation (the bicycle has no closed A_Γ to measure): a row
+/// with its time and `–` for the sizes of A_Γ, in Markdown and in JSON; no panic.
+#[test]
+fn bench_reports_a_structured_derivation() {
+    let path = format!("{}/models/whipple_bicycle.toml", env!("CARGO_MANIFEST_DIR"));
+    let o = hamel(&["bench", &path, "--repeat", "1"], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let row = out
+        .lines()
+        .find(|l| l.starts_with("| whipple_bicycle | benchmark | 8 | 3 |"))
+        .unwrap_or_else(|| panic!("no bicycle row in\n{out}"));
+    assert!(row.contains(" ms | not run (use --sympy) |"), "{row}");
+    let o = hamel(&["bench", &path, "--repeat", "1", "--format", "json"], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_on_stdout(&o);
+    assert!(v[0]["hamel_a_gamma_chars"].is_null(), "{v}");
+    assert!(
+        v[0]["hamel_seconds"].as_f64().is_some_and(|s| s > 0.0),
+        "{v}"
+    );
+}
