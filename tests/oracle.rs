@@ -391,3 +391,88 @@ fn sleigh_equations_are_the_classical_ones() {
         assert!((ev.eta_dot[1] + m * a * v * w / (i + m * a * a)).abs() < 1e-12);
     }
 }
+
+/// A model with generalised forces that no potential gives and named inputs
+/// (tests/models/driven_knife.toml): the Boltzmann–Hamel equations, closed and structured,
+/// against the Lagrange-multiplier oracle, which reads F from the file. Then with another
+/// value of an input: the equations follow it (an input is a parameter of the derivation).
+#[test]
+fn forces_and_inputs_match_the_oracle() {
+    let path = format!(
+        "{}/tests/models/driven_knife.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let model = Model::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(model.has_forces());
+    assert_eq!(model.inputs, ["thrust", "tau"]);
+    let w = compare(&model, "paper", 7);
+    assert!(!w.structured_form);
+    assert!(w.structured_f64 <= TOL && w.symbolic_dd <= TOL && w.structured_dd <= 1e-20);
+    let structured = hamel_derive::derive_with(
+        &model,
+        Some("paper"),
+        hamel_derive::FormRequest::Structured,
+        false,
+    )
+    .unwrap();
+    assert!(structured.closed().is_none() && structured.forces.len() == 3);
+    let closed = derive(&model, Some("paper")).unwrap();
+    let (cs, cc) = (structured.compile().unwrap(), closed.compile().unwrap());
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for thrust in [0.7, -2.5] {
+        let mut params = closed.parameters.clone();
+        params["thrust"] = thrust;
+        let nm =
+            NumericModel::new(&model, &IndexMap::from([("thrust".to_string(), thrust)])).unwrap();
+        for _ in 0..20 {
+            let q: Vec<f64> = (0..3).map(|_| rng.random_range(-3.0..3.0)).collect();
+            let eta: Vec<f64> = (0..2).map(|_| rng.random_range(-2.0..2.0)).collect();
+            let (rs, rc) = (
+                cs.rhs::<f64>(&q, &eta, &params).unwrap(),
+                cc.rhs::<f64>(&q, &eta, &params).unwrap(),
+            );
+            assert!(rel_error(&rs.eta_dot, &rc.eta_dot) <= TOL);
+            let oracle = hamel_oracle::accelerations::<f64>(&nm, &q, &rs.q_dot).unwrap();
+            let mine = q_ddot(&cs, &q, &eta, &rs.eta_dot, &rs.q_dot, &params);
+            assert!(rel_error(&mine, &oracle.q_ddot) <= TOL, "thrust {thrust}");
+        }
+    }
+}
+
+/// The bicycle's inputs (models/whipple_bicycle.toml: a steer torque between the fork and the
+/// rear frame, a pedalling torque between the rear wheel and the rear frame, as loads on its
+/// frames): with both nonzero, the structured equations against the oracle (which reads the
+/// generalised forces hamel derived from the loads, T_steer along steer and −T_pedal along the
+/// rear wheel), and the inputs change η̇.
+#[test]
+fn the_bicycles_steer_and_pedal_torques_match_the_oracle() {
+    let path = format!("{}/models/whipple_bicycle.toml", env!("CARGO_MANIFEST_DIR"));
+    let model = Model::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(model.inputs, ["T_steer", "T_pedal"]);
+    let d = derive(&model, Some("benchmark")).unwrap();
+    let c = d.compile().unwrap();
+    let inputs = IndexMap::from([("T_steer".to_string(), 1.3), ("T_pedal".to_string(), -0.7)]);
+    let nm = NumericModel::new(&model, &inputs).unwrap();
+    let mut params = d.parameters.clone();
+    params.extend(inputs.clone());
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut checked = 0;
+    while checked < 10 {
+        let q: Vec<f64> = (0..d.ell).map(|_| rng.random_range(-0.5..0.5)).collect();
+        let eta: Vec<f64> = (0..d.sigma).map(|_| rng.random_range(-2.0..2.0)).collect();
+        if c.condition(&q, &params).unwrap() > F64_CONDITION {
+            continue;
+        }
+        let r = c.rhs::<f64>(&q, &eta, &params).unwrap();
+        let free = c.rhs::<f64>(&q, &eta, &d.parameters).unwrap();
+        assert!(
+            rel_error(&r.eta_dot, &free.eta_dot) > 1e-3,
+            "the inputs change nothing"
+        );
+        let oracle = hamel_oracle::accelerations::<f64>(&nm, &q, &r.q_dot).unwrap();
+        let mine = q_ddot(&c, &q, &eta, &r.eta_dot, &r.q_dot, &params);
+        let e = rel_error(&mine, &oracle.q_ddot);
+        assert!(e <= TOL, "bicycle with torques: {e:e}");
+        checked += 1;
+    }
+}

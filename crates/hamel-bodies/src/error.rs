@@ -17,6 +17,8 @@ pub enum Section {
     Blades,
     /// `[holonomic.NAME]`
     Holonomic,
+    /// `[loads.NAME]`
+    Loads,
 }
 
 impl Section {
@@ -29,6 +31,7 @@ impl Section {
             Section::Wheels => "wheels",
             Section::Blades => "blades",
             Section::Holonomic => "holonomic",
+            Section::Loads => "loads",
         }
     }
 }

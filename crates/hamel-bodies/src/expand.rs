@@ -37,6 +37,8 @@ pub struct Expansion {
     pub mass_matrix: Vec<Vec<Expr>>,
     /// U.
     pub potential: Expr,
+    /// The generalised forces F of the loads, one per coordinate (zeros without loads).
+    pub forces: Vec<Expr>,
     /// The rows of α, in order: wheels, blades, holonomic constraints.
     pub rows: Vec<Row>,
     /// The holonomic constraints (their velocity rows are among `rows`).
@@ -91,9 +93,11 @@ pub fn expand(
     let place = |c: &HolonomicConstraint, field| holonomic_place(m, c, field);
     let (rows, completion) = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
     rolling.rows.extend(rows);
+    let forces = crate::loads::generalised_forces(&tree, m)?;
     Ok(Expansion {
         mass_matrix: a,
         potential,
+        forces,
         rows: rolling.rows,
         holonomic: rolling.holonomic,
         notes: rolling.notes,

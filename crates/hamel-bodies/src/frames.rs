@@ -155,7 +155,10 @@ fn child_kinematics(
 }
 
 /// R = R₁⋯R_n and the relative angular velocity Σ_i (R_{i+1}⋯R_n)ᵀ a_i θ̇_i, in the child's axes.
-fn relative(rotations: &[Rotation], coordinates: &[String]) -> Result<(M3, Rate), Problem> {
+pub(crate) fn relative(
+    rotations: &[Rotation],
+    coordinates: &[String],
+) -> Result<(M3, Rate), Problem> {
     let mut acc = identity();
     let mut omega = Rate::zero(coordinates.len());
     for rot in rotations.iter().rev() {

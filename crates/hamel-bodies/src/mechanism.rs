@@ -159,6 +159,38 @@ pub struct Blade {
     pub direction: Direction,
 }
 
+/// A load: a force at a point of a frame, or a torque on a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Load {
+    /// Its name.
+    pub name: String,
+    /// The frame it acts on.
+    pub frame: String,
+    /// The frame whose axes its vector is written in (`world`, or a frame).
+    pub axes: String,
+    /// What it is.
+    pub kind: LoadKind,
+}
+
+/// A force or a torque.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LoadKind {
+    /// A force applied at a point.
+    Force {
+        /// The point, in the frame's axes.
+        point: V3,
+        /// The force.
+        force: V3,
+    },
+    /// A torque, and the frame that takes its reaction −τ (a motor, a rider's steer torque).
+    Torque {
+        /// The torque.
+        torque: V3,
+        /// The frame that takes −τ, if any.
+        reaction: Option<String>,
+    },
+}
+
 /// A holonomic constraint h(q) = 0 and the coordinate it determines.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Holonomic {
@@ -187,6 +219,8 @@ pub struct Mechanism {
     pub blades: Vec<Blade>,
     /// Holonomic constraints.
     pub holonomic: Vec<Holonomic>,
+    /// Loads that U does not give.
+    pub loads: Vec<Load>,
 }
 
 /// The name of the fixed frame.

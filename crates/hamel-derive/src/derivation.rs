@@ -97,6 +97,10 @@ pub struct Derivation {
     pub z: Mat,
     /// ∇U.
     pub grad_u: Vec<Entry>,
+    /// The generalised forces F of the loads U does not give (`[forces]`, bodies' loads), one
+    /// per coordinate; empty when the model has none. They enter as Γᵀ(∇U + F).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub forces: Vec<Entry>,
     /// The equations: in closed form (Γ, A_Γ, Q, … as canonical expressions), or structured
     /// (evaluated from the ingredients only, for derivations too large to expand). Serialised
     /// in place: the closed form's fields, or `structured` and `certificate`.
@@ -238,6 +242,8 @@ impl Derivation {
 pub struct Ingredients {
     /// U.
     pub potential: Option<Entry>,
+    /// ∇U + F, evaluated in place of ∇U when the model has forces.
+    pub applied: Option<Vec<Entry>>,
     /// The model's own trees of the ingredients, for structured derivations: evaluated in place
     /// of the canonical forms, with `da`, `dz`, `dalpha` their derivatives.
     pub trees: Option<Trees>,
@@ -275,7 +281,7 @@ pub struct Trees {
     pub z: Mat,
     /// U.
     pub u: Entry,
-    /// ∇U (ℓ).
+    /// ∇U + F (ℓ): ∇U on U's tree, plus the forces as written.
     pub grad_u: Vec<Entry>,
 }
 
@@ -449,12 +455,14 @@ impl Derivation {
             alpha: self.alpha.map_expr(&f),
             z: self.z.map_expr(&f),
             grad_u: entries(&self.grad_u),
+            forces: entries(&self.forces),
             form: match &self.form {
                 Form::Closed(c) => Form::Closed(Box::new(c.map_expr(&f))),
                 Form::Structured(st) => Form::Structured(st.clone()),
             },
             ingredients: Ingredients {
                 potential: ing.potential.as_ref().map(|e| e.map_expr(&f)),
+                applied: ing.applied.as_ref().map(|v| entries(v)),
                 trees: ing.trees.as_ref().map(|t| t.map_expr(&f)),
                 da: mats(&ing.da),
                 dz: mats(&ing.dz),

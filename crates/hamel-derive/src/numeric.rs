@@ -41,7 +41,7 @@ fn free_inputs(exprs: &[&hamel_expr::Expr]) -> Vec<String> {
 
 impl Derivation {
     /// The ingredients of the structured evaluation, in order: Z (σ×ℓ, row-major), α (μ×ℓ),
-    /// A (ℓ×ℓ), U, ∇U (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks
+    /// A (ℓ×ℓ), U, ∇U + F (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks
     /// μ×ℓ); the first five from the model's [`Trees`](crate::Trees) where there are.
     /// Compiled here and printed as Rust by the code generator (whose runtime `Layout` has the
     /// same offsets).
@@ -62,7 +62,7 @@ impl Derivation {
                 add_mat(&mut exprs, &self.alpha);
                 add_mat(&mut exprs, &self.a);
                 exprs.push(&u.expr);
-                add_list(&mut exprs, &self.grad_u);
+                add_list(&mut exprs, ing.applied.as_deref().unwrap_or(&self.grad_u));
             }
         }
         for m in ing.da.iter().chain(&ing.dz).chain(&ing.dalpha) {

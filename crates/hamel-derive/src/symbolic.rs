@@ -128,6 +128,18 @@ impl Ctx<'_> {
         Ok(row)
     }
 
+    /// The generalised forces F of the model, converted (empty when it has none).
+    fn forces(&self, f: &Field) -> Result<Vec<Ex>, ModelError> {
+        if !self.model.has_forces() {
+            return Ok(Vec::new());
+        }
+        self.model
+            .forces
+            .iter()
+            .map(|i| f.convert(&i.expr).map_err(|e| self.cas(Some(&i.site), e)))
+            .collect()
+    }
+
     fn mass_matrix(&self, f: &Field) -> Result<Matrix, ModelError> {
         let ell = f.ncoords();
         match &self.model.kinetic {
@@ -231,6 +243,8 @@ pub struct Symbolic {
     pub a_gamma: OMatrix,
     /// ∇U.
     pub grad_u: Vec<Over>,
+    /// The generalised forces F (empty without `[forces]`).
+    pub forces: Vec<Over>,
     /// Γᵀ∇U.
     pub forcing: Vec<Over>,
     /// ΘᵀAΓ.
@@ -297,6 +311,7 @@ impl Symbolic {
                 alpha: mat(&self.alpha),
                 z: mat(&self.z),
                 grad_u: to_list(&self.grad_u),
+                forces: to_list(&self.forces),
                 form: Form::Closed(Box::new(Closed {
                     gamma: mat(&self.gamma),
                     theta: mat(&self.theta),
@@ -316,6 +331,10 @@ impl Symbolic {
                 })),
                 ingredients: Ingredients {
                     potential: Some(entry(&self.u)),
+                    applied: (!self.forces.is_empty()).then(|| {
+                        let sum = self.grad_u.iter().zip(&self.forces);
+                        sum.map(|(g, x)| entry_over(&g.add(x))).collect()
+                    }),
                     trees: None,
                     da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
                     dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
@@ -503,6 +522,8 @@ pub struct StructuredSymbolic {
     pub z: Matrix,
     /// U.
     pub u: Ex,
+    /// The generalised forces F (empty without `[forces]`).
+    pub forces: Vec<Ex>,
     /// Why the closed form was not computed.
     pub why: Why,
     /// Where [Z; α] is certainly nonsingular.
@@ -523,6 +544,7 @@ impl StructuredSymbolic {
         let d = |m: &Mat, k: usize| m.map_entries(|e| tree_diff(e, &model.coordinates[k]));
         let ingredients = Ingredients {
             potential: Some(entry(&self.u)),
+            applied: None,
             da: (0..ell).map(|k| d(&trees.a, k)).collect(),
             dz: (0..ell).map(|k| d(&trees.z, k)).collect(),
             dalpha: (0..ell).map(|k| d(&trees.alpha, k)).collect(),
@@ -542,6 +564,7 @@ impl StructuredSymbolic {
                 a: mat(&self.a),
                 alpha: mat(&self.alpha),
                 z: mat(&self.z),
+                forces: self.forces.iter().map(entry).collect(),
                 form: Form::Structured(StructuredForm {
                     structured: self.why.clone(),
                     certificate: self.certificate.clone(),
@@ -601,7 +624,14 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
         a: matrix(a),
         alpha: rows(&mut model.constraints.iter().map(|(_, i)| &i.expr)),
         z: rows(&mut choice.eta.iter().map(|i| &i.expr)),
-        grad_u: coords.iter().map(|q| tree_diff(&u, q)).collect(),
+        grad_u: coords
+            .iter()
+            .zip(&model.forces)
+            .map(|(q, force)| {
+                let g = tree_diff(&u, q).expr;
+                leaf(hamel_expr::build::add(g, force.expr.clone()))
+            })
+            .collect(),
         u,
     }
 }
@@ -612,6 +642,7 @@ struct Computed {
     alpha: Mat,
     z: Mat,
     grad_u: Vec<Entry>,
+    forces: Vec<Entry>,
     form: Form,
     ingredients: Ingredients,
 }
@@ -637,6 +668,7 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
         alpha: parts.alpha,
         z: parts.z,
         grad_u: parts.grad_u,
+        forces: parts.forces,
         form: parts.form,
         ingredients: parts.ingredients,
     }
@@ -751,12 +783,14 @@ fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> 
     let u =
         b.f.convert(&model.potential.expr)
             .map_err(|e| ctx.cas(Some(&model.potential.site), e))?;
+    let forces = ctx.forces(&b.f)?;
     Ok(Derived::Structured(Box::new(StructuredSymbolic {
         field: b.f,
         a: b.a,
         alpha: b.alpha,
         z: b.z,
         u,
+        forces,
         why,
         certificate,
         model: model.clone(),
@@ -790,8 +824,14 @@ fn closed(model: &Model, b: Begun, inverse: (Matrix, Matrix, Ex)) -> Result<Symb
         .map_err(|e| ctx.cas(Some(&model.potential.site), e))?;
     let u_o = o.dens.over(&u);
     let grad_u: Vec<Over> = (0..ell).map(|k| u_o.diff(k)).collect();
+    let forces: Vec<Over> = ctx.forces(&f)?.iter().map(|e| o.dens.over(e)).collect();
+    // Γᵀ(∇U + F)
+    let applied: Vec<Over> = match forces.is_empty() {
+        true => grad_u.clone(),
+        false => grad_u.iter().zip(&forces).map(|(g, x)| g.add(x)).collect(),
+    };
     let forcing: Vec<Over> = (0..sigma)
-        .map(|i| o.sum((0..ell).map(|h| o.gamma[(h, i)].mul(&grad_u[h])).collect()))
+        .map(|i| o.sum((0..ell).map(|h| o.gamma[(h, i)].mul(&applied[h])).collect()))
         .collect();
     stage.next("Q⁽ⁱ⁾ of the true equations (9)/(11)");
     let q_true = o.q_true();
@@ -833,6 +873,7 @@ fn closed(model: &Model, b: Begun, inverse: (Matrix, Matrix, Ex)) -> Result<Symb
         u,
         a_gamma,
         grad_u,
+        forces,
         forcing,
         nu,
         q_true,

@@ -8,7 +8,7 @@ use std::ops::Range;
 
 use hamel_bodies::{
     Axis, Blade, BodiesError, Body, Completion, Direction, Frame, Holonomic, HolonomicConstraint,
-    Inertia, Mechanism, Place, Rotation, Row, Section, WORLD, Wheel, World,
+    Inertia, Load, LoadKind, Mechanism, Place, Rotation, Row, Section, WORLD, Wheel, World,
 };
 use hamel_expr::Expr;
 use toml::Spanned;
@@ -99,6 +99,12 @@ pub(crate) fn dynamics(
         holonomic: e.holonomic,
         completion: e.completion,
         origin: Origin::Bodies,
+        forces: e
+            .forces
+            .iter()
+            .enumerate()
+            .map(|(k, f)| Item::expanded(&format!("loads: F[{}]", k + 1), f.clone(), span("loads")))
+            .collect(),
         notes: e.notes,
         symmetries: crate::symmetry::from_bodies(&e.symmetries, span("frames")),
     })
@@ -231,6 +237,7 @@ fn mechanism(
         wheels: Vec::new(),
         blades: Vec::new(),
         holonomic: Vec::new(),
+        loads: Vec::new(),
     };
     for (name, b) in &raw.bodies {
         m.bodies.push(body(loader, sites, name, b)?);
@@ -244,7 +251,66 @@ fn mechanism(
     for (name, h) in &raw.holonomic {
         m.holonomic.push(holonomic(loader, sites, name, h, err)?);
     }
+    for (name, l) in &raw.loads {
+        m.loads.push(load(loader, sites, name, l, err)?);
+    }
     Ok(m)
+}
+
+/// `[loads.NAME]`: exactly one of `force` (at `point`, default the frame's origin) and `torque`
+/// (with an optional `reaction` frame); `axes` (default the load's frame) names the frame whose
+/// axes the vector is written in, or `world`.
+fn load(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    name: &str,
+    l: &Spanned<crate::schema::RawLoad>,
+    err: &ErrorAt,
+) -> Result<Load, ModelError> {
+    let key = format!("loads.{name}");
+    sites.note(&key, l.span());
+    let raw = l.get_ref();
+    sites.note(&format!("{key}.frame"), raw.frame.span());
+    for (field, v) in [("axes", &raw.axes), ("reaction", &raw.reaction)] {
+        if let Some(v) = v {
+            sites.note(&format!("{key}.{field}"), v.span());
+        }
+    }
+    let kind = match (&raw.force, &raw.torque) {
+        (Some(f), None) => {
+            if let Some(r) = &raw.reaction {
+                let msg = "a force takes no `reaction` (a force at a point; give the opposite force on the other body as a load of its own)";
+                return Err(err(r.span(), &format!("{key}.reaction"), msg.into()));
+            }
+            LoadKind::Force {
+                point: vector(loader, raw.point.as_ref(), &format!("{key}.point"))?,
+                force: vector(loader, Some(f), &format!("{key}.force"))?,
+            }
+        }
+        (None, Some(t)) => {
+            if let Some(p) = &raw.point {
+                let msg = "a torque acts on the whole frame: it has no `point`";
+                return Err(err(p.span(), &format!("{key}.point"), msg.into()));
+            }
+            LoadKind::Torque {
+                torque: vector(loader, Some(t), &format!("{key}.torque"))?,
+                reaction: raw.reaction.as_ref().map(|r| r.get_ref().clone()),
+            }
+        }
+        _ => {
+            let msg = "give exactly one of `force` (at `point`) and `torque`";
+            return Err(err(l.span(), &key, msg.into()));
+        }
+    };
+    Ok(Load {
+        name: name.to_string(),
+        frame: raw.frame.get_ref().clone(),
+        axes: raw
+            .axes
+            .as_ref()
+            .map_or_else(|| raw.frame.get_ref().clone(), |a| a.get_ref().clone()),
+        kind,
+    })
 }
 
 /// One scalar expression of the configuration.
@@ -470,6 +536,7 @@ fn holonomic(
 #[cfg(test)]
 mod tests {
     use crate::{Model, ModelError, Origin};
+    use indexmap::IndexMap;
 
     /// A disk rolling on the plane, from its body; the variants below break one thing each.
     const DISK: &str = r#"
@@ -522,6 +589,91 @@ radius = "R"
             "{:?}",
             m.notes
         );
+    }
+
+    /// A pushing force at the disk's centre along the heading, a torque about the vertical on
+    /// the heading frame, and a spin torque between the disk and the lean frame, with two
+    /// inputs: the generalised forces are the virtual powers (checked at a point), and
+    /// `hamel expand` writes them and the inputs back.
+    #[test]
+    fn loads_give_generalised_forces() {
+        let text = format!(
+            "{}[inputs]\npush = 0.5\nspin = 0.0\n\
+             [loads.push]\nframe = \"lean\"\npoint = [0, 0, \"R\"]\nforce = [\"push\", 0, 0]\naxes = \"heading\"\n\
+             [loads.turn]\nframe = \"heading\"\ntorque = [0, 0, \"m\"]\naxes = \"world\"\n\
+             [loads.motor]\nframe = \"disk\"\ntorque = [0, \"spin\", 0]\nreaction = \"lean\"\n",
+            DISK
+        );
+        let m = Model::from_source("disk.toml", &text).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(m.inputs, ["push", "spin"]);
+        assert!(m.has_forces());
+        let nm =
+            crate::NumericModel::new(&m, &IndexMap::from([("spin".to_string(), 0.3)])).unwrap();
+        let (phi, theta) = (0.4_f64, 0.25_f64);
+        let f = nm.forces::<f64>(&[0.1, -0.2, phi, 0.9, theta]).unwrap();
+        // The centre C + R(lean's z): pushed along the heading's x by `push`.
+        let push = 0.5;
+        let want = [
+            push * phi.cos(),
+            push * phi.sin(),
+            // the torque m about the vertical on the heading (φ̇ along z), and the push: the
+            // centre, R sin θ to the side of the heading, moves back by R sin θ per unit φ
+            2.0 - push * 0.5 * theta.sin(),
+            0.3, // the motor's spin, relative to the lean frame
+            0.0, // the push along the heading's x does no work when θ changes (the centre moves across it)
+        ];
+        for (k, (got, want)) in f.iter().zip(want).enumerate() {
+            assert!((got - want).abs() < 1e-14, "F[{k}] = {got}, want {want}");
+        }
+        let expanded = m.to_lagrangian_toml();
+        assert!(
+            expanded.contains("[inputs]\npush = 0.5\nspin = 0.0"),
+            "{expanded}"
+        );
+        assert!(expanded.contains("[forces]\n"), "{expanded}");
+        let again =
+            Model::from_source("expanded.toml", &expanded).unwrap_or_else(|e| panic!("{e}"));
+        let g = crate::NumericModel::new(&again, &IndexMap::from([("spin".to_string(), 0.3)]))
+            .unwrap()
+            .forces::<f64>(&[0.1, -0.2, phi, 0.9, theta])
+            .unwrap();
+        assert_eq!(f, g);
+    }
+
+    #[test]
+    fn loads_are_located() {
+        let with = |load: &str| format!("{DISK}[loads.bad]\n{load}");
+        let (msg, _) = at(&bad(&with("frame = \"hub\"\ntorque = [0, 0, 1]\n")));
+        assert!(
+            msg.contains("loads.bad.frame: unknown frame `hub`"),
+            "{msg}"
+        );
+        let (msg, _) = at(&bad(&with(
+            "frame = \"disk\"\ntorque = [0, 0, 1]\nreaction = \"lea\"\n",
+        )));
+        assert!(
+            msg.contains("loads.bad.reaction: unknown frame `lea`"),
+            "{msg}"
+        );
+        let (msg, _) = at(&bad(&with(
+            "frame = \"disk\"\nforce = [0, 0, 1]\naxes = \"nowhere\"\n",
+        )));
+        assert!(
+            msg.contains("loads.bad.axes: unknown frame `nowhere`"),
+            "{msg}"
+        );
+        let (msg, _) = at(&bad(&with(
+            "frame = \"disk\"\nforce = [0, 0, 1]\ntorque = [0, 0, 1]\n",
+        )));
+        assert!(msg.contains("give exactly one of `force`"), "{msg}");
+        let (msg, _) = at(&bad(&with(
+            "frame = \"disk\"\ntorque = [0, 0, 1]\npoint = [1, 0, 0]\n",
+        )));
+        assert!(msg.contains("a torque acts on the whole frame"), "{msg}");
+        let (msg, _) = at(&bad(&with(
+            "frame = \"disk\"\nforce = [\"der(x)\", 0, 0]\n",
+        )));
+        assert!(msg.contains("der(x)"), "{msg}");
     }
 
     #[test]

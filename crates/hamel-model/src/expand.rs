@@ -9,9 +9,10 @@ use crate::model::{ChoiceOrigin, Model};
 
 impl Model {
     /// The model as an L/α model file: T as its mass matrix, U, the rows of α that are not
-    /// holonomic in `[constraints]`, the holonomic constraints in `[holonomic]`, the parameters
-    /// (derived ones as their expressions) and the file's quasi-velocity choices. Loading it
-    /// gives the same A, U and α.
+    /// holonomic in `[constraints]`, the holonomic constraints in `[holonomic]`, the generalised
+    /// forces of the loads in `[forces]`, the parameters (derived ones as their expressions),
+    /// the inputs, and the file's quasi-velocity choices. Loading it gives the same A, U, α
+    /// and F.
     pub fn to_lagrangian_toml(&self) -> String {
         let mut doc = DocumentMut::new();
         doc["name"] = value(self.name.as_str());
@@ -21,7 +22,23 @@ impl Model {
         }
         doc["coordinates"] = value(strings(self.coordinates.iter().map(String::as_str)));
         doc["parameters"] = TomlItem::Table(self.parameter_table());
+        if !self.inputs.is_empty() {
+            let mut t = Table::new();
+            for k in &self.inputs {
+                t[k] = value(self.parameters[k]);
+            }
+            doc["inputs"] = TomlItem::Table(t);
+        }
         doc["lagrangian"] = TomlItem::Table(self.lagrangian_table());
+        if self.has_forces() {
+            let mut t = Table::new();
+            for (q, f) in self.coordinates.iter().zip(&self.forces) {
+                if f.expr != hamel_expr::Expr::int(0) {
+                    t[q] = value(f.expr.to_string());
+                }
+            }
+            doc["forces"] = TomlItem::Table(t);
+        }
         let constraints = self.row_table();
         if !constraints.is_empty() {
             doc["constraints"] = TomlItem::Table(constraints);
@@ -56,7 +73,11 @@ impl Model {
 
     fn parameter_table(&self) -> Table {
         let mut t = Table::new();
-        for (k, v) in &self.parameters {
+        for (k, v) in self
+            .parameters
+            .iter()
+            .filter(|(k, _)| !self.inputs.contains(k))
+        {
             match self.derived.get(k) {
                 Some(item) => t[k] = value(item.text.as_str()),
                 None => t[k] = value(*v),

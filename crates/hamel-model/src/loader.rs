@@ -86,6 +86,8 @@ pub(crate) struct Dynamics {
     pub holonomic: Vec<HolonomicConstraint>,
     pub completion: Completion,
     pub origin: Origin,
+    /// The generalised forces of the bodies' loads (empty for a model typed by hand).
+    pub forces: Vec<Item>,
     pub notes: Vec<String>,
     pub symmetries: Vec<crate::Symmetry>,
 }

@@ -70,6 +70,13 @@ pub struct Model {
     pub kinetic: Kinetic,
     /// U (L = T + U).
     pub potential: Item,
+    /// The generalised forces F_k of the applied loads that U does not give (non-conservative,
+    /// or driven by inputs), one per coordinate (0 where none): the equations of motion are
+    /// d/dt ∂T/∂q̇ − ∂T/∂q = ∇U + F + αᵀλ. Functions of q, the parameters and the inputs.
+    pub forces: Vec<Item>,
+    /// The named inputs (`[inputs]`: steer torque, pedalling): parameters whose values drive
+    /// the system, listed in `parameters` with their defaults.
+    pub inputs: Vec<String>,
     /// Constraints, rows of α: from the bodies (wheels, blades), then `[constraints]` in file
     /// order, then dh/dt = 0 for each holonomic constraint.
     pub constraints: Vec<(String, Item)>,
@@ -147,6 +154,15 @@ impl Model {
         } else {
             lagrangian_dynamics(&raw, &mut loader, &err)?
         };
+        let mut forces = forces_of(&raw, &mut loader, &coordinates)?;
+        for (f, load) in forces.iter_mut().zip(&dynamics.forces) {
+            if f.expr == Expr::int(0) {
+                *f = load.clone();
+            } else if load.expr != Expr::int(0) {
+                f.expr = hamel_expr::build::add(f.expr.clone(), load.expr.clone());
+                f.text = f.expr.to_string();
+            }
+        }
         let mut symmetries = dynamics.symmetries;
         symmetries.extend(crate::symmetry::declared(&raw.symmetries, &mut loader)?);
         let mut constraints = dynamics.rows;
@@ -167,6 +183,8 @@ impl Model {
             derived,
             kinetic: dynamics.kinetic,
             potential: dynamics.potential,
+            forces,
+            inputs: raw.inputs.keys().cloned().collect(),
             constraints,
             holonomic: dynamics.holonomic,
             completion: dynamics.completion,
@@ -181,6 +199,11 @@ impl Model {
             model.choices.push(default);
         }
         Ok(model)
+    }
+
+    /// Whether some generalised force F_k is given (not identically the literal 0).
+    pub fn has_forces(&self) -> bool {
+        self.forces.iter().any(|f| f.expr != Expr::int(0))
     }
 
     /// Number of coordinates ℓ.
@@ -418,6 +441,11 @@ fn lagrangian_dynamics(
         None => Item::synthetic("lagrangian.potential", Expr::int(0)),
     };
     let h = crate::bodies::holonomic_of(raw, loader, err)?;
+    if let Some((name, l)) = raw.loads.first() {
+        let msg =
+            "loads act on frames: a model typed by hand gives its generalised forces in [forces]";
+        return Err(err(l.span(), &format!("loads.{name}"), msg.into()));
+    }
     Ok(Dynamics {
         kinetic,
         potential,
@@ -425,9 +453,36 @@ fn lagrangian_dynamics(
         holonomic: h.constraints,
         completion: h.completion,
         origin: Origin::Lagrangian,
+        forces: Vec::new(),
         notes: Vec::new(),
         symmetries: Vec::new(),
     })
+}
+
+/// `[forces]`: the generalised force along each coordinate named (0 for the others).
+fn forces_of(
+    raw: &RawModel,
+    loader: &mut Loader,
+    coordinates: &[String],
+) -> Result<Vec<Item>, ModelError> {
+    if let Some((k, v)) = raw.forces.iter().find(|(k, _)| !coordinates.contains(k)) {
+        let key = format!("forces.{k}");
+        let msg = format!(
+            "`{k}` is not a coordinate: [forces] gives the generalised force along each coordinate ({})",
+            coordinates.join(", ")
+        );
+        return Err(loader.err(v.span(), &key, &msg));
+    }
+    coordinates
+        .iter()
+        .map(|c| {
+            let key = format!("forces.{c}");
+            match raw.forces.get(c) {
+                Some(v) => loader.item(v, &key, FieldKind::Positional),
+                None => Ok(Item::synthetic(&key, Expr::int(0))),
+            }
+        })
+        .collect()
 }
 
 /// `[constraints]`: each linear in the velocities.

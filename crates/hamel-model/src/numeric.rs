@@ -136,6 +136,15 @@ impl<'m> NumericModel<'m> {
         self.eval(&self.model.potential.expr, q, None)
     }
 
+    /// The generalised forces F(q) of `[forces]` (the loads U does not give).
+    pub fn forces<S: Scalar>(&self, q: &[S]) -> Result<Vec<S>, EvalError> {
+        self.model
+            .forces
+            .iter()
+            .map(|f| self.eval(&f.expr, q, None))
+            .collect()
+    }
+
     /// Z(q) of a choice: Z_ij is the coefficient of der(q_j) in η_i (free functions must have
     /// been substituted).
     pub fn quasi_velocity_matrix<S: Scalar>(

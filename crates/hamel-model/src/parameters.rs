@@ -58,11 +58,30 @@ pub(crate) fn parameters_of(
         .map(|(k, (i, _))| (k.clone(), i.clone()))
         .collect();
     evaluate_in_order(&mut values, pending, raw, err)?;
-    let ordered = raw
+    let mut ordered: IndexMap<String, f64> = raw
         .parameters
         .keys()
         .map(|k| (k.clone(), values[k]))
         .collect();
+    for (k, v) in &raw.inputs {
+        let key = format!("inputs.{k}");
+        check_name(k, &key, v, coordinates, err)?;
+        if ordered.contains_key(k) {
+            return Err(err(v.span(), &key, format!("`{k}` is already a parameter")));
+        }
+        let value = match v.get_ref() {
+            toml::Value::Float(f) => finite(*f, &key, v, err)?,
+            toml::Value::Integer(i) => *i as f64,
+            other => {
+                let msg = format!(
+                    "an input's default value must be a number, found {}",
+                    other.type_str()
+                );
+                return Err(err(v.span(), &key, msg));
+            }
+        };
+        ordered.insert(k.clone(), value);
+    }
     Ok(Parameters {
         values: ordered,
         derived,

@@ -14,7 +14,13 @@ pub(crate) struct RawModel {
     pub coordinates: Spanned<Vec<Spanned<String>>>,
     #[serde(default)]
     pub parameters: IndexMap<String, Spanned<toml::Value>>,
+    /// Named inputs (steer torque, pedalling) and their default values.
+    #[serde(default)]
+    pub inputs: IndexMap<String, Spanned<toml::Value>>,
     pub lagrangian: Option<Spanned<RawLagrangian>>,
+    /// Generalised forces of the applied loads that U does not give, by coordinate.
+    #[serde(default)]
+    pub forces: IndexMap<String, Spanned<String>>,
     #[serde(default)]
     pub constraints: IndexMap<String, Spanned<String>>,
     pub world: Option<Spanned<RawWorld>>,
@@ -28,6 +34,8 @@ pub(crate) struct RawModel {
     pub blades: IndexMap<String, Spanned<RawBlade>>,
     #[serde(default)]
     pub holonomic: IndexMap<String, Spanned<RawHolonomic>>,
+    #[serde(default)]
+    pub loads: IndexMap<String, Spanned<RawLoad>>,
     #[serde(default)]
     pub quasi_velocities: IndexMap<String, Spanned<RawChoice>>,
     #[serde(default)]
@@ -149,4 +157,16 @@ pub(crate) struct RawBlade {
 pub(crate) struct RawHolonomic {
     pub h: Spanned<String>,
     pub dependent: Spanned<String>,
+}
+
+/// `[loads.NAME]`: a force at a point of a frame, or a torque on a frame.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawLoad {
+    pub frame: Spanned<String>,
+    pub point: Option<RawVector>,
+    pub force: Option<RawVector>,
+    pub torque: Option<RawVector>,
+    pub axes: Option<Spanned<String>>,
+    pub reaction: Option<Spanned<String>>,
 }

@@ -3,12 +3,13 @@
 //! **Job**: compute q̈ for a model at a state by the Lagrange-multiplier (d'Alembert) form
 //!
 //! ```text
-//! [ A  αᵀ ] [ q̈ ]   [ ∇U − (Ȧ q̇ − ∇_q T) ]
-//! [ α  0  ] [ λ ] = [ −α̇ q̇               ]
+//! [ A  αᵀ ] [ q̈ ]   [ ∇U + F − (Ȧ q̇ − ∇_q T) ]
+//! [ α  0  ] [ λ ] = [ −α̇ q̇                   ]
 //! ```
 //!
-//! solved numerically, with A, α and U evaluated straight from the model file's expressions and
-//! their derivatives taken by forward-mode automatic differentiation (dual numbers). Nothing
+//! solved numerically, with A, α, U and the forces F evaluated straight from the model file's
+//! expressions and their derivatives taken by forward-mode automatic differentiation (dual
+//! numbers). Nothing
 //! here uses quasi-velocities, Γ, Q or the computer-algebra engine, so agreement with hamel's
 //! Boltzmann–Hamel equations is evidence that those are right. It runs in any
 //! [`Scalar`]: f64, or double-double ([`hamel_expr::DD`]) when the reference must be far more
@@ -61,7 +62,8 @@ fn unit<S: Scalar>(ell: usize, j: usize) -> Vec<S> {
         .collect()
 }
 
-/// q̈ and λ at (q, q̇) by the Lagrange-multiplier form.
+/// q̈ and λ at (q, q̇) by the Lagrange-multiplier form:
+/// A q̈ + Ȧq̇ − ∇_q T = ∇U + F + αᵀλ, α q̈ + α̇ q̇ = 0.
 pub fn accelerations<S: Scalar>(
     nm: &NumericModel<'_>,
     q: &[S],
@@ -90,6 +92,7 @@ pub fn accelerations<S: Scalar>(
         grad_t.push(s * S::constant(0.5));
         grad_u.push(nm.potential::<Dual<S>>(&dq)?.d);
     }
+    let forces = nm.forces::<S>(q)?;
     let n = ell + mu;
     let mut m = vec![vec![zero(); n]; n];
     let mut rhs = vec![zero(); n];
@@ -99,7 +102,7 @@ pub fn accelerations<S: Scalar>(
             m[i][j] = a[i][j];
             adq = adq + a_dot[i][j].d * qd[j];
         }
-        rhs[i] = grad_u[i] - (adq - grad_t[i]);
+        rhs[i] = grad_u[i] + forces[i] - (adq - grad_t[i]);
     }
     for (r, row) in alpha.iter().enumerate() {
         let mut s = zero();

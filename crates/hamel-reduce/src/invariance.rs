@@ -129,6 +129,9 @@ fn check(model: &Model, s: &StructuredSymbolic, sym: &Symmetry) -> Result<Invari
     if !lie.metric(&s.a) {
         return Err("L_ξA ≠ 0".into());
     }
+    if !s.forces.is_empty() && !lie.form(&s.forces).iter().all(Ex::is_zero) {
+        return Err("L_ξF ≠ 0 (the generalised forces are not invariant)".into());
+    }
     let rows = |m: &Matrix| -> Vec<Vec<Ex>> {
         (0..m.rows())
             .map(|i| lie.form(&(0..ell).map(|j| m[(i, j)].clone()).collect::<Vec<_>>()))

@@ -49,10 +49,13 @@ pub(crate) fn analyse(
     let compiled = d
         .compile()
         .map_err(|e| model.error(format!("the structured equations do not compile: {e}")))?;
-    // (31): type (A) and not in Z.
+    // (31): type (A) and not in Z; nor in the forces F, which enter the equations beside ∇U.
     let by_31: Vec<bool> = classification
         .iter()
-        .map(|c| c.kind == CoordinateKind::A && !c.in_z)
+        .enumerate()
+        .map(|(k, c)| {
+            c.kind == CoordinateKind::A && !c.in_z && !s.forces.iter().any(|f| f.depends_on(k))
+        })
         .collect();
     let (invariant, rejected) = symmetries(model, s);
     let by_symmetry = by_symmetry(&invariant, &mut by_31.clone());
