@@ -251,3 +251,41 @@ fn preparing_refuses_parameters_that_make_a_gamma_indefinite() {
     let prep = knife::Prepared::new(&Default::default()).unwrap();
     assert!(knife::fast_with(&[0.1, 0.2, 0.3], &[1.0, 0.5], &prep).is_ok());
 }
+
+/// The bicycle's core projects onto its front contact as the model's own completion does
+/// (`Completion`, Newton on the expression from the bodies): the same pitch to 1e-14, the other
+/// coordinates untouched, |h| at round-off after.
+#[test]
+fn the_bicycles_core_projects_onto_its_front_contact() {
+    use hamel_models::whipple_bicycle__benchmark as core;
+    let path = format!("{}/models/whipple_bicycle.toml", env!("CARGO_MANIFEST_DIR"));
+    let model = hamel_model::Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let pitch = model.coordinates.iter().position(|c| c == "pitch").unwrap();
+    assert_eq!((core::HOLONOMIC, core::DEPENDENT), (1, [pitch]));
+    let p = core::Parameters::default();
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for _ in 0..20 {
+        let mut q: Vec<f64> = (0..model.ell())
+            .map(|_| rng.random_range(-0.6..0.6))
+            .collect();
+        q[pitch] = rng.random_range(-0.05..0.05);
+        let (mut mine, mut theirs) = (q.clone(), q.clone());
+        let before = core::project(&mut mine, &p).unwrap();
+        model
+            .completion
+            .complete(&mut theirs, &model.parameters)
+            .unwrap();
+        let h0 = model.completion.residual(&q, &model.parameters).unwrap();
+        assert!(
+            (before - h0).abs() <= 1e-15 * (1.0 + h0),
+            "{before} vs {h0}"
+        );
+        assert!(
+            (mine[pitch] - theirs[pitch]).abs() <= 1e-14,
+            "{mine:?} vs {theirs:?}"
+        );
+        assert!((0..q.len()).all(|k| k == pitch || mine[k] == q[k]));
+        assert!(model.completion.residual(&mine, &model.parameters).unwrap() <= 1e-15);
+        assert!(core::project(&mut mine.clone(), &p).unwrap() <= 1e-15);
+    }
+}

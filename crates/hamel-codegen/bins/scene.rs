@@ -13,8 +13,8 @@ use std::io::Read;
 use std::time::Instant;
 
 use hamel_generated::{
-    COORDINATES, DIMS, ELIMINATED, KEPT, Parameters, Prepared, REDUCED_DIM, constraint_residual,
-    energy, reduced_into_with, reduced_jacobian_with,
+    COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM,
+    constraint_residual, energy, project, reduced_into_with, reduced_jacobian_with,
 };
 use hamel_sim::{Method, OdeSystem, Options, SystemError};
 use serde::Deserialize;
@@ -84,6 +84,24 @@ impl OdeSystem for Reduced {
         let q_dot: Vec<f64> = dy[..KEPT.len()].to_vec();
         let r = constraint_residual(&self.full_q(y), &q_dot, &self.prep.p);
         Some(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
+    }
+    /// Back onto the holonomic constraints, when the state holds every coordinate they
+    /// mention (their dependent coordinates among them).
+    fn project(&self, _t: f64, y: &mut [f64]) -> Option<Result<f64, SystemError>> {
+        if HOLONOMIC == 0 || !HOLONOMIC_USES.iter().all(|k| KEPT.contains(k)) {
+            return None;
+        }
+        let mut q = self.full_q(y);
+        Some(
+            project(&mut q, &self.prep.p)
+                .map(|before| {
+                    for (i, &k) in KEPT.iter().enumerate() {
+                        y[i] = q[k];
+                    }
+                    before
+                })
+                .map_err(|e| SystemError::new(format!("projection onto the holonomic constraints: {e}"))),
+        )
     }
     fn jacobian(&self, _t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
         Some(

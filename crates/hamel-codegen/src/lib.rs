@@ -1081,6 +1081,8 @@ fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, CodegenErro
 /// system and, when it compiles without the eliminated coordinates, for the reduced one.
 struct Code {
     tape: Tape,
+    /// h(q) of the holonomic constraints.
+    holonomic: Tape,
     ops_trees: usize,
     ops_shared: usize,
     params: Vec<String>,
@@ -1108,6 +1110,8 @@ impl Code {
             .chain(params.clone())
             .collect();
         let tape = Tape::compile(&exprs, &inputs)?;
+        let h: Vec<&Expr> = d.holonomic.iter().map(|c| &c.h.expr).collect();
+        let holonomic = Tape::compile(&h, &inputs)?;
         let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
         let solved_inputs: Vec<String> = inputs
             .iter()
@@ -1168,6 +1172,7 @@ impl Code {
             solved_ops: solved.as_ref().map_or(0, |(_, t)| t.operation_count()),
             reduced_solved: reduced_tape.is_some(),
             tape,
+            holonomic,
             params,
             kept,
             solved_inputs,
@@ -1248,6 +1253,27 @@ impl Code {
             ("ops_shared", self.ops_shared.to_string()),
             ("solved_ops", self.solved_ops.to_string()),
             ("body", straight_line(&self.tape, &full_slots)),
+            (
+                "holonomic_body",
+                straight_line(&self.holonomic, &full_slots),
+            ),
+            ("nh", d.holonomic.len().to_string()),
+            (
+                "holonomic_uses",
+                list(
+                    (0..d.ell)
+                        .filter(|&k| {
+                            d.holonomic
+                                .iter()
+                                .any(|c| c.h.expr.mentions(&d.coordinates[k]))
+                        })
+                        .map(|k| k.to_string()),
+                ),
+            ),
+            (
+                "dependent_ix",
+                list(d.holonomic.iter().map(|c| c.dependent.to_string())),
+            ),
             ("solved_body", self.solved_part.1.clone()),
             ("prepare_full", self.solved_part.0.clone()),
             ("n_full", self.solved_part.2.to_string()),

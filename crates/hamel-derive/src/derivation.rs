@@ -97,6 +97,10 @@ pub struct Derivation {
     pub z: Mat,
     /// ∇U.
     pub grad_u: Vec<Entry>,
+    /// The holonomic constraints h(q) = 0 (their velocity rows are among α's), each with the
+    /// coordinate it determines: generated code projects onto them; empty for most models.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub holonomic: Vec<Holonomic>,
     /// The generalised forces F of the loads U does not give (`[forces]`, bodies' loads), one
     /// per coordinate; empty when the model has none. They enter as Γᵀ(∇U + F).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -297,6 +301,17 @@ impl Trees {
     }
 }
 
+/// A holonomic constraint h(q) = 0 of a derivation.
+#[derive(Clone, Debug, Serialize)]
+pub struct Holonomic {
+    /// Its name.
+    pub name: String,
+    /// h, as the model gives it.
+    pub h: Entry,
+    /// The index of the coordinate it determines.
+    pub dependent: usize,
+}
+
 /// A diagonal block of A_Γ (the rows `rows`, coupled to no other row), for Cramer's rule.
 #[derive(Clone, Debug)]
 pub struct Block {
@@ -456,6 +471,11 @@ impl Derivation {
             z: self.z.map_expr(&f),
             grad_u: entries(&self.grad_u),
             forces: entries(&self.forces),
+            holonomic: map_all(&self.holonomic, |c| Holonomic {
+                name: c.name.clone(),
+                h: c.h.map_expr(&f),
+                dependent: c.dependent,
+            }),
             form: match &self.form {
                 Form::Closed(c) => Form::Closed(Box::new(c.map_expr(&f))),
                 Form::Structured(st) => Form::Structured(st.clone()),

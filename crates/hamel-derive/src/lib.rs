@@ -25,8 +25,8 @@ pub mod states;
 pub mod symbolic;
 
 pub use derivation::{
-    Block, Checks, Closed, Derivation, DerivationJson, Entry, Form, Ingredients, Mat, NotClosed,
-    Size, SpecialiseError, StructuredForm, Trees, Why,
+    Block, Checks, Closed, Derivation, DerivationJson, Entry, Form, Holonomic, Ingredients, Mat,
+    NotClosed, Size, SpecialiseError, StructuredForm, Trees, Why,
 };
 pub use hamel_eval::{
     Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,

@@ -669,6 +669,22 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
         z: parts.z,
         grad_u: parts.grad_u,
         forces: parts.forces,
+        holonomic: model
+            .holonomic
+            .iter()
+            .map(|c| crate::derivation::Holonomic {
+                name: c.name.clone(),
+                h: Entry {
+                    text: c.h.to_string(),
+                    expr: c.h.clone(),
+                },
+                dependent: model
+                    .coordinates
+                    .iter()
+                    .position(|q| *q == c.dependent)
+                    .expect("the model checked its dependent coordinates"),
+            })
+            .collect(),
         form: parts.form,
         ingredients: parts.ingredients,
     }

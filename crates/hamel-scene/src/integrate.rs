@@ -39,12 +39,6 @@ impl Loaded {
         if engine == Engine::Interpreted {
             return (engine, false);
         }
-        if self.projects() {
-            log::info!(
-                "the scene's model has holonomic constraints and the compiled core does not project onto them yet: using the interpreted evaluator, which does"
-            );
-            return (Engine::Interpreted, false);
-        }
         match self.core().and_then(cache::binary) {
             Ok((_, built)) => (Engine::Compiled, built),
             Err(e) => {

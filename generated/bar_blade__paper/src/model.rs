@@ -118,6 +118,53 @@ impl Parameters {
     }
 }
 
+/// Number of holonomic constraints h(q) = 0 (their velocity rows are among α's).
+pub const HOLONOMIC: usize = 0;
+/// The coordinate each holonomic constraint determines (indices into [`COORDINATES`]).
+pub const DEPENDENT: [usize; HOLONOMIC] = [];
+/// The coordinates the holonomic constraints mention (indices into [`COORDINATES`]).
+pub const HOLONOMIC_USES: &[usize] = &[];
+
+/// h(q), straight-line code; `out` has [`HOLONOMIC`] entries.
+pub fn holonomic<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+}
+
+/// Back onto h(q) = 0: the dependent coordinates of `q` ([`DEPENDENT`]) by Newton's method, the
+/// Jacobian by dual numbers, the other coordinates kept (the velocities q̇ = Γη need nothing:
+/// they satisfy dh/dt = 0 at every q). Returns max |h| before; 0 leaves `q` unchanged.
+pub fn project(q: &mut [f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut h = [0.0; HOLONOMIC];
+    holonomic(q, p, &mut h);
+    let before = h.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    if before == 0.0 {
+        return Ok(0.0);
+    }
+    for _ in 0..50 {
+        let mut jac = vec![vec![0.0; HOLONOMIC]; HOLONOMIC];
+        for (j, &k) in DEPENDENT.iter().enumerate() {
+            let qd: Vec<runtime::Dual<f64>> = q.iter().enumerate().map(|(i, &v)| runtime::Dual::new(v, if i == k { 1.0 } else { 0.0 })).collect();
+            let mut hd = [runtime::Dual::new(0.0, 0.0); HOLONOMIC];
+            holonomic(&qd, p, &mut hd);
+            for i in 0..HOLONOMIC {
+                jac[i][j] = hd[i].d;
+                h[i] = hd[i].v;
+            }
+        }
+        let step = runtime::solve_system(jac, h.to_vec())
+            .ok_or(EvalError::Check("the holonomic constraints' Jacobian by the dependent coordinates is singular"))?;
+        let mut moved = 0.0_f64;
+        for (&k, s) in DEPENDENT.iter().zip(&step) {
+            q[k] -= s;
+            moved = moved.max(s.abs() / (1.0 + q[k].abs()));
+        }
+        if moved <= 4.0 * f64::EPSILON {
+            runtime::finite("the projected configuration", q)?;
+            return Ok(before);
+        }
+    }
+    Err(EvalError::Check("Newton's method on the holonomic constraints did not converge in 50 iterations"))
+}
+
 /// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
 pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t0 = q[2];

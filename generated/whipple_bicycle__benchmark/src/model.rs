@@ -227,6 +227,89 @@ impl Parameters {
     }
 }
 
+/// Number of holonomic constraints h(q) = 0 (their velocity rows are among α's).
+pub const HOLONOMIC: usize = 1;
+/// The coordinate each holonomic constraint determines (indices into [`COORDINATES`]).
+pub const DEPENDENT: [usize; HOLONOMIC] = [4];
+/// The coordinates the holonomic constraints mention (indices into [`COORDINATES`]).
+pub const HOLONOMIC_USES: &[usize] = &[3, 4, 5];
+
+/// h(q), straight-line code; `out` has [`HOLONOMIC`] entries.
+pub fn holonomic<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = q[3];
+    let (t19, t1) = t0.sin_cos();
+    let t2 = -t1;
+    let t3 = S::constant(p.rR);
+    let t4 = -t3;
+    let t5 = t4 * t2;
+    let t6 = q[4];
+    let t7 = S::constant(p.lambda);
+    let t8 = t7 + t6;
+    let (t9, t25) = t8.sin_cos();
+    let t10 = -t9;
+    let t11 = t1 * t10;
+    let t12 = -t11;
+    let t13 = S::constant(p.d1);
+    let t14 = t13 * t12;
+    let t15 = q[5];
+    let (t18, t16) = t15.sin_cos();
+    let t17 = t1 * t10 * t16;
+    let t20 = t18 * t19;
+    let t21 = t17 + t20;
+    let t22 = -t21;
+    let t23 = S::constant(p.d3);
+    let t24 = t23 * t22;
+    let t26 = t1 * t25;
+    let t27 = -t26;
+    let t28 = S::constant(p.d2);
+    let t29 = t28 * t27;
+    let t30 = S::constant(p.rF);
+    let t31 = t22 * t22;
+    let t32 = t27 * t27;
+    let t33 = t31 + t32;
+    let t34 = t33.sqrt();
+    let t35 = t30 * t34;
+    let t36 = -t35;
+    let t37 = t5 + t14 + t24 + t29 + t36;
+    out[0] = t37;
+}
+
+/// Back onto h(q) = 0: the dependent coordinates of `q` ([`DEPENDENT`]) by Newton's method, the
+/// Jacobian by dual numbers, the other coordinates kept (the velocities q̇ = Γη need nothing:
+/// they satisfy dh/dt = 0 at every q). Returns max |h| before; 0 leaves `q` unchanged.
+pub fn project(q: &mut [f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut h = [0.0; HOLONOMIC];
+    holonomic(q, p, &mut h);
+    let before = h.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    if before == 0.0 {
+        return Ok(0.0);
+    }
+    for _ in 0..50 {
+        let mut jac = vec![vec![0.0; HOLONOMIC]; HOLONOMIC];
+        for (j, &k) in DEPENDENT.iter().enumerate() {
+            let qd: Vec<runtime::Dual<f64>> = q.iter().enumerate().map(|(i, &v)| runtime::Dual::new(v, if i == k { 1.0 } else { 0.0 })).collect();
+            let mut hd = [runtime::Dual::new(0.0, 0.0); HOLONOMIC];
+            holonomic(&qd, p, &mut hd);
+            for i in 0..HOLONOMIC {
+                jac[i][j] = hd[i].d;
+                h[i] = hd[i].v;
+            }
+        }
+        let step = runtime::solve_system(jac, h.to_vec())
+            .ok_or(EvalError::Check("the holonomic constraints' Jacobian by the dependent coordinates is singular"))?;
+        let mut moved = 0.0_f64;
+        for (&k, s) in DEPENDENT.iter().zip(&step) {
+            q[k] -= s;
+            moved = moved.max(s.abs() / (1.0 + q[k].abs()));
+        }
+        if moved <= 4.0 * f64::EPSILON {
+            runtime::finite("the projected configuration", q)?;
+            return Ok(before);
+        }
+    }
+    Err(EvalError::Check("Newton's method on the holonomic constraints did not converge in 50 iterations"))
+}
+
 /// The ingredients at q, straight-line code; `out` has [`LAYOUT`]`.len` entries.
 pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t0 = S::constant(0.0);
