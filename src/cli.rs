@@ -162,6 +162,10 @@ pub enum Command {
         /// Done without asking when a tolerance is loose (≥ 1e-3).
         #[arg(long)]
         estimate_error: bool,
+        /// Set a parameter or input (repeatable), on top of the scene's `[parameters]`;
+        /// derived parameters are evaluated again from it.
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+        set: Vec<(String, f64)>,
     },
     /// Plan a scene: from the outputs it requests, which coordinates are integrated,
     /// reconstructed or dropped, and the operation count of the right-hand side (all decided
@@ -181,6 +185,10 @@ pub enum Command {
         /// of the requested outputs.
         #[arg(long)]
         measure: bool,
+        /// Set a parameter or input (repeatable), on top of the scene's `[parameters]`;
+        /// derived parameters are evaluated again from it.
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+        set: Vec<(String, f64)>,
     },
     /// Measure the speed–accuracy trade on a scene: every integrator over a range of
     /// tolerances and fixed steps against a DOP853 reference at 1e-14; error on the requested
@@ -206,6 +214,10 @@ pub enum Command {
         /// interpreted evaluator.
         #[arg(long, value_enum, default_value = "compiled")]
         engine: EngineArg,
+        /// Set a parameter or input (repeatable), on top of the scene's `[parameters]`;
+        /// derived parameters are evaluated again from it.
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+        set: Vec<(String, f64)>,
     },
     /// Search for quasi-velocities that eliminate the given coordinates from the true
     /// equations: A-orthogonal choices, a finite ansatz, and unknown functions.
@@ -235,6 +247,10 @@ pub enum Command {
         /// Write the result to this file instead of stdout.
         #[arg(long)]
         output: Option<PathBuf>,
+        /// Set a parameter or input for every state (repeatable; a state's own `params` win);
+        /// derived parameters are evaluated again from it.
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+        set: Vec<(String, f64)>,
     },
     /// Time the derivation of every model and choice; with --sympy, SymPy does the same
     /// derivation in the same run as the baseline (bench/sympy_derive.py).
@@ -302,4 +318,19 @@ pub struct SearchArgs {
     /// Write the result to this file instead of stdout.
     #[arg(long)]
     pub output: Option<PathBuf>,
+}
+
+/// `NAME=VALUE` of `--set`: a name and a finite number.
+fn parse_set(s: &str) -> Result<(String, f64), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}`: write NAME=VALUE, such as v=5.0"))?;
+    let v: f64 = value
+        .trim()
+        .parse()
+        .map_err(|e| format!("`{s}`: the value `{value}` is not a number ({e})"))?;
+    if !v.is_finite() {
+        return Err(format!("`{s}`: the value must be finite"));
+    }
+    Ok((name.trim().to_string(), v))
 }

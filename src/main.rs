@@ -14,6 +14,7 @@ mod output;
 mod progress;
 mod search;
 
+use indexmap::IndexMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -75,11 +76,13 @@ fn run(command: Command) -> Result<(), ModelError> {
             plot,
             engine,
             estimate_error,
+            set,
         } => {
             let out = Output::new(output)?;
             hamel_scene::plot::check(plot.as_deref())?;
             simulate(
                 &scene,
+                &set.into_iter().collect(),
                 format,
                 out,
                 plot.as_deref(),
@@ -92,7 +95,11 @@ fn run(command: Command) -> Result<(), ModelError> {
             format,
             output,
             measure,
-        } => plan(&scene, format, Output::new(output)?, measure),
+            set,
+        } => {
+            let loaded = hamel_scene::load_with(&scene, &set.into_iter().collect())?;
+            plan(&loaded, format, Output::new(output)?, measure)
+        }
         Command::Tradeoff {
             scene,
             format,
@@ -100,14 +107,18 @@ fn run(command: Command) -> Result<(), ModelError> {
             plot,
             export_python,
             engine,
-        } => match export_python {
-            Some(file) => export_tradeoff(&scene, Output::new(Some(file))?, engine.into()),
-            None => {
-                let out = Output::new(output)?;
-                hamel_scene::plot::check(plot.as_deref())?;
-                tradeoff(&scene, format, out, plot.as_deref(), engine.into())
+            set,
+        } => {
+            let loaded = hamel_scene::load_with(&scene, &set.into_iter().collect())?;
+            match export_python {
+                Some(file) => export_tradeoff(&loaded, Output::new(Some(file))?, engine.into()),
+                None => {
+                    let out = Output::new(output)?;
+                    hamel_scene::plot::check(plot.as_deref())?;
+                    tradeoff(&loaded, format, out, plot.as_deref(), engine.into())
+                }
             }
-        },
+        }
         Command::Codegen {
             model,
             eta,
@@ -142,7 +153,14 @@ fn run(command: Command) -> Result<(), ModelError> {
             eta,
             state,
             output,
-        } => eval(&model, eta.as_deref(), &state, Output::new(output)?),
+            set,
+        } => eval(
+            &model,
+            eta.as_deref(),
+            &state,
+            &set.into_iter().collect(),
+            Output::new(output)?,
+        ),
         Command::Bench {
             models,
             repeat,
@@ -224,13 +242,14 @@ fn reduce(
 
 fn simulate(
     scene: &Path,
+    set: &IndexMap<String, f64>,
     format: TrajectoryFormat,
     out: Output,
     plot: Option<&Path>,
     engine: hamel_scene::Engine,
     estimate_error: bool,
 ) -> Result<(), ModelError> {
-    let (traj, failure) = hamel_scene::simulate::run(scene, engine, estimate_error)?;
+    let (traj, failure) = hamel_scene::simulate::run_with(scene, set, engine, estimate_error)?;
     // A failure during the integration keeps what was computed, marked incomplete.
     out.write(&match format {
         TrajectoryFormat::Csv => traj.to_csv(),
@@ -243,14 +262,18 @@ fn simulate(
     failure.map_or(Ok(()), Err)
 }
 
-fn plan(scene: &Path, format: ReportFormat, out: Output, measure: bool) -> Result<(), ModelError> {
-    let loaded = hamel_scene::load(scene)?;
+fn plan(
+    loaded: &hamel_scene::Loaded,
+    format: ReportFormat,
+    out: Output,
+    measure: bool,
+) -> Result<(), ModelError> {
     let core = loaded
         .core()
         .map_err(|e| loaded.core_error(e, ""))?
         .summary();
     let measured = if measure {
-        Some(hamel_scene::measure::measure_plan(&loaded)?)
+        Some(hamel_scene::measure::measure_plan(loaded)?)
     } else {
         None
     };
@@ -280,14 +303,13 @@ fn plan(scene: &Path, format: ReportFormat, out: Output, measure: bool) -> Resul
 }
 
 fn tradeoff(
-    scene: &Path,
+    loaded: &hamel_scene::Loaded,
     format: ReportFormat,
     out: Output,
     plot: Option<&Path>,
     engine: hamel_scene::Engine,
 ) -> Result<(), ModelError> {
-    let loaded = hamel_scene::load(scene)?;
-    let table = hamel_scene::tradeoff::table(&loaded, hamel_scene::tradeoff::Range::All, engine)?;
+    let table = hamel_scene::tradeoff::table(loaded, hamel_scene::tradeoff::Range::All, engine)?;
     out.write(&match format {
         ReportFormat::Text => table.to_text(),
         ReportFormat::Json => json(&table),
@@ -299,13 +321,12 @@ fn tradeoff(
 }
 
 fn export_tradeoff(
-    scene: &Path,
+    loaded: &hamel_scene::Loaded,
     out: Output,
     engine: hamel_scene::Engine,
 ) -> Result<(), ModelError> {
-    let loaded = hamel_scene::load(scene)?;
     out.write(&json(&hamel_scene::tradeoff::export_python(
-        &loaded, engine,
+        loaded, engine,
     )?))
 }
 
@@ -354,8 +375,18 @@ fn search(args: SearchArgs, started: Instant) -> Result<(), ModelError> {
     })
 }
 
-fn eval(path: &Path, eta: Option<&str>, state: &str, out: Output) -> Result<(), ModelError> {
-    let model = load_for(path, eta)?;
+/// `set`: parameter values for every state (a state's own `params` win).
+fn eval(
+    path: &Path,
+    eta: Option<&str>,
+    state: &str,
+    set: &IndexMap<String, f64>,
+    out: Output,
+) -> Result<(), ModelError> {
+    let mut model = load_for(path, eta)?;
+    model.parameters = model
+        .parameter_values(set)
+        .map_err(|e| model.error(format!("--set: {e}")))?;
     let (file, text) = output::read_input(state)?;
     out.write(&hamel_derive::states::evaluate_json(
         &model, eta, &file, &text,

@@ -1930,3 +1930,67 @@ fn bench_reports_a_structured_derivation() {
         "{v}"
     );
 }
+
+/// `--set NAME=VALUE` on `simulate`: the same trajectory as the scene with that value in its
+/// `[parameters]`, and another than without it; a derived parameter, an unknown name and a
+/// malformed pair are errors that write nothing.
+#[test]
+fn simulate_sets_parameters_from_the_command_line() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let scene = format!("{root}/scenes/unicycle_rider.toml");
+    let dir = scratch("set");
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace(
+            "model = \"../models/unicycle_rider.toml\"",
+            &format!("model = \"{root}/models/unicycle_rider.toml\""),
+        )
+        .replace("[initial]", "[parameters]\nm_f = 2.25\n\n[initial]");
+    let written = dir.join("scene.toml");
+    std::fs::write(&written, text).unwrap();
+    let run = |path: &str, extra: &[&str]| {
+        let mut args = vec![
+            "simulate",
+            path,
+            "--engine",
+            "interpreted",
+            "--format",
+            "json",
+        ];
+        args.extend(extra);
+        let o = hamel(&args, None);
+        assert!(o.status.success(), "{}", stderr(&o));
+        json_on_stdout(&o)["q"].clone()
+    };
+    let by_flag = run(&scene, &["--set", "m_f=2.25"]);
+    assert_eq!(by_flag, run(written.to_str().unwrap(), &[]));
+    assert_ne!(by_flag, run(&scene, &[]));
+    let bicycle = format!("{root}/scenes/whipple_bicycle.toml");
+    let out = dir.join("never.csv");
+    for (set, says) in [
+        ("d1=1.0", "`d1` is derived from other parameters"),
+        (
+            "wheelbase=1.0",
+            "`wheelbase` is not a parameter or input of the model",
+        ),
+        ("w", "write NAME=VALUE"),
+    ] {
+        let o = hamel(
+            &[
+                "simulate",
+                &bicycle,
+                "--set",
+                set,
+                "--output",
+                out.to_str().unwrap(),
+            ],
+            None,
+        );
+        assert!(
+            !o.status.success() && stderr(&o).contains(says),
+            "{set}: {}",
+            stderr(&o)
+        );
+        assert!(!out.exists());
+    }
+}

@@ -205,3 +205,97 @@ fn uses(e: &Expr) -> Vec<String> {
     names.dedup();
     names
 }
+
+/// Why parameter values could not be set.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SetError {
+    /// A name the model does not have.
+    #[error("`{0}` is not a parameter or input of the model (they are: {1})")]
+    Unknown(String, String),
+    /// A derived parameter: its value follows from others.
+    #[error("`{0}` is derived from other parameters (`{1}`): set those instead")]
+    Derived(String, String),
+    /// A value that is not finite, given or derived.
+    #[error("`{0}` would be {1}")]
+    NotFinite(String, f64),
+}
+
+impl crate::Model {
+    /// The parameter values with `overrides` set (parameters or inputs by name) and every
+    /// derived parameter evaluated again from them, in dependency order: what `--set` and a
+    /// scene's `[parameters]` give. Setting a derived parameter is an error.
+    pub fn parameter_values(
+        &self,
+        overrides: &IndexMap<String, f64>,
+    ) -> Result<IndexMap<String, f64>, SetError> {
+        let mut values = self.parameters.clone();
+        for (k, &v) in overrides {
+            if let Some(item) = self.derived.get(k) {
+                return Err(SetError::Derived(k.clone(), item.text.clone()));
+            }
+            if !values.contains_key(k) {
+                let names = values.keys().cloned().collect::<Vec<_>>().join(", ");
+                return Err(SetError::Unknown(k.clone(), names));
+            }
+            if !v.is_finite() {
+                return Err(SetError::NotFinite(k.clone(), v));
+            }
+            values[k] = v;
+        }
+        if overrides.is_empty() {
+            return Ok(values);
+        }
+        let mut pending: Vec<(&String, &Item)> = self.derived.iter().collect();
+        let mut known: IndexMap<String, f64> = values
+            .iter()
+            .filter(|(k, _)| !self.derived.contains_key(*k))
+            .map(|(k, v)| (k.clone(), *v))
+            .collect();
+        while let Some(i) = pending.iter().position(|(_, item)| {
+            uses(&item.expr)
+                .iter()
+                .all(|n| n == "pi" || known.contains_key(n))
+        }) {
+            let (k, item) = pending.remove(i);
+            let v = item.expr.eval(&Known(&known)).unwrap_or(f64::NAN);
+            if !v.is_finite() {
+                return Err(SetError::NotFinite(k.clone(), v));
+            }
+            known.insert(k.clone(), v);
+            values[k] = v;
+        }
+        Ok(values)
+    }
+}
+
+#[cfg(test)]
+mod set_tests {
+    use super::SetError;
+    use indexmap::IndexMap;
+
+    const MODEL: &str = r#"
+name = "m"
+title = "t"
+coordinates = ["x"]
+[parameters]
+a = 2.0
+b = "2*a + c"
+c = "a^2"
+[lagrangian]
+kinetic = "der(x)^2/2"
+"#;
+
+    #[test]
+    fn setting_a_parameter_evaluates_the_derived_ones_again() {
+        let m = crate::Model::from_source("m.toml", MODEL).unwrap();
+        assert_eq!((m.parameters["b"], m.parameters["c"]), (8.0, 4.0));
+        let v = m
+            .parameter_values(&IndexMap::from([("a".to_string(), 3.0)]))
+            .unwrap();
+        assert_eq!((v["a"], v["b"], v["c"]), (3.0, 15.0, 9.0));
+        let set = |k: &str, x: f64| m.parameter_values(&IndexMap::from([(k.to_string(), x)]));
+        assert!(matches!(set("c", 1.0), Err(SetError::Derived(..))));
+        assert!(matches!(set("d", 1.0), Err(SetError::Unknown(..))));
+        assert!(matches!(set("a", f64::NAN), Err(SetError::NotFinite(..))));
+    }
+}

@@ -45,6 +45,6 @@ pub mod tradeoff;
 pub mod trajectory;
 
 pub use integrate::{Engine, Run};
-pub use load::{Loaded, load};
+pub use load::{Loaded, load, load_with};
 pub use plan::{Plan, Request};
 pub use trajectory::Trajectory;

@@ -67,7 +67,19 @@ impl SceneFile {
 /// Read a scene, derive its equations, plan what to integrate and set up the initial state;
 /// every error names the scene (or model) file, the key and the reason.
 pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
-    let (scene, file) = read(scene_path)?;
+    load_with(scene_path, &IndexMap::new())
+}
+
+/// [`load`] with parameter values set on top of the scene's `[parameters]` (`--set NAME=VALUE`):
+/// derived parameters are evaluated again from them (`Model::parameter_values`).
+pub fn load_with(
+    scene_path: &Path,
+    overrides: &IndexMap<String, f64>,
+) -> Result<Loaded, ModelError> {
+    let (mut scene, file) = read(scene_path)?;
+    scene
+        .parameters
+        .extend(overrides.iter().map(|(k, v)| (k.clone(), *v)));
     let err = |key: &str, m: String| file.error(Some(key), m);
     let model_path = scene_path
         .parent()
@@ -80,8 +92,11 @@ pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
     let (mut plan, d) = crate::plan::plan(&model, &choice, &request)?;
     let (method, options) = integrator(&scene, &file)?;
     let compiled = d.compile().map_err(|e| err("eta", e.to_string()))?;
-    let params = d
-        .parameters_with(&scene.parameters)
+    model
+        .parameter_values(overrides)
+        .map_err(|e| file.error(None, format!("--set: {e}")))?;
+    let params = model
+        .parameter_values(&scene.parameters)
         .map_err(|e| err("parameters", e.to_string()))?;
     let expressions = request
         .expressions

@@ -29,6 +29,20 @@ pub fn run(
     run_loaded(&load(scene_path)?, engine, estimate_error)
 }
 
+/// [`run`] with parameter values set on top of the scene's (`--set`, [`crate::load_with`]).
+pub fn run_with(
+    scene_path: &Path,
+    overrides: &indexmap::IndexMap<String, f64>,
+    engine: Engine,
+    estimate_error: bool,
+) -> Result<(Trajectory, Option<ModelError>), ModelError> {
+    run_loaded(
+        &crate::load_with(scene_path, overrides)?,
+        engine,
+        estimate_error,
+    )
+}
+
 /// Run a loaded scene; returns the trajectory (possibly incomplete) and, on failure, the error.
 /// A scene with an `[accuracy]` target and no integrator runs the fastest adaptive setting that
 /// meets it (`hamel tradeoff`'s recommendation among DOP853 and DOPRI5; stderr says which).
