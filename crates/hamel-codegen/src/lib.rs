@@ -1286,17 +1286,15 @@ impl Code {
             ("jet", wide_type(self.ops_shared, "DualN<REDUCED_DIM>")),
             (
                 "wide_doc",
-                if self.ops_shared > COLD_ABOVE {
-                    format!(
-                        "behind [`runtime::Cold`] (never inlined), as the ingredients have {} shared operations, above {COLD_ABOVE}.",
-                        self.ops_shared
-                    )
-                } else {
-                    format!(
-                        "inlined, as the ingredients have {} shared operations, at most {COLD_ABOVE}.",
-                        self.ops_shared
-                    )
-                },
+                format!(
+                    "{}, as the ingredients have {} shared operations (the threshold is {COLD_ABOVE}).",
+                    if self.ops_shared > COLD_ABOVE {
+                        "behind [`runtime::Cold`] (never inlined)"
+                    } else {
+                        "inlined"
+                    },
+                    self.ops_shared
+                ),
             ),
             (
                 "path_doc",

@@ -326,13 +326,17 @@ pub struct Block {
 }
 
 impl Entry {
-    /// The entry with `f` applied to its tree (text printed from the result).
-    fn map_expr(&self, f: &dyn Fn(&Expr) -> Expr) -> Entry {
-        let expr = f(&self.expr);
+    /// The entry of a tree, its text printed from it.
+    pub(crate) fn of(expr: Expr) -> Entry {
         Entry {
             text: expr.to_string(),
             expr,
         }
+    }
+
+    /// The entry with `f` applied to its tree (text printed from the result).
+    fn map_expr(&self, f: &dyn Fn(&Expr) -> Expr) -> Entry {
+        Entry::of(f(&self.expr))
     }
 }
 

@@ -245,7 +245,7 @@ pub struct Symbolic {
     pub grad_u: Vec<Over>,
     /// The generalised forces F (empty without `[forces]`).
     pub forces: Vec<Over>,
-    /// Γᵀ∇U.
+    /// Γᵀ(∇U + F).
     pub forcing: Vec<Over>,
     /// ΘᵀAΓ.
     pub nu: OMatrix,
@@ -582,10 +582,6 @@ impl StructuredSymbolic {
 /// the two are equal.
 fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
     let coords = &model.coordinates;
-    let leaf = |expr: Expr| Entry {
-        text: expr.to_string(),
-        expr,
-    };
     let matrix = |entries: Vec<Vec<Entry>>| Mat {
         rows: entries.len(),
         cols: coords.len(),
@@ -597,7 +593,7 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
                 .map(|e| {
                     coords
                         .iter()
-                        .map(|q| leaf(e.velocity_coefficient(q)))
+                        .map(|q| Entry::of(e.velocity_coefficient(q)))
                         .collect()
                 })
                 .collect(),
@@ -606,7 +602,7 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
     let a = match &model.kinetic {
         Kinetic::MassMatrix(m) => m
             .iter()
-            .map(|r| r.iter().map(|i| leaf(i.expr.clone())).collect())
+            .map(|r| r.iter().map(|i| Entry::of(i.expr.clone())).collect())
             .collect(),
         Kinetic::Energy(t) => coords
             .iter()
@@ -614,12 +610,12 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
                 let row = t.expr.velocity_coefficient(qi);
                 coords
                     .iter()
-                    .map(|qj| leaf(row.velocity_coefficient(qj)))
+                    .map(|qj| Entry::of(row.velocity_coefficient(qj)))
                     .collect()
             })
             .collect(),
     };
-    let u = leaf(model.potential.expr.clone());
+    let u = Entry::of(model.potential.expr.clone());
     Trees {
         a: matrix(a),
         alpha: rows(&mut model.constraints.iter().map(|(_, i)| &i.expr)),
@@ -629,7 +625,7 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
             .zip(&model.forces)
             .map(|(q, force)| {
                 let g = tree_diff(&u, q).expr;
-                leaf(hamel_expr::build::add(g, force.expr.clone()))
+                Entry::of(hamel_expr::build::add(g, force.expr.clone()))
             })
             .collect(),
         u,
@@ -674,10 +670,7 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
             .iter()
             .map(|c| crate::derivation::Holonomic {
                 name: c.name.clone(),
-                h: Entry {
-                    text: c.h.to_string(),
-                    expr: c.h.clone(),
-                },
+                h: Entry::of(c.h.clone()),
                 dependent: model
                     .coordinates
                     .iter()
@@ -694,14 +687,11 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
 /// the derivative exists; a velocity would be a bug upstream, kept visible as a symbol that
 /// evaluation rejects.
 fn tree_diff(e: &Entry, x: &str) -> Entry {
-    let expr = e
-        .expr
-        .diff(x)
-        .unwrap_or_else(|err| Expr::sym(&format!("<{err}>")));
-    Entry {
-        text: expr.to_string(),
-        expr,
-    }
+    Entry::of(
+        e.expr
+            .diff(x)
+            .unwrap_or_else(|err| Expr::sym(&format!("<{err}>"))),
+    )
 }
 
 /// A, α and Z of a derivation that has begun: converted, checked, α of full rank.

@@ -156,10 +156,7 @@ impl Loaded {
         let mut max_condition: Option<(f64, f64)> = None;
         for j in 0..solution.t.len() {
             let y = &solution.y[j];
-            let mut q = vec![self.reference; self.d.ell];
-            for (i, &k) in self.state.iter().enumerate() {
-                q[k] = y[i];
-            }
+            let q = self.full_q(y);
             let delta = self
                 .compiled
                 .evaluate(&q, &y[n..], &self.params)

@@ -399,6 +399,16 @@ impl Loaded {
             .map_err(Clone::clone)
     }
 
+    /// The full configuration at state `y`: the state's coordinates, the dropped ones at the
+    /// reference value.
+    pub(crate) fn full_q(&self, y: &[f64]) -> Vec<f64> {
+        let mut q = vec![self.reference; self.d.ell];
+        for (i, &k) in self.state.iter().enumerate() {
+            q[k] = y[i];
+        }
+        q
+    }
+
     /// An error about this scene, at `key`.
     pub fn error(&self, key: &str, message: String) -> ModelError {
         self.file.error(Some(key), message)
@@ -443,10 +453,7 @@ impl Loaded {
                     .y
                     .iter()
                     .map(|y| {
-                        let mut inputs = vec![self.reference; self.d.ell];
-                        for (i, &k) in self.state.iter().enumerate() {
-                            inputs[k] = y[i];
-                        }
+                        let mut inputs = self.full_q(y);
                         inputs.extend_from_slice(&y[n..]);
                         e.tape
                             .eval::<f64>(&inputs)

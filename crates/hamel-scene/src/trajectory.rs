@@ -140,13 +140,11 @@ impl Loaded {
         if !self.projects() {
             return None;
         }
-        let n = self.state.len();
         let at_outputs = solution.y.iter().fold(0.0_f64, |m, y| {
-            let mut q = vec![self.reference; self.d.ell];
-            for (i, &k) in self.state.iter().enumerate() {
-                q[k] = y[..n][i];
-            }
-            let r = self.model.completion.residual(&q, &self.params);
+            let r = self
+                .model
+                .completion
+                .residual(&self.full_q(y), &self.params);
             m.max(r.unwrap_or(f64::NAN))
         });
         Some(HolonomicDrift {

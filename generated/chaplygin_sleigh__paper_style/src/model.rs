@@ -28,7 +28,7 @@
 use hamel_runtime::{self as runtime, Dims, DualN, EvalError, Fixed, Layout, Rhs, Scalar};
 
 /// The double-double type of the repeat of an ill-conditioned f64 evaluation, and the dual
-/// numbers of the Jacobian: inlined, as the ingredients have 14 shared operations, at most 1000.
+/// numbers of the Jacobian: inlined, as the ingredients have 14 shared operations (the threshold is 1000).
 type Wide = runtime::DD;
 /// See [`Wide`].
 type Jet = DualN<REDUCED_DIM>;
