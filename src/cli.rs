@@ -252,6 +252,37 @@ pub enum Command {
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
         set: Vec<(String, f64)>,
     },
+    /// Linearise the reduced equations about a steady motion (`[steady.NAME]` of the model):
+    /// the linear equations (M q'' + C q' + K q = B u where the state allows it), the
+    /// eigenvalues with the structural zeros apart; with --sweep, the eigenvalues along a
+    /// parameter and the values where stability changes; with two, a stability map.
+    Linearize {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// The steady motion (a `[steady.NAME]` of the model).
+        #[arg(long)]
+        steady: String,
+        /// The quasi-velocity choice (default: the first).
+        #[arg(long)]
+        eta: Option<String>,
+        /// Sweep a steady or model parameter: P=START:STOP:COUNT (twice for a map).
+        #[arg(long = "sweep", value_name = "P=START:STOP:COUNT", value_parser = hamel_study::Range::parse)]
+        sweep: Vec<hamel_study::Range>,
+        /// Set a steady parameter, a model parameter or an input (repeatable); derived
+        /// parameters are evaluated again from it.
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+        set: Vec<(String, f64)>,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "text")]
+        format: ReportFormat,
+        /// Write the result to this file instead of stdout.
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Draw the sweep (real and imaginary parts against the parameter) or the map (heat
+        /// map of the largest real part) as SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     /// Time the derivation of every model and choice; with --sympy, SymPy does the same
     /// derivation in the same run as the baseline (bench/sympy_derive.py).
     Bench {

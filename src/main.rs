@@ -9,6 +9,7 @@
 
 mod bench;
 mod cli;
+mod linearize;
 mod messages;
 mod output;
 mod progress;
@@ -159,6 +160,27 @@ fn run(command: Command) -> Result<(), ModelError> {
             eta.as_deref(),
             &state,
             &set.into_iter().collect(),
+            Output::new(output)?,
+        ),
+        Command::Linearize {
+            model,
+            steady,
+            eta,
+            sweep,
+            set,
+            format,
+            output,
+            plot,
+        } => linearize::run(
+            &linearize::Args {
+                model: &model,
+                steady: &steady,
+                eta: eta.as_deref(),
+                sweeps: &sweep,
+                set: set.into_iter().collect(),
+                json: matches!(format, ReportFormat::Json),
+                plot: plot.as_deref(),
+            },
             Output::new(output)?,
         ),
         Command::Bench {

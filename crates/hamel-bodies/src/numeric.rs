@@ -154,6 +154,38 @@ impl Completion {
         })
     }
 
+    /// The implicit function theorem at a point `q` on the constraints: ∂q_d/∂q_k =
+    /// −(∂h/∂q_d)⁻¹ ∂h/∂q_k for every dependent coordinate d (rows, in the order of
+    /// [`Completion::dependent`]) and every coordinate k (columns; 0 for the dependent ones).
+    /// ∂h/∂q_k is exact (dual numbers).
+    pub fn sensitivity(
+        &self,
+        q: &[f64],
+        values: &IndexMap<String, f64>,
+    ) -> Result<Vec<Vec<f64>>, CompletionError> {
+        let (_, jac) = self.linearise(q, values)?;
+        let ell = self.coordinates.len();
+        let mut out = vec![vec![0.0; ell]; self.h.len()];
+        for k in (0..ell).filter(|k| !self.dependent.contains(k)) {
+            let dq: Vec<hamel_expr::Dual> = (0..ell)
+                .map(|i| hamel_expr::Dual::new(q[i], f64::from(i == k)))
+                .collect();
+            let at = Point::at(&self.coordinates, &dq, values);
+            let rhs = self
+                .h
+                .iter()
+                .map(|h| h.eval(&at).map(|v| -v.d))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| CompletionError::Evaluation(e.to_string()))?;
+            let column = hamel_expr::solve(jac.clone(), rhs)
+                .ok_or_else(|| CompletionError::Singular(q.to_vec()))?;
+            for (row, x) in out.iter_mut().zip(column) {
+                row[k] = x;
+            }
+        }
+        Ok(out)
+    }
+
     /// max |h_i(q)|: how far `q` is from the constraints (0 without constraints).
     pub fn residual(
         &self,

@@ -211,6 +211,28 @@ impl Compiled {
         Ok(self.tape.eval(&inputs)?)
     }
 
+    /// The parameters' names, in the order [`Compiled::rhs_in`] takes their values.
+    pub fn parameter_names(&self) -> impl Iterator<Item = &str> {
+        self.parameters.keys().map(String::as_str)
+    }
+
+    /// The right-hand side at (q, η) with the parameters' values in the scalar type too (in the
+    /// order of [`Compiled::parameter_names`]), unchecked: dual numbers in a parameter give the
+    /// equations' exact derivative by it (an input's column of B, say).
+    pub fn rhs_in<S: Scalar>(
+        &self,
+        q: &[S],
+        eta: &[S],
+        params: &[S],
+    ) -> Result<Rhs<S>, NumericError> {
+        if params.len() != self.parameters.len() {
+            return Err(NumericError::Sizes);
+        }
+        let inputs: Vec<S> = q.iter().chain(params).copied().collect();
+        let out = self.tape.eval(&inputs)?;
+        Ok(self.assemble(&out, eta)?.0)
+    }
+
     /// [Z; α] at q, row-major, from the ingredients.
     fn m_values<S: Scalar>(&self, out: &[S]) -> Vec<S> {
         out[Layout::new(self.dims).m(self.dims)].to_vec()
@@ -283,17 +305,22 @@ impl Compiled {
         params: &IndexMap<String, f64>,
     ) -> Result<(Rhs<S>, f64), NumericError> {
         let out = self.ingredients(q, params)?;
+        self.assemble(&out, eta)
+    }
+
+    /// The structured right-hand side from the ingredients `out` (the tape's outputs).
+    fn assemble<S: Scalar>(&self, out: &[S], eta: &[S]) -> Result<(Rhs<S>, f64), NumericError> {
         let mut buffers = Buffers::<S>::new(self.dims);
         // Exact pivots: `evaluate` checks the conditioning and the definiteness itself, and the
         // unchecked `rhs` serves studies that approach the singular set on purpose.
         let mut r = buffers.structured().with_pivot(Pivot::Exact);
-        r.evaluate(&out, eta, true).map_err(|e| match e {
+        r.evaluate(out, eta, true).map_err(|e| match e {
             Failure::QuasiVelocityMap => self.singular_error("det[Z; α] = 0"),
             Failure::AGamma => NumericError::SingularAGamma,
             Failure::Inputs | Failure::Storage => NumericError::Sizes,
         })?;
         let estimate = if S::CHECKED {
-            r.f64_error_estimate(&out)
+            r.f64_error_estimate(out)
         } else {
             0.0
         };

@@ -25,6 +25,7 @@ mod model;
 mod numeric;
 mod parameters;
 mod schema;
+mod steady;
 mod symmetry;
 
 pub use default_choice::combinations;
@@ -34,4 +35,5 @@ pub use loader::{Item, Kinetic, Origin, Site};
 pub use model::{ChoiceOrigin, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};
 pub use parameters::SetError;
+pub use steady::Steady;
 pub use symmetry::Symmetry;

@@ -175,6 +175,19 @@ impl<'a> Loader<'a> {
         }
     }
 
+    /// A loader for the same file whose expressions may also use the names of `extra` (such
+    /// as a steady motion's parameters).
+    pub(crate) fn with_parameters(&self, extra: &IndexMap<String, f64>) -> Loader<'a> {
+        let mut parameters = self.parameters.clone();
+        parameters.extend(extra.iter().map(|(k, v)| (k.clone(), *v)));
+        Loader::new(
+            self.file,
+            self.source.clone(),
+            self.coordinates.clone(),
+            parameters,
+        )
+    }
+
     pub(crate) fn err(&self, span: Range<usize>, key: &str, msg: impl Into<String>) -> ModelError {
         ModelError::new(self.file, self.source.clone(), Some(span), Some(key), msg)
     }

@@ -94,6 +94,8 @@ pub struct Model {
     /// Vector fields claimed to be symmetries (`[symmetries]`, and those a model of bodies
     /// suggests), checked exactly where they are used (`hamel reduce`).
     pub symmetries: Vec<crate::Symmetry>,
+    /// Steady motions (`[steady.NAME]`), in file order.
+    pub steady: Vec<crate::Steady>,
 }
 
 impl Model {
@@ -169,6 +171,7 @@ impl Model {
         constraints.extend(constraints_of(&raw, &mut loader)?);
         check_count(&raw, coordinates.len(), constraints.len(), &err)?;
         let mut choices = choices_of(&raw, &mut loader, constraints.len(), &err)?;
+        let steady = crate::steady::steady_of(&raw.steady, &loader)?;
         if constraints.is_empty() && !choices.iter().any(|c| c.name == "identity") {
             choices.push(identity_choice(&coordinates));
         }
@@ -191,6 +194,7 @@ impl Model {
             origin: dynamics.origin,
             notes: dynamics.notes,
             symmetries,
+            steady,
             choices,
         };
         model.check_mass_matrix_numerically()?;
@@ -234,6 +238,19 @@ impl Model {
                     .with_help(format!("the model defines: {}", names.join(", ")))
             }),
         }
+    }
+
+    /// The steady motion `name` (`[steady.NAME]`), or an error that lists the model's.
+    pub fn steady(&self, name: &str) -> Result<&crate::Steady, ModelError> {
+        self.steady.iter().find(|s| s.name == name).ok_or_else(|| {
+            let names: Vec<&str> = self.steady.iter().map(|s| s.name.as_str()).collect();
+            let e = self.error(format!("no steady motion named `{name}`"));
+            if names.is_empty() {
+                e.with_help("declare one in the model file: [steady.NAME] with `parameters`, `q` and `velocities` (docs/linearisation.md)")
+            } else {
+                e.with_help(format!("the model defines: {}", names.join(", ")))
+            }
+        })
     }
 
     /// An error located at `site`.

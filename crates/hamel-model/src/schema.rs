@@ -40,6 +40,26 @@ pub(crate) struct RawModel {
     pub quasi_velocities: IndexMap<String, Spanned<RawChoice>>,
     #[serde(default)]
     pub symmetries: IndexMap<String, Spanned<IndexMap<String, Spanned<String>>>>,
+    /// Steady motions, by name.
+    #[serde(default)]
+    pub steady: IndexMap<String, Spanned<RawSteady>>,
+}
+
+/// `[steady.NAME]`: a steady motion in named steady parameters.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawSteady {
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The steady parameters (such as the speed v) and their default values.
+    #[serde(default)]
+    pub parameters: IndexMap<String, Spanned<toml::Value>>,
+    /// Values of coordinates (the others are 0, the dependent ones completed).
+    #[serde(default)]
+    pub q: IndexMap<String, Spanned<RawScalar>>,
+    /// Values of velocities der(q_k) (the others solved from the constraints).
+    #[serde(default)]
+    pub velocities: IndexMap<String, Spanned<RawScalar>>,
 }
 
 /// A matrix of expressions as rows of strings, each with its place in the file.

@@ -117,6 +117,39 @@ pub fn derive_and_reduce<T: Send + 'static>(
     .map_err(ModelError::engine)?
 }
 
+/// One symbolic pass for a study of the motions (`hamel linearize`): derive the equations of
+/// `eta` (with the ingredients numeric evaluation uses), decide exactly which coordinates the
+/// true equations (11) are free of, and drop as many of them as leave the reduced system
+/// closed (a kept coordinate's kinematic equation may need one back: it is then kept). The
+/// derivation, and the reduction that proves the elimination of the dropped coordinates
+/// (`None` when none drop out).
+pub fn derive_and_drop(
+    model: &Model,
+    eta: Option<&str>,
+) -> Result<(hamel_derive::Derivation, Option<Reduction>), ModelError> {
+    let name = model.choice(eta)?.name.clone();
+    let model = model.clone();
+    hamel_cas::run(move || {
+        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
+        let d = derived.to_derivation(true);
+        let all: Vec<usize> = (0..d.ell).collect();
+        let truth = analyse(&model, &derived, &all, Some(&d))?.ground_truth;
+        let index = |n: &String| d.coordinates.iter().position(|c| c == n);
+        let mut p: Vec<usize> = truth.absent.iter().filter_map(index).collect();
+        while !p.is_empty() {
+            let r = analyse(&model, &derived, &p, Some(&d))?;
+            let back = r.ground_truth.kinematics_witness.as_ref();
+            match back.and_then(|w| w.coordinate.as_ref()).and_then(index) {
+                Some(k) if !r.ground_truth.kinematics_closed => p.retain(|&c| c != k),
+                _ if r.ground_truth.kinematics_closed => return Ok((d, Some(r))),
+                _ => break,
+            }
+        }
+        Ok((d, None))
+    })
+    .map_err(ModelError::engine)?
+}
+
 /// Search for quasi-velocity choices that eliminate `eliminate` from the true equations
 /// (families (c) A-orthogonal, (b) finite ansatz, (a) unknown functions; see [`search`]).
 /// `events` is called from the CAS thread as the search goes ([`SearchEvent`]). The budget is

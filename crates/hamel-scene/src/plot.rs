@@ -245,7 +245,7 @@ pub fn check(path: Option<&Path>) -> Result<(), ModelError> {
 
 /// Write a figure of `size` pixels drawn by `svg` or `png` as the extension says; on failure no
 /// file is left behind and the error names the file.
-fn write_figure(
+pub fn write_figure(
     path: &Path,
     size: (u32, u32),
     svg: impl FnOnce(DrawingArea<SVGBackend, Shift>) -> Result<(), String>,

@@ -1,0 +1,467 @@
+//! The equations linearised about a steady state: the Jacobian of (q̇, η̇) by exact dual
+//! numbers, the quotient by the steady family's own directions, the eigenvalues and the
+//! second-order form.
+
+use hamel_expr::Dual;
+use indexmap::IndexMap;
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use crate::forms::SecondOrder;
+use crate::{Study, StudyError, eigen};
+
+/// A point of a study: values for steady parameters and model parameters (the others keep
+/// their defaults).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Point(pub IndexMap<String, f64>);
+
+impl Point {
+    /// `name = value, …` (or `defaults`).
+    pub fn text(&self) -> String {
+        if self.0.is_empty() {
+            return "the defaults".into();
+        }
+        let parts: Vec<String> = self.0.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+        parts.join(", ")
+    }
+}
+
+/// Where a structural zero eigenvalue comes from.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum StructuralKind {
+    /// A coordinate the equations are free of (decided exactly): its column is zero.
+    DroppedCoordinate {
+        /// The coordinate.
+        coordinate: String,
+    },
+    /// The steady family's direction ∂x*/∂p (exactly in the kernel of the Jacobian).
+    SteadyFamily {
+        /// The steady parameter.
+        parameter: String,
+    },
+    /// A zero present at every point of the family sampled (found numerically): a conserved
+    /// quantity or a neighbouring family of steady motions.
+    Persistent,
+}
+
+/// A structural zero eigenvalue, reported apart and never counted as a crossing.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Structural {
+    /// Where it comes from.
+    #[serde(flatten)]
+    pub kind: StructuralKind,
+    /// Its computed value (re, im): exactly 0 for dropped coordinates and family directions.
+    pub eigenvalue: [f64; 2],
+}
+
+/// Linear stability at a point, from the eigenvalues that are not structural.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stability {
+    /// Every eigenvalue has a negative real part.
+    Asymptotic,
+    /// None has a positive real part, some lie on the imaginary axis (to the tolerance).
+    Marginal,
+    /// Some eigenvalue has a positive real part.
+    Unstable,
+}
+
+/// The linearisation at one point.
+#[derive(Clone, Debug, Serialize)]
+pub struct Linearisation {
+    /// The point.
+    pub point: Point,
+    /// The steady parameters' values.
+    pub steady_parameters: IndexMap<String, f64>,
+    /// The steady state: every coordinate.
+    pub q: IndexMap<String, f64>,
+    /// Every velocity.
+    pub q_dot: IndexMap<String, f64>,
+    /// η = Z q̇.
+    pub eta: Vec<f64>,
+    /// max |ẋ| at the steady state (η̇ and the kept coordinates' rates).
+    pub residual: f64,
+    /// The state: kept coordinates (not dependent), then η.
+    pub state: Vec<String>,
+    /// ∂ẋ/∂x, by exact dual numbers.
+    pub jacobian: Vec<Vec<f64>>,
+    /// The inputs (`[inputs]`).
+    pub inputs: Vec<String>,
+    /// ∂ẋ/∂u.
+    pub input_matrix: Vec<Vec<f64>>,
+    /// The state after the steady family's directions are taken out.
+    pub reduced_state: Vec<String>,
+    /// The linear system on it: ẋ = A x + B u.
+    pub a: Vec<Vec<f64>>,
+    /// Its input matrix.
+    pub b: Vec<Vec<f64>>,
+    /// Structural zero eigenvalues, reported apart.
+    pub structural: Vec<Structural>,
+    /// The other eigenvalues (re, im), by real part then imaginary part.
+    pub eigenvalues: Vec<[f64; 2]>,
+    /// Stability from them.
+    pub stability: Stability,
+    /// M q̈ + C q̇ + K q = B u, when the state allows it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub second_order: Option<SecondOrder>,
+    /// The coefficient of λ^s in det(λI − A), s the persistent zeros: it changes sign where
+    /// a real eigenvalue passes through zero.
+    #[serde(skip)]
+    pub(crate) zero_function: f64,
+    /// Every eigenvalue of A, structural ones included.
+    #[serde(skip)]
+    pub(crate) all_eigenvalues: Vec<[f64; 2]>,
+    /// ‖A‖ (for relative tolerances).
+    #[serde(skip)]
+    pub(crate) scale: f64,
+}
+
+impl Linearisation {
+    /// The same linearisation with `persistent` zeros reported apart (found along a sweep).
+    /// Zeros beyond those (a crossing that falls on this very point) count as lying on the
+    /// imaginary axis, whatever rounding made of them.
+    pub(crate) fn with_persistent(mut self, persistent: usize) -> Linearisation {
+        self.structural
+            .retain(|s| s.kind != crate::StructuralKind::Persistent);
+        let (zeros, rest) = eigen::split_smallest(self.all_eigenvalues.clone(), persistent);
+        self.structural
+            .extend(zeros.into_iter().map(|z| Structural {
+                kind: crate::StructuralKind::Persistent,
+                eigenvalue: z,
+            }));
+        let here = self.zero_multiplicity().saturating_sub(persistent);
+        let (_, clear) = eigen::split_smallest(rest.clone(), here);
+        self.stability = match eigen::stability(&clear, self.scale) {
+            Stability::Asymptotic if here > 0 => Stability::Marginal,
+            s => s,
+        };
+        self.eigenvalues = rest;
+        self.zero_function = eigen::char_coefficient(&self.all_eigenvalues, persistent);
+        self
+    }
+
+    /// How many eigenvalues of A are zero here, to rounding.
+    pub(crate) fn zero_multiplicity(&self) -> usize {
+        eigen::zero_multiplicity(&matrix(&self.a), &self.all_eigenvalues)
+    }
+}
+
+/// The Jacobian and what it is built from.
+struct Jacobian {
+    j: DMatrix<f64>,
+    b: DMatrix<f64>,
+    tangents: Vec<(String, Vec<f64>)>,
+    a_gamma: DMatrix<f64>,
+}
+
+impl Study {
+    /// Linearise at `point`, with `persistent` zero eigenvalues (found along the family,
+    /// [`Study::persistent_zeros`]) reported apart.
+    pub fn linearise(&self, point: &Point, persistent: usize) -> Result<Linearisation, StudyError> {
+        let (params, s) = self.values(&point.0)?;
+        let full = self.full_state::<f64>(&params, &s)?;
+        let names = &self.model.coordinates;
+        let residual = self.check_steady(&full.q, &full.eta, &params)?;
+        let jac = self.jacobian(&params, &s, &full.q, &full.eta)?;
+        let (w, reduced_state) = self.complement(&jac)?;
+        let a = w.transpose() * &jac.j * &w;
+        let b = w.transpose() * &jac.b;
+        let lambda = eigen::eigenvalues(&a).map_err(|iterations| StudyError::Eigen {
+            iterations,
+            at: point.text(),
+        })?;
+        let mut structural = self.dropped_zeros();
+        structural.extend(
+            jac.tangents
+                .iter()
+                .filter(|(_, t)| norm(t) > 0.0)
+                .map(|(p, _)| Structural {
+                    kind: crate::StructuralKind::SteadyFamily {
+                        parameter: p.clone(),
+                    },
+                    eigenvalue: [0.0, 0.0],
+                }),
+        );
+        let scale = eigen::scale(&a);
+        let second_order =
+            crate::forms::second_order(&reduced_state, &self.state_names(), &a, &b, &jac.a_gamma);
+        Ok(Linearisation {
+            point: point.clone(),
+            steady_parameters: self.steady.parameters.keys().cloned().zip(s).collect(),
+            q: names.iter().cloned().zip(full.q).collect(),
+            q_dot: names.iter().cloned().zip(full.q_dot).collect(),
+            eta: full.eta,
+            residual,
+            state: self.state_names(),
+            jacobian: rows(&jac.j),
+            inputs: self.model.inputs.clone(),
+            input_matrix: rows(&jac.b),
+            reduced_state,
+            a: rows(&a),
+            b: rows(&b),
+            structural,
+            stability: Stability::Marginal,
+            eigenvalues: Vec::new(),
+            second_order,
+            zero_function: 0.0,
+            all_eigenvalues: lambda,
+            scale,
+        }
+        .with_persistent(persistent))
+    }
+
+    /// The dropped coordinates' zeros.
+    fn dropped_zeros(&self) -> Vec<Structural> {
+        self.dropped
+            .iter()
+            .map(|&k| Structural {
+                kind: crate::StructuralKind::DroppedCoordinate {
+                    coordinate: self.model.coordinates[k].clone(),
+                },
+                eigenvalue: [0.0, 0.0],
+            })
+            .collect()
+    }
+
+    /// ẋ at the steady state must vanish: max |ẋ| ≤ 1e-9·(1 + |terms|), where the scale is
+    /// the size of the state and of A_Γ's right side; the residual, or an error naming the
+    /// components that do not vanish.
+    fn check_steady(
+        &self,
+        q: &[f64],
+        eta: &[f64],
+        params: &IndexMap<String, f64>,
+    ) -> Result<f64, StudyError> {
+        let r = self
+            .compiled
+            .rhs::<f64>(q, eta, params)
+            .map_err(|e| StudyError::Numeric(e.to_string()))?;
+        let x_dot = self.state_rates(&r.q_dot, &r.eta_dot);
+        let names = self.state_names();
+        let size = q
+            .iter()
+            .chain(eta)
+            .chain(&r.forcing)
+            .fold(1.0_f64, |m, x| m.max(x.abs()));
+        let allowed = 1e-9 * size;
+        let largest = x_dot.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        if !largest.is_finite() {
+            return Err(StudyError::Numeric("a rate is not finite".into()));
+        }
+        if largest > allowed {
+            let residuals: Vec<String> = names
+                .iter()
+                .zip(&x_dot)
+                .filter(|(_, x)| x.abs() > allowed)
+                .map(|(n, x)| format!("d({n})/dt = {x:.3e}"))
+                .collect();
+            return Err(StudyError::NotSteady {
+                residuals: residuals.join(", "),
+                largest,
+                allowed,
+            });
+        }
+        Ok(largest)
+    }
+
+    /// The state's rates from q̇ and η̇.
+    fn state_rates<S: Copy>(&self, q_dot: &[S], eta_dot: &[S]) -> Vec<S> {
+        self.state_q
+            .iter()
+            .map(|&k| q_dot[k])
+            .chain(eta_dot.iter().copied())
+            .collect()
+    }
+
+    /// ∂ẋ/∂x and ∂ẋ/∂u by dual numbers (a kept coordinate moves the dependent ones with it),
+    /// the steady family's tangents ∂x*/∂p, and A_Γ.
+    fn jacobian(
+        &self,
+        params: &IndexMap<String, f64>,
+        s: &[f64],
+        q: &[f64],
+        eta: &[f64],
+    ) -> Result<Jacobian, StudyError> {
+        let n = self.state_q.len() + eta.len();
+        let numeric = |e: hamel_eval::NumericError| StudyError::Numeric(e.to_string());
+        let sensitivity = self
+            .model
+            .completion
+            .sensitivity(q, params)
+            .map_err(|e| StudyError::Numeric(e.to_string()))?;
+        let mut j = DMatrix::zeros(n, n);
+        for col in 0..n {
+            let (dq, deta) = self.direction(col, q, eta, &sensitivity);
+            let r = self
+                .compiled
+                .rhs::<Dual>(&dq, &deta, params)
+                .map_err(numeric)?;
+            let x = self.state_rates(&r.q_dot, &r.eta_dot);
+            for (row, v) in x.iter().enumerate() {
+                j[(row, col)] = v.d;
+            }
+        }
+        let b = self.input_columns(params, q, eta)?;
+        let tangents = self.tangents(params, s)?;
+        let r = self.compiled.rhs::<f64>(q, eta, params).map_err(numeric)?;
+        let sigma = eta.len();
+        let a_gamma = DMatrix::from_fn(sigma, sigma, |i, k| r.a_gamma[i][k]);
+        for (p, t) in &tangents {
+            let jt = &j * nalgebra::DVector::from_column_slice(t);
+            if jt.norm() > 1e-8 * (1.0 + j.norm()) * norm(t) {
+                return Err(StudyError::NotSteady {
+                    residuals: format!(
+                        "the family is not steady along `{p}`: J·∂x*/∂{p} = {:.3e}",
+                        jt.norm()
+                    ),
+                    largest: jt.norm(),
+                    allowed: 1e-8 * (1.0 + j.norm()) * norm(t),
+                });
+            }
+        }
+        Ok(Jacobian {
+            j,
+            b,
+            tangents,
+            a_gamma,
+        })
+    }
+
+    /// The dual-number state for the direction of state component `col`.
+    fn direction(
+        &self,
+        col: usize,
+        q: &[f64],
+        eta: &[f64],
+        sensitivity: &[Vec<f64>],
+    ) -> (Vec<Dual>, Vec<Dual>) {
+        let nq = self.state_q.len();
+        let mut dq: Vec<Dual> = q.iter().map(|&v| Dual::new(v, 0.0)).collect();
+        let mut deta: Vec<Dual> = eta.iter().map(|&v| Dual::new(v, 0.0)).collect();
+        if col < nq {
+            let k = self.state_q[col];
+            dq[k].d = 1.0;
+            for (row, &d) in sensitivity.iter().zip(self.model.completion.dependent()) {
+                dq[d].d = row[k];
+            }
+        } else {
+            deta[col - nq].d = 1.0;
+        }
+        (dq, deta)
+    }
+
+    /// ∂ẋ/∂u: one column per input, by dual numbers in the input's value.
+    fn input_columns(
+        &self,
+        params: &IndexMap<String, f64>,
+        q: &[f64],
+        eta: &[f64],
+    ) -> Result<DMatrix<f64>, StudyError> {
+        let n = self.state_q.len() + eta.len();
+        let inputs = &self.model.inputs;
+        let mut b = DMatrix::zeros(n, inputs.len());
+        let dq: Vec<Dual> = q.iter().map(|&v| Dual::new(v, 0.0)).collect();
+        let deta: Vec<Dual> = eta.iter().map(|&v| Dual::new(v, 0.0)).collect();
+        for (col, u) in inputs.iter().enumerate() {
+            let p: Vec<Dual> = self
+                .compiled
+                .parameter_names()
+                .map(|name| Dual::new(params[name], f64::from(name == u)))
+                .collect();
+            let r = self
+                .compiled
+                .rhs_in::<Dual>(&dq, &deta, &p)
+                .map_err(|e| StudyError::Numeric(e.to_string()))?;
+            for (row, v) in self.state_rates(&r.q_dot, &r.eta_dot).iter().enumerate() {
+                b[(row, col)] = v.d;
+            }
+        }
+        Ok(b)
+    }
+
+    /// ∂x*/∂p for every steady parameter p, by dual numbers through the steady state.
+    fn tangents(
+        &self,
+        params: &IndexMap<String, f64>,
+        s: &[f64],
+    ) -> Result<Vec<(String, Vec<f64>)>, StudyError> {
+        let names = self.steady.parameters.keys();
+        names
+            .enumerate()
+            .map(|(i, p)| {
+                let ds: Vec<Dual> = s
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &v)| Dual::new(v, f64::from(k == i)))
+                    .collect();
+                let full = self.full_state::<Dual>(params, &ds)?;
+                let x = self.state_rates(&full.q, &full.eta);
+                Ok((p.clone(), x.iter().map(|v| v.d).collect()))
+            })
+            .collect()
+    }
+
+    /// An orthonormal basis W of the complement of the family's tangents (the reduced state
+    /// is Wᵀx), and its components' names: a state component's when the column is a unit
+    /// vector (the tangent was along one component), `z1`… otherwise.
+    fn complement(&self, jac: &Jacobian) -> Result<(DMatrix<f64>, Vec<String>), StudyError> {
+        let n = jac.j.nrows();
+        let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
+        let tangents = jac
+            .tangents
+            .iter()
+            .map(|(_, t)| nalgebra::DVector::from_column_slice(t));
+        let units = (0..n).map(|i| nalgebra::DVector::from_fn(n, |k, _| f64::from(k == i)));
+        let mut kept = Vec::new();
+        for (index, v) in tangents
+            .map(|t| (None, t))
+            .chain(units.enumerate().map(|(i, u)| (Some(i), u)))
+        {
+            let mut v = v;
+            for b in &basis {
+                let dot = b.dot(&v);
+                if dot != 0.0 {
+                    v -= b * dot;
+                }
+            }
+            let size = v.norm();
+            if size > 0.5 || (index.is_none() && size > 0.0) {
+                basis.push(v / size);
+                if index.is_some() {
+                    kept.push(basis.len() - 1);
+                }
+            }
+        }
+        let names = self.state_names();
+        let w = DMatrix::from_columns(&kept.iter().map(|&c| basis[c].clone()).collect::<Vec<_>>());
+        let labels = (0..w.ncols())
+            .map(|c| {
+                let col = w.column(c);
+                let unit = col.iter().position(|&x| x == 1.0);
+                match unit {
+                    Some(i) if col.iter().filter(|&&x| x != 0.0).count() == 1 => names[i].clone(),
+                    _ => format!("z{}", c + 1),
+                }
+            })
+            .collect();
+        Ok((w, labels))
+    }
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// A matrix as rows.
+pub(crate) fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
+}
+
+/// Rows as a matrix.
+pub(crate) fn matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
+    let cols = rows.first().map_or(0, Vec::len);
+    DMatrix::from_fn(rows.len(), cols, |i, k| rows[i][k])
+}

@@ -1,0 +1,465 @@
+//! Linearisation about steady motions (`hamel_study`), against independent oracles:
+//!
+//! * the Whipple bicycle against the benchmark of Meijaard, Papadopoulos, Ruina & Schwab (2007):
+//!   the eigenvalues of its Table 2 (v = 0…10 m/s), the weave and capsize speeds, and the
+//!   published M, C1, K0, K2 of its linear equations M q̈ + v C1 q̇ + (g K0 + v² K2) q = f
+//!   (docs/design/whipple-bicycle-research.md §1.3–1.5);
+//! * the uniform rolling disk against the closed form of docs/linearisation.md: upright rolling
+//!   at spin rate Ω has the eigenvalues λ² = 4g/(5R) − 12Ω²/5 and becomes stable exactly at
+//!   Ω² = g/(3R), for any R and g;
+//! * the Chaplygin sleigh: straight motion at speed v has the eigenvalue −m a v/(I + m a²).
+//!
+//! The CAS runs in-process on its one worker thread (one `Study::prepare` per study); the
+//! linearisations are numeric.
+
+// Published values are copied digit for digit, as printed.
+#![allow(clippy::excessive_precision)]
+
+use hamel_model::Model;
+use hamel_study::{CrossingKind, Point, Range, Stability, StructuralKind, Study};
+use indexmap::IndexMap;
+
+fn model(name: &str) -> Model {
+    Model::load(format!("{}/models/{name}.toml", env!("CARGO_MANIFEST_DIR")))
+        .unwrap_or_else(|e| panic!("{e:?}"))
+}
+
+fn study(name: &str, steady: &str) -> Study {
+    Study::prepare(&model(name), None, steady).unwrap_or_else(|e| panic!("{e:?}"))
+}
+
+fn point(values: &[(&str, f64)]) -> Point {
+    Point(
+        values
+            .iter()
+            .map(|(k, v)| (k.to_string(), *v))
+            .collect::<IndexMap<_, _>>(),
+    )
+}
+
+/// |got − want| ≤ tol·max(|want|, floor).
+fn close(what: &str, got: f64, want: f64, tol: f64, floor: f64) {
+    let error = (got - want).abs() / want.abs().max(floor);
+    assert!(
+        error <= tol,
+        "{what}: got {got:.16e}, want {want:.16e} (relative {error:.1e})"
+    );
+}
+
+/// Meijaard et al. (2007), Table 2: v and the four eigenvalues (re, im).
+const TABLE_2: [(f64, [[f64; 2]; 4]); 11] = [
+    (
+        0.0,
+        [
+            [-5.53094371765393, 0.0],
+            [-3.13164324790656, 0.0],
+            [3.13164324790656, 0.0],
+            [5.53094371765393, 0.0],
+        ],
+    ),
+    (
+        1.0,
+        [
+            [-7.11008014637442, 0.0],
+            [-3.13423125066578, 0.0],
+            [3.52696170990070, -0.8077402751993],
+            [3.52696170990070, 0.8077402751993],
+        ],
+    ),
+    (
+        2.0,
+        [
+            [-8.67387984831735, 0.0],
+            [-3.07158645641514, 0.0],
+            [2.68234517512745, -1.68066296590675],
+            [2.68234517512745, 1.68066296590675],
+        ],
+    ),
+    (
+        3.0,
+        [
+            [-10.35101467245920, 0.0],
+            [-2.63366137253667, 0.0],
+            [1.70675605663975, -2.31582447384325],
+            [1.70675605663975, 2.31582447384325],
+        ],
+    ),
+    (
+        4.0,
+        [
+            [-12.15861426576450, 0.0],
+            [-1.42944427361326, 0.0],
+            [0.41325331521125, -3.07910818603206],
+            [0.41325331521125, 3.07910818603206],
+        ],
+    ),
+    (
+        5.0,
+        [
+            [-14.07838969279820, 0.0],
+            [-0.77534188219585, -4.46486771378823],
+            [-0.77534188219585, 4.46486771378823],
+            [-0.32286642900409, 0.0],
+        ],
+    ),
+    (
+        6.0,
+        [
+            [-16.08537123098030, 0.0],
+            [-1.52644486584142, -5.87673060598709],
+            [-1.52644486584142, 5.87673060598709],
+            [-0.00406690076970, 0.0],
+        ],
+    ),
+    (
+        7.0,
+        [
+            [-18.15788466125262, 0.0],
+            [-2.13875644258362, -7.19525913329805],
+            [-2.13875644258362, 7.19525913329805],
+            [0.10268170574766, 0.0],
+        ],
+    ),
+    (
+        8.0,
+        [
+            [-20.27940894394569, 0.0],
+            [-2.69348683581097, -8.46037971396931],
+            [-2.69348683581097, 8.46037971396931],
+            [0.14327879765713, 0.0],
+        ],
+    ),
+    (
+        9.0,
+        [
+            [-22.43788559040858, 0.0],
+            [-3.21675402252485, -9.69377351531791],
+            [-3.21675402252485, 9.69377351531791],
+            [0.15790184030917, 0.0],
+        ],
+    ),
+    (
+        10.0,
+        [
+            [-24.62459635017404, 0.0],
+            [-3.72016840437287, -10.90681139476287],
+            [-3.72016840437287, 10.90681139476287],
+            [0.16105338653172, 0.0],
+        ],
+    ),
+];
+
+#[test]
+fn bicycle_eigenvalues_and_critical_speeds_are_the_benchmarks() {
+    let s = study("whipple_bicycle", "upright");
+    let range = Range::parse("v=0:10:11").unwrap();
+    let sweep = s.sweep(&Point::default(), &range, &|| ()).unwrap();
+    assert_eq!(sweep.persistent_zeros, 0);
+    for ((v, want), p) in TABLE_2.iter().zip(&sweep.points) {
+        assert_eq!(p.value, *v);
+        assert_eq!(p.eigenvalues.len(), 4, "v = {v}: {:?}", p.eigenvalues);
+        for (got, want) in p.eigenvalues.iter().zip(want) {
+            let size = want[0].hypot(want[1]);
+            // The published v = 1 imaginary part has 13 decimals (the research note, §1.5).
+            let tol = if *v == 1.0 {
+                2e-13 / size + 1e-10
+            } else {
+                1e-10
+            };
+            close(&format!("Re λ at v = {v}"), got[0], want[0], tol, size);
+            close(&format!("Im λ at v = {v}"), got[1], want[1], tol, size);
+        }
+    }
+    let speeds: Vec<(f64, CrossingKind)> =
+        sweep.crossings.iter().map(|c| (c.value, c.kind)).collect();
+    assert_eq!(speeds.len(), 2, "{speeds:?}");
+    assert_eq!(speeds[0].1, CrossingKind::Hopf);
+    close("weave speed", speeds[0].0, 4.29238253634111, 1e-10, 1.0);
+    close(
+        "weave frequency",
+        sweep.crossings[0].eigenvalue[1].abs(),
+        3.43503384866144,
+        1e-10,
+        1.0,
+    );
+    assert_eq!(speeds[1].1, CrossingKind::RealZero);
+    close("capsize speed", speeds[1].0, 6.02426201538837, 1e-10, 1.0);
+    assert_eq!(
+        (sweep.crossings[0].below, sweep.crossings[0].above),
+        (Stability::Unstable, Stability::Asymptotic)
+    );
+    assert_eq!(
+        (sweep.crossings[1].below, sweep.crossings[1].above),
+        (Stability::Asymptotic, Stability::Unstable)
+    );
+}
+
+/// The benchmark's published matrices (docs/design/whipple-bicycle-research.md §1.3).
+const M: [[f64; 2]; 2] = [
+    [80.81722, 2.31941332208709],
+    [2.31941332208709, 0.29784188199686],
+];
+const C1: [[f64; 2]; 2] = [
+    [0.0, 33.86641391492494],
+    [-0.85035641456978, 1.68540397397560],
+];
+const K0: [[f64; 2]; 2] = [
+    [-80.95, -2.59951685249872],
+    [-2.59951685249872, -0.80329488458618],
+];
+const K2: [[f64; 2]; 2] = [[0.0, 76.59734589573222], [0.0, 2.65431523794604]];
+
+/// Entry by entry, relative to the matrix's largest entry.
+fn same_matrix(what: &str, got: &[Vec<f64>], want: &[[f64; 2]; 2], tol: f64) {
+    let size = want.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
+    for i in 0..2 {
+        for k in 0..2 {
+            close(
+                &format!("{what}[{i}][{k}]"),
+                got[i][k],
+                want[i][k],
+                tol,
+                size,
+            );
+        }
+    }
+}
+
+#[test]
+fn bicycle_linear_equations_are_the_benchmarks_m_c1_k0_k2() {
+    let s = study("whipple_bicycle", "upright");
+    let sweep = s
+        .sweep(
+            &Point::default(),
+            &Range::parse("v=0:10:3").unwrap(),
+            &|| (),
+        )
+        .unwrap();
+    let m = sweep.matrices.expect("polynomial in v");
+    assert_eq!(m.parameter, "v");
+    same_matrix("M", m.m.as_ref().unwrap(), &M, 1e-12);
+    let c = m.c.as_ref().unwrap();
+    assert_eq!(
+        c.coefficients.keys().copied().collect::<Vec<_>>(),
+        vec![1],
+        "C = v C1"
+    );
+    same_matrix("C1", &c.coefficients[&1], &C1, 1e-12);
+    let k = m.k.as_ref().unwrap();
+    assert_eq!(
+        k.coefficients.keys().copied().collect::<Vec<_>>(),
+        vec![0, 2],
+        "K = g K0 + v² K2"
+    );
+    same_matrix("K2", &k.coefficients[&2], &K2, 1e-12);
+    let g = m.gravity.as_ref().expect("g enters only through U");
+    assert_eq!(g.parameter, "g");
+    assert!(g.rest.is_none(), "K's constant term is g K0 alone");
+    same_matrix("K0", &g.k0, &K0, 1e-12);
+    // The steer torque is the second generalised force; pedalling moves along the speed only.
+    let b = m.b_forces.as_ref().unwrap();
+    assert_eq!(b.len(), 2);
+    close("B steer", b[1][0], 1.0, 1e-14, 1.0);
+    for x in [b[0][0], b[0][1], b[1][1]] {
+        assert!(x.abs() < 1e-14, "{b:?}");
+    }
+    // ẋ = A x + B u: B's steer column is M⁻¹ (0, 1) (DTK's doctest, 8 digits).
+    close("B roll", m.b[2][0], -0.12409203, 1e-7, 1.0);
+    close("B steer", m.b[3][0], 4.32384018, 1e-8, 1.0);
+}
+
+#[test]
+fn bicycle_steady_motion_drops_the_ignorable_coordinates_and_completes_the_pitch() {
+    let s = study("whipple_bicycle", "upright");
+    let l = s.linearise(&point(&[("v", 3.0)]), 0).unwrap();
+    assert_eq!(l.state, ["roll", "steer", "eta1", "eta2", "eta3"]);
+    assert_eq!(l.reduced_state, ["roll", "steer", "eta1", "eta2"]);
+    let dropped: Vec<&StructuralKind> = l.structural.iter().map(|z| &z.kind).collect();
+    assert_eq!(
+        dropped.len(),
+        6,
+        "five ignorable coordinates and the speed: {dropped:?}"
+    );
+    assert!(matches!(dropped[5], StructuralKind::SteadyFamily { parameter } if parameter == "v"));
+    close("rear wheel rate", l.eta[2], -3.0 / 0.3, 1e-15, 1.0);
+    close(
+        "front wheel rate",
+        l.q_dot["front_wheel"],
+        -3.0 / 0.35,
+        1e-14,
+        1.0,
+    );
+    assert!(l.residual < 1e-12, "{}", l.residual);
+    assert_eq!(s.dependent(), ["pitch"]);
+}
+
+/// λ² = 4g/(5R) − 12Ω²/5 for the uniform disk (docs/linearisation.md).
+fn disk_lambda_squared(g: f64, r: f64, omega: f64) -> f64 {
+    4.0 * g / (5.0 * r) - 12.0 * omega * omega / 5.0
+}
+
+#[test]
+fn rolling_disk_becomes_stable_exactly_at_g_over_3r() {
+    let s = study("rolling_disk", "upright");
+    for (r, g, m) in [
+        (0.15_f64, 9.81_f64, 0.5),
+        (0.3, 3.7, 2.0),
+        (1.0, 24.79, 0.1),
+    ] {
+        let set = [("R", r), ("g", g), ("m_d", m)];
+        let critical = (g / (3.0 * r)).sqrt();
+        let range = Range {
+            parameter: "Omega".into(),
+            start: 0.0,
+            stop: 2.9 * critical,
+            count: 7,
+        };
+        let sweep = s.sweep(&point(&set), &range, &|| ()).unwrap();
+        assert_eq!(
+            sweep.persistent_zeros, 1,
+            "the disk's neighbouring steady circles"
+        );
+        assert_eq!(sweep.crossings.len(), 1, "{:?}", sweep.crossings);
+        let c = &sweep.crossings[0];
+        assert_eq!(
+            (c.kind, c.zeros),
+            (CrossingKind::RealZero, 2),
+            "a real pair meets at zero"
+        );
+        close(
+            &format!("critical spin, R = {r}, g = {g}"),
+            c.value,
+            critical,
+            1e-10,
+            1.0,
+        );
+        assert_eq!(
+            (c.below, c.above),
+            (Stability::Unstable, Stability::Marginal)
+        );
+        for p in &sweep.points {
+            let want = disk_lambda_squared(g, r, p.value);
+            assert_eq!(p.eigenvalues.len(), 2);
+            for z in &p.eigenvalues {
+                // λ² = re² − im² + 2i re im
+                let got = z[0] * z[0] - z[1] * z[1];
+                close(&format!("λ² at Omega = {}", p.value), got, want, 1e-10, 1.0);
+                assert!(z[0] * z[1] == 0.0 || (z[0] * z[1]).abs() < 1e-10 * want.abs().max(1.0));
+            }
+        }
+        // A sweep point on the crossing itself: three zeros, which rounding spreads to ~ε^(1/3);
+        // it counts as on the axis, and the crossing is still found, between its neighbours.
+        let through = Range {
+            parameter: "Omega".into(),
+            start: 0.0,
+            stop: 2.0 * critical,
+            count: 3,
+        };
+        let sweep = s.sweep(&point(&set), &through, &|| ()).unwrap();
+        assert_eq!(sweep.points[1].stability, Stability::Marginal);
+        assert_eq!(sweep.crossings.len(), 1, "{:?}", sweep.crossings);
+        close(
+            "critical spin (point on it)",
+            sweep.crossings[0].value,
+            critical,
+            1e-10,
+            1.0,
+        );
+    }
+}
+
+#[test]
+fn chaplygin_sleigh_straight_motion_has_its_closed_form_eigenvalue() {
+    let s = study("chaplygin_sleigh", "straight");
+    for (m, i, a, v) in [
+        (2.0, 0.05, 0.2, 1.0),
+        (5.0, 0.3, -0.1, 2.5),
+        (1.0, 1.0, 0.5, -3.0),
+    ] {
+        let l = s
+            .linearise(&point(&[("m", m), ("I", i), ("a", a), ("v", v)]), 0)
+            .unwrap();
+        assert_eq!(l.eigenvalues.len(), 1);
+        let want = -m * a * v / (i + m * a * a);
+        close(
+            &format!("λ, m = {m}, a = {a}, v = {v}"),
+            l.eigenvalues[0][0],
+            want,
+            1e-13,
+            1.0,
+        );
+        assert_eq!(l.eigenvalues[0][1], 0.0);
+        let stable = if want < 0.0 {
+            Stability::Asymptotic
+        } else {
+            Stability::Unstable
+        };
+        assert_eq!(l.stability, stable);
+    }
+}
+
+#[test]
+fn a_state_that_is_not_steady_is_refused_with_its_residual() {
+    let path = format!("{}/models/rolling_disk.toml", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    let leaning = text.replace("q = { theta = 0 }", "q = { theta = 0.3 }");
+    let model = Model::from_source("leaning_disk.toml", &leaning).unwrap();
+    let s = Study::prepare(&model, None, "upright").unwrap();
+    let e = s.linearise(&Point::default(), 0).unwrap_err();
+    let message = format!("{:?}", miette::Report::new(s.locate(&e)));
+    assert!(
+        message.contains("not a steady motion") && message.contains("d(eta"),
+        "{message}"
+    );
+    assert!(
+        message.contains("steady.upright"),
+        "located at the table: {message}"
+    );
+}
+
+#[test]
+fn steady_sections_are_checked_where_they_are_read() {
+    let path = format!("{}/models/rolling_disk.toml", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    let cases = [
+        (
+            "q = { theta = 0 }",
+            "q = { tehta = 0 }",
+            "`tehta` is not a coordinate",
+        ),
+        (
+            "parameters = { Omega = 10.0 }",
+            "parameters = { R = 10.0 }",
+            "already a coordinate",
+        ),
+        ("psi = \"Omega\"", "psi = \"Omeg\"", "unknown symbol `Omeg`"),
+        (
+            "parameters = { Omega = 10.0 }",
+            "parameters = { Omega = \"fast\" }",
+            "finite number",
+        ),
+    ];
+    for (from, to, want) in cases {
+        let e = Model::from_source("disk.toml", &text.replace(from, to)).unwrap_err();
+        let message = format!("{:?}", miette::Report::new(e));
+        assert!(
+            message.contains(want) && message.contains("steady.upright"),
+            "{to}: {message}"
+        );
+    }
+    let few = text.replace(
+        "velocities = { phi = 0, psi = \"Omega\", theta = 0 }",
+        "velocities = { psi = \"Omega\" }",
+    );
+    let model = Model::from_source("disk.toml", &few).unwrap();
+    let s = Study::prepare(&model, None, "upright").unwrap();
+    let e = s.linearise(&Point::default(), 0).unwrap_err().to_string();
+    assert!(
+        e.contains("all but μ = 2") && e.contains("phi, theta"),
+        "{e}"
+    );
+    let e = Study::prepare(&model, None, "rolling")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no steady motion named `rolling`"), "{e}");
+}
