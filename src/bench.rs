@@ -3,7 +3,9 @@
 //! and with `simplify` (optional: `bench/sympy_derive.py`, skipped with a message when Python or
 //! SymPy is missing). The Whipple bicycle's baseline is SymPy's own bicycle instead
 //! (`bench/sympy_bicycle.py`: test_kane3, Kane's method with Cramer's rule), as SymPy users
-//! derive it.
+//! derive it. The bicycle's linearisation about upright running, swept over the speed, is timed
+//! too, against SymPy's linearisation of its own bicycle (the rest of test_kane3: `KM.linearize`
+//! with Cramer's rule) in the same run.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -191,16 +193,97 @@ fn parse_output(out: &std::process::Output) -> Baseline {
     }
 }
 
+/// What `hamel bench` measured.
+#[derive(Serialize)]
+pub struct Report {
+    /// One row per model and choice.
+    derivations: Vec<Row>,
+    /// One row per linearisation benched ([`LINEARISATIONS`]) whose model was given.
+    linearisations: Vec<LinearRow>,
+}
+
+/// A linearisation: `hamel linearize MODEL --steady STEADY --sweep SWEEP` in-process, the
+/// derivation included, against SymPy's derivation and linearisation of the same system.
+#[derive(Serialize)]
+pub struct LinearRow {
+    model: String,
+    steady: String,
+    sweep: String,
+    /// Median of the repeats, seconds.
+    hamel_seconds: f64,
+    /// Fastest repeat, seconds.
+    hamel_min_seconds: f64,
+    /// SymPy: test_kane3's derivation and linearisation (`bench/sympy_bicycle.py --linearize`).
+    sympy: Baseline,
+}
+
+/// The linearisations benched, by model name: the steady motion and the sweep.
+const LINEARISATIONS: [(&str, &str, &str); 1] = [("whipple_bicycle", "upright", "v=0:10:21")];
+
+/// Time the linearisations of `model` ([`LINEARISATIONS`]), with SymPy's when asked.
+fn linearisations(
+    model: &Model,
+    repeat: usize,
+    with_sympy: bool,
+    timeout: f64,
+) -> Result<Vec<LinearRow>, ModelError> {
+    let mut out = Vec::new();
+    for (_, steady, sweep) in LINEARISATIONS.iter().filter(|(m, _, _)| *m == model.name) {
+        let range = hamel_study::Range::parse(sweep).map_err(|e| model.error(e))?;
+        let mut times = Vec::new();
+        for _ in 0..repeat.max(1) {
+            let t = Instant::now();
+            let study = hamel_study::Study::prepare(model, None, steady)?;
+            let base = hamel_study::Point::default();
+            study
+                .sweep(&base, &range, &|| ())
+                .map_err(|e| study.locate(&e))?;
+            times.push(t.elapsed().as_secs_f64());
+        }
+        times.sort_by(f64::total_cmp);
+        let hamel = times[times.len() / 2];
+        let mut sympy = if with_sympy {
+            let mut command = Command::new("python3");
+            command.arg("-c").arg(SYMPY_BICYCLE).arg("--linearize");
+            Baseline {
+                method: "kane",
+                ..run_script(command, timeout)
+            }
+        } else {
+            Baseline::not_run()
+        };
+        if let (Some(s), "ok") = (sympy.seconds, sympy.status.as_str()) {
+            sympy.ratio = Some(s / hamel);
+        }
+        eprintln!(
+            "{:<18} linearize {steady} --sweep {sweep}: hamel {hamel:.4} s   sympy {}",
+            model.name,
+            sympy.cell()
+        );
+        out.push(LinearRow {
+            model: model.name.clone(),
+            steady: steady.to_string(),
+            sweep: sweep.to_string(),
+            hamel_seconds: hamel,
+            hamel_min_seconds: times[0],
+            sympy,
+        });
+    }
+    Ok(out)
+}
+
 /// Run the benchmark over `models` (files), `repeat` derivations each.
 pub fn run(
     models: &[PathBuf],
     repeat: usize,
     with_sympy: bool,
     timeout: f64,
-) -> Result<Vec<Row>, ModelError> {
+) -> Result<Report, ModelError> {
     let mut rows = Vec::new();
+    let mut linear = Vec::new();
     for path in models {
         let model = Model::load(path)?;
+        linear.extend(linearisations(&model, repeat, with_sympy, timeout)?);
         for choice in &model.choices {
             let mut row = time_hamel(&model, &choice.name, repeat)?;
             if with_sympy {
@@ -239,7 +322,10 @@ pub fn run(
             rows.push(row);
         }
     }
-    Ok(rows)
+    Ok(Report {
+        derivations: rows,
+        linearisations: linear,
+    })
 }
 
 /// hamel's median time over `repeat` derivations, and the sizes of the last.
@@ -269,8 +355,28 @@ fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError
     })
 }
 
-/// A Markdown table of the rows.
-pub fn table(rows: &[Row]) -> String {
+/// Markdown tables of the report: the derivations, then the linearisations.
+pub fn table(report: &Report) -> String {
+    let mut s = derivation_table(&report.derivations);
+    if !report.linearisations.is_empty() {
+        s.push_str("\n| linearisation | hamel (median, derivation included) | SymPy (derivation + linearisation) | ratio |\n|---|---|---|---|\n");
+        for r in &report.linearisations {
+            s.push_str(&format!(
+                "| {} --steady {} --sweep {} | {:.1} ms | {} | {} |\n",
+                r.model,
+                r.steady,
+                r.sweep,
+                r.hamel_seconds * 1e3,
+                r.sympy.cell(),
+                r.sympy.ratio_cell(r.hamel_seconds),
+            ));
+        }
+    }
+    s
+}
+
+/// A Markdown table of the derivations.
+fn derivation_table(rows: &[Row]) -> String {
     let mut s = String::from(
         "| model | choice | ℓ | σ | hamel (median) | SymPy (cancel) | ratio | SymPy (simplify) | ratio | A_Γ chars: hamel | SymPy (cancel) | SymPy (simplify) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );

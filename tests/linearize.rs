@@ -463,3 +463,260 @@ fn steady_sections_are_checked_where_they_are_read() {
         .to_string();
     assert!(e.contains("no steady motion named `rolling`"), "{e}");
 }
+
+/// The benchmark's closed-form linear equations from its 25 parameters (Meijaard et al. 2007,
+/// Appendix A), transliterated from DynamicistToolKit's `benchmark_par_to_canonical`
+/// (moorepants/DynamicistToolKit dtk/bicycle.py @ b38b9cf0): an oracle independent of hamel's
+/// frames, bodies and derivation. Returns (M, C1, K0, K2).
+fn canonical(p: &IndexMap<String, f64>) -> [[[f64; 2]; 2]; 4] {
+    let v = |k: &str| p[k];
+    let (lam, w, c) = (v("lambda"), v("w"), v("c"));
+    let (sl, cl) = lam.sin_cos();
+    let (m_r, m_b, m_h, m_f) = (v("mR"), v("mB"), v("mH"), v("mF"));
+    let (r_r, r_f) = (v("rR"), v("rF"));
+    let (x_b, z_b, x_h, z_h) = (v("xB"), v("zB"), v("xH"), v("zH"));
+    let m_t = m_r + m_b + m_h + m_f;
+    let x_t = (x_b * m_b + x_h * m_h + w * m_f) / m_t;
+    let z_t = (-r_r * m_r + z_b * m_b + z_h * m_h - r_f * m_f) / m_t;
+    let i_txx = v("IRxx")
+        + v("IBxx")
+        + v("IHxx")
+        + v("IFxx")
+        + m_r * r_r * r_r
+        + m_b * z_b * z_b
+        + m_h * z_h * z_h
+        + m_f * r_f * r_f;
+    let i_txz = v("IBxz") + v("IHxz") - m_b * x_b * z_b - m_h * x_h * z_h + m_f * w * r_f;
+    let i_tzz = v("IRxx")
+        + v("IBzz")
+        + v("IHzz")
+        + v("IFxx")
+        + m_b * x_b * x_b
+        + m_h * x_h * x_h
+        + m_f * w * w;
+    let m_a = m_h + m_f;
+    let x_a = (x_h * m_h + w * m_f) / m_a;
+    let z_a = (z_h * m_h - r_f * m_f) / m_a;
+    let i_axx = v("IHxx") + v("IFxx") + m_h * (z_h - z_a).powi(2) + m_f * (r_f + z_a).powi(2);
+    let i_axz = v("IHxz") - m_h * (x_h - x_a) * (z_h - z_a) + m_f * (w - x_a) * (r_f + z_a);
+    let i_azz = v("IHzz") + v("IFxx") + m_h * (x_h - x_a).powi(2) + m_f * (w - x_a).powi(2);
+    let u_a = (x_a - w - c) * cl - z_a * sl;
+    let i_all = m_a * u_a * u_a + i_axx * sl * sl + 2.0 * i_axz * sl * cl + i_azz * cl * cl;
+    let i_alx = -m_a * u_a * z_a + i_axx * sl + i_axz * cl;
+    let i_alz = m_a * u_a * x_a + i_axz * sl + i_azz * cl;
+    let mu = c / w * cl;
+    let (s_r, s_f) = (v("IRyy") / r_r, v("IFyy") / r_f);
+    let s_t = s_r + s_f;
+    let s_a = m_a * u_a + mu * m_t * x_t;
+    let m_pd = i_alx + mu * i_txz;
+    let m = [
+        [i_txx, m_pd],
+        [m_pd, i_all + 2.0 * mu * i_alz + mu * mu * i_tzz],
+    ];
+    let k0 = [[m_t * z_t, -s_a], [-s_a, -s_a * sl]];
+    let k2 = [
+        [0.0, (s_t - m_t * z_t) / w * cl],
+        [0.0, (s_a + s_f * sl) / w * cl],
+    ];
+    let c1 = [
+        [0.0, mu * s_t + s_f * cl + i_txz / w * cl - mu * m_t * z_t],
+        [
+            -(mu * s_t + s_f * cl),
+            i_alz / w * cl + mu * (s_a + i_tzz / w * cl),
+        ],
+    ];
+    [m, c1, k0, k2]
+}
+
+/// The Batavus Browser with its rider Jason (Moore 2012, as published in BicycleParameters'
+/// `meijaard2007_browser_jason` and HumanControl's `BrowserPar.txt`), and the Bianchi Pista
+/// without rider (BicycleParameters `benchmark-pista.yml`): pasted over the benchmark's Table 1
+/// with `--set`, the way a user would.
+const BROWSER_JASON: [(&str, f64); 26] = [
+    ("w", 1.121),
+    ("c", 0.0685808540382),
+    ("lambda", 0.399680398707),
+    ("g", 9.81),
+    ("rR", 0.340958858855),
+    ("mR", 3.11),
+    ("IRxx", 0.0883819364527),
+    ("IRyy", 0.152467620286),
+    ("xB", 0.289099434117),
+    ("zB", -1.04029228321),
+    ("mB", 81.86),
+    ("IBxx", 11.3557360401),
+    ("IByy", 12.2177848012),
+    ("IBzz", 3.12354397008),
+    ("IBxz", -1.96756380745),
+    ("xH", 0.866949640247),
+    ("zH", -0.748236400835),
+    ("mH", 3.22),
+    ("IHxx", 0.253379594731),
+    ("IHyy", 0.246138810935),
+    ("IHzz", 0.0955770796289),
+    ("IHxz", -0.0720452391817),
+    ("rF", 0.34352982332),
+    ("mF", 2.02),
+    ("IFxx", 0.0904106601579),
+    ("IFyy", 0.149389340425),
+];
+const PISTA: [(&str, f64); 26] = [
+    ("w", 0.989),
+    ("c", 0.0617300113263),
+    ("lambda", 0.275762021815),
+    ("g", 9.81),
+    ("rR", 0.332088156971),
+    ("mR", 1.38),
+    ("IRxx", 0.0552268228143),
+    ("IRyy", 0.0764034890242),
+    ("xB", 0.382963782674),
+    ("zB", -0.476798507146),
+    ("mB", 4.49),
+    ("IBxx", 0.289968529291),
+    ("IByy", 0.475817094274),
+    ("IBzz", 0.249418014295),
+    ("IBxz", 0.0502317583637),
+    ("xH", 0.906321313298),
+    ("zH", -0.732376356772),
+    ("mH", 2.27),
+    ("IHxx", 0.0979884309288),
+    ("IHyy", 0.0691907586693),
+    ("IHzz", 0.0396107377431),
+    ("IHxz", -0.00440828467861),
+    ("rF", 0.333838861345),
+    ("mF", 1.58),
+    ("IFxx", 0.0553476418952),
+    ("IFyy", 0.106185287785),
+];
+
+/// K0 of the Browser with Jason as published by oliverlee/bikesim (BicycleParam.cs @ 6f5005d3),
+/// whose masses and geometry are those of `BROWSER_JASON` (its inertias are not).
+const BIKESIM_K0: [[f64; 2]; 2] = [
+    [-89.32195980848145, -1.7415947744452318],
+    [-1.7415947744452318, -0.6776962381761491],
+];
+
+#[test]
+fn other_published_bicycles_match_the_closed_form_of_the_benchmark() {
+    let s = study("whipple_bicycle", "upright");
+    for (name, set) in [("Browser + Jason", &BROWSER_JASON), ("Pista", &PISTA)] {
+        let base = point(set);
+        let sweep = s
+            .sweep(&base, &Range::parse("v=0:10:11").unwrap(), &|| ())
+            .unwrap();
+        let values = s.model().parameter_values(&base.0).unwrap();
+        let [m, c1, k0, k2] = canonical(&values);
+        let got = sweep.matrices.as_ref().expect("polynomial in v");
+        same_matrix(&format!("{name} M"), got.m.as_ref().unwrap(), &m, 1e-12);
+        same_matrix(
+            &format!("{name} C1"),
+            &got.c.as_ref().unwrap().coefficients[&1],
+            &c1,
+            1e-12,
+        );
+        same_matrix(
+            &format!("{name} K0"),
+            &got.gravity.as_ref().unwrap().k0,
+            &k0,
+            1e-12,
+        );
+        same_matrix(
+            &format!("{name} K2"),
+            &got.k.as_ref().unwrap().coefficients[&2],
+            &k2,
+            1e-12,
+        );
+        if name.starts_with("Browser") {
+            same_matrix(
+                "Browser K0 (bikesim)",
+                &got.gravity.as_ref().unwrap().k0,
+                &BIKESIM_K0,
+                1e-10,
+            );
+        }
+        // The eigenvalues of the oracle's ẋ = A x at every speed of the sweep.
+        for p in &sweep.points {
+            let want = oracle_eigenvalues(&m, &c1, &k0, &k2, 9.81, p.value);
+            assert_eq!(p.eigenvalues.len(), 4);
+            for (got, want) in p.eigenvalues.iter().zip(&want) {
+                let size = want[0].hypot(want[1]).max(1.0);
+                close(
+                    &format!("{name} Re λ at v = {}", p.value),
+                    got[0],
+                    want[0],
+                    1e-10,
+                    size,
+                );
+                close(
+                    &format!("{name} Im λ at v = {}", p.value),
+                    got[1],
+                    want[1],
+                    1e-10,
+                    size,
+                );
+            }
+        }
+        // The capsize speed: det(g K0 + v² K2) = 0 is linear in v² (K2's first column is 0).
+        let g = 9.81;
+        let capsize = (g * (k0[0][1] * k0[1][0] - k0[0][0] * k0[1][1])
+            / (k0[0][0] * k2[1][1] - k0[1][0] * k2[0][1]))
+            .sqrt();
+        let real: Vec<f64> = sweep
+            .crossings
+            .iter()
+            .filter(|c| c.kind == CrossingKind::RealZero)
+            .map(|c| c.value)
+            .collect();
+        assert!(
+            real.iter().any(|v| (v - capsize).abs() < 1e-10 * capsize),
+            "{name}: capsize {capsize}, crossings {:?}",
+            sweep.crossings
+        );
+    }
+}
+
+/// Eigenvalues of [[0, I], [−M⁻¹(gK0 + v²K2), −vM⁻¹C1]], sorted as hamel sorts them.
+fn oracle_eigenvalues(
+    m: &[[f64; 2]; 2],
+    c1: &[[f64; 2]; 2],
+    k0: &[[f64; 2]; 2],
+    k2: &[[f64; 2]; 2],
+    g: f64,
+    v: f64,
+) -> Vec<[f64; 2]> {
+    let m = nalgebra::Matrix2::new(m[0][0], m[0][1], m[1][0], m[1][1]);
+    let k = nalgebra::Matrix2::new(
+        g * k0[0][0] + v * v * k2[0][0],
+        g * k0[0][1] + v * v * k2[0][1],
+        g * k0[1][0] + v * v * k2[1][0],
+        g * k0[1][1] + v * v * k2[1][1],
+    );
+    let c = nalgebra::Matrix2::new(v * c1[0][0], v * c1[0][1], v * c1[1][0], v * c1[1][1]);
+    let mi = m.try_inverse().unwrap();
+    let (mk, mc) = (-mi * k, -mi * c);
+    let a = nalgebra::Matrix4::new(
+        0.0,
+        0.0,
+        1.0,
+        0.0, //
+        0.0,
+        0.0,
+        0.0,
+        1.0, //
+        mk[(0, 0)],
+        mk[(0, 1)],
+        mc[(0, 0)],
+        mc[(0, 1)], //
+        mk[(1, 0)],
+        mk[(1, 1)],
+        mc[(1, 0)],
+        mc[(1, 1)],
+    );
+    let mut out: Vec<[f64; 2]> = a
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| [z.re, z.im])
+        .collect();
+    out.sort_by(|x, y| x[0].total_cmp(&y[0]).then(x[1].total_cmp(&y[1])));
+    out
+}

@@ -53,6 +53,9 @@ impl Model {
         if !self.symmetries.is_empty() {
             doc["symmetries"] = TomlItem::Table(self.symmetry_table());
         }
+        if !self.steady.is_empty() {
+            doc["steady"] = TomlItem::Table(self.steady_table());
+        }
         format!("{}{doc}", self.header())
     }
 
@@ -135,6 +138,31 @@ impl Model {
             let mut st = Table::new();
             for (q, e) in &s.components {
                 st[q.as_str()] = value(e.expr.to_string());
+            }
+            t[s.name.as_str()] = TomlItem::Table(st);
+        }
+        t
+    }
+
+    fn steady_table(&self) -> Table {
+        let mut t = Table::new();
+        t.set_implicit(true);
+        for s in &self.steady {
+            let mut st = Table::new();
+            if let Some(d) = &s.description {
+                st["description"] = value(d.as_str());
+            }
+            let mut p = toml_edit::InlineTable::new();
+            for (k, v) in &s.parameters {
+                p.insert(k, (*v).into());
+            }
+            st["parameters"] = value(p);
+            for (key, items) in [("q", &s.q), ("velocities", &s.velocities)] {
+                let mut it = toml_edit::InlineTable::new();
+                for (k, item) in items.iter() {
+                    it.insert(&self.coordinates[*k], item.text.as_str().into());
+                }
+                st[key] = value(it);
             }
             t[s.name.as_str()] = TomlItem::Table(st);
         }

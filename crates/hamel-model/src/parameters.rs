@@ -223,14 +223,17 @@ pub enum SetError {
 impl crate::Model {
     /// The parameter values with `overrides` set (parameters or inputs by name) and every
     /// derived parameter evaluated again from them, in dependency order: what `--set` and a
-    /// scene's `[parameters]` give. Setting a derived parameter is an error.
+    /// scene's `[parameters]` give. Setting a derived parameter is an error, unless its
+    /// expression uses no other parameter (a constant written as an expression, such as the
+    /// bicycle's `lambda = "pi/10"`): that one is a default like any number.
     pub fn parameter_values(
         &self,
         overrides: &IndexMap<String, f64>,
     ) -> Result<IndexMap<String, f64>, SetError> {
         let mut values = self.parameters.clone();
+        let constant = |item: &Item| uses(&item.expr).iter().all(|n| n == "pi");
         for (k, &v) in overrides {
-            if let Some(item) = self.derived.get(k) {
+            if let Some(item) = self.derived.get(k).filter(|i| !constant(i)) {
                 return Err(SetError::Derived(k.clone(), item.text.clone()));
             }
             if !values.contains_key(k) {
@@ -245,10 +248,12 @@ impl crate::Model {
         if overrides.is_empty() {
             return Ok(values);
         }
-        let mut pending: Vec<(&String, &Item)> = self.derived.iter().collect();
+        let set = |k: &String| overrides.contains_key(k);
+        let mut pending: Vec<(&String, &Item)> =
+            self.derived.iter().filter(|(k, _)| !set(k)).collect();
         let mut known: IndexMap<String, f64> = values
             .iter()
-            .filter(|(k, _)| !self.derived.contains_key(*k))
+            .filter(|(k, _)| !self.derived.contains_key(*k) || set(k))
             .map(|(k, v)| (k.clone(), *v))
             .collect();
         while let Some(i) = pending.iter().position(|(_, item)| {
@@ -279,8 +284,9 @@ title = "t"
 coordinates = ["x"]
 [parameters]
 a = 2.0
-b = "2*a + c"
+b = "2*a + c + k"
 c = "a^2"
+k = "3/4"
 [lagrangian]
 kinetic = "der(x)^2/2"
 "#;
@@ -288,11 +294,18 @@ kinetic = "der(x)^2/2"
     #[test]
     fn setting_a_parameter_evaluates_the_derived_ones_again() {
         let m = crate::Model::from_source("m.toml", MODEL).unwrap();
-        assert_eq!((m.parameters["b"], m.parameters["c"]), (8.0, 4.0));
+        let k = 0.75;
+        assert_eq!((m.parameters["b"], m.parameters["c"]), (8.0 + k, 4.0));
         let v = m
             .parameter_values(&IndexMap::from([("a".to_string(), 3.0)]))
             .unwrap();
-        assert_eq!((v["a"], v["b"], v["c"]), (3.0, 15.0, 9.0));
+        assert_eq!((v["a"], v["b"], v["c"]), (3.0, 15.0 + k, 9.0));
+        // A constant written as an expression is a default like a number: it can be set, and
+        // what uses it follows.
+        let v = m
+            .parameter_values(&IndexMap::from([("k".to_string(), 0.5)]))
+            .unwrap();
+        assert_eq!((v["k"], v["b"]), (0.5, 8.5));
         let set = |k: &str, x: f64| m.parameter_values(&IndexMap::from([(k.to_string(), x)]));
         assert!(matches!(set("c", 1.0), Err(SetError::Derived(..))));
         assert!(matches!(set("d", 1.0), Err(SetError::Unknown(..))));
