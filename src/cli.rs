@@ -282,6 +282,9 @@ pub enum Command {
         /// map of the largest real part) as SVG.
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Threads for the points of a sweep or map (default: every core).
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// Time the derivation of every model and choice; with --sympy, SymPy does the same
     /// derivation in the same run as the baseline (bench/sympy_derive.py).

@@ -20,6 +20,7 @@ pub struct Args<'a> {
     pub set: IndexMap<String, f64>,
     pub json: bool,
     pub plot: Option<&'a Path>,
+    pub threads: Option<usize>,
 }
 
 pub fn run(args: &Args, out: Output) -> Result<(), ModelError> {
@@ -31,6 +32,10 @@ pub fn run(args: &Args, out: Output) -> Result<(), ModelError> {
     let study = crate::progress::while_deriving("deriving", || {
         Study::prepare(&model, args.eta, args.steady)
     })?;
+    let study = match args.threads {
+        Some(n) => study.with_threads(n),
+        None => study,
+    };
     let base = Point(args.set.clone());
     let located = |e: hamel_study::StudyError| study.locate(&e);
     let persistent = study.persistent_zeros(&base).map_err(located)?;

@@ -171,6 +171,7 @@ fn run(command: Command) -> Result<(), ModelError> {
             format,
             output,
             plot,
+            threads,
         } => linearize::run(
             &linearize::Args {
                 model: &model,
@@ -180,6 +181,7 @@ fn run(command: Command) -> Result<(), ModelError> {
                 set: set.into_iter().collect(),
                 json: matches!(format, ReportFormat::Json),
                 plot: plot.as_deref(),
+                threads,
             },
             Output::new(output)?,
         ),

@@ -238,6 +238,48 @@ impl Compiled {
         out[Layout::new(self.dims).m(self.dims)].to_vec()
     }
 
+    /// The ingredients at q (the tape's outputs, in the order of [`Layout`]): they depend on q
+    /// and the parameters only, so one evaluation serves the right-hand side at every η
+    /// ([`Compiled::rhs_from`]).
+    pub fn ingredients_at<S: Scalar>(
+        &self,
+        q: &[S],
+        params: &IndexMap<String, f64>,
+    ) -> Result<Vec<S>, NumericError> {
+        self.ingredients(q, params)
+    }
+
+    /// The right-hand side at η from ingredients of [`Compiled::ingredients_at`], unchecked.
+    pub fn rhs_from<S: Scalar>(
+        &self,
+        ingredients: &[S],
+        eta: &[S],
+    ) -> Result<Rhs<S>, NumericError> {
+        Ok(self.assemble(ingredients, eta)?.0)
+    }
+
+    /// [Z; α] as rows (Z's σ rows, then α's μ) from ingredients of
+    /// [`Compiled::ingredients_at`].
+    pub fn map_from<S: Scalar>(&self, ingredients: &[S]) -> Vec<Vec<S>> {
+        let l = self.dims.ell;
+        self.m_values(ingredients)
+            .chunks(l)
+            .map(<[S]>::to_vec)
+            .collect()
+    }
+
+    /// [Z; α] at q in any scalar type, as rows (Z's σ rows, then α's μ), from the compiled
+    /// ingredients (no expression trees are walked).
+    pub fn quasi_velocity_map<S: Scalar>(
+        &self,
+        q: &[S],
+        params: &IndexMap<String, f64>,
+    ) -> Result<Vec<Vec<S>>, NumericError> {
+        let l = self.dims.ell;
+        let m = self.m_values(&self.ingredients(q, params)?);
+        Ok(m.chunks(l).map(<[S]>::to_vec).collect())
+    }
+
     /// Γ(q) (columns 0..σ of [Z; α]⁻¹) in any scalar type (dual numbers give Γ̇ along a
     /// direction).
     pub fn gamma<S: Scalar>(

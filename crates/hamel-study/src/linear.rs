@@ -115,6 +115,9 @@ pub struct Linearisation {
     /// ‖A‖ (for relative tolerances).
     #[serde(skip)]
     pub(crate) scale: f64,
+    /// How many eigenvalues of A are zero here, to rounding.
+    #[serde(skip)]
+    pub(crate) zeros_here: usize,
 }
 
 impl Linearisation {
@@ -143,8 +146,46 @@ impl Linearisation {
 
     /// How many eigenvalues of A are zero here, to rounding.
     pub(crate) fn zero_multiplicity(&self) -> usize {
-        eigen::zero_multiplicity(&matrix(&self.a), &self.all_eigenvalues)
+        self.zeros_here
     }
+
+    /// Only what a map keeps of a point (its eigenvalues and stability): the matrices and the
+    /// steady state are dropped, so that 40,000 points fit in little memory.
+    pub(crate) fn slim(mut self) -> Linearisation {
+        for m in [
+            &mut self.jacobian,
+            &mut self.input_matrix,
+            &mut self.a,
+            &mut self.b,
+        ] {
+            *m = Vec::new();
+        }
+        self.q = IndexMap::new();
+        self.q_dot = IndexMap::new();
+        self.state = Vec::new();
+        self.reduced_state = Vec::new();
+        self.second_order = None;
+        self
+    }
+}
+
+/// A point's values that every derivative there uses.
+struct Here<'a> {
+    params: &'a IndexMap<String, f64>,
+    s: &'a [f64],
+    at: &'a crate::state::Completed,
+    ingredients: &'a [f64],
+    along_q: &'a [Vec<Dual>],
+    eta: &'a [f64],
+}
+
+/// What a point's linearisation needs at its steady configuration ([`Study::at_q`]).
+pub(crate) struct AtQ {
+    params: IndexMap<String, f64>,
+    at: crate::state::Completed,
+    ingredients: Vec<f64>,
+    /// The ingredients' derivatives along each kept coordinate (dependent ones following).
+    along_q: Vec<Vec<Dual>>,
 }
 
 /// The Jacobian and what it is built from.
@@ -159,11 +200,84 @@ impl Study {
     /// Linearise at `point`, with `persistent` zero eigenvalues (found along the family,
     /// [`Study::persistent_zeros`]) reported apart.
     pub fn linearise(&self, point: &Point, persistent: usize) -> Result<Linearisation, StudyError> {
+        self.linearise_with(point, persistent, true)
+    }
+
+    /// [`Study::linearise`]; without `inputs`, B is left empty (the points of sweeps and maps
+    /// need only the eigenvalues).
+    pub(crate) fn linearise_with(
+        &self,
+        point: &Point,
+        persistent: usize,
+        inputs: bool,
+    ) -> Result<Linearisation, StudyError> {
         let (params, s) = self.values(&point.0)?;
-        let full = self.full_state::<f64>(&params, &s)?;
+        let at_q = self.at_q(params, &s)?;
+        self.linearise_at(point, persistent, inputs, &at_q, &s)
+    }
+
+    /// What every linearisation at the steady configuration of `s` needs, whatever the steady
+    /// velocities: the constraints solved, the ingredients (they depend on q only) and their
+    /// derivatives along each kept coordinate.
+    pub(crate) fn at_q(&self, params: IndexMap<String, f64>, s: &[f64]) -> Result<AtQ, StudyError> {
+        let at = self.completed(&params, s)?;
+        let numeric = |e: hamel_eval::NumericError| StudyError::Numeric(e.to_string());
+        let ingredients = self
+            .compiled
+            .ingredients_at::<f64>(&at.q, &params)
+            .map_err(numeric)?;
+        let along_q = (0..self.state_q.len())
+            .map(|col| {
+                let dq = self.q_direction(col, &at.q, &at.sensitivity);
+                self.compiled
+                    .ingredients_at::<Dual>(&dq, &params)
+                    .map_err(numeric)
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(AtQ {
+            params,
+            at,
+            ingredients,
+            along_q,
+        })
+    }
+
+    /// Whether the steady coordinates are the same for every value of the steady parameters
+    /// (no `q` value uses one): then points that differ only in those share their [`AtQ`].
+    pub(crate) fn steady_q_is_fixed(&self) -> bool {
+        let steady = self.steady.parameters.keys();
+        let uses = |p: &String| self.steady.q.iter().any(|(_, i)| i.expr.mentions(p));
+        !steady.into_iter().any(uses)
+    }
+
+    /// The linearisation at `point` from its [`AtQ`].
+    pub(crate) fn linearise_at(
+        &self,
+        point: &Point,
+        persistent: usize,
+        inputs: bool,
+        at_q: &AtQ,
+        s: &[f64],
+    ) -> Result<Linearisation, StudyError> {
+        let (params, at, ingredients) = (&at_q.params, &at_q.at, &at_q.ingredients);
+        let numeric = |e: hamel_eval::NumericError| StudyError::Numeric(e.to_string());
+        let map = self.compiled.map_from(ingredients);
+        let full = self.full_state::<f64>(params, s, at.q.clone(), &map)?;
         let names = &self.model.coordinates;
-        let residual = self.check_steady(&full.q, &full.eta, &params)?;
-        let jac = self.jacobian(&params, &s, &full.q, &full.eta)?;
+        let r0 = self
+            .compiled
+            .rhs_from(ingredients, &full.eta)
+            .map_err(numeric)?;
+        let residual = self.check_steady(&r0, &full.q, &full.eta)?;
+        let here = Here {
+            params,
+            s,
+            at,
+            ingredients,
+            along_q: &at_q.along_q,
+            eta: &full.eta,
+        };
+        let jac = self.jacobian(&here, &r0, inputs)?;
         let (w, reduced_state) = self.complement(&jac)?;
         let a = w.transpose() * &jac.j * &w;
         let b = w.transpose() * &jac.b;
@@ -188,7 +302,13 @@ impl Study {
             crate::forms::second_order(&reduced_state, &self.state_names(), &a, &b, &jac.a_gamma);
         Ok(Linearisation {
             point: point.clone(),
-            steady_parameters: self.steady.parameters.keys().cloned().zip(s).collect(),
+            steady_parameters: self
+                .steady
+                .parameters
+                .keys()
+                .cloned()
+                .zip(s.iter().copied())
+                .collect(),
             q: names.iter().cloned().zip(full.q).collect(),
             q_dot: names.iter().cloned().zip(full.q_dot).collect(),
             eta: full.eta,
@@ -205,6 +325,7 @@ impl Study {
             eigenvalues: Vec::new(),
             second_order,
             zero_function: 0.0,
+            zeros_here: eigen::zero_multiplicity(&a, &lambda),
             all_eigenvalues: lambda,
             scale,
         }
@@ -229,14 +350,10 @@ impl Study {
     /// components that do not vanish.
     fn check_steady(
         &self,
+        r: &hamel_runtime::Rhs<f64>,
         q: &[f64],
         eta: &[f64],
-        params: &IndexMap<String, f64>,
     ) -> Result<f64, StudyError> {
-        let r = self
-            .compiled
-            .rhs::<f64>(q, eta, params)
-            .map_err(|e| StudyError::Numeric(e.to_string()))?;
         let x_dot = self.state_rates(&r.q_dot, &r.eta_dot);
         let names = self.state_names();
         let size = q
@@ -278,35 +395,43 @@ impl Study {
     /// the steady family's tangents ∂x*/∂p, and A_Γ.
     fn jacobian(
         &self,
-        params: &IndexMap<String, f64>,
-        s: &[f64],
-        q: &[f64],
-        eta: &[f64],
+        here: &Here<'_>,
+        r0: &hamel_runtime::Rhs<f64>,
+        inputs: bool,
     ) -> Result<Jacobian, StudyError> {
+        let (q, eta) = (&here.at.q, here.eta);
         let n = self.state_q.len() + eta.len();
         let numeric = |e: hamel_eval::NumericError| StudyError::Numeric(e.to_string());
-        let sensitivity = self
-            .model
-            .completion
-            .sensitivity(q, params)
-            .map_err(|e| StudyError::Numeric(e.to_string()))?;
+        let lifted: Vec<Dual> = here
+            .ingredients
+            .iter()
+            .map(|&x| Dual::new(x, 0.0))
+            .collect();
         let mut j = DMatrix::zeros(n, n);
+        let nq = self.state_q.len();
         for col in 0..n {
-            let (dq, deta) = self.direction(col, q, eta, &sensitivity);
-            let r = self
-                .compiled
-                .rhs::<Dual>(&dq, &deta, params)
-                .map_err(numeric)?;
+            let mut deta: Vec<Dual> = eta.iter().map(|&v| Dual::new(v, 0.0)).collect();
+            // A direction in q moves the ingredients; one in η leaves them alone.
+            let r = if col < nq {
+                self.compiled.rhs_from(&here.along_q[col], &deta)
+            } else {
+                deta[col - nq].d = 1.0;
+                self.compiled.rhs_from(&lifted, &deta)
+            }
+            .map_err(numeric)?;
             let x = self.state_rates(&r.q_dot, &r.eta_dot);
             for (row, v) in x.iter().enumerate() {
                 j[(row, col)] = v.d;
             }
         }
-        let b = self.input_columns(params, q, eta)?;
-        let tangents = self.tangents(params, s)?;
-        let r = self.compiled.rhs::<f64>(q, eta, params).map_err(numeric)?;
+        let b = if inputs {
+            self.input_columns(here.params, q, eta)?
+        } else {
+            DMatrix::zeros(n, 0)
+        };
+        let tangents = self.tangents(here, &lifted)?;
         let sigma = eta.len();
-        let a_gamma = DMatrix::from_fn(sigma, sigma, |i, k| r.a_gamma[i][k]);
+        let a_gamma = DMatrix::from_fn(sigma, sigma, |i, k| r0.a_gamma[i][k]);
         for (p, t) in &tangents {
             let jt = &j * nalgebra::DVector::from_column_slice(t);
             if jt.norm() > 1e-8 * (1.0 + j.norm()) * norm(t) {
@@ -328,27 +453,16 @@ impl Study {
         })
     }
 
-    /// The dual-number state for the direction of state component `col`.
-    fn direction(
-        &self,
-        col: usize,
-        q: &[f64],
-        eta: &[f64],
-        sensitivity: &[Vec<f64>],
-    ) -> (Vec<Dual>, Vec<Dual>) {
-        let nq = self.state_q.len();
+    /// The dual-number configuration for the direction of the kept coordinate number `col`
+    /// (the dependent coordinates follow).
+    fn q_direction(&self, col: usize, q: &[f64], sensitivity: &[Vec<f64>]) -> Vec<Dual> {
         let mut dq: Vec<Dual> = q.iter().map(|&v| Dual::new(v, 0.0)).collect();
-        let mut deta: Vec<Dual> = eta.iter().map(|&v| Dual::new(v, 0.0)).collect();
-        if col < nq {
-            let k = self.state_q[col];
-            dq[k].d = 1.0;
-            for (row, &d) in sensitivity.iter().zip(self.model.completion.dependent()) {
-                dq[d].d = row[k];
-            }
-        } else {
-            deta[col - nq].d = 1.0;
+        let k = self.state_q[col];
+        dq[k].d = 1.0;
+        for (row, &d) in sensitivity.iter().zip(self.model.completion.dependent()) {
+            dq[d].d = row[k];
         }
-        (dq, deta)
+        dq
     }
 
     /// ∂ẋ/∂u: one column per input, by dual numbers in the input's value.
@@ -383,19 +497,29 @@ impl Study {
     /// ∂x*/∂p for every steady parameter p, by dual numbers through the steady state.
     fn tangents(
         &self,
-        params: &IndexMap<String, f64>,
-        s: &[f64],
+        here: &Here<'_>,
+        lifted: &[Dual],
     ) -> Result<Vec<(String, Vec<f64>)>, StudyError> {
         let names = self.steady.parameters.keys();
         names
             .enumerate()
             .map(|(i, p)| {
-                let ds: Vec<Dual> = s
+                let ds: Vec<Dual> = here
+                    .s
                     .iter()
                     .enumerate()
                     .map(|(k, &v)| Dual::new(v, f64::from(k == i)))
                     .collect();
-                let full = self.full_state::<Dual>(params, &ds)?;
+                let q = self.steady_q::<Dual>(here.params, &ds, here.at)?;
+                // Where the coordinates do not move with p, [Z; α] does not either.
+                let map = if q.iter().all(|x| x.d == 0.0) {
+                    self.compiled.map_from(lifted)
+                } else {
+                    self.compiled
+                        .quasi_velocity_map::<Dual>(&q, here.params)
+                        .map_err(|e| StudyError::Numeric(e.to_string()))?
+                };
+                let full = self.full_state::<Dual>(here.params, &ds, q, &map)?;
                 let x = self.state_rates(&full.q, &full.eta);
                 Ok((p.clone(), x.iter().map(|v| v.d).collect()))
             })

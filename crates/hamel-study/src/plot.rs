@@ -140,13 +140,15 @@ where
         .disable_mesh()
         .draw()
         .map_err(e)?;
-    let top = m
-        .values
-        .iter()
-        .flatten()
-        .map(|v| v.abs())
-        .filter(|v| v.is_finite())
-        .fold(0.0, f64::max);
+    // Separate scales for the stable (negative) and the unstable (positive) values, so that a
+    // narrow stable region still shows.
+    let finite = || m.values.iter().flatten().copied().filter(|v| v.is_finite());
+    let top = (
+        finite()
+            .filter(|v| *v < 0.0)
+            .fold(0.0, |a: f64, v| a.max(-v)),
+        finite().filter(|v| *v > 0.0).fold(0.0, f64::max),
+    );
     let cells = ys.iter().zip(&m.values).flat_map(|(&y, row)| {
         xs.iter().zip(row).map(move |(&x, &v)| {
             Rectangle::new(
@@ -159,10 +161,12 @@ where
     root.present().map_err(|e| e.to_string())
 }
 
-/// Blue for negative, red for positive, white at zero; the strength by |v|/top.
-fn colour(v: f64, top: f64) -> RGBColor {
-    let t = if top > 0.0 {
-        (v.abs() / top).sqrt().min(1.0)
+/// Blue for negative, red for positive, white at zero; the strength by |v| over the largest
+/// of its sign (`top`: negative, positive).
+fn colour(v: f64, top: (f64, f64)) -> RGBColor {
+    let scale = if v > 0.0 { top.1 } else { top.0 };
+    let t = if scale > 0.0 {
+        (v.abs() / scale).sqrt().min(1.0)
     } else {
         0.0
     };

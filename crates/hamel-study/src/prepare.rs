@@ -27,6 +27,8 @@ pub struct Study {
     pub(crate) dropped_because: Vec<String>,
     /// The parameter that enters only through U, linearly (gravity), if there is one.
     pub(crate) gravity: Option<String>,
+    /// Threads of the pool that sweeps and maps run on.
+    pub(crate) threads: usize,
 }
 
 impl Study {
@@ -74,7 +76,15 @@ impl Study {
             dependent,
             dropped,
             dropped_because,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
         })
+    }
+
+    /// The same study with sweeps and maps on `threads` threads (at least one; the default is
+    /// every core).
+    pub fn with_threads(mut self, threads: usize) -> Study {
+        self.threads = threads.max(1);
+        self
     }
 
     /// The model.

@@ -2,7 +2,6 @@
 //! steady family's tangent exactly.
 
 use hamel_expr::{Env, Scalar};
-use hamel_model::NumericModel;
 use indexmap::IndexMap;
 
 use crate::{Study, StudyError};
@@ -31,34 +30,102 @@ pub(crate) struct Full<S> {
     pub eta: Vec<S>,
 }
 
+/// The steady configuration in f64 with the holonomic constraints solved, and the dependent
+/// coordinates' first-order dependence on the others there (∂q_d/∂q_k, the implicit function
+/// theorem): computed once per point, used by every scalar type.
+#[derive(Clone, Debug)]
+pub(crate) struct Completed {
+    pub q: Vec<f64>,
+    pub sensitivity: Vec<Vec<f64>>,
+}
+
 impl Study {
-    /// The steady state at the model's parameter values `params` and the steady parameters'
-    /// `s`: the coordinates given (others 0), the dependent ones completed (Newton in f64,
-    /// then their first-order dependence through the implicit function theorem, so that dual
-    /// numbers carry it), the velocities given and the others from α(q)q̇ = 0, and η = Z(q)q̇.
+    fn env<'a, S: Scalar>(
+        &'a self,
+        params: &'a IndexMap<String, f64>,
+        s: &'a [S],
+    ) -> SteadyEnv<'a, S> {
+        SteadyEnv {
+            names: self.steady.parameters.keys().map(String::as_str).collect(),
+            s,
+            params,
+        }
+    }
+
+    /// The coordinates given (others 0), in the scalar type.
+    fn given_q<S: Scalar>(&self, env: &SteadyEnv<'_, S>) -> Result<Vec<S>, StudyError> {
+        let mut q = vec![S::constant(0.0); self.model.coordinates.len()];
+        for (k, item) in &self.steady.q {
+            q[*k] = value(&item.expr, env, &item.site.key)?;
+        }
+        Ok(q)
+    }
+
+    /// Solve h(q) = 0 for the dependent coordinates at the steady parameters `s` (Newton, from
+    /// the values given or 0), and the sensitivity there.
+    pub(crate) fn completed(
+        &self,
+        params: &IndexMap<String, f64>,
+        s: &[f64],
+    ) -> Result<Completed, StudyError> {
+        let mut q = self.given_q(&self.env(params, s))?;
+        let c = &self.model.completion;
+        if c.is_empty() {
+            return Ok(Completed {
+                q,
+                sensitivity: Vec::new(),
+            });
+        }
+        let failed = |e: hamel_model::CompletionError| StudyError::Completion {
+            coordinates: self.dependent().join(", "),
+            reason: e.to_string(),
+        };
+        c.complete(&mut q, params).map_err(failed)?;
+        let sensitivity = c.sensitivity(&q, params).map_err(failed)?;
+        Ok(Completed { q, sensitivity })
+    }
+
+    /// The steady coordinates at the steady parameters `s`, with the constraints solved at `at`
+    /// ([`Study::completed`] at the values of `s`): the coordinates given (others 0), the
+    /// dependent ones q_d + Σ_k ∂q_d/∂q_k (q_k − q_k(at)), so that dual numbers carry their
+    /// dependence.
+    pub(crate) fn steady_q<S: Scalar>(
+        &self,
+        params: &IndexMap<String, f64>,
+        s: &[S],
+        at: &Completed,
+    ) -> Result<Vec<S>, StudyError> {
+        let mut q = self.given_q(&self.env(params, s))?;
+        let moved: Vec<S> = q
+            .iter()
+            .zip(&at.q)
+            .map(|(x, v)| *x - S::constant(*v))
+            .collect();
+        for (row, &d) in at.sensitivity.iter().zip(self.model.completion.dependent()) {
+            q[d] = row
+                .iter()
+                .zip(&moved)
+                .fold(S::constant(at.q[d]), |acc, (a, m)| {
+                    acc + S::constant(*a) * *m
+                });
+        }
+        Ok(q)
+    }
+
+    /// The steady state at the coordinates `q` (from [`Study::steady_q`]) with [Z; α] there as
+    /// rows (`map`, from the compiled equations): the velocities given and the others from
+    /// α(q)q̇ = 0, and η = Z(q)q̇.
     pub(crate) fn full_state<S: Scalar>(
         &self,
         params: &IndexMap<String, f64>,
         s: &[S],
+        q: Vec<S>,
+        map: &[Vec<S>],
     ) -> Result<Full<S>, StudyError> {
-        let env = SteadyEnv {
-            names: self.steady.parameters.keys().map(String::as_str).collect(),
-            s,
-            params,
-        };
-        let ell = self.model.coordinates.len();
-        let mut q = vec![S::constant(0.0); ell];
-        for (k, item) in &self.steady.q {
-            q[*k] = value(&item.expr, &env, &item.site.key)?;
-        }
-        self.complete(&mut q, params)?;
-        let numeric = NumericModel::new(&self.model, params)
-            .map_err(|e| StudyError::Parameter(e.to_string()))?;
-        let q_dot = self.velocities(&numeric, &q, &env)?;
-        let z = numeric
-            .quasi_velocity_matrix::<S>(&self.eta_name, &q)
-            .map_err(|e| StudyError::Numeric(e.to_string()))?;
-        let eta = z
+        let env = self.env(params, s);
+        let sigma = self.eta.len();
+        let q_dot = self.velocities(&map[sigma..], &env)?;
+        let eta = map[..sigma]
             .iter()
             .map(|row| {
                 row.iter()
@@ -69,44 +136,13 @@ impl Study {
         Ok(Full { q, q_dot, eta })
     }
 
-    /// Solve h(q) = 0 for the dependent coordinates (in f64), then give them the first-order
-    /// dependence on the others: q_d + Σ_k ∂q_d/∂q_k (q_k − value(q_k)).
-    fn complete<S: Scalar>(
-        &self,
-        q: &mut [S],
-        params: &IndexMap<String, f64>,
-    ) -> Result<(), StudyError> {
-        let c = &self.model.completion;
-        if c.is_empty() {
-            return Ok(());
-        }
-        let failed = |e: hamel_model::CompletionError| StudyError::Completion {
-            coordinates: self.dependent().join(", "),
-            reason: e.to_string(),
-        };
-        let mut values: Vec<f64> = q.iter().map(Scalar::value).collect();
-        c.complete(&mut values, params).map_err(failed)?;
-        let sensitivity = c.sensitivity(&values, params).map_err(failed)?;
-        let moved: Vec<S> = q.iter().map(|x| *x - S::constant(x.value())).collect();
-        for (row, &d) in sensitivity.iter().zip(c.dependent()) {
-            q[d] = row
-                .iter()
-                .zip(&moved)
-                .fold(S::constant(values[d]), |acc, (a, m)| {
-                    acc + S::constant(*a) * *m
-                });
-        }
-        Ok(())
-    }
-
     /// The velocities: those given, and the others solved from α(q)q̇ = 0.
     fn velocities<S: Scalar>(
         &self,
-        numeric: &NumericModel<'_>,
-        q: &[S],
+        alpha: &[Vec<S>],
         env: &SteadyEnv<'_, S>,
     ) -> Result<Vec<S>, StudyError> {
-        let ell = q.len();
+        let ell = self.model.coordinates.len();
         let mut q_dot = vec![S::constant(0.0); ell];
         let mut given = vec![false; ell];
         for (k, item) in &self.steady.velocities {
@@ -114,9 +150,6 @@ impl Study {
             given[*k] = true;
         }
         let unknown: Vec<usize> = (0..ell).filter(|&k| !given[k]).collect();
-        let alpha = numeric
-            .constraint_matrix::<S>(q)
-            .map_err(|e| StudyError::Numeric(e.to_string()))?;
         let names = |ix: &[usize]| {
             let n: Vec<&str> = ix
                 .iter()

@@ -2,6 +2,7 @@
 //! (numeric code only: the computer algebra ran in [`Study::prepare`]), and the crossings
 //! where stability changes are refined by root finding.
 
+use indexmap::IndexMap;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -139,20 +140,72 @@ pub struct Map {
 }
 
 impl Study {
-    /// Linearise at every point of `points` in parallel; `done` is called after each.
+    /// Linearise at every point of `points` in parallel, on a pool of the study's own (numeric
+    /// code only: no computer algebra runs there); `done` is called after each.
     fn all(
         &self,
         points: &[Point],
         done: &(dyn Fn() + Sync),
     ) -> Result<Vec<Linearisation>, StudyError> {
-        points
-            .par_iter()
-            .map(|p| {
-                let l = self.linearise(p, 0);
-                done();
-                l
-            })
-            .collect()
+        self.all_kept(points, done, false)
+    }
+
+    /// [`Study::all`]; with `slim`, each point keeps only its eigenvalues and stability.
+    fn all_kept(
+        &self,
+        points: &[Point],
+        done: &(dyn Fn() + Sync),
+        slim: bool,
+    ) -> Result<Vec<Linearisation>, StudyError> {
+        let keep = |l: Linearisation| if slim { l.slim() } else { l };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads)
+            .build()
+            .map_err(|e| StudyError::Numeric(format!("cannot start the thread pool: {e}")))?;
+        pool.install(|| {
+            if !self.steady_q_is_fixed() {
+                return points
+                    .par_iter()
+                    .map(|p| {
+                        let l = self.linearise_with(p, 0, false).map(keep);
+                        done();
+                        l
+                    })
+                    .collect();
+            }
+            // Points with the same model parameters share their steady configuration and
+            // everything that depends on it alone (the ingredients and their derivatives in q).
+            let values = points
+                .par_iter()
+                .map(|p| self.values(&p.0))
+                .collect::<Result<Vec<_>, _>>()?;
+            let mut groups: IndexMap<Vec<u64>, usize> = IndexMap::new();
+            let group: Vec<usize> = values
+                .iter()
+                .map(|(params, _)| {
+                    let key = params.values().map(|v| v.to_bits()).collect();
+                    let next = groups.len();
+                    *groups.entry(key).or_insert(next)
+                })
+                .collect();
+            let first: Vec<usize> = (0..groups.len())
+                .map(|g| group.iter().position(|&x| x == g).unwrap_or(0))
+                .collect();
+            let shared = first
+                .par_iter()
+                .map(|&i| self.at_q(values[i].0.clone(), &values[i].1))
+                .collect::<Result<Vec<_>, _>>()?;
+            (0..points.len())
+                .into_par_iter()
+                .map(|i| {
+                    let l = self
+                        .linearise_at(&points[i], 0, false, &shared[group[i]], &values[i].1)
+                        .map(keep);
+                    done();
+                    l
+                })
+                .collect()
+        })
     }
 
     /// The zeros present at every one of `lin` (the fewest any of them has).
@@ -245,7 +298,7 @@ impl Study {
                 p
             })
             .collect();
-        let lin = self.all(&points, done)?;
+        let lin = self.all_kept(&points, done, true)?;
         let s = Self::persistent(&lin);
         let lin: Vec<Linearisation> = lin.into_iter().map(|l| l.with_persistent(s)).collect();
         let top = |l: &Linearisation| {
@@ -306,7 +359,7 @@ impl Study {
         lin: &[Linearisation],
         s: usize,
     ) -> Result<Vec<Crossing>, StudyError> {
-        let one = |x: f64| self.linearise(&at(x), s);
+        let one = |x: f64| self.linearise_with(&at(x), s, false);
         let mut out = Vec::new();
         let clear: Vec<usize> = (0..lin.len())
             .filter(|&i| lin[i].zero_multiplicity() == s)
