@@ -8,7 +8,7 @@ use hamel_expr::Expr;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-use crate::linear::{matrix, rows};
+use crate::mat::{matrix, rows};
 use crate::{Point, Study, StudyError};
 
 /// Rounding allowed in the kinematic rows when recognising q̇ = η.

@@ -28,6 +28,7 @@ pub mod eigen;
 mod error;
 mod forms;
 mod linear;
+mod mat;
 pub mod plot;
 mod prepare;
 mod render;

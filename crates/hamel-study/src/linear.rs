@@ -8,6 +8,7 @@ use nalgebra::DMatrix;
 use serde::Serialize;
 
 use crate::forms::SecondOrder;
+use crate::mat::rows;
 use crate::{Study, StudyError, eigen};
 
 /// A point of a study: values for steady parameters and model parameters (the others keep
@@ -575,17 +576,4 @@ impl Study {
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
-/// A matrix as rows.
-pub(crate) fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows())
-        .map(|i| m.row(i).iter().copied().collect())
-        .collect()
-}
-
-/// Rows as a matrix.
-pub(crate) fn matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
-    let cols = rows.first().map_or(0, Vec::len);
-    DMatrix::from_fn(rows.len(), cols, |i, k| rows[i][k])
 }
