@@ -285,6 +285,10 @@ pub enum Command {
         /// Threads for the points of a sweep or map (default: every core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Also write the study after its symbolic pass to this file (JSON), for the
+        /// `hamel-sweep` worker, which runs sweeps and maps without the computer algebra.
+        #[arg(long)]
+        export: Option<PathBuf>,
     },
     /// Time the derivation of every model and choice; with --sympy, SymPy does the same
     /// derivation in the same run as the baseline (bench/sympy_derive.py).
@@ -356,15 +360,5 @@ pub struct SearchArgs {
 
 /// `NAME=VALUE` of `--set`: a name and a finite number.
 fn parse_set(s: &str) -> Result<(String, f64), String> {
-    let (name, value) = s
-        .split_once('=')
-        .ok_or_else(|| format!("`{s}`: write NAME=VALUE, such as v=5.0"))?;
-    let v: f64 = value
-        .trim()
-        .parse()
-        .map_err(|e| format!("`{s}`: the value `{value}` is not a number ({e})"))?;
-    if !v.is_finite() {
-        return Err(format!("`{s}`: the value must be finite"));
-    }
-    Ok((name.trim().to_string(), v))
+    hamel_model::parse_assignment(s)
 }

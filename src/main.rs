@@ -172,6 +172,7 @@ fn run(command: Command) -> Result<(), ModelError> {
             output,
             plot,
             threads,
+            export,
         } => linearize::run(
             &linearize::Args {
                 model: &model,
@@ -182,6 +183,7 @@ fn run(command: Command) -> Result<(), ModelError> {
                 json: matches!(format, ReportFormat::Json),
                 plot: plot.as_deref(),
                 threads,
+                export: export.as_deref(),
             },
             Output::new(output)?,
         ),

@@ -144,6 +144,21 @@ pub fn serialize_precision<Ser: serde::Serializer>(
     s.serialize_str(p.name())
 }
 
+/// [`Compiled`] as plain data, for files (`hamel linearize --export`).
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct CompiledData {
+    /// The ingredients' tape.
+    pub tape: hamel_expr::TapeData,
+    /// ℓ, μ, σ.
+    pub sizes: [usize; 3],
+    /// Coordinate names.
+    pub coordinates: Vec<String>,
+    /// Parameters with their defaults.
+    pub parameters: IndexMap<String, f64>,
+    /// The singular set, as text.
+    pub singular: String,
+}
+
 /// A derivation's ingredients compiled for structured numeric evaluation.
 #[derive(Clone, Debug)]
 pub struct Compiled {
@@ -179,6 +194,32 @@ impl Compiled {
             parameters,
             singular,
         })
+    }
+
+    /// The compiled ingredients as data.
+    pub fn to_data(&self) -> CompiledData {
+        let Dims { ell, mu, sigma } = self.dims;
+        CompiledData {
+            tape: self.tape.to_data(),
+            sizes: [ell, mu, sigma],
+            coordinates: self.coordinates.clone(),
+            parameters: self.parameters.clone(),
+            singular: self.singular.clone(),
+        }
+    }
+
+    /// The compiled ingredients from data, checked (the tape instruction by instruction, the
+    /// sizes against the layout).
+    pub fn from_data(d: CompiledData) -> Result<Compiled, NumericError> {
+        let [ell, mu, sigma] = d.sizes;
+        let tape = Tape::from_data(d.tape)?;
+        Compiled::new(
+            tape,
+            Dims { ell, mu, sigma },
+            d.coordinates,
+            d.parameters,
+            d.singular,
+        )
     }
 
     /// Number of arithmetic operations of the compiled ingredients.

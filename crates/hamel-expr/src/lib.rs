@@ -25,6 +25,7 @@ mod latex;
 mod parse;
 mod specialise;
 mod tape;
+mod tape_data;
 
 pub use ast::{Expr, Func, Rational, SubstituteError};
 pub use diff::DiffError;
@@ -36,3 +37,4 @@ pub use latex::latex_name;
 pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
 pub use specialise::rational_of_f64;
 pub use tape::{Op, Tape, TapeError};
+pub use tape_data::{OpData, TapeData};

@@ -139,6 +139,9 @@ pub enum TapeError {
     /// An expression uses a name that is not among the inputs.
     #[error("no input named `{0}`")]
     UnknownInput(String),
+    /// A tape read from data is not well formed.
+    #[error("the compiled equations are damaged: {0}")]
+    Malformed(String),
 }
 
 impl Tape {
@@ -163,6 +166,15 @@ impl Tape {
             ops: b.ops,
             outputs,
         })
+    }
+
+    /// A tape from checked parts ([`Tape::from_data`]).
+    pub(crate) fn from_parts(inputs: Vec<String>, ops: Vec<Op>, outputs: Vec<usize>) -> Tape {
+        Tape {
+            inputs,
+            ops,
+            outputs,
+        }
     }
 
     /// Input names, in slot order.

@@ -34,6 +34,6 @@ pub use hamel_bodies::{Completion, CompletionError, HolonomicConstraint};
 pub use loader::{Item, Kinetic, Origin, Site};
 pub use model::{ChoiceOrigin, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};
-pub use parameters::SetError;
+pub use parameters::{SetError, parse_assignment};
 pub use steady::Steady;
 pub use symmetry::Symmetry;

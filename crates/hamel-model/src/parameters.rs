@@ -206,6 +206,21 @@ fn uses(e: &Expr) -> Vec<String> {
     names
 }
 
+/// `NAME=VALUE` as given to `--set`: the name and a finite value, or why not.
+pub fn parse_assignment(s: &str) -> Result<(String, f64), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}`: write NAME=VALUE, such as v=5.0"))?;
+    let v: f64 = value
+        .trim()
+        .parse()
+        .map_err(|e| format!("`{s}`: the value `{value}` is not a number ({e})"))?;
+    if !v.is_finite() {
+        return Err(format!("`{s}`: the value must be finite"));
+    }
+    Ok((name.trim().to_string(), v))
+}
+
 /// Why parameter values could not be set.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SetError {

@@ -16,26 +16,33 @@
 //! **Outputs**: [`Linearisation`] at a point, [`Sweep`] and [`Map`] (plain, serialisable data),
 //! or a [`StudyError`] that [`Study::locate`] turns into a located model error.
 //!
-//! **Invariants**: the computer algebra runs once, in [`Study::prepare`] (the derivation and
-//! the exact decision of which coordinates drop out); everything after it is numeric and
-//! engine-free, so sweeps and maps run their points on a rayon pool. Derivatives are exact
+//! **Invariants**: the computer algebra runs once, in `Study::prepare` (feature `cas`: the
+//! derivation and the exact decision of which coordinates drop out); everything after it is
+//! numeric and engine-free, so sweeps and maps run their points on a rayon pool, and a study
+//! exported after that pass ([`Exported`]) runs in a process without the computer algebra (the
+//! `hamel-sweep` worker, built without `cas`). Derivatives are exact
 //! (dual numbers through the structured evaluation), never finite differences. Eigenvalues
 //! come from nalgebra's real Schur form with an iteration cap: a failure is an error, never a
 //! hang.
 #![warn(missing_docs)]
 
+mod bar;
 pub mod eigen;
 mod error;
+mod export;
 mod forms;
 mod linear;
 mod mat;
+#[cfg(feature = "cas")]
 pub mod plot;
 mod prepare;
 mod render;
 mod state;
 pub mod sweep;
 
+pub use bar::Bar;
 pub use error::StudyError;
+pub use export::{Exported, Outcome, Progress};
 pub use forms::{Polynomial, SecondOrder, Symbolic};
 pub use linear::{Linearisation, Point, Stability, Structural, StructuralKind};
 pub use prepare::Study;

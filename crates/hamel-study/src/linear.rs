@@ -351,7 +351,7 @@ impl Study {
     /// components that do not vanish.
     fn check_steady(
         &self,
-        r: &hamel_runtime::Rhs<f64>,
+        r: &hamel_eval::Rhs<f64>,
         q: &[f64],
         eta: &[f64],
     ) -> Result<f64, StudyError> {
@@ -397,7 +397,7 @@ impl Study {
     fn jacobian(
         &self,
         here: &Here<'_>,
-        r0: &hamel_runtime::Rhs<f64>,
+        r0: &hamel_eval::Rhs<f64>,
         inputs: bool,
     ) -> Result<Jacobian, StudyError> {
         let (q, eta) = (&here.at.q, here.eta);

@@ -32,6 +32,7 @@ pub struct Study {
 }
 
 impl Study {
+    #[cfg(feature = "cas")]
     /// Derive the equations of the choice `eta` (the model's first when `None`), decide exactly
     /// which coordinates they are free of, and compile them for the steady motion `steady`.
     /// This is the only step that uses the computer algebra.
@@ -181,6 +182,7 @@ impl Study {
 /// free of it), such as g: the stiffness K then splits as g K0 plus the rest. Decided on the
 /// model's expressions as written (a name that does not occur is absent; a derivative that
 /// does not mention it is free of it). `None` when no parameter, or more than one, qualifies.
+#[cfg(feature = "cas")]
 fn gravity(model: &Model) -> Option<String> {
     let u = &model.potential.expr;
     let elsewhere = |p: &str| {
