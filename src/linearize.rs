@@ -40,14 +40,14 @@ pub fn run(args: &Args, out: Output) -> Result<(), ModelError> {
         Some(n) => study.with_threads(n),
         None => study,
     };
+    if let Some(e) = export {
+        e.write(&(serde_json::to_string(&study.export()).expect("serialisable") + "\n"))?;
+    }
     let outcome = study.run(&Point(args.set.clone()), args.sweeps, &Bar::default())?;
     match (&outcome, args.plot) {
         (Outcome::Sweep(b), Some(p)) => hamel_study::plot::sweep(&b.1, p)?,
         (Outcome::Map(m), Some(p)) => hamel_study::plot::map(m, p)?,
         _ => {}
-    }
-    if let Some(e) = export {
-        e.write(&(serde_json::to_string(&study.export()).expect("serialisable") + "\n"))?;
     }
     out.write(&if args.json {
         outcome.json()

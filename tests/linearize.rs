@@ -720,3 +720,57 @@ fn oracle_eigenvalues(
     out.sort_by(|x, y| x[0].total_cmp(&y[0]).then(x[1].total_cmp(&y[1])));
     out
 }
+
+/// K0 is the stiffness per unit g whatever g is set to; a range that runs downwards gives the
+/// same crossings, with stability below and above in the parameter's own order; a map over the
+/// same parameter twice is refused.
+#[test]
+fn gravity_split_descending_ranges_and_bad_maps() {
+    let s = study("whipple_bicycle", "upright");
+    let moon = point(&[("g", 1.62)]);
+    let sweep = s
+        .sweep(&moon, &Range::parse("v=0:10:3").unwrap(), &|| ())
+        .unwrap();
+    let g = sweep.matrices.as_ref().unwrap().gravity.as_ref().unwrap();
+    same_matrix("K0 with g = 1.62", &g.k0, &K0, 1e-12);
+    let down = s
+        .sweep(
+            &Point::default(),
+            &Range::parse("v=10:0:11").unwrap(),
+            &|| (),
+        )
+        .unwrap();
+    let kinds: Vec<(CrossingKind, Stability, Stability)> = down
+        .crossings
+        .iter()
+        .map(|c| (c.kind, c.below, c.above))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            (
+                CrossingKind::Hopf,
+                Stability::Unstable,
+                Stability::Asymptotic
+            ),
+            (
+                CrossingKind::RealZero,
+                Stability::Asymptotic,
+                Stability::Unstable
+            )
+        ]
+    );
+    close(
+        "capsize, downwards",
+        down.crossings[1].value,
+        6.02426201538837,
+        1e-10,
+        1.0,
+    );
+    let v = Range::parse("v=0:10:3").unwrap();
+    let e = s
+        .map(&Point::default(), &v, &v, &|| ())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("two different parameters"), "{e}");
+}

@@ -146,6 +146,22 @@ impl Study {
                 "each coordinate must be kept, dependent or dropped, once".into(),
             ));
         }
+        let names: Vec<&str> = compiled.parameter_names().collect();
+        if !names
+            .iter()
+            .copied()
+            .eq(model.parameters.keys().map(String::as_str))
+        {
+            return Err(bad("its equations' parameters are not its model's".into()));
+        }
+        let dependent = model
+            .completion
+            .dependent()
+            .iter()
+            .filter(|k| !e.dropped.contains(k));
+        if !dependent.copied().eq(e.dependent.iter().copied()) {
+            return Err(bad("its dependent coordinates are not its model's".into()));
+        }
         if e.gravity
             .as_ref()
             .is_some_and(|g| !model.parameters.contains_key(g))
@@ -178,21 +194,26 @@ impl Study {
         progress: &dyn Progress,
     ) -> Result<Outcome, ModelError> {
         let located = |e: crate::StudyError| self.locate(&e);
-        let lin = || -> Result<Linearisation, ModelError> {
-            let persistent = self.persistent_zeros(base).map_err(located)?;
-            self.linearise(base, persistent).map_err(located)
-        };
         let tick = || progress.tick();
         match sweeps {
-            [] => Ok(Outcome::Point(Box::new(lin()?))),
+            [] => {
+                let persistent = self.persistent_zeros(base).map_err(located)?;
+                let lin = self.linearise(base, persistent).map_err(located)?;
+                Ok(Outcome::Point(Box::new(lin)))
+            }
             [range] => {
                 progress.start(range.count as u64);
                 let sweep = self.sweep(base, range, &tick).map_err(located);
                 progress.finish();
-                Ok(Outcome::Sweep(Box::new((lin()?, sweep?))))
+                let sweep = sweep?;
+                // The sweep's header: the base point with the zeros the sweep found persistent.
+                let lin = self
+                    .linearise(base, sweep.persistent_zeros)
+                    .map_err(located)?;
+                Ok(Outcome::Sweep(Box::new((lin, sweep))))
             }
             [x, y] => {
-                progress.start((x.count * y.count) as u64);
+                progress.start(x.count.saturating_mul(y.count) as u64);
                 let map = self.map(base, x, y, &tick).map_err(located);
                 progress.finish();
                 Ok(Outcome::Map(map?))

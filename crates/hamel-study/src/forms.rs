@@ -175,10 +175,14 @@ impl Study {
             .iter()
             .map(|&x| at(x, &[]))
             .collect::<Result<Vec<_>, _>>()?;
+        // Matrices of different shapes (a family direction that vanishes at a node) are no
+        // polynomial.
         let fit = |get: &dyn Fn(&crate::Linearisation) -> Option<Vec<Vec<f64>>>, degree: usize| {
             let values: Option<Vec<DMatrix<f64>>> =
                 lin.iter().map(|l| get(l).map(|m| matrix(&m))).collect();
-            values.and_then(|v| interpolate(p, &nodes, &v, degree))
+            values
+                .filter(|v| v.iter().all(|m| m.shape() == v[0].shape()))
+                .and_then(|v| interpolate(p, &nodes, &v, degree))
         };
         let Some(a) = fit(&|l| Some(l.a.clone()), 2 * d) else {
             return Ok(Err(format!(
@@ -193,7 +197,10 @@ impl Study {
         let k = fit(&second(|s| s.k.clone()), 2 * d);
         let so = lin[0].second_order.clone();
         let gravity = match (&self.gravity, &so, &k) {
-            (Some(g), Some(_), Some(k)) => self.gravity_split(g, k, &|v| at(0.0, &[(g, v)]))?,
+            (Some(g), Some(_), Some(k)) => {
+                let value = self.values(&base.0)?.0[g.as_str()];
+                self.gravity_split(g, value, k, &|v| at(0.0, &[(g, v)]))?
+            }
             _ => None,
         };
         Ok(Ok(Symbolic {
@@ -227,10 +234,10 @@ impl Study {
     fn gravity_split(
         &self,
         g: &str,
+        value: f64,
         k: &Polynomial,
         at: &dyn Fn(f64) -> Result<crate::Linearisation, StudyError>,
     ) -> Result<Option<Gravity>, StudyError> {
-        let value = self.model.parameters[g];
         let Some(k_0) = k.coefficients.get(&0).map(|m| matrix(m)) else {
             return Ok(None);
         };
@@ -238,7 +245,7 @@ impl Study {
         let Some(rest) = without.second_order.map(|s| matrix(&s.k)) else {
             return Ok(None);
         };
-        if value == 0.0 {
+        if value == 0.0 || rest.shape() != k_0.shape() {
             return Ok(None);
         }
         let k0 = (&k_0 - &rest) / value;

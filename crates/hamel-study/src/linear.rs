@@ -279,7 +279,16 @@ impl Study {
             eta: &full.eta,
         };
         let jac = self.jacobian(&here, &r0, inputs)?;
-        let (w, reduced_state) = self.complement(&jac)?;
+        let Complement {
+            w,
+            labels: reduced_state,
+            family,
+        } = self.complement(&jac)?;
+        if jac.j.iter().chain(jac.b.iter()).any(|x| !x.is_finite()) {
+            return Err(StudyError::Numeric(
+                "a derivative of the equations is not finite at the steady state".into(),
+            ));
+        }
         let a = w.transpose() * &jac.j * &w;
         let b = w.transpose() * &jac.b;
         let lambda = eigen::eigenvalues(&a).map_err(|iterations| StudyError::Eigen {
@@ -287,17 +296,10 @@ impl Study {
             at: point.text(),
         })?;
         let mut structural = self.dropped_zeros();
-        structural.extend(
-            jac.tangents
-                .iter()
-                .filter(|(_, t)| norm(t) > 0.0)
-                .map(|(p, _)| Structural {
-                    kind: crate::StructuralKind::SteadyFamily {
-                        parameter: p.clone(),
-                    },
-                    eigenvalue: [0.0, 0.0],
-                }),
-        );
+        structural.extend(family.into_iter().map(|parameter| Structural {
+            kind: crate::StructuralKind::SteadyFamily { parameter },
+            eigenvalue: [0.0, 0.0],
+        }));
         let scale = eigen::scale(&a);
         let second_order =
             crate::forms::second_order(&reduced_state, &self.state_names(), &a, &b, &jac.a_gamma);
@@ -357,16 +359,19 @@ impl Study {
     ) -> Result<f64, StudyError> {
         let x_dot = self.state_rates(&r.q_dot, &r.eta_dot);
         let names = self.state_names();
-        let size = q
-            .iter()
+        let all = x_dot.iter().chain(q).chain(eta).chain(&r.forcing);
+        if all.clone().any(|x| !x.is_finite()) {
+            return Err(StudyError::Numeric(
+                "a rate or a force is not finite".into(),
+            ));
+        }
+        let kept = self.state_q.iter().map(|&k| &q[k]);
+        let size = kept
             .chain(eta)
             .chain(&r.forcing)
             .fold(1.0_f64, |m, x| m.max(x.abs()));
         let allowed = 1e-9 * size;
         let largest = x_dot.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-        if !largest.is_finite() {
-            return Err(StudyError::Numeric("a rate is not finite".into()));
-        }
         if largest > allowed {
             let residuals: Vec<String> = names
                 .iter()
@@ -435,7 +440,9 @@ impl Study {
         let a_gamma = DMatrix::from_fn(sigma, sigma, |i, k| r0.a_gamma[i][k]);
         for (p, t) in &tangents {
             let jt = &j * nalgebra::DVector::from_column_slice(t);
-            if jt.norm() > 1e-8 * (1.0 + j.norm()) * norm(t) {
+            let allowed = 1e-8 * (1.0 + j.norm()) * norm(t);
+            // Not finite is not steady either.
+            if !jt.norm().is_finite() || jt.norm() > allowed {
                 return Err(StudyError::NotSteady {
                     residuals: format!(
                         "the family is not steady along `{p}`: J·∂x*/∂{p} = {:.3e}",
@@ -530,19 +537,25 @@ impl Study {
     /// An orthonormal basis W of the complement of the family's tangents (the reduced state
     /// is Wᵀx), and its components' names: a state component's when the column is a unit
     /// vector (the tangent was along one component), `z1`… otherwise.
-    fn complement(&self, jac: &Jacobian) -> Result<(DMatrix<f64>, Vec<String>), StudyError> {
+    /// Also the steady parameters whose tangents are directions of their own (a zero tangent,
+    /// or one that depends on the others, is not).
+    fn complement(&self, jac: &Jacobian) -> Result<Complement, StudyError> {
         let n = jac.j.nrows();
         let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
-        let tangents = jac
-            .tangents
-            .iter()
-            .map(|(_, t)| nalgebra::DVector::from_column_slice(t));
-        let units = (0..n).map(|i| nalgebra::DVector::from_fn(n, |k, _| f64::from(k == i)));
+        let tangents = jac.tangents.iter().map(|(p, t)| {
+            let v = nalgebra::DVector::from_column_slice(t);
+            let size = v.norm();
+            (Err(p.clone()), if size > 0.0 { v / size } else { v })
+        });
+        let units = (0..n).map(|i| {
+            (
+                Ok(i),
+                nalgebra::DVector::from_fn(n, |k, _| f64::from(k == i)),
+            )
+        });
         let mut kept = Vec::new();
-        for (index, v) in tangents
-            .map(|t| (None, t))
-            .chain(units.enumerate().map(|(i, u)| (Some(i), u)))
-        {
+        let mut family = Vec::new();
+        for (index, v) in tangents.chain(units) {
             let mut v = v;
             for b in &basis {
                 let dot = b.dot(&v);
@@ -551,11 +564,17 @@ impl Study {
                 }
             }
             let size = v.norm();
-            if size > 0.5 || (index.is_none() && size > 0.0) {
-                basis.push(v / size);
-                if index.is_some() {
+            // A tangent that depends on earlier ones leaves only rounding: not a direction.
+            match index {
+                Err(p) if size > 1e-8 => {
+                    basis.push(v / size);
+                    family.push(p);
+                }
+                Ok(_) if size > 0.5 => {
+                    basis.push(v / size);
                     kept.push(basis.len() - 1);
                 }
+                _ => {}
             }
         }
         let names = self.state_names();
@@ -570,8 +589,16 @@ impl Study {
                 }
             })
             .collect();
-        Ok((w, labels))
+        Ok(Complement { w, labels, family })
     }
+}
+
+/// The reduced state: W (its columns a basis of the complement of the family's tangents),
+/// their names, and the steady parameters whose directions were taken out.
+struct Complement {
+    w: DMatrix<f64>,
+    labels: Vec<String>,
+    family: Vec<String>,
 }
 
 fn norm(v: &[f64]) -> f64 {

@@ -10,7 +10,11 @@ use crate::eigen::ZERO_REAL_PART;
 use crate::forms::Symbolic;
 use crate::{Linearisation, Point, Stability, Study, StudyError};
 
-/// `P=START:STOP:COUNT`: COUNT values from START to STOP, ends included.
+/// The most values one sweep, or one map, may have.
+pub const MAX_POINTS: usize = 10_000_000;
+
+/// `P=START:STOP:COUNT`: COUNT values from START to STOP, ends included (START may be the
+/// larger).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Range {
     /// The parameter (steady or of the model).
@@ -37,6 +41,11 @@ impl Range {
             return Err(shape());
         };
         let count: usize = count.trim().parse().map_err(|_| shape())?;
+        if count > MAX_POINTS {
+            return Err(format!(
+                "`{text}`: at most {MAX_POINTS} values in one sweep"
+            ));
+        }
         if count < 2 || start == stop {
             return Err(format!(
                 "`{text}`: a sweep needs COUNT ≥ 2 and START ≠ STOP"
@@ -171,29 +180,37 @@ impl Study {
                         done();
                         l
                     })
+                    .collect::<Vec<_>>()
+                    .into_iter()
                     .collect();
             }
             // Points with the same model parameters share their steady configuration and
             // everything that depends on it alone (the ingredients and their derivatives in q).
+            // Errors in point order, whatever the threads' order.
             let values = points
                 .par_iter()
                 .map(|p| self.values(&p.0))
+                .collect::<Vec<_>>()
+                .into_iter()
                 .collect::<Result<Vec<_>, _>>()?;
             let mut groups: IndexMap<Vec<u64>, usize> = IndexMap::new();
-            let group: Vec<usize> = values
-                .iter()
-                .map(|(params, _)| {
-                    let key = params.values().map(|v| v.to_bits()).collect();
+            let mut first: Vec<usize> = Vec::new();
+            let group: Vec<usize> = (0..values.len())
+                .map(|i| {
+                    let key = values[i].0.values().map(|v| v.to_bits()).collect();
                     let next = groups.len();
-                    *groups.entry(key).or_insert(next)
+                    let g = *groups.entry(key).or_insert(next);
+                    if g == next {
+                        first.push(i);
+                    }
+                    g
                 })
-                .collect();
-            let first: Vec<usize> = (0..groups.len())
-                .map(|g| group.iter().position(|&x| x == g).unwrap_or(0))
                 .collect();
             let shared = first
                 .par_iter()
                 .map(|&i| self.at_q(values[i].0.clone(), &values[i].1))
+                .collect::<Vec<_>>()
+                .into_iter()
                 .collect::<Result<Vec<_>, _>>()?;
             (0..points.len())
                 .into_par_iter()
@@ -204,6 +221,8 @@ impl Study {
                     done();
                     l
                 })
+                .collect::<Vec<_>>()
+                .into_iter()
                 .collect()
         })
     }
@@ -231,8 +250,15 @@ impl Study {
             }
             p
         };
-        let points = [base.clone(), shifted(1.0), shifted(2.5)];
-        Ok(Self::persistent(&self.all(&points, &|| ())?))
+        // The base must linearise; a shifted point that does not (off the family's domain) is
+        // left out.
+        let mut lin = vec![self.linearise_with(base, 0, false)?];
+        lin.extend(
+            [shifted(1.0), shifted(2.5)]
+                .iter()
+                .filter_map(|p| self.linearise_with(p, 0, false).ok()),
+        );
+        Ok(Self::persistent(&lin))
     }
 
     /// Sweep `range` about `base`: the eigenvalues at each point, the crossings refined, and
@@ -255,9 +281,13 @@ impl Study {
         let lin: Vec<Linearisation> = lin.into_iter().map(|l| l.with_persistent(s)).collect();
         let values = range.values();
         let crossings = self.crossings(&at, &values, &lin, s)?;
-        let (matrices, matrices_note) = match self.symbolic(base, &range.parameter)? {
-            Ok(m) => (Some(m), None),
-            Err(why) => (None, Some(why)),
+        let (matrices, matrices_note) = match self.symbolic(base, &range.parameter) {
+            Ok(Ok(m)) => (Some(m), None),
+            Ok(Err(why)) => (None, Some(why)),
+            Err(e) => (
+                None,
+                Some(format!("not computed: at a node of the interpolation, {e}")),
+            ),
         };
         Ok(Sweep {
             parameter: range.parameter.clone(),
@@ -287,6 +317,18 @@ impl Study {
     ) -> Result<Map, StudyError> {
         self.check_parameter(&x.parameter)?;
         self.check_parameter(&y.parameter)?;
+        if x.parameter == y.parameter {
+            return Err(StudyError::Range(format!(
+                "a map needs two different parameters, not `{}` twice",
+                x.parameter
+            )));
+        }
+        if x.count.checked_mul(y.count).is_none_or(|n| n > MAX_POINTS) {
+            return Err(StudyError::Range(format!(
+                "a map of {} × {} points is more than {MAX_POINTS}",
+                x.count, y.count
+            )));
+        }
         let (xs, ys) = (x.values(), y.values());
         let points: Vec<Point> = ys
             .iter()
@@ -360,6 +402,15 @@ impl Study {
         s: usize,
     ) -> Result<Vec<Crossing>, StudyError> {
         let one = |x: f64| self.linearise_with(&at(x), s, false);
+        // Stability below and above, whichever way the range runs.
+        let sides = |i: usize, k: usize| {
+            let (a, b) = (lin[i].stability, lin[k].stability);
+            if values[i] <= values[k] {
+                (a, b)
+            } else {
+                (b, a)
+            }
+        };
         let mut out = Vec::new();
         let clear: Vec<usize> = (0..lin.len())
             .filter(|&i| lin[i].zero_multiplicity() == s)
@@ -376,31 +427,42 @@ impl Study {
                 (values[k], fb),
             )?;
             let zeros = one(x)?.zero_multiplicity().saturating_sub(s).max(1);
+            let (below, above) = sides(i, k);
             out.push(Crossing {
                 value: x,
                 kind: CrossingKind::RealZero,
                 eigenvalue: [0.0, 0.0],
                 zeros,
-                below: lin[i].stability,
-                above: lin[k].stability,
+                below,
+                above,
             });
         }
-        let clear: Vec<usize> = (0..lin.len()).filter(|&i| off_axis(&lin[i])).collect();
-        for w in clear.windows(2) {
-            let (i, k) = (w[0], w[1]);
+        // Neighbouring points, and the points on either side of one with a pair on the axis
+        // (a crossing that falls on a sweep point).
+        let brackets = (0..lin.len().saturating_sub(1)).map(|i| (i, i + 1)).chain(
+            (1..lin.len().saturating_sub(1))
+                .filter(|&i| !off_axis(&lin[i]))
+                .map(|i| (i - 1, i + 1)),
+        );
+        for (i, k) in brackets {
             for (za, zb) in hopf_pairs(&lin[i], &lin[k]) {
                 let (x, z) = hopf(&one, (values[i], za), (values[k], zb))?;
+                let (below, above) = sides(i, k);
                 out.push(Crossing {
                     value: x,
                     kind: CrossingKind::Hopf,
                     eigenvalue: [0.0, z[1]],
                     zeros: 0,
-                    below: lin[i].stability,
-                    above: lin[k].stability,
+                    below,
+                    above,
                 });
             }
         }
         out.sort_by(|a, b| a.value.total_cmp(&b.value));
+        // A crossing seen from two brackets (one of them over a point on the axis) once.
+        out.dedup_by(|b, a| {
+            a.kind == b.kind && (a.value - b.value).abs() <= 1e-9 * a.value.abs().max(1.0)
+        });
         Ok(out)
     }
 }
@@ -428,7 +490,8 @@ fn hopf_pairs(la: &Linearisation, lb: &Linearisation) -> Vec<([f64; 2], [f64; 2]
     ua.into_iter()
         .filter_map(|za| {
             let zb = nearest(&ub, za)?;
-            (za[0].signum() != zb[0].signum()).then_some((za, zb))
+            let clear = za[0].abs() > tol(la) && zb[0].abs() > tol(lb);
+            (clear && za[0].signum() != zb[0].signum()).then_some((za, zb))
         })
         .collect()
 }
