@@ -256,40 +256,7 @@ pub enum Command {
     /// the linear equations (M q'' + C q' + K q = B u where the state allows it), the
     /// eigenvalues with the structural zeros apart; with --sweep, the eigenvalues along a
     /// parameter and the values where stability changes; with two, a stability map.
-    Linearize {
-        /// The model file (TOML).
-        model: PathBuf,
-        /// The steady motion (a `[steady.NAME]` of the model).
-        #[arg(long)]
-        steady: String,
-        /// The quasi-velocity choice (default: the first).
-        #[arg(long)]
-        eta: Option<String>,
-        /// Sweep a steady or model parameter: P=START:STOP:COUNT (twice for a map).
-        #[arg(long = "sweep", value_name = "P=START:STOP:COUNT", value_parser = hamel_study::Range::parse)]
-        sweep: Vec<hamel_study::Range>,
-        /// Set a steady parameter, a model parameter or an input (repeatable); derived
-        /// parameters are evaluated again from it.
-        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
-        set: Vec<(String, f64)>,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "text")]
-        format: ReportFormat,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-        /// Draw the sweep (real and imaginary parts against the parameter) or the map (heat
-        /// map of the largest real part) as SVG.
-        #[arg(long)]
-        plot: Option<PathBuf>,
-        /// Threads for the points of a sweep or map (default: every core).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Also write the study after its symbolic pass to this file (JSON), for the
-        /// `hamel-sweep` worker, which runs sweeps and maps without the computer algebra.
-        #[arg(long)]
-        export: Option<PathBuf>,
-    },
+    Linearize(LinearizeArgs),
     /// Time the derivation of every model and choice; with --sympy, SymPy does the same
     /// derivation in the same run as the baseline (bench/sympy_derive.py).
     Bench {
@@ -332,6 +299,43 @@ impl From<EngineArg> for hamel_scene::Engine {
 }
 
 /// `hamel search`.
+/// The options of `hamel linearize`.
+#[derive(Args)]
+pub struct LinearizeArgs {
+    /// The model file (TOML).
+    pub model: PathBuf,
+    /// The steady motion (a `[steady.NAME]` of the model).
+    #[arg(long)]
+    pub steady: String,
+    /// The quasi-velocity choice (default: the first).
+    #[arg(long)]
+    pub eta: Option<String>,
+    /// Sweep a steady or model parameter: P=START:STOP:COUNT (twice for a map).
+    #[arg(long = "sweep", value_name = "P=START:STOP:COUNT", value_parser = hamel_study::Range::parse)]
+    pub sweep: Vec<hamel_study::Range>,
+    /// Set a steady parameter, a model parameter or an input (repeatable); derived
+    /// parameters are evaluated again from it.
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    pub set: Vec<(String, f64)>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "text")]
+    pub format: ReportFormat,
+    /// Write the result to this file instead of stdout.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+    /// Draw the sweep (real and imaginary parts against the parameter) or the map (heat
+    /// map of the largest real part) as SVG.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Threads for the points of a sweep or map (default: every core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Also write the study after its symbolic pass to this file (JSON), for the
+    /// `hamel-sweep` worker, which runs sweeps and maps without the computer algebra.
+    #[arg(long)]
+    pub export: Option<PathBuf>,
+}
+
 #[derive(Args)]
 pub struct SearchArgs {
     /// The model file (TOML).

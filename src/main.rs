@@ -162,31 +162,10 @@ fn run(command: Command) -> Result<(), ModelError> {
             &set.into_iter().collect(),
             Output::new(output)?,
         ),
-        Command::Linearize {
-            model,
-            steady,
-            eta,
-            sweep,
-            set,
-            format,
-            output,
-            plot,
-            threads,
-            export,
-        } => linearize::run(
-            &linearize::Args {
-                model: &model,
-                steady: &steady,
-                eta: eta.as_deref(),
-                sweeps: &sweep,
-                set: set.into_iter().collect(),
-                json: matches!(format, ReportFormat::Json),
-                plot: plot.as_deref(),
-                threads,
-                export: export.as_deref(),
-            },
-            Output::new(output)?,
-        ),
+        Command::Linearize(args) => {
+            let out = Output::new(args.output.clone())?;
+            linearize::run(&args, out)
+        }
         Command::Bench {
             models,
             repeat,
