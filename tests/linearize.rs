@@ -16,7 +16,7 @@
 #![allow(clippy::excessive_precision)]
 
 use hamel_model::Model;
-use hamel_study::{CrossingKind, Point, Range, Stability, StructuralKind, Study};
+use hamel_study::{CrossingKind, Point, Range, Stability, SteadyCheck, StructuralKind, Study};
 use indexmap::IndexMap;
 
 fn model(name: &str) -> Model {
@@ -291,6 +291,13 @@ fn bicycle_steady_motion_drops_the_ignorable_coordinates_and_completes_the_pitch
     );
     assert!(l.residual < 1e-12, "{}", l.residual);
     assert_eq!(s.dependent(), ["pitch"]);
+    // The bicycle's equations are structured and its pitch is completed by Newton's method:
+    // its steady motion is checked numerically, and the report says why.
+    assert!(
+        matches!(s.steady_check(), SteadyCheck::Numeric { why } if why.contains("structured")),
+        "{:?}",
+        s.steady_check()
+    );
 }
 
 /// λ² = 4g/(5R) − 12Ω²/5 for the uniform disk (docs/linearisation.md).
@@ -398,6 +405,70 @@ fn chaplygin_sleigh_straight_motion_has_its_closed_form_eigenvalue() {
     }
 }
 
+/// The steady motions of the closed-form models are proved exactly: the steady values
+/// substituted into (11) and α(q)q̇ = 0 leave residuals that are zero on their canonical forms,
+/// identically in the parameters.
+#[test]
+fn closed_form_steady_motions_are_proved_exactly() {
+    for (name, steady) in [
+        ("rolling_disk", "upright"),
+        ("chaplygin_sleigh", "straight"),
+        ("unicycle_rider", "upright"),
+        ("snakeboard", "circle"),
+    ] {
+        let s = study(name, steady);
+        assert_eq!(s.steady_check(), &SteadyCheck::Exact, "{name}");
+        let l = s.linearise(&Point::default(), 0).unwrap();
+        assert_eq!(l.steady_check, SteadyCheck::Exact);
+        let text = s.linearisation_text(&l);
+        assert!(text.contains("steady: proved exactly"), "{text}");
+    }
+}
+
+/// A sleigh turning at a rate w (a model parameter) is steady only at w = 0: the exact check
+/// names the residuals, and the numeric check decides each point.
+#[test]
+fn a_motion_steady_only_for_special_values_is_checked_at_each_point() {
+    let path = format!(
+        "{}/models/chaplygin_sleigh.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(&path).unwrap();
+    let turning = text
+        .replace("a = 0.2 ", "w = 0.0\na = 0.2 ")
+        .replace("x = \"v\", theta = 0", "x = \"v\", theta = \"w\"");
+    assert_ne!(turning, text);
+    let model = Model::from_source("turning_sleigh.toml", &turning).unwrap();
+    let s = Study::prepare(&model, None, "straight").unwrap();
+    let SteadyCheck::NotIdentically { residuals } = s.steady_check() else {
+        panic!("{:?}", s.steady_check());
+    };
+    // theta is dropped (the equations are free of it). The turn leaves the centripetal term
+    // −m a w² in the first equation (η₁ the speed along the axis) and the torque m a v w of
+    // the knife edge's reaction in the second (η₂ the turning rate).
+    assert_eq!(
+        residuals,
+        &[
+            (
+                "row 1 of (11) at d(eta)/dt = 0".to_string(),
+                "-m*w^2*a".to_string()
+            ),
+            (
+                "row 2 of (11) at d(eta)/dt = 0".to_string(),
+                "m*w*a*v".to_string()
+            )
+        ]
+    );
+    let l = s.linearise(&point(&[("w", 0.0)]), 0).unwrap();
+    assert_eq!(l.eigenvalues.len(), 1);
+    let e = s.linearise(&point(&[("w", 0.5)]), 0).unwrap_err();
+    let message = format!("{:?}", miette::Report::new(s.locate(&e)));
+    assert!(
+        message.contains("d(eta1)/dt") && message.contains("exactly, row 1 of (11)"),
+        "{message}"
+    );
+}
+
 #[test]
 fn a_state_that_is_not_steady_is_refused_with_its_residual() {
     let path = format!("{}/models/rolling_disk.toml", env!("CARGO_MANIFEST_DIR"));
@@ -405,6 +476,13 @@ fn a_state_that_is_not_steady_is_refused_with_its_residual() {
     let leaning = text.replace("q = { theta = 0 }", "q = { theta = 0.3 }");
     let model = Model::from_source("leaning_disk.toml", &leaning).unwrap();
     let s = Study::prepare(&model, None, "upright").unwrap();
+    let SteadyCheck::NotIdentically { residuals } = s.steady_check() else {
+        panic!("{:?}", s.steady_check());
+    };
+    assert!(
+        residuals.iter().all(|(n, _)| n.starts_with("row ")),
+        "{residuals:?}"
+    );
     let e = s.linearise(&Point::default(), 0).unwrap_err();
     let message = format!("{:?}", miette::Report::new(s.locate(&e)));
     assert!(

@@ -13,7 +13,7 @@ use hamel_eval::{Compiled, CompiledData};
 use hamel_model::{Model, ModelError};
 use serde::{Deserialize, Serialize};
 
-use crate::{Linearisation, Map, Point, Range, Study, Sweep};
+use crate::{Linearisation, Map, Point, Range, SteadyCheck, Study, Sweep};
 
 /// The format tag of an exported study.
 const FORMAT: &str = "hamel-study/1";
@@ -45,6 +45,16 @@ pub struct Exported {
     pub dropped_because: Vec<String>,
     /// The parameter that enters only through U, linearly.
     pub gravity: Option<String>,
+    /// How the steady motion is known to be one (studies written before it was recorded:
+    /// numerically).
+    #[serde(default = "unrecorded")]
+    pub steady_check: SteadyCheck,
+}
+
+fn unrecorded() -> SteadyCheck {
+    SteadyCheck::Numeric {
+        why: "the study file does not record an exact check".into(),
+    }
 }
 
 /// Progress of the points of a sweep or map (a bar on a terminal).
@@ -105,6 +115,7 @@ impl Study {
             dropped: self.dropped.clone(),
             dropped_because: self.dropped_because.clone(),
             gravity: self.gravity.clone(),
+            steady_check: self.steady_check.clone(),
         }
     }
 
@@ -181,6 +192,7 @@ impl Study {
             dropped: e.dropped,
             dropped_because: e.dropped_because,
             gravity: e.gravity,
+            steady_check: e.steady_check,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
         })
     }

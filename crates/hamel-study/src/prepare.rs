@@ -27,6 +27,8 @@ pub struct Study {
     pub(crate) dropped_because: Vec<String>,
     /// The parameter that enters only through U, linearly (gravity), if there is one.
     pub(crate) gravity: Option<String>,
+    /// How the steady motion is known to be one.
+    pub(crate) steady_check: crate::SteadyCheck,
     /// Threads of the pool that sweeps and maps run on.
     pub(crate) threads: usize,
 }
@@ -63,9 +65,16 @@ impl Study {
                 model.coordinates[k]
             )));
         }
-        let state_q = (0..model.coordinates.len())
+        let state_q: Vec<usize> = (0..model.coordinates.len())
             .filter(|k| !dropped.contains(k) && !completion.dependent().contains(k))
             .collect();
+        let steady_check = crate::exact::check(&crate::exact::Inputs {
+            model,
+            steady: &steady,
+            derivation: &d,
+            state_q: &state_q,
+            dependent: &dependent,
+        });
         Ok(Study {
             gravity: gravity(model),
             model: model.clone(),
@@ -77,6 +86,7 @@ impl Study {
             dependent,
             dropped,
             dropped_because,
+            steady_check,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
         })
     }
@@ -96,6 +106,11 @@ impl Study {
     /// The steady motion.
     pub fn steady(&self) -> &Steady {
         &self.steady
+    }
+
+    /// How the steady motion is known to be one.
+    pub fn steady_check(&self) -> &crate::SteadyCheck {
+        &self.steady_check
     }
 
     /// The quasi-velocity choice's name.

@@ -110,7 +110,12 @@ impl Study {
             .map(|(i, (e, v))| format!("eta{} = {e} = {v}", i + 1))
             .collect();
         let _ = writeln!(out, "  {}", eta.join(", "));
-        let _ = writeln!(out, "  steady: max |x'| = {:.1e}", l.residual);
+        let _ = writeln!(
+            out,
+            "  steady: {}; max |x'| = {:.1e}",
+            l.steady_check.text(),
+            l.residual
+        );
         let dependent = self.dependent();
         if !dependent.is_empty() {
             let _ = writeln!(

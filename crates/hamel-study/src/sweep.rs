@@ -123,6 +123,8 @@ pub struct Sweep {
     pub points: Vec<SweepPoint>,
     /// Where stability changes.
     pub crossings: Vec<Crossing>,
+    /// How the steady motion is known to be one.
+    pub steady_check: crate::SteadyCheck,
     /// Zero eigenvalues present at every point (reported apart).
     pub persistent_zeros: usize,
     /// The linear equations as polynomials in the parameter, when they are.
@@ -144,6 +146,8 @@ pub struct Map {
     pub values: Vec<Vec<f64>>,
     /// Stability at each point, the same way.
     pub stability: Vec<Vec<Stability>>,
+    /// How the steady motion is known to be one.
+    pub steady_check: crate::SteadyCheck,
     /// Zero eigenvalues present at every point.
     pub persistent_zeros: usize,
 }
@@ -291,6 +295,7 @@ impl Study {
         };
         Ok(Sweep {
             parameter: range.parameter.clone(),
+            steady_check: self.steady_check.clone(),
             points: values
                 .iter()
                 .zip(&lin)
@@ -351,6 +356,7 @@ impl Study {
         };
         Ok(Map {
             x: x.clone(),
+            steady_check: self.steady_check.clone(),
             y: y.clone(),
             values: lin
                 .chunks(xs.len())
