@@ -4,27 +4,16 @@
 //! **Input**: one state object or a list of them,
 //! `{"q": {"x": 0.1, …}, "eta": [1.0, 0.5], "params": {"m": 2.0}, "functions": {"z13": "…"}}`
 //! (`functions` defines a choice's free functions as expressions of their arguments).
+//! The file is read and checked by [`hamel_model::states`] (no computer algebra there).
 //! **Output**: the same shape, one result per state. Errors name the file, the state and the
 //! reason; nothing is returned for a file with one bad state.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
+use hamel_model::states::State;
 use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
-use serde::{Deserialize, Serialize};
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawState {
-    q: IndexMap<String, f64>,
-    eta: Vec<f64>,
-    #[serde(default)]
-    params: IndexMap<String, f64>,
-    /// Definitions of the choice's free functions, as expressions of their arguments.
-    #[serde(default)]
-    functions: BTreeMap<String, String>,
-}
+use serde::Serialize;
 
 #[derive(Serialize)]
 struct Out {
@@ -39,17 +28,6 @@ struct Out {
     f64_error_estimate: f64,
 }
 
-fn offset_of(text: &str, line: usize, column: usize) -> usize {
-    let mut off = 0;
-    for (i, l) in text.split_inclusive('\n').enumerate() {
-        if i + 1 == line {
-            return off + column.saturating_sub(1).min(l.len());
-        }
-        off += l.len();
-    }
-    text.len()
-}
-
 /// Evaluate every state of `text` (the JSON of the file named `file`) with the quasi-velocities
 /// `eta` of `model`, and return the result as pretty JSON.
 pub fn evaluate_json(
@@ -58,36 +36,16 @@ pub fn evaluate_json(
     file: &str,
     text: &str,
 ) -> Result<String, ModelError> {
-    let source = Arc::new(text.to_string());
-    let err = |span: Option<std::ops::Range<usize>>, msg: String| {
-        ModelError::new(file, source.clone(), span, None, msg)
-    };
-    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| {
-        let off = offset_of(text, e.line(), e.column());
-        err(Some(off..off + 1), format!("invalid JSON: {e}"))
-    })?;
-    let (list, items) = match value {
-        serde_json::Value::Array(v) => (true, v),
-        v @ serde_json::Value::Object(_) => (false, vec![v]),
-        _ => {
-            return Err(err(
-                None,
-                "expected a state object or a list of state objects".into(),
-            ));
-        }
-    };
+    let read = hamel_model::states::read(model, eta, file, text)?;
     let choice = model.choice(eta)?.name.clone();
-    let mut states = Vec::new();
-    for (i, v) in items.into_iter().enumerate() {
-        let s: RawState =
-            serde_json::from_value(v).map_err(|e| err(None, format!("state {}: {e}", i + 1)))?;
-        states.push(s);
-    }
+    let source = std::sync::Arc::new(text.to_string());
+    let err = |msg: String| ModelError::new(file, source.clone(), None, None, msg);
+    let states = read.states;
     // One derivation per distinct set of free-function definitions.
     let mut derivations: Derivations = BTreeMap::new();
     let mut results = Vec::new();
     for (i, s) in states.iter().enumerate() {
-        let tag = |m: String| err(None, format!("state {}: {m}", i + 1));
+        let tag = |m: String| err(format!("state {}: {m}", i + 1));
         if !derivations.contains_key(&s.functions) {
             let derived = derive_with(model, &choice, &s.functions, &tag)?;
             derivations.insert(s.functions.clone(), derived);
@@ -95,7 +53,7 @@ pub fn evaluate_json(
         let (d, compiled) = &derivations[&s.functions];
         results.push(evaluate_state(d, compiled, s, &tag)?);
     }
-    let json = if list {
+    let json = if read.list {
         serde_json::to_string_pretty(&results)
     } else {
         serde_json::to_string_pretty(&results[0])
@@ -113,12 +71,7 @@ fn derive_with(
     functions: &BTreeMap<String, String>,
     tag: &dyn Fn(String) -> ModelError,
 ) -> Result<(crate::Derivation, crate::Compiled), ModelError> {
-    let mut defs = Vec::new();
-    for (name, body) in functions {
-        let e =
-            hamel_expr::parse(body).map_err(|e| tag(format!("functions.{name}: {}", e.message)))?;
-        defs.push((name.clone(), e.expr));
-    }
+    let defs = hamel_model::states::functions(functions).map_err(&tag)?;
     let m = model
         .with_free_functions(choice, &defs)
         .map_err(|e| tag(e.message().to_string()))?;
@@ -145,38 +98,18 @@ fn derive_with(
 fn evaluate_state(
     d: &crate::Derivation,
     compiled: &crate::Compiled,
-    s: &RawState,
+    s: &State,
     tag: &dyn Fn(String) -> ModelError,
 ) -> Result<Out, ModelError> {
-    let q = d
-        .coordinates
-        .iter()
-        .map(|c| {
-            s.q.get(c)
-                .copied()
-                .ok_or_else(|| tag(format!("missing coordinate `{c}` in \"q\"")))
-        })
-        .collect::<Result<Vec<f64>, _>>()?;
-    if let Some(extra) = s.q.keys().find(|k| !d.coordinates.contains(k)) {
-        return Err(tag(format!(
-            "`{extra}` in \"q\" is not a coordinate of the model"
-        )));
-    }
-    if s.eta.len() != d.sigma {
-        return Err(tag(format!(
-            "\"eta\" must have σ = {} values, found {}",
-            d.sigma,
-            s.eta.len()
-        )));
-    }
+    let q = &s.q;
     let params = d
         .parameters_with(&s.params)
         .map_err(|e| tag(e.to_string()))?;
-    let ev = compiled.evaluate(&q, &s.eta, &params).map_err(|e| {
+    let ev = compiled.evaluate(q, &s.eta, &params).map_err(|e| {
         let at: Vec<String> = d
             .coordinates
             .iter()
-            .zip(&q)
+            .zip(q)
             .map(|(c, v)| format!("{c} = {v}"))
             .collect();
         tag(format!("{e} (at {})", at.join(", ")))

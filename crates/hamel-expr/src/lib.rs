@@ -22,6 +22,7 @@ mod display;
 mod eval;
 mod horner;
 mod latex;
+pub mod limits;
 mod parse;
 mod specialise;
 mod tape;

@@ -5,6 +5,10 @@ use std::ops::Range;
 use num_bigint::BigInt;
 
 use crate::ast::{Expr, Func, Rational};
+use crate::limits::{MAX_BYTES, MAX_DEPTH, MAX_DIGITS, MAX_EXPONENT};
+
+/// An expression and the depth of its tree (a leaf has depth 1).
+type Node = (Expr, usize);
 
 /// A parse failure: the byte range of the offending text and the reason.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -54,16 +58,27 @@ pub struct Parsed {
     pub occurrences: Vec<Occurrence>,
 }
 
-/// Parse one expression.
+/// Parse one expression, within the limits of [`crate::limits`] (text size, tree depth,
+/// exponents, digits): beyond them, an error saying which, never an exhausted machine.
 pub fn parse(text: &str) -> Result<Parsed, ParseError> {
+    if text.len() > MAX_BYTES {
+        return Err(ParseError {
+            span: 0..0,
+            message: format!(
+                "the expression is {} bytes long; hamel reads at most {MAX_BYTES} bytes per expression",
+                text.len()
+            ),
+        });
+    }
     let tokens = lex(text)?;
     let mut p = Parser {
         text,
         tokens,
         pos: 0,
         occurrences: Vec::new(),
+        nesting: 0,
     };
-    let expr = p.expr()?;
+    let (expr, _) = p.expr()?;
     if let Some(t) = p.peek() {
         return Err(ParseError {
             span: t.span.clone(),
@@ -138,6 +153,13 @@ fn lex(text: &str) -> Result<Vec<Token>, ParseError> {
                 }
             }
             let lit = &text[start..i];
+            let digits = lit.bytes().take_while(|b| *b != b'e' && *b != b'E');
+            if digits.filter(u8::is_ascii_digit).count() > MAX_DIGITS {
+                return Err(ParseError {
+                    span: start..i,
+                    message: format!("the number has more than {MAX_DIGITS} digits"),
+                });
+            }
             let value = parse_number(lit).ok_or_else(|| ParseError {
                 span: start..i,
                 message: format!("malformed number `{lit}`"),
@@ -203,6 +225,8 @@ struct Parser<'a> {
     tokens: Vec<Token>,
     pos: usize,
     occurrences: Vec<Occurrence>,
+    /// How deep the descent is (operands within operands), bounded by [`MAX_DEPTH`].
+    nesting: usize,
 }
 
 impl Parser<'_> {
@@ -216,6 +240,23 @@ impl Parser<'_> {
 
     fn end_span(&self) -> Range<usize> {
         self.text.len()..self.text.len()
+    }
+
+    /// The span of the current token (or the end).
+    fn here(&self) -> Range<usize> {
+        self.peek()
+            .map_or_else(|| self.end_span(), |t| t.span.clone())
+    }
+
+    /// `node` if its tree is at most [`MAX_DEPTH`] deep.
+    fn shallow(&self, node: Node, at: Range<usize>) -> Result<Node, ParseError> {
+        if node.1 > MAX_DEPTH {
+            return Err(ParseError {
+                span: at,
+                message: format!("the expression nests more than {MAX_DEPTH} levels deep"),
+            });
+        }
+        Ok(node)
     }
 
     fn expect_op(&mut self, c: char, context: &str) -> Result<Range<usize>, ParseError> {
@@ -239,73 +280,91 @@ impl Parser<'_> {
         }
     }
 
-    fn expr(&mut self) -> Result<Expr, ParseError> {
-        let mut terms = vec![self.term()?];
+    fn expr(&mut self) -> Result<Node, ParseError> {
+        let (first, mut depth) = self.term()?;
+        let mut terms = vec![first];
         loop {
-            if self.peek_op('+') {
-                self.pos += 1;
-                terms.push(self.term()?);
-            } else if self.peek_op('-') {
-                self.pos += 1;
-                terms.push(Expr::Neg(Box::new(self.term()?)));
-            } else {
+            let negate = self.peek_op('-');
+            if !negate && !self.peek_op('+') {
                 break;
             }
+            self.pos += 1;
+            let (t, d) = self.term()?;
+            let (t, d) = if negate {
+                (Expr::Neg(Box::new(t)), d + 1)
+            } else {
+                (t, d)
+            };
+            depth = depth.max(d);
+            terms.push(t);
         }
-        Ok(if terms.len() == 1 {
-            terms.pop().unwrap()
+        let node = if terms.len() == 1 {
+            (terms.pop().unwrap(), depth)
         } else {
-            Expr::Add(terms)
-        })
+            (Expr::Add(terms), depth + 1)
+        };
+        self.shallow(node, self.here())
     }
 
-    fn term(&mut self) -> Result<Expr, ParseError> {
-        let mut acc = self.unary()?;
+    fn term(&mut self) -> Result<Node, ParseError> {
+        let (mut acc, mut depth) = self.unary()?;
         loop {
-            if self.peek_op('*') {
-                self.pos += 1;
-                let rhs = self.unary()?;
-                acc = match acc {
-                    Expr::Mul(mut v) => {
-                        v.push(rhs);
-                        Expr::Mul(v)
-                    }
-                    a => Expr::Mul(vec![a, rhs]),
-                };
-            } else if self.peek_op('/') {
-                self.pos += 1;
-                let rhs = self.unary()?;
-                acc = Expr::Div(Box::new(acc), Box::new(rhs));
-            } else {
+            let divide = self.peek_op('/');
+            if !divide && !self.peek_op('*') {
                 break;
             }
+            let at = self.here();
+            self.pos += 1;
+            let (rhs, d) = self.unary()?;
+            (acc, depth) = match acc {
+                Expr::Mul(mut v) if !divide => {
+                    v.push(rhs);
+                    (Expr::Mul(v), depth.max(d + 1))
+                }
+                a if divide => (Expr::Div(Box::new(a), Box::new(rhs)), depth.max(d) + 1),
+                a => (Expr::Mul(vec![a, rhs]), depth.max(d) + 1),
+            };
+            (acc, depth) = self.shallow((acc, depth), at)?;
         }
-        Ok(acc)
+        Ok((acc, depth))
     }
 
-    fn unary(&mut self) -> Result<Expr, ParseError> {
-        if self.peek_op('-') {
+    /// Every operand passes here: the descent's depth is counted and bounded.
+    fn unary(&mut self) -> Result<Node, ParseError> {
+        self.nesting += 1;
+        let node = if self.nesting > MAX_DEPTH {
+            Err(ParseError {
+                span: self.here(),
+                message: format!("the expression nests more than {MAX_DEPTH} levels deep"),
+            })
+        } else if self.peek_op('-') {
             self.pos += 1;
-            return Ok(Expr::Neg(Box::new(self.unary()?)));
-        }
-        if self.peek_op('+') {
+            self.unary().map(|(e, d)| (Expr::Neg(Box::new(e)), d + 1))
+        } else if self.peek_op('+') {
             self.pos += 1;
-            return self.unary();
-        }
-        self.power()
+            self.unary()
+        } else {
+            self.power()
+        };
+        self.nesting -= 1;
+        node
     }
 
-    fn power(&mut self) -> Result<Expr, ParseError> {
-        let base = self.atom()?;
-        if self.peek_op('^') {
-            self.pos += 1;
-            let exponent = self.unary()?;
-            return Ok(Expr::Pow(Box::new(base), Box::new(exponent)));
+    fn power(&mut self) -> Result<Node, ParseError> {
+        let (base, d) = self.atom()?;
+        if !self.peek_op('^') {
+            return Ok((base, d));
         }
-        Ok(base)
+        self.pos += 1;
+        let start = self.here().start;
+        let (exponent, e) = self.unary()?;
+        let end = self.tokens[self.pos - 1].span.end;
+        check_exponent(&exponent, start..end)?;
+        let node = (Expr::Pow(Box::new(base), Box::new(exponent)), d.max(e) + 1);
+        self.shallow(node, start..end)
     }
 
-    fn atom(&mut self) -> Result<Expr, ParseError> {
+    fn atom(&mut self) -> Result<Node, ParseError> {
         let Some(tok) = self.peek().cloned() else {
             return Err(ParseError {
                 span: self.end_span(),
@@ -315,7 +374,7 @@ impl Parser<'_> {
         };
         self.pos += 1;
         match tok.tok {
-            Tok::Num(r) => Ok(Expr::Num(r)),
+            Tok::Num(r) => Ok((Expr::Num(r), 1)),
             Tok::Op('(') => {
                 let e = self.expr()?;
                 self.expect_op(')', "to close `(`")?;
@@ -332,17 +391,21 @@ impl Parser<'_> {
                         kind: OccurrenceKind::Symbol,
                         span: tok.span.clone(),
                     });
-                    return Ok(Expr::Sym(name));
+                    return Ok((Expr::Sym(name), 1));
                 }
                 self.pos += 1; // '('
-                let mut args = vec![self.expr()?];
+                let (first, mut depth) = self.expr()?;
+                let mut args = vec![first];
                 while self.peek_op(',') {
                     self.pos += 1;
-                    args.push(self.expr()?);
+                    let (a, d) = self.expr()?;
+                    depth = depth.max(d);
+                    args.push(a);
                 }
                 let close = self.expect_op(')', &format!("to close the call of `{name}`"))?;
                 let whole = tok.span.start..close.end;
-                self.call(name, args, tok.span.clone(), whole)
+                let call = self.call(name, args, tok.span.clone(), whole.clone())?;
+                self.shallow((call, depth + 1), whole)
             }
         }
     }
@@ -410,6 +473,25 @@ impl Parser<'_> {
             orders: vec![0; n],
         })
     }
+}
+
+/// An exponent that is a constant must be at most [`MAX_EXPONENT`] in size (numerator and
+/// denominator): `x^1000000000` is refused here, before any engine expands it.
+fn check_exponent(e: &Expr, span: Range<usize>) -> Result<(), ParseError> {
+    let folded = e.specialise(&std::collections::HashMap::new());
+    let Expr::Num(r) = folded else {
+        return Ok(());
+    };
+    let big = |x: &BigInt| x.magnitude() > &num_bigint::BigUint::from(MAX_EXPONENT);
+    if big(r.numer()) || big(r.denom()) {
+        return Err(ParseError {
+            span,
+            message: format!(
+                "the exponent {r} is too large: hamel takes exponents of at most {MAX_EXPONENT} in size"
+            ),
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -489,5 +571,49 @@ mod tests {
         assert!(e.message.contains("to close `(`"));
         let e = parse("a b").unwrap_err();
         assert_eq!(e.span, 2..3);
+    }
+
+    #[test]
+    fn limits_are_errors_not_exhaustion() {
+        // A megabyte of text.
+        let big = "x+".repeat(512 * 1024) + "x";
+        let e = parse(&big).unwrap_err();
+        assert!(e.message.contains("at most 262144 bytes"), "{}", e.message);
+        // Just under the size limit: parsed (a flat sum is shallow).
+        let ok = "x+".repeat(100_000) + "x";
+        assert!(parse(&ok).is_ok());
+        // Nesting: parentheses, unary minus, powers, calls, chains of divisions.
+        for deep in [
+            "(".repeat(10_000) + "x" + &")".repeat(10_000),
+            "-".repeat(10_000) + "x",
+            "x^".repeat(10_000) + "2",
+            "sin(".repeat(10_000) + "x" + &")".repeat(10_000),
+            "1".to_string() + &"/x".repeat(10_000),
+        ] {
+            let e = parse(&deep).unwrap_err();
+            assert!(e.message.contains("more than 100 levels"), "{}", e.message);
+        }
+        assert!(parse(&("(".repeat(99) + "x" + &")".repeat(99))).is_ok());
+        assert!(parse(&("1".to_string() + &"/x".repeat(98))).is_ok());
+        // Exponents: literal, folded, nested.
+        for (text, span) in [
+            ("x^1000000000", 2..12),
+            ("x^(2*500)", 2..9),
+            ("x^2^2^2^2", 2..9),
+            ("x^(1/1000)", 2..10),
+        ] {
+            let e = parse(text).unwrap_err();
+            assert!(
+                e.message.contains("exponents of at most 100"),
+                "{text}: {}",
+                e.message
+            );
+            assert_eq!(e.span, span, "{text}");
+        }
+        assert!(parse("x^100 + x^-100 + x^(1/2) + x^y").is_ok());
+        // Digits.
+        let e = parse(&"1".repeat(101)).unwrap_err();
+        assert!(e.message.contains("more than 100 digits"), "{}", e.message);
+        assert!(parse(&("0.".to_string() + &"1".repeat(99))).is_ok());
     }
 }

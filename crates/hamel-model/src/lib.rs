@@ -25,6 +25,7 @@ mod model;
 mod numeric;
 mod parameters;
 mod schema;
+pub mod states;
 mod steady;
 mod symmetry;
 
@@ -32,7 +33,7 @@ pub use default_choice::combinations;
 pub use error::{ErrorKind, ModelError};
 pub use hamel_bodies::{Completion, CompletionError, HolonomicConstraint};
 pub use loader::{Item, Kinetic, Origin, Site};
-pub use model::{ChoiceOrigin, Model, QuasiVelocityChoice};
+pub use model::{ChoiceOrigin, MAX_COORDINATES, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};
 pub use parameters::{SetError, parse_assignment};
 pub use steady::Steady;

@@ -335,7 +335,12 @@ fn identity_choice(coordinates: &[String]) -> QuasiVelocityChoice {
     }
 }
 
-/// `coordinates`: identifiers, not reserved, each once, at least one.
+/// The most coordinates a model may have: far above a mechanism's needs (the bicycle has 8),
+/// low enough that no derivation of a model read exhausts the machine.
+pub const MAX_COORDINATES: usize = 64;
+
+/// `coordinates`: identifiers, not reserved, each once, at least one, at most
+/// [`MAX_COORDINATES`].
 fn coordinates_of(raw: &RawModel, err: &ErrorAt) -> Result<Vec<String>, ModelError> {
     let mut coordinates: Vec<String> = Vec::new();
     for c in raw.coordinates.get_ref() {
@@ -368,6 +373,16 @@ fn coordinates_of(raw: &RawModel, err: &ErrorAt) -> Result<Vec<String>, ModelErr
             raw.coordinates.span(),
             "coordinates",
             "the model needs at least one coordinate".into(),
+        ));
+    }
+    if coordinates.len() > MAX_COORDINATES {
+        return Err(err(
+            raw.coordinates.span(),
+            "coordinates",
+            format!(
+                "the model has {} coordinates; hamel takes at most {MAX_COORDINATES}",
+                coordinates.len()
+            ),
         ));
     }
     Ok(coordinates)
