@@ -7,6 +7,7 @@ use indexmap::IndexMap;
 
 /// One of the scene's requested `[expressions]`, its parameters substituted: its name and a
 /// tape over (the ℓ coordinates, η).
+#[cfg(feature = "derive")]
 pub(crate) struct OutputExpression {
     pub(crate) name: String,
     pub(crate) tape: hamel_expr::Tape,
@@ -15,6 +16,7 @@ pub(crate) struct OutputExpression {
 /// An expression parsed and checked against the model, before the parameters are substituted.
 pub(crate) struct ParsedExpression {
     pub(crate) name: String,
+    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
     expr: hamel_expr::Expr,
     pub(crate) coordinates: Vec<usize>,
 }
@@ -103,6 +105,7 @@ pub(crate) fn parse_expressions(
 }
 
 impl ParsedExpression {
+    #[cfg(feature = "derive")]
     /// The names of the coordinates the expression uses.
     pub(crate) fn coordinate_names(&self, d: &hamel_derive::Derivation) -> Vec<String> {
         self.coordinates
@@ -111,6 +114,7 @@ impl ParsedExpression {
             .collect()
     }
 
+    #[cfg(feature = "derive")]
     /// Substitute the scene's parameter values (exact: dyadic rationals, constants folded)
     /// and compile over (the coordinates, eta1…).
     pub(crate) fn specialised(

@@ -3,11 +3,13 @@
 use indexmap::IndexMap;
 use serde::Serialize;
 
+#[cfg(feature = "derive")]
 use crate::file::{Initial, KeyedError};
 
 /// The initial quasi-velocities: `eta` as given, or η = Z(q)w for the given q̇ projected onto
 /// the constraints in the kinetic metric (w, [`hamel_oracle::project_kinetic`]), with the
 /// projection's report. Errors: (the scene key, the reason).
+#[cfg(feature = "derive")]
 pub(crate) fn initial_eta(
     initial: &Initial,
     d: &hamel_derive::Derivation,

@@ -15,8 +15,12 @@
 //! the compiled core is engine-free (no CAS), built once per scene and cached
 //! ([`cache`]); a failed integration keeps what was computed, marked incomplete.
 //!
-//! The modules follow the data: [`file`] → [`load`] (with [`expressions`], [`initial`],
-//! [`auto`], [`plan`]) → [`system`] / [`cache`] → [`integrate`] → [`trajectory`],
+//! Without the default feature `derive` only [`file`], [`check`] (with [`expressions`],
+//! [`request`], [`initial`]) are built: a scene read and checked against its model, with no
+//! computer algebra (what the fuzz target links).
+//!
+//! The modules follow the data: [`file`] → [`check`] → [`load`] (with [`expressions`],
+//! [`initial`], [`auto`], [`plan`]) → [`system`] / [`cache`] → [`integrate`] → [`trajectory`],
 //! [`compare`] → [`tradeoff`] → [`simulate`]; [`measure`] and [`plot`] at the side.
 //!
 //! ```no_run
@@ -28,23 +32,43 @@
 //! # Ok::<(), hamel_model::ModelError>(())
 //! ```
 
+#[cfg(feature = "derive")]
 pub mod auto;
+#[cfg(feature = "derive")]
 pub mod cache;
+pub mod check;
+#[cfg(feature = "derive")]
 pub mod compare;
 pub mod expressions;
 pub mod file;
 pub mod initial;
+#[cfg(feature = "derive")]
 pub mod integrate;
+#[cfg(feature = "derive")]
 pub mod load;
+#[cfg(feature = "derive")]
 pub mod measure;
+#[cfg(feature = "derive")]
 pub mod plan;
+#[cfg(feature = "derive")]
 pub mod plot;
+pub mod request;
+#[cfg(feature = "derive")]
 pub mod simulate;
+#[cfg(feature = "derive")]
 pub mod system;
+#[cfg(feature = "derive")]
 pub mod tradeoff;
+#[cfg(feature = "derive")]
 pub mod trajectory;
 
+pub use check::{Checked, check};
+#[cfg(feature = "derive")]
 pub use integrate::{Engine, Run};
+#[cfg(feature = "derive")]
 pub use load::{Loaded, load, load_with};
-pub use plan::{Plan, Request};
+#[cfg(feature = "derive")]
+pub use plan::Plan;
+pub use request::Request;
+#[cfg(feature = "derive")]
 pub use trajectory::Trajectory;

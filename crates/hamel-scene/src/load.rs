@@ -6,13 +6,14 @@ use std::sync::Arc;
 
 use hamel_derive::Compiled;
 use hamel_model::{Model, ModelError};
-use hamel_sim::{Method, MethodName, Options, Solution};
+use hamel_sim::{Method, Options, Solution};
 use indexmap::IndexMap;
 
 use crate::cache;
-use crate::expressions::{OutputExpression, ParsedExpression, parse_expressions};
-use crate::file::{Integrator, Outputs, Scene};
-use crate::initial::{Completed, Projection, complete_initial, initial_eta};
+use crate::check::{Checked, SceneFile, check};
+use crate::expressions::{OutputExpression, ParsedExpression};
+use crate::file::Scene;
+use crate::initial::{Completed, Projection, initial_eta};
 use crate::plan::{Plan, Request};
 
 /// A scene read and checked, with its derivation, plan and initial state.
@@ -50,20 +51,6 @@ pub struct Loaded {
     pub(crate) core: OnceCell<Result<cache::Entry, cache::CacheError>>,
 }
 
-/// The scene file's name and text, for located errors.
-#[derive(Clone)]
-pub(crate) struct SceneFile {
-    name: String,
-    source: Arc<String>,
-}
-
-impl SceneFile {
-    /// An error at `key` of the scene file (or at the file when `None`).
-    pub(crate) fn error(&self, key: Option<&str>, message: String) -> ModelError {
-        ModelError::new(&self.name, self.source.clone(), None, key, message)
-    }
-}
-
 /// Read a scene, derive its equations, plan what to integrate and set up the initial state;
 /// every error names the scene (or model) file, the key and the reason.
 pub fn load(scene_path: &Path) -> Result<Loaded, ModelError> {
@@ -76,41 +63,37 @@ pub fn load_with(
     scene_path: &Path,
     overrides: &IndexMap<String, f64>,
 ) -> Result<Loaded, ModelError> {
-    let (mut scene, file) = read(scene_path)?;
-    scene
-        .parameters
-        .extend(overrides.iter().map(|(k, v)| (k.clone(), *v)));
+    let (name, text) = read(scene_path)?;
+    let dir = scene_path.parent().unwrap_or(Path::new("."));
+    let model_of = |m: &str| Model::load(dir.join(m));
+    let checked = check(&name, &text, overrides, &model_of)?;
+    let Checked {
+        scene,
+        file,
+        model,
+        parsed,
+        request,
+        integrator: (method, options),
+        params,
+        q0,
+        completed,
+        times,
+    } = checked;
     let err = |key: &str, m: String| file.error(Some(key), m);
-    let model_path = scene_path
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(&scene.model);
-    let model = Model::load(&model_path)?;
-    let parsed = parse_expressions(&scene.expressions, &model).map_err(|(k, m)| err(&k, m))?;
     let (model, choice) = choose(model, &scene, &parsed, &file)?;
-    let request = request(&scene, &model, &parsed, &file)?;
     let (mut plan, d) = crate::plan::plan(&model, &choice, &request)?;
-    let (method, options) = integrator(&scene, &file)?;
     let compiled = d.compile().map_err(|e| err("eta", e.to_string()))?;
-    model
-        .parameter_values(overrides)
-        .map_err(|e| file.error(None, format!("--set: {e}")))?;
-    let params = model
-        .parameter_values(&scene.parameters)
-        .map_err(|e| err("parameters", e.to_string()))?;
     let expressions = request
         .expressions
         .iter()
         .map(|&i| parsed[i].specialised(&params, &d))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|(k, m)| err(&k, m))?;
-    let (q0, completed) = initial_q(&scene, &model, &params, &file)?;
     let (eta0, projection) = {
         let numeric = hamel_model::NumericModel::new(&model, &params)
             .map_err(|e| err("parameters", e.to_string()))?;
         initial_eta(&scene.initial, &d, &numeric, &q0).map_err(|(key, m)| err(key, m))?
     };
-    let times = output_times(&scene, &file)?;
     plan.expressions = request
         .expressions
         .iter()
@@ -151,8 +134,8 @@ pub fn load_with(
     })
 }
 
-/// Read and parse the scene file (its syntax and keys; nothing is checked against the model).
-fn read(scene_path: &Path) -> Result<(Scene, SceneFile), ModelError> {
+/// The scene file's name and text.
+fn read(scene_path: &Path) -> Result<(String, String), ModelError> {
     let name = scene_path.display().to_string();
     let text = std::fs::read_to_string(scene_path).map_err(|e| {
         ModelError::new(
@@ -163,17 +146,7 @@ fn read(scene_path: &Path) -> Result<(Scene, SceneFile), ModelError> {
             format!("cannot read the scene: {e}"),
         )
     })?;
-    let source = Arc::new(text);
-    let scene: Scene = toml::from_str(&source).map_err(|e| {
-        ModelError::new(
-            &name,
-            source.clone(),
-            e.span(),
-            None,
-            e.message().to_string(),
-        )
-    })?;
-    Ok((scene, SceneFile { name, source }))
+    Ok((name, text))
 }
 
 /// The model and its quasi-velocity choice: the one the scene names (the default choice with
@@ -207,157 +180,6 @@ fn choose(
         v
     });
     crate::auto::auto_choice(model, auto_request.as_deref())
-}
-
-/// What the scene requests (everything when it says nothing), with the coordinates the
-/// requested expressions need.
-fn request(
-    scene: &Scene,
-    model: &Model,
-    parsed: &[ParsedExpression],
-    file: &SceneFile,
-) -> Result<Request, ModelError> {
-    // The names `request` may use: the expressions' besides the model's outputs.
-    let expression_names: Vec<String> = parsed.iter().map(|e| e.name.clone()).collect();
-    let mut request = match &scene.request {
-        Some(names) => Request::parse(names, &model.coordinates, model.sigma(), &expression_names)
-            .map_err(|m| file.error(Some("request"), m))?,
-        None => Request::everything(model.coordinates.len(), parsed.len()),
-    };
-    for &i in &request.expressions {
-        for &k in &parsed[i].coordinates {
-            if !request.needed.contains(&k) {
-                request.needed.push(k);
-            }
-        }
-    }
-    Ok(request)
-}
-
-/// The integrator and its options: `[integrator]`, or DOP853 at the `[accuracy]` tolerances
-/// (which `hamel simulate` may replace by a faster setting that meets them), or DOP853 at
-/// rtol = 1e-10, atol = 1e-12.
-fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), ModelError> {
-    let err = |key: &str, m: String| file.error(Some(key), m);
-    let i = match (&scene.integrator, &scene.accuracy) {
-        (Some(_), Some(_)) => {
-            return Err(err(
-                "accuracy",
-                "give either [accuracy] (a target) or [integrator] (a method), not both".into(),
-            ));
-        }
-        (Some(i), None) => i.clone(),
-        (None, Some(a)) => {
-            if !(a.rtol > 0.0 && a.atol > 0.0 && a.rtol < 1.0) {
-                return Err(err(
-                    "accuracy",
-                    format!(
-                        "rtol must be in (0, 1) and atol > 0 (got {}, {})",
-                        a.rtol, a.atol
-                    ),
-                ));
-            }
-            Integrator {
-                rtol: a.rtol,
-                atol: a.atol,
-                ..Integrator::default()
-            }
-        }
-        (None, None) => Integrator::default(),
-    };
-    let method = match i.method {
-        MethodName::Rk4 => Method::Rk4 {
-            step: i
-                .step
-                .ok_or_else(|| err("integrator.step", "rk4 needs a step".into()))?,
-        },
-        MethodName::Dopri5 => Method::Dopri5,
-        MethodName::Dop853 => Method::Dop853,
-        MethodName::GaussLegendre => Method::GaussLegendre {
-            stages: i.stages.unwrap_or(3),
-            step: i.step,
-        },
-    };
-    // Tolerances the adaptive methods cannot meet are refused before anything runs.
-    let key = if scene.accuracy.is_some() {
-        "accuracy.rtol"
-    } else {
-        "integrator.rtol"
-    };
-    if !matches!(method, Method::Rk4 { .. }) && i.rtol <= 10.0 * f64::EPSILON {
-        return Err(err(
-            key,
-            format!(
-                "rtol = {:e} is below what f64 arithmetic can deliver: it must exceed 10·ε ≈ 2.2e-15",
-                i.rtol
-            ),
-        ));
-    }
-    let options = Options {
-        rtol: i.rtol,
-        atol: i.atol,
-        max_steps: i.max_steps.unwrap_or(Options::default().max_steps),
-        ..Options::default()
-    };
-    Ok((method, options))
-}
-
-/// The initial configuration, every coordinate of the model in its order.
-/// The initial configuration: every coordinate given, except the dependent coordinates of
-/// holonomic constraints, which are completed from h(q) = 0 (Newton, from the value given or 0).
-fn initial_q(
-    scene: &Scene,
-    model: &Model,
-    params: &IndexMap<String, f64>,
-    file: &SceneFile,
-) -> Result<(Vec<f64>, Vec<Completed>), ModelError> {
-    let err = |m: String| file.error(Some("initial.q"), m);
-    if let Some(extra) = scene
-        .initial
-        .q
-        .keys()
-        .find(|k| !model.coordinates.contains(k))
-    {
-        return Err(err(format!("`{extra}` is not a coordinate of the model")));
-    }
-    let dependent = model.completion.dependent();
-    let mut q = Vec::with_capacity(model.coordinates.len());
-    for (k, c) in model.coordinates.iter().enumerate() {
-        match scene.initial.q.get(c) {
-            Some(&v) => q.push(v),
-            None if dependent.contains(&k) => q.push(0.0),
-            None => return Err(err(format!("missing coordinate `{c}`"))),
-        }
-    }
-    let given: Vec<bool> = model
-        .coordinates
-        .iter()
-        .map(|c| scene.initial.q.contains_key(c))
-        .collect();
-    let completed = complete_initial(model, params, &mut q, &given).map_err(err)?;
-    Ok((q, completed))
-}
-
-/// The output times: a count spread evenly over [t0, t_end], or the times given.
-fn output_times(scene: &Scene, file: &SceneFile) -> Result<Vec<f64>, ModelError> {
-    if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
-        return Err(file.error(
-            Some("t_end"),
-            "t_end must be finite and differ from t0".into(),
-        ));
-    }
-    Ok(match &scene.outputs {
-        Outputs::Count(n) if *n >= 2 => (0..*n)
-            .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
-            .collect(),
-        Outputs::Count(n) => {
-            return Err(file.error(
-                Some("outputs"),
-                format!("needs at least 2 output times, got {n}"),
-            ));
-        }
-        Outputs::Times(t) => t.clone(),
-    })
 }
 
 /// The value at which the dropped coordinates are held, where the equations evaluate at the

@@ -1,0 +1,263 @@
+//! A scene read and checked against its model, without the computer algebra: everything
+//! [`crate::load`] does before it derives (the syntax and keys, the model, the `[expressions]`,
+//! the request, the integrator, the parameters, the initial configuration with the holonomic
+//! constraints completed, the output times). Every error names the scene (or model) file, the
+//! key and the reason.
+
+use std::sync::Arc;
+
+use hamel_model::{Model, ModelError};
+use hamel_sim::{Method, MethodName, Options};
+use indexmap::IndexMap;
+
+use crate::expressions::{ParsedExpression, parse_expressions};
+use crate::file::{Integrator, Outputs, Scene};
+use crate::initial::{Completed, complete_initial};
+use crate::request::Request;
+
+/// A scene checked against its model.
+pub struct Checked {
+    // Read by `load` (feature `derive`).
+    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
+    pub(crate) scene: Scene,
+    // Read by `load` (feature `derive`).
+    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
+    pub(crate) file: SceneFile,
+    /// The model the scene names.
+    pub model: Model,
+    // Read by `load` (feature `derive`).
+    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
+    pub(crate) parsed: Vec<ParsedExpression>,
+    /// What the scene asks for.
+    pub request: Request,
+    /// The integrator and its options.
+    pub integrator: (Method, Options),
+    /// The parameter values: the model's, then the scene's, then the overrides.
+    pub params: IndexMap<String, f64>,
+    /// The initial configuration, every coordinate.
+    pub q0: Vec<f64>,
+    /// The dependent coordinates completed from the holonomic constraints.
+    pub completed: Vec<Completed>,
+    /// The output times.
+    pub times: Vec<f64>,
+}
+
+/// Check the scene `text` (of the file `name`) with parameter `overrides` (`--set`);
+/// `model_of` loads the model file the scene names (a path relative to the scene).
+pub fn check(
+    name: &str,
+    text: &str,
+    overrides: &IndexMap<String, f64>,
+    model_of: &dyn Fn(&str) -> Result<Model, ModelError>,
+) -> Result<Checked, ModelError> {
+    let (mut scene, file) = parse(name, text)?;
+    scene
+        .parameters
+        .extend(overrides.iter().map(|(k, v)| (k.clone(), *v)));
+    let err = |key: &str, m: String| file.error(Some(key), m);
+    let model = model_of(&scene.model)?;
+    let parsed = parse_expressions(&scene.expressions, &model).map_err(|(k, m)| err(&k, m))?;
+    let request = request(&scene, &model, &parsed, &file)?;
+    let integrator = integrator(&scene, &file)?;
+    model
+        .parameter_values(overrides)
+        .map_err(|e| file.error(None, format!("--set: {e}")))?;
+    let params = model
+        .parameter_values(&scene.parameters)
+        .map_err(|e| err("parameters", e.to_string()))?;
+    let (q0, completed) = initial_q(&scene, &model, &params, &file)?;
+    let times = output_times(&scene, &file)?;
+    Ok(Checked {
+        scene,
+        file,
+        model,
+        parsed,
+        request,
+        integrator,
+        params,
+        q0,
+        completed,
+        times,
+    })
+}
+
+/// The scene file's name and text, for located errors.
+#[derive(Clone)]
+pub(crate) struct SceneFile {
+    pub(crate) name: String,
+    source: Arc<String>,
+}
+
+impl SceneFile {
+    /// An error at `key` of the scene file (or at the file when `None`).
+    pub(crate) fn error(&self, key: Option<&str>, message: String) -> ModelError {
+        ModelError::new(&self.name, self.source.clone(), None, key, message)
+    }
+}
+
+/// Parse the scene file (its syntax and keys; nothing is checked against the model).
+fn parse(name: &str, text: &str) -> Result<(Scene, SceneFile), ModelError> {
+    let source = Arc::new(text.to_string());
+    let scene: Scene = toml::from_str(&source).map_err(|e| {
+        ModelError::new(
+            name,
+            source.clone(),
+            e.span(),
+            None,
+            e.message().to_string(),
+        )
+    })?;
+    let name = name.to_string();
+    Ok((scene, SceneFile { name, source }))
+}
+
+/// What the scene requests (everything when it says nothing), with the coordinates the
+/// requested expressions need.
+fn request(
+    scene: &Scene,
+    model: &Model,
+    parsed: &[ParsedExpression],
+    file: &SceneFile,
+) -> Result<Request, ModelError> {
+    // The names `request` may use: the expressions' besides the model's outputs.
+    let expression_names: Vec<String> = parsed.iter().map(|e| e.name.clone()).collect();
+    let mut request = match &scene.request {
+        Some(names) => Request::parse(names, &model.coordinates, model.sigma(), &expression_names)
+            .map_err(|m| file.error(Some("request"), m))?,
+        None => Request::everything(model.coordinates.len(), parsed.len()),
+    };
+    for &i in &request.expressions {
+        for &k in &parsed[i].coordinates {
+            if !request.needed.contains(&k) {
+                request.needed.push(k);
+            }
+        }
+    }
+    Ok(request)
+}
+
+/// The integrator and its options: `[integrator]`, or DOP853 at the `[accuracy]` tolerances
+/// (which `hamel simulate` may replace by a faster setting that meets them), or DOP853 at
+/// rtol = 1e-10, atol = 1e-12.
+fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), ModelError> {
+    let err = |key: &str, m: String| file.error(Some(key), m);
+    let i = match (&scene.integrator, &scene.accuracy) {
+        (Some(_), Some(_)) => {
+            return Err(err(
+                "accuracy",
+                "give either [accuracy] (a target) or [integrator] (a method), not both".into(),
+            ));
+        }
+        (Some(i), None) => i.clone(),
+        (None, Some(a)) => {
+            if !(a.rtol > 0.0 && a.atol > 0.0 && a.rtol < 1.0) {
+                return Err(err(
+                    "accuracy",
+                    format!(
+                        "rtol must be in (0, 1) and atol > 0 (got {}, {})",
+                        a.rtol, a.atol
+                    ),
+                ));
+            }
+            Integrator {
+                rtol: a.rtol,
+                atol: a.atol,
+                ..Integrator::default()
+            }
+        }
+        (None, None) => Integrator::default(),
+    };
+    let method = match i.method {
+        MethodName::Rk4 => Method::Rk4 {
+            step: i
+                .step
+                .ok_or_else(|| err("integrator.step", "rk4 needs a step".into()))?,
+        },
+        MethodName::Dopri5 => Method::Dopri5,
+        MethodName::Dop853 => Method::Dop853,
+        MethodName::GaussLegendre => Method::GaussLegendre {
+            stages: i.stages.unwrap_or(3),
+            step: i.step,
+        },
+    };
+    // Tolerances the adaptive methods cannot meet are refused before anything runs.
+    let key = if scene.accuracy.is_some() {
+        "accuracy.rtol"
+    } else {
+        "integrator.rtol"
+    };
+    if !matches!(method, Method::Rk4 { .. }) && i.rtol <= 10.0 * f64::EPSILON {
+        return Err(err(
+            key,
+            format!(
+                "rtol = {:e} is below what f64 arithmetic can deliver: it must exceed 10·ε ≈ 2.2e-15",
+                i.rtol
+            ),
+        ));
+    }
+    let options = Options {
+        rtol: i.rtol,
+        atol: i.atol,
+        max_steps: i.max_steps.unwrap_or(Options::default().max_steps),
+        ..Options::default()
+    };
+    Ok((method, options))
+}
+
+/// The initial configuration, every coordinate of the model in its order.
+/// The initial configuration: every coordinate given, except the dependent coordinates of
+/// holonomic constraints, which are completed from h(q) = 0 (Newton, from the value given or 0).
+fn initial_q(
+    scene: &Scene,
+    model: &Model,
+    params: &IndexMap<String, f64>,
+    file: &SceneFile,
+) -> Result<(Vec<f64>, Vec<Completed>), ModelError> {
+    let err = |m: String| file.error(Some("initial.q"), m);
+    if let Some(extra) = scene
+        .initial
+        .q
+        .keys()
+        .find(|k| !model.coordinates.contains(k))
+    {
+        return Err(err(format!("`{extra}` is not a coordinate of the model")));
+    }
+    let dependent = model.completion.dependent();
+    let mut q = Vec::with_capacity(model.coordinates.len());
+    for (k, c) in model.coordinates.iter().enumerate() {
+        match scene.initial.q.get(c) {
+            Some(&v) => q.push(v),
+            None if dependent.contains(&k) => q.push(0.0),
+            None => return Err(err(format!("missing coordinate `{c}`"))),
+        }
+    }
+    let given: Vec<bool> = model
+        .coordinates
+        .iter()
+        .map(|c| scene.initial.q.contains_key(c))
+        .collect();
+    let completed = complete_initial(model, params, &mut q, &given).map_err(err)?;
+    Ok((q, completed))
+}
+
+/// The output times: a count spread evenly over [t0, t_end], or the times given.
+fn output_times(scene: &Scene, file: &SceneFile) -> Result<Vec<f64>, ModelError> {
+    if !(scene.t_end.is_finite() && scene.t0.is_finite()) || scene.t_end == scene.t0 {
+        return Err(file.error(
+            Some("t_end"),
+            "t_end must be finite and differ from t0".into(),
+        ));
+    }
+    Ok(match &scene.outputs {
+        Outputs::Count(n) if *n >= 2 => (0..*n)
+            .map(|i| scene.t0 + (scene.t_end - scene.t0) * i as f64 / (*n - 1) as f64)
+            .collect(),
+        Outputs::Count(n) => {
+            return Err(file.error(
+                Some("outputs"),
+                format!("needs at least 2 output times, got {n}"),
+            ));
+        }
+        Outputs::Times(t) => t.clone(),
+    })
+}
