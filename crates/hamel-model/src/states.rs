@@ -13,7 +13,7 @@ use std::sync::Arc;
 use indexmap::IndexMap;
 use serde::Deserialize;
 
-use crate::{Model, ModelError};
+use crate::{Model, ModelError, QuasiVelocityChoice};
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -82,13 +82,13 @@ pub fn read(
     for (i, v) in items.into_iter().enumerate() {
         let tag = |m: String| err(None, format!("state {}: {m}", i + 1));
         let raw: RawState = serde_json::from_value(v).map_err(|e| tag(e.to_string()))?;
-        states.push(check(model, &choice.name, raw).map_err(tag)?);
+        states.push(check(model, choice, raw).map_err(tag)?);
     }
     Ok(States { list, states })
 }
 
 /// One state against the model and the choice.
-fn check(model: &Model, choice: &str, s: RawState) -> Result<State, String> {
+fn check(model: &Model, choice: &QuasiVelocityChoice, s: RawState) -> Result<State, String> {
     let q = model
         .coordinates
         .iter()
@@ -103,11 +103,7 @@ fn check(model: &Model, choice: &str, s: RawState) -> Result<State, String> {
             "`{extra}` in \"q\" is not a coordinate of the model"
         ));
     }
-    let sigma = model
-        .choice(Some(choice))
-        .map_err(|e| e.message().to_string())?
-        .eta
-        .len();
+    let sigma = choice.eta.len();
     if s.eta.len() != sigma {
         return Err(format!(
             "\"eta\" must have σ = {sigma} values, found {}",
@@ -118,7 +114,7 @@ fn check(model: &Model, choice: &str, s: RawState) -> Result<State, String> {
         return Err(format!("unknown parameter `{k}` in \"params\""));
     }
     model
-        .with_free_functions(choice, &functions(&s.functions)?)
+        .with_free_functions(&choice.name, &functions(&s.functions)?)
         .map_err(|e| e.message().to_string())?;
     Ok(State {
         q,
