@@ -34,6 +34,7 @@ fn main() -> ExitCode {
         Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())
     }));
     messages::init();
+    on_interrupt();
     let cli = Cli::parse();
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
@@ -41,6 +42,19 @@ fn main() -> ExitCode {
             eprintln!("{:?}", miette::Report::new(e));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Interrupted (SIGINT): remove the files being written (`hamel_model::files`), so that no
+/// partial result is left behind, and stop with the conventional status 130.
+fn on_interrupt() {
+    let handler = || {
+        hamel_model::files::remove_pending();
+        eprintln!("hamel: interrupted; no partial output left behind");
+        std::process::exit(130);
+    };
+    if let Err(e) = ctrlc::set_handler(handler) {
+        eprintln!("hamel: warning: cannot watch for interruption: {e}");
     }
 }
 

@@ -38,7 +38,8 @@ impl Output {
         Ok(Output(path))
     }
 
-    /// Write the complete result (to a temporary file renamed into place, for files).
+    /// Write the complete result (to a temporary file renamed into place, for files:
+    /// [`hamel_model::files`], so that an interrupted command leaves no partial file).
     pub fn write(&self, text: &str) -> Result<(), ModelError> {
         match &self.0 {
             None => {
@@ -48,15 +49,8 @@ impl Output {
                     .and_then(|_| stdout.flush())
                     .map_err(|e| io_error(std::path::Path::new("<stdout>"), "cannot write", e))
             }
-            Some(p) => {
-                let tmp = p.with_extension("hamel-tmp");
-                std::fs::write(&tmp, text)
-                    .and_then(|_| std::fs::rename(&tmp, p))
-                    .map_err(|e| {
-                        let _ = std::fs::remove_file(&tmp);
-                        io_error(p, "cannot write the output", e)
-                    })
-            }
+            Some(p) => hamel_model::files::write_whole(p, text.as_bytes())
+                .map_err(|e| io_error(p, "cannot write the output", e)),
         }
     }
 }

@@ -2122,3 +2122,122 @@ fn linearize_writes_sweeps_maps_and_figures_and_nothing_on_errors() {
         );
     }
 }
+
+/// Interrupted (SIGINT) while it computes, `hamel` stops with status 130 and leaves nothing
+/// in the output's directory: neither the result, whole or partial, nor a temporary file
+/// (writes go through `hamel_model::files`).
+#[test]
+fn an_interrupted_command_leaves_no_output_behind() {
+    let dir = scratch("interrupted");
+    let out = dir.join("study.json");
+    let args = [
+        "linearize",
+        "models/unicycle_rider.toml",
+        "--steady",
+        "upright",
+        "--sweep",
+        "Omega=1:20:4001",
+        "--format",
+        "json",
+        "--output",
+        out.to_str().unwrap(),
+    ];
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let child = hamel_command(&args, &code_cache())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // SAFETY: kill(2) on the child's pid; no memory is involved.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+/// The same output byte for byte whatever ran before and however many threads run: commands
+/// whose output the snapshots pin down, run in one order with one thread, then in the reverse
+/// order with two; only the search's measured run time is left out. (Within one process,
+/// tests/snapshots.rs checks the order in which symbols are first created: its tests run in
+/// any order, on any thread.)
+#[test]
+fn output_is_the_same_across_orders_and_thread_counts() {
+    let commands: [&[&str]; 6] = [
+        &["derive", "models/unicycle_rider.toml", "--format", "json"],
+        &["derive", "models/whipple_bicycle.toml", "--format", "json"],
+        &[
+            "reduce",
+            "models/rolling_disk.toml",
+            "--eliminate",
+            "xC,yC,phi",
+            "--format",
+            "json",
+        ],
+        &["expand", "models/bodies/unicycle_rider_bodies.toml"],
+        &[
+            "linearize",
+            "models/whipple_bicycle.toml",
+            "--steady",
+            "upright",
+            "--sweep",
+            "v=0:10:41",
+            "--format",
+            "json",
+        ],
+        &[
+            "search",
+            "models/knife.toml",
+            "--eliminate",
+            "x,y,theta",
+            "--format",
+            "json",
+        ],
+    ];
+    let run = |order: Vec<usize>, threads: &str| -> Vec<(usize, Vec<u8>)> {
+        let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+        let mut out: Vec<(usize, Vec<u8>)> = order
+            .into_iter()
+            .map(|i| {
+                let o = hamel_command(commands[i], &code_cache())
+                    .env("RAYON_NUM_THREADS", threads)
+                    .output()
+                    .unwrap();
+                assert!(o.status.success(), "{:?}: {}", commands[i], stderr(&o));
+                (i, without_timings(o.stdout))
+            })
+            .collect();
+        out.sort();
+        out
+    };
+    let first = run((0..commands.len()).collect(), "1");
+    let second = run((0..commands.len()).rev().collect(), "2");
+    for ((i, a), (_, b)) in first.iter().zip(&second) {
+        assert!(!a.is_empty(), "{:?} printed nothing", commands[*i]);
+        assert!(a == b, "{:?} differs between the runs", commands[*i]);
+    }
+}
+
+/// The output with the measured run time (`seconds`, in a search's JSON) taken out: the one
+/// field that is meant to differ between runs.
+fn without_timings(out: Vec<u8>) -> Vec<u8> {
+    let text = String::from_utf8(out).unwrap();
+    let Some(start) = text.find('{') else {
+        return text.into_bytes();
+    };
+    match serde_json::from_str::<serde_json::Value>(&text[start..]) {
+        Ok(mut v) => {
+            if let Some(o) = v.as_object_mut() {
+                o.remove("seconds");
+            }
+            v.to_string().into_bytes()
+        }
+        Err(_) => text.into_bytes(),
+    }
+}

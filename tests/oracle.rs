@@ -15,248 +15,23 @@
 
 mod common;
 
+use common::oracle::{F64_CONDITION, TOL, compare, q_ddot};
 use common::{models, rel_error};
 
-use hamel_derive::{Compiled, Form, FormRequest, SymbolicCompiled, derive, derive_with};
-use hamel_expr::{DD, Dual, Expr, Scalar, parse};
+use hamel_derive::{Form, FormRequest, derive, derive_with};
 use hamel_model::{Model, NumericModel};
 use indexmap::IndexMap;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 const STATES: usize = 50;
-const TOL: f64 = 1e-10;
-/// Largest condition number of [Z; α] admitted for a sample state (very near the singular set
-/// the comparison measures rounding, not the equations; the stability study covers it).
-const MAX_CONDITION: f64 = 1e6;
-
-/// Largest cond[Z; α] at which the f64 evaluation is compared (double-double is compared up to
-/// [`MAX_CONDITION`]). Beyond it hamel's f64 error grows like cond·ε through Γ: 1.8e-10 at
-/// cond 1.6e4 for the bicycle with its front wheel turned 90° (docs/derivation.md §5).
-const F64_CONDITION: f64 = 1e4;
-
-/// Concrete test functions for free functions: smooth, nonconstant, different for each name so
-/// that nothing cancels by accident.
-fn test_function(name: &str, args: &[String]) -> Expr {
-    let k = name.bytes().map(|b| b as u32).sum::<u32>() % 7 + 2;
-    let terms: Vec<String> = args
-        .iter()
-        .enumerate()
-        .map(|(j, a)| {
-            format!(
-                "{}/10*sin({a}) + {}/10*cos({a})",
-                k + j as u32,
-                (k * 3 + j as u32) % 5 + 1
-            )
-        })
-        .collect();
-    parse(&format!("{}/5 + {}", k, terms.join(" + ")))
-        .unwrap()
-        .expr
-}
-
-fn test_functions(model: &Model, choice: &str) -> Vec<(String, Vec<String>, Expr)> {
-    model
-        .choice(Some(choice))
-        .unwrap()
-        .free_functions
-        .iter()
-        .map(|(n, a)| (n.clone(), a.clone(), test_function(n, a)))
-        .collect()
-}
-
-fn with_test_functions(model: &Model, choice: &str) -> Model {
-    let defs: Vec<(String, Expr)> = test_functions(model, choice)
-        .into_iter()
-        .map(|(n, _, e)| (n, e))
-        .collect();
-    model.with_free_functions(choice, &defs).unwrap()
-}
-
-/// Values at q of the inputs a symbolic tape asks for: free functions and first derivatives.
-fn free_values(model: &Model, choice: &str, names: &[String], q: &[DD]) -> Vec<DD> {
-    let mut known: IndexMap<String, DD> = IndexMap::new();
-    for (name, args, body) in test_functions(model, choice) {
-        for dir in 0..=args.len() {
-            let mut orders = vec![0u32; args.len()];
-            if dir > 0 {
-                orders[dir - 1] = 1;
-            }
-            let env = |n: &str| {
-                let i = model.coordinates.iter().position(|c| c == n)?;
-                let d = if dir > 0 && args[dir - 1] == n {
-                    1.0
-                } else {
-                    0.0
-                };
-                Some(Dual::new(q[i], DD::from_f64(d)))
-            };
-            let v: Dual<DD> = body.eval(&env).unwrap();
-            let key = Expr::Free {
-                name: name.clone(),
-                args: args.clone(),
-                orders,
-            }
-            .to_string();
-            known.insert(key, if dir == 0 { v.v } else { v.d });
-        }
-    }
-    names
-        .iter()
-        .map(|n| {
-            *known
-                .get(n)
-                .unwrap_or_else(|| panic!("no test value for `{n}`"))
-        })
-        .collect()
-}
-
-/// q̈ = Γ̇η + Γη̇ for a given η̇, with Γ and Γ̇ (dual numbers along q̇ = Γη) from the structured
-/// evaluation.
-fn q_ddot<S: Scalar + Copy>(
-    c: &Compiled,
-    q: &[S],
-    eta: &[S],
-    eta_dot: &[S],
-    q_dot: &[S],
-    params: &IndexMap<String, f64>,
-) -> Vec<S> {
-    let qdual: Vec<Dual<S>> = q
-        .iter()
-        .zip(q_dot)
-        .map(|(&v, &dv)| Dual::new(v, dv))
-        .collect();
-    let gamma = c.gamma::<Dual<S>>(&qdual, params).unwrap();
-    (0..q.len())
-        .map(|k| {
-            (0..eta.len()).fold(S::constant(0.0), |acc, s| {
-                acc + gamma[k][s].d * eta[s] + gamma[k][s].v * eta_dot[s]
-            })
-        })
-        .collect()
-}
-
-fn dd(v: &[f64]) -> Vec<DD> {
-    v.iter().map(|&x| DD::from_f64(x)).collect()
-}
-
-#[derive(Default)]
-struct Worst {
-    /// The derivation was structured (no expanded symbolic forms to compare).
-    structured_form: bool,
-    structured_f64: f64,
-    structured_dd: f64,
-    symbolic_dd: f64,
-    paper_dd: f64,
-    states: usize,
-}
-
-/// Compare hamel with the oracle at random admissible states.
-fn compare(model: &Model, choice: &str, seed: u64) -> Worst {
-    let concrete = with_test_functions(model, choice);
-    let d =
-        derive(&concrete, Some(choice)).unwrap_or_else(|e| panic!("{}/{choice}: {e}", model.name));
-    if let Some(closed) = d.closed() {
-        assert!(
-            closed.checks.split_identity,
-            "{}/{choice}: Q ≠ Q_paper + Q_correction",
-            model.name
-        );
-        assert!(
-            closed.checks.energy_conserved,
-            "{}/{choice}: energy not conserved",
-            model.name
-        );
-    }
-    let c = d.compile().unwrap();
-    // The symbolic equations as derived for the choice as written (free functions symbolic);
-    // none for a structured derivation, which has only the ingredients.
-    let sym: Option<SymbolicCompiled> = d.closed().map(|_| {
-        derive(model, Some(choice))
-            .unwrap()
-            .compile_symbolic()
-            .unwrap()
-    });
-    let nm = NumericModel::new(&concrete, &IndexMap::new()).unwrap();
-    let params = d.parameters.clone();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut w = Worst {
-        structured_form: d.closed().is_none(),
-        ..Worst::default()
-    };
-    let mut attempts = 0;
-    while w.states < STATES {
-        attempts += 1;
-        assert!(
-            attempts < 20 * STATES,
-            "{}/{choice}: too many singular samples",
-            model.name
-        );
-        let q: Vec<f64> = (0..d.ell).map(|_| rng.random_range(-3.0..3.0)).collect();
-        let v: Vec<f64> = (0..d.ell).map(|_| rng.random_range(-2.0..2.0)).collect();
-        if c.condition(&q, &params).unwrap() > MAX_CONDITION {
-            continue;
-        }
-        let qd = hamel_oracle::project(&nm, &q, &v).unwrap();
-        // η = Z q̇ from the model's own expressions (no derivation involved).
-        let z = nm.quasi_velocity_matrix::<f64>(choice, &q).unwrap();
-        let eta: Vec<f64> = z
-            .iter()
-            .map(|row| row.iter().zip(&qd).map(|(a, b)| a * b).sum())
-            .collect();
-
-        // Structured, f64.
-        let oracle = hamel_oracle::accelerations::<f64>(&nm, &q, &qd).unwrap();
-        let r = c.rhs::<f64>(&q, &eta, &params).unwrap();
-        assert!(
-            rel_error(&r.q_dot, &qd) <= TOL,
-            "{}/{choice}: q̇ = Γη differs",
-            model.name
-        );
-        let mine = q_ddot(&c, &q, &eta, &r.eta_dot, &r.q_dot, &params);
-        if c.condition(&q, &params).unwrap() <= F64_CONDITION {
-            w.structured_f64 = w.structured_f64.max(rel_error(&mine, &oracle.q_ddot));
-        }
-
-        // Structured and symbolic, double-double.
-        // The state in double-double: q̇ = Γη computed in double-double lies on the constraint
-        // manifold to that precision, and is what the oracle is given.
-        let (qx, etax) = (dd(&q), dd(&eta));
-        let r = c.rhs::<DD>(&qx, &etax, &params).unwrap();
-        let oracle = hamel_oracle::accelerations::<DD>(&nm, &qx, &r.q_dot).unwrap();
-        w.structured_dd = w.structured_dd.max(rel_error(
-            &q_ddot(&c, &qx, &etax, &r.eta_dot, &r.q_dot, &params),
-            &oracle.q_ddot,
-        ));
-        if let Some(sym) = &sym {
-            let free = free_values(model, choice, sym.free_inputs(), &qx);
-            let (sym_dot, paper_dot) = sym.eta_dot::<DD>(&qx, &etax, &params, &free).unwrap();
-            w.symbolic_dd = w.symbolic_dd.max(rel_error(
-                &q_ddot(&c, &qx, &etax, &sym_dot, &r.q_dot, &params),
-                &oracle.q_ddot,
-            ));
-            w.paper_dd = w.paper_dd.max(rel_error(
-                &q_ddot(&c, &qx, &etax, &paper_dot, &r.q_dot, &params),
-                &oracle.q_ddot,
-            ));
-            // The structured paper's form agrees with the symbolic paper's form.
-            assert!(
-                rel_error(&r.eta_dot_paper, &paper_dot) <= TOL,
-                "{}/{choice}: paper's forms differ",
-                model.name
-            );
-        }
-        w.states += 1;
-    }
-    w
-}
 
 #[test]
 fn every_model_and_choice_matches_the_lagrange_multiplier_oracle() {
     let mut report = Vec::new();
     for (mi, model) in models().iter().enumerate() {
         for (ci, choice) in model.choices.iter().enumerate() {
-            let w = compare(model, &choice.name, 1000 * mi as u64 + ci as u64);
+            let w = compare(model, &choice.name, 1000 * mi as u64 + ci as u64, STATES);
             let symbolic = if w.structured_form {
                 "symbolic: none (structured form)".to_string()
             } else {
@@ -339,7 +114,7 @@ fn the_structured_form_evaluates_as_the_closed_form() {
 fn the_papers_form_fails_for_the_chaplygin_sleigh_and_holds_for_the_knife() {
     let all = models();
     let sleigh = all.iter().find(|m| m.name == "chaplygin_sleigh").unwrap();
-    let w = compare(sleigh, "paper_style", 7);
+    let w = compare(sleigh, "paper_style", 7, STATES);
     assert!(w.symbolic_dd <= TOL);
     assert!(
         w.paper_dd > 1e-3,
@@ -347,7 +122,7 @@ fn the_papers_form_fails_for_the_chaplygin_sleigh_and_holds_for_the_knife() {
         w.paper_dd
     );
     let knife = all.iter().find(|m| m.name == "knife").unwrap();
-    let w = compare(knife, "paper", 8);
+    let w = compare(knife, "paper", 8, STATES);
     assert!(
         w.symbolic_dd <= TOL && w.paper_dd <= TOL,
         "knife: {:.2e} / {:.2e}",
@@ -405,7 +180,7 @@ fn forces_and_inputs_match_the_oracle() {
     let model = Model::load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert!(model.has_forces());
     assert_eq!(model.inputs, ["thrust", "tau"]);
-    let w = compare(&model, "paper", 7);
+    let w = compare(&model, "paper", 7, STATES);
     assert!(!w.structured_form);
     assert!(w.structured_f64 <= TOL && w.symbolic_dd <= TOL && w.structured_dd <= 1e-20);
     let structured = hamel_derive::derive_with(

@@ -1,6 +1,8 @@
 //! Shared by the test binaries that need it.
 #![allow(dead_code)] // each test binary uses part of it
 
+pub mod oracle;
+
 /// The coordinates each seed example eliminates in the paper (Remark 3.1 for the vertical knife:
 /// y is removed, θ is not; Remark 2.2: q1 is not).
 pub const ELIMINATE: &[(&str, &str)] = &[

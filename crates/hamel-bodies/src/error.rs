@@ -87,7 +87,8 @@ pub enum Problem {
     /// A coordinate named that does not exist.
     #[error("`{0}` is not a coordinate")]
     UnknownCoordinate(String),
-    /// An expression of the configuration holds a velocity.
+    /// An expression of the configuration that cannot be differentiated: it holds a velocity,
+    /// or its derivative would be too large.
     #[error("{0}")]
     Velocity(#[from] DiffError),
     /// An expression could not be evaluated at the default parameters.

@@ -451,6 +451,11 @@ impl std::ops::IndexMut<(usize, usize)> for OMatrix {
 }
 
 impl OMatrix {
+    /// Terms of the entries' numerators, in all (a size measure, [`Over::size`]).
+    pub fn size(&self) -> usize {
+        self.data.iter().map(Over::size).sum()
+    }
+
     /// Build entry by entry.
     pub fn from_fn(
         den: &Denominators,

@@ -103,18 +103,40 @@ pub fn write_crate(
     if with_simulator {
         g = crate::with_simulator(g).map_err(|e| model.error(e.to_string()))?;
     }
-    for (path, text) in &g.files {
-        let p = out.join(path);
-        if let Some(dir) = p.parent() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| io_err(format!("cannot create {}: {e}", dir.display())))?;
-        }
-        std::fs::write(&p, text)
-            .map_err(|e| io_err(format!("cannot write {}: {e}", p.display())))?;
-    }
+    place(out, &g.files).map_err(io_err)?;
     Ok(Written {
         files: g.files.len(),
         ops_trees: g.ops_trees,
         ops_shared: g.ops_shared,
     })
+}
+
+/// Write the crate's files into a temporary directory beside `out` (hamel_model::files), then
+/// move them into place: the whole directory at once when `out` is new or empty, else file by
+/// file (each file whole). An interrupted or failed write leaves no partial file behind.
+fn place(out: &Path, files: &[(String, String)]) -> Result<(), String> {
+    let tmp = hamel_model::files::Temporary::beside(out);
+    for (path, text) in files {
+        let p = tmp.path().join(path);
+        if let Some(dir) = p.parent() {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        }
+        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+    }
+    if out.exists() && std::fs::remove_dir(out).is_err() {
+        // Not empty (--force): the generated files replace theirs, the others stay.
+        for (path, _) in files {
+            let p = out.join(path);
+            if let Some(dir) = p.parent() {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+            }
+            std::fs::rename(tmp.path().join(path), &p)
+                .map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        }
+        return Ok(());
+    }
+    tmp.commit(out)
+        .map_err(|e| format!("cannot write {}: {e}", out.display()))
 }

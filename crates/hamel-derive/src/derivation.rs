@@ -183,6 +183,8 @@ pub enum Why {
     /// Exact elimination for [Z; α]⁻¹ outgrew its budget of work
     /// ([`hamel_cas::linalg::Budget`], this many units).
     TooLarge(usize),
+    /// The closed form's equations outgrew [`crate::CLOSED_FORM_TERMS`] (this many terms).
+    ClosedTooLarge(usize),
 }
 
 impl std::fmt::Display for Why {
@@ -192,6 +194,11 @@ impl std::fmt::Display for Why {
             Why::TooLarge(n) => write!(
                 f,
                 "the exact inverse [Z; α]⁻¹ = [Γ Θ] outgrows the budget of exact elimination ({n} units of work, no product above 10⁴ terms²); the equations are evaluated from the ingredients"
+            ),
+            Why::ClosedTooLarge(n) => write!(
+                f,
+                "the closed form's A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ have {n} terms, above the budget of {}; the equations are evaluated from the ingredients",
+                crate::CLOSED_FORM_TERMS
             ),
         }
     }

@@ -33,7 +33,8 @@ pub use hamel_eval::{
 };
 pub use hamel_model::{Model, ModelError};
 pub use symbolic::{
-    Derived, FormRequest, SOLUTION_TERMS, StructuredSymbolic, Symbolic, derive_form, symbolic,
+    CLOSED_FORM_TERMS, Derived, FormRequest, SOLUTION_TERMS, StructuredSymbolic, Symbolic,
+    derive_form, symbolic,
 };
 
 /// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first

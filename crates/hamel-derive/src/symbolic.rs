@@ -484,8 +484,13 @@ pub enum FormRequest {
     /// ([`hamel_cas::linalg::ELIMINATION_WORK`]), else the structured form.
     #[default]
     Auto,
-    /// The closed form, or an error when it is too large.
+    /// The closed form, or an error when exact elimination of [Z; α] outgrows its budget
+    /// (however large the equations are).
     Closed,
+    /// As [`FormRequest::Auto`], without [`CLOSED_FORM_TERMS`]: the closed form whenever exact
+    /// elimination succeeds, however long (`hamel search`, whose exact checks decide on it
+    /// within the search's own wall-clock budget).
+    AutoExact,
     /// The structured form: the ingredients only.
     Structured,
 }
@@ -729,7 +734,12 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
     b.stage
         .next("[Z; α]⁻¹ = [Γ Θ], δ and the singular set (4)–(6)");
     match ctx.inverse(&b.z, &b.alpha, &b.choice)? {
-        Ok(inverse) => closed(model, b, inverse),
+        Ok(inverse) => match closed(model, b, inverse, usize::MAX)? {
+            Ok(s) => Ok(s),
+            Err((_, terms)) => Err(model.error(format!(
+                "the closed form has {terms} terms, more than can be counted"
+            ))),
+        },
         Err(terms) => Err(model
             .error(format!(
                 "the closed form of the equations is too large: the exact inverse [Z; α]⁻¹ outgrows the budget of exact elimination ({terms} units of work, no product above 10⁴ terms²)"
@@ -752,13 +762,20 @@ pub fn derive_form(
             let b = begin(model, choice)?;
             return structured(&ctx, b, Why::Requested);
         }
-        FormRequest::Auto => {}
+        FormRequest::Auto | FormRequest::AutoExact => {}
     }
+    let limit = match request {
+        FormRequest::Auto => CLOSED_FORM_TERMS,
+        _ => usize::MAX,
+    };
     let mut b = begin(model, choice)?;
     b.stage
         .next("[Z; α]⁻¹ = [Γ Θ], δ and the singular set (4)–(6)");
     match ctx.inverse(&b.z, &b.alpha, &b.choice)? {
-        Ok(inverse) => Ok(Derived::Closed(Box::new(closed(model, b, inverse)?))),
+        Ok(inverse) => match closed(model, b, inverse, limit)? {
+            Ok(s) => Ok(Derived::Closed(Box::new(s))),
+            Err((b, terms)) => structured(&ctx, b, Why::ClosedTooLarge(terms)),
+        },
         Err(terms) => structured(&ctx, b, Why::TooLarge(terms)),
     }
 }
@@ -805,7 +822,23 @@ fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> 
 }
 
 /// Everything from Γ on, in closed form ((8), (9)/(11), (12)/(15), the correction, the checks).
-fn closed(model: &Model, b: Begun, inverse: (Matrix, Matrix, Ex)) -> Result<Symbolic, ModelError> {
+/// The largest closed form computed, in terms of the numerators of A_Γ, Γᵀ(∇U + F) and the
+/// Q⁽ⁱ⁾ of the true equations together (the unicycle with a rider, hamel's largest bundled
+/// closed form, has about 9,500 for its `family` choice). Bringing the equations to lowest terms for output costs more than
+/// linearly in it: a random model of 4 coordinates with 150,000 terms took minutes. Past the
+/// budget, [`FormRequest::Auto`] derives the structured form.
+pub const CLOSED_FORM_TERMS: usize = 30_000;
+
+/// The closed form from A, α, Z and [Z; α]⁻¹, or (when its equations outgrow the limit, in
+/// terms) what it began from, and their size in terms.
+type ClosedOrBegun = Result<Symbolic, (Begun, usize)>;
+
+fn closed(
+    model: &Model,
+    b: Begun,
+    inverse: (Matrix, Matrix, Ex),
+    limit: usize,
+) -> Result<ClosedOrBegun, ModelError> {
     let ctx = Ctx { model };
     let Begun {
         choice,
@@ -841,6 +874,20 @@ fn closed(model: &Model, b: Begun, inverse: (Matrix, Matrix, Ex)) -> Result<Symb
         .collect();
     stage.next("Q⁽ⁱ⁾ of the true equations (9)/(11)");
     let q_true = o.q_true();
+    let terms = a_gamma.size()
+        + forcing.iter().map(Over::size).sum::<usize>()
+        + q_true.iter().map(OMatrix::size).sum::<usize>();
+    if terms > limit {
+        let b = Begun {
+            choice,
+            f,
+            a,
+            alpha,
+            z,
+            stage,
+        };
+        return Ok(Err((b, terms)));
+    }
     stage.next("the paper's Q⁽ⁱ⁾ (15) and the correction");
     let d_agamma: Vec<OMatrix> = (0..ell)
         .map(|h| {
@@ -866,7 +913,7 @@ fn closed(model: &Model, b: Begun, inverse: (Matrix, Matrix, Ex)) -> Result<Symb
     let energy = quadratic_form(&ev.dens, &ev.eta, &a_gamma)
         .mul(&o.half)
         .sub(&u_o);
-    Ok(Symbolic {
+    Ok(Ok(Symbolic {
         field: f.clone(),
         dens: o.dens.clone(),
         a,
@@ -894,7 +941,7 @@ fn closed(model: &Model, b: Begun, inverse: (Matrix, Matrix, Ex)) -> Result<Symb
         checks,
         model: model.clone(),
         choice,
-    })
+    }))
 }
 
 /// The stages of a derivation: each is announced to [`crate::progress`] as it starts, and its

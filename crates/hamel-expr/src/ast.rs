@@ -214,7 +214,13 @@ impl Expr {
     /// A light clean-up for readability of built trees: flattens nested sums and products,
     /// drops zero terms and unit factors, folds a zero factor. It does not decide equality.
     pub fn tidy(self) -> Expr {
-        self.map(&mut |e| match e {
+        self.map(&mut Expr::tidy_top)
+    }
+
+    /// [`Expr::tidy`] of a node whose children are tidy already: the clean-up of the top node
+    /// only, in time independent of the tree below it.
+    pub fn tidy_top(self) -> Expr {
+        match self {
             Expr::Add(v) => {
                 let mut out = Vec::new();
                 for t in v {
@@ -254,7 +260,7 @@ impl Expr {
                 x => Expr::Neg(Box::new(x)),
             },
             other => other,
-        })
+        }
     }
 
     /// A literal as `f64` (used by the evaluators).

@@ -6,22 +6,22 @@ use crate::ast::{Expr, Func};
 
 /// a + b.
 pub fn add(a: Expr, b: Expr) -> Expr {
-    Expr::Add(vec![a, b]).tidy()
+    tidy::add(a.tidy(), b.tidy())
 }
 
 /// a − b.
 pub fn sub(a: Expr, b: Expr) -> Expr {
-    add(a, neg(b))
+    tidy::sub(a.tidy(), b.tidy())
 }
 
 /// −a.
 pub fn neg(a: Expr) -> Expr {
-    Expr::Neg(Box::new(a)).tidy()
+    tidy::neg(a.tidy())
 }
 
 /// a·b.
 pub fn mul(a: Expr, b: Expr) -> Expr {
-    Expr::Mul(vec![a, b]).tidy()
+    tidy::mul(a.tidy(), b.tidy())
 }
 
 /// a / b.
@@ -50,12 +50,50 @@ pub fn call(f: Func, a: Expr) -> Expr {
 
 /// The sum of the terms (0 for none).
 pub fn sum(terms: impl IntoIterator<Item = Expr>) -> Expr {
-    Expr::Add(terms.into_iter().collect()).tidy()
+    tidy::sum(terms.into_iter().map(Expr::tidy))
 }
 
 /// The product of the factors (1 for none).
 pub fn product(factors: impl IntoIterator<Item = Expr>) -> Expr {
-    Expr::Mul(factors.into_iter().collect()).tidy()
+    tidy::product(factors.into_iter().map(Expr::tidy))
+}
+
+/// The same builders for operands that are tidy already ([`Expr::tidy`]): only the new node
+/// is cleaned up, so that building a tree node by node (a derivative) takes time linear in
+/// the nodes built, not in the tree below each. Given tidy operands they build what the
+/// builders above build.
+pub mod tidy {
+    use crate::ast::Expr;
+
+    /// a + b.
+    pub fn add(a: Expr, b: Expr) -> Expr {
+        Expr::Add(vec![a, b]).tidy_top()
+    }
+
+    /// a − b.
+    pub fn sub(a: Expr, b: Expr) -> Expr {
+        add(a, neg(b))
+    }
+
+    /// −a.
+    pub fn neg(a: Expr) -> Expr {
+        Expr::Neg(Box::new(a)).tidy_top()
+    }
+
+    /// a·b.
+    pub fn mul(a: Expr, b: Expr) -> Expr {
+        Expr::Mul(vec![a, b]).tidy_top()
+    }
+
+    /// The sum of the terms (0 for none).
+    pub fn sum(terms: impl IntoIterator<Item = Expr>) -> Expr {
+        Expr::Add(terms.into_iter().collect()).tidy_top()
+    }
+
+    /// The product of the factors (1 for none).
+    pub fn product(factors: impl IntoIterator<Item = Expr>) -> Expr {
+        Expr::Mul(factors.into_iter().collect()).tidy_top()
+    }
 }
 
 #[cfg(test)]

@@ -1,10 +1,13 @@
 //! Exact differentiation of expression trees with respect to a symbol, for kinematics: the
 //! partial derivatives ∂p/∂q_k of positions and of rotation angles, and ∂h/∂q_k of holonomic
-//! constraints. The result is built with the folding builders of [`crate::build`] (structural
-//! zeros vanish) but is not simplified: equality is decided downstream, on canonical forms.
+//! constraints. The result is built with the folding builders of [`crate::build::tidy`]
+//! (structural zeros vanish; the expression is tidied once, so each node built costs the same
+//! whatever lies below it) but is not simplified: equality is decided downstream, on canonical
+//! forms.
 
 use crate::ast::{Expr, Func};
-use crate::build::{add, call, div, mul, neg, powi, product, sub, sum};
+use crate::build::tidy::{add, mul, neg, product, sub, sum};
+use crate::build::{call, div, powi};
 
 /// Why an expression could not be differentiated.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -13,6 +16,33 @@ pub enum DiffError {
     /// holonomic constraints are functions of q alone).
     #[error("`der({0})` in an expression of the configuration (it may depend on q, not on q̇)")]
     Velocity(String),
+    /// The derivative would have more than [`MAX_DERIVATIVE_NODES`] nodes (a product of
+    /// thousands of factors that each hold the variable, say).
+    #[error(
+        "the derivative by `{0}` would have more than {MAX_DERIVATIVE_NODES} nodes: write the expression in fewer factors"
+    )]
+    TooLarge(String),
+}
+
+/// The most nodes a derivative may copy from the expression: far above a mechanism's (the
+/// derivatives of the Whipple bicycle's positions have a few hundred), and far below what
+/// exhausts the machine (a node takes tens of bytes).
+pub const MAX_DERIVATIVE_NODES: usize = 2_000_000;
+
+/// What a derivative may still copy, in nodes.
+struct Budget {
+    left: usize,
+    of: String,
+}
+
+impl Budget {
+    fn charge(&mut self, nodes: usize) -> Result<(), DiffError> {
+        self.left = self
+            .left
+            .checked_sub(nodes)
+            .ok_or_else(|| DiffError::TooLarge(self.of.clone()))?;
+        Ok(())
+    }
 }
 
 impl Expr {
@@ -30,14 +60,27 @@ impl Expr {
         if let Some(q) = self.velocity() {
             return Err(DiffError::Velocity(q));
         }
-        Ok(self.d(x))
+        let mut budget = Budget {
+            left: MAX_DERIVATIVE_NODES,
+            of: x.to_string(),
+        };
+        self.clone().tidy().d_by(&Var::Symbol(x), &mut budget)
     }
 
     /// ∂self/∂der(q): the coefficient of the velocity `der(q)` in an expression linear in the
     /// velocities (for one of higher degree, the partial derivative), taken on the tree as
     /// [`Expr::diff`] does, so that the structure of the expression is kept.
+    ///
+    /// It copies at most as many nodes as [`Expr::diff`] may in all: an expression of a loaded
+    /// model is at most quadratic in the velocities, so each product has at most two factors
+    /// that hold `der(q)` and the coefficient stays small.
     pub fn velocity_coefficient(&self, q: &str) -> Expr {
-        self.d_by(&Var::Velocity(q))
+        let mut budget = Budget {
+            left: usize::MAX,
+            of: format!("der({q})"),
+        };
+        let d = self.clone().tidy().d_by(&Var::Velocity(q), &mut budget);
+        d.expect("an unlimited budget is never exceeded")
     }
 
     /// The first velocity `der(q)` in the tree, if any.
@@ -51,33 +94,35 @@ impl Expr {
         found
     }
 
-    /// ∂self/∂x for a tree without velocities.
-    fn d(&self, x: &str) -> Expr {
-        self.d_by(&Var::Symbol(x))
-    }
-
-    /// ∂self/∂x.
-    fn d_by(&self, x: &Var) -> Expr {
+    /// ∂self/∂x, each copy of a subtree charged to `budget` before it is made.
+    fn d_by(&self, x: &Var, budget: &mut Budget) -> Result<Expr, DiffError> {
         if !x.in_tree(self) {
-            return Expr::int(0);
+            return Ok(Expr::int(0));
         }
-        match self {
+        Ok(match self {
             Expr::Num(_) => Expr::int(0),
             Expr::Sym(_) | Expr::Der(_) => Expr::int(1),
-            Expr::Add(v) => sum(v.iter().map(|t| t.d_by(x))),
-            Expr::Mul(v) => sum((0..v.len()).map(|i| {
-                let others = v.iter().enumerate().filter(|&(j, _)| j != i);
-                product(others.map(|(_, f)| f.clone()).chain([v[i].d_by(x)]))
-            })),
-            Expr::Neg(a) => neg(a.d_by(x)),
-            Expr::Div(a, b) if !x.in_tree(b) => div(a.d_by(x), (**b).clone()),
+            Expr::Add(v) => sum(derivatives(v, x, budget)?),
+            Expr::Mul(v) => product_rule(v, x, budget)?,
+            Expr::Neg(a) => neg(a.d_by(x, budget)?),
+            Expr::Div(a, b) if !x.in_tree(b) => {
+                budget.charge(b.nodes())?;
+                div(a.d_by(x, budget)?, (**b).clone())
+            }
             Expr::Div(a, b) => {
                 let (a, b) = (&**a, &**b);
-                let top = sub(mul(a.d_by(x), b.clone()), mul(a.clone(), b.d_by(x)));
+                budget.charge(a.nodes() + 2 * b.nodes())?;
+                let top = sub(
+                    mul(a.d_by(x, budget)?, b.clone()),
+                    mul(a.clone(), b.d_by(x, budget)?),
+                );
                 div(top, powi(b.clone(), 2))
             }
-            Expr::Pow(a, e) => power_rule(a, e, x),
-            Expr::Call(f, a) => mul(outer_derivative(*f, a), a.d_by(x)),
+            Expr::Pow(a, e) => power_rule(a, e, x, budget)?,
+            Expr::Call(f, a) => {
+                budget.charge(a.nodes())?;
+                mul(outer_derivative(*f, a), a.d_by(x, budget)?)
+            }
             Expr::Free { name, args, orders } => sum(args.iter().enumerate().map(|(j, arg)| {
                 if !x.is_symbol(arg) {
                     return Expr::int(0);
@@ -90,26 +135,51 @@ impl Expr {
                     orders,
                 }
             })),
-        }
+        })
+    }
+
+    /// Nodes of the tree.
+    fn nodes(&self) -> usize {
+        let mut n = 0;
+        self.visit(&mut |_| n += 1);
+        n
     }
 }
 
+fn derivatives(v: &[Expr], x: &Var, budget: &mut Budget) -> Result<Vec<Expr>, DiffError> {
+    v.iter().map(|t| t.d_by(x, budget)).collect()
+}
+
+/// Σ_i (∏_{j≠i} f_j)·f_i' over the factors f_i that hold x (the others give no term).
+fn product_rule(v: &[Expr], x: &Var, budget: &mut Budget) -> Result<Expr, DiffError> {
+    let holding: Vec<usize> = (0..v.len()).filter(|&i| x.in_tree(&v[i])).collect();
+    let all: usize = v.iter().map(Expr::nodes).sum();
+    budget.charge(holding.len().saturating_mul(all))?;
+    let terms = holding.iter().map(|&i| {
+        let others = v.iter().enumerate().filter(|&(j, _)| j != i);
+        let d = v[i].d_by(x, budget)?;
+        Ok(product(others.map(|(_, f)| f.clone()).chain([d])))
+    });
+    Ok(sum(terms.collect::<Result<Vec<_>, DiffError>>()?))
+}
+
 /// ∂(aᵉ)/∂x: e·a^(e−1)·a' for a constant exponent, aᵉ·(e'·log a + e·a'/a) otherwise.
-fn power_rule(a: &Expr, e: &Expr, x: &Var) -> Expr {
-    let pow = Expr::Pow(Box::new(a.clone()), Box::new(e.clone()));
+fn power_rule(a: &Expr, e: &Expr, x: &Var, budget: &mut Budget) -> Result<Expr, DiffError> {
+    budget.charge(3 * (a.nodes() + e.nodes()))?;
     if !x.in_tree(e) {
         let lowered = match e.as_integer() {
             Some(n) => powi(a.clone(), n - 1),
             None => Expr::Pow(Box::new(a.clone()), Box::new(sub(e.clone(), Expr::int(1)))),
         };
-        return product([e.clone(), lowered, a.d_by(x)]);
+        return Ok(product([e.clone(), lowered, a.d_by(x, budget)?]));
     }
+    let pow = Expr::Pow(Box::new(a.clone()), Box::new(e.clone()));
     let log_a = call(Func::Log, a.clone());
     let inner = add(
-        mul(e.d_by(x), log_a),
-        div(mul(e.clone(), a.d_by(x)), a.clone()),
+        mul(e.d_by(x, budget)?, log_a),
+        div(mul(e.clone(), a.d_by(x, budget)?), a.clone()),
     );
-    mul(pow, inner)
+    Ok(mul(pow, inner))
 }
 
 /// What is differentiated by: a symbol (a coordinate or parameter), or a velocity `der(q)`.
@@ -191,6 +261,23 @@ mod tests {
         ] {
             check(text);
         }
+    }
+
+    /// Found by fuzzing (fuzz/seeds/expression/timeout-power-tower): a tower of powers took
+    /// 0.4 s to differentiate, because every node built was tidied with the whole tree below it.
+    /// And a product of 20,000 factors that each hold x has a derivative of 4·10⁸ nodes: it is
+    /// refused before it is built. The same product with one factor holding x is quick.
+    #[test]
+    fn derivatives_are_linear_in_what_they_build_and_bounded() {
+        let tower = std::iter::repeat_n("x^(y + ", 45).collect::<String>() + "x" + &")".repeat(45);
+        let e = parse(&tower).unwrap().expr;
+        let d = e.diff("x").unwrap();
+        assert!(d.nodes() < 200_000, "{} nodes", d.nodes());
+        let many = parse(&vec!["x"; 20_000].join("*")).unwrap().expr;
+        assert_eq!(many.diff("x"), Err(super::DiffError::TooLarge("x".into())));
+        let one = parse(&(vec!["y"; 20_000].join("*") + "*x")).unwrap().expr;
+        assert_eq!(one.diff("x").unwrap().nodes(), 20_001);
+        check("x*y*a*x*(x + a)*y");
     }
 
     #[test]

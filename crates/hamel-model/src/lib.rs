@@ -20,6 +20,7 @@ mod bodies;
 pub mod default_choice;
 mod error;
 mod expand;
+pub mod files;
 mod loader;
 mod model;
 mod numeric;

@@ -477,7 +477,7 @@ impl Searcher<'_> {
         });
         let t0 = Instant::now();
         log::debug!("search: exact check of {family}: {}", eta.join(" ; "));
-        let derived = match hamel_derive::derive_form(&m2, &name, FormRequest::Auto) {
+        let derived = match hamel_derive::derive_form(&m2, &name, FormRequest::AutoExact) {
             Ok(d) => d,
             Err(e) => {
                 *self.failures.entry(e.message().to_string()).or_default() += 1;
@@ -656,7 +656,7 @@ pub(crate) fn search(
     let started = Instant::now();
     let ell = model.ell();
     let base = model.choice(None)?.name.clone();
-    let s0 = match hamel_derive::derive_form(model, &base, FormRequest::Auto)? {
+    let s0 = match hamel_derive::derive_form(model, &base, FormRequest::AutoExact)? {
         Derived::Closed(s) => Some(*s),
         Derived::Structured(_) => None,
     };
@@ -991,7 +991,7 @@ fn structured_mass_matrix(model: &Model, choice: &str) -> Result<Matrix, ModelEr
 fn own_failures(model: &Model, p: &[usize]) -> Vec<String> {
     let mut own = Vec::new();
     for c in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
-        let Ok(derived) = hamel_derive::derive_form(model, &c.name, FormRequest::Auto) else {
+        let Ok(derived) = hamel_derive::derive_form(model, &c.name, FormRequest::AutoExact) else {
             continue;
         };
         let Ok(r) = crate::analyse(model, &derived, p, None) else {

@@ -251,17 +251,19 @@ pub fn write_figure(
     svg: impl FnOnce(DrawingArea<SVGBackend, Shift>) -> Result<(), String>,
     png: impl FnOnce(DrawingArea<BitMapBackend, Shift>) -> Result<(), String>,
 ) -> Result<(), ModelError> {
+    // Drawn into a temporary file renamed into place (hamel_model::files): an interrupted or
+    // failed drawing leaves nothing behind.
+    let tmp = hamel_model::files::Temporary::beside(path);
     let result = format_of(path).and_then(|format| {
         register_font()?;
         match format {
-            Format::Svg => svg(SVGBackend::new(path, size).into_drawing_area()),
-            Format::Png => png(BitMapBackend::new(path, size).into_drawing_area()),
+            Format::Svg => svg(SVGBackend::new(tmp.path(), size).into_drawing_area()),
+            Format::Png => png(BitMapBackend::new(tmp.path(), size).into_drawing_area()),
         }
     });
-    if result.is_err() {
-        let _ = std::fs::remove_file(path);
-    }
-    result.map_err(|m| error(path, m))
+    result
+        .and_then(|()| tmp.commit(path).map_err(|e| e.to_string()))
+        .map_err(|m| error(path, m))
 }
 
 /// Write the trajectory's figure (`hamel simulate --plot`).

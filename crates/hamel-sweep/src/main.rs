@@ -101,17 +101,11 @@ fn write(output: Option<PathBuf>, text: &str) -> Result<(), ModelError> {
                 .and_then(|_| out.flush())
                 .map_err(|e| error("<stdout>", format!("cannot write: {e}")))
         }
-        Some(p) => {
-            let tmp = p.with_extension("hamel-tmp");
-            std::fs::write(&tmp, text)
-                .and_then(|_| std::fs::rename(&tmp, &p))
-                .map_err(|e| {
-                    let _ = std::fs::remove_file(&tmp);
-                    error(
-                        &p.display().to_string(),
-                        format!("cannot write the output: {e}"),
-                    )
-                })
-        }
+        Some(p) => hamel_model::files::write_whole(&p, text.as_bytes()).map_err(|e| {
+            error(
+                &p.display().to_string(),
+                format!("cannot write the output: {e}"),
+            )
+        }),
     }
 }
