@@ -28,7 +28,7 @@ mod spec;
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 
-use common::oracle::{F64_CONDITION, TOL, WELL_CONDITIONED, Worst, compare_with};
+use common::oracle::{F64_CONDITION, TOL, WELL_CONDITIONED, Worst, compare_with, dd};
 use common::rel_error;
 use hamel_derive::{Compiled, Derivation};
 use hamel_expr::DD;
@@ -139,10 +139,6 @@ fn check_absent(c: &Compiled, d: &Derivation, absent: &[usize], seed: u64) {
             d.coordinates[k]
         );
     }
-}
-
-fn dd(v: &[f64]) -> Vec<DD> {
-    v.iter().map(|&x| DD::from_f64(x)).collect()
 }
 
 /// hamel's equations (q̇ = Γη and η̇ of (11)) as an ODE system, y = (q, η).

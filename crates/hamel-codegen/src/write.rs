@@ -117,21 +117,13 @@ pub fn write_crate(
 fn place(out: &Path, files: &[(String, String)]) -> Result<(), String> {
     let tmp = hamel_model::files::Temporary::beside(out);
     for (path, text) in files {
-        let p = tmp.path().join(path);
-        if let Some(dir) = p.parent() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-        }
+        let p = with_parent(&tmp.path().join(path))?;
         std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
     }
     if out.exists() && std::fs::remove_dir(out).is_err() {
         // Not empty (--force): the generated files replace theirs, the others stay.
         for (path, _) in files {
-            let p = out.join(path);
-            if let Some(dir) = p.parent() {
-                std::fs::create_dir_all(dir)
-                    .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-            }
+            let p = with_parent(&out.join(path))?;
             std::fs::rename(tmp.path().join(path), &p)
                 .map_err(|e| format!("cannot write {}: {e}", p.display()))?;
         }
@@ -139,4 +131,13 @@ fn place(out: &Path, files: &[(String, String)]) -> Result<(), String> {
     }
     tmp.commit(out)
         .map_err(|e| format!("cannot write {}: {e}", out.display()))
+}
+
+/// `p`, once its directory exists.
+fn with_parent(p: &Path) -> Result<std::path::PathBuf, String> {
+    if let Some(dir) = p.parent() {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    }
+    Ok(p.to_path_buf())
 }
