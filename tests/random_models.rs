@@ -5,8 +5,9 @@
 //! that are the default velocities, rotated ones or conjugate momenta) and checks, for each:
 //! * η̇ of the Boltzmann–Hamel equations against the Lagrange-multiplier form at random states
 //!   on the constraint manifold ([`common::oracle::compare_with`]): 1e-12 relative in f64
-//!   where cond[Z; α] ≤ 100, 1e-10 up to 1e4, 1e-20 in double-double, and the closed form's
-//!   expanded equations in double-double;
+//!   where cond[Z; α] ≤ 100 and cond[Z; α]·cond(A_Γ) ≤ 1e4, within 100 times its own error
+//!   estimate elsewhere (and the checked evaluation to 1e-10 up to cond 1e4),
+//!   1e-20 in double-double, and the closed form's expanded equations in double-double;
 //! * the energy T − U, computed from the model's own A and U, along a short trajectory
 //!   integrated from hamel's equations (DOP853, tolerance 1e-12);
 //! * `reduce`'s ground truth: at random states, moving a coordinate it proves absent does not
@@ -28,7 +29,10 @@ mod spec;
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 
-use common::oracle::{F64_CONDITION, TOL, WELL_CONDITIONED, Worst, compare_with, dd};
+use common::oracle::{
+    F64_CONDITION, F64_PROBLEM, TOL, WELL_CONDITIONED, WELL_CONDITIONED_PROBLEM, Worst,
+    compare_with, dd,
+};
 use common::rel_error;
 use hamel_derive::{Compiled, Derivation};
 use hamel_expr::DD;
@@ -42,6 +46,11 @@ use spec::Spec;
 
 /// States compared with the oracle per model.
 const STATES: usize = 20;
+/// How far the f64 error of η̇ may exceed the checked evaluation's first-order estimate (which
+/// leaves out the constants of the summations; the regression models reach 11).
+const ESTIMATE_RATIO: f64 = 100.0;
+/// States compared with the oracle per regression model (tests/models/random/).
+const REGRESSION_STATES: usize = 60;
 /// States at which each coordinate proved absent is moved.
 const MOVES: usize = 5;
 
@@ -49,20 +58,24 @@ const MOVES: usize = 5;
 #[derive(Clone, Debug, Default)]
 struct Measured {
     family: String,
-    worst: [f64; 4],
+    /// f64 (cond ≤ 100), f64 (≤ 1e4), double-double, closed form in double-double, the
+    /// checked evaluation, f64 error / estimate.
+    worst: [f64; 6],
     energy_drift: Option<f64>,
     absent: usize,
     structured: bool,
+    /// States compared in f64: held to 1e-12, and to 1e-10 (see [`Worst`]).
+    f64_states: [usize; 2],
 }
 
 /// The checks of one model (a failed assertion is a panic, which proptest catches and shrinks).
-fn check(text: &str, family: &str, seed: u64) -> Measured {
+fn check(text: &str, family: &str, seed: u64, states: usize) -> Measured {
     let model = Model::from_source("random.toml", text).unwrap_or_else(|e| panic!("{e}"));
     let choice = model.choices[0].name.clone();
     let all = model.coordinates.clone();
     let (reduction, d) = hamel_reduce::reduce_with_derivation(&model, Some(&choice), &all)
         .unwrap_or_else(|e| panic!("{e}"));
-    let w = compare_with(&model, &choice, &d, seed, STATES);
+    let w = compare_with(&model, &choice, &d, seed, states);
     assert_oracle(&w);
     let c = d.compile().unwrap();
     let absent: Vec<usize> = reduction
@@ -79,23 +92,38 @@ fn check(text: &str, family: &str, seed: u64) -> Measured {
             w.structured_f64,
             w.structured_dd,
             w.symbolic_dd,
+            w.checked_f64,
+            w.estimate_ratio,
         ],
         energy_drift: energy_drift(&model, &c, &d, seed),
         absent: absent.len(),
         structured: w.structured_form,
+        f64_states: [w.well_conditioned_states, w.f64_states],
     }
 }
 
 fn assert_oracle(w: &Worst) {
     let line = format!(
-        "f64 {:.1e} (cond ≤ {WELL_CONDITIONED}), {:.1e} (cond ≤ {F64_CONDITION}); dd {:.1e}; symbolic dd {:.1e}",
-        w.well_conditioned_f64, w.structured_f64, w.structured_dd, w.symbolic_dd
+        "f64 {:.1e} at {} states (cond ≤ {WELL_CONDITIONED}, problem ≤ {WELL_CONDITIONED_PROBLEM:e}), {:.1e} at {} (cond ≤ {F64_CONDITION}, problem ≤ {F64_PROBLEM:e}); dd {:.1e}; symbolic dd {:.1e}; checked {:.1e}; f64 error / estimate {:.2}",
+        w.well_conditioned_f64,
+        w.well_conditioned_states,
+        w.structured_f64,
+        w.f64_states,
+        w.structured_dd,
+        w.symbolic_dd,
+        w.checked_f64,
+        w.estimate_ratio
     );
+    // In q̈ the f64 error of η̇ (about cond[Z; α]·ε) is multiplied by |Γ| again: about
+    // cond²·ε, 2.4e-10 at cond 4e3. So past the well-conditioned states, f64 is held to its
+    // own error estimate (which `simulate` acts on, by repeating in double-double), and the
+    // checked evaluation to 1e-10.
     assert!(
         w.well_conditioned_f64 <= 1e-12
-            && w.structured_f64 <= TOL
+            && w.estimate_ratio <= ESTIMATE_RATIO
             && w.structured_dd <= 1e-20
-            && w.symbolic_dd <= TOL,
+            && w.symbolic_dd <= TOL
+            && w.checked_f64 <= TOL,
         "against the oracle: {line}"
     );
 }
@@ -272,7 +300,7 @@ fn run_one(spec: &Spec, seed: u64) -> Result<(), TestCaseError> {
             model.source
         );
     }
-    let measured = check(&model.source, &spec.family(), seed);
+    let measured = check(&model.source, &spec.family(), seed, STATES);
     TALLY.lock().unwrap().measured.push(measured);
     Ok(())
 }
@@ -327,6 +355,7 @@ fn summary(t: &Tally) -> String {
         *by_family.entry(&m.family).or_default() += 1;
     }
     let worst = |i: usize| t.measured.iter().map(|m| m.worst[i]).fold(0.0, f64::max);
+    let states = |i: usize| t.measured.iter().map(|m| m.f64_states[i]).sum::<usize>();
     let drifts: Vec<f64> = t.measured.iter().filter_map(|m| m.energy_drift).collect();
     let mut s = format!(
         "random models checked: {} ({} in structured form)\n",
@@ -337,11 +366,15 @@ fn summary(t: &Tally) -> String {
         s += &format!("  {f}: {n}\n");
     }
     s += &format!(
-        "worst relative error against the oracle: f64 {:.1e} (cond ≤ {WELL_CONDITIONED}), {:.1e} (cond ≤ {F64_CONDITION}); double-double {:.1e}; closed form in double-double {:.1e}\n",
+        "worst relative error against the oracle: f64 {:.1e} at {} states (cond[Z; α] ≤ {WELL_CONDITIONED}, cond[Z; α]·cond(A_Γ) ≤ {WELL_CONDITIONED_PROBLEM:e}), {:.1e} at {} (≤ {F64_CONDITION}, ≤ {F64_PROBLEM:e}); double-double {:.1e}; closed form in double-double {:.1e}; checked evaluation {:.1e}; f64 error of η̇ / its estimate {:.2}\n",
         worst(0),
+        states(0),
         worst(1),
+        states(1),
         worst(2),
-        worst(3)
+        worst(3),
+        worst(4),
+        worst(5)
     );
     s += &format!(
         "energy along 1 s: {} trajectories, worst drift {:.1e}; {} met the singular set\n",
@@ -361,7 +394,10 @@ fn summary(t: &Tally) -> String {
 
 /// The models the random runs found trouble with (tests/models/random/), each now a fixed
 /// test: `closed_form_too_large.toml` made `derive` run for minutes; it is now derived in
-/// structured form, and checked like any random model.
+/// structured form, and checked like any random model. `rider_with_ill_conditioned_mass.toml`
+/// failed the f64 comparison by 3.3e-11 where A_Γ's condition number reached 1e5 (the oracle's
+/// own f64 error was as large): the 1e-12 is now asked where the whole problem is well
+/// conditioned, not only [Z; α].
 #[test]
 fn regressions_stay_fixed() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/random");
@@ -371,12 +407,25 @@ fn regressions_stay_fixed() {
         .collect();
     paths.sort();
     assert!(!paths.is_empty());
-    for (i, p) in paths.iter().enumerate() {
+    for p in &paths {
         let text = std::fs::read_to_string(p).unwrap();
         let name = p.file_stem().unwrap().to_string_lossy().to_string();
-        let m = check(&text, &name, i as u64);
+        // Seeded by name, so that adding a file changes no other file's states.
+        let seed = name
+            .bytes()
+            .fold(19u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
+        let m = check(&text, &name, seed, REGRESSION_STATES);
         if name == "closed_form_too_large" {
             assert!(m.structured, "{name} should be derived in structured form");
+        }
+        if name == "rider_with_ill_conditioned_mass" {
+            // [Z; α] is well conditioned throughout, A_Γ is not everywhere: the states where
+            // f64 cannot give 1e-12 (hamel's nor the oracle's) are left to double-double.
+            assert!(
+                m.f64_states[0] < REGRESSION_STATES && m.f64_states[0] >= REGRESSION_STATES / 2,
+                "{name}: {:?} of {REGRESSION_STATES} states compared in f64",
+                m.f64_states
+            );
         }
     }
 }

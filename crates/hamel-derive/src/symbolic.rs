@@ -25,6 +25,7 @@ use crate::certify::Certificate;
 use crate::derivation::{
     Checks, Closed, Derivation, Entry, Form, Ingredients, Mat, StructuredForm, Trees, Why,
 };
+use crate::progress::Stage;
 
 /// An exact value as plain data (canonical text and tree).
 pub fn entry(e: &Ex) -> Entry {
@@ -942,41 +943,6 @@ fn closed(
         model: model.clone(),
         choice,
     }))
-}
-
-/// The stages of a derivation: each is announced to [`crate::progress`] as it starts, and its
-/// time is logged at debug level as it ends (`HAMEL_LOG=debug`).
-struct Stage {
-    model: String,
-    name: &'static str,
-    at: std::time::Instant,
-}
-
-impl Stage {
-    fn start(model: &str, first: &'static str) -> Stage {
-        crate::progress::set(Some(first));
-        Stage {
-            model: model.to_string(),
-            name: first,
-            at: std::time::Instant::now(),
-        }
-    }
-
-    /// End this stage and start `next`.
-    fn next(&mut self, next: &'static str) {
-        let elapsed = self.at.elapsed().as_secs_f64();
-        log::debug!("{}: {}: {elapsed:.3} s", self.model, self.name);
-        crate::progress::set(Some(next));
-        self.name = next;
-        self.at = std::time::Instant::now();
-    }
-}
-
-impl Drop for Stage {
-    fn drop(&mut self) {
-        self.next("");
-        crate::progress::set(None);
-    }
 }
 
 /// The field of the model's expressions: its coordinates, parameters, the choice's free

@@ -3,6 +3,7 @@
 
 use hamel_cas::{Ex, Matrix};
 use hamel_derive::Symbolic;
+use hamel_derive::progress::Stage;
 use hamel_derive::symbolic::{entry, mat};
 use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
@@ -103,6 +104,10 @@ pub(crate) fn dependence_conditions(s: &Symbolic, p: &[usize]) -> Vec<(String, E
 /// the reduced system. Errors: a determinant the engine could not compute (a bug, named).
 pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduction, ModelError> {
     let names = s.field.coordinates().to_vec();
+    let mut stage = Stage::start(
+        &model.name,
+        "classifying the coordinates (31), blocks (17)/(18)",
+    );
     let blocks = Blocks::of(&s.z);
     let classification = classify(s, &names, p);
     let structure = block_structure(s, &blocks, &names).map_err(|e| {
@@ -110,10 +115,12 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduct
             "internal error: δ_R of (18) could not be computed: {e}"
         ))
     })?;
+    stage.next("Properties 2.1 and 2.2, hypotheses H0–H6");
     let h1 = hyp::h1(s, &blocks);
     let properties = properties(s, &blocks, &names, &h1);
     let hypotheses = hypotheses(s, &blocks, p, h1);
     let proposition_2_1 = Id::PROPOSITION_2_1.iter().all(|h| hypotheses[h].holds);
+    stage.next("the ground truth: which coordinates the equations (11) hold");
     let truth = Truth::of(s, p);
     let ground_truth = truth.report(&names, p);
     let findings = findings(&hypotheses, &ground_truth, &names, p);
