@@ -5,8 +5,8 @@
 //! that are the default velocities, rotated ones or conjugate momenta) and checks, for each:
 //! * η̇ of the Boltzmann–Hamel equations against the Lagrange-multiplier form at random states
 //!   on the constraint manifold ([`common::oracle::compare_with`]): 1e-12 relative in f64
-//!   where cond[Z; α] ≤ 100 and cond[Z; α]·cond(A_Γ) ≤ 1e4, within 100 times its own error
-//!   estimate elsewhere (and the checked evaluation to 1e-10 up to cond 1e4),
+//!   where cond[Z; α] ≤ 100 and cond[Z; α]·cond(A_Γ) ≤ 1e4, and the checked evaluation
+//!   (f64 repeated in double-double where its error estimate asks) to 1e-10 up to cond 1e4,
 //!   1e-20 in double-double, and the closed form's expanded equations in double-double;
 //! * the energy T − U, computed from the model's own A and U, along a short trajectory
 //!   integrated from hamel's equations (DOP853, tolerance 1e-12);
@@ -46,9 +46,6 @@ use spec::Spec;
 
 /// States compared with the oracle per model.
 const STATES: usize = 20;
-/// How far the f64 error of η̇ may exceed the checked evaluation's first-order estimate (which
-/// leaves out the constants of the summations; the regression models reach 11).
-const ESTIMATE_RATIO: f64 = 100.0;
 /// States compared with the oracle per regression model (tests/models/random/).
 const REGRESSION_STATES: usize = 60;
 /// States at which each coordinate proved absent is moved.
@@ -115,12 +112,13 @@ fn assert_oracle(w: &Worst) {
         w.estimate_ratio
     );
     // In q̈ the f64 error of η̇ (about cond[Z; α]·ε) is multiplied by |Γ| again: about
-    // cond²·ε, 2.4e-10 at cond 4e3. So past the well-conditioned states, f64 is held to its
-    // own error estimate (which `simulate` acts on, by repeating in double-double), and the
-    // checked evaluation to 1e-10.
+    // cond²·ε, 2.4e-10 at cond 4e3. So past the well-conditioned states, what is held to
+    // 1e-10 is the checked evaluation (which `simulate` uses: it repeats in double-double
+    // where its error estimate asks). How far the f64 error of η̇ exceeds that estimate is
+    // reported, not asserted: the estimate is first order (the regression models reach 11;
+    // docs/reliability.md §3).
     assert!(
         w.well_conditioned_f64 <= 1e-12
-            && w.estimate_ratio <= ESTIMATE_RATIO
             && w.structured_dd <= 1e-20
             && w.symbolic_dd <= TOL
             && w.checked_f64 <= TOL,
@@ -415,6 +413,7 @@ fn regressions_stay_fixed() {
             .bytes()
             .fold(19u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
         let m = check(&text, &name, seed, REGRESSION_STATES);
+        eprintln!("{name}: f64 error of η̇ / its estimate {:.1}", m.worst[5]);
         if name == "closed_form_too_large" {
             assert!(m.structured, "{name} should be derived in structured form");
         }
