@@ -3,7 +3,7 @@
 //! tests/random_models.rs (random ones).
 
 use super::rel_error;
-use hamel_derive::{Compiled, Derivation, SymbolicCompiled, derive};
+use hamel_derive::{Compiled, Derivation, Evaluation, SymbolicCompiled, derive};
 use hamel_expr::{DD, Dual, Expr, Scalar, parse};
 use hamel_model::{Model, NumericModel};
 use indexmap::IndexMap;
@@ -189,6 +189,21 @@ pub struct Worst {
     pub well_conditioned_states: usize,
 }
 
+/// The f64 error of η̇ (`approximate`) against `exact`, over the error estimate the checked
+/// evaluation acts on. The estimate is relative to ‖η̇‖∞; where η̇ is near 0, an ulp of 1 is
+/// the unit. None when the estimate is not finite.
+fn estimate_ratio(approximate: &[f64], exact: &[DD], evaluated: &Evaluation) -> Option<f64> {
+    let estimate = evaluated.f64_error_estimate;
+    let size = exact.iter().fold(0.0_f64, |m, x| m.max(x.value().abs()));
+    let error = approximate
+        .iter()
+        .zip(exact)
+        .map(|(a, b)| (a - b.value()).abs())
+        .fold(0.0, f64::max);
+    let bound = (estimate * size).max(f64::EPSILON * size.max(1.0));
+    estimate.is_finite().then_some(error / bound)
+}
+
 /// Compare hamel with the oracle at random admissible states.
 pub fn compare(model: &Model, choice: &str, seed: u64, states: usize) -> Worst {
     let concrete = with_test_functions(model, choice);
@@ -289,20 +304,8 @@ pub fn compare_with(
         let error = rel_error(&in_dd(&f64_rhs.eta_dot), &oracle.q_ddot);
         let evaluated = c.evaluate(&q, &eta, &params).unwrap();
         let checked = rel_error(&in_dd(&evaluated.eta_dot), &oracle.q_ddot);
-        // The f64 error of η̇ against the error estimate the checked evaluation acts on.
-        let exact: Vec<f64> = r.eta_dot.iter().map(|x| x.value()).collect();
-        let size = exact.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-        let eta_error = f64_rhs
-            .eta_dot
-            .iter()
-            .zip(&exact)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        // The estimate is relative to ‖η̇‖∞; where η̇ is near 0, an ulp of 1 is the unit.
-        let estimate = evaluated.f64_error_estimate;
-        if estimate.is_finite() {
-            let bound = (estimate * size).max(f64::EPSILON * size.max(1.0));
-            w.estimate_ratio = w.estimate_ratio.max(eta_error / bound);
+        if let Some(ratio) = estimate_ratio(&f64_rhs.eta_dot, &r.eta_dot, &evaluated) {
+            w.estimate_ratio = w.estimate_ratio.max(ratio);
         }
         let problem = condition * mass_condition(&nm, &c, &q, &params);
         if condition <= F64_CONDITION && problem <= F64_PROBLEM {
