@@ -124,9 +124,9 @@ fn run(command: Command) -> Result<(), ModelError> {
             engine,
             set,
         } => {
-            let loaded = hamel_scene::load_with(&scene, &set.into_iter().collect())?;
+            let mut loaded = hamel_scene::load_with(&scene, &set.into_iter().collect())?;
             match export_python {
-                Some(file) => export_tradeoff(&loaded, Output::new(Some(file))?, engine.into()),
+                Some(file) => export_tradeoff(&mut loaded, Output::new(Some(file))?, engine.into()),
                 None => {
                     let out = Output::new(output)?;
                     hamel_scene::plot::check(plot.as_deref())?;
@@ -340,7 +340,7 @@ fn tradeoff(
 }
 
 fn export_tradeoff(
-    loaded: &hamel_scene::Loaded,
+    loaded: &mut hamel_scene::Loaded,
     out: Output,
     engine: hamel_scene::Engine,
 ) -> Result<(), ModelError> {

@@ -31,8 +31,26 @@ fn float(x: f64) -> String {
 /// a comment line above it. Functions are those of Python's `math` module, which the model
 /// grammar names alike: the reader puts them in the namespace.
 pub fn rhs_function(tape: &Tape, inputs: &[Input], header: &str) -> String {
+    let outs: Vec<String> = tape.outputs().iter().map(|i| format!("t{i}")).collect();
+    let mut o = function(tape, inputs, header, "rhs(t, y)");
+    o += &format!("    return [{}]\n", outs.join(", "));
+    o
+}
+
+/// [`rhs_function`] as `rhs_into(t, y, dy)`, writing the outputs into `dy` (the form
+/// numba-compiled integrators call: `bench/numbalsoda_tradeoff.py`).
+pub fn rhs_into_function(tape: &Tape, inputs: &[Input], header: &str) -> String {
+    let mut o = function(tape, inputs, header, "rhs_into(t, y, dy)");
+    for (k, i) in tape.outputs().iter().enumerate() {
+        o += &format!("    dy[{k}] = t{i}\n");
+    }
+    o
+}
+
+/// The header, the signature and the straight-line body shared by both forms.
+fn function(tape: &Tape, inputs: &[Input], header: &str, signature: &str) -> String {
     let mut o: String = header.lines().map(escape::python_comment).collect();
-    o += "def rhs(t, y):\n";
+    o += &format!("def {signature}:\n");
     for (k, op) in tape.ops().iter().enumerate() {
         let join = |v: &[usize], sep: &str| {
             v.iter()
@@ -56,7 +74,5 @@ pub fn rhs_function(tape: &Tape, inputs: &[Input], header: &str) -> String {
         };
         o += &format!("    t{k} = {text}\n");
     }
-    let outs: Vec<String> = tape.outputs().iter().map(|i| format!("t{i}")).collect();
-    o += &format!("    return [{}]\n", outs.join(", "));
     o
 }

@@ -224,3 +224,49 @@ fn the_python_export_keeps_hostile_text_in_comments() {
         None => eprintln!("python3 not found: the Python AST comparison is skipped"),
     }
 }
+
+/// Both Python forms (`rhs` returning a list, `rhs_into` writing `dy`), run by python3, give
+/// what the tape gives in Rust. Skipped, with a message, where python3 is missing.
+#[test]
+fn both_python_forms_compute_what_the_tape_computes() {
+    use hamel_codegen::python::{Input, rhs_function, rhs_into_function};
+    let exprs: Vec<_> = [
+        "sin(a) * b + 2",
+        "a^3 / (1 + b^2)",
+        "sqrt(1 + a^2) - cos(b)*a",
+    ]
+    .iter()
+    .map(|s| hamel_expr::parse(s).unwrap().expr)
+    .collect();
+    let refs: Vec<_> = exprs.iter().collect();
+    let tape = hamel_expr::Tape::compile(&refs, &["a".into(), "b".into()]).unwrap();
+    let inputs = [Input::State(1), Input::Number(0.75)];
+    let expected = tape.eval::<f64>(&[0.3, 0.75]).unwrap();
+    let program = format!(
+        "from math import *\n{}{}y = [0.0, 0.3]\ndy = [0.0] * 3\nrhs_into(0.0, y, dy)\nprint(repr(rhs(0.0, y)))\nprint(repr(dy))\n",
+        rhs_function(&tape, &inputs, "list"),
+        rhs_into_function(&tape, &inputs, "into")
+    );
+    let Ok(out) = std::process::Command::new("python3")
+        .args(["-c", &program])
+        .output()
+    else {
+        eprintln!("python3 not found: skipped");
+        return;
+    };
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 2, "{text}");
+    for line in lines {
+        let got: Vec<f64> = serde_json::from_str(line).unwrap();
+        assert_eq!(got.len(), 3);
+        for (g, e) in got.iter().zip(&expected) {
+            assert!((g - e).abs() <= 1e-15 * e.abs().max(1.0), "{g} ≠ {e}");
+        }
+    }
+}

@@ -145,12 +145,12 @@ impl Loaded {
             .iter()
             .map(|k| kept.iter().position(|x| x == k).expect("state = kept"))
             .collect();
+        let mut row = vec![0.0; solution.y.dim()];
         for y in solution.y.iter_mut() {
-            *y = from
-                .iter()
-                .map(|&i| y[i])
-                .chain(y[n..].iter().copied())
-                .collect();
+            row.copy_from_slice(y);
+            for (j, &i) in from.iter().enumerate() {
+                y[j] = row[i];
+            }
         }
         let mut failure = error.map(|m| self.error("integrator", m));
         let mut max_condition: Option<(f64, f64)> = None;

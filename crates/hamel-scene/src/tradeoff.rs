@@ -243,13 +243,23 @@ fn measure(
     ))
 }
 
-/// The scene's planned system for a comparison with scipy (`bench/scipy_tradeoff.py`): the
-/// right-hand side as Python (the code generator's solved form with the scene's parameters and
-/// the dropped coordinates' reference value as numbers), the initial state, the output times,
+/// The scene's planned system for a comparison with scipy (`bench/scipy_tradeoff.py`) and
+/// numbalsoda (`bench/numbalsoda_tradeoff.py`): the right-hand side as Python, `rhs(t, y)`
+/// returning a list and `rhs_into(t, y, dy)` writing `dy` (the code generator's solved form
+/// with the scene's parameters and the dropped coordinates' reference value as numbers), the
+/// initial time and state, the output times,
 /// the reference solution on the requested state components, and hamel's DOP853 and DOPRI5
 /// measured on the same components.
-pub fn export_python(loaded: &Loaded, engine: Engine) -> Result<serde_json::Value, ModelError> {
-    let (table, reference) = measure(loaded, Range::Adaptive, engine, false)?;
+///
+/// hamel's runs compute what the Python integrators compute, the state at the output times:
+/// the energy and the constraint residual, which a scene requests by default, are switched
+/// off for them (and restored after).
+pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::Value, ModelError> {
+    let monitors = (loaded.request.energy, loaded.request.constraint_residual);
+    (loaded.request.energy, loaded.request.constraint_residual) = (false, false);
+    let measured = measure(loaded, Range::Adaptive, engine, false);
+    (loaded.request.energy, loaded.request.constraint_residual) = monitors;
+    let (table, reference) = measured?;
     let (ell, sigma) = loaded.dims();
     // The general solved form (parameters as inputs, written below as the scene's numbers).
     let generated = hamel_codegen::generate(&loaded.d, &[], "export")
@@ -285,6 +295,8 @@ pub fn export_python(loaded: &Loaded, engine: Engine) -> Result<serde_json::Valu
     Ok(serde_json::json!({
         "model": table.model,
         "python": hamel_codegen::python::rhs_function(&tape, &inputs, &header),
+        "python_into": hamel_codegen::python::rhs_into_function(&tape, &inputs, &header),
+        "t0": loaded.scene.t0,
         "y0": loaded.y0,
         "times": loaded.times,
         "requested": loaded.requested_components(),

@@ -2,7 +2,7 @@
 //! (E. Hairer, S. P. Nørsett, G. Wanner, "Solving Ordinary Differential Equations I", 2nd ed.,
 //! Springer 1993, §II.4; Lund stabilisation: Hairer & Wanner, "Solving ODEs II", §IV.2).
 
-use crate::system::Evaluator;
+use crate::system::{Evaluator, OdeSystem};
 
 /// Scalar relative and absolute tolerances.
 #[derive(Clone, Copy, Debug)]
@@ -110,8 +110,8 @@ impl Controller {
 /// that `h^order · max(‖f0‖, ‖f''‖) = 0.01`. If the probe fails (a system error or non-finite
 /// values), the first guess is returned; the step loop then shrinks it as needed.
 #[allow(clippy::too_many_arguments, reason = "the inputs of Hairer's HINIT")]
-pub(crate) fn initial_step(
-    ev: &mut Evaluator<'_>,
+pub(crate) fn initial_step<S: OdeSystem + ?Sized>(
+    ev: &mut Evaluator<'_, S>,
     tol: &Tolerances,
     t0: f64,
     y0: &[f64],

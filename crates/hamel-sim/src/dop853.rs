@@ -13,9 +13,9 @@
 )]
 
 use crate::control::{Controller, Tolerances};
-use crate::explicit::{Stages, Tableau};
+use crate::explicit::{Stages, Tableau, Weights};
 use crate::step::{AdaptiveStep, Interpolant};
-use crate::system::{Evaluator, StepFailure};
+use crate::system::{Evaluator, OdeSystem, StepFailure};
 
 /// Stages 1–12 of the method, stage 13 = f(t + h, y_new) (first of the next step), and the
 /// three extra stages 14–16 of the continuous extension.
@@ -195,6 +195,19 @@ const TABLEAU: Tableau = Tableau {
 /// Eighth-order weights.
 const B: &[f64] = TABLEAU.a[12];
 
+/// The rows of the tableau, zeros left out.
+const A: [Weights; 16] = Weights::rows(&TABLEAU);
+/// [`B`], [`BHH`], [`ER`] and [`D`], zeros left out.
+const B_W: Weights = Weights::new(B);
+const BHH_W: Weights = Weights::new(&BHH);
+const ER_W: Weights = Weights::new(&ER);
+const D_W: [Weights; 4] = [
+    Weights::new(&D[0]),
+    Weights::new(&D[1]),
+    Weights::new(&D[2]),
+    Weights::new(&D[3]),
+];
+
 /// Third-order weights `BHH1` (stage 1), `BHH2` (stage 9), `BHH3` (stage 12).
 const BHH: [f64; 12] = [
     0.244094488188976377952755905512e+00,
@@ -310,9 +323,10 @@ pub(crate) struct Dop853 {
     dense: Dense8,
 }
 
-/// Continuous extension over the last accepted step (dop853.f `CONTD8`).
+/// Continuous extension over the last accepted step (dop853.f `CONTD8`): the eight
+/// coefficients `RCONT` of each component together.
 struct Dense8 {
-    r: [Vec<f64>; 8],
+    r: Vec<f64>,
 }
 
 impl Dop853 {
@@ -320,7 +334,7 @@ impl Dop853 {
         Dop853 {
             stages: Stages::new(16, n),
             dense: Dense8 {
-                r: std::array::from_fn(|_| vec![0.0; n]),
+                r: vec![0.0; 8 * n],
             },
         }
     }
@@ -337,59 +351,58 @@ impl AdaptiveStep for Dop853 {
     }
 
     fn start(&mut self, f0: &[f64]) {
-        self.stages.k[0].copy_from_slice(f0);
+        self.stages.set(0, f0);
     }
 
-    fn attempt(
+    fn attempt<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         tol: &Tolerances,
         t: f64,
         y: &[f64],
         h: f64,
         y_new: &mut [f64],
     ) -> Result<f64, StepFailure> {
-        self.stages.evaluate(ev, &TABLEAU, t, y, h, 1..12)?;
-        self.stages.combine(y, h, B, y_new);
+        self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 1..12)?;
+        self.stages.combine(y, h, &B_W, y_new);
         let (mut err5, mut err3) = (0.0, 0.0);
         for i in 0..y.len() {
             let sk = tol.scale(y[i], y_new[i]);
-            err3 += ((self.stages.dot(B, i) - self.stages.dot(&BHH, i)) / sk).powi(2);
-            err5 += (self.stages.dot(&ER, i) / sk).powi(2);
+            // Σ b_j k_j = (y_new − y)/h up to rounding; taken as dop853.f does.
+            err3 += ((self.stages.dot(&B_W, i) - self.stages.dot(&BHH_W, i)) / sk).powi(2);
+            err5 += (self.stages.dot(&ER_W, i) / sk).powi(2);
         }
         let deno = err5 + 0.01 * err3;
         let deno = if deno > 0.0 { deno } else { 1.0 };
         Ok(h.abs() * err5 / (y.len() as f64 * deno).sqrt())
     }
 
-    fn accept(
+    fn accept<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         t: f64,
         y: &[f64],
         h: f64,
         y_new: &[f64],
         dense: bool,
     ) -> Result<(), StepFailure> {
-        ev.rhs(t + h, y_new, &mut self.stages.k[12])?;
+        self.stages.evaluate_at(ev, 12, t + h, y_new)?;
         if dense {
-            self.stages.evaluate(ev, &TABLEAU, t, y, h, 13..16)?;
-            let k = &self.stages.k;
-            let [r0, r1, r2, r3, r4, r5, r6, r7] = &mut self.dense.r;
-            for i in 0..y.len() {
+            self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 13..16)?;
+            let st = &self.stages;
+            for (i, r) in self.dense.r.chunks_exact_mut(8).enumerate() {
                 let ydiff = y_new[i] - y[i];
-                let bspl = h * k[0][i] - ydiff;
-                r0[i] = y[i];
-                r1[i] = ydiff;
-                r2[i] = bspl;
-                r3[i] = ydiff - h * k[12][i] - bspl;
-                r4[i] = h * self.stages.dot(&D[0], i);
-                r5[i] = h * self.stages.dot(&D[1], i);
-                r6[i] = h * self.stages.dot(&D[2], i);
-                r7[i] = h * self.stages.dot(&D[3], i);
+                let bspl = h * st.get(0, i) - ydiff;
+                r[0] = y[i];
+                r[1] = ydiff;
+                r[2] = bspl;
+                r[3] = ydiff - h * st.get(12, i) - bspl;
+                for (m, d) in D_W.iter().enumerate() {
+                    r[4 + m] = h * st.dot(d, i);
+                }
             }
         }
-        self.stages.k.swap(0, 12);
+        self.stages.copy(12, 0);
         Ok(())
     }
 
@@ -400,12 +413,11 @@ impl AdaptiveStep for Dop853 {
 
 impl Interpolant for Dense8 {
     fn interpolate(&self, theta: f64, out: &mut [f64]) {
-        let [r0, r1, r2, r3, r4, r5, r6, r7] = &self.r;
         let s = theta;
         let s1 = 1.0 - s;
-        for (i, o) in out.iter_mut().enumerate() {
-            let conpar = r4[i] + s * (r5[i] + s1 * (r6[i] + s * r7[i]));
-            *o = r0[i] + s * (r1[i] + s1 * (r2[i] + s * (r3[i] + s1 * conpar)));
+        for (o, r) in out.iter_mut().zip(self.r.chunks_exact(8)) {
+            let conpar = r[4] + s * (r[5] + s1 * (r[6] + s * r[7]));
+            *o = r[0] + s * (r[1] + s1 * (r[2] + s * (r[3] + s1 * conpar)));
         }
     }
 }

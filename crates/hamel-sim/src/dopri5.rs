@@ -7,9 +7,9 @@
 //! β = 0.04) are dopri5.f's defaults.
 
 use crate::control::{Controller, Tolerances};
-use crate::explicit::{Stages, Tableau};
+use crate::explicit::{Stages, Tableau, Weights};
 use crate::step::{AdaptiveStep, Interpolant};
-use crate::system::{Evaluator, StepFailure};
+use crate::system::{Evaluator, OdeSystem, StepFailure};
 
 const TABLEAU: Tableau = Tableau {
     c: &[0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0],
@@ -65,6 +65,11 @@ const D: [f64; 7] = [
     69997945.0 / 29380423.0,
 ];
 
+/// The rows of the tableau, [`E`] and [`D`], zeros left out.
+const A: [Weights; 7] = Weights::rows(&TABLEAU);
+const E_W: Weights = Weights::new(&E);
+const D_W: Weights = Weights::new(&D);
+
 /// The DOPRI5 stepper: six evaluations per attempt (the seventh stage is the first of the
 /// next step).
 pub(crate) struct Dopri5 {
@@ -74,7 +79,8 @@ pub(crate) struct Dopri5 {
 
 /// Continuous extension over the last accepted step (dopri5.f `CONTD5`).
 struct Dense5 {
-    r: [Vec<f64>; 5],
+    /// The five coefficients `RCONT` of each component together.
+    r: Vec<f64>,
 }
 
 impl Dopri5 {
@@ -82,7 +88,7 @@ impl Dopri5 {
         Dopri5 {
             stages: Stages::new(7, n),
             dense: Dense5 {
-                r: std::array::from_fn(|_| vec![0.0; n]),
+                r: vec![0.0; 5 * n],
             },
         }
     }
@@ -99,28 +105,28 @@ impl AdaptiveStep for Dopri5 {
     }
 
     fn start(&mut self, f0: &[f64]) {
-        self.stages.k[0].copy_from_slice(f0);
+        self.stages.set(0, f0);
     }
 
-    fn attempt(
+    fn attempt<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         tol: &Tolerances,
         t: f64,
         y: &[f64],
         h: f64,
         y_new: &mut [f64],
     ) -> Result<f64, StepFailure> {
-        self.stages.evaluate(ev, &TABLEAU, t, y, h, 1..6)?;
-        self.stages.combine(y, h, TABLEAU.a[6], y_new);
-        ev.rhs(t + h, y_new, &mut self.stages.k[6])?;
-        let err = (0..y.len()).map(|i| h * self.stages.dot(&E, i));
+        self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 1..6)?;
+        self.stages.combine(y, h, &A[6], y_new);
+        self.stages.evaluate_at(ev, 6, t + h, y_new)?;
+        let err = (0..y.len()).map(|i| h * self.stages.dot(&E_W, i));
         Ok(tol.error_norm(err, y, y_new))
     }
 
-    fn accept(
+    fn accept<S: OdeSystem + ?Sized>(
         &mut self,
-        _ev: &mut Evaluator<'_>,
+        _ev: &mut Evaluator<'_, S>,
         _t: f64,
         y: &[f64],
         h: f64,
@@ -128,19 +134,18 @@ impl AdaptiveStep for Dopri5 {
         dense: bool,
     ) -> Result<(), StepFailure> {
         if dense {
-            let k = &self.stages.k;
-            let [r0, r1, r2, r3, r4] = &mut self.dense.r;
-            for i in 0..y.len() {
+            let st = &self.stages;
+            for (i, r) in self.dense.r.chunks_exact_mut(5).enumerate() {
                 let ydiff = y_new[i] - y[i];
-                let bspl = h * k[0][i] - ydiff;
-                r0[i] = y[i];
-                r1[i] = ydiff;
-                r2[i] = bspl;
-                r3[i] = ydiff - h * k[6][i] - bspl;
-                r4[i] = h * self.stages.dot(&D, i);
+                let bspl = h * st.get(0, i) - ydiff;
+                r[0] = y[i];
+                r[1] = ydiff;
+                r[2] = bspl;
+                r[3] = ydiff - h * st.get(6, i) - bspl;
+                r[4] = h * st.dot(&D_W, i);
             }
         }
-        self.stages.k.swap(0, 6);
+        self.stages.copy(6, 0);
         Ok(())
     }
 
@@ -151,10 +156,9 @@ impl AdaptiveStep for Dopri5 {
 
 impl Interpolant for Dense5 {
     fn interpolate(&self, theta: f64, out: &mut [f64]) {
-        let [r0, r1, r2, r3, r4] = &self.r;
         let s1 = 1.0 - theta;
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = r0[i] + theta * (r1[i] + s1 * (r2[i] + theta * (r3[i] + s1 * r4[i])));
+        for (o, r) in out.iter_mut().zip(self.r.chunks_exact(5)) {
+            *o = r[0] + theta * (r[1] + s1 * (r[2] + theta * (r[3] + s1 * r[4])));
         }
     }
 }

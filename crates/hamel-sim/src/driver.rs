@@ -8,6 +8,7 @@ use crate::dopri5::Dopri5;
 use crate::gauss::Gauss;
 use crate::rk4::Rk4;
 use crate::solution::{ErrorKind, IntegrationError, Solution, Stats};
+use crate::states::States;
 use crate::step::{AdaptiveStep, FixedStep};
 use crate::system::{Evaluator, OdeSystem, StepFailure};
 
@@ -141,8 +142,8 @@ impl Default for Options {
 /// [`SystemError`] no step reduction avoids, step-size underflow, a non-finite state, Newton
 /// non-convergence with a fixed step, more than `max_steps` attempts) return an
 /// [`IntegrationError`] whose `partial` solution holds the outputs reached.
-pub fn integrate(
-    system: &dyn OdeSystem,
+pub fn integrate<S: OdeSystem + ?Sized>(
+    system: &S,
     method: Method,
     t0: f64,
     y0: &[f64],
@@ -158,7 +159,7 @@ pub fn integrate(
         };
         return Err(failure.into_error(Solution::default()));
     }
-    let mut recorder = Recorder::new(system, t0, y0);
+    let mut recorder = Recorder::new(system, t0, y0, output_times.len());
     let mut ev = Evaluator::new(system);
     let n = y0.len();
     let tol = Tolerances {
@@ -221,16 +222,16 @@ impl Failure {
 }
 
 /// One integration in progress: the current point and the outputs still to reach.
-struct Run<'r, 'a> {
-    ev: &'r mut Evaluator<'a>,
-    recorder: &'r mut Recorder<'a>,
+struct Run<'r, 'a, S: ?Sized> {
+    ev: &'r mut Evaluator<'a, S>,
+    recorder: &'r mut Recorder<'a, S>,
     t: f64,
     y: Vec<f64>,
     outputs: &'r [f64],
     options: &'r Options,
 }
 
-impl Run<'_, '_> {
+impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
     fn fail(&self, kind: ErrorKind, message: String) -> Failure {
         Failure {
             kind,
@@ -480,25 +481,32 @@ impl Run<'_, '_> {
 }
 
 /// Collects the outputs with their monitored invariants.
-struct Recorder<'a> {
-    system: &'a dyn OdeSystem,
+struct Recorder<'a, S: ?Sized> {
+    system: &'a S,
     energy0: Option<f64>,
     solution: Solution,
 }
 
-impl<'a> Recorder<'a> {
-    fn new(system: &'a dyn OdeSystem, t0: f64, y0: &[f64]) -> Self {
+impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
+    /// Room for `outputs` outputs is taken at once: recording allocates nothing.
+    fn new(system: &'a S, t0: f64, y0: &[f64], outputs: usize) -> Self {
         Recorder {
             system,
             energy0: finite(system.energy(t0, y0)),
-            solution: Solution::default(),
+            solution: Solution {
+                t: Vec::with_capacity(outputs),
+                y: States::with_capacity(y0.len(), outputs),
+                energy: Vec::with_capacity(outputs),
+                constraint: Vec::with_capacity(outputs),
+                ..Solution::default()
+            },
         }
     }
 
     fn push(&mut self, t: f64, y: &[f64]) {
         let solution = &mut self.solution;
         solution.t.push(t);
-        solution.y.push(y.to_vec());
+        solution.y.push(y);
         solution.energy.push(finite(self.system.energy(t, y)));
         solution
             .constraint
@@ -536,8 +544,8 @@ fn finite(value: Option<f64>) -> Option<f64> {
 }
 
 /// Checks the input before anything is evaluated.
-fn validate(
-    system: &dyn OdeSystem,
+fn validate<S: OdeSystem + ?Sized>(
+    system: &S,
     method: Method,
     t0: f64,
     y0: &[f64],

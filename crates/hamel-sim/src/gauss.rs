@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, DVector, Dyn, LU};
 
 use crate::control::{Controller, Tolerances};
 use crate::step::{AdaptiveStep, FixedStep, Interpolant};
-use crate::system::{Evaluator, StepFailure};
+use crate::system::{Evaluator, OdeSystem, StepFailure};
 
 /// Most Newton iterations per stage solve.
 const MAX_NEWTON_ITERATIONS: usize = 20;
@@ -117,9 +117,9 @@ impl Collocation {
     }
 
     /// Evaluates the Jacobian used by the following solves at `(t, y)`, `f0 = f(t, y)`.
-    fn set_jacobian(
+    fn set_jacobian<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         t: f64,
         y: &[f64],
         f0: &[f64],
@@ -147,9 +147,9 @@ impl Collocation {
     /// The iteration runs until the scaled increment is at roundoff level or stops
     /// decreasing; it has failed if it stops decreasing (or runs out of iterations) with an
     /// increment above both [`STALL_LIMIT`] and the roundoff floor.
-    fn solve(
+    fn solve<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         t: f64,
         y: &[f64],
         f_start: &[f64],
@@ -260,7 +260,12 @@ impl Gauss {
     }
 
     /// Makes `f0` and the Jacobian current at `(t, y)`.
-    fn prepare(&mut self, ev: &mut Evaluator<'_>, t: f64, y: &[f64]) -> Result<(), StepFailure> {
+    fn prepare<S: OdeSystem + ?Sized>(
+        &mut self,
+        ev: &mut Evaluator<'_, S>,
+        t: f64,
+        y: &[f64],
+    ) -> Result<(), StepFailure> {
         if !self.f0_valid {
             ev.rhs(t, y, &mut self.f0)?;
             self.f0_valid = true;
@@ -280,9 +285,9 @@ impl Gauss {
 }
 
 impl FixedStep for Gauss {
-    fn step(
+    fn step<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         t: f64,
         y: &[f64],
         h: f64,
@@ -311,9 +316,9 @@ impl AdaptiveStep for Gauss {
         self.f0_valid = true;
     }
 
-    fn attempt(
+    fn attempt<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         tol: &Tolerances,
         t: f64,
         y: &[f64],
@@ -335,9 +340,9 @@ impl AdaptiveStep for Gauss {
         Ok(tol.error_norm(err, y, y_new))
     }
 
-    fn accept(
+    fn accept<S: OdeSystem + ?Sized>(
         &mut self,
-        _ev: &mut Evaluator<'_>,
+        _ev: &mut Evaluator<'_, S>,
         _t: f64,
         _y: &[f64],
         _h: f64,

@@ -51,6 +51,7 @@ mod explicit;
 mod gauss;
 mod rk4;
 mod solution;
+mod states;
 mod step;
 mod system;
 #[cfg(test)]
@@ -58,4 +59,5 @@ mod testing;
 
 pub use driver::{Method, MethodName, Options, integrate};
 pub use solution::{ErrorKind, IntegrationError, Solution, Stats};
+pub use states::States;
 pub use system::{OdeSystem, SystemError};

@@ -2,15 +2,18 @@
 //!
 //! Tableau: Hairer, Nørsett & Wanner, "Solving ODEs I", Table II.1.2 (left).
 
-use crate::explicit::{Stages, Tableau};
+use crate::explicit::{Stages, Tableau, Weights};
 use crate::step::FixedStep;
-use crate::system::{Evaluator, StepFailure};
+use crate::system::{Evaluator, OdeSystem, StepFailure};
 
 const TABLEAU: Tableau = Tableau {
     c: &[0.0, 0.5, 0.5, 1.0],
     a: &[&[], &[0.5], &[0.0, 0.5], &[0.0, 0.0, 1.0]],
 };
 const B: [f64; 4] = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
+/// The tableau's rows and [`B`], zeros left out.
+const A: [Weights; 4] = Weights::rows(&TABLEAU);
+const B_W: Weights = Weights::new(&B);
 
 /// Classical RK4: four right-hand side evaluations per step.
 pub(crate) struct Rk4 {
@@ -26,17 +29,17 @@ impl Rk4 {
 }
 
 impl FixedStep for Rk4 {
-    fn step(
+    fn step<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         t: f64,
         y: &[f64],
         h: f64,
         y_new: &mut [f64],
     ) -> Result<(), StepFailure> {
-        ev.rhs(t, y, &mut self.stages.k[0])?;
-        self.stages.evaluate(ev, &TABLEAU, t, y, h, 1..4)?;
-        self.stages.combine(y, h, &B, y_new);
+        self.stages.evaluate_at(ev, 0, t, y)?;
+        self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 1..4)?;
+        self.stages.combine(y, h, &B_W, y_new);
         Ok(())
     }
 }

@@ -2,13 +2,15 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::states::States;
+
 /// States at the requested output times, with monitored invariants and statistics.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Solution {
     /// Output times reached, in the order requested.
     pub t: Vec<f64>,
-    /// State at each output time; every entry is finite.
-    pub y: Vec<Vec<f64>>,
+    /// State at each output time (`y[j]`, a slice); every entry is finite.
+    pub y: States,
     /// [`OdeSystem::energy`](crate::OdeSystem::energy) at each output (None where the system
     /// gives no finite value).
     pub energy: Vec<Option<f64>>,

@@ -2,14 +2,14 @@
 //! accepted adaptive step with its error estimate, a continuous extension.
 
 use crate::control::{Controller, Tolerances};
-use crate::system::{Evaluator, StepFailure};
+use crate::system::{Evaluator, OdeSystem, StepFailure};
 
 /// A one-step method used with a given step.
 pub(crate) trait FixedStep {
     /// Advances `(t, y)` by `h` into `y_new`.
-    fn step(
+    fn step<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         t: f64,
         y: &[f64],
         h: f64,
@@ -27,9 +27,9 @@ pub(crate) trait AdaptiveStep {
     fn start(&mut self, f0: &[f64]);
     /// Attempts a step of size `h` from `(t, y)`: the candidate goes to `y_new`, the result is
     /// the error estimate in the tolerance-scaled norm (at most 1 to pass).
-    fn attempt(
+    fn attempt<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         tol: &Tolerances,
         t: f64,
         y: &[f64],
@@ -39,9 +39,9 @@ pub(crate) trait AdaptiveStep {
     /// Accepts the step just attempted; with `dense`, also prepares the continuous extension
     /// over it. After a failure the step counts as rejected and the method's state is as
     /// before the attempt.
-    fn accept(
+    fn accept<S: OdeSystem + ?Sized>(
         &mut self,
-        ev: &mut Evaluator<'_>,
+        ev: &mut Evaluator<'_, S>,
         t: f64,
         y: &[f64],
         h: f64,

@@ -53,15 +53,15 @@ pub trait OdeSystem {
 
 /// The system as the integrators see it: every call counted in [`Stats`], failures tagged with
 /// the time of the evaluation, Jacobians by finite differences when the system has none.
-pub(crate) struct Evaluator<'a> {
-    system: &'a dyn OdeSystem,
+pub(crate) struct Evaluator<'a, S: ?Sized> {
+    system: &'a S,
     pub(crate) stats: Stats,
     perturbed: Vec<f64>,
     column: Vec<f64>,
 }
 
-impl<'a> Evaluator<'a> {
-    pub(crate) fn new(system: &'a dyn OdeSystem) -> Self {
+impl<'a, S: OdeSystem + ?Sized> Evaluator<'a, S> {
+    pub(crate) fn new(system: &'a S) -> Self {
         let n = system.dim();
         Evaluator {
             system,

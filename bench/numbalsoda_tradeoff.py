@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""numbalsoda's DOP853 on the same equations as `hamel tradeoff`, and the ratio of times at equal error.
+
+    hamel tradeoff SCENE.toml --export-python SYSTEM.json      (one per scene)
+    python3 bench/numbalsoda_tradeoff.py SYSTEM.json [SYSTEM.json ...]
+
+What a performance-minded Python user runs instead of scipy's solve_ivp: the exported
+right-hand side (`rhs_into`, the code generator's solved form, parameters as numbers) compiled
+by numba (LLVM) into a C callback, integrated by numbalsoda's C++ port of Hairer's dop853.f.
+Same output times, same reference (hamel's DOP853 at 1e-14), same error measure as
+bench/scipy_tradeoff.py: max |y - y_ref| / max(1, |y_ref|) over the output times, on the
+requested components. Tolerances rtol = atol = 1e-4 ... 1e-12. The time of a run is the median
+of repeats (up to ~50 ms in all, at least 5), measured around the numbalsoda call (numbalsoda
+allocates its output array in that call, as hamel's core does its solution). For every
+numbalsoda run, the time of hamel's fastest run (DOP853 or DOPRI5, timed inside its compiled
+core) with an error at most as large: the ratio numbalsoda / hamel at equal error, above 1
+where hamel is faster.
+
+Prints one table per scene, then the summary: per scene, the range of numbalsoda / hamel.
+
+Optional dependency (pip install numba numbalsoda; building numbalsoda needs gfortran and
+cmake): without them it prints a message on stderr and exits with status 3.
+"""
+
+import json
+import math
+import statistics
+import sys
+import time
+
+try:
+    import numpy as np
+    from numba import carray, cfunc, njit
+    from numbalsoda import dop853, lsoda_sig
+except ImportError:
+    print("numbalsoda_tradeoff.py: numba and numbalsoda are needed (pip install numba numbalsoda; "
+          "numbalsoda builds with gfortran and cmake); skipped", file=sys.stderr)
+    sys.exit(3)
+
+MATH = ("sin", "cos", "tan", "sqrt", "exp", "log", "asin", "acos", "atan", "sinh", "cosh", "tanh")
+
+
+def load(path):
+    with open(path) as f:
+        system = json.load(f)
+    if "python_into" not in system:
+        sys.exit(f"{path}: no `python_into` (export it again with this hamel: hamel tradeoff SCENE --export-python FILE)")
+    namespace = {name: getattr(math, name) for name in MATH}
+    exec(system["python_into"], namespace)
+    return system, compile_rhs(namespace["rhs_into"], len(system["y0"]))
+
+
+def compile_rhs(rhs_into, n):
+    """The C callback numbalsoda calls: f(t, u, du, p)."""
+    inner = njit(rhs_into)
+
+    @cfunc(lsoda_sig)
+    def f(t, u_, du_, p):
+        u = carray(u_, (n,))
+        du = carray(du_, (n,))
+        inner(t, u, du)
+
+    return f.address
+
+
+def error(usol, system, offset):
+    ref = system["reference"]
+    req = system["requested"]
+    if usol.shape[0] != len(ref) + offset or not np.all(np.isfinite(usol)):
+        return math.inf
+    worst = 0.0
+    for j, row in enumerate(ref):
+        for value, i in zip(row, req):
+            worst = max(worst, abs(usol[j + offset, i] - value) / max(1.0, abs(value)))
+    return worst
+
+
+def timed(fun):
+    runs, total = [], 0.0
+    while True:
+        start = time.perf_counter()
+        out = fun()
+        took = time.perf_counter() - start
+        runs.append(took)
+        total += took
+        if (total > 0.05 and len(runs) >= 5) or len(runs) >= 2000:
+            return out, statistics.median(runs)
+
+
+def measure(path):
+    system, funcptr = load(path)
+    times = system["times"]
+    t0 = system.get("t0", 0.0)
+    # numbalsoda starts at t_eval[0]: t0 first, unless it is already the first output.
+    offset = 0 if times and times[0] == t0 else 1
+    t_eval = np.array(([t0] if offset else []) + times, dtype=np.float64)
+    y0 = np.array(system["y0"], dtype=np.float64)
+    hamel = [r for r in system["hamel"] if r["complete"]]
+    rows = []
+    for k in range(4, 13):
+        tol = 10.0 ** -k
+        run = lambda: dop853(funcptr, y0, t_eval, rtol=tol, atol=tol, mxstep=10_000_000)
+        (usol, success), seconds = timed(run)
+        err = error(usol, system, offset) if success else math.inf
+        best = min((r for r in hamel if r["error_span"] <= err), key=lambda r: r["seconds"], default=None)
+        ratio = seconds / best["seconds"] if best and math.isfinite(err) else None
+        rows.append((tol, err, seconds, best, ratio))
+    return system, rows
+
+
+def main():
+    if len(sys.argv) < 2:
+        print(__doc__, file=sys.stderr)
+        sys.exit(2)
+    summary = []
+    for path in sys.argv[1:]:
+        system, rows = measure(path)
+        print(f"{system['model']}: numbalsoda's DOP853 against hamel (same equations, same reference)")
+        print()
+        print("| numbalsoda DOP853 | error over span | time | hamel's fastest at ≤ that error | numbalsoda / hamel |")
+        print("|---|---|---|---|---|")
+        for tol, err, seconds, best, ratio in rows:
+            best_text = f"{best['method']} {best['tol']:.0e} ({best['seconds'] * 1e6:.1f} µs)" if best else "none"
+            ratio_text = f"{ratio:.2f}" if ratio else "–"
+            print(f"| {tol:.0e} | {err:.1e} | {seconds * 1e6:.1f} µs | {best_text} | {ratio_text} |")
+        print()
+        ratios = [r[4] for r in rows if r[4]]
+        summary.append((system["model"], ratios, len(rows)))
+    print("| scene | numbalsoda / hamel at equal error (1e-4 to 1e-12) | rows compared |")
+    print("|---|---|---|")
+    for model, ratios, count in summary:
+        span = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"
+        print(f"| {model} | {span} | {len(ratios)} of {count} |")
+
+
+if __name__ == "__main__":
+    main()
