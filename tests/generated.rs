@@ -73,6 +73,9 @@ fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
                 worst_same = worst_same.max(rel_error(a, b) / allow);
             }
             worst_same = worst_same.max(rel_error(&[g.energy], &[s.energy]) / allow);
+            // The energy by its own path (straight-line code of the closed form).
+            let e = (core.energy)(&q, &eta).unwrap();
+            worst_same = worst_same.max(rel_error(&[e], &[s.energy]) / allow);
             // The fast path (solved form or structured, as chosen at generation) agrees too.
             let y: Vec<f64> = q.iter().chain(&eta).copied().collect();
             let mut dy = vec![0.0; y.len()];

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use hamel_generated::{
     COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM,
-    constraint_residual, energy, project, reduced_into_with, reduced_jacobian_with,
+    constraint_residual_max, energy, project, reduced_into_with, reduced_jacobian_with,
 };
 use hamel_sim::{Method, OdeSystem, Options, SystemError};
 use serde::Deserialize;
@@ -81,9 +81,7 @@ impl OdeSystem for Reduced {
         }
         let mut dy = [0.0; REDUCED_DIM];
         reduced_into_with(y, &mut dy, &self.prep).ok()?;
-        let q_dot: Vec<f64> = dy[..KEPT.len()].to_vec();
-        let r = constraint_residual(&self.full_q(y), &q_dot, &self.prep.p);
-        Some(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
+        Some(constraint_residual_max(&self.full_q(y), &dy[..KEPT.len()], &self.prep.p))
     }
     /// Back onto the holonomic constraints, when the state holds every coordinate they
     /// mention (their dependent coordinates among them).

@@ -1052,6 +1052,10 @@ fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, CodegenErro
 /// system and, when it compiles without the eliminated coordinates, for the reduced one.
 struct Code {
     tape: Tape,
+    /// α(q) alone (the constraint residual needs nothing else).
+    alpha: Tape,
+    /// The body of `energy_from`, and what it computes, for the docs.
+    energy_part: (String, &'static str),
     /// h(q) of the holonomic constraints.
     holonomic: Tape,
     ops_trees: usize,
@@ -1081,6 +1085,10 @@ impl Code {
             .chain(params.clone())
             .collect();
         let tape = Tape::compile(&exprs, &inputs)?;
+        // Where α and U lie in the ingredients (the runtime's `Layout`: Z, α, A, U, …).
+        let alpha_at = d.sigma * d.ell;
+        let u_at = alpha_at + d.mu * d.ell + d.ell * d.ell;
+        let alpha = Tape::compile(&exprs[alpha_at..alpha_at + d.mu * d.ell], &inputs)?;
         let h: Vec<&Expr> = d.holonomic.iter().map(|c| &c.h.expr).collect();
         let holonomic = Tape::compile(&h, &inputs)?;
         let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
@@ -1100,7 +1108,11 @@ impl Code {
             choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)
                 .map_err(CodegenError::Path)?;
         let reduced_tape = solved.as_ref().and_then(|(candidate, _)| {
-            (choice.solved && !eliminated.is_empty())
+            // Also with nothing eliminated: the reduced form is then the solved form itself,
+            // with its parameter-only values prepared once (evaluating `fast` at each call
+            // would prepare them every time).
+            choice
+                .solved
                 .then(|| reduced_tape(d, &candidate.exprs, &kept, &params))
                 .flatten()
         });
@@ -1137,7 +1149,10 @@ impl Code {
             ),
             None => ("    Ok([])\n".into(), REDUCED_AT_REFERENCE.into(), 0),
         };
+        let energy_part = energy_part(d, exprs[u_at], &solved_inputs, &full_slots)?;
         Ok(Code {
+            alpha,
+            energy_part,
             ops_trees: exprs.iter().map(|e| e.tree_operations()).sum(),
             ops_shared: tape.operation_count(),
             solved_ops: solved.as_ref().map_or(0, |(_, t)| t.operation_count()),
@@ -1224,6 +1239,9 @@ impl Code {
             ("ops_shared", self.ops_shared.to_string()),
             ("solved_ops", self.solved_ops.to_string()),
             ("body", straight_line(&self.tape, &full_slots)),
+            ("alpha_body", straight_line(&self.alpha, &full_slots)),
+            ("energy_body", self.energy_part.0.clone()),
+            ("energy_doc", self.energy_part.1.to_string()),
             (
                 "holonomic_body",
                 straight_line(&self.holonomic, &full_slots),
@@ -1281,6 +1299,39 @@ impl Code {
         f.extend(parameter_fields(d));
         f
     }
+}
+
+/// The body of the generated `energy_from`: with a closed form, straight-line code of
+/// E = ½ηᵀA_Γη − U from A_Γ's canonical entries (a few operations, where the structured
+/// evaluation solves [Z; α] and forms A_Γ); without, the structured
+/// evaluation unchecked (no error estimate, no paper's form). `u` is U's expression.
+fn energy_part(
+    d: &Derivation,
+    u: &Expr,
+    solved_inputs: &[String],
+    slots: &Slots,
+) -> Result<(String, &'static str), CodegenError> {
+    use fold::*;
+    let Some(c) = d.closed() else {
+        let body = "    Ok(structured_unchecked(q, eta, p, false)?.energy)\n";
+        return Ok((body.into(), "the structured evaluation, unchecked"));
+    };
+    let g = d.sigma;
+    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
+    let a = |r: usize, s: usize| c.a_gamma.entries[r][s].expr.clone();
+    // ½ηᵀA_Γη = Σ_r η_r (½ A_rr η_r + Σ_{s>r} A_rs η_s), A_Γ symmetric.
+    let kinetic = (0..g).fold(Expr::int(0), |acc, r| {
+        let row = (r + 1..g).fold(div(mul(a(r, r), eta[r].clone()), Expr::int(2)), |row, s| {
+            add(row, mul(a(r, s), eta[s].clone()))
+        });
+        add(acc, mul(eta[r].clone(), row))
+    });
+    let energy = sub(kinetic, u.clone());
+    let tape = Tape::compile(&[&energy], solved_inputs)?;
+    let mut body = "    let _ = (q, eta, p);\n".to_string();
+    body += &lets(&tape, slots, Part::All);
+    let _ = writeln!(body, "    Ok(t{})", tape.outputs()[0]);
+    Ok((body, "straight-line code of the closed form"))
 }
 
 /// Above this many shared operations of the ingredients, the generated code wraps its wide

@@ -99,6 +99,8 @@ pub struct Core {
     pub reconstruction: VectorFn,
     /// α(q)q̇.
     pub constraint_residual: fn(&[f64], &[f64]) -> Vec<f64>,
+    /// The energy at (q, η), by the core's own path (closed form, or structured).
+    pub energy: fn(&[f64], &[f64]) -> Result<f64, EvalError>,
     /// Operation counts (trees, shared).
     pub operations: (usize, usize),
 }
@@ -132,6 +134,7 @@ macro_rules! core {
             jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),
             reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),
             constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),
+            energy: |q, e| $m::energy(q, e, &$m::Parameters::default()),
             operations: $m::OPERATIONS,
         }
     };

@@ -79,6 +79,9 @@ pub enum Range {
     All,
     /// The adaptive explicit ones only (what `hamel simulate` tries for an `[accuracy]`).
     Adaptive,
+    /// DOP853 and DOPRI5 at four tolerances per decade, 1e-3 to 1e-13: a work–precision curve
+    /// fine enough to compare another integrator with at equal error ([`export_python`]).
+    WorkPrecision,
 }
 
 /// Run once, and time it. Interpreted: repeated while the total stays under ~50 ms (at most 20
@@ -169,7 +172,11 @@ fn measure(
         .filter(|&d| d > 0.0)
         .fold(f64::INFINITY, f64::min);
     let mut settings: Vec<(Method, Option<f64>, Option<f64>)> = Vec::new();
-    let tolerances: Vec<f64> = (3..=13).map(|k| 10f64.powi(-k)).collect();
+    let tolerances: Vec<f64> = if range == Range::WorkPrecision {
+        (12..=52).map(|k| 10f64.powf(-f64::from(k) / 4.0)).collect()
+    } else {
+        (3..=13).map(|k| 10f64.powi(-k)).collect()
+    };
     for &tol in &tolerances {
         settings.push((Method::Dop853, Some(tol), None));
         settings.push((Method::Dopri5, Some(tol), None));
@@ -257,7 +264,7 @@ fn measure(
 pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::Value, ModelError> {
     let monitors = (loaded.request.energy, loaded.request.constraint_residual);
     (loaded.request.energy, loaded.request.constraint_residual) = (false, false);
-    let measured = measure(loaded, Range::Adaptive, engine, false);
+    let measured = measure(loaded, Range::WorkPrecision, engine, false);
     (loaded.request.energy, loaded.request.constraint_residual) = monitors;
     let (table, reference) = measured?;
     let (ell, sigma) = loaded.dims();

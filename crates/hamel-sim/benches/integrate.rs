@@ -1,27 +1,30 @@
 //! The cost of `integrate` itself (issue 21): `cargo bench -p hamel-sim --bench integrate`.
 //!
-//! * `integrate/knife/dop853-<tol>/<n>-outputs`: scenes/knife.toml (the knife edge with the
-//!   paper's quasi-velocities, state (x, y, θ, η), 10 s), DOP853, on the generated right-hand
-//!   side (`crates/hamel-models`, `full_into`), with 101 outputs and with only the last.
-//! * `rhs/knife/dop853-<tol>`: the evaluations of that run with 101 outputs alone, replayed:
-//!   the same states, in the same order, through `OdeSystem::rhs`, each waiting for the result
-//!   of the one before (as the stages of a step do).
-//!
+//! * `integrate/<scene>/dop853-<tol>/<n>-outputs`: the scene's model and initial state
+//!   (scenes/knife.toml: the knife edge, paper's quasi-velocities, state (x, y, θ, η), 10 s,
+//!   101 outputs; scenes/unicycle_rider.toml: six coordinates and four quasi-velocities, 2 s,
+//!   41 outputs), DOP853, on the generated right-hand side (`crates/hamel-models`,
+//!   `full_into`: the solved form, parameters prepared once), with every output and with only
+//!   the last.
+//! * `rhs/<scene>/dop853-<tol>`: the evaluations of that run alone, replayed: the same states,
+//!   in the same order, through `OdeSystem::rhs`, each waiting for the result of the one
+//!   before (as the stages of a step do).
 //! * `integrate/still/dop853/101-outputs`: ẏ = 0 in five dimensions, one step: the fixed cost
 //!   of a run with 101 outputs.
 //!
 //! After the runs it prints the cost of a run besides its evaluations, T(run) − T(its
-//! evaluations), and the cost per output, (T(101 outputs) − T(1 output)) / 100 (the dense
-//! output prepared at every step, and interpolated), from criterion's estimates of this same
-//! run.
+//! evaluations), per evaluation, and the cost per output, (T(all outputs) − T(1 output)) /
+//! (outputs − 1) (the dense output prepared at every step, and interpolated), from criterion's
+//! estimates of this same run.
 
 use criterion::{Criterion, criterion_group};
 use hamel_models::{Core, MODELS};
 use hamel_sim::{Method, OdeSystem, Options, SystemError, integrate};
+use std::cell::RefCell;
 use std::hint::black_box;
 
-/// The full state (q, η) of a core, as `hamel simulate` integrates the knife scene (every
-/// coordinate requested).
+/// The full state (q, η) of a core, as `hamel simulate` integrates a scene that requests
+/// every coordinate.
 struct Full(&'static Core);
 
 impl OdeSystem for Full {
@@ -33,9 +36,9 @@ impl OdeSystem for Full {
     }
 }
 
-/// ẏ = 0 in five dimensions: DOP853 takes one step over the whole interval (its error
-/// estimate is zero), so a run is the fixed cost alone: set-up, the initial step heuristic, one
-/// step, 101 outputs interpolated and recorded.
+/// ẏ = 0 in five dimensions: with a first step over the whole interval, DOP853 takes one
+/// step (its error estimate is zero), so a run is the fixed cost alone: set-up, one step, 101
+/// outputs interpolated and recorded.
 struct Still;
 
 impl OdeSystem for Still {
@@ -48,28 +51,87 @@ impl OdeSystem for Still {
     }
 }
 
-/// The first step over the whole interval (the heuristic would start small and grow by at
-/// most 6 per step).
-fn still_options() -> Options {
-    Options {
-        h0: Some(10.0),
-        ..options(1e-8)
-    }
+/// A scene: its model's core, initial state, duration and number of outputs (t0 = 0 among
+/// them).
+struct Case {
+    name: &'static str,
+    model: &'static str,
+    eta: &'static str,
+    y0: &'static [f64],
+    t_end: f64,
+    outputs: usize,
 }
 
-fn knife() -> &'static Core {
-    MODELS
-        .iter()
-        .find(|c| c.model == "knife" && c.eta == "paper")
-        .expect("the knife's core")
-}
+const CASES: [Case; 2] = [
+    Case {
+        name: "knife",
+        model: "knife",
+        eta: "paper",
+        y0: &[0.0, 0.0, 0.3, 1.0, 0.5],
+        t_end: 10.0,
+        outputs: 101,
+    },
+    Case {
+        name: "unicycle_rider",
+        model: "unicycle_rider",
+        eta: "velocities",
+        y0: &[0.0, 0.0, 0.0, 0.0, 0.2, 0.1, 0.5, 3.0, 0.0, 0.0],
+        t_end: 2.0,
+        outputs: 41,
+    },
+];
 
-/// scenes/knife.toml's initial state: (x, y, θ) = (0, 0, 0.3), η = (1, 0.5).
-const Y0: [f64; 5] = [0.0, 0.0, 0.3, 1.0, 0.5];
 const TOLERANCES: [f64; 3] = [1e-4, 1e-8, 1e-12];
 
-fn times(n: usize) -> Vec<f64> {
-    (1..=n).map(|k| 10.0 * k as f64 / n as f64).collect()
+impl Case {
+    fn system(&self) -> Full {
+        let core = MODELS
+            .iter()
+            .find(|c| c.model == self.model && c.eta == self.eta)
+            .expect("the scene's core");
+        Full(core)
+    }
+
+    /// `n` output times ending at `t_end`, evenly spaced from 0 (or the last alone).
+    fn times(&self, n: usize) -> Vec<f64> {
+        if n == 1 {
+            return vec![self.t_end];
+        }
+        (0..n)
+            .map(|k| self.t_end * k as f64 / (n - 1) as f64)
+            .collect()
+    }
+
+    fn run(&self, tol: f64, n: usize) -> hamel_sim::Solution {
+        let ts = self.times(n);
+        integrate(
+            &self.system(),
+            Method::Dop853,
+            0.0,
+            self.y0,
+            &ts,
+            &options(tol),
+        )
+        .unwrap()
+    }
+
+    /// The states at which a run with every output evaluates the right-hand side.
+    fn visited(&self, tol: f64) -> Vec<Vec<f64>> {
+        struct Logged(Full, RefCell<Vec<Vec<f64>>>);
+        impl OdeSystem for Logged {
+            fn dim(&self) -> usize {
+                self.0.dim()
+            }
+            fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+                self.1.borrow_mut().push(y.to_vec());
+                self.0.rhs(t, y, dy)
+            }
+        }
+        let logged = Logged(self.system(), RefCell::default());
+        let ts = self.times(self.outputs);
+        integrate(&logged, Method::Dop853, 0.0, self.y0, &ts, &options(tol)).unwrap();
+        logged.1.into_inner()
+    }
 }
 
 fn options(tol: f64) -> Options {
@@ -81,67 +143,54 @@ fn options(tol: f64) -> Options {
 }
 
 fn benches(c: &mut Criterion) {
-    let system = Full(knife());
-    let mut group = c.benchmark_group("integrate/knife");
-    for tol in TOLERANCES {
-        for n in [101, 1] {
-            let ts = times(n);
-            let o = options(tol);
-            group.bench_function(format!("dop853-{tol:e}/{n}-outputs"), |b| {
-                b.iter(|| integrate(&system, Method::Dop853, 0.0, black_box(&Y0), &ts, &o).unwrap())
+    for case in &CASES {
+        let system = case.system();
+        let mut group = c.benchmark_group(format!("integrate/{}", case.name));
+        for tol in TOLERANCES {
+            for n in [case.outputs, 1] {
+                let ts = case.times(n);
+                let o = options(tol);
+                group.bench_function(format!("dop853-{tol:e}/{n}-outputs"), |b| {
+                    b.iter(|| {
+                        integrate(&system, Method::Dop853, 0.0, black_box(case.y0), &ts, &o)
+                            .unwrap()
+                    })
+                });
+            }
+        }
+        group.finish();
+        let mut group = c.benchmark_group(format!("rhs/{}", case.name));
+        for tol in TOLERANCES {
+            let states = case.visited(tol);
+            let mut dy = vec![0.0; case.y0.len()];
+            let mut y = vec![0.0; case.y0.len()];
+            group.bench_function(format!("dop853-{tol:e}"), |b| {
+                b.iter(|| {
+                    // Each evaluation waits for the one before, as the stages of a step do.
+                    for x in &states {
+                        y.copy_from_slice(x);
+                        y[0] += 0.0 * dy[0];
+                        system.rhs(0.0, black_box(&y), &mut dy).unwrap();
+                    }
+                })
             });
         }
+        group.finish();
     }
-    group.finish();
-    let ts = times(101);
+    let ts: Vec<f64> = (0..101).map(|k| 0.1 * k as f64).collect();
     let o = still_options();
     c.bench_function("integrate/still/dop853/101-outputs", |b| {
-        b.iter(|| integrate(&Still, Method::Dop853, 0.0, black_box(&Y0), &ts, &o).unwrap())
+        b.iter(|| integrate(&Still, Method::Dop853, 0.0, black_box(&[0.0; 5]), &ts, &o).unwrap())
     });
-    // The evaluations of each run, replayed: the same states in the same order.
-    let mut group = c.benchmark_group("rhs/knife");
-    for tol in TOLERANCES {
-        let states = visited(tol);
-        let mut dy = [0.0; 5];
-        group.bench_function(format!("dop853-{tol:e}"), |b| {
-            b.iter(|| {
-                // Each evaluation waits for the one before, as the stages of a step do.
-                for y in &states {
-                    let mut y = *y;
-                    y[0] += 0.0 * dy[0];
-                    system.rhs(0.0, black_box(&y), &mut dy).unwrap();
-                }
-            })
-        });
-    }
-    group.finish();
 }
 
-/// The states at which a run with 101 outputs evaluates the right-hand side.
-fn visited(tol: f64) -> Vec<[f64; 5]> {
-    struct Logged(Full, std::cell::RefCell<Vec<[f64; 5]>>);
-    impl OdeSystem for Logged {
-        fn dim(&self) -> usize {
-            self.0.dim()
-        }
-        fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-            self.1
-                .borrow_mut()
-                .push(y.try_into().expect("five components"));
-            self.0.rhs(t, y, dy)
-        }
+/// The first step over the whole interval (the heuristic would start small and grow by at
+/// most 6 per step).
+fn still_options() -> Options {
+    Options {
+        h0: Some(10.0),
+        ..options(1e-8)
     }
-    let logged = Logged(Full(knife()), Default::default());
-    integrate(
-        &logged,
-        Method::Dop853,
-        0.0,
-        &Y0,
-        &times(101),
-        &options(tol),
-    )
-    .unwrap();
-    logged.1.into_inner()
 }
 
 /// Criterion's point estimate of the mean, in seconds, for a benchmark of this run.
@@ -154,41 +203,36 @@ fn estimate(id: &str) -> Option<f64> {
 
 fn summary() {
     if let Some(still) = estimate("integrate_still_dop853_101-outputs") {
-        let s = integrate(
-            &Still,
-            Method::Dop853,
-            0.0,
-            &Y0,
-            &times(101),
-            &still_options(),
-        )
-        .unwrap();
         println!(
-            "\nthe fixed cost of a run with 101 outputs (ẏ = 0, {} step of 10 s, {} evaluations): {:.2} µs",
-            s.stats.steps,
-            s.stats.rhs_evals,
+            "\nthe fixed cost of a run with 101 outputs (ẏ = 0, one step): {:.2} µs",
             still * 1e6
         );
     }
-    println!("\nknife, DOP853, 10 s: the cost of a run besides its evaluations");
+    println!("\nDOP853: the cost of a run besides its evaluations");
     println!(
-        "| tol | evaluations | run, 101 outputs | the evaluations alone | the rest | per output |"
+        "| scene | tol | evaluations | run | the evaluations alone | the rest | the rest per evaluation | per output |"
     );
-    println!("|---|---|---|---|---|---|");
-    for tol in TOLERANCES {
-        let id = |n: usize| format!("integrate_knife/dop853-{tol:e}_{n}-outputs");
-        let rhs = estimate(&format!("rhs_knife/dop853-{tol:e}"));
-        let (Some(all), Some(last), Some(rhs)) = (estimate(&id(101)), estimate(&id(1)), rhs) else {
-            continue;
-        };
-        println!(
-            "| {tol:e} | {} | {:.2} µs | {:.2} µs | {:.2} µs | {:.1} ns |",
-            visited(tol).len(),
-            all * 1e6,
-            rhs * 1e6,
-            (all - rhs) * 1e6,
-            (all - last) / 100.0 * 1e9
-        );
+    println!("|---|---|---|---|---|---|---|---|");
+    for case in &CASES {
+        for tol in TOLERANCES {
+            let id = |n: usize| format!("integrate_{}/dop853-{tol:e}_{n}-outputs", case.name);
+            let rhs = estimate(&format!("rhs_{}/dop853-{tol:e}", case.name));
+            let (Some(all), Some(last), Some(rhs)) =
+                (estimate(&id(case.outputs)), estimate(&id(1)), rhs)
+            else {
+                continue;
+            };
+            let evals = case.run(tol, case.outputs).stats.rhs_evals;
+            println!(
+                "| {} | {tol:e} | {evals} | {:.2} µs | {:.2} µs | {:.2} µs | {:.1} ns | {:.1} ns |",
+                case.name,
+                all * 1e6,
+                rhs * 1e6,
+                (all - rhs) * 1e6,
+                (all - rhs) / evals as f64 * 1e9,
+                (all - last) / (case.outputs - 1) as f64 * 1e9
+            );
+        }
     }
 }
 

@@ -13,11 +13,13 @@ pub(crate) struct Tolerances {
 
 impl Tolerances {
     /// Hairer's weight `sk = atol + rtol · max(|y|, |y_new|)`.
+    #[inline]
     pub(crate) fn scale(&self, y: f64, y_new: f64) -> f64 {
         self.atol + self.rtol * y.abs().max(y_new.abs())
     }
 
     /// Root-mean-square norm of `err` in the weights of [`Tolerances::scale`].
+    #[inline]
     pub(crate) fn error_norm(
         &self,
         err: impl Iterator<Item = f64>,
@@ -78,12 +80,14 @@ impl Controller {
 
     /// Factor by which the step shrinks after a failed attempt (a system error, non-finite
     /// values, a Newton failure): the largest decrease the controller allows.
+    #[inline]
     pub(crate) fn shrink(&self) -> f64 {
         self.fac_min
     }
 
     /// The verdict on a step of size `h` with scaled error `err`; after a rejection an accepted
     /// step may not grow (Hairer's `REJECT` flag).
+    #[inline]
     pub(crate) fn verdict(&self, h: f64, err: f64, after_reject: bool) -> Verdict {
         let fac11 = err.powf(self.expo);
         if err <= 1.0 {
@@ -100,6 +104,7 @@ impl Controller {
     }
 
     /// Records the error of an accepted step (the memory of the Lund stabilisation).
+    #[inline]
     pub(crate) fn accepted(&mut self, err: f64) {
         self.fac_old = err.max(1e-4);
     }

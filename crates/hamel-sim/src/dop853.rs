@@ -13,7 +13,7 @@
 )]
 
 use crate::control::{Controller, Tolerances};
-use crate::explicit::{Stages, Tableau, Weights};
+use crate::explicit::{Stages, Tableau, rows};
 use crate::step::{AdaptiveStep, Interpolant};
 use crate::system::{Evaluator, OdeSystem, StepFailure};
 
@@ -195,19 +195,6 @@ const TABLEAU: Tableau = Tableau {
 /// Eighth-order weights.
 const B: &[f64] = TABLEAU.a[12];
 
-/// The rows of the tableau, zeros left out.
-const A: [Weights; 16] = Weights::rows(&TABLEAU);
-/// [`B`], [`BHH`], [`ER`] and [`D`], zeros left out.
-const B_W: Weights = Weights::new(B);
-const BHH_W: Weights = Weights::new(&BHH);
-const ER_W: Weights = Weights::new(&ER);
-const D_W: [Weights; 4] = [
-    Weights::new(&D[0]),
-    Weights::new(&D[1]),
-    Weights::new(&D[2]),
-    Weights::new(&D[3]),
-];
-
 /// Third-order weights `BHH1` (stage 1), `BHH2` (stage 9), `BHH3` (stage 12).
 const BHH: [f64; 12] = [
     0.244094488188976377952755905512e+00,
@@ -316,11 +303,49 @@ const D: [[f64; 16]; 4] = [
     ],
 ];
 
+/// `b − b̂₃`: eighth- minus third-order weights (dop853.f subtracts the two sums).
+const B_MINUS_BHH: [f64; 12] = {
+    let mut d = [0.0; 12];
+    let mut j = 0;
+    while j < 12 {
+        d[j] = B[j] - BHH[j];
+        j += 1;
+    }
+    d
+};
+
+rows! {
+    A1 = TABLEAU.a[1];
+    A2 = TABLEAU.a[2];
+    A3 = TABLEAU.a[3];
+    A4 = TABLEAU.a[4];
+    A5 = TABLEAU.a[5];
+    A6 = TABLEAU.a[6];
+    A7 = TABLEAU.a[7];
+    A8 = TABLEAU.a[8];
+    A9 = TABLEAU.a[9];
+    A10 = TABLEAU.a[10];
+    A11 = TABLEAU.a[11];
+    /// The eighth-order weights (row 12: stage 13 is f at the new point).
+    B_ROW = B;
+    A13 = TABLEAU.a[13];
+    A14 = TABLEAU.a[14];
+    A15 = TABLEAU.a[15];
+    ERR3 = &B_MINUS_BHH;
+    ERR5 = &ER;
+    D4 = &D[0];
+    D5 = &D[1];
+    D6 = &D[2];
+    D7 = &D[3];
+}
+
 /// The DOP853 stepper: eleven evaluations per attempt, one more per accepted step
 /// (`f(t + h, y_new)`), and three more for a step whose continuous extension is needed.
 pub(crate) struct Dop853 {
     stages: Stages,
     dense: Dense8,
+    /// The two error sums, then a dense-output sum, per component.
+    scratch: [Vec<f64>; 2],
 }
 
 /// Continuous extension over the last accepted step (dop853.f `CONTD8`): the eight
@@ -336,6 +361,7 @@ impl Dop853 {
             dense: Dense8 {
                 r: vec![0.0; 8 * n],
             },
+            scratch: [vec![0.0; n], vec![0.0; n]],
         }
     }
 }
@@ -363,14 +389,27 @@ impl AdaptiveStep for Dop853 {
         h: f64,
         y_new: &mut [f64],
     ) -> Result<f64, StepFailure> {
-        self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 1..12)?;
-        self.stages.combine(y, h, &B_W, y_new);
+        let (st, c) = (&mut self.stages, TABLEAU.c);
+        st.stage(ev, (&A1, c[1]), t, y, h, 1)?;
+        st.stage(ev, (&A2, c[2]), t, y, h, 2)?;
+        st.stage(ev, (&A3, c[3]), t, y, h, 3)?;
+        st.stage(ev, (&A4, c[4]), t, y, h, 4)?;
+        st.stage(ev, (&A5, c[5]), t, y, h, 5)?;
+        st.stage(ev, (&A6, c[6]), t, y, h, 6)?;
+        st.stage(ev, (&A7, c[7]), t, y, h, 7)?;
+        st.stage(ev, (&A8, c[8]), t, y, h, 8)?;
+        st.stage(ev, (&A9, c[9]), t, y, h, 9)?;
+        st.stage(ev, (&A10, c[10]), t, y, h, 10)?;
+        st.stage(ev, (&A11, c[11]), t, y, h, 11)?;
+        st.combine(y, h, &B_ROW, y_new);
+        let [e3, e5] = &mut self.scratch;
+        st.sum(&ERR3, e3);
+        st.sum(&ERR5, e5);
         let (mut err5, mut err3) = (0.0, 0.0);
         for i in 0..y.len() {
             let sk = tol.scale(y[i], y_new[i]);
-            // Σ b_j k_j = (y_new − y)/h up to rounding; taken as dop853.f does.
-            err3 += ((self.stages.dot(&B_W, i) - self.stages.dot(&BHH_W, i)) / sk).powi(2);
-            err5 += (self.stages.dot(&ER_W, i) / sk).powi(2);
+            err3 += (e3[i] / sk).powi(2);
+            err5 += (e5[i] / sk).powi(2);
         }
         let deno = err5 + 0.01 * err3;
         let deno = if deno > 0.0 { deno } else { 1.0 };
@@ -388,19 +427,28 @@ impl AdaptiveStep for Dop853 {
     ) -> Result<(), StepFailure> {
         self.stages.evaluate_at(ev, 12, t + h, y_new)?;
         if dense {
-            self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 13..16)?;
-            let st = &self.stages;
+            let (st, c) = (&mut self.stages, TABLEAU.c);
+            st.stage(ev, (&A13, c[13]), t, y, h, 13)?;
+            st.stage(ev, (&A14, c[14]), t, y, h, 14)?;
+            st.stage(ev, (&A15, c[15]), t, y, h, 15)?;
+            let (k0, k12) = (st.k(0), st.k(12));
             for (i, r) in self.dense.r.chunks_exact_mut(8).enumerate() {
                 let ydiff = y_new[i] - y[i];
-                let bspl = h * st.get(0, i) - ydiff;
+                let bspl = h * k0[i] - ydiff;
                 r[0] = y[i];
                 r[1] = ydiff;
                 r[2] = bspl;
-                r[3] = ydiff - h * st.get(12, i) - bspl;
-                for (m, d) in D_W.iter().enumerate() {
-                    r[4 + m] = h * st.dot(d, i);
-                }
+                r[3] = ydiff - h * k12[i] - bspl;
             }
+            let (d, r) = (&mut self.scratch[0], &mut self.dense.r);
+            st.sum(&D4, d);
+            Dense8::put(r, 4, h, d);
+            st.sum(&D5, d);
+            Dense8::put(r, 5, h, d);
+            st.sum(&D6, d);
+            Dense8::put(r, 6, h, d);
+            st.sum(&D7, d);
+            Dense8::put(r, 7, h, d);
         }
         self.stages.copy(12, 0);
         Ok(())
@@ -408,6 +456,15 @@ impl AdaptiveStep for Dop853 {
 
     fn interpolant(&self) -> Option<&dyn Interpolant> {
         Some(&self.dense)
+    }
+}
+
+impl Dense8 {
+    /// Coefficient `m` of every component: `h · d`.
+    fn put(r: &mut [f64], m: usize, h: f64, d: &[f64]) {
+        for (r, di) in r.chunks_exact_mut(8).zip(d) {
+            r[m] = h * di;
+        }
     }
 }
 

@@ -7,7 +7,7 @@
 //! β = 0.04) are dopri5.f's defaults.
 
 use crate::control::{Controller, Tolerances};
-use crate::explicit::{Stages, Tableau, Weights};
+use crate::explicit::{Stages, Tableau, rows};
 use crate::step::{AdaptiveStep, Interpolant};
 use crate::system::{Evaluator, OdeSystem, StepFailure};
 
@@ -65,16 +65,25 @@ const D: [f64; 7] = [
     69997945.0 / 29380423.0,
 ];
 
-/// The rows of the tableau, [`E`] and [`D`], zeros left out.
-const A: [Weights; 7] = Weights::rows(&TABLEAU);
-const E_W: Weights = Weights::new(&E);
-const D_W: Weights = Weights::new(&D);
+rows! {
+    A1 = TABLEAU.a[1];
+    A2 = TABLEAU.a[2];
+    A3 = TABLEAU.a[3];
+    A4 = TABLEAU.a[4];
+    A5 = TABLEAU.a[5];
+    /// The fifth-order weights (row 6: stage 7 is f at the new point).
+    B_ROW = TABLEAU.a[6];
+    E_ROW = &E;
+    D_ROW = &D;
+}
 
 /// The DOPRI5 stepper: six evaluations per attempt (the seventh stage is the first of the
 /// next step).
 pub(crate) struct Dopri5 {
     stages: Stages,
     dense: Dense5,
+    /// The error, or a dense-output sum, per component.
+    scratch: Vec<f64>,
 }
 
 /// Continuous extension over the last accepted step (dopri5.f `CONTD5`).
@@ -90,6 +99,7 @@ impl Dopri5 {
             dense: Dense5 {
                 r: vec![0.0; 5 * n],
             },
+            scratch: vec![0.0; n],
         }
     }
 }
@@ -117,10 +127,16 @@ impl AdaptiveStep for Dopri5 {
         h: f64,
         y_new: &mut [f64],
     ) -> Result<f64, StepFailure> {
-        self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 1..6)?;
-        self.stages.combine(y, h, &A[6], y_new);
-        self.stages.evaluate_at(ev, 6, t + h, y_new)?;
-        let err = (0..y.len()).map(|i| h * self.stages.dot(&E_W, i));
+        let (st, c) = (&mut self.stages, TABLEAU.c);
+        st.stage(ev, (&A1, c[1]), t, y, h, 1)?;
+        st.stage(ev, (&A2, c[2]), t, y, h, 2)?;
+        st.stage(ev, (&A3, c[3]), t, y, h, 3)?;
+        st.stage(ev, (&A4, c[4]), t, y, h, 4)?;
+        st.stage(ev, (&A5, c[5]), t, y, h, 5)?;
+        st.combine(y, h, &B_ROW, y_new);
+        st.evaluate_at(ev, 6, t + h, y_new)?;
+        st.sum(&E_ROW, &mut self.scratch);
+        let err = self.scratch.iter().map(|e| h * e);
         Ok(tol.error_norm(err, y, y_new))
     }
 
@@ -135,14 +151,16 @@ impl AdaptiveStep for Dopri5 {
     ) -> Result<(), StepFailure> {
         if dense {
             let st = &self.stages;
+            st.sum(&D_ROW, &mut self.scratch);
+            let (k0, k6) = (st.k(0), st.k(6));
             for (i, r) in self.dense.r.chunks_exact_mut(5).enumerate() {
                 let ydiff = y_new[i] - y[i];
-                let bspl = h * st.get(0, i) - ydiff;
+                let bspl = h * k0[i] - ydiff;
                 r[0] = y[i];
                 r[1] = ydiff;
                 r[2] = bspl;
-                r[3] = ydiff - h * st.get(6, i) - bspl;
-                r[4] = h * st.dot(&D_W, i);
+                r[3] = ydiff - h * k6[i] - bspl;
+                r[4] = h * self.scratch[i];
             }
         }
         self.stages.copy(6, 0);

@@ -1,7 +1,5 @@
 //! Stage evaluation shared by the explicit Runge–Kutta methods.
 
-use std::ops::Range;
-
 use crate::system::{Evaluator, OdeSystem, StepFailure};
 
 /// An explicit Runge–Kutta tableau: the nodes `c` and the rows of the strictly lower
@@ -12,107 +10,90 @@ pub(crate) struct Tableau {
     pub(crate) a: &'static [&'static [f64]],
 }
 
-/// The most stages of a method here (DOP853 with its continuous extension).
-const MAX_STAGES: usize = 16;
-
-/// A row of weights `w_j` with its zeros left out (a tableau's rows are half zeros), for the
-/// sums `Σ_j w_j k_j`; built at compile time.
-#[derive(Clone, Copy)]
-pub(crate) struct Weights {
-    len: usize,
-    index: [usize; MAX_STAGES],
-    w: [f64; MAX_STAGES],
+/// The number of nonzero entries of `row` (the length of its [`Row`]).
+pub(crate) const fn nonzeros(row: &[f64]) -> usize {
+    let (mut count, mut j) = (0, 0);
+    while j < row.len() {
+        if row[j] != 0.0 {
+            count += 1;
+        }
+        j += 1;
+    }
+    count
 }
 
-impl Weights {
-    const EMPTY: Weights = Weights {
-        len: 0,
-        index: [0; MAX_STAGES],
-        w: [0.0; MAX_STAGES],
-    };
+/// A row of weights `w_j` with its zeros left out, its length a constant: the sums
+/// `Σ_j w_j k_j` are unrolled at compile time, as Hairer writes them out in dopri5.f and
+/// dop853.f (a tableau's rows are half zeros). Declared with [`rows!`].
+pub(crate) struct Row<const M: usize> {
+    index: [usize; M],
+    w: [f64; M],
+}
 
-    /// The nonzero entries of `row`.
-    pub(crate) const fn new(row: &[f64]) -> Weights {
-        let mut out = Weights::EMPTY;
-        let mut j = 0;
+impl<const M: usize> Row<M> {
+    /// The nonzero entries of `row`; `M` must be [`nonzeros`]`(row)` (checked at compile time).
+    pub(crate) const fn new(row: &[f64]) -> Self {
+        assert!(nonzeros(row) == M, "M is not the number of nonzero weights");
+        let mut out = Row {
+            index: [0; M],
+            w: [0.0; M],
+        };
+        let (mut m, mut j) = (0, 0);
         while j < row.len() {
             if row[j] != 0.0 {
-                out.index[out.len] = j;
-                out.w[out.len] = row[j];
-                out.len += 1;
+                out.index[m] = j;
+                out.w[m] = row[j];
+                m += 1;
             }
             j += 1;
         }
         out
     }
-
-    /// The rows of `tableau`'s matrix.
-    pub(crate) const fn rows<const N: usize>(tableau: &Tableau) -> [Weights; N] {
-        let mut out = [Weights::EMPTY; N];
-        let mut s = 0;
-        while s < N {
-            out[s] = Weights::new(tableau.a[s]);
-            s += 1;
-        }
-        out
-    }
-
-    /// `Σ_j w_j k[j]`, in two independent partial sums (one sequential sum would make every
-    /// term wait for the one before).
-    #[inline]
-    fn dot(&self, k: &[f64]) -> f64 {
-        let (mut even, mut odd) = (0.0, 0.0);
-        let mut m = 0;
-        while m + 1 < self.len {
-            even += self.w[m] * k[self.index[m]];
-            odd += self.w[m + 1] * k[self.index[m + 1]];
-            m += 2;
-        }
-        if m < self.len {
-            even += self.w[m] * k[self.index[m]];
-        }
-        even + odd
-    }
 }
 
-/// The stage derivatives `k_s` of one step, component-major in one buffer (`k_s[i]` at
-/// `i·count + s`), so that every combination `Σ_j w_j k_j[i]` reads one contiguous run; with
-/// room for the stage state and one evaluation.
+/// Declares each `NAME = ROW` (a `&[f64]` known at compile time) as a constant [`Row`].
+macro_rules! rows {
+    ($($(#[$doc:meta])* $name:ident = $row:expr;)*) => {
+        $($(#[$doc])* const $name: crate::explicit::Row<{ crate::explicit::nonzeros($row) }> =
+            crate::explicit::Row::new($row);)*
+    };
+}
+pub(crate) use rows;
+
+/// The stage derivatives `k_s` of one step, stage after stage in one buffer, with room for
+/// the stage state.
 pub(crate) struct Stages {
-    count: usize,
+    n: usize,
     k: Vec<f64>,
     state: Vec<f64>,
-    f: Vec<f64>,
 }
 
 impl Stages {
     pub(crate) fn new(count: usize, n: usize) -> Self {
         Stages {
-            count,
+            n,
             k: vec![0.0; count * n],
             state: vec![0.0; n],
-            f: vec![0.0; n],
         }
     }
 
-    /// `k_s[i]`.
+    /// `k_s`.
     #[inline]
-    pub(crate) fn get(&self, s: usize, i: usize) -> f64 {
-        self.k[i * self.count + s]
+    pub(crate) fn k(&self, s: usize) -> &[f64] {
+        &self.k[s * self.n..(s + 1) * self.n]
     }
 
     /// `k_s = v`.
+    #[inline]
     pub(crate) fn set(&mut self, s: usize, v: &[f64]) {
-        for (row, &x) in self.k.chunks_exact_mut(self.count).zip(v) {
-            row[s] = x;
-        }
+        self.k[s * self.n..(s + 1) * self.n].copy_from_slice(v);
     }
 
     /// `k_to = k_from` (the last stage of a step is the first of the next).
+    #[inline]
     pub(crate) fn copy(&mut self, from: usize, to: usize) {
-        for row in self.k.chunks_exact_mut(self.count) {
-            row[to] = row[from];
-        }
+        let n = self.n;
+        self.k.copy_within(from * n..(from + 1) * n, to * n);
     }
 
     /// `k_s = f(t, y)`.
@@ -123,46 +104,51 @@ impl Stages {
         t: f64,
         y: &[f64],
     ) -> Result<(), StepFailure> {
-        let mut f = std::mem::take(&mut self.f);
-        let result = ev.rhs(t, y, &mut f);
-        if result.is_ok() {
-            self.set(s, &f);
-        }
-        self.f = f;
-        result
+        let n = self.n;
+        ev.rhs(t, y, &mut self.k[s * n..(s + 1) * n])
     }
 
-    /// Evaluates the stages `range` of `tableau`: `k_s = f(t + c_s h, y + h Σ_j a_sj k_j)`.
-    /// The stages before `range.start` must already be in place.
-    pub(crate) fn evaluate<S: OdeSystem + ?Sized>(
+    /// Stage `s`: `k_s = f(t + c h, y + h Σ_j a_j k_j)` with `a` row `s` of the tableau and `c`
+    /// its node. The stages `a` reads must be in place.
+    #[allow(clippy::too_many_arguments, reason = "one stage of a Runge–Kutta step")]
+    pub(crate) fn stage<S: OdeSystem + ?Sized, const M: usize>(
         &mut self,
         ev: &mut Evaluator<'_, S>,
-        (a, c): (&[Weights], &[f64]),
+        (a, c): (&Row<M>, f64),
         t: f64,
         y: &[f64],
         h: f64,
-        range: Range<usize>,
+        s: usize,
     ) -> Result<(), StepFailure> {
-        for s in range {
-            let mut state = std::mem::take(&mut self.state);
-            self.combine(y, h, &a[s], &mut state);
-            let result = self.evaluate_at(ev, s, t + c[s] * h, &state);
-            self.state = state;
-            result?;
-        }
-        Ok(())
+        let mut state = std::mem::take(&mut self.state);
+        self.combine(y, h, a, &mut state);
+        let result = self.evaluate_at(ev, s, t + c * h, &state);
+        self.state = state;
+        result
     }
 
     /// `out = y + h · Σ_j w_j k_j`.
-    pub(crate) fn combine(&self, y: &[f64], h: f64, w: &Weights, out: &mut [f64]) {
-        for ((o, &yi), row) in out.iter_mut().zip(y).zip(self.k.chunks_exact(self.count)) {
-            *o = yi + h * w.dot(row);
-        }
+    pub(crate) fn combine<const M: usize>(&self, y: &[f64], h: f64, w: &Row<M>, out: &mut [f64]) {
+        let (y, out) = (&y[..self.n], &mut out[..self.n]);
+        self.sums(w, |i, sum| out[i] = y[i] + h * sum);
     }
 
-    /// `Σ_j w_j k_j[i]` for one component `i`.
-    #[inline]
-    pub(crate) fn dot(&self, w: &Weights, i: usize) -> f64 {
-        w.dot(&self.k[i * self.count..(i + 1) * self.count])
+    /// `out[i] = Σ_j w_j k_j[i]`.
+    pub(crate) fn sum<const M: usize>(&self, w: &Row<M>, out: &mut [f64]) {
+        let out = &mut out[..self.n];
+        self.sums(w, |i, sum| out[i] = sum);
+    }
+
+    /// `put(i, Σ_j w_j k_j[i])` for every component `i`, in order.
+    #[inline(always)]
+    fn sums<const M: usize>(&self, w: &Row<M>, mut put: impl FnMut(usize, f64)) {
+        let ks: [&[f64]; M] = std::array::from_fn(|m| self.k(w.index[m]));
+        for i in 0..self.n {
+            let mut sum = 0.0;
+            for m in 0..M {
+                sum += w.w[m] * ks[m][i];
+            }
+            put(i, sum);
+        }
     }
 }

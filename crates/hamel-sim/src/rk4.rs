@@ -2,7 +2,7 @@
 //!
 //! Tableau: Hairer, Nørsett & Wanner, "Solving ODEs I", Table II.1.2 (left).
 
-use crate::explicit::{Stages, Tableau, Weights};
+use crate::explicit::{Stages, Tableau, rows};
 use crate::step::FixedStep;
 use crate::system::{Evaluator, OdeSystem, StepFailure};
 
@@ -11,9 +11,13 @@ const TABLEAU: Tableau = Tableau {
     a: &[&[], &[0.5], &[0.0, 0.5], &[0.0, 0.0, 1.0]],
 };
 const B: [f64; 4] = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
-/// The tableau's rows and [`B`], zeros left out.
-const A: [Weights; 4] = Weights::rows(&TABLEAU);
-const B_W: Weights = Weights::new(&B);
+
+rows! {
+    A1 = TABLEAU.a[1];
+    A2 = TABLEAU.a[2];
+    A3 = TABLEAU.a[3];
+    B_ROW = &B;
+}
 
 /// Classical RK4: four right-hand side evaluations per step.
 pub(crate) struct Rk4 {
@@ -37,9 +41,12 @@ impl FixedStep for Rk4 {
         h: f64,
         y_new: &mut [f64],
     ) -> Result<(), StepFailure> {
-        self.stages.evaluate_at(ev, 0, t, y)?;
-        self.stages.evaluate(ev, (&A, TABLEAU.c), t, y, h, 1..4)?;
-        self.stages.combine(y, h, &B_W, y_new);
+        let (st, c) = (&mut self.stages, TABLEAU.c);
+        st.evaluate_at(ev, 0, t, y)?;
+        st.stage(ev, (&A1, c[1]), t, y, h, 1)?;
+        st.stage(ev, (&A2, c[2]), t, y, h, 2)?;
+        st.stage(ev, (&A3, c[3]), t, y, h, 3)?;
+        st.combine(y, h, &B_ROW, y_new);
         Ok(())
     }
 }

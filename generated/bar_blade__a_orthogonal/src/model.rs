@@ -821,18 +821,104 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = S::constant(3.0);
+    let t2 = q[3];
+    let (t15, t3) = t2.sin_cos();
+    let t4 = t3.powi(2);
+    let t5 = t1 * t4;
+    let t6 = S::constant(2.0);
+    let t7 = S::constant(p.m_r);
+    let t8 = t6 * t7 * t4;
+    let t9 = S::constant(p.m_f);
+    let t10 = t1 * t9;
+    let t11 = t7 + t10 + t8;
+    let t12 = t5 / t11;
+    let t13 = t0 * t12;
+    let t14 = t13 / t6;
+    let t16 = t1 * t3 * t15;
+    let t17 = -t16;
+    let t18 = S::constant(p.l_r);
+    let t19 = t18 * t11;
+    let t20 = t17 / t19;
+    let t21 = eta[1];
+    let t22 = t20 * t21;
+    let t23 = t14 + t22;
+    let t24 = t0 * t23;
+    let t25 = S::constant(24.0);
+    let t26 = t18.powi(2);
+    let t27 = t7 * t25 * t26 * t4;
+    let t28 = S::constant(p.l_f);
+    let t29 = t28.powi(2);
+    let t30 = t1 * t9 * t29 * t4;
+    let t31 = -t30;
+    let t32 = S::constant(12.0);
+    let t33 = t7 * t26 * t32;
+    let t34 = S::constant(36.0);
+    let t35 = t9 * t26 * t34;
+    let t36 = t1 * t9 * t29;
+    let t37 = t33 + t35 + t36 + t27 + t31;
+    let t38 = t9 * t26 * t29 * t11;
+    let t39 = t37 / t38;
+    let t40 = t21 * t39;
+    let t41 = t40 / t6;
+    let t42 = t21 * t41;
+    let t43 = t24 + t42;
+    Ok(t43)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = q[2];
+    let (t1, t2) = t0.sin_cos();
+    let t3 = -t2;
+    let t4 = S::constant(0.0);
+    let t5 = q[3];
+    let (t6, t11) = t5.sin_cos();
+    let t7 = t2 * t6;
+    let t8 = -t7;
+    let t9 = t1 * t6;
+    let t10 = -t9;
+    let t12 = S::constant(p.l_r);
+    let t13 = t12 * t11;
+    out[0] = t1;
+    out[1] = t3;
+    out[2] = t4;
+    out[3] = t4;
+    out[4] = t8;
+    out[5] = t10;
+    out[6] = t13;
+    out[7] = t4;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -834,18 +834,121 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = S::constant(6.0);
+    let t2 = q[4];
+    let (t34, t3) = t2.sin_cos();
+    let t4 = t3.powi(2);
+    let t5 = S::constant(p.m_w);
+    let t6 = S::constant(p.R);
+    let t7 = t6.powi(2);
+    let t8 = t1 * t5 * t7 * t4;
+    let t9 = -t8;
+    let t10 = S::constant(36.0);
+    let t11 = S::constant(p.a);
+    let t12 = t11.powi(2);
+    let t13 = t5 * t10 * t12 * t4;
+    let t14 = -t13;
+    let t15 = S::constant(p.l_r);
+    let t16 = t15.powi(2);
+    let t17 = t5 * t10 * t16 * t4;
+    let t18 = S::constant(p.m_f);
+    let t19 = S::constant(p.l_f);
+    let t20 = t19.powi(2);
+    let t21 = t18 * t20 * t4;
+    let t22 = -t21;
+    let t23 = t1 * t5 * t7;
+    let t24 = t5 * t10 * t12;
+    let t25 = S::constant(12.0);
+    let t26 = t16 * t18 * t25;
+    let t27 = t18 * t20;
+    let t28 = t23 + t24 + t26 + t27 + t9 + t14 + t17 + t22;
+    let t29 = t16 * t25 * t4;
+    let t30 = t28 / t29;
+    let t31 = t0 * t30;
+    let t32 = S::constant(2.0);
+    let t33 = t31 / t32;
+    let t35 = t18 * t20 * t34;
+    let t36 = t15 * t25 * t3;
+    let t37 = t35 / t36;
+    let t38 = eta[1];
+    let t39 = t37 * t38;
+    let t40 = t33 + t39;
+    let t41 = t0 * t40;
+    let t42 = S::constant(0.08333333333333333);
+    let t43 = t18 * t20 * t42 * t38;
+    let t44 = t43 / t32;
+    let t45 = t38 * t44;
+    let t46 = t41 + t45;
+    Ok(t46)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = q[2];
+    let (t5, t1) = t0.sin_cos();
+    let t2 = q[4];
+    let (t3, t7) = t2.sin_cos();
+    let t4 = t1 * t3;
+    let t6 = t3 * t5;
+    let t8 = S::constant(p.l_r);
+    let t9 = t8 * t7;
+    let t10 = -t9;
+    let t11 = S::constant(0.0);
+    let t12 = S::constant(1.0);
+    let t13 = S::constant(p.a);
+    let t14 = t13 * t1;
+    let t15 = -t14;
+    let t16 = S::constant(p.R);
+    let t17 = t16 * t1;
+    let t18 = t13 * t5;
+    let t19 = -t18;
+    let t20 = t16 * t5;
+    out[0] = t4;
+    out[1] = t6;
+    out[2] = t10;
+    out[3] = t11;
+    out[4] = t11;
+    out[5] = t12;
+    out[6] = t11;
+    out[7] = t15;
+    out[8] = t17;
+    out[9] = t11;
+    out[10] = t11;
+    out[11] = t12;
+    out[12] = t19;
+    out[13] = t20;
+    out[14] = t11;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

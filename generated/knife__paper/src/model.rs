@@ -418,18 +418,62 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = S::constant(p.m);
+    let t2 = t1 * t0;
+    let t3 = S::constant(2.0);
+    let t4 = t2 / t3;
+    let t5 = t0 * t4;
+    let t6 = eta[1];
+    let t7 = S::constant(0.08333333333333333);
+    let t8 = S::constant(p.l);
+    let t9 = t8.powi(2);
+    let t10 = t1 * t7 * t9 * t6;
+    let t11 = t10 / t3;
+    let t12 = t6 * t11;
+    let t13 = t5 + t12;
+    Ok(t13)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = q[2];
+    let (t1, t2) = t0.sin_cos();
+    let t3 = -t2;
+    let t4 = S::constant(0.0);
+    out[0] = t1;
+    out[1] = t3;
+    out[2] = t4;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -66,7 +66,7 @@ pub const OPERATIONS: (usize, usize) = (75, 26);
 pub const SOLVED: bool = true;
 /// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
 /// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
-pub const REDUCED_SOLVED: bool = false;
+pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults, under the model's own names (`IRxx`, `mB`: the
 /// benchmark's notation, not snake case).
@@ -333,6 +333,11 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 0], EvalError> {
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
 fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 0], EvalError> {
+    let t6 = S::constant(1.0);
+    let t28 = S::constant(0.0);
+    if !(t6.value() > 0.0 && t6.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
     Ok([])
 }
 
@@ -434,18 +439,57 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = S::constant(2.0);
+    let t2 = t0 / t1;
+    let t3 = t0 * t2;
+    let t4 = eta[1];
+    let t5 = t4 / t1;
+    let t6 = t4 * t5;
+    let t7 = t3 + t6;
+    Ok(t7)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = S::constant(0.0);
+    let t1 = q[0];
+    let t2 = t1.powi(2);
+    let t3 = S::constant(1.0);
+    let t4 = t3 + t2;
+    out[0] = t0;
+    out[1] = t0;
+    out[2] = t4;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
@@ -462,26 +506,36 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 0]) -> Result<[S; REDUCED_DIM], EvalError> {
-    let eta = &x[KEPT.len()..];
-    let mut last = None;
-    for r in REFERENCE {
-        let mut q = [S::constant(r); ELL];
-        for (i, &k) in KEPT.iter().enumerate() {
-            q[k] = x[i];
-        }
-        match fast(&q, eta, p) {
-            Ok((eta_dot, q_dot)) => {
-                let mut v = [S::constant(0.0); REDUCED_DIM];
-                for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = q_dot[k];
-                }
-                v[KEPT.len()..].copy_from_slice(&eta_dot);
-                return Ok(v);
-            }
-            Err(e) => last = Some(e),
-        }
-    }
-    Err(last.expect("REFERENCE is not empty"))
+    let t0 = x[4];
+    let t1 = x[0];
+    let t2 = x[1];
+    let t3 = t2.powi(2);
+    let t4 = x[2];
+    let t5 = t4.powi(2);
+    let t6 = S::constant(1.0);
+    let t7 = t6 + t3 + t5;
+    let t8 = t7.sqrt();
+    let t9 = t0 * t1 * t8;
+    let t10 = x[3];
+    let t11 = t1.powi(2);
+    let t12 = t6 + t5 + t11;
+    let t13 = t12.sqrt();
+    let t14 = t2 * t10 * t13;
+    let t15 = -t14;
+    let t16 = t9 + t15;
+    let t17 = t0 * t16;
+    let t18 = t7 * t12;
+    let t19 = t17 / t18;
+    let t20 = -t9;
+    let t21 = t14 + t20;
+    let t22 = t10 * t21;
+    let t23 = t22 / t18;
+    let t24 = t6 / t8;
+    let t25 = t10 * t24;
+    let t26 = t6 / t13;
+    let t27 = t0 * t26;
+    let t28 = S::constant(0.0);
+    Ok([t25, t27, t28, t19, t23])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.

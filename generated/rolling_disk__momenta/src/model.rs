@@ -806,18 +806,97 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = S::constant(4.0);
+    let t2 = S::constant(p.R);
+    let t3 = t2.powi(2);
+    let t4 = q[4];
+    let (t14, t5) = t4.sin_cos();
+    let t6 = t5.powi(2);
+    let t7 = S::constant(p.m_d);
+    let t8 = t3 * t7 * t6;
+    let t9 = t1 / t8;
+    let t10 = t0 * t9;
+    let t11 = S::constant(2.0);
+    let t12 = t10 / t11;
+    let t13 = S::constant(12.0);
+    let t15 = t13 * t14;
+    let t16 = t15 / t8;
+    let t17 = eta[1];
+    let t18 = t16 * t17;
+    let t19 = t12 + t18;
+    let t20 = t0 * t19;
+    let t21 = S::constant(30.0);
+    let t22 = t21 * t6;
+    let t23 = -t22;
+    let t24 = S::constant(36.0);
+    let t25 = t24 + t23;
+    let t26 = t25 / t8;
+    let t27 = t17 * t26;
+    let t28 = t27 / t11;
+    let t29 = t17 * t28;
+    let t30 = eta[2];
+    let t31 = S::constant(1.25);
+    let t32 = t3 * t7 * t31 * t30;
+    let t33 = t32 / t11;
+    let t34 = t30 * t33;
+    let t35 = S::constant(p.g);
+    let t36 = t2 * t7 * t35 * t5;
+    let t37 = t20 + t29 + t34 + t36;
+    Ok(t37)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = S::constant(1.0);
+    let t1 = S::constant(0.0);
+    let t2 = q[2];
+    let (t7, t3) = t2.sin_cos();
+    let t4 = S::constant(p.R);
+    let t5 = t4 * t3;
+    let t6 = -t5;
+    let t8 = t4 * t7;
+    let t9 = -t8;
+    out[0] = t0;
+    out[1] = t1;
+    out[2] = t1;
+    out[3] = t6;
+    out[4] = t1;
+    out[5] = t1;
+    out[6] = t0;
+    out[7] = t1;
+    out[8] = t9;
+    out[9] = t1;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

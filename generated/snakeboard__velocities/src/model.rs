@@ -736,18 +736,102 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = q[4];
+    let (t15, t2) = t1.sin_cos();
+    let t3 = t2.powi(2);
+    let t4 = S::constant(p.m);
+    let t5 = S::constant(p.r);
+    let t6 = t5.powi(2);
+    let t7 = t4 * t6 * t3;
+    let t8 = S::constant(p.J);
+    let t9 = t8 * t3;
+    let t10 = -t9;
+    let t11 = S::constant(p.J_r);
+    let t12 = t11 * t3;
+    let t13 = -t12;
+    let t14 = t8 + t11 + t7 + t10 + t13;
+    let t16 = t15.powi(2);
+    let t17 = t14 / t16;
+    let t18 = t0 * t17;
+    let t19 = S::constant(2.0);
+    let t20 = t18 / t19;
+    let t21 = eta[1];
+    let t22 = t11 * t21;
+    let t23 = t20 + t22;
+    let t24 = t0 * t23;
+    let t25 = t22 / t19;
+    let t26 = t21 * t25;
+    let t27 = eta[2];
+    let t28 = S::constant(p.J_w);
+    let t29 = t19 * t28 * t27;
+    let t30 = t29 / t19;
+    let t31 = t27 * t30;
+    let t32 = t24 + t26 + t31;
+    Ok(t32)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = q[2];
+    let (t1, t6) = t0.sin_cos();
+    let t2 = q[4];
+    let (t7, t3) = t2.sin_cos();
+    let t4 = t1 * t3;
+    let t5 = -t4;
+    let t8 = t6 * t7;
+    let t9 = -t8;
+    let t10 = t5 + t9;
+    let t11 = t1 * t7;
+    let t12 = -t11;
+    let t13 = t3 * t6;
+    let t14 = t12 + t13;
+    let t15 = S::constant(p.r);
+    let t16 = t15 * t3;
+    let t17 = S::constant(0.0);
+    let t18 = t5 + t8;
+    let t19 = t11 + t13;
+    let t20 = -t16;
+    out[0] = t10;
+    out[1] = t14;
+    out[2] = t16;
+    out[3] = t17;
+    out[4] = t17;
+    out[5] = t18;
+    out[6] = t19;
+    out[7] = t20;
+    out[8] = t17;
+    out[9] = t17;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -1335,18 +1335,159 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = S::constant(2.0);
+    let t2 = q[4];
+    let (t3, t13) = t2.sin_cos();
+    let t4 = q[5];
+    let (t5, t31) = t4.sin_cos();
+    let t6 = S::constant(p.rho1);
+    let t7 = S::constant(p.m_r);
+    let t8 = S::constant(p.rho);
+    let t9 = t1 * t6 * t7 * t8 * t3 * t5;
+    let t10 = S::constant(p.rho2);
+    let t11 = t1 * t7 * t8 * t10 * t3 * t5;
+    let t12 = S::constant(1.25);
+    let t14 = t13.powi(2);
+    let t15 = S::constant(p.R);
+    let t16 = t15.powi(2);
+    let t17 = S::constant(p.m_d);
+    let t18 = t12 * t16 * t17 * t14;
+    let t19 = -t18;
+    let t20 = S::constant(p.m_f);
+    let t21 = t6.powi(2);
+    let t22 = t20 * t21 * t14;
+    let t23 = -t22;
+    let t24 = t7 * t21 * t14;
+    let t25 = -t24;
+    let t26 = t1 * t6 * t7 * t10 * t14;
+    let t27 = -t26;
+    let t28 = t10.powi(2);
+    let t29 = t7 * t28 * t14;
+    let t30 = -t29;
+    let t32 = t31.powi(2);
+    let t33 = t8.powi(2);
+    let t34 = t7 * t33 * t32;
+    let t35 = -t34;
+    let t36 = S::constant(1.5);
+    let t37 = t16 * t17 * t36;
+    let t38 = t20 * t21;
+    let t39 = t7 * t21;
+    let t40 = t1 * t6 * t7 * t10;
+    let t41 = t7 * t28;
+    let t42 = t7 * t33;
+    let t43 = t37 + t38 + t39 + t40 + t41 + t42 + t9 + t11 + t19 + t23 + t25 + t27 + t30 + t35;
+    let t44 = t0 * t43;
+    let t45 = t44 / t1;
+    let t46 = t16 * t17 * t36 * t3;
+    let t47 = -t46;
+    let t48 = t6 * t15 * t20 * t3;
+    let t49 = -t48;
+    let t50 = t6 * t7 * t15 * t3;
+    let t51 = -t50;
+    let t52 = t7 * t10 * t15 * t3;
+    let t53 = -t52;
+    let t54 = t7 * t8 * t15 * t5;
+    let t55 = -t54;
+    let t56 = t47 + t49 + t51 + t53 + t55;
+    let t57 = eta[1];
+    let t58 = t56 * t57;
+    let t59 = t45 + t58;
+    let t60 = t0 * t59;
+    let t61 = t16 * t20;
+    let t62 = t7 * t16;
+    let t63 = t37 + t61 + t62;
+    let t64 = t63 * t57;
+    let t65 = t64 / t1;
+    let t66 = t57 * t65;
+    let t67 = eta[2];
+    let t68 = t12 * t16 * t17;
+    let t69 = t38 + t39 + t40 + t41 + t68;
+    let t70 = t69 * t67;
+    let t71 = t70 / t1;
+    let t72 = t6 * t7 * t8 * t3 * t5;
+    let t73 = -t72;
+    let t74 = t7 * t8 * t10 * t3 * t5;
+    let t75 = -t74;
+    let t76 = t6 * t7 * t8 * t13 * t31;
+    let t77 = t7 * t8 * t10 * t13 * t31;
+    let t78 = t73 + t75 + t76 + t77;
+    let t79 = eta[3];
+    let t80 = t78 * t79;
+    let t81 = t71 + t80;
+    let t82 = t67 * t81;
+    let t83 = t7 * t33 * t79;
+    let t84 = t83 / t1;
+    let t85 = t79 * t84;
+    let t86 = S::constant(p.g);
+    let t87 = t15 * t17 * t86 * t13;
+    let t88 = -t87;
+    let t89 = t6 * t20 * t86 * t13;
+    let t90 = -t89;
+    let t91 = t6 * t7 * t86 * t13;
+    let t92 = -t91;
+    let t93 = t7 * t10 * t86 * t13;
+    let t94 = -t93;
+    let t95 = t7 * t8 * t86 * t31;
+    let t96 = t88 + t90 + t92 + t94 + t95;
+    let t97 = -t96;
+    let t98 = t60 + t66 + t82 + t85 + t97;
+    Ok(t98)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = S::constant(1.0);
+    let t1 = S::constant(0.0);
+    let t2 = q[2];
+    let (t7, t3) = t2.sin_cos();
+    let t4 = S::constant(p.R);
+    let t5 = t4 * t3;
+    let t6 = -t5;
+    let t8 = t4 * t7;
+    let t9 = -t8;
+    out[0] = t0;
+    out[1] = t1;
+    out[2] = t1;
+    out[3] = t6;
+    out[4] = t1;
+    out[5] = t1;
+    out[6] = t1;
+    out[7] = t0;
+    out[8] = t1;
+    out[9] = t9;
+    out[10] = t1;
+    out[11] = t1;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -66,7 +66,7 @@ pub const OPERATIONS: (usize, usize) = (18, 13);
 pub const SOLVED: bool = true;
 /// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
 /// right-hand side at [`REFERENCE`] values of the eliminated coordinates).
-pub const REDUCED_SOLVED: bool = false;
+pub const REDUCED_SOLVED: bool = true;
 
 /// Parameters, with the model's defaults, under the model's own names (`IRxx`, `mB`: the
 /// benchmark's notation, not snake case).
@@ -302,14 +302,14 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
 
 /// Parameters with what the solved forms compute from them alone, made once by
 /// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
-/// [`full_into_with`], [`reduced_with`], …): 1 values for the full form, 0 for
+/// [`full_into_with`], [`reduced_with`], …): 1 values for the full form, 1 for
 /// the reduced one. The functions taking [`Parameters`] prepare them at each call.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Prepared {
     /// The parameters.
     pub p: Parameters,
     full: [f64; 1],
-    reduced: [f64; 0],
+    reduced: [f64; 1],
 }
 
 impl Prepared {
@@ -340,8 +340,18 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 1], EvalError> {
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
-fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 0], EvalError> {
-    Ok([])
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 1], EvalError> {
+    let t2 = S::constant(p.g);
+    let t5 = S::constant(0.0);
+    let t11 = S::constant(p.m);
+    let t12 = S::constant(0.08333333333333333);
+    let t13 = S::constant(p.l);
+    let t14 = t13.powi(2);
+    let t15 = t11 * t12 * t14;
+    if !(t11.value() > 0.0 && t15.value() > 0.0) {
+        return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
+    }
+    Ok([t2])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -423,18 +433,65 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    let _ = (q, eta, p);
+    let t0 = eta[0];
+    let t1 = S::constant(p.m);
+    let t2 = t1 * t0;
+    let t3 = S::constant(2.0);
+    let t4 = t2 / t3;
+    let t5 = t0 * t4;
+    let t6 = eta[1];
+    let t7 = S::constant(0.08333333333333333);
+    let t8 = S::constant(p.l);
+    let t9 = t8.powi(2);
+    let t10 = t1 * t7 * t9 * t6;
+    let t11 = t10 / t3;
+    let t12 = t6 * t11;
+    let t13 = q[1];
+    let t14 = S::constant(p.g);
+    let t15 = t1 * t14 * t13;
+    let t16 = t5 + t12 + t15;
+    Ok(t16)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = q[2];
+    let (t1, t2) = t0.sin_cos();
+    let t3 = -t2;
+    let t4 = S::constant(0.0);
+    out[0] = t1;
+    out[1] = t3;
+    out[2] = t4;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
@@ -450,27 +507,18 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
-fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 0]) -> Result<[S; REDUCED_DIM], EvalError> {
-    let eta = &x[KEPT.len()..];
-    let mut last = None;
-    for r in REFERENCE {
-        let mut q = [S::constant(r); ELL];
-        for (i, &k) in KEPT.iter().enumerate() {
-            q[k] = x[i];
-        }
-        match fast(&q, eta, p) {
-            Ok((eta_dot, q_dot)) => {
-                let mut v = [S::constant(0.0); REDUCED_DIM];
-                for (i, &k) in KEPT.iter().enumerate() {
-                    v[i] = q_dot[k];
-                }
-                v[KEPT.len()..].copy_from_slice(&eta_dot);
-                return Ok(v);
-            }
-            Err(e) => last = Some(e),
-        }
-    }
-    Err(last.expect("REFERENCE is not empty"))
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 1]) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = x[2];
+    let (t1, t6) = t0.sin_cos();
+    let t2 = S::constant(c[0]);
+    let t3 = t2 * t1;
+    let t4 = -t3;
+    let t5 = S::constant(0.0);
+    let t7 = x[3];
+    let t8 = t6 * t7;
+    let t9 = t1 * t7;
+    let t10 = x[4];
+    Ok([t8, t9, t10, t4, t5])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.

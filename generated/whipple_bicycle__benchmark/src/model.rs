@@ -4280,18 +4280,325 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
     Ok((r.a_gamma, r.forcing))
 }
 
-/// The energy E = ½ηᵀA_Γη − U at (q, η).
+/// The energy E = ½ηᵀA_Γη − U at (q, η), by the structured evaluation, unchecked.
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    Ok(full_rhs(q, eta, p)?.energy)
+    let e = energy_from(q, eta, p)?;
+    runtime::finite("the energy", &[e])?;
+    Ok(e)
+}
+
+/// The body of [`energy`].
+fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
+    Ok(structured_unchecked(q, eta, p, false)?.energy)
+}
+
+/// α(q), μ×ℓ row-major.
+fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
+    let _ = (q, p, &out);
+    let t0 = q[2];
+    let (t5, t1) = t0.sin_cos();
+    let t2 = t1 * t1;
+    let t3 = q[3];
+    let (t8, t4) = t3.sin_cos();
+    let t6 = -t5;
+    let t7 = t4 * t4 * t6 * t6;
+    let t9 = -t8;
+    let t10 = t6 * t6 * t9 * t9;
+    let t11 = t2 + t7 + t10;
+    let t12 = t1 * t5;
+    let t13 = t1 * t4 * t4 * t6;
+    let t14 = t1 * t6 * t9 * t9;
+    let t15 = t12 + t13 + t14;
+    let t16 = S::constant(p.rR);
+    let t17 = -t16;
+    let t18 = t17 * t8;
+    let t19 = S::constant(-1.0);
+    let t20 = t17 * t19 * t8;
+    let t21 = t18 + t20;
+    let t22 = t1 * t21;
+    let t23 = t17 * t19;
+    let t24 = -t23;
+    let t25 = t16 + t24;
+    let t26 = t25 * t4 * t6;
+    let t27 = t17 * t19 * t1;
+    let t28 = S::constant(0.0);
+    let t29 = t5 * t5;
+    let t30 = t1 * t1 * t4 * t4;
+    let t31 = t1 * t1 * t9 * t9;
+    let t32 = t29 + t30 + t31;
+    let t33 = t5 * t21;
+    let t34 = t25 * t1 * t4;
+    let t35 = t17 * t19 * t5;
+    let t36 = q[5];
+    let (t48, t37) = t36.sin_cos();
+    let t38 = q[4];
+    let t39 = S::constant(p.lambda);
+    let t40 = t39 + t38;
+    let (t43, t41) = t40.sin_cos();
+    let t42 = t1 * t41;
+    let t44 = -t43;
+    let t45 = t6 * t9 * t44;
+    let t46 = t42 + t45;
+    let t47 = t37 * t46;
+    let t49 = t4 * t6 * t48;
+    let t50 = t47 + t49;
+    let t51 = t4 * t37 * t44;
+    let t52 = t8 * t48;
+    let t53 = t51 + t52;
+    let t54 = -t53;
+    let t55 = t54 * t54;
+    let t56 = t4 * t41;
+    let t57 = -t56;
+    let t58 = t57 * t57;
+    let t59 = t55 + t58;
+    let t60 = t59.sqrt();
+    let t61 = t50 * t50 * t60;
+    let t62 = -t48;
+    let t63 = t46 * t62;
+    let t64 = t4 * t6 * t37;
+    let t65 = t63 + t64;
+    let t66 = t60 * t65 * t65;
+    let t67 = t1 * t43;
+    let t68 = t6 * t9 * t41;
+    let t69 = t67 + t68;
+    let t70 = t60 * t69 * t69;
+    let t71 = t61 + t66 + t70;
+    let t72 = t5 * t41;
+    let t73 = t1 * t9 * t44;
+    let t74 = t72 + t73;
+    let t75 = t37 * t74;
+    let t76 = t1 * t4 * t48;
+    let t77 = t75 + t76;
+    let t78 = t50 * t60 * t77;
+    let t79 = t62 * t74;
+    let t80 = t1 * t4 * t37;
+    let t81 = t79 + t80;
+    let t82 = t60 * t65 * t81;
+    let t83 = t5 * t43;
+    let t84 = t1 * t9 * t41;
+    let t85 = t83 + t84;
+    let t86 = t60 * t69 * t85;
+    let t87 = t78 + t82 + t86;
+    let t88 = t17 * t8 * t37 * t41;
+    let t89 = S::constant(p.d1);
+    let t90 = t89 * t4 * t41 * t48;
+    let t91 = t4 * t44 * t62;
+    let t92 = t8 * t37;
+    let t93 = t91 + t92;
+    let t94 = S::constant(p.d2);
+    let t95 = t94 * t93;
+    let t96 = t88 + t90 + t95;
+    let t97 = t60 * t96;
+    let t98 = S::constant(p.rF);
+    let t99 = -t98;
+    let t100 = t99 * t57 * t93;
+    let t101 = t97 + t100;
+    let t102 = t50 * t101;
+    let t103 = t17 * t8 * t41 * t62;
+    let t104 = t89 * t4 * t37 * t41;
+    let t105 = S::constant(p.d3);
+    let t106 = t105 * t4 * t41;
+    let t107 = t94 * t53;
+    let t108 = -t107;
+    let t109 = t103 + t104 + t106 + t108;
+    let t110 = t60 * t109;
+    let t111 = t99 * t4 * t41 * t54;
+    let t112 = t99 * t53 * t57;
+    let t113 = -t112;
+    let t114 = t110 + t111 + t113;
+    let t115 = t65 * t114;
+    let t116 = t17 * t8 * t43;
+    let t117 = t89 * t8;
+    let t118 = -t117;
+    let t119 = t105 * t93;
+    let t120 = -t119;
+    let t121 = t116 + t118 + t120;
+    let t122 = t60 * t121;
+    let t123 = t99 * t54 * t93;
+    let t124 = -t123;
+    let t125 = t122 + t124;
+    let t126 = t69 * t125;
+    let t127 = t102 + t115 + t126;
+    let t128 = t89 * t43;
+    let t129 = t16 + t128;
+    let t130 = t48 * t129;
+    let t131 = t94 * t41 * t62;
+    let t132 = t130 + t131;
+    let t133 = t60 * t132;
+    let t134 = t99 * t41 * t57 * t62;
+    let t135 = t133 + t134;
+    let t136 = t50 * t135;
+    let t137 = t37 * t129;
+    let t138 = t105 * t43;
+    let t139 = t94 * t37 * t41;
+    let t140 = -t139;
+    let t141 = t137 + t138 + t140;
+    let t142 = t60 * t141;
+    let t143 = t99 * t43 * t54;
+    let t144 = t99 * t37 * t41 * t57;
+    let t145 = -t144;
+    let t146 = t142 + t143 + t145;
+    let t147 = t65 * t146;
+    let t148 = t105 * t41 * t62;
+    let t149 = -t148;
+    let t150 = t60 * t149;
+    let t151 = t99 * t41 * t54 * t62;
+    let t152 = -t151;
+    let t153 = t150 + t152;
+    let t154 = t69 * t153;
+    let t155 = t136 + t147 + t154;
+    let t156 = t94 * t37 * t60;
+    let t157 = t99 * t37 * t57;
+    let t158 = t156 + t157;
+    let t159 = t50 * t158;
+    let t160 = t94 * t48;
+    let t161 = -t160;
+    let t162 = t60 * t161;
+    let t163 = t99 * t48 * t57;
+    let t164 = -t163;
+    let t165 = t162 + t164;
+    let t166 = t65 * t165;
+    let t167 = -t89;
+    let t168 = t105 * t37;
+    let t169 = -t168;
+    let t170 = t167 + t169;
+    let t171 = t60 * t170;
+    let t172 = t99 * t37 * t54;
+    let t173 = -t172;
+    let t174 = t171 + t173;
+    let t175 = t69 * t174;
+    let t176 = t159 + t166 + t175;
+    let t177 = t105 * t60;
+    let t178 = t99 * t54;
+    let t179 = t177 + t178;
+    let t180 = t65 * t179;
+    let t181 = t99 * t50 * t57;
+    let t182 = -t178;
+    let t183 = t69 * t182;
+    let t184 = t181 + t183;
+    let t185 = t60 * t77 * t77;
+    let t186 = t60 * t81 * t81;
+    let t187 = t60 * t85 * t85;
+    let t188 = t185 + t186 + t187;
+    let t189 = t77 * t101;
+    let t190 = t81 * t114;
+    let t191 = t85 * t125;
+    let t192 = t189 + t190 + t191;
+    let t193 = t77 * t135;
+    let t194 = t81 * t146;
+    let t195 = t85 * t153;
+    let t196 = t193 + t194 + t195;
+    let t197 = t77 * t158;
+    let t198 = t81 * t165;
+    let t199 = t85 * t174;
+    let t200 = t197 + t198 + t199;
+    let t201 = t81 * t179;
+    let t202 = t99 * t57 * t77;
+    let t203 = t85 * t182;
+    let t204 = t202 + t203;
+    let t205 = t9 * t44;
+    let t206 = -t205;
+    let t207 = t89 * t206;
+    let t208 = t9 * t37 * t44;
+    let t209 = t4 * t48;
+    let t210 = t208 + t209;
+    let t211 = -t210;
+    let t212 = t105 * t211;
+    let t213 = t9 * t41;
+    let t214 = -t213;
+    let t215 = t94 * t214;
+    let t216 = S::constant(1.0);
+    let t217 = S::constant(2.0);
+    let t218 = t217 * t60;
+    let t219 = t216 / t218;
+    let t220 = t54 * t211;
+    let t221 = t57 * t214;
+    let t222 = t220 + t220 + t221 + t221;
+    let t223 = t98 * t219 * t222;
+    let t224 = -t223;
+    let t225 = t18 + t207 + t212 + t215 + t224;
+    let t226 = -t41;
+    let t227 = t4 * t226;
+    let t228 = -t227;
+    let t229 = t89 * t228;
+    let t230 = t4 * t37 * t226;
+    let t231 = -t230;
+    let t232 = t105 * t231;
+    let t233 = t4 * t44;
+    let t234 = -t233;
+    let t235 = t94 * t234;
+    let t236 = t54 * t231;
+    let t237 = t57 * t234;
+    let t238 = t236 + t236 + t237 + t237;
+    let t239 = t98 * t219 * t238;
+    let t240 = -t239;
+    let t241 = t229 + t232 + t235 + t240;
+    let t242 = -t93;
+    let t243 = t105 * t242;
+    let t244 = t54 * t242;
+    let t245 = t244 + t244;
+    let t246 = t98 * t219 * t245;
+    let t247 = -t246;
+    let t248 = t243 + t247;
+    out[0] = t11;
+    out[1] = t15;
+    out[2] = t22;
+    out[3] = t26;
+    out[4] = t27;
+    out[5] = t28;
+    out[6] = t27;
+    out[7] = t28;
+    out[8] = t15;
+    out[9] = t32;
+    out[10] = t33;
+    out[11] = t34;
+    out[12] = t35;
+    out[13] = t28;
+    out[14] = t35;
+    out[15] = t28;
+    out[16] = t71;
+    out[17] = t87;
+    out[18] = t127;
+    out[19] = t155;
+    out[20] = t176;
+    out[21] = t180;
+    out[22] = t28;
+    out[23] = t184;
+    out[24] = t87;
+    out[25] = t188;
+    out[26] = t192;
+    out[27] = t196;
+    out[28] = t200;
+    out[29] = t201;
+    out[30] = t28;
+    out[31] = t204;
+    out[32] = t28;
+    out[33] = t28;
+    out[34] = t28;
+    out[35] = t225;
+    out[36] = t241;
+    out[37] = t248;
+    out[38] = t28;
+    out[39] = t28;
 }
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut out = [0.0; LEN];
-    ingredients(q, p, &mut out);
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
     (0..DIMS.mu)
-        .map(|m| (0..DIMS.ell).map(|j| out[LAYOUT.alpha + m * DIMS.ell + j] * q_dot[j]).sum())
+        .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
+}
+
+/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
+pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
+    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    alpha(q, p, &mut a);
+    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
+        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
+        worst.max(r.abs())
+    })
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -37,6 +37,7 @@ impl From<Failure> for EvalError {
 }
 
 /// Fail on a non-finite value instead of passing NaN on.
+#[inline]
 pub fn finite(what: &'static str, v: &[f64]) -> Result<(), EvalError> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
