@@ -89,6 +89,9 @@ fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
                 "{}: α q̇ = {res:?}",
                 core.model
             );
+            // The monitored residual α(q)Γ(q)η, by its own path: as small.
+            let monitored = (core.residual)(&q, &eta).unwrap();
+            assert!(monitored < 1e-12, "{}: ‖αΓη‖ = {monitored:e}", core.model);
 
             // Against the oracle: q̈ = Γ̇η + Γη̇, Γ̇η by dual numbers along q̇.
             let qdual: Vec<Dual<1>> = q

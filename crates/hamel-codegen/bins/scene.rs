@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use hamel_generated::{
     COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM,
-    constraint_residual_max, energy, project, reduced_into_with, reduced_jacobian_with,
+    energy, project, reduced_into_with, reduced_jacobian_with, residual_max,
 };
 use hamel_sim::{Method, OdeSystem, Options, SystemError};
 use serde::Deserialize;
@@ -79,9 +79,7 @@ impl OdeSystem for Reduced {
         if !self.residual || !ELIMINATED.is_empty() {
             return None;
         }
-        let mut dy = [0.0; REDUCED_DIM];
-        reduced_into_with(y, &mut dy, &self.prep).ok()?;
-        Some(constraint_residual_max(&self.full_q(y), &dy[..KEPT.len()], &self.prep.p))
+        residual_max(&self.full_q(y), &y[KEPT.len()..], &self.prep.p).ok()
     }
     /// Back onto the holonomic constraints, when the state holds every coordinate they
     /// mention (their dependent coordinates among them).

@@ -1056,6 +1056,8 @@ struct Code {
     alpha: Tape,
     /// The body of `energy_from`, and what it computes, for the docs.
     energy_part: (String, &'static str),
+    /// The body of `residual_from`, and what it computes.
+    residual_part: (String, &'static str),
     /// h(q) of the holonomic constraints.
     holonomic: Tape,
     ops_trees: usize,
@@ -1150,9 +1152,12 @@ impl Code {
             None => ("    Ok([])\n".into(), REDUCED_AT_REFERENCE.into(), 0),
         };
         let energy_part = energy_part(d, exprs[u_at], &solved_inputs, &full_slots)?;
+        let alpha_exprs = &exprs[alpha_at..alpha_at + d.mu * d.ell];
+        let residual_part = residual_part(d, alpha_exprs, &solved_inputs, &full_slots)?;
         Ok(Code {
             alpha,
             energy_part,
+            residual_part,
             ops_trees: exprs.iter().map(|e| e.tree_operations()).sum(),
             ops_shared: tape.operation_count(),
             solved_ops: solved.as_ref().map_or(0, |(_, t)| t.operation_count()),
@@ -1242,6 +1247,8 @@ impl Code {
             ("alpha_body", straight_line(&self.alpha, &full_slots)),
             ("energy_body", self.energy_part.0.clone()),
             ("energy_doc", self.energy_part.1.to_string()),
+            ("residual_body", self.residual_part.0.clone()),
+            ("residual_doc", self.residual_part.1.to_string()),
             (
                 "holonomic_body",
                 straight_line(&self.holonomic, &full_slots),
@@ -1332,6 +1339,52 @@ fn energy_part(
     body += &lets(&tape, slots, Part::All);
     let _ = writeln!(body, "    Ok(t{})", tape.outputs()[0]);
     Ok((body, "straight-line code of the closed form"))
+}
+
+/// The body of the generated `residual_from`, r = α(q)Γ(q)η (the constraint residual of the
+/// velocities q̇ = Γη): with a closed form, one tape of r from α's and Γ's entries (sharing
+/// their trigonometry, no η̇ computed); without, α times the structured evaluation's q̇.
+fn residual_part(
+    d: &Derivation,
+    alpha: &[&Expr],
+    solved_inputs: &[String],
+    slots: &Slots,
+) -> Result<(String, &'static str), CodegenError> {
+    use fold::*;
+    let Some(c) = d.closed() else {
+        let body = "    let r = structured_unchecked(q, eta, p, false)?;\n    \
+                    let mut a = [S::constant(0.0); DIMS.mu * DIMS.ell];\n    \
+                    alpha(q, p, &mut a);\n    \
+                    for m in 0..DIMS.mu {\n        \
+                    out[m] = (0..DIMS.ell).fold(S::constant(0.0), |acc, j| acc + a[m * DIMS.ell + j] * r.q_dot[j]);\n    \
+                    }\n    Ok(())\n";
+        return Ok((body.into(), "α times the structured evaluation's q̇"));
+    };
+    let (l, g) = (d.ell, d.sigma);
+    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
+    let q_dot: Vec<Expr> = (0..l)
+        .map(|j| {
+            (0..g).fold(Expr::int(0), |acc, s| {
+                add(acc, mul(c.gamma.entries[j][s].expr.clone(), eta[s].clone()))
+            })
+        })
+        .collect();
+    let r: Vec<Expr> = (0..d.mu)
+        .map(|m| {
+            (0..l).fold(Expr::int(0), |acc, j| {
+                add(acc, mul(alpha[m * l + j].clone(), q_dot[j].clone()))
+            })
+        })
+        .collect();
+    let refs: Vec<&Expr> = r.iter().collect();
+    let tape = Tape::compile(&refs, solved_inputs)?;
+    let mut body = "    let _ = (q, eta, p, &out);\n".to_string();
+    body += &lets(&tape, slots, Part::All);
+    for (m, i) in tape.outputs().iter().enumerate() {
+        let _ = writeln!(body, "    out[{m}] = t{i};");
+    }
+    body += "    Ok(())\n";
+    Ok((body, "straight-line code of α(q)Γ(q)η from the closed form"))
 }
 
 /// Above this many shared operations of the ingredients, the generated code wraps its wide

@@ -101,6 +101,8 @@ pub struct Core {
     pub constraint_residual: fn(&[f64], &[f64]) -> Vec<f64>,
     /// The energy at (q, η), by the core's own path (closed form, or structured).
     pub energy: fn(&[f64], &[f64]) -> Result<f64, EvalError>,
+    /// ‖α(q)Γ(q)η‖∞ at (q, η).
+    pub residual: fn(&[f64], &[f64]) -> Result<f64, EvalError>,
     /// Operation counts (trees, shared).
     pub operations: (usize, usize),
 }
@@ -135,6 +137,7 @@ macro_rules! core {
             reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),
             constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),
             energy: |q, e| $m::energy(q, e, &$m::Parameters::default()),
+            residual: |q, e| $m::residual_max(q, e, &$m::Parameters::default()),
             operations: $m::OPERATIONS,
         }
     };

@@ -911,14 +911,74 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = q[2];
+    let (t1, t3) = t0.sin_cos();
+    let t2 = S::constant(3.0);
+    let t4 = q[3];
+    let (t17, t5) = t4.sin_cos();
+    let t6 = t5.powi(2);
+    let t7 = t2 * t3 * t6;
+    let t8 = S::constant(2.0);
+    let t9 = S::constant(p.m_r);
+    let t10 = t8 * t9 * t6;
+    let t11 = S::constant(p.m_f);
+    let t12 = t2 * t11;
+    let t13 = t9 + t12 + t10;
+    let t14 = t7 / t13;
+    let t15 = eta[0];
+    let t16 = t14 * t15;
+    let t18 = t2 * t3 * t5 * t17;
+    let t19 = -t18;
+    let t20 = S::constant(p.l_r);
+    let t21 = t20 * t13;
+    let t22 = t19 / t21;
+    let t23 = eta[1];
+    let t24 = t22 * t23;
+    let t25 = t16 + t24;
+    let t26 = t1 * t25;
+    let t27 = -t3;
+    let t28 = t2 * t1 * t6;
+    let t29 = t28 / t13;
+    let t30 = t15 * t29;
+    let t31 = t2 * t1 * t5 * t17;
+    let t32 = -t31;
+    let t33 = t32 / t21;
+    let t34 = t23 * t33;
+    let t35 = t30 + t34;
+    let t36 = t27 * t35;
+    let t37 = t26 + t36;
+    let t38 = t3 * t17;
+    let t39 = -t38;
+    let t40 = t25 * t39;
+    let t41 = t1 * t17;
+    let t42 = -t41;
+    let t43 = t35 * t42;
+    let t44 = t2 * t5 * t17;
+    let t45 = t44 / t21;
+    let t46 = t15 * t45;
+    let t47 = t2 * t6;
+    let t48 = S::constant(-3.0);
+    let t49 = t48 + t47;
+    let t50 = t20.powi(2);
+    let t51 = t50 * t13;
+    let t52 = t49 / t51;
+    let t53 = t23 * t52;
+    let t54 = t46 + t53;
+    let t55 = t20 * t5 * t54;
+    let t56 = t40 + t43 + t55;
+    out[0] = t37;
+    out[1] = t56;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -718,14 +718,39 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = q[2];
+    let (t1, t2) = t0.sin_cos();
+    let t3 = eta[0];
+    let t4 = t1 * t2 * t3;
+    let t5 = -t2;
+    let t6 = t1 * t3 * t5;
+    let t7 = t4 + t6;
+    let t8 = q[3];
+    let (t9, t16) = t8.sin_cos();
+    let t10 = t2 * t9;
+    let t11 = -t10;
+    let t12 = t2 * t3 * t11;
+    let t13 = t1 * t9;
+    let t14 = -t13;
+    let t15 = t1 * t3 * t14;
+    let t17 = S::constant(p.l_r);
+    let t18 = t17 * t16;
+    let t19 = t9 / t18;
+    let t20 = t17 * t3 * t16 * t19;
+    let t21 = t12 + t15 + t20;
+    out[0] = t7;
+    out[1] = t21;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -1227,14 +1227,104 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = q[2];
+    let (t38, t1) = t0.sin_cos();
+    let t2 = q[4];
+    let (t3, t5) = t2.sin_cos();
+    let t4 = S::constant(2.0);
+    let t6 = t5.powi(2);
+    let t7 = S::constant(p.l_r);
+    let t8 = t7.powi(2);
+    let t9 = t4 * t8 * t1 * t6;
+    let t10 = -t9;
+    let t11 = S::constant(p.m_w);
+    let t12 = S::constant(p.R);
+    let t13 = t12.powi(2);
+    let t14 = t11 * t13 * t6;
+    let t15 = S::constant(6.0);
+    let t16 = S::constant(p.a);
+    let t17 = t16.powi(2);
+    let t18 = t11 * t15 * t17 * t6;
+    let t19 = t8 * t11 * t15 * t6;
+    let t20 = -t19;
+    let t21 = t11 * t13;
+    let t22 = -t21;
+    let t23 = t11 * t15 * t17;
+    let t24 = -t23;
+    let t25 = S::constant(p.m_f);
+    let t26 = t4 * t8 * t25;
+    let t27 = -t26;
+    let t28 = t22 + t24 + t27 + t14 + t18 + t20;
+    let t29 = t10 / t28;
+    let t30 = eta[0];
+    let t31 = t29 * t30;
+    let t32 = t4 * t7 * t1 * t3 * t5;
+    let t33 = t32 / t28;
+    let t34 = eta[1];
+    let t35 = t33 * t34;
+    let t36 = t31 + t35;
+    let t37 = t1 * t3 * t36;
+    let t39 = t4 * t8 * t6 * t38;
+    let t40 = -t39;
+    let t41 = t40 / t28;
+    let t42 = t30 * t41;
+    let t43 = t4 * t7 * t3 * t5 * t38;
+    let t44 = t43 / t28;
+    let t45 = t34 * t44;
+    let t46 = t42 + t45;
+    let t47 = t3 * t38 * t46;
+    let t48 = t7 * t5;
+    let t49 = -t48;
+    let t50 = t4 * t7 * t3 * t5;
+    let t51 = -t50;
+    let t52 = t51 / t28;
+    let t53 = t30 * t52;
+    let t54 = t4 * t6;
+    let t55 = -t54;
+    let t56 = t4 + t55;
+    let t57 = t56 / t28;
+    let t58 = t34 * t57;
+    let t59 = t53 + t58;
+    let t60 = t49 * t59;
+    let t61 = t37 + t47 + t60;
+    let t62 = t16 * t1;
+    let t63 = -t62;
+    let t64 = t59 * t63;
+    let t65 = t4 * t7 * t16 * t3 * t5;
+    let t66 = -t65;
+    let t67 = t4 * t8 * t6;
+    let t68 = t66 + t67;
+    let t69 = t12 * t28;
+    let t70 = t68 / t69;
+    let t71 = t30 * t70;
+    let t72 = t4 * t16 * t6;
+    let t73 = -t72;
+    let t74 = t4 * t16;
+    let t75 = t74 + t51 + t73;
+    let t76 = t75 / t69;
+    let t77 = t34 * t76;
+    let t78 = t71 + t77;
+    let t79 = t12 * t1 * t78;
+    let t80 = t31 + t35 + t64 + t79;
+    let t81 = t16 * t38;
+    let t82 = -t81;
+    let t83 = t59 * t82;
+    let t84 = t12 * t38 * t78;
+    let t85 = t42 + t45 + t83 + t84;
+    out[0] = t61;
+    out[1] = t80;
+    out[2] = t85;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -941,14 +941,51 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = q[2];
+    let (t6, t1) = t0.sin_cos();
+    let t2 = q[4];
+    let (t3, t8) = t2.sin_cos();
+    let t4 = eta[0];
+    let t5 = t1 * t1 * t3 * t4;
+    let t7 = t3 * t4 * t6 * t6;
+    let t9 = S::constant(p.l_r);
+    let t10 = t9 * t8;
+    let t11 = -t10;
+    let t12 = t3 / t10;
+    let t13 = t4 * t11 * t12;
+    let t14 = t5 + t7 + t13;
+    let t15 = t1 * t4;
+    let t16 = S::constant(p.a);
+    let t17 = t16 * t1;
+    let t18 = -t17;
+    let t19 = t4 * t12 * t18;
+    let t20 = S::constant(p.R);
+    let t21 = t16 * t3;
+    let t22 = t11 + t21;
+    let t23 = t9 * t20 * t8;
+    let t24 = t22 / t23;
+    let t25 = t20 * t1 * t4 * t24;
+    let t26 = t15 + t19 + t25;
+    let t27 = t4 * t6;
+    let t28 = t16 * t6;
+    let t29 = -t28;
+    let t30 = t4 * t12 * t29;
+    let t31 = t20 * t4 * t6 * t24;
+    let t32 = t27 + t30 + t31;
+    out[0] = t14;
+    out[1] = t26;
+    out[2] = t32;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

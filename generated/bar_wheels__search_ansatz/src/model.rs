@@ -1054,14 +1054,57 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = q[2];
+    let (t18, t1) = t0.sin_cos();
+    let t2 = q[4];
+    let (t3, t4) = t2.sin_cos();
+    let t5 = S::constant(p.R);
+    let t6 = S::constant(p.l_r);
+    let t7 = t5 * t6 * t1 * t4;
+    let t8 = S::constant(p.a);
+    let t9 = t8 * t3;
+    let t10 = t5 * t4;
+    let t11 = t6 * t4;
+    let t12 = -t11;
+    let t13 = t9 + t10 + t12;
+    let t14 = t3 * t13;
+    let t15 = t7 / t14;
+    let t16 = eta[0];
+    let t17 = t1 * t3 * t15 * t16;
+    let t19 = t5 * t6 * t4 * t18;
+    let t20 = t19 / t14;
+    let t21 = t3 * t16 * t18 * t20;
+    let t22 = t5 / t13;
+    let t23 = t12 * t16 * t22;
+    let t24 = t17 + t21 + t23;
+    let t25 = t15 * t16;
+    let t26 = t8 * t1;
+    let t27 = -t26;
+    let t28 = t16 * t22 * t27;
+    let t29 = t9 + t12;
+    let t30 = t29 / t14;
+    let t31 = t5 * t1 * t16 * t30;
+    let t32 = t25 + t28 + t31;
+    let t33 = t16 * t20;
+    let t34 = t8 * t18;
+    let t35 = -t34;
+    let t36 = t16 * t22 * t35;
+    let t37 = t5 * t16 * t18 * t30;
+    let t38 = t33 + t36 + t37;
+    out[0] = t24;
+    out[1] = t32;
+    out[2] = t38;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

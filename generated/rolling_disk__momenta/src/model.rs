@@ -889,14 +889,69 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = S::constant(4.0);
+    let t1 = q[2];
+    let (t38, t2) = t1.sin_cos();
+    let t3 = q[4];
+    let (t4, t7) = t3.sin_cos();
+    let t5 = t0 * t2 * t4;
+    let t6 = S::constant(p.R);
+    let t8 = t7.powi(2);
+    let t9 = S::constant(p.m_d);
+    let t10 = t6 * t9 * t8;
+    let t11 = t5 / t10;
+    let t12 = eta[0];
+    let t13 = t11 * t12;
+    let t14 = S::constant(10.0);
+    let t15 = t14 * t2 * t8;
+    let t16 = -t15;
+    let t17 = S::constant(12.0);
+    let t18 = t17 * t2;
+    let t19 = t16 + t18;
+    let t20 = t19 / t10;
+    let t21 = eta[1];
+    let t22 = t20 * t21;
+    let t23 = t6 * t2;
+    let t24 = -t23;
+    let t25 = t0 * t4;
+    let t26 = t6.powi(2);
+    let t27 = t9 * t26 * t8;
+    let t28 = t25 / t27;
+    let t29 = t12 * t28;
+    let t30 = t14 * t8;
+    let t31 = -t30;
+    let t32 = t17 + t31;
+    let t33 = t32 / t27;
+    let t34 = t21 * t33;
+    let t35 = t29 + t34;
+    let t36 = t24 * t35;
+    let t37 = t13 + t22 + t36;
+    let t39 = t0 * t4 * t38;
+    let t40 = t39 / t10;
+    let t41 = t12 * t40;
+    let t42 = t14 * t8 * t38;
+    let t43 = -t42;
+    let t44 = t17 * t38;
+    let t45 = t43 + t44;
+    let t46 = t45 / t10;
+    let t47 = t21 * t46;
+    let t48 = t6 * t38;
+    let t49 = -t48;
+    let t50 = t35 * t49;
+    let t51 = t41 + t47 + t50;
+    out[0] = t37;
+    out[1] = t51;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

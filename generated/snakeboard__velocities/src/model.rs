@@ -824,14 +824,50 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = q[2];
+    let (t1, t6) = t0.sin_cos();
+    let t2 = q[4];
+    let (t7, t3) = t2.sin_cos();
+    let t4 = t1 * t3;
+    let t5 = -t4;
+    let t8 = t6 * t7;
+    let t9 = -t8;
+    let t10 = t5 + t9;
+    let t11 = S::constant(p.r);
+    let t12 = t11 * t3 * t6;
+    let t13 = t12 / t7;
+    let t14 = eta[0];
+    let t15 = t10 * t13 * t14;
+    let t16 = t1 * t7;
+    let t17 = -t16;
+    let t18 = t3 * t6;
+    let t19 = t17 + t18;
+    let t20 = t11 * t1 * t3;
+    let t21 = t20 / t7;
+    let t22 = t14 * t19 * t21;
+    let t23 = t11 * t3 * t14;
+    let t24 = t15 + t22 + t23;
+    let t25 = t5 + t8;
+    let t26 = t13 * t14 * t25;
+    let t27 = t16 + t18;
+    let t28 = t14 * t21 * t27;
+    let t29 = t11 * t3;
+    let t30 = -t29;
+    let t31 = t14 * t30;
+    let t32 = t26 + t28 + t31;
+    out[0] = t24;
+    out[1] = t32;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -7835,14 +7835,175 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
-    alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let _ = (q, eta, p, &out);
+    let t0 = S::constant(4.0);
+    let t1 = q[2];
+    let (t125, t2) = t1.sin_cos();
+    let t3 = q[4];
+    let (t4, t20) = t3.sin_cos();
+    let t5 = S::constant(p.R);
+    let t6 = t0 * t5 * t2 * t4;
+    let t7 = -t6;
+    let t8 = q[5];
+    let (t9, t39) = t8.sin_cos();
+    let t10 = S::constant(p.m_r);
+    let t11 = S::constant(p.rho);
+    let t12 = t0 * t5 * t10 * t11 * t4 * t9;
+    let t13 = S::constant(8.0);
+    let t14 = S::constant(p.rho1);
+    let t15 = t10 * t11 * t13 * t14 * t4 * t9;
+    let t16 = -t15;
+    let t17 = S::constant(p.rho2);
+    let t18 = t10 * t11 * t13 * t17 * t4 * t9;
+    let t19 = -t18;
+    let t21 = t20.powi(2);
+    let t22 = t5.powi(2);
+    let t23 = S::constant(p.m_d);
+    let t24 = t22 * t23 * t21;
+    let t25 = -t24;
+    let t26 = S::constant(p.m_f);
+    let t27 = t0 * t5 * t14 * t26 * t21;
+    let t28 = -t27;
+    let t29 = t0 * t5 * t10 * t14 * t21;
+    let t30 = -t29;
+    let t31 = t0 * t5 * t10 * t17 * t21;
+    let t32 = -t31;
+    let t33 = t14.powi(2);
+    let t34 = t0 * t26 * t33 * t21;
+    let t35 = t0 * t10 * t33 * t21;
+    let t36 = t10 * t13 * t14 * t17 * t21;
+    let t37 = t17.powi(2);
+    let t38 = t0 * t10 * t37 * t21;
+    let t40 = t39.powi(2);
+    let t41 = t11.powi(2);
+    let t42 = t0 * t10 * t41 * t40;
+    let t43 = t0 * t5 * t14 * t26;
+    let t44 = t0 * t5 * t10 * t14;
+    let t45 = t0 * t5 * t10 * t17;
+    let t46 = t0 * t26 * t33;
+    let t47 = -t46;
+    let t48 = t0 * t10 * t33;
+    let t49 = -t48;
+    let t50 = t10 * t13 * t14 * t17;
+    let t51 = -t50;
+    let t52 = t0 * t10 * t37;
+    let t53 = -t52;
+    let t54 = t0 * t10 * t41;
+    let t55 = -t54;
+    let t56 = t43 + t44 + t45 + t47 + t49 + t51 + t53 + t55 + t12 + t16 + t19 + t25 + t28 + t30 + t32 + t34 + t35 + t36 + t38 + t42;
+    let t57 = t7 / t56;
+    let t58 = eta[0];
+    let t59 = t57 * t58;
+    let t60 = S::constant(16.0);
+    let t61 = t10 * t11 * t14 * t60 * t2 * t4 * t9;
+    let t62 = -t61;
+    let t63 = t10 * t11 * t17 * t60 * t2 * t4 * t9;
+    let t64 = -t63;
+    let t65 = S::constant(10.0);
+    let t66 = t22 * t23 * t65 * t2 * t21;
+    let t67 = t13 * t26 * t33 * t2 * t21;
+    let t68 = t10 * t13 * t33 * t2 * t21;
+    let t69 = t10 * t14 * t17 * t60 * t2 * t21;
+    let t70 = t10 * t13 * t37 * t2 * t21;
+    let t71 = t10 * t13 * t41 * t2 * t40;
+    let t72 = S::constant(12.0);
+    let t73 = t22 * t23 * t72 * t2;
+    let t74 = -t73;
+    let t75 = t13 * t26 * t33 * t2;
+    let t76 = -t75;
+    let t77 = t10 * t13 * t33 * t2;
+    let t78 = -t77;
+    let t79 = t10 * t14 * t17 * t60 * t2;
+    let t80 = -t79;
+    let t81 = t10 * t13 * t37 * t2;
+    let t82 = -t81;
+    let t83 = t10 * t13 * t41 * t2;
+    let t84 = -t83;
+    let t85 = t62 + t64 + t66 + t67 + t68 + t69 + t70 + t71 + t74 + t76 + t78 + t80 + t82 + t84;
+    let t86 = t5 * t23 * t56;
+    let t87 = t85 / t86;
+    let t88 = eta[1];
+    let t89 = t87 * t88;
+    let t90 = t5 * t2;
+    let t91 = -t90;
+    let t92 = t0 * t4;
+    let t93 = -t92;
+    let t94 = t93 / t56;
+    let t95 = t58 * t94;
+    let t96 = t10 * t11 * t14 * t60 * t4 * t9;
+    let t97 = -t96;
+    let t98 = t10 * t11 * t17 * t60 * t4 * t9;
+    let t99 = -t98;
+    let t100 = t22 * t23 * t65 * t21;
+    let t101 = t13 * t26 * t33 * t21;
+    let t102 = t10 * t13 * t33 * t21;
+    let t103 = t10 * t14 * t17 * t60 * t21;
+    let t104 = t10 * t13 * t37 * t21;
+    let t105 = t10 * t13 * t41 * t40;
+    let t106 = t22 * t23 * t72;
+    let t107 = -t106;
+    let t108 = t13 * t26 * t33;
+    let t109 = -t108;
+    let t110 = t10 * t13 * t33;
+    let t111 = -t110;
+    let t112 = t10 * t14 * t17 * t60;
+    let t113 = -t112;
+    let t114 = t10 * t13 * t37;
+    let t115 = -t114;
+    let t116 = t10 * t13 * t41;
+    let t117 = -t116;
+    let t118 = t107 + t109 + t111 + t113 + t115 + t117 + t97 + t99 + t100 + t101 + t102 + t103 + t104 + t105;
+    let t119 = t22 * t23 * t56;
+    let t120 = t118 / t119;
+    let t121 = t88 * t120;
+    let t122 = t95 + t121;
+    let t123 = t91 * t122;
+    let t124 = t59 + t89 + t123;
+    let t126 = t0 * t5 * t4 * t125;
+    let t127 = -t126;
+    let t128 = t127 / t56;
+    let t129 = t58 * t128;
+    let t130 = t10 * t11 * t14 * t60 * t4 * t9 * t125;
+    let t131 = -t130;
+    let t132 = t10 * t11 * t17 * t60 * t4 * t9 * t125;
+    let t133 = -t132;
+    let t134 = t22 * t23 * t65 * t21 * t125;
+    let t135 = t13 * t26 * t33 * t21 * t125;
+    let t136 = t10 * t13 * t33 * t21 * t125;
+    let t137 = t10 * t14 * t17 * t60 * t21 * t125;
+    let t138 = t10 * t13 * t37 * t21 * t125;
+    let t139 = t10 * t13 * t41 * t40 * t125;
+    let t140 = t22 * t23 * t72 * t125;
+    let t141 = -t140;
+    let t142 = t13 * t26 * t33 * t125;
+    let t143 = -t142;
+    let t144 = t10 * t13 * t33 * t125;
+    let t145 = -t144;
+    let t146 = t10 * t14 * t17 * t60 * t125;
+    let t147 = -t146;
+    let t148 = t10 * t13 * t37 * t125;
+    let t149 = -t148;
+    let t150 = t10 * t13 * t41 * t125;
+    let t151 = -t150;
+    let t152 = t131 + t133 + t134 + t135 + t136 + t137 + t138 + t139 + t141 + t143 + t145 + t147 + t149 + t151;
+    let t153 = t152 / t86;
+    let t154 = t88 * t153;
+    let t155 = t5 * t125;
+    let t156 = -t155;
+    let t157 = t122 * t156;
+    let t158 = t129 + t154 + t157;
+    out[0] = t124;
+    out[1] = t158;
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -4591,14 +4591,22 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
         .collect()
 }
 
-/// ‖α(q)q̇‖∞, without allocating (what a simulation monitors at every output).
-pub fn constraint_residual_max(q: &[f64], q_dot: &[f64], p: &Parameters) -> f64 {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
+/// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by α times the structured evaluation's q̇.
+fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
+    let r = structured_unchecked(q, eta, p, false)?;
+    let mut a = [S::constant(0.0); DIMS.mu * DIMS.ell];
     alpha(q, p, &mut a);
-    (0..DIMS.mu).fold(0.0_f64, |worst, m| {
-        let r: f64 = (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum();
-        worst.max(r.abs())
-    })
+    for m in 0..DIMS.mu {
+        out[m] = (0..DIMS.ell).fold(S::constant(0.0), |acc, j| acc + a[m * DIMS.ell + j] * r.q_dot[j]);
+    }
+    Ok(())
+}
+
+/// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let mut r = [0.0; DIMS.mu];
+    residual_from(q, eta, p, &mut r)?;
+    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
