@@ -480,6 +480,10 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
     }
 }
 
+/// The most outputs whose room is taken before the run (more grow as they come: a run that
+/// fails early does not hold memory for outputs it never reached).
+const RESERVED_OUTPUTS: usize = 1 << 16;
+
 /// Collects the outputs with their monitored invariants.
 struct Recorder<'a, S: ?Sized> {
     system: &'a S,
@@ -488,8 +492,10 @@ struct Recorder<'a, S: ?Sized> {
 }
 
 impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
-    /// Room for `outputs` outputs is taken at once: recording allocates nothing.
+    /// Room for `outputs` outputs (at most [`RESERVED_OUTPUTS`]) is taken at once: recording
+    /// them allocates nothing.
     fn new(system: &'a S, t0: f64, y0: &[f64], outputs: usize) -> Self {
+        let outputs = outputs.min(RESERVED_OUTPUTS);
         Recorder {
             system,
             energy0: finite(system.energy(t0, y0)),
