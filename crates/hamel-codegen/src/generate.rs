@@ -336,6 +336,25 @@ fn eta_input(s: usize) -> String {
     format!("#eta{s}")
 }
 
+/// The tapes' η inputs as symbols, `#eta0..`.
+fn eta_syms(sigma: usize) -> Vec<Expr> {
+    (0..sigma).map(|s| Expr::sym(&eta_input(s))).collect()
+}
+
+/// q̇ = Γη (6) from the closed form's Γ, each entry passed through `h` first.
+fn gamma_eta(gamma: &hamel_derive::Mat, eta: &[Expr], h: &dyn Fn(&Expr) -> Expr) -> Vec<Expr> {
+    use fold::*;
+    gamma
+        .entries
+        .iter()
+        .map(|row| {
+            row.iter().zip(eta).fold(Expr::int(0), |acc, (e, x)| {
+                add(acc, mul(h(&e.expr), x.clone()))
+            })
+        })
+        .collect()
+}
+
 /// Expression builders that fold exact zeros and ones, so that structural zeros of Γ, A_Γ and
 /// Q⁽ⁱ⁾ vanish from the solved form (in floating point 0·x is not 0 for every x, so the
 /// compiler could not do this).
@@ -513,7 +532,7 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
     let Some(c) = d.closed() else {
         return Vec::new();
     };
-    let (l, g) = (d.ell, d.sigma);
+    let g = d.sigma;
     let params: Vec<&String> = d.parameters.keys().collect();
     let late = |f: &Expr| {
         !f.any(&mut |e| match e {
@@ -535,16 +554,8 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
             other => other,
         })
     };
-    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
-    let q_dot = |h: &dyn Fn(&Expr) -> Expr| -> Vec<Expr> {
-        (0..l)
-            .map(|i| {
-                (0..g).fold(Expr::int(0), |acc, s| {
-                    add(acc, mul(h(&c.gamma.entries[i][s].expr), eta[s].clone()))
-                })
-            })
-            .collect()
-    };
+    let eta = eta_syms(g);
+    let q_dot = |h: &dyn Fn(&Expr) -> Expr| gamma_eta(&c.gamma, &eta, h);
     let a_gamma = |h: &dyn Fn(&Expr) -> Expr| -> Vec<Vec<Expr>> {
         (0..g)
             .map(|r| (0..g).map(|s| h(&c.a_gamma.entries[r][s].expr)).collect())
@@ -1090,7 +1101,8 @@ impl Code {
         // Where α and U lie in the ingredients (the runtime's `Layout`: Z, α, A, U, …).
         let alpha_at = d.sigma * d.ell;
         let u_at = alpha_at + d.mu * d.ell + d.ell * d.ell;
-        let alpha = Tape::compile(&exprs[alpha_at..alpha_at + d.mu * d.ell], &inputs)?;
+        let alpha_exprs = &exprs[alpha_at..alpha_at + d.mu * d.ell];
+        let alpha = Tape::compile(alpha_exprs, &inputs)?;
         let h: Vec<&Expr> = d.holonomic.iter().map(|c| &c.h.expr).collect();
         let holonomic = Tape::compile(&h, &inputs)?;
         let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
@@ -1152,7 +1164,6 @@ impl Code {
             None => ("    Ok([])\n".into(), REDUCED_AT_REFERENCE.into(), 0),
         };
         let energy_part = energy_part(d, exprs[u_at], &solved_inputs, &full_slots)?;
-        let alpha_exprs = &exprs[alpha_at..alpha_at + d.mu * d.ell];
         let residual_part = residual_part(d, alpha_exprs, &solved_inputs, &full_slots)?;
         Ok(Code {
             alpha,
@@ -1324,7 +1335,7 @@ fn energy_part(
         return Ok((body.into(), "the structured evaluation, unchecked"));
     };
     let g = d.sigma;
-    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
+    let eta = eta_syms(g);
     let a = |r: usize, s: usize| c.a_gamma.entries[r][s].expr.clone();
     // ½ηᵀA_Γη = Σ_r η_r (½ A_rr η_r + Σ_{s>r} A_rs η_s), A_Γ symmetric.
     let kinetic = (0..g).fold(Expr::int(0), |acc, r| {
@@ -1360,15 +1371,8 @@ fn residual_part(
                     }\n    Ok(())\n";
         return Ok((body.into(), "α times the structured evaluation's q̇"));
     };
-    let (l, g) = (d.ell, d.sigma);
-    let eta: Vec<Expr> = (0..g).map(|s| Expr::sym(&eta_input(s))).collect();
-    let q_dot: Vec<Expr> = (0..l)
-        .map(|j| {
-            (0..g).fold(Expr::int(0), |acc, s| {
-                add(acc, mul(c.gamma.entries[j][s].expr.clone(), eta[s].clone()))
-            })
-        })
-        .collect();
+    let l = d.ell;
+    let q_dot = gamma_eta(&c.gamma, &eta_syms(d.sigma), &|e| e.clone());
     let r: Vec<Expr> = (0..d.mu)
         .map(|m| {
             (0..l).fold(Expr::int(0), |acc, j| {
