@@ -166,6 +166,8 @@ pub enum Command {
         /// derived parameters are evaluated again from it.
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
         set: Vec<(String, f64)>,
+        #[command(flatten)]
+        ensemble: EnsembleArgs,
     },
     /// Plan a scene: from the outputs it requests, which coordinates are integrated,
     /// reconstructed or dropped, and the operation count of the right-hand side (all decided
@@ -363,6 +365,36 @@ pub struct SearchArgs {
 }
 
 /// `NAME=VALUE` of `--set`: a name and a finite number.
+/// How a scene with `[ensemble]` runs (docs/ensembles.md).
+#[derive(clap::Args, Debug)]
+pub struct EnsembleArgs {
+    /// Ensembles: threads of the compiled core's pool (default: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Ensembles: run only the K-th of N contiguous blocks of the members (K from 0).
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Ensembles: write the compiled core and its job to DIR for a scheduler (Slurm job
+    /// arrays, Ray) instead of running them; the parts are gathered with `--merge`.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["shard", "merge"])]
+    pub export_ensemble: Option<PathBuf>,
+    /// Ensembles: gather the parts that the exported core wrote (`--output` of each task)
+    /// into one result.
+    #[arg(long, value_name = "PART", num_args = 1.., conflicts_with = "shard")]
+    pub merge: Vec<PathBuf>,
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("expected K/N with 0 <= K < N, got `{s}`");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let k: usize = k.trim().parse().map_err(|_| bad())?;
+    let n: usize = n.trim().parse().map_err(|_| bad())?;
+    if k >= n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
 fn parse_set(s: &str) -> Result<(String, f64), String> {
     hamel_model::parse_assignment(s)
 }

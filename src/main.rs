@@ -9,6 +9,7 @@
 
 mod bench;
 mod cli;
+mod ensemble;
 mod linearize;
 mod messages;
 mod output;
@@ -92,12 +93,21 @@ fn run(command: Command) -> Result<(), ModelError> {
             engine,
             estimate_error,
             set,
+            ensemble: ens,
         } => {
             let out = Output::new(output)?;
+            let set: IndexMap<String, f64> = set.into_iter().collect();
+            let loaded =
+                progress::while_deriving("deriving", || hamel_scene::load_with(&scene, &set))?;
+            if let Some(members) = loaded.members()? {
+                let interpreted = matches!(engine, cli::EngineArg::Interpreted);
+                ensemble::refuse_single(&scene, plot.is_some(), estimate_error, interpreted)?;
+                return ensemble::simulate(&loaded, &members, &ens, format, out);
+            }
+            ensemble::refuse_options(&scene, &ens)?;
             hamel_scene::plot::check(plot.as_deref())?;
             simulate(
-                &scene,
-                &set.into_iter().collect(),
+                loaded,
                 format,
                 out,
                 plot.as_deref(),
@@ -260,15 +270,14 @@ fn reduce(
 }
 
 fn simulate(
-    scene: &Path,
-    set: &IndexMap<String, f64>,
+    loaded: hamel_scene::Loaded,
     format: TrajectoryFormat,
     out: Output,
     plot: Option<&Path>,
     engine: hamel_scene::Engine,
     estimate_error: bool,
 ) -> Result<(), ModelError> {
-    let (traj, failure) = hamel_scene::simulate::run_with(scene, set, engine, estimate_error)?;
+    let (traj, failure) = hamel_scene::simulate::run_loaded(&loaded, engine, estimate_error)?;
     // A failure during the integration keeps what was computed, marked incomplete.
     out.write(&match format {
         TrajectoryFormat::Csv => traj.to_csv(),

@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::Mutex;
 
+#[path = "cli/ensembles.rs"]
+mod ensembles;
+
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
 fn hamel(args: &[&str], stdin: Option<&str>) -> Output {

@@ -1,22 +1,37 @@
-//! `scene`: the integration job of `hamel simulate`, run on this compiled core.
+//! `scene`: the integration jobs of `hamel simulate`, run on this compiled core.
 //!
-//! Reads one job (JSON) on stdin: `{"t0", "times", "y0", "method", "options", "reference",
-//! "energy", "residual", "repeat", "params"}` where `y0` is the reduced state (the kept coordinates in
-//! model order, then η), `reference` the value at which the eliminated coordinates are held
-//! when the energy needs a full configuration (the equations are free of them), and `repeat`
-//! how many times to integrate for timing. Writes `{"solution", "error", "seconds"}` on
-//! stdout: the solution of the last run (the part computed before a failure, if any), the
+//! `scene [--job FILE] [--threads N] [--shard K/N] [--output FILE] [--progress]`
+//!
+//! Reads one job (JSON, from FILE or stdin): `{"t0", "times", "y0", "method", "options",
+//! "reference", "energy", "residual", "repeat", "params"}` where `y0` is the reduced state (the
+//! kept coordinates in model order, then η), `reference` the value at which the eliminated
+//! coordinates are held when the energy needs a full configuration (the equations are free of
+//! them), and `repeat` how many times to integrate for timing. Writes `{"solution", "error",
+//! "seconds"}`: the solution of the last run (the part computed before a failure, if any), the
 //! failure, and the median wall time of one integration. The parameters are those the core
-//! was generated with (a scene's core is specialised for them).
+//! was generated with (a scene's core is specialised for them) with `params` set on top.
+//!
+//! A job with `"members": [{"y0", "params", "reference"}, …]` is an **ensemble**: every member
+//! (or, with `--shard K/N`, the K-th of N contiguous blocks of them, K from 0) is integrated
+//! on a pool of `--threads` threads (default: one per core), and one JSON line is written per
+//! member in member order, `{"member", "solution", "error"}` (with `"save": "final"`, the
+//! solution holds the last output only), after a first line that describes the part:
+//! `{"hamel_ensemble_part": 1, "members", "first", "end", "state", "save", "threads",
+//! "seconds"}`. `--progress` prints `progress DONE TOTAL` on stderr as members finish. The
+//! result is written whole (to a temporary file renamed to `--output`), or not at all.
 
-use std::io::Read;
+use std::collections::BTreeMap;
+use std::io::{Read, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use hamel_generated::{
-    COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM,
+    COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM, REDUCED_STATE,
     energy, project, reduced_into_with, reduced_jacobian_with, residual_max,
 };
-use hamel_sim::{Method, OdeSystem, Options, SystemError};
+use hamel_sim::{Ensemble, Method, OdeSystem, Options, Solution, SystemError, integrate_many};
+use serde::Serialize;
 use serde::Deserialize;
 use serde_json::json;
 
@@ -35,7 +50,32 @@ struct Job {
     repeat: usize,
     /// Parameter values other than the defaults the core was generated with.
     #[serde(default)]
-    params: std::collections::BTreeMap<String, f64>,
+    params: BTreeMap<String, f64>,
+    /// An ensemble: the members (each its initial state and parameters).
+    members: Option<Vec<Member>>,
+    /// What an ensemble keeps of each member.
+    #[serde(default)]
+    save: Save,
+}
+
+/// A member of an ensemble: its reduced state, its parameters (on top of the core's and the
+/// job's), and its reference value for the eliminated coordinates (else the job's).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Member {
+    y0: Vec<f64>,
+    #[serde(default)]
+    params: BTreeMap<String, f64>,
+    reference: Option<f64>,
+}
+
+/// Every output time of each member, or the last one only.
+#[derive(Clone, Copy, Default, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+enum Save {
+    Outputs,
+    #[default]
+    Final,
 }
 
 fn one() -> usize {
@@ -112,11 +152,64 @@ impl OdeSystem for Reduced {
     }
 }
 
-fn run() -> Result<String, String> {
+/// The command line: where the job comes from and how an ensemble runs.
+#[derive(Default)]
+struct Args {
+    job: Option<PathBuf>,
+    threads: usize,
+    shard: (usize, usize),
+    output: Option<PathBuf>,
+    progress: bool,
+}
+
+fn args() -> Result<Args, String> {
+    let mut a = Args {
+        shard: (0, 1),
+        ..Args::default()
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(flag) = it.next() {
+        let mut value = || it.next().ok_or(format!("{flag} needs a value"));
+        match flag.as_str() {
+            "--job" => a.job = Some(value()?.into()),
+            "--output" => a.output = Some(value()?.into()),
+            "--threads" => {
+                a.threads = value()?
+                    .parse()
+                    .map_err(|e| format!("--threads: {e}"))?
+            }
+            "--shard" => a.shard = shard(&value()?)?,
+            "--progress" => a.progress = true,
+            _ => return Err(format!("unknown option {flag} (see the module doc of src/scene_main.rs)")),
+        }
+    }
+    Ok(a)
+}
+
+/// `K/N` with K < N.
+fn shard(text: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("--shard {text}: expected K/N with 0 <= K < N");
+    let (k, n) = text.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (k.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?);
+    if k >= n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+fn read_job(a: &Args) -> Result<Job, String> {
     let mut text = String::new();
-    std::io::stdin()
-        .read_to_string(&mut text)
-        .map_err(|e| format!("cannot read the job: {e}"))?;
+    match &a.job {
+        Some(path) => {
+            text = std::fs::read_to_string(path)
+                .map_err(|e| format!("cannot read the job {}: {e}", path.display()))?
+        }
+        None => {
+            std::io::stdin()
+                .read_to_string(&mut text)
+                .map_err(|e| format!("cannot read the job: {e}"))?;
+        }
+    }
     let job: Job = serde_json::from_str(&text).map_err(|e| format!("bad job: {e}"))?;
     if job.y0.len() != REDUCED_DIM {
         return Err(format!(
@@ -126,12 +219,22 @@ fn run() -> Result<String, String> {
             COORDINATES
         ));
     }
+    Ok(job)
+}
+
+/// The core's parameters with `values` set on top, prepared.
+fn prepared(values: &BTreeMap<String, f64>) -> Result<Prepared, String> {
     let mut p = Parameters::default();
-    for (k, &v) in &job.params {
+    for (k, &v) in values {
         p.set(k, v).map_err(|e| format!("bad job: {e}"))?;
     }
+    Prepared::new(&p).map_err(|e| e.to_string())
+}
+
+/// One integration, repeated `job.repeat` times for timing.
+fn single(job: &Job) -> Result<String, String> {
     let system = Reduced {
-        prep: Prepared::new(&p).map_err(|e| e.to_string())?,
+        prep: prepared(&job.params)?,
         reference: job.reference,
         energy: job.energy,
         residual: job.residual,
@@ -146,10 +249,7 @@ fn run() -> Result<String, String> {
         last = Some(result);
     }
     seconds.sort_by(f64::total_cmp);
-    let (solution, error) = match last.expect("at least one run") {
-        Ok(s) => (s, None),
-        Err(e) => (*e.partial.clone(), Some(e.to_string())),
-    };
+    let (solution, error) = split(last.expect("at least one run"));
     serde_json::to_string(&json!({
         "solution": solution,
         "error": error,
@@ -158,12 +258,152 @@ fn run() -> Result<String, String> {
     .map_err(|e| e.to_string())
 }
 
-fn main() {
-    match run() {
-        Ok(text) => println!("{text}"),
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::exit(2);
+fn split(r: Result<Solution, hamel_sim::IntegrationError>) -> (Solution, Option<String>) {
+    match r {
+        Ok(s) => (s, None),
+        Err(e) => (*e.partial.clone(), Some(e.to_string())),
+    }
+}
+
+/// The members of shard `k` of `n`: contiguous blocks, in order.
+fn block(total: usize, (k, n): (usize, usize)) -> std::ops::Range<usize> {
+    total * k / n..total * (k + 1) / n
+}
+
+/// The ensemble's part of this shard: its header line, then one line per member.
+fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
+    let range = block(members.len(), a.shard);
+    let mine = &members[range.clone()];
+    for (i, m) in mine.iter().enumerate() {
+        if m.y0.len() != REDUCED_DIM {
+            return Err(format!(
+                "bad job: member {} has {} values in y0, the state has {REDUCED_DIM}",
+                range.start + i,
+                m.y0.len()
+            ));
         }
+    }
+    let setup = |i: usize| -> Result<(Reduced, Vec<f64>), String> {
+        let m = &mine[i];
+        let system = Reduced {
+            prep: prepared(&m.params)?,
+            reference: m.reference.unwrap_or(job.reference),
+            energy: job.energy,
+            residual: job.residual,
+        };
+        Ok((system, m.y0.clone()))
+    };
+    let settings = Ensemble {
+        method: job.method,
+        t0: job.t0,
+        times: &job.times,
+        options: job.options,
+        threads: a.threads,
+    };
+    let done = AtomicUsize::new(0);
+    let start = Instant::now();
+    let outcomes = std::thread::scope(|scope| {
+        let reporter = a.progress.then(|| scope.spawn(|| report(&done, mine.len(), &start)));
+        let outcomes = integrate_many(&settings, mine.len(), setup, &done);
+        done.store(usize::MAX, Ordering::Relaxed);
+        if let Some(r) = reporter {
+            let _ = r.join();
+        }
+        outcomes
+    })
+    .map_err(|e| e.to_string())?;
+    let seconds = start.elapsed().as_secs_f64();
+    let threads = if a.threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { a.threads };
+    let mut text = serde_json::to_string(&json!({
+        "hamel_ensemble_part": 1,
+        "members": members.len(),
+        "first": range.start,
+        "end": range.end,
+        "state": REDUCED_STATE,
+        "save": job.save,
+        "threads": threads,
+        "seconds": seconds,
+    }))
+    .map_err(|e| e.to_string())?;
+    for (i, outcome) in outcomes.into_iter().enumerate() {
+        let (mut solution, error) = split(outcome);
+        if job.save == Save::Final {
+            keep_last(&mut solution);
+        }
+        text.push('\n');
+        text.push_str(
+            &serde_json::to_string(&json!({
+                "member": range.start + i,
+                "solution": solution,
+                "error": error,
+            }))
+            .map_err(|e| e.to_string())?,
+        );
+    }
+    text.push('\n');
+    Ok(text)
+}
+
+/// `progress DONE TOTAL` on stderr every 100 ms until `done` is set to `usize::MAX`.
+fn report(done: &AtomicUsize, total: usize, start: &Instant) {
+    let mut last = usize::MAX - 1;
+    loop {
+        let now = done.load(Ordering::Relaxed);
+        let finished = now == usize::MAX;
+        let now = if finished { total } else { now };
+        if now != last {
+            eprintln!("progress {now} {total} {:.3}", start.elapsed().as_secs_f64());
+            last = now;
+        }
+        if finished {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+/// Only the last output of a solution (its statistics kept).
+fn keep_last(s: &mut Solution) {
+    let Some(j) = s.t.len().checked_sub(1) else {
+        return;
+    };
+    let last = s.y[j].to_vec();
+    s.t = vec![s.t[j]];
+    s.y.truncate(0);
+    s.y.push(&last);
+    s.energy = s.energy.split_off(j);
+    s.constraint = s.constraint.split_off(j);
+}
+
+/// Write `text` to `path` whole: a temporary file beside it, renamed.
+fn write_whole(path: &std::path::Path, text: &str) -> Result<(), String> {
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    std::fs::write(&tmp, text)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            format!("cannot write {}: {e}", path.display())
+        })
+}
+
+fn run() -> Result<(), String> {
+    let a = args()?;
+    let job = read_job(&a)?;
+    let text = match &job.members {
+        Some(members) => ensemble(&job, members, &a)?,
+        None => single(&job)? + "\n",
+    };
+    match &a.output {
+        Some(path) => write_whole(path, &text),
+        None => std::io::stdout()
+            .write_all(text.as_bytes())
+            .map_err(|e| format!("cannot write the answer: {e}")),
+    }
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("error: {e}");
+        std::process::exit(2);
     }
 }

@@ -43,6 +43,7 @@ pub fn simulator() -> String {
     doc["package"] = package_table("hamel-sim");
     let mut deps = Table::new();
     deps["nalgebra"] = value("0.34");
+    deps["rayon"] = value("1");
     deps["serde"] = value(with_features("1", &["derive"]));
     deps["thiserror"] = value("2");
     doc["dependencies"] = Item::Table(deps);

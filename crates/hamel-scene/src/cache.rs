@@ -636,6 +636,21 @@ pub struct Job<'a> {
     pub repeat: usize,
     /// Parameter values other than the core's defaults (a core not specialised).
     pub params: IndexMap<String, f64>,
+    /// An ensemble's members (empty: one integration of `y0`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub members: Vec<Member>,
+    /// What an ensemble keeps of each member.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub save: Option<crate::file::Save>,
+}
+
+/// A member of an ensemble job: its state in the core's order, the values of the parameters
+/// the core was not specialised for, and the reference value of the eliminated coordinates.
+#[derive(Serialize)]
+pub struct Member {
+    pub y0: Vec<f64>,
+    pub params: IndexMap<String, f64>,
+    pub reference: f64,
 }
 
 #[derive(Deserialize)]
@@ -643,6 +658,66 @@ struct Answer {
     solution: Solution,
     error: Option<String>,
     seconds: f64,
+}
+
+/// Run the ensemble `job` on the binary with `threads` threads (0: one per core): what it
+/// writes (its JSON lines), with `progress(done, total)` called as members finish.
+pub fn run_ensemble(
+    binary: &Path,
+    job: &Job,
+    threads: usize,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<String, CacheError> {
+    use std::io::{BufRead, Read};
+    let core = |why: String| CacheError::Core {
+        binary: binary.to_path_buf(),
+        why,
+    };
+    let mut child = Command::new(binary)
+        .args(["--progress", "--threads", &threads.to_string()])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| core(format!("cannot run it: {e}")))?;
+    let stderr = child.stderr.take().expect("piped");
+    let mut stdout = child.stdout.take().expect("piped");
+    let (out, errors) = std::thread::scope(|scope| {
+        // Progress lines are read as they come; anything else is kept for the error message.
+        let reader = scope.spawn(move || {
+            let mut other = String::new();
+            for line in std::io::BufReader::new(stderr)
+                .lines()
+                .map_while(Result::ok)
+            {
+                match progress_line(&line) {
+                    Some((done, total)) => progress(done, total),
+                    None => other.push_str(&line),
+                }
+            }
+            other
+        });
+        let sent = child
+            .stdin
+            .take()
+            .expect("piped")
+            .write_all(serde_json::to_string(job).expect("serialisable").as_bytes());
+        let mut out = String::new();
+        let read = stdout.read_to_string(&mut out);
+        let other = reader.join().unwrap_or_default();
+        (sent.and(read).map(|_| out), other)
+    });
+    let status = child.wait().map_err(|e| core(e.to_string()))?;
+    if !status.success() {
+        return Err(core(format!("failed: {}", errors.trim())));
+    }
+    out.map_err(|e| core(format!("cannot exchange the job with it: {e}")))
+}
+
+/// `progress DONE TOTAL SECONDS` as the core writes it.
+fn progress_line(line: &str) -> Option<(usize, usize)> {
+    let mut words = line.strip_prefix("progress ")?.split(' ');
+    Some((words.next()?.parse().ok()?, words.next()?.parse().ok()?))
 }
 
 /// Run `job` on the binary: the solution (partial on failure), the failure, the median time

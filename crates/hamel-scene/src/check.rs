@@ -67,6 +67,9 @@ pub fn check(
         .map_err(|e| err("parameters", e.to_string()))?;
     let (q0, completed) = initial_q(&scene, &model, &params, &file)?;
     let times = output_times(&scene, &file)?;
+    if let Some(spec) = &scene.ensemble {
+        crate::members::check_spec(spec, &model).map_err(|(k, m)| err(&k, m))?;
+    }
     Ok(Checked {
         scene,
         file,
@@ -204,7 +207,6 @@ fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), Mode
     Ok((method, options))
 }
 
-/// The initial configuration, every coordinate of the model in its order.
 /// The initial configuration: every coordinate given, except the dependent coordinates of
 /// holonomic constraints, which are completed from h(q) = 0 (Newton, from the value given or 0).
 fn initial_q(
@@ -213,30 +215,35 @@ fn initial_q(
     params: &IndexMap<String, f64>,
     file: &SceneFile,
 ) -> Result<(Vec<f64>, Vec<Completed>), ModelError> {
-    let err = |m: String| file.error(Some("initial.q"), m);
-    if let Some(extra) = scene
-        .initial
-        .q
-        .keys()
-        .find(|k| !model.coordinates.contains(k))
-    {
-        return Err(err(format!("`{extra}` is not a coordinate of the model")));
+    configuration(&scene.initial.q, model, params).map_err(|m| file.error(Some("initial.q"), m))
+}
+
+/// The configuration, every coordinate of the model in its order, from the values `given` by
+/// name: the dependent coordinates of holonomic constraints may be missing, and are completed
+/// from h(q) = 0 (Newton, from the value given or 0). Error: why it cannot be made.
+pub(crate) fn configuration(
+    given: &IndexMap<String, f64>,
+    model: &Model,
+    params: &IndexMap<String, f64>,
+) -> Result<(Vec<f64>, Vec<Completed>), String> {
+    if let Some(extra) = given.keys().find(|k| !model.coordinates.contains(k)) {
+        return Err(format!("`{extra}` is not a coordinate of the model"));
     }
     let dependent = model.completion.dependent();
     let mut q = Vec::with_capacity(model.coordinates.len());
     for (k, c) in model.coordinates.iter().enumerate() {
-        match scene.initial.q.get(c) {
+        match given.get(c) {
             Some(&v) => q.push(v),
             None if dependent.contains(&k) => q.push(0.0),
-            None => return Err(err(format!("missing coordinate `{c}`"))),
+            None => return Err(format!("missing coordinate `{c}`")),
         }
     }
-    let given: Vec<bool> = model
+    let known: Vec<bool> = model
         .coordinates
         .iter()
-        .map(|c| scene.initial.q.contains_key(c))
+        .map(|c| given.contains_key(c))
         .collect();
-    let completed = complete_initial(model, params, &mut q, &given).map_err(err)?;
+    let completed = complete_initial(model, params, &mut q, &known)?;
     Ok((q, completed))
 }
 

@@ -122,9 +122,21 @@ impl ParsedExpression {
         params: &IndexMap<String, f64>,
         d: &hamel_derive::Derivation,
     ) -> Result<OutputExpression, (String, String)> {
+        self.specialised_over(params, &[], d)
+    }
+
+    #[cfg(feature = "derive")]
+    /// [`Self::specialised`] with the parameters `free` left as inputs, after the coordinates
+    /// and eta1… (an ensemble's members that vary them).
+    pub(crate) fn specialised_over(
+        &self,
+        params: &IndexMap<String, f64>,
+        free: &[String],
+        d: &hamel_derive::Derivation,
+    ) -> Result<OutputExpression, (String, String)> {
         let key = format!("expressions.{}", self.name);
         let mut values = std::collections::HashMap::new();
-        for (name, &v) in params {
+        for (name, &v) in params.iter().filter(|(n, _)| !free.contains(n)) {
             let r = hamel_expr::rational_of_f64(v).ok_or_else(|| {
                 (
                     key.clone(),
@@ -139,6 +151,7 @@ impl ParsedExpression {
             .iter()
             .cloned()
             .chain((1..=d.sigma).map(|i| format!("eta{i}")))
+            .chain(free.iter().cloned())
             .collect();
         let tape = hamel_expr::Tape::compile(&[&expr], &inputs)
             .map_err(|e| (key, format!("cannot compile: {e}")))?;

@@ -32,6 +32,53 @@ pub struct Scene {
     /// An accuracy target instead of an explicit integrator.
     pub accuracy: Option<Accuracy>,
     pub integrator: Option<Integrator>,
+    /// Many runs of the scene: members that change its initial state and parameters.
+    pub ensemble: Option<Ensemble>,
+}
+
+/// `[ensemble]`: the members, from a file or drawn from distributions with a seed, and what
+/// is kept of each.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ensemble {
+    /// A file of members, relative to the scene: CSV with a header line, or JSON lines (one
+    /// object per member); the names are coordinates, `eta1`…, and parameters, and what a
+    /// member does not give is the scene's.
+    pub file: Option<String>,
+    /// How many members to draw from `vary`.
+    pub members: Option<usize>,
+    /// The seed of the draws (ChaCha8; the same seed draws the same members everywhere).
+    #[serde(default)]
+    pub seed: u64,
+    /// Distributions by name (coordinates, `eta1`…, parameters), drawn in this order for
+    /// each member in turn.
+    #[serde(default)]
+    pub vary: IndexMap<String, Distribution>,
+    /// What is kept of each member.
+    #[serde(default)]
+    pub save: Save,
+}
+
+/// A distribution to draw a member's value from.
+#[derive(Clone, Copy, Debug, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase", deny_unknown_fields)]
+pub enum Distribution {
+    /// Uniform on [low, high).
+    Uniform([f64; 2]),
+    /// Normal with [mean, standard deviation].
+    Normal([f64; 2]),
+}
+
+/// What an ensemble keeps of each member: the requested outputs at every output time, or at
+/// the last one only (with the member's statistics either way).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Save {
+    /// Every output time.
+    Outputs,
+    /// The last output time.
+    #[default]
+    Final,
 }
 
 /// `[accuracy]`: relative and absolute error wanted on the outputs.

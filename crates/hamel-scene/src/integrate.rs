@@ -100,6 +100,38 @@ impl Loaded {
         })
     }
 
+    /// A state in the plan's order (integrated, then reconstructed coordinates, then η) in the
+    /// order of the scene's core (the kept coordinates in model order, then η).
+    pub(crate) fn to_core(&self, y: &[f64]) -> Vec<f64> {
+        let n = self.state.len();
+        let mut kept: Vec<(usize, f64)> =
+            self.state.iter().copied().zip(y.iter().copied()).collect();
+        kept.sort_unstable_by_key(|&(k, _)| k);
+        kept.into_iter()
+            .map(|(_, v)| v)
+            .chain(y[n..].iter().copied())
+            .collect()
+    }
+
+    /// The states of a solution of the scene's core back in the plan's order ([`Self::to_core`]
+    /// undone).
+    pub(crate) fn back_from_core(&self, solution: &mut Solution) {
+        let mut kept = self.state.clone();
+        kept.sort_unstable();
+        let from: Vec<usize> = self
+            .state
+            .iter()
+            .map(|k| kept.iter().position(|x| x == k).expect("state = kept"))
+            .collect();
+        let mut row = vec![0.0; solution.y.dim()];
+        for y in solution.y.iter_mut() {
+            row.copy_from_slice(y);
+            for (j, &i) in from.iter().enumerate() {
+                y[j] = row[i];
+            }
+        }
+    }
+
     /// Integrate the planned state on the scene's compiled core ([`crate::cache`]: built
     /// on first use, cached): the run, the median time of one integration measured inside the
     /// core over `repeat` runs, and whether this call compiled the core. The singular set is
@@ -113,23 +145,10 @@ impl Loaded {
         repeat: usize,
     ) -> Result<(Run, f64, bool), cache::CacheError> {
         let (exe, built) = cache::binary(self.core()?)?;
-        let n = self.state.len();
-        let mut kept = self.state.clone();
-        kept.sort_unstable();
-        let at = |k: usize| {
-            self.state
-                .iter()
-                .position(|&s| s == k)
-                .expect("kept = state")
-        };
         let job = cache::Job {
             t0: self.scene.t0,
             times: &self.times,
-            y0: kept
-                .iter()
-                .map(|&k| self.y0[at(k)])
-                .chain(self.y0[n..].iter().copied())
-                .collect(),
+            y0: self.to_core(&self.y0),
             method,
             options: *options,
             reference: self.reference,
@@ -137,55 +156,14 @@ impl Loaded {
             residual: self.request.constraint_residual,
             repeat,
             params: IndexMap::new(),
+            members: Vec::new(),
+            save: None,
         };
         let (mut solution, error, seconds) = cache::run(&exe, &job)?;
-        // Back to the state order (integrated, then reconstructed).
-        let from: Vec<usize> = self
-            .state
-            .iter()
-            .map(|k| kept.iter().position(|x| x == k).expect("state = kept"))
-            .collect();
-        let mut row = vec![0.0; solution.y.dim()];
-        for y in solution.y.iter_mut() {
-            row.copy_from_slice(y);
-            for (j, &i) in from.iter().enumerate() {
-                y[j] = row[i];
-            }
-        }
-        let mut failure = error.map(|m| self.error("integrator", m));
-        let mut max_condition: Option<(f64, f64)> = None;
-        for j in 0..solution.t.len() {
-            let y = &solution.y[j];
-            let q = self.full_q(y);
-            let delta = self
-                .compiled
-                .evaluate(&q, &y[n..], &self.params)
-                .map(|e| e.delta);
-            if let Ok(delta) = delta
-                && delta.signum() != self.delta0.signum()
-            {
-                failure = Some(self.error(
-                    "integrator",
-                    format!(
-                        "the path crosses the singular set of the quasi-velocities, det[Z; α] = 0, between t = {} and t = {} (δ = {delta:.3e} changed sign); choose other quasi-velocities there",
-                        solution.t[j.saturating_sub(1)],
-                        solution.t[j]
-                    ),
-                ));
-                solution.t.truncate(j);
-                solution.y.truncate(j);
-                solution.energy.truncate(j);
-                solution.constraint.truncate(j);
-                solution.complete = false;
-                break;
-            }
-            if delta.is_ok_and(|d| d.abs() < 1e-3 * self.delta0.abs())
-                && let Ok(cond) = self.compiled.condition(&q, &self.params)
-                && max_condition.is_none_or(|(c, _)| cond > c)
-            {
-                max_condition = Some((cond, solution.t[j]));
-            }
-        }
+        self.back_from_core(&mut solution);
+        let (crossing, max_condition) =
+            self.watch_singular(&mut solution, &self.params, self.delta0);
+        let failure = crossing.or(error).map(|m| self.error("integrator", m));
         Ok((
             Run {
                 solution,
@@ -195,5 +173,46 @@ impl Loaded {
             seconds,
             built,
         ))
+    }
+
+    /// Watch the singular set at the output states of a compiled run started with
+    /// δ = `delta0` (parameters `params`): a sign change of δ = det[Z; α] ends the output
+    /// before it, with the message returned; and the largest condition number of [Z; α] once
+    /// |δ| has fallen below 1e-3 of its start, and when.
+    pub(crate) fn watch_singular(
+        &self,
+        solution: &mut Solution,
+        params: &IndexMap<String, f64>,
+        delta0: f64,
+    ) -> (Option<String>, Option<(f64, f64)>) {
+        let n = self.state.len();
+        let mut max_condition: Option<(f64, f64)> = None;
+        for j in 0..solution.t.len() {
+            let y = &solution.y[j];
+            let q = self.full_q(y);
+            let delta = self.compiled.evaluate(&q, &y[n..], params).map(|e| e.delta);
+            if let Ok(delta) = delta
+                && delta.signum() != delta0.signum()
+            {
+                let message = format!(
+                    "the path crosses the singular set of the quasi-velocities, det[Z; α] = 0, between t = {} and t = {} (δ = {delta:.3e} changed sign); choose other quasi-velocities there",
+                    solution.t[j.saturating_sub(1)],
+                    solution.t[j]
+                );
+                solution.t.truncate(j);
+                solution.y.truncate(j);
+                solution.energy.truncate(j);
+                solution.constraint.truncate(j);
+                solution.complete = false;
+                return (Some(message), max_condition);
+            }
+            if delta.is_ok_and(|d| d.abs() < 1e-3 * delta0.abs())
+                && let Ok(cond) = self.compiled.condition(&q, params)
+                && max_condition.is_none_or(|(c, _)| cond > c)
+            {
+                max_condition = Some((cond, solution.t[j]));
+            }
+        }
+        (None, max_condition)
     }
 }

@@ -39,6 +39,8 @@ pub mod cache;
 pub mod check;
 #[cfg(feature = "derive")]
 pub mod compare;
+#[cfg(feature = "derive")]
+pub mod ensemble;
 pub mod expressions;
 pub mod file;
 pub mod initial;
@@ -48,6 +50,7 @@ pub mod integrate;
 pub mod load;
 #[cfg(feature = "derive")]
 pub mod measure;
+pub mod members;
 #[cfg(feature = "derive")]
 pub mod plan;
 #[cfg(feature = "derive")]

@@ -33,6 +33,8 @@ pub struct Loaded {
     pub(crate) params: IndexMap<String, f64>,
     /// The scene's requested `[expressions]`, parameters substituted.
     pub(crate) expressions: Vec<OutputExpression>,
+    /// The scene's `[expressions]` as parsed (for an ensemble whose members vary parameters).
+    pub(crate) parsed: Vec<ParsedExpression>,
     /// The coordinates in the integrated state (integrated, then reconstructed).
     pub(crate) state: Vec<usize>,
     /// The initial configuration, every coordinate.
@@ -121,6 +123,7 @@ pub fn load_with(
         integrator: (method, options),
         params,
         expressions,
+        parsed,
         state,
         q0,
         y0,
@@ -185,7 +188,7 @@ fn choose(
 /// The value at which the dropped coordinates are held, where the equations evaluate at the
 /// initial state (they are free of them; [Z; α] may still be singular at some values), and
 /// δ = det[Z; α] there. Error: why none of the values tried works.
-fn start(
+pub(crate) fn start(
     compiled: &Compiled,
     plan: &Plan,
     q0: &[f64],
@@ -292,6 +295,14 @@ impl Loaded {
     /// The coordinates in the integrated state, by index: integrated, then reconstructed.
     pub fn state(&self) -> &[usize] {
         &self.state
+    }
+
+    /// The names of the state's components: its coordinates, then eta1….
+    pub fn state_names(&self) -> Vec<String> {
+        (self.state.iter())
+            .map(|&k| self.d.coordinates[k].clone())
+            .chain((1..=self.d.sigma).map(|i| format!("eta{i}")))
+            .collect()
     }
 
     /// The model's name.

@@ -98,6 +98,8 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
         residual: loaded.request.constraint_residual,
         repeat,
         params: loaded.params.clone(),
+        members: Vec::new(),
+        save: None,
     };
     let (_, _, first_full) = cache::run(&exe, &full_job(1)).map_err(fail)?;
     let (full, error, full_seconds) =

@@ -92,7 +92,10 @@ pub fn run_loaded(
 
 /// The integrator to run: the scene's, or for an `[accuracy]` target the fastest adaptive
 /// setting measured to meet it (DOP853 at the target's tolerances when none does).
-fn integrator_for(loaded: &Loaded, engine: Engine) -> Result<(Method, Options), ModelError> {
+pub(crate) fn integrator_for(
+    loaded: &Loaded,
+    engine: Engine,
+) -> Result<(Method, Options), ModelError> {
     let (mut method, mut options) = loaded.integrator;
     if let Some((rtol, atol)) = loaded.accuracy {
         let table = tradeoff::table(loaded, tradeoff::Range::Adaptive, engine)?;

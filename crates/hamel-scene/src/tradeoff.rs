@@ -256,7 +256,7 @@ fn measure(
 /// with the scene's parameters and the dropped coordinates' reference value as numbers), the
 /// initial time and state, the output times,
 /// the reference solution on the requested state components, and hamel's DOP853 and DOPRI5
-/// measured on the same components.
+/// measured on the same components; `state` names the components of `y0`.
 ///
 /// hamel's runs compute what the Python integrators compute, the state at the output times:
 /// the energy and the constraint residual, which a scene requests by default, are switched
@@ -305,6 +305,7 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
         "python_into": hamel_codegen::python::rhs_into_function(&tape, &inputs, &header),
         "t0": loaded.scene.t0,
         "y0": loaded.y0,
+        "state": loaded.state_names(),
         "times": loaded.times,
         "requested": loaded.requested_components(),
         "reference": reference,

@@ -6,6 +6,9 @@
 //! controllers and published tableaus; implicit Gauss–Legendre collocation (2 or 3 stages,
 //! orders 4 and 6; symmetric and symplectic) with a fixed step or step-doubling control.
 //!
+//! Many runs at once (Monte Carlo over initial states and parameters, sweeps):
+//! [`integrate_many`] on a rayon pool, outcomes in member order.
+//!
 //! **Inputs**: an [`OdeSystem`] (right-hand side; optionally its Jacobian, energy and
 //! constraint residual), a [`Method`], `t0`, `y0`, output times and [`Options`].
 //! **Outputs**: a [`Solution`] (states, invariants and [`Stats`]), or an [`IntegrationError`]
@@ -49,6 +52,7 @@ mod control;
 mod dop853;
 mod dopri5;
 mod driver;
+mod ensemble;
 mod explicit;
 mod gauss;
 mod rk4;
@@ -60,6 +64,7 @@ mod system;
 mod testing;
 
 pub use driver::{Method, MethodName, Options, integrate};
+pub use ensemble::{Ensemble, EnsembleError, integrate_many};
 pub use solution::{ErrorKind, IntegrationError, Solution, Stats};
 pub use states::States;
 pub use system::{OdeSystem, SystemError};

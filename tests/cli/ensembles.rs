@@ -1,0 +1,256 @@
+//! `hamel simulate` on scenes with `[ensemble]`: members drawn or read from a file, run on the
+//! compiled core's pool, checked against the knife's closed-form solution; failures kept per
+//! member; export, shards run by the core alone, and merge.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use super::{hamel, scratch, stderr};
+
+/// A knife scene (paper's η, rtol 1e-10) with `ensemble` as its `[ensemble]` tables.
+fn knife_ensemble(dir: &Path, ensemble: &str) -> PathBuf {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/knife.toml");
+    let text = format!(
+        "model = {model:?}\neta = \"paper\"\nt_end = 10.0\noutputs = 21\nrequest = [\"x\", \"y\", \"theta\", \"energy\"]\n\n[parameters]\nm = 2.0\n\n[initial]\nq = {{ x = 0.0, y = 0.0, theta = 0.3 }}\neta = [1.0, 0.5]\n\n[integrator]\nmethod = \"dop853\"\nrtol = 1e-10\natol = 1e-12\n\n{ensemble}"
+    );
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The knife with η constant (the paper's choice, section 3.1): θ = θ0 + η2 t and
+/// (x, y) = (x0, y0) + η1 ∫ (cos θ, sin θ) dt, written without dividing by η2; E = ½ m η1²
+/// + ½ (m l²/12) η2² with l = 0.3.
+fn closed_form(theta0: f64, eta: [f64; 2], m: f64, t: f64) -> [f64; 4] {
+    let u = eta[1] * t / 2.0;
+    let sinc = if u == 0.0 { 1.0 } else { u.sin() / u };
+    let mid = theta0 + u;
+    [
+        eta[0] * t * mid.cos() * sinc,
+        eta[0] * t * mid.sin() * sinc,
+        theta0 + eta[1] * t,
+        0.5 * m * eta[0].powi(2) + 0.5 * m * 0.09 / 12.0 * eta[1].powi(2),
+    ]
+}
+
+fn lines(path: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn f(v: &serde_json::Value) -> f64 {
+    v.as_f64().unwrap()
+}
+
+#[test]
+fn drawn_members_follow_the_closed_form_on_one_and_two_threads() {
+    let dir = scratch("ensemble_drawn");
+    let scene = knife_ensemble(
+        &dir,
+        "[ensemble]\nmembers = 300\nseed = 11\nsave = \"outputs\"\n\n[ensemble.vary]\ntheta = { uniform = [0.0, 6.283185307179586] }\neta1 = { normal = [1.0, 0.2] }\neta2 = { uniform = [-1.0, 1.0] }\nm = { uniform = [1.0, 3.0] }\n",
+    );
+    let mut runs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = dir.join(format!("result-{threads}.jsonl"));
+        let args = [
+            "simulate",
+            scene.to_str().unwrap(),
+            "--format",
+            "json",
+            "--threads",
+            threads,
+            "--output",
+            out.to_str().unwrap(),
+        ];
+        let o = hamel(&args, None);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains("300 members"), "{}", stderr(&o));
+        runs.push(lines(&out));
+    }
+    let [one, two] = [&runs[0], &runs[1]];
+    let header = &one[0];
+    assert_eq!(header["members"], 300);
+    assert_eq!(header["failed"], 0);
+    assert_eq!(header["varying"], serde_json::json!(["m"]));
+    assert_eq!(two[0]["threads"], 2);
+    // The same members, bit for bit, whatever the threads.
+    assert_eq!(one[1..], two[1..]);
+    let mut worst = 0.0_f64;
+    for m in &one[1..] {
+        let g = &m["given"];
+        let (theta0, eta, mass) = (f(&g["theta"]), [f(&g["eta1"]), f(&g["eta2"])], f(&g["m"]));
+        let t = m["t"].as_array().unwrap();
+        assert_eq!(t.len(), 21);
+        for (j, tj) in t.iter().enumerate() {
+            let want = closed_form(theta0, eta, mass, f(tj));
+            for (k, name) in ["x", "y", "theta", "energy"].iter().enumerate() {
+                let got = f(&m["values"][name][j]);
+                worst = worst.max((got - want[k]).abs() / want[k].abs().max(1.0));
+            }
+        }
+    }
+    assert!(
+        worst < 1e-8,
+        "largest error against the closed form {worst:e}"
+    );
+}
+
+#[test]
+fn a_members_file_keeps_the_members_that_run_and_names_the_ones_that_fail() {
+    let dir = scratch("ensemble_file");
+    std::fs::write(
+        dir.join("members.csv"),
+        "# theta, eta, mass\ntheta,eta1,eta2,m\n0.1,1.0,0.25,2.0\n0.2,1.0,0.5,-1.0\n,0.5,-0.5,\n",
+    )
+    .unwrap();
+    let scene = knife_ensemble(&dir, "[ensemble]\nfile = \"members.csv\"\n");
+    let out = dir.join("result.csv");
+    let o = hamel(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("1 failed; first: member 1"),
+        "{}",
+        stderr(&o)
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut reader = csv_rows(&text);
+    let header = reader.remove(0);
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!(reader.len(), 3);
+    // Member 1 (negative mass) fails with its reason; 0 and 2 run, 2 with the scene's θ and m.
+    assert_eq!(reader[1][col("complete")], "false");
+    assert!(
+        reader[1][col("error")].contains("positive definite"),
+        "{:?}",
+        reader[1]
+    );
+    for (i, theta0, eta, m) in [(0, 0.1, [1.0, 0.25], 2.0), (2, 0.3, [0.5, -0.5], 2.0)] {
+        let row = &reader[i];
+        assert_eq!(row[col("complete")], "true");
+        let want = closed_form(theta0, eta, m, 10.0);
+        for (k, name) in ["x", "y", "theta", "energy"].iter().enumerate() {
+            let got: f64 = row[col(name)].parse().unwrap();
+            assert!(
+                (got - want[k]).abs() < 1e-8 * want[k].abs().max(1.0),
+                "{name}: {got} vs {}",
+                want[k]
+            );
+        }
+    }
+    // A bad cell: located in the members file, non-zero exit, nothing written.
+    std::fs::write(dir.join("members.csv"), "theta,m\n0.1,2\n0.2,heavy\n").unwrap();
+    let bad = dir.join("bad.csv");
+    let o = hamel(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--output",
+            bad.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("members.csv") && e.contains("line 3") && e.contains("`heavy`"),
+        "{e}"
+    );
+    assert!(!bad.exists());
+}
+
+/// A CSV file's rows (no quoted commas in these).
+fn csv_rows(text: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+#[test]
+fn an_exported_ensemble_runs_in_shards_without_hamel_and_merges_to_the_same_result() {
+    let dir = scratch("ensemble_export");
+    let scene = knife_ensemble(
+        &dir,
+        "[ensemble]\nmembers = 500\nseed = 3\n\n[ensemble.vary]\neta2 = { normal = [0.0, 0.5] }\n",
+    );
+    let scene = scene.to_str().unwrap();
+    let direct = dir.join("direct.jsonl");
+    let o = hamel(
+        &[
+            "simulate",
+            scene,
+            "--format",
+            "json",
+            "--output",
+            direct.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let job = dir.join("job");
+    let o = hamel(
+        &[
+            "simulate",
+            scene,
+            "--export-ensemble",
+            job.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--shard K/N"), "{}", stderr(&o));
+    // Three tasks of the core alone, as a job array would run them.
+    let mut parts = Vec::new();
+    for k in 0..3 {
+        let part = job.join(format!("part-{k}.jsonl"));
+        let o = Command::new(job.join("core"))
+            .args(["--job", job.join("job.json").to_str().unwrap(), "--shard"])
+            .arg(format!("{k}/3"))
+            .args(["--threads", "1", "--output", part.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        parts.push(part.to_str().unwrap().to_string());
+    }
+    let merged = dir.join("merged.jsonl");
+    let mut args = vec!["simulate", scene, "--format", "json", "--output"];
+    args.push(merged.to_str().unwrap());
+    args.push("--merge");
+    args.extend(parts.iter().map(String::as_str));
+    let o = hamel(&args, None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (a, b) = (lines(&direct), lines(&merged));
+    assert_eq!(a.len(), 501);
+    assert_eq!(a[1..], b[1..]);
+    // A missing part is an error naming where the gap is; nothing is written.
+    let partial = dir.join("partial.jsonl");
+    let o = hamel(
+        &[
+            "simulate",
+            scene,
+            "--output",
+            partial.to_str().unwrap(),
+            "--merge",
+            &parts[0],
+            &parts[2],
+        ],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("leaves a gap before it"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!partial.exists());
+}
