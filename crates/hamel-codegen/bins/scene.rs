@@ -30,7 +30,9 @@ use hamel_generated::{
     COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM, REDUCED_STATE,
     energy, project, reduced_into_with, reduced_jacobian_with, residual_max,
 };
-use hamel_sim::{Ensemble, Method, OdeSystem, Options, Solution, SystemError, integrate_many};
+use hamel_sim::{
+    Ensemble, Method, OdeSystem, Options, Solution, States, SystemError, integrate_many,
+};
 use serde::Serialize;
 use serde::Deserialize;
 use serde_json::json;
@@ -261,7 +263,10 @@ fn single(job: &Job) -> Result<String, String> {
 fn split(r: Result<Solution, hamel_sim::IntegrationError>) -> (Solution, Option<String>) {
     match r {
         Ok(s) => (s, None),
-        Err(e) => (*e.partial.clone(), Some(e.to_string())),
+        Err(e) => {
+            let message = e.to_string();
+            (*e.partial, Some(message))
+        }
     }
 }
 
@@ -304,7 +309,15 @@ fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
     let start = Instant::now();
     let outcomes = std::thread::scope(|scope| {
         let reporter = a.progress.then(|| scope.spawn(|| report(&done, mine.len(), &start)));
-        let outcomes = integrate_many(&settings, mine.len(), setup, &done);
+        // What is kept of a member is made on the worker, so the solutions do not pile up.
+        let keep = |_: usize, r: Result<Solution, hamel_sim::IntegrationError>| {
+            let (mut solution, error) = split(r);
+            if job.save == Save::Final {
+                keep_last(&mut solution);
+            }
+            (solution, error)
+        };
+        let outcomes = integrate_many(&settings, mine.len(), setup, keep, &done);
         done.store(usize::MAX, Ordering::Relaxed);
         if let Some(r) = reporter {
             let _ = r.join();
@@ -325,11 +338,7 @@ fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
         "seconds": seconds,
     }))
     .map_err(|e| e.to_string())?;
-    for (i, outcome) in outcomes.into_iter().enumerate() {
-        let (mut solution, error) = split(outcome);
-        if job.save == Save::Final {
-            keep_last(&mut solution);
-        }
+    for (i, (solution, error)) in outcomes.into_iter().enumerate() {
         text.push('\n');
         text.push_str(
             &serde_json::to_string(&json!({
@@ -362,17 +371,18 @@ fn report(done: &AtomicUsize, total: usize, start: &Instant) {
     }
 }
 
-/// Only the last output of a solution (its statistics kept).
+/// Only the last output of a solution (its statistics kept), in buffers of that size: the
+/// run's own are freed, to be reused by the next member.
 fn keep_last(s: &mut Solution) {
     let Some(j) = s.t.len().checked_sub(1) else {
         return;
     };
-    let last = s.y[j].to_vec();
+    let mut y = States::with_capacity(s.y.dim(), 1);
+    y.push(&s.y[j]);
+    s.y = y;
     s.t = vec![s.t[j]];
-    s.y.truncate(0);
-    s.y.push(&last);
-    s.energy = s.energy.split_off(j);
-    s.constraint = s.constraint.split_off(j);
+    s.energy = vec![s.energy[j]];
+    s.constraint = vec![s.constraint[j]];
 }
 
 /// Write `text` to `path` whole: a temporary file beside it, renamed.

@@ -432,6 +432,42 @@ fn diagonal_blocks(a: &[Vec<Expr>]) -> Vec<Vec<usize>> {
     blocks
 }
 
+/// The definiteness tests of a symmetric matrix without divisions where it can: for each
+/// diagonal block ([`diagonal_blocks`]) of at most 3 rows its leading principal minors (all
+/// > 0 iff the block is positive definite, Sylvester's criterion), for a larger one the pivots
+/// of its elimination.
+fn block_minors(a: &[Vec<Expr>]) -> Vec<Expr> {
+    use fold::*;
+    let mut tests = Vec::new();
+    for rows in diagonal_blocks(a) {
+        let m = |i: usize, j: usize| a[rows[i]][rows[j]].clone();
+        let minor2 = |i: usize, j: usize, k: usize, l: usize| {
+            sub(mul(m(i, k), m(j, l)), mul(m(i, l), m(j, k)))
+        };
+        match rows.len() {
+            1 => tests.push(m(0, 0)),
+            2 => tests.extend([m(0, 0), minor2(0, 1, 0, 1)]),
+            3 => {
+                // Expanded along the first row.
+                let det = add(
+                    sub(
+                        mul(m(0, 0), minor2(1, 2, 1, 2)),
+                        mul(m(0, 1), minor2(1, 2, 0, 2)),
+                    ),
+                    mul(m(0, 2), minor2(1, 2, 0, 1)),
+                );
+                tests.extend([m(0, 0), minor2(0, 1, 0, 1), det]);
+            }
+            n => {
+                let sub_a: Vec<Vec<Expr>> =
+                    (0..n).map(|i| (0..n).map(|j| m(i, j)).collect()).collect();
+                tests.extend(eliminate(sub_a, vec![Expr::int(0); n]).1);
+            }
+        }
+    }
+    tests
+}
+
 /// a x = b block by block ([`diagonal_blocks`]): Cramer's rule on the entries for blocks of at
 /// most 3 rows (the determinant and adjugate as products of entries, not expanded; one
 /// reciprocal of the determinant per block), elimination for larger ones. Returns x and the
@@ -625,8 +661,12 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
     }
     if let Some(eta_dot) = &ing.eta_dot {
         let x: Vec<Expr> = eta_dot.iter().map(|e| hor(&rename(&e.expr))).collect();
-        let (_, pivots) = eliminate(a_hor, vec![Expr::int(0); g]);
-        out.push(assemble("normal form", x, q_dot(&hor), pivots));
+        out.push(assemble(
+            "normal form",
+            x,
+            q_dot(&hor),
+            block_minors(&a_hor),
+        ));
     }
     out
 }
@@ -737,7 +777,15 @@ fn lets(tape: &Tape, slots: &Slots, part: Part) -> String {
             Op::Add(v) => ordered(k, v, " + "),
             Op::Mul(v) => ordered(k, v, " * "),
             Op::Neg(a) => format!("-t{a}"),
-            Op::Div(a, b) => format!("t{a} / t{b}"),
+            // A constant divisor: a multiplication by its reciprocal, rounded once (a division
+            // costs several multiplications; the quotient moves by at most an ulp).
+            Op::Div(a, b) => match &ops[*b] {
+                Op::Const(r) if *r.numer() != 0.into() => {
+                    let recip = Expr::rational_to_f64(&r.recip());
+                    format!("t{a} * S::constant({})", lit(recip))
+                }
+                _ => format!("t{a} / t{b}"),
+            },
             Op::PowI(a, n) => format!("t{a}.powi({n})"),
             Op::PowF(a, b) => format!("t{a}.powf(t{b})"),
             Op::Call(f, a) if partner[k].is_some() => {

@@ -89,10 +89,21 @@ impl Controller {
     /// step may not grow (Hairer's `REJECT` flag).
     #[inline]
     pub(crate) fn verdict(&self, h: f64, err: f64, after_reject: bool) -> Verdict {
-        let fac11 = err.powf(self.expo);
+        // err^(1/8) (DOP853 without Lund stabilisation) by three square roots, each
+        // correctly rounded: a third of the time of `powf`, within two ulps of it.
+        let fac11 = if self.expo == 0.125 {
+            err.sqrt().sqrt().sqrt()
+        } else {
+            err.powf(self.expo)
+        };
         if err <= 1.0 {
-            let fac = (fac11 / self.fac_old.powf(self.beta) / self.safe)
-                .clamp(1.0 / self.fac_max, 1.0 / self.fac_min);
+            // β = 0 (DOP853's default): no Lund stabilisation, and no power to compute.
+            let lund = if self.beta == 0.0 {
+                1.0
+            } else {
+                self.fac_old.powf(self.beta)
+            };
+            let fac = (fac11 / lund / self.safe).clamp(1.0 / self.fac_max, 1.0 / self.fac_min);
             let mut h_new = (h / fac).abs().min(self.h_max);
             if after_reject {
                 h_new = h_new.min(h.abs());

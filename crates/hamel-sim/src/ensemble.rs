@@ -47,8 +47,11 @@ pub struct EnsembleError {
 
 /// Integrate members `0..n` on a pool of `ensemble.threads` threads: `member(i)` gives the
 /// i-th system and initial state, or why it cannot be set up (reported as that member's
-/// [`ErrorKind::InvalidInput`]). Outcomes are in member order; `done` counts the members
-/// finished (for a progress bar drawn by another thread).
+/// [`ErrorKind::InvalidInput`]); `output(i, outcome)` makes what is kept of member i (as
+/// DifferentialEquations.jl's `output_func`), on the worker, as soon as it finishes — the last
+/// state only, say, so that the solutions do not pile up in memory. The kept values are in
+/// member order; `done` counts the members finished (for a progress bar drawn by another
+/// thread).
 ///
 /// ```
 /// use std::sync::atomic::AtomicUsize;
@@ -67,20 +70,25 @@ pub struct EnsembleError {
 /// let ensemble = Ensemble { method: Method::Dop853, t0: 0.0, times: &[1.0],
 ///                           options: Options::default(), threads: 2 };
 /// let done = AtomicUsize::new(0);
-/// let out = integrate_many(&ensemble, 100, |i| Ok((Decay(i as f64 / 100.0), vec![1.0])), &done)?;
-/// let y = out[50].as_ref().unwrap().y[0][0];
+/// let member = |i: usize| Ok((Decay(i as f64 / 100.0), vec![1.0]));
+/// let last = |_i: usize, outcome: Result<hamel_sim::Solution, _>| outcome.map(|s| s.y[0][0]);
+/// let out = integrate_many(&ensemble, 100, member, last, &done)?;
+/// let y = *out[50].as_ref().unwrap();
 /// assert!((y - (-0.5f64).exp()).abs() < 1e-9);
 /// # Ok::<(), hamel_sim::EnsembleError>(())
 /// ```
-pub fn integrate_many<S, F>(
+pub fn integrate_many<S, F, O, T>(
     ensemble: &Ensemble<'_>,
     n: usize,
     member: F,
+    output: O,
     done: &AtomicUsize,
-) -> Result<Vec<Result<Solution, IntegrationError>>, EnsembleError>
+) -> Result<Vec<T>, EnsembleError>
 where
     S: OdeSystem,
     F: Fn(usize) -> Result<(S, Vec<f64>), String> + Sync,
+    O: Fn(usize, Result<Solution, IntegrationError>) -> T + Sync,
+    T: Send,
 {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(ensemble.threads)
@@ -94,9 +102,9 @@ where
         (0..n)
             .into_par_iter()
             .map(|i| {
-                let outcome = run_member(ensemble, &member, i);
+                let kept = output(i, run_member(ensemble, &member, i));
                 done.fetch_add(1, Ordering::Relaxed);
-                outcome
+                kept
             })
             .collect()
     }))
@@ -167,7 +175,7 @@ mod tests {
                 threads,
             };
             let done = AtomicUsize::new(0);
-            let out = integrate_many(&ensemble, 40, member, &done).unwrap();
+            let out = integrate_many(&ensemble, 40, member, |_, o| o, &done).unwrap();
             assert_eq!(done.load(Ordering::Relaxed), 40);
             assert_eq!(out.len(), 40);
             for (i, o) in out.iter().enumerate() {
@@ -190,6 +198,25 @@ mod tests {
     }
 
     #[test]
+    fn the_output_function_keeps_what_it_returns_in_member_order() {
+        let ensemble = Ensemble {
+            method: Method::Dop853,
+            t0: 0.0,
+            times: &[0.5, 1.0],
+            options: Options::default(),
+            threads: 2,
+        };
+        let last = |i: usize, o: Result<Solution, IntegrationError>| {
+            (i, o.ok().and_then(|s| s.y.last().map(|y| y[0])))
+        };
+        let out = integrate_many(&ensemble, 20, member, last, &AtomicUsize::new(0)).unwrap();
+        for (i, (j, y)) in out.iter().enumerate() {
+            assert_eq!(i, *j);
+            assert_eq!(y.is_none(), i == 3 || i == 5);
+        }
+    }
+
+    #[test]
     fn the_same_members_give_the_same_bits_on_one_and_two_threads() {
         let run = |threads| {
             let ensemble = Ensemble {
@@ -199,7 +226,7 @@ mod tests {
                 options: Options::default(),
                 threads,
             };
-            integrate_many(&ensemble, 64, member, &AtomicUsize::new(0)).unwrap()
+            integrate_many(&ensemble, 64, member, |_, o| o, &AtomicUsize::new(0)).unwrap()
         };
         assert_eq!(run(1), run(2));
     }

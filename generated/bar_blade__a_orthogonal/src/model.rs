@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 316 arithmetic operations as
 //! separate trees, 126 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 168 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 167 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 168 operations, 82 of them at run time with fixed parameters, against the structured path's 254 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 6.0e-16 (structured path: 6.0e-14; reference: double-double). Candidates (operations at run time / in all): `normal form` 82/168, `Cramer's rule on blocks` 112/248, `Cramer's rule on block entries` 115/250, `elimination of normal forms` 117/252, `elimination` 230/367.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 167 operations, 81 of them at run time with fixed parameters, against the structured path's 254 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 6.0e-16 (structured path: 6.0e-14; reference: double-double). Candidates (operations at run time / in all): `normal form` 81/167, `Cramer's rule on blocks` 112/248, `Cramer's rule on block entries` 115/250, `elimination of normal forms` 117/252, `elimination` 230/367.
 //!
 //! **States.** Full: q = (x, y, theta, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from
@@ -761,10 +761,10 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 14]) -> 
     let t140 = t0 * t139;
     let t141 = t127 + t140;
     let t142 = t118 / t89;
-    let t143 = t85 / t142;
-    let t144 = t126 * t126 * t143;
+    let t143 = t139 * t142;
+    let t144 = t126 * t126;
     let t145 = -t144;
-    let t146 = t139 + t145;
+    let t146 = t143 + t145;
     if !(t142.value() > 0.0 && t146.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
@@ -845,7 +845,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t11 = t7 + t10 + t8;
     let t12 = t5 / t11;
     let t13 = t0 * t12;
-    let t14 = t13 / t6;
+    let t14 = t13 * S::constant(0.5);
     let t16 = t1 * t3 * t15;
     let t17 = -t16;
     let t18 = S::constant(p.l_r);
@@ -871,7 +871,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t38 = t9 * t26 * t29 * t11;
     let t39 = t37 / t38;
     let t40 = t21 * t39;
-    let t41 = t40 / t6;
+    let t41 = t40 * S::constant(0.5);
     let t42 = t21 * t41;
     let t43 = t24 + t42;
     Ok(t43)
@@ -1044,10 +1044,10 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 13]) -> Result<[S;
     let t113 = t99 + t112;
     let t114 = t60 * t3;
     let t115 = t114 / t89;
-    let t116 = t85 / t115;
-    let t117 = t98 * t98 * t116;
+    let t116 = t111 * t115;
+    let t117 = t98 * t98;
     let t118 = -t117;
-    let t119 = t111 + t118;
+    let t119 = t116 + t118;
     if !(t115.value() > 0.0 && t119.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }

@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 135 arithmetic operations as
 //! separate trees, 46 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 62 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 61 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 62 operations, 36 of them at run time with fixed parameters, against the structured path's 174 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.5e-16 (structured path: 5.7e-15; reference: double-double); at 12 states approaching the singular set, at most 3.0e-3 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 36/62, `Cramer's rule on block entries` 44/73, `elimination of normal forms` 46/73, `Cramer's rule on blocks` 46/75, `elimination` 56/81.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 61 operations, 35 of them at run time with fixed parameters, against the structured path's 174 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.5e-16 (structured path: 5.7e-15; reference: double-double); at 12 states approaching the singular set, at most 3.0e-3 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 35/61, `Cramer's rule on block entries` 44/73, `elimination of normal forms` 46/73, `Cramer's rule on blocks` 46/75, `elimination` 56/81.
 //!
 //! **States.** Full: q = (x, y, theta, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta), reconstructed from
@@ -476,10 +476,10 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 11], EvalError> {
     let f52 = t42 + t51;
     let f53 = t38 * t48;
     let t55 = S::constant(0.08333333333333333);
-    let t56 = t7 * t41 * t55;
+    let f56 = t7 * t41 * t55;
     let f57 = t7 * t41;
     let f58 = t26 * t48;
-    Ok([t10, t4, t8, t24, t26, t44, f52, f53, f57, f58, t56])
+    Ok([t10, t4, t8, t24, t26, t44, f52, f53, f56, f57, f58])
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
@@ -514,10 +514,10 @@ fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 11], EvalError> {
     let f44 = t34 + t43;
     let f45 = t30 * t40;
     let t47 = S::constant(0.08333333333333333);
-    let t48 = t7 * t33 * t47;
+    let f48 = t7 * t33 * t47;
     let f49 = t7 * t33;
     let f50 = t26 * t40;
-    Ok([t10, t4, t8, t24, t26, t36, f44, f45, f49, f50, t48])
+    Ok([t10, t4, t8, t24, t26, t36, f44, f45, f48, f49, f50])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -570,15 +570,14 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 11]) -> 
     let t52 = S::constant(c[6]) + t45;
     let t53 = S::constant(c[7]) * t14;
     let t54 = t52 / t53;
-    let t56 = S::constant(c[10]);
-    let t57 = S::constant(c[8]) * t1;
-    let t58 = S::constant(c[9]) * t13;
+    let t56 = S::constant(c[8]) * t54;
+    let t57 = S::constant(c[9]) * t1;
+    let t58 = S::constant(c[10]) * t13;
     let t59 = t57 / t58;
-    let t60 = t16 / t54;
-    let t61 = t59 * t59 * t60;
-    let t62 = -t61;
-    let t63 = t56 + t62;
-    if !(t54.value() > 0.0 && t63.value() > 0.0) {
+    let t60 = t59 * t59;
+    let t61 = -t60;
+    let t62 = t56 + t61;
+    if !(t54.value() > 0.0 && t62.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t21, t28], [t31, t33, t36, t3]))
@@ -668,7 +667,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t21 = t19 / t20;
     let t22 = t0 * t21;
     let t23 = S::constant(2.0);
-    let t24 = t22 / t23;
+    let t24 = t22 * S::constant(0.5);
     let t26 = t9 * t11 * t25;
     let t27 = t6 * t16 * t3;
     let t28 = t26 / t27;
@@ -678,7 +677,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t32 = t0 * t31;
     let t33 = S::constant(0.08333333333333333);
     let t34 = t9 * t11 * t33 * t29;
-    let t35 = t34 / t23;
+    let t35 = t34 * S::constant(0.5);
     let t36 = t29 * t35;
     let t37 = t32 + t36;
     Ok(t37)
@@ -794,15 +793,14 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 11]) -> Result<[S;
     let t44 = S::constant(c[6]) + t37;
     let t45 = S::constant(c[7]) * t14;
     let t46 = t44 / t45;
-    let t48 = S::constant(c[10]);
-    let t49 = S::constant(c[8]) * t1;
-    let t50 = S::constant(c[9]) * t13;
+    let t48 = S::constant(c[8]) * t46;
+    let t49 = S::constant(c[9]) * t1;
+    let t50 = S::constant(c[10]) * t13;
     let t51 = t49 / t50;
-    let t52 = t16 / t46;
-    let t53 = t51 * t51 * t52;
-    let t54 = -t53;
-    let t55 = t48 + t54;
-    if !(t46.value() > 0.0 && t55.value() > 0.0) {
+    let t52 = t51 * t51;
+    let t53 = -t52;
+    let t54 = t48 + t53;
+    if !(t46.value() > 0.0 && t54.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t3, t21, t28])

@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 267 arithmetic operations as
 //! separate trees, 122 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 257 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 256 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 257 operations, 101 of them at run time with fixed parameters, against the structured path's 347 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 8.4e-16 (structured path: 4.4e-14; reference: double-double). Candidates (operations at run time / in all): `normal form` 101/257, `Cramer's rule on blocks` 129/372, `Cramer's rule on block entries` 132/374, `elimination of normal forms` 134/376, `elimination` 390/819.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 256 operations, 100 of them at run time with fixed parameters, against the structured path's 347 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 8.4e-16 (structured path: 4.4e-14; reference: double-double). Candidates (operations at run time / in all): `normal form` 100/256, `Cramer's rule on blocks` 129/372, `Cramer's rule on block entries` 132/374, `elimination of normal forms` 134/376, `elimination` 390/819.
 //!
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
@@ -790,7 +790,6 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 25], EvalError> {
     let f204 = t198 + t203;
     let f205 = t8 * t22;
     let f209 = t7 * t44;
-    let t212 = S::constant(1.0);
     Ok([t57, f70, f83, t103, f113, t117, f126, f133, f135, f140, f144, f149, f153, f157, f167, f169, t6, t10, f175, f177, t181, t194, f204, f205, f209])
 }
 
@@ -933,7 +932,6 @@ fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 14], EvalError> {
     let f157 = t151 + t156;
     let f158 = t8 * t22;
     let f162 = t7 * t44;
-    let t165 = S::constant(1.0);
     Ok([t57, f70, f83, t103, f113, t117, f126, f133, f135, f138, t147, f157, f158, f162])
 }
 
@@ -1044,12 +1042,11 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 25]) -> 
     let t209 = S::constant(c[24]) * t108;
     let t210 = -t209;
     let t211 = t210 / t133;
-    let t212 = S::constant(1.0);
-    let t213 = t212 / t211;
-    let t214 = t186 * t186 * t213;
-    let t215 = -t214;
-    let t216 = t206 + t215;
-    if !(t211.value() > 0.0 && t216.value() > 0.0) {
+    let t212 = t206 * t211;
+    let t213 = t186 * t186;
+    let t214 = -t213;
+    let t215 = t212 + t214;
+    if !(t211.value() > 0.0 && t215.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t136, t137], [t147, t156, t166, t185, t208]))
@@ -1144,7 +1141,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t26 = t20 + t22 + t25 + t12 + t16 + t18;
     let t27 = t8 / t26;
     let t28 = t0 * t27;
-    let t29 = t28 / t1;
+    let t29 = t28 * S::constant(0.5);
     let t31 = t1 * t5 * t3 * t30;
     let t32 = t31 / t26;
     let t33 = eta[1];
@@ -1173,7 +1170,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t56 = t23 * t44 * t26;
     let t57 = t55 / t56;
     let t58 = t33 * t57;
-    let t59 = t58 / t1;
+    let t59 = t58 * S::constant(0.5);
     let t60 = t33 * t59;
     let t61 = t36 + t60;
     Ok(t61)
@@ -1383,12 +1380,11 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 14]) -> Result<[S;
     let t162 = S::constant(c[13]) * t108;
     let t163 = -t162;
     let t164 = t163 / t133;
-    let t165 = S::constant(1.0);
-    let t166 = t165 / t164;
-    let t167 = t139 * t139 * t166;
-    let t168 = -t167;
-    let t169 = t159 + t168;
-    if !(t164.value() > 0.0 && t169.value() > 0.0) {
+    let t165 = t159 * t164;
+    let t166 = t139 * t139;
+    let t167 = -t166;
+    let t168 = t165 + t167;
+    if !(t164.value() > 0.0 && t168.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t161, t136, t137])

@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 114 arithmetic operations as
 //! separate trees, 50 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 91 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 90 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 91 operations, 39 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.1e-16 (structured path: 2.4e-14; reference: double-double); at 12 states approaching the singular set, at most 1.3e-3 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 39/91, `Cramer's rule on blocks` 49/107, `Cramer's rule on block entries` 50/93, `elimination of normal forms` 52/93, `elimination` 70/109.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 90 operations, 38 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.1e-16 (structured path: 2.4e-14; reference: double-double); at 12 states approaching the singular set, at most 1.3e-3 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 38/90, `Cramer's rule on blocks` 49/107, `Cramer's rule on block entries` 50/93, `elimination of normal forms` 52/93, `elimination` 70/109.
 //!
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
@@ -653,11 +653,10 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 13], EvalError> {
     let f73 = t68 + t72;
     let f74 = t15 * t69;
     let t76 = S::constant(0.08333333333333333);
-    let t77 = t16 * t62 * t76;
+    let f77 = t16 * t62 * t76;
     let f78 = t16 * t62;
     let f79 = t14 * t69;
-    let t81 = S::constant(1.0);
-    Ok([t18, f25, f31, f37, t14, t8, f50, t65, f73, f74, f78, f79, t77])
+    Ok([t18, f25, f31, f37, t14, t8, f50, t65, f73, f74, f77, f78, f79])
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
@@ -713,11 +712,10 @@ fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 10], EvalError> {
     let f59 = t54 + t58;
     let f60 = t15 * t55;
     let t62 = S::constant(0.08333333333333333);
-    let t63 = t16 * t48 * t62;
+    let f63 = t16 * t48 * t62;
     let f64 = t16 * t48;
     let f65 = t14 * t55;
-    let t67 = S::constant(1.0);
-    Ok([t18, f25, f31, f37, t51, f59, f60, f64, f65, t63])
+    Ok([t18, f25, f31, f37, t51, f59, f60, f63, f64, f65])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -769,16 +767,14 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 13]) -> 
     let t73 = S::constant(c[8]) + t66;
     let t74 = S::constant(c[9]) * t21;
     let t75 = t73 / t74;
-    let t77 = S::constant(c[12]);
-    let t78 = S::constant(c[10]) * t1;
-    let t79 = S::constant(c[11]) * t20;
+    let t77 = S::constant(c[10]) * t75;
+    let t78 = S::constant(c[11]) * t1;
+    let t79 = S::constant(c[12]) * t20;
     let t80 = t78 / t79;
-    let t81 = S::constant(1.0);
-    let t82 = t81 / t75;
-    let t83 = t80 * t80 * t82;
-    let t84 = -t83;
-    let t85 = t77 + t84;
-    if !(t75.value() > 0.0 && t85.value() > 0.0) {
+    let t81 = t80 * t80;
+    let t82 = -t81;
+    let t83 = t77 + t82;
+    if !(t75.value() > 0.0 && t83.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t33, t38], [t41, t43, t46, t52, t3]))
@@ -877,7 +873,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t30 = t28 / t29;
     let t31 = t0 * t30;
     let t32 = S::constant(2.0);
-    let t33 = t31 / t32;
+    let t33 = t31 * S::constant(0.5);
     let t35 = t18 * t20 * t34;
     let t36 = t15 * t25 * t3;
     let t37 = t35 / t36;
@@ -887,7 +883,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t41 = t0 * t40;
     let t42 = S::constant(0.08333333333333333);
     let t43 = t18 * t20 * t42 * t38;
-    let t44 = t43 / t32;
+    let t44 = t43 * S::constant(0.5);
     let t45 = t38 * t44;
     let t46 = t41 + t45;
     Ok(t46)
@@ -1020,16 +1016,14 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 10]) -> Result<[S;
     let t59 = S::constant(c[5]) + t52;
     let t60 = S::constant(c[6]) * t21;
     let t61 = t59 / t60;
-    let t63 = S::constant(c[9]);
-    let t64 = S::constant(c[7]) * t1;
-    let t65 = S::constant(c[8]) * t20;
+    let t63 = S::constant(c[7]) * t61;
+    let t64 = S::constant(c[8]) * t1;
+    let t65 = S::constant(c[9]) * t20;
     let t66 = t64 / t65;
-    let t67 = S::constant(1.0);
-    let t68 = t67 / t61;
-    let t69 = t66 * t66 * t68;
-    let t70 = -t69;
-    let t71 = t63 + t70;
-    if !(t61.value() > 0.0 && t71.value() > 0.0) {
+    let t67 = t66 * t66;
+    let t68 = -t67;
+    let t69 = t63 + t68;
+    if !(t61.value() > 0.0 && t69.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t3, t33, t38])

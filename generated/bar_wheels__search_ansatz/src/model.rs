@@ -11,9 +11,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 114 arithmetic operations as
 //! separate trees, 50 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 166 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 165 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 166 operations, 62 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 5.0e-14 (structured path: 4.3e-14; reference: double-double); at 24 states approaching the singular set, at most 4.5e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 62/166, `Cramer's rule on blocks` 75/203, `Cramer's rule on block entries` 76/187, `elimination of normal forms` 78/187, `elimination` 165/334.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 165 operations, 61 of them at run time with fixed parameters, against the structured path's 275 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 5.0e-14 (structured path: 4.3e-14; reference: double-double); at 24 states approaching the singular set, at most 4.5e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 61/165, `Cramer's rule on blocks` 75/203, `Cramer's rule on block entries` 76/187, `elimination of normal forms` 78/187, `elimination` 165/334.
 //!
 //! **States.** Full: q = (x, y, theta, psi1, phi) and η = (eta1..eta2).
 //! Reduced (state vector `x`): (phi, eta1, eta2); eliminated: (x, y, theta, psi1), reconstructed from
@@ -697,10 +697,9 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 18], EvalError> {
     let t126 = t122 + t125;
     let t127 = t25 * t126;
     let t133 = S::constant(0.08333333333333333);
-    let t134 = t44 * t116 * t133;
+    let f134 = t44 * t116 * t133;
     let t135 = t5 * t44 * t116;
-    let t138 = S::constant(1.0);
-    Ok([f23, f27, f51, f59, f71, f74, f79, t8, t11, f88, f92, f97, t5, t6, f120, t127, t135, t134])
+    Ok([f23, f27, f51, f59, f71, f74, f79, t8, t11, f88, f92, f97, t5, t6, f120, t127, f134, t135])
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
@@ -799,10 +798,9 @@ fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 14], EvalError> {
     let t109 = t105 + t108;
     let t110 = t25 * t109;
     let t116 = S::constant(0.08333333333333333);
-    let t117 = t44 * t99 * t116;
+    let f117 = t44 * t99 * t116;
     let t118 = t5 * t44 * t99;
-    let t121 = S::constant(1.0);
-    Ok([f23, f27, f51, f59, f71, f74, f79, t8, t11, f88, f103, t110, t118, t117])
+    Ok([f23, f27, f51, f59, f71, f74, f79, t8, t11, f88, f103, t110, f117, t118])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -874,16 +872,14 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 18]) -> 
     let t130 = t82.powi(2);
     let t131 = t36 * t129 * t130;
     let t132 = t128 / t131;
-    let t134 = S::constant(c[17]);
-    let t135 = S::constant(c[16]);
+    let t134 = S::constant(c[16]) * t132;
+    let t135 = S::constant(c[17]);
     let t136 = t36 * t82;
     let t137 = t135 / t136;
-    let t138 = S::constant(1.0);
-    let t139 = t138 / t132;
-    let t140 = t137 * t137 * t139;
-    let t141 = -t140;
-    let t142 = t134 + t141;
-    if !(t132.value() > 0.0 && t142.value() > 0.0) {
+    let t138 = t137 * t137;
+    let t139 = -t138;
+    let t140 = t134 + t139;
+    if !(t132.value() > 0.0 && t140.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t84, t89], [t95, t99, t101, t106, t1]))
@@ -990,7 +986,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t39 = t29 / t38;
     let t40 = t0 * t39;
     let t41 = S::constant(2.0);
-    let t42 = t40 / t41;
+    let t42 = t40 * S::constant(0.5);
     let t43 = t6 * t19 * t21;
     let t44 = t26 * t36;
     let t45 = t43 / t44;
@@ -1000,7 +996,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t49 = t0 * t48;
     let t50 = S::constant(0.08333333333333333);
     let t51 = t19 * t21 * t50 * t46;
-    let t52 = t51 / t41;
+    let t52 = t51 * S::constant(0.5);
     let t53 = t46 * t52;
     let t54 = t49 + t53;
     Ok(t54)
@@ -1156,16 +1152,14 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 14]) -> Result<[S;
     let t113 = t82.powi(2);
     let t114 = t36 * t112 * t113;
     let t115 = t111 / t114;
-    let t117 = S::constant(c[13]);
-    let t118 = S::constant(c[12]);
+    let t117 = S::constant(c[12]) * t115;
+    let t118 = S::constant(c[13]);
     let t119 = t36 * t82;
     let t120 = t118 / t119;
-    let t121 = S::constant(1.0);
-    let t122 = t121 / t115;
-    let t123 = t120 * t120 * t122;
-    let t124 = -t123;
-    let t125 = t117 + t124;
-    if !(t115.value() > 0.0 && t125.value() > 0.0) {
+    let t121 = t120 * t120;
+    let t122 = -t121;
+    let t123 = t117 + t122;
+    if !(t115.value() > 0.0 && t123.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t1, t84, t89])

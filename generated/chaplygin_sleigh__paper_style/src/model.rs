@@ -449,7 +449,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t1 = S::constant(p.m);
     let t2 = t1 * t0;
     let t3 = S::constant(2.0);
-    let t4 = t2 / t3;
+    let t4 = t2 * S::constant(0.5);
     let t5 = t0 * t4;
     let t6 = eta[1];
     let t7 = S::constant(p.a);
@@ -458,7 +458,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t10 = S::constant(p.I);
     let t11 = t9 + t10;
     let t12 = t11 * t6;
-    let t13 = t12 / t3;
+    let t13 = t12 * S::constant(0.5);
     let t14 = t6 * t13;
     let t15 = t5 + t14;
     Ok(t15)

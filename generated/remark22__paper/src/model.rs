@@ -451,10 +451,10 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let _ = (q, eta, p);
     let t0 = eta[0];
     let t1 = S::constant(2.0);
-    let t2 = t0 / t1;
+    let t2 = t0 * S::constant(0.5);
     let t3 = t0 * t2;
     let t4 = eta[1];
-    let t5 = t4 / t1;
+    let t5 = t4 * S::constant(0.5);
     let t6 = t4 * t5;
     let t7 = t3 + t6;
     Ok(t7)

@@ -12,9 +12,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 286 arithmetic operations as
 //! separate trees, 58 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 102 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 101 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 102 operations, 84 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 7.2e-13 (structured path: 6.9e-13; reference: double-double); at 12 states approaching the singular set, at most 7.1e-4 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 84/102, `Cramer's rule on blocks` 85/103, `Cramer's rule on block entries` 87/102, `elimination of normal forms` 89/104, `elimination` 103/114.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 101 operations, 83 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 7.2e-13 (structured path: 6.9e-13; reference: double-double); at 12 states approaching the singular set, at most 7.1e-4 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 83/101, `Cramer's rule on blocks` 85/103, `Cramer's rule on block entries` 87/102, `elimination of normal forms` 89/104, `elimination` 103/114.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
@@ -604,10 +604,9 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 4], EvalError> {
     let f74 = t29 * t73;
     let t87 = S::constant(30.0);
     let t90 = S::constant(36.0);
-    let t93 = S::constant(1.0);
-    let t98 = S::constant(1.25);
-    let t99 = t29 * t73 * t98;
-    if !(t99.value() > 0.0) {
+    let t97 = S::constant(1.25);
+    let t98 = t29 * t73 * t97;
+    if !(t98.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
     }
     Ok([f32, f51, f56, f74])
@@ -637,10 +636,9 @@ fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 3], EvalError> {
     let f55 = t29 * t54;
     let t64 = S::constant(30.0);
     let t67 = S::constant(36.0);
-    let t72 = S::constant(1.0);
-    let t77 = S::constant(1.25);
-    let t78 = t29 * t54 * t77;
-    if !(t78.value() > 0.0) {
+    let t76 = S::constant(1.25);
+    let t77 = t29 * t54 * t76;
+    if !(t77.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
     }
     Ok([f32, f51, f55])
@@ -745,12 +743,11 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 4]) -> R
     let t90 = S::constant(36.0);
     let t91 = t90 + t89;
     let t92 = t91 / t74;
-    let t93 = S::constant(1.0);
-    let t94 = t93 / t75;
-    let t95 = t78 * t78 * t94;
-    let t96 = -t95;
-    let t97 = t92 + t96;
-    if !(t75.value() > 0.0 && t97.value() > 0.0) {
+    let t93 = t75 * t92;
+    let t94 = t78 * t78;
+    let t95 = -t94;
+    let t96 = t93 + t95;
+    if !(t75.value() > 0.0 && t96.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t17, t25, t52], [t64, t72, t80, t86, t0]))
@@ -828,7 +825,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t9 = t1 / t8;
     let t10 = t0 * t9;
     let t11 = S::constant(2.0);
-    let t12 = t10 / t11;
+    let t12 = t10 * S::constant(0.5);
     let t13 = S::constant(12.0);
     let t15 = t13 * t14;
     let t16 = t15 / t8;
@@ -843,12 +840,12 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t25 = t24 + t23;
     let t26 = t25 / t8;
     let t27 = t17 * t26;
-    let t28 = t27 / t11;
+    let t28 = t27 * S::constant(0.5);
     let t29 = t17 * t28;
     let t30 = eta[2];
     let t31 = S::constant(1.25);
     let t32 = t3 * t7 * t31 * t30;
-    let t33 = t32 / t11;
+    let t33 = t32 * S::constant(0.5);
     let t34 = t30 * t33;
     let t35 = S::constant(p.g);
     let t36 = t2 * t7 * t35 * t5;
@@ -1029,14 +1026,13 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 3]) -> Result<[S; 
     let t67 = S::constant(36.0);
     let t68 = t67 + t66;
     let t69 = t68 / t55;
-    let t70 = t18 * t11;
-    let t71 = t70 / t55;
-    let t72 = S::constant(1.0);
-    let t73 = t72 / t63;
-    let t74 = t71 * t71 * t73;
-    let t75 = -t74;
-    let t76 = t69 + t75;
-    if !(t63.value() > 0.0 && t76.value() > 0.0) {
+    let t70 = t63 * t69;
+    let t71 = t18 * t11;
+    let t72 = t71 / t55;
+    let t73 = t72 * t72;
+    let t74 = -t73;
+    let t75 = t70 + t74;
+    if !(t63.value() > 0.0 && t75.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t62, t0, t17, t25, t52])

@@ -12,9 +12,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 206 arithmetic operations as
 //! separate trees, 58 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 57 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 58 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 57 operations, 44 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.4e-16 (structured path: 3.3e-11; reference: double-double). Candidates (operations at run time / in all): `normal form` 44/57, `Cramer's rule on blocks` 52/85, `Cramer's rule on block entries` 58/91, `elimination of normal forms` 59/77, `elimination` 75/102.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 58 operations, 43 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.4e-16 (structured path: 3.3e-11; reference: double-double). Candidates (operations at run time / in all): `normal form` 43/58, `Cramer's rule on blocks` 52/85, `Cramer's rule on block entries` 58/91, `elimination of normal forms` 59/77, `elimination` 75/102.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
@@ -597,14 +597,13 @@ fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 8], EvalError> {
     let t39 = S::constant(1.25);
     let t42 = S::constant(1.5);
     let f44 = t37 * t38;
-    let t45 = t37 * t38 * t42;
+    let f45 = t37 * t37 * t38 * t38 * t42;
     let f46 = t37 * t38 * t42;
-    let t48 = S::constant(1.0);
-    let t53 = t37 * t38 * t39;
-    if !(t53.value() > 0.0) {
+    let t51 = t37 * t38 * t39;
+    if !(t51.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
     }
-    Ok([f21, t24, f27, t30, t19, f44, f46, t45])
+    Ok([f21, t24, f27, t30, t19, f44, f45, f46])
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
@@ -625,14 +624,13 @@ fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 7], EvalError> {
     let t34 = S::constant(1.25);
     let t37 = S::constant(1.5);
     let f39 = t32 * t33;
-    let t40 = t32 * t33 * t37;
+    let f40 = t32 * t32 * t33 * t33 * t37;
     let f41 = t32 * t33 * t37;
-    let t43 = S::constant(1.0);
-    let t48 = t32 * t33 * t34;
-    if !(t48.value() > 0.0) {
+    let t46 = t32 * t33 * t34;
+    if !(t46.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
     }
-    Ok([f21, t24, f27, t30, f39, f41, t40])
+    Ok([f21, t24, f27, t30, f39, f40, f41])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -690,15 +688,13 @@ fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 8]) -> R
     let t42 = S::constant(1.5);
     let t43 = t42 + t41;
     let t44 = S::constant(c[5]) * t43;
-    let t45 = S::constant(c[7]);
-    let t46 = S::constant(c[6]) * t12;
+    let t45 = S::constant(c[6]) * t43;
+    let t46 = S::constant(c[7]) * t12;
     let t47 = -t46;
-    let t48 = S::constant(1.0);
-    let t49 = t48 / t44;
-    let t50 = t47 * t47 * t49;
-    let t51 = -t50;
-    let t52 = t45 + t51;
-    if !(t44.value() > 0.0 && t52.value() > 0.0) {
+    let t48 = t47 * t47;
+    let t49 = -t48;
+    let t50 = t45 + t49;
+    if !(t44.value() > 0.0 && t50.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok(([t6, t18, t31], [t34, t36, t9, t1, t2]))
@@ -779,7 +775,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t12 = t11 + t9;
     let t13 = t0 * t12;
     let t14 = S::constant(2.0);
-    let t15 = t13 / t14;
+    let t15 = t13 * S::constant(0.5);
     let t17 = t6 * t7 * t10 * t16;
     let t18 = -t17;
     let t19 = eta[1];
@@ -787,11 +783,11 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t21 = t15 + t20;
     let t22 = t0 * t21;
     let t23 = t6 * t7 * t10 * t19;
-    let t24 = t23 / t14;
+    let t24 = t23 * S::constant(0.5);
     let t25 = t19 * t24;
     let t26 = eta[2];
     let t27 = t1 * t6 * t7 * t26;
-    let t28 = t27 / t14;
+    let t28 = t27 * S::constant(0.5);
     let t29 = t26 * t28;
     let t30 = S::constant(p.g);
     let t31 = t5 * t7 * t30 * t3;
@@ -909,15 +905,13 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 7]) -> Result<[S; 
     let t37 = S::constant(1.5);
     let t38 = t37 + t36;
     let t39 = S::constant(c[4]) * t38;
-    let t40 = S::constant(c[6]);
-    let t41 = S::constant(c[5]) * t12;
+    let t40 = S::constant(c[5]) * t38;
+    let t41 = S::constant(c[6]) * t12;
     let t42 = -t41;
-    let t43 = S::constant(1.0);
-    let t44 = t43 / t39;
-    let t45 = t42 * t42 * t44;
-    let t46 = -t45;
-    let t47 = t40 + t46;
-    if !(t39.value() > 0.0 && t47.value() > 0.0) {
+    let t43 = t42 * t42;
+    let t44 = -t43;
+    let t45 = t40 + t44;
+    if !(t39.value() > 0.0 && t45.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
     Ok([t1, t2, t6, t18, t31])

@@ -12,9 +12,9 @@
 //!
 //! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 110 arithmetic operations as
 //! separate trees, 25 with common subexpressions shared. Solved form ((η̇, q̇) as
-//! straight-line code of (q, η), exact zeros folded): 44 shared operations.
+//! straight-line code of (q, η), exact zeros folded): 43 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 44 operations, 32 of them at run time with fixed parameters, against the structured path's 375 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 1.1e-15 (structured path: 2.2e-13; reference: double-double); at 24 states approaching the singular set, at most 4.3e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `Cramer's rule on block entries` 32/44, `normal form` 32/44, `Cramer's rule on blocks` 32/45, `elimination of normal forms` 39/50, `elimination` 50/57.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 43 operations, 30 of them at run time with fixed parameters, against the structured path's 375 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 6.3e-16 (structured path: 2.2e-13; reference: double-double); at 24 states approaching the singular set, at most 2.7e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `normal form` 30/43, `Cramer's rule on block entries` 32/44, `Cramer's rule on blocks` 32/45, `elimination of normal forms` 39/50, `elimination` 50/57.
 //!
 //! **States.** Full: q = (x, y, theta, psi, phi) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, phi, eta1, eta2, eta3); eliminated: (x, y, theta), reconstructed from
@@ -557,14 +557,14 @@ pub fn rhs<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<Rhs<S>, Eval
 
 /// Parameters with what the solved forms compute from them alone, made once by
 /// [`Prepared::new`] and reused at every state by the `_with` functions ([`fast_with`],
-/// [`full_into_with`], [`reduced_with`], …): 7 values for the full form, 6 for
+/// [`full_into_with`], [`reduced_with`], …): 8 values for the full form, 7 for
 /// the reduced one. The functions taking [`Parameters`] prepare them at each call.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Prepared {
     /// The parameters.
     pub p: Parameters,
-    full: [f64; 7],
-    reduced: [f64; 6],
+    full: [f64; 8],
+    reduced: [f64; 7],
 }
 
 impl Prepared {
@@ -580,55 +580,55 @@ impl Prepared {
 }
 
 /// The parameter-only values of [`solved_with`] (see [`Prepared`]).
-fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 7], EvalError> {
-    let t0 = S::constant(p.J_r);
-    let t3 = S::constant(p.m);
-    let t4 = S::constant(p.r);
-    let t5 = t4.powi(2);
-    let f8 = t3 * t5;
-    let t12 = S::constant(1.0);
-    let t14 = t3 * t5;
-    let t15 = S::constant(p.J);
-    let t16 = -t15;
-    let t17 = -t0;
-    let t18 = t14 + t16 + t17;
-    let f20 = t0 + t15;
-    let t24 = t0 * t0;
-    let t25 = -t24;
-    let t30 = S::constant(0.0);
-    let t41 = S::constant(2.0);
-    let t42 = S::constant(p.J_w);
-    let t43 = t41 * t42;
-    if !(t43.value() > 0.0) {
+fn prepare_full<S: Scalar>(p: &Parameters) -> Result<[S; 8], EvalError> {
+    let t2 = S::constant(p.m);
+    let t3 = S::constant(p.r);
+    let t4 = t3.powi(2);
+    let f7 = t2 * t4;
+    let t9 = t2 * t4;
+    let t10 = S::constant(p.J);
+    let t11 = -t10;
+    let t12 = t9 + t11;
+    let t20 = S::constant(0.0);
+    let t31 = S::constant(p.J_r);
+    let t32 = -t31;
+    let t33 = t9 + t11 + t32;
+    let f35 = t10 + t31;
+    let t39 = t31 * t31;
+    let t40 = -t39;
+    let t42 = S::constant(2.0);
+    let t43 = S::constant(p.J_w);
+    let t44 = t42 * t43;
+    if !(t44.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
     }
-    Ok([f8, t18, f20, t0, t25, t17, t4])
+    Ok([f7, t12, t10, t3, t33, f35, t31, t40])
 }
 
 /// The parameter-only values of [`reduced_with`] (see [`Prepared`]).
-fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 6], EvalError> {
-    let t0 = S::constant(p.J_r);
-    let t3 = S::constant(p.m);
-    let t4 = S::constant(p.r);
-    let t5 = t4.powi(2);
-    let f8 = t3 * t5;
-    let t12 = S::constant(1.0);
-    let t14 = t3 * t5;
-    let t15 = S::constant(p.J);
-    let t16 = -t15;
-    let t17 = -t0;
-    let t18 = t14 + t16 + t17;
-    let f20 = t0 + t15;
-    let t24 = t0 * t0;
-    let t25 = -t24;
-    let t30 = S::constant(0.0);
-    let t32 = S::constant(2.0);
-    let t33 = S::constant(p.J_w);
-    let t34 = t32 * t33;
-    if !(t34.value() > 0.0) {
+fn prepare_reduced<S: Scalar>(p: &Parameters) -> Result<[S; 7], EvalError> {
+    let t2 = S::constant(p.m);
+    let t3 = S::constant(p.r);
+    let t4 = t3.powi(2);
+    let f7 = t2 * t4;
+    let t9 = t2 * t4;
+    let t10 = S::constant(p.J);
+    let t11 = -t10;
+    let t12 = t9 + t11;
+    let t20 = S::constant(0.0);
+    let t22 = S::constant(p.J_r);
+    let t23 = -t22;
+    let t24 = t9 + t11 + t23;
+    let f26 = t10 + t22;
+    let t30 = t22 * t22;
+    let t31 = -t30;
+    let t33 = S::constant(2.0);
+    let t34 = S::constant(p.J_w);
+    let t35 = t33 * t34;
+    if !(t35.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) for these parameters"));
     }
-    Ok([f8, t18, f20, t0, t25, t17])
+    Ok([f7, t12, t10, t24, f26, t22, t31])
 }
 
 /// (η̇, q̇) at (q, η), solved in closed form: straight-line code of (q, η) in which η̇ solves
@@ -646,44 +646,45 @@ pub fn solved<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; SIGM
 
 /// The body of [`solved_with`] and [`solved`]; `c`: the parameter-only values.
 #[inline(always)]
-fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 7]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
-    let t0 = S::constant(c[3]);
-    let t1 = q[4];
-    let (t9, t2) = t1.sin_cos();
-    let t4 = S::constant(c[6]);
-    let t6 = eta[0];
-    let t7 = eta[2];
-    let t8 = S::constant(c[0]) * t2 * t6 * t7;
-    let t10 = t9.powi(3);
-    let t11 = t8 / t10;
-    let t12 = S::constant(1.0);
-    let t13 = t2.powi(2);
-    let t17 = S::constant(c[5]);
-    let t18 = S::constant(c[1]);
-    let t19 = t18 * t13;
-    let t20 = S::constant(c[2]) + t19;
-    let t21 = t9.powi(2);
-    let t22 = t20 / t21;
-    let t23 = t0 * t22;
-    let t25 = S::constant(c[4]);
-    let t26 = t25 + t23;
-    let t27 = t12 / t26;
-    let t28 = t0 * t11 * t27;
-    let t29 = t17 * t11 * t27;
-    let t30 = S::constant(0.0);
-    let t31 = q[2];
-    let (t36, t32) = t31.sin_cos();
-    let t33 = t4 * t2 * t32;
-    let t34 = t33 / t9;
-    let t35 = t6 * t34;
-    let t37 = t4 * t2 * t36;
-    let t38 = t37 / t9;
-    let t39 = t6 * t38;
-    let t40 = eta[1];
-    if !(t22.value() > 0.0 && t26.value() > 0.0) {
+fn solved_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, c: &[f64; 8]) -> Result<([S; SIGMA], [S; ELL]), EvalError> {
+    let t0 = q[4];
+    let (t15, t1) = t0.sin_cos();
+    let t3 = S::constant(c[3]);
+    let t5 = eta[0];
+    let t6 = eta[2];
+    let t7 = S::constant(c[0]) * t1 * t5 * t6;
+    let t8 = t1.powi(2);
+    let t10 = S::constant(c[2]);
+    let t12 = S::constant(c[1]);
+    let t13 = t12 * t8;
+    let t14 = t10 + t13;
+    let t16 = t14 * t15;
+    let t17 = t7 / t16;
+    let t18 = -t7;
+    let t19 = t18 / t16;
+    let t20 = S::constant(0.0);
+    let t21 = q[2];
+    let (t26, t22) = t21.sin_cos();
+    let t23 = t3 * t1 * t22;
+    let t24 = t23 / t15;
+    let t25 = t5 * t24;
+    let t27 = t3 * t1 * t26;
+    let t28 = t27 / t15;
+    let t29 = t5 * t28;
+    let t30 = eta[1];
+    let t31 = S::constant(c[6]);
+    let t33 = S::constant(c[4]);
+    let t34 = t33 * t8;
+    let t35 = S::constant(c[5]) + t34;
+    let t36 = t15.powi(2);
+    let t37 = t35 / t36;
+    let t38 = t31 * t37;
+    let t40 = S::constant(c[7]);
+    let t41 = t40 + t38;
+    if !(t37.value() > 0.0 && t41.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
-    Ok(([t28, t29, t30], [t35, t39, t6, t40, t7]))
+    Ok(([t17, t19, t20], [t25, t29, t5, t30, t6]))
 }
 
 /// (η̇, q̇) at (q, η) by the path chosen at generation (see the module doc), no allocation.
@@ -765,17 +766,17 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t17 = t14 / t16;
     let t18 = t0 * t17;
     let t19 = S::constant(2.0);
-    let t20 = t18 / t19;
+    let t20 = t18 * S::constant(0.5);
     let t21 = eta[1];
     let t22 = t11 * t21;
     let t23 = t20 + t22;
     let t24 = t0 * t23;
-    let t25 = t22 / t19;
+    let t25 = t22 * S::constant(0.5);
     let t26 = t21 * t25;
     let t27 = eta[2];
     let t28 = S::constant(p.J_w);
     let t29 = t19 * t28 * t27;
-    let t30 = t29 / t19;
+    let t30 = t29 * S::constant(0.5);
     let t31 = t27 * t30;
     let t32 = t24 + t26 + t31;
     Ok(t32)
@@ -883,35 +884,36 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
-fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 6]) -> Result<[S; REDUCED_DIM], EvalError> {
-    let t0 = S::constant(c[3]);
-    let t1 = x[1];
-    let (t9, t2) = t1.sin_cos();
-    let t6 = x[2];
-    let t7 = x[4];
-    let t8 = S::constant(c[0]) * t2 * t6 * t7;
-    let t10 = t9.powi(3);
-    let t11 = t8 / t10;
-    let t12 = S::constant(1.0);
-    let t13 = t2.powi(2);
-    let t17 = S::constant(c[5]);
-    let t18 = S::constant(c[1]);
-    let t19 = t18 * t13;
-    let t20 = S::constant(c[2]) + t19;
-    let t21 = t9.powi(2);
-    let t22 = t20 / t21;
-    let t23 = t0 * t22;
-    let t25 = S::constant(c[4]);
-    let t26 = t25 + t23;
-    let t27 = t12 / t26;
-    let t28 = t0 * t11 * t27;
-    let t29 = t17 * t11 * t27;
-    let t30 = S::constant(0.0);
-    let t31 = x[3];
-    if !(t22.value() > 0.0 && t26.value() > 0.0) {
+fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 7]) -> Result<[S; REDUCED_DIM], EvalError> {
+    let t0 = x[1];
+    let (t15, t1) = t0.sin_cos();
+    let t5 = x[2];
+    let t6 = x[4];
+    let t7 = S::constant(c[0]) * t1 * t5 * t6;
+    let t8 = t1.powi(2);
+    let t10 = S::constant(c[2]);
+    let t12 = S::constant(c[1]);
+    let t13 = t12 * t8;
+    let t14 = t10 + t13;
+    let t16 = t14 * t15;
+    let t17 = t7 / t16;
+    let t18 = -t7;
+    let t19 = t18 / t16;
+    let t20 = S::constant(0.0);
+    let t21 = x[3];
+    let t22 = S::constant(c[5]);
+    let t24 = S::constant(c[3]);
+    let t25 = t24 * t8;
+    let t26 = S::constant(c[4]) + t25;
+    let t27 = t15.powi(2);
+    let t28 = t26 / t27;
+    let t29 = t22 * t28;
+    let t31 = S::constant(c[6]);
+    let t32 = t31 + t29;
+    if !(t28.value() > 0.0 && t32.value() > 0.0) {
         return Err(runtime::cold_error("A_Γ is not positive definite (a pivot of its L D Lᵀ factorisation, or a leading minor of a block, is not > 0) here"));
     }
-    Ok([t31, t7, t28, t29, t30])
+    Ok([t21, t6, t17, t19, t20])
 }
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.

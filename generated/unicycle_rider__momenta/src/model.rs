@@ -7323,7 +7323,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t93 = t58 / t92;
     let t94 = t0 * t93;
     let t95 = S::constant(2.0);
-    let t96 = t94 / t95;
+    let t96 = t94 * S::constant(0.5);
     let t97 = S::constant(12.0);
     let t98 = t19.powi(2);
     let t99 = t18 * t97 * t98 * t3 * t17;
@@ -7758,7 +7758,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t528 = t18 * t98 * t92;
     let t529 = t527 / t528;
     let t530 = t155 * t529;
-    let t531 = t530 / t95;
+    let t531 = t530 * S::constant(0.5);
     let t532 = t155 * t531;
     let t533 = eta[2];
     let t534 = S::constant(1.25);
@@ -7769,7 +7769,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t539 = t7 * t37;
     let t540 = t535 + t536 + t537 + t538 + t539;
     let t541 = t540 * t533;
-    let t542 = t541 / t95;
+    let t542 = t541 * S::constant(0.5);
     let t543 = t7 * t8 * t11 * t3 * t5;
     let t544 = -t543;
     let t545 = t7 * t8 * t13 * t3 * t5;
@@ -7782,7 +7782,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t552 = t542 + t551;
     let t553 = t533 * t552;
     let t554 = t7 * t42 * t550;
-    let t555 = t554 / t95;
+    let t555 = t554 * S::constant(0.5);
     let t556 = t550 * t555;
     let t557 = S::constant(p.g);
     let t558 = t6 * t19 * t557 * t16;

@@ -15,7 +15,7 @@
 //! separate trees, 339 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 256 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 256 operations, 127 of them at run time with fixed parameters, against the structured path's 1131 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `Cramer's rule on block entries` 127/256, `elimination of normal forms` 132/259, `Cramer's rule on blocks` 134/368, `normal form` 224/666, `elimination` 247/369.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 256 operations, 127 of them at run time with fixed parameters, against the structured path's 1131 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `Cramer's rule on block entries` 127/256, `elimination of normal forms` 132/259, `Cramer's rule on blocks` 134/368, `normal form` 222/664, `elimination` 247/369.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta, theta1) and η = (eta1..eta4).
 //! Reduced (state vector `x`): (theta, theta1, eta1, eta2, eta3, eta4); eliminated: (xC, yC, phi, psi), reconstructed from
@@ -1388,7 +1388,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t42 = t7 * t33;
     let t43 = t37 + t38 + t39 + t40 + t41 + t42 + t9 + t11 + t19 + t23 + t25 + t27 + t30 + t35;
     let t44 = t0 * t43;
-    let t45 = t44 / t1;
+    let t45 = t44 * S::constant(0.5);
     let t46 = t16 * t17 * t36 * t3;
     let t47 = -t46;
     let t48 = t6 * t15 * t20 * t3;
@@ -1408,13 +1408,13 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t62 = t7 * t16;
     let t63 = t37 + t61 + t62;
     let t64 = t63 * t57;
-    let t65 = t64 / t1;
+    let t65 = t64 * S::constant(0.5);
     let t66 = t57 * t65;
     let t67 = eta[2];
     let t68 = t12 * t16 * t17;
     let t69 = t38 + t39 + t40 + t41 + t68;
     let t70 = t69 * t67;
-    let t71 = t70 / t1;
+    let t71 = t70 * S::constant(0.5);
     let t72 = t6 * t7 * t8 * t3 * t5;
     let t73 = -t72;
     let t74 = t7 * t8 * t10 * t3 * t5;
@@ -1427,7 +1427,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t81 = t71 + t80;
     let t82 = t67 * t81;
     let t83 = t7 * t33 * t79;
-    let t84 = t83 / t1;
+    let t84 = t83 * S::constant(0.5);
     let t85 = t79 * t84;
     let t86 = S::constant(p.g);
     let t87 = t15 * t17 * t86 * t13;

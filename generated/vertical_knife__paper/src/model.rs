@@ -447,14 +447,14 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     let t1 = S::constant(p.m);
     let t2 = t1 * t0;
     let t3 = S::constant(2.0);
-    let t4 = t2 / t3;
+    let t4 = t2 * S::constant(0.5);
     let t5 = t0 * t4;
     let t6 = eta[1];
     let t7 = S::constant(0.08333333333333333);
     let t8 = S::constant(p.l);
     let t9 = t8.powi(2);
     let t10 = t1 * t7 * t9 * t6;
-    let t11 = t10 / t3;
+    let t11 = t10 * S::constant(0.5);
     let t12 = t6 * t11;
     let t13 = q[1];
     let t14 = S::constant(p.g);
