@@ -434,8 +434,8 @@ fn diagonal_blocks(a: &[Vec<Expr>]) -> Vec<Vec<usize>> {
 
 /// The definiteness tests of a symmetric matrix without divisions where it can: for each
 /// diagonal block ([`diagonal_blocks`]) of at most 3 rows its leading principal minors (all
-/// > 0 iff the block is positive definite, Sylvester's criterion), for a larger one the pivots
-/// of its elimination.
+/// positive iff the block is positive definite, Sylvester's criterion), for a larger one the
+/// pivots of its elimination.
 fn block_minors(a: &[Vec<Expr>]) -> Vec<Expr> {
     use fold::*;
     let mut tests = Vec::new();
