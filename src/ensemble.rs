@@ -98,7 +98,7 @@ fn run_with_bar(
     };
     let bar = ProgressBar::new(0).with_style(
         ProgressStyle::with_template(
-            "{elapsed_precise} [{wide_bar}] {pos}/{len} members ({per_sec}, {eta} left)",
+            "{elapsed_precise} [{wide_bar}] {pos}/{len} members ({eta} left)",
         )
         .expect("valid template"),
     );
