@@ -254,3 +254,44 @@ fn an_exported_ensemble_runs_in_shards_without_hamel_and_merges_to_the_same_resu
     );
     assert!(!partial.exists());
 }
+
+#[test]
+fn expressions_of_a_parameter_the_members_vary_use_each_members_value() {
+    let dir = scratch("ensemble_expression");
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/knife.toml");
+    // The knife's momentum along the blade, m η1: constant, with each member's own m.
+    let text = format!(
+        "model = {model:?}\neta = \"paper\"\nt_end = 2.0\noutputs = 5\nrequest = [\"theta\", \"momentum\"]\n\n[expressions]\nmomentum = \"m*eta1\"\n\n[initial]\nq = {{ x = 0.0, y = 0.0, theta = 0.3 }}\neta = [1.0, 0.5]\n\n[ensemble]\nmembers = 50\nseed = 5\n\n[ensemble.vary]\nm = {{ uniform = [0.5, 4.0] }}\neta1 = {{ normal = [1.0, 0.3] }}\n"
+    );
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("result.jsonl");
+    let o = hamel(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--format",
+            "json",
+            "--output",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = lines(&out);
+    assert_eq!(v[0]["varying"], serde_json::json!(["m"]));
+    assert_eq!(v[0]["outputs"], serde_json::json!(["theta", "momentum"]));
+    let mut masses = Vec::new();
+    for m in &v[1..] {
+        let (mass, eta1) = (f(&m["given"]["m"]), f(&m["given"]["eta1"]));
+        let got = f(&m["values"]["momentum"][0]);
+        assert!(
+            (got - mass * eta1).abs() <= 1e-12 * (mass * eta1).abs(),
+            "{got} vs {}",
+            mass * eta1
+        );
+        masses.push(mass);
+    }
+    masses.dedup();
+    assert_eq!(masses.len(), 50, "every member has its own mass");
+}
