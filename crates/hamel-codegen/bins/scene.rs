@@ -307,7 +307,7 @@ fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
     };
     let done = AtomicUsize::new(0);
     let start = Instant::now();
-    let outcomes = std::thread::scope(|scope| {
+    let (outcomes, seconds) = std::thread::scope(|scope| {
         let reporter = a.progress.then(|| scope.spawn(|| report(&done, mine.len(), &start)));
         // What is kept of a member is made on the worker, so the solutions do not pile up.
         let keep = |_: usize, r: Result<Solution, hamel_sim::IntegrationError>| {
@@ -318,14 +318,16 @@ fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
             (solution, error)
         };
         let outcomes = integrate_many(&settings, mine.len(), setup, keep, &done);
+        // The loop's time, not the reporter's wait.
+        let seconds = start.elapsed().as_secs_f64();
         done.store(usize::MAX, Ordering::Relaxed);
         if let Some(r) = reporter {
+            r.thread().unpark();
             let _ = r.join();
         }
-        outcomes
-    })
-    .map_err(|e| e.to_string())?;
-    let seconds = start.elapsed().as_secs_f64();
+        (outcomes, seconds)
+    });
+    let outcomes = outcomes.map_err(|e| e.to_string())?;
     let threads = if a.threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { a.threads };
     let mut text = serde_json::to_string(&json!({
         "hamel_ensemble_part": 1,
@@ -353,7 +355,8 @@ fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
     Ok(text)
 }
 
-/// `progress DONE TOTAL` on stderr every 100 ms until `done` is set to `usize::MAX`.
+/// `progress DONE TOTAL SECONDS` on stderr every 100 ms until `done` is set to `usize::MAX`
+/// (and the thread unparked).
 fn report(done: &AtomicUsize, total: usize, start: &Instant) {
     let mut last = usize::MAX - 1;
     loop {
@@ -367,7 +370,8 @@ fn report(done: &AtomicUsize, total: usize, start: &Instant) {
         if finished {
             return;
         }
-        std::thread::sleep(std::time::Duration::from_millis(100));
+        // Woken early when the members are done.
+        std::thread::park_timeout(std::time::Duration::from_millis(100));
     }
 }
 
