@@ -361,6 +361,12 @@ impl Compiled {
         Ok(DMatrix::from_row_slice(l, l, &m))
     }
 
+    /// δ = det[Z; α] at q, as [`Compiled::evaluate`] reports it, without the right-hand side
+    /// (what watching the singular set along a path needs).
+    pub fn delta(&self, q: &[f64], params: &IndexMap<String, f64>) -> Result<f64, NumericError> {
+        Ok(self.m_matrix(q, params)?.determinant())
+    }
+
     /// Condition number of [Z; α] at q (∞ when singular).
     pub fn condition(
         &self,

@@ -185,12 +185,11 @@ impl Loaded {
         params: &IndexMap<String, f64>,
         delta0: f64,
     ) -> (Option<String>, Option<(f64, f64)>) {
-        let n = self.state.len();
         let mut max_condition: Option<(f64, f64)> = None;
         for j in 0..solution.t.len() {
             let y = &solution.y[j];
             let q = self.full_q(y);
-            let delta = self.compiled.evaluate(&q, &y[n..], params).map(|e| e.delta);
+            let delta = self.compiled.delta(&q, params);
             if let Ok(delta) = delta
                 && delta.signum() != delta0.signum()
             {
