@@ -253,6 +253,25 @@ fn an_exported_ensemble_runs_in_shards_without_hamel_and_merges_to_the_same_resu
         stderr(&o)
     );
     assert!(!partial.exists());
+    // Parts of another job (the same scene with another seed: as many members, other ones)
+    // are refused, not merged.
+    let text = std::fs::read_to_string(scene)
+        .unwrap()
+        .replace("seed = 3", "seed = 4");
+    let other = dir.join("other.toml");
+    std::fs::write(&other, text).unwrap();
+    let mut args = vec!["simulate", other.to_str().unwrap(), "--output"];
+    args.push(partial.to_str().unwrap());
+    args.push("--merge");
+    args.extend(parts.iter().map(String::as_str));
+    let o = hamel(&args, None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("computed for another job"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!partial.exists());
 }
 
 #[test]

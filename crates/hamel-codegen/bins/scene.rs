@@ -16,8 +16,8 @@
 //! on a pool of `--threads` threads (default: one per core), and one JSON line is written per
 //! member in member order, `{"member", "solution", "error"}` (with `"save": "final"`, the
 //! solution holds the last output only), after a first line that describes the part:
-//! `{"hamel_ensemble_part": 1, "members", "first", "end", "state", "save", "threads",
-//! "seconds"}`. `--progress` prints `progress DONE TOTAL` on stderr as members finish. The
+//! `{"hamel_ensemble_part": 1, "job", "members", "first", "end", "state", "save", "threads",
+//! "seconds"}` (`job`: the FNV-1a hash of the job's text). `--progress` prints `progress DONE TOTAL` on stderr as members finish. The
 //! result is written whole (to a temporary file renamed to `--output`), or not at all.
 
 use std::collections::BTreeMap;
@@ -199,7 +199,9 @@ fn shard(text: &str) -> Result<(usize, usize), String> {
     Ok((k, n))
 }
 
-fn read_job(a: &Args) -> Result<Job, String> {
+/// The job and its fingerprint (FNV-1a, 64 bits, of its text: a part of an ensemble names the
+/// job it was computed for, so that parts of another job cannot be merged with it).
+fn read_job(a: &Args) -> Result<(Job, String), String> {
     let mut text = String::new();
     match &a.job {
         Some(path) => {
@@ -221,7 +223,12 @@ fn read_job(a: &Args) -> Result<Job, String> {
             COORDINATES
         ));
     }
-    Ok(job)
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    Ok((job, format!("{h:016x}")))
 }
 
 /// The core's parameters with `values` set on top, prepared.
@@ -276,7 +283,7 @@ fn block(total: usize, (k, n): (usize, usize)) -> std::ops::Range<usize> {
 }
 
 /// The ensemble's part of this shard: its header line, then one line per member.
-fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
+fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Result<String, String> {
     let range = block(members.len(), a.shard);
     let mine = &members[range.clone()];
     for (i, m) in mine.iter().enumerate() {
@@ -331,6 +338,7 @@ fn ensemble(job: &Job, members: &[Member], a: &Args) -> Result<String, String> {
     let threads = if a.threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { a.threads };
     let mut text = serde_json::to_string(&json!({
         "hamel_ensemble_part": 1,
+        "job": fingerprint,
         "members": members.len(),
         "first": range.start,
         "end": range.end,
@@ -402,9 +410,9 @@ fn write_whole(path: &std::path::Path, text: &str) -> Result<(), String> {
 
 fn run() -> Result<(), String> {
     let a = args()?;
-    let job = read_job(&a)?;
+    let (job, fingerprint) = read_job(&a)?;
     let text = match &job.members {
-        Some(members) => ensemble(&job, members, &a)?,
+        Some(members) => ensemble(&job, &fingerprint, members, &a)?,
         None => single(&job)? + "\n",
     };
     match &a.output {

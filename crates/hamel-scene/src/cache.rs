@@ -265,13 +265,19 @@ impl Key {
 
     /// FNV-1a, 64 bits: the entry's directory name.
     fn hash(&self) -> String {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in self.text.bytes() {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        format!("{h:016x}")
+        fnv1a(&self.text)
     }
+}
+
+/// FNV-1a, 64 bits, in hexadecimal: a cache entry's directory name, an ensemble job's
+/// fingerprint (the `scene` binary computes the same over the job it reads).
+pub(crate) fn fnv1a(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
 }
 
 /// `meta.json` of an entry.

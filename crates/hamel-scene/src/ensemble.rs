@@ -153,6 +153,9 @@ struct CoreHeader {
     seconds: f64,
     #[serde(default)]
     members: usize,
+    /// The fingerprint of the job the part was computed for.
+    #[serde(default)]
+    job: String,
     #[serde(default)]
     first: usize,
     #[serde(default)]
@@ -229,7 +232,8 @@ impl Loaded {
         parts: &[(String, String)],
     ) -> Result<EnsembleRun, ModelError> {
         let prepared = self.prepare_ensemble(members, (0, 1))?;
-        let (core, answers) = merge_parts(parts, prepared.job.members.len())?;
+        let text = serde_json::to_string(&prepared.job).expect("serialisable");
+        let (core, answers) = merge_parts(parts, prepared.job.members.len(), &cache::fnv1a(&text))?;
         self.gather(members, prepared, core, answers)
     }
 
@@ -559,17 +563,28 @@ fn parse_core(text: &str) -> Result<(CoreHeader, Vec<CoreAnswer>), String> {
     Ok((header, answers))
 }
 
-/// The parts of an exported ensemble of `total` members put together: each a core's JSON
+/// The parts of an exported ensemble of `total` members put together (each computed for the
+/// job with fingerprint `job`): each a core's JSON
 /// lines for its block; together every member once. The threads are the largest part's and
 /// the seconds the sum over the parts (the work, not the wall time of the whole).
 fn merge_parts(
     parts: &[(String, String)],
     total: usize,
+    job: &str,
 ) -> Result<(CoreHeader, Vec<CoreAnswer>), ModelError> {
     let bad = |name: &str, why: String| ModelError::new(name, Default::default(), None, None, why);
     let mut blocks = Vec::new();
     for (name, text) in parts {
         let (h, answers) = parse_core(text).map_err(|why| bad(name, why))?;
+        if h.job != job {
+            return Err(bad(
+                name,
+                format!(
+                    "computed for another job (fingerprint {}, this scene's job {job}): export the ensemble again (--export-ensemble) and run its parts",
+                    if h.job.is_empty() { "none" } else { &h.job }
+                ),
+            ));
+        }
         if h.members != total || answers.len() != h.end - h.first {
             return Err(bad(
                 name,
@@ -587,6 +602,7 @@ fn merge_parts(
         threads: 0,
         seconds: 0.0,
         members: total,
+        job: job.to_string(),
         first: 0,
         end: total,
     };
