@@ -188,8 +188,8 @@ impl Loaded {
     }
 
     /// Run the members of `settings.shard` on the scene's compiled core with the scene's
-    /// integrator (for an `[accuracy]` target, the setting `hamel tradeoff` finds on the
-    /// scene's own initial state); `progress(done, total)` as members finish.
+    /// integrator (for an `[accuracy]` target, DOP853 at its tolerances, so that the job is the
+    /// same whenever it is made again); `progress(done, total)` as members finish.
     pub fn run_ensemble(
         &self,
         members: &Members,
@@ -217,9 +217,18 @@ impl Loaded {
             ModelError::environment(format!("{}: cannot write {what}: {e}", dir.display()))
         };
         std::fs::create_dir_all(dir).map_err(|e| io("the directory", e))?;
+        // Both files appear whole, or neither does.
+        let tmp = |name: &str| dir.join(format!("{name}.tmp{}", std::process::id()));
         let job = serde_json::to_string(&prepared.job).expect("serialisable");
-        std::fs::write(dir.join("job.json"), job).map_err(|e| io("job.json", e))?;
-        std::fs::copy(&prepared.exe, dir.join("core")).map_err(|e| io("core", e))?;
+        let written = std::fs::write(tmp("job.json"), job)
+            .and_then(|()| std::fs::copy(&prepared.exe, tmp("core")).map(|_| ()))
+            .and_then(|()| std::fs::rename(tmp("core"), dir.join("core")))
+            .and_then(|()| std::fs::rename(tmp("job.json"), dir.join("job.json")));
+        if let Err(e) = written {
+            let _ = std::fs::remove_file(tmp("job.json"));
+            let _ = std::fs::remove_file(tmp("core"));
+            return Err(io("the core and its job", e));
+        }
         Ok(prepared.job.members.len())
     }
 
@@ -250,7 +259,9 @@ impl Loaded {
             .map(|row| self.start_of(&members.columns, row))
             .collect();
         let varying = varying(&self.params, &starts);
-        let (method, options) = crate::simulate::integrator_for(self, crate::Engine::Compiled)?;
+        // The scene's integrator, or DOP853 at its [accuracy] tolerances: not the setting that
+        // `hamel tradeoff` times fastest, which a merge on another day might not find again.
+        let (method, options) = self.integrator;
         let fixed: IndexMap<String, f64> = (self.params.iter())
             .filter(|(k, _)| !varying.contains(k))
             .map(|(k, v)| (k.clone(), *v))
