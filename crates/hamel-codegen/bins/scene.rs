@@ -282,6 +282,17 @@ fn block(total: usize, (k, n): (usize, usize)) -> std::ops::Range<usize> {
     total * k / n..total * (k + 1) / n
 }
 
+/// A member's system (the core with its parameters) and initial state.
+fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), String> {
+    let system = Reduced {
+        prep: prepared(&m.params)?,
+        reference: m.reference.unwrap_or(job.reference),
+        energy: job.energy,
+        residual: job.residual,
+    };
+    Ok((system, m.y0.clone()))
+}
+
 /// The ensemble's part of this shard: its header line, then one line per member.
 fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Result<String, String> {
     let range = block(members.len(), a.shard);
@@ -295,16 +306,7 @@ fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Resul
             ));
         }
     }
-    let setup = |i: usize| -> Result<(Reduced, Vec<f64>), String> {
-        let m = &mine[i];
-        let system = Reduced {
-            prep: prepared(&m.params)?,
-            reference: m.reference.unwrap_or(job.reference),
-            energy: job.energy,
-            residual: job.residual,
-        };
-        Ok((system, m.y0.clone()))
-    };
+    let setup = |i: usize| member_system(job, &mine[i]);
     let settings = Ensemble {
         method: job.method,
         t0: job.t0,
@@ -348,19 +350,22 @@ fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Resul
         "seconds": seconds,
     }))
     .map_err(|e| e.to_string())?;
-    for (i, (solution, error)) in outcomes.into_iter().enumerate() {
+    for (i, outcome) in outcomes.into_iter().enumerate() {
         text.push('\n');
-        text.push_str(
-            &serde_json::to_string(&json!({
-                "member": range.start + i,
-                "solution": solution,
-                "error": error,
-            }))
-            .map_err(|e| e.to_string())?,
-        );
+        text.push_str(&member_line(range.start + i, outcome)?);
     }
     text.push('\n');
     Ok(text)
+}
+
+/// One member's line of a part.
+fn member_line(member: usize, (solution, error): (Solution, Option<String>)) -> Result<String, String> {
+    serde_json::to_string(&json!({
+        "member": member,
+        "solution": solution,
+        "error": error,
+    }))
+    .map_err(|e| e.to_string())
 }
 
 /// `progress DONE TOTAL SECONDS` on stderr every 100 ms until `done` is set to `usize::MAX`
