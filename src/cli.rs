@@ -372,8 +372,8 @@ pub struct EnsembleArgs {
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Ensembles: run only the K-th of N contiguous blocks of the members (K from 0).
-    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
-    pub shard: Option<(usize, usize)>,
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<hamel_sim::Shard>,
     /// Ensembles: write the compiled core and its job to DIR for a scheduler (Slurm job
     /// arrays, Ray) instead of running them; the parts are gathered with `--merge`.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["shard", "merge"])]
@@ -382,17 +382,6 @@ pub struct EnsembleArgs {
     /// into one result.
     #[arg(long, value_name = "PART", num_args = 1.., conflicts_with = "shard")]
     pub merge: Vec<PathBuf>,
-}
-
-fn parse_shard(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("expected K/N with 0 <= K < N, got `{s}`");
-    let (k, n) = s.split_once('/').ok_or_else(bad)?;
-    let k: usize = k.trim().parse().map_err(|_| bad())?;
-    let n: usize = n.trim().parse().map_err(|_| bad())?;
-    if k >= n {
-        return Err(bad());
-    }
-    Ok((k, n))
 }
 
 fn parse_set(s: &str) -> Result<(String, f64), String> {

@@ -94,7 +94,7 @@ fn run_with_bar(
 ) -> Result<EnsembleRun, ModelError> {
     let settings = Settings {
         threads: args.threads,
-        shard: args.shard.unwrap_or((0, 1)),
+        shard: args.shard.unwrap_or(hamel_sim::Shard::ALL),
     };
     let bar = ProgressBar::new(0).with_style(
         ProgressStyle::with_template(

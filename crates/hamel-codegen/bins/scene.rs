@@ -31,7 +31,7 @@ use hamel_generated::{
     energy, project, reduced_into_with, reduced_jacobian_with, residual_max,
 };
 use hamel_sim::{
-    Ensemble, Method, OdeSystem, Options, Solution, States, SystemError, integrate_many,
+    Ensemble, Method, OdeSystem, Options, Shard, Solution, States, SystemError, integrate_many,
 };
 use serde::Serialize;
 use serde::Deserialize;
@@ -159,14 +159,14 @@ impl OdeSystem for Reduced {
 struct Args {
     job: Option<PathBuf>,
     threads: usize,
-    shard: (usize, usize),
+    shard: Shard,
     output: Option<PathBuf>,
     progress: bool,
 }
 
 fn args() -> Result<Args, String> {
     let mut a = Args {
-        shard: (0, 1),
+        shard: Shard::ALL,
         ..Args::default()
     };
     let mut it = std::env::args().skip(1);
@@ -180,23 +180,12 @@ fn args() -> Result<Args, String> {
                     .parse()
                     .map_err(|e| format!("--threads: {e}"))?
             }
-            "--shard" => a.shard = shard(&value()?)?,
+            "--shard" => a.shard = value()?.parse().map_err(|e| format!("--shard: {e}"))?,
             "--progress" => a.progress = true,
             _ => return Err(format!("unknown option {flag} (see the module doc of src/scene_main.rs)")),
         }
     }
     Ok(a)
-}
-
-/// `K/N` with K < N.
-fn shard(text: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("--shard {text}: expected K/N with 0 <= K < N");
-    let (k, n) = text.split_once('/').ok_or_else(bad)?;
-    let (k, n): (usize, usize) = (k.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?);
-    if k >= n {
-        return Err(bad());
-    }
-    Ok((k, n))
 }
 
 /// The job and its fingerprint (FNV-1a, 64 bits, of its text: a part of an ensemble names the
@@ -277,11 +266,6 @@ fn split(r: Result<Solution, hamel_sim::IntegrationError>) -> (Solution, Option<
     }
 }
 
-/// The members of shard `k` of `n`: contiguous blocks, in order.
-fn block(total: usize, (k, n): (usize, usize)) -> std::ops::Range<usize> {
-    total * k / n..total * (k + 1) / n
-}
-
 /// A member's system (the core with its parameters) and initial state.
 fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), String> {
     let system = Reduced {
@@ -295,7 +279,7 @@ fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), String> {
 
 /// The ensemble's part of this shard: its header line, then one line per member.
 fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Result<String, String> {
-    let range = block(members.len(), a.shard);
+    let range = a.shard.range(members.len());
     let mine = &members[range.clone()];
     for (i, m) in mine.iter().enumerate() {
         if m.y0.len() != REDUCED_DIM {

@@ -20,7 +20,7 @@
 use std::path::Path;
 
 use hamel_model::ModelError;
-use hamel_sim::{MethodName, Solution};
+use hamel_sim::{MethodName, Shard, Solution};
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
@@ -31,28 +31,22 @@ use crate::initial::initial_eta;
 use crate::load::Loaded;
 use crate::members::{Members, Source, Target};
 
-/// How an ensemble runs: the core's threads (0: one per core) and the shard (K of N
-/// contiguous blocks of members, K from 0; (0, 1) for all).
+/// How an ensemble runs: the core's threads (0: one per core) and the shard of the members.
 #[derive(Clone, Copy, Debug)]
 pub struct Settings {
     /// Threads of the core's pool.
     pub threads: usize,
-    /// (K, N).
-    pub shard: (usize, usize),
+    /// The block of the members to run ([`Shard::ALL`] for every one).
+    pub shard: Shard,
 }
 
 impl Default for Settings {
     fn default() -> Self {
         Settings {
             threads: 0,
-            shard: (0, 1),
+            shard: Shard::ALL,
         }
     }
-}
-
-/// The members of shard `k` of `n`: contiguous blocks, in order (as the core cuts them).
-pub fn block(total: usize, (k, n): (usize, usize)) -> std::ops::Range<usize> {
-    total * k / n..total * (k + 1) / n
 }
 
 /// The first line of a result file: what was run, and how much of it failed.
@@ -212,7 +206,7 @@ impl Loaded {
     /// runs `dir/core --job dir/job.json --shard K/N --output part-K.jsonl`, and
     /// [`Self::merge_ensemble`] gathers the parts. Returns the number of members in the job.
     pub fn export_ensemble(&self, members: &Members, dir: &Path) -> Result<usize, ModelError> {
-        let prepared = self.prepare_ensemble(members, (0, 1))?;
+        let prepared = self.prepare_ensemble(members, Shard::ALL)?;
         let io = |what: &str, e: std::io::Error| {
             ModelError::environment(format!("{}: cannot write {what}: {e}", dir.display()))
         };
@@ -240,7 +234,7 @@ impl Loaded {
         members: &Members,
         parts: &[(String, String)],
     ) -> Result<EnsembleRun, ModelError> {
-        let prepared = self.prepare_ensemble(members, (0, 1))?;
+        let prepared = self.prepare_ensemble(members, Shard::ALL)?;
         let text = serde_json::to_string(&prepared.job).expect("serialisable");
         let (core, answers) = merge_parts(parts, prepared.job.members.len(), &cache::fnv1a(&text))?;
         self.gather(members, prepared, core, answers)
@@ -251,9 +245,9 @@ impl Loaded {
     fn prepare_ensemble(
         &self,
         members: &Members,
-        shard: (usize, usize),
+        shard: Shard,
     ) -> Result<PreparedEnsemble<'_>, ModelError> {
-        let range = block(members.rows.len(), shard);
+        let range = shard.range(members.rows.len());
         let starts: Vec<Result<Start, String>> = members.rows[range.clone()]
             .iter()
             .map(|row| self.start_of(&members.columns, row))

@@ -34,6 +34,48 @@ pub struct Ensemble<'a> {
     pub threads: usize,
 }
 
+/// The K-th of N contiguous blocks of an ensemble's members (K from 0): what one task of a job
+/// array runs. Written `K/N`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// K.
+    pub index: usize,
+    /// N.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Every member: the one block of one.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    /// The members of this block of `total`, in order.
+    pub fn range(self, total: usize) -> std::ops::Range<usize> {
+        total * self.index / self.count..total * (self.index + 1) / self.count
+    }
+}
+
+impl Default for Shard {
+    fn default() -> Self {
+        Shard::ALL
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// `K/N` with 0 ≤ K < N.
+    fn from_str(s: &str) -> Result<Shard, String> {
+        let bad = || format!("expected K/N with 0 <= K < N, got `{s}`");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: usize = k.trim().parse().map_err(|_| bad())?;
+        let count: usize = n.trim().parse().map_err(|_| bad())?;
+        if index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
 /// Why an ensemble could not run at all (a member's failure is in its outcome instead).
 #[derive(Debug, thiserror::Error)]
 #[error("cannot start {threads} worker threads: {source}")]
@@ -194,6 +236,25 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn shards_cover_every_member_once_in_order() {
+        for total in [0, 1, 7, 100, 10_001] {
+            for count in 1..=9 {
+                let mut next = 0;
+                for index in 0..count {
+                    let r = Shard { index, count }.range(total);
+                    assert_eq!(r.start, next);
+                    next = r.end;
+                }
+                assert_eq!(next, total);
+            }
+        }
+        assert_eq!("2/5".parse::<Shard>(), Ok(Shard { index: 2, count: 5 }));
+        for bad in ["5/5", "1", "a/2", "1/0", "-1/3"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }
     }
 

@@ -64,7 +64,7 @@ mod system;
 mod testing;
 
 pub use driver::{Method, MethodName, Options, integrate};
-pub use ensemble::{Ensemble, EnsembleError, integrate_many};
+pub use ensemble::{Ensemble, EnsembleError, Shard, integrate_many};
 pub use solution::{ErrorKind, IntegrationError, Solution, Stats};
 pub use states::States;
 pub use system::{OdeSystem, SystemError};
