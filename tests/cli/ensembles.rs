@@ -33,6 +33,14 @@ fn closed_form(theta0: f64, eta: [f64; 2], m: f64, t: f64) -> [f64; 4] {
     ]
 }
 
+/// `hamel simulate SCENE --format json --output OUT` with `extra` arguments after it.
+fn simulate_json(scene: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["simulate", scene, "--format", "json", "--output"];
+    args.push(out.to_str().unwrap());
+    args.extend_from_slice(extra);
+    hamel(&args, None)
+}
+
 fn lines(path: &Path) -> Vec<serde_json::Value> {
     std::fs::read_to_string(path)
         .unwrap()
@@ -55,17 +63,7 @@ fn drawn_members_follow_the_closed_form_on_one_and_two_threads() {
     let mut runs = Vec::new();
     for threads in ["1", "2"] {
         let out = dir.join(format!("result-{threads}.jsonl"));
-        let args = [
-            "simulate",
-            scene.to_str().unwrap(),
-            "--format",
-            "json",
-            "--threads",
-            threads,
-            "--output",
-            out.to_str().unwrap(),
-        ];
-        let o = hamel(&args, None);
+        let o = simulate_json(scene.to_str().unwrap(), &out, &["--threads", threads]);
         assert!(o.status.success(), "{}", stderr(&o));
         assert!(stderr(&o).contains("300 members"), "{}", stderr(&o));
         runs.push(lines(&out));
@@ -185,17 +183,7 @@ fn an_exported_ensemble_runs_in_shards_without_hamel_and_merges_to_the_same_resu
     );
     let scene = scene.to_str().unwrap();
     let direct = dir.join("direct.jsonl");
-    let o = hamel(
-        &[
-            "simulate",
-            scene,
-            "--format",
-            "json",
-            "--output",
-            direct.to_str().unwrap(),
-        ],
-        None,
-    );
+    let o = simulate_json(scene, &direct, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let job = dir.join("job");
     let o = hamel(
@@ -223,11 +211,9 @@ fn an_exported_ensemble_runs_in_shards_without_hamel_and_merges_to_the_same_resu
         parts.push(part.to_str().unwrap().to_string());
     }
     let merged = dir.join("merged.jsonl");
-    let mut args = vec!["simulate", scene, "--format", "json", "--output"];
-    args.push(merged.to_str().unwrap());
-    args.push("--merge");
-    args.extend(parts.iter().map(String::as_str));
-    let o = hamel(&args, None);
+    let mut merge = vec!["--merge"];
+    merge.extend(parts.iter().map(String::as_str));
+    let o = simulate_json(scene, &merged, &merge);
     assert!(o.status.success(), "{}", stderr(&o));
     let (a, b) = (lines(&direct), lines(&merged));
     assert_eq!(a.len(), 501);
@@ -285,17 +271,7 @@ fn expressions_of_a_parameter_the_members_vary_use_each_members_value() {
     let scene = dir.join("scene.toml");
     std::fs::write(&scene, text).unwrap();
     let out = dir.join("result.jsonl");
-    let o = hamel(
-        &[
-            "simulate",
-            scene.to_str().unwrap(),
-            "--format",
-            "json",
-            "--output",
-            out.to_str().unwrap(),
-        ],
-        None,
-    );
+    let o = simulate_json(scene.to_str().unwrap(), &out, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v = lines(&out);
     assert_eq!(v[0]["varying"], serde_json::json!(["m"]));
