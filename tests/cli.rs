@@ -757,7 +757,7 @@ fn simulate_rejects_a_bad_scene_with_the_place_and_reason() {
         ),
         (
             "model = \"../../../../models/knife.toml\"\nt_end = 1\noutputs = 3\n[initial]\nq = { x = 0, y = 0, theta = 0 }\neta = [1, 0]\n[integrator]\nmethod = \"euler\"\n",
-            "unknown variant `euler`, expected one of `rk4`, `dopri5`, `dop853`, `gauss-legendre`",
+            "unknown variant `euler`, expected one of `rk4`, `dopri5`, `dop853`, `vern9`, `gauss-legendre`",
         ),
         (
             "model = \"../../../../models/knife.toml\"\nt_end = 1\noutputs = 3\nspeed = 2\n",

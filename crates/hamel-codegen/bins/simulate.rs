@@ -82,7 +82,7 @@ fn number(args: &[String], name: &str, default: Option<f64>) -> Result<f64, Stri
 
 fn run() -> Result<(String, Option<String>), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let path = flag(&args, "--state").ok_or("usage: simulate --state FILE|- --t-end T [--outputs N] [--method dop853|dopri5|rk4|gauss-legendre] [--rtol R] [--atol A] [--step H] [--reduced]")?;
+    let path = flag(&args, "--state").ok_or("usage: simulate --state FILE|- --t-end T [--outputs N] [--method dop853|dopri5|vern9|rk4|gauss-legendre] [--rtol R] [--atol A] [--step H] [--reduced]")?;
     let text = if path == "-" {
         let mut s = String::new();
         std::io::stdin()
@@ -119,6 +119,7 @@ fn run() -> Result<(String, Option<String>), String> {
     let method = match flag(&args, "--method").unwrap_or("dop853") {
         "dop853" => Method::Dop853,
         "dopri5" => Method::Dopri5,
+        "vern9" => Method::Vern9,
         "rk4" => Method::Rk4 {
             step: number(&args, "--step", None)?,
         },

@@ -178,6 +178,7 @@ fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), Mode
         },
         MethodName::Dopri5 => Method::Dopri5,
         MethodName::Dop853 => Method::Dop853,
+        MethodName::Vern9 => Method::Vern9,
         MethodName::GaussLegendre => Method::GaussLegendre {
             stages: i.stages.unwrap_or(3),
             step: i.step,

@@ -45,7 +45,7 @@ pub fn run_with(
 
 /// Run a loaded scene; returns the trajectory (possibly incomplete) and, on failure, the error.
 /// A scene with an `[accuracy]` target and no integrator runs the fastest adaptive setting that
-/// meets it (`hamel tradeoff`'s recommendation among DOP853 and DOPRI5; stderr says which).
+/// meets it (`hamel tradeoff`'s recommendation among DOP853, DOPRI5 and Vern9; stderr says which).
 /// A run at loose tolerances, or with `estimate_error`, has its global error estimated.
 pub fn run_loaded(
     loaded: &Loaded,

@@ -1,7 +1,7 @@
 //! `hamel tradeoff SCENE`: the speed–accuracy trade of the numeric core, measured.
 //!
 //! Every integrator of `hamel-sim` is run on the scene's planned system over a range of
-//! settings — the adaptive ones (DOP853, DOPRI5, Gauss–Legendre with step doubling) at
+//! settings — the adaptive ones (DOP853, DOPRI5, Verner 9(8), Gauss–Legendre with step doubling) at
 //! rtol = atol = 1e-3 … 1e-13 (Gauss–Legendre every other power), the fixed-step ones (RK4,
 //! Gauss–Legendre) at 1, 2, 4 … 64 steps per output interval — and compared with a reference solution: DOP853 at rtol = atol = 1e-14,
 //! checked against a second run at half that tolerance (their difference is reported). For each
@@ -26,7 +26,7 @@ use crate::load::Loaded;
 /// One setting of one integrator, measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
-    /// `dop853`, `dopri5`, `gauss-legendre`, `rk4`.
+    /// `dop853`, `dopri5`, `vern9`, `gauss-legendre`, `rk4`.
     pub method: MethodName,
     /// The tolerance (rtol = atol) of an adaptive run.
     pub tol: Option<f64>,
@@ -79,7 +79,7 @@ pub enum Range {
     All,
     /// The adaptive explicit ones only (what `hamel simulate` tries for an `[accuracy]`).
     Adaptive,
-    /// DOP853 and DOPRI5 at four tolerances per decade, 1e-3 to 1e-13: a work–precision curve
+    /// DOP853, DOPRI5 and Verner 9(8) at four tolerances per decade, 1e-3 to 1e-13: a work–precision curve
     /// fine enough to compare another integrator with at equal error ([`export_python`]).
     WorkPrecision,
 }
@@ -180,6 +180,7 @@ fn measure(
     for &tol in &tolerances {
         settings.push((Method::Dop853, Some(tol), None));
         settings.push((Method::Dopri5, Some(tol), None));
+        settings.push((Method::Vern9, Some(tol), None));
     }
     if range == Range::All {
         for &tol in [1e-3, 1e-5, 1e-7, 1e-9, 1e-11].iter() {
@@ -255,7 +256,8 @@ fn measure(
 /// returning a list and `rhs_into(t, y, dy)` writing `dy` (the code generator's solved form
 /// with the scene's parameters and the dropped coordinates' reference value as numbers), the
 /// initial time and state, the output times,
-/// the reference solution on the requested state components, and hamel's DOP853 and DOPRI5
+/// the reference solution on the requested state components, and hamel's DOP853, DOPRI5 and
+/// Vern9 runs
 /// measured on the same components; `state` names the components of `y0`.
 ///
 /// hamel's runs compute what the Python integrators compute, the state at the output times:
@@ -333,6 +335,7 @@ impl Row {
         let method = match self.method {
             MethodName::Dop853 => Method::Dop853,
             MethodName::Dopri5 => Method::Dopri5,
+            MethodName::Vern9 => Method::Vern9,
             MethodName::Rk4 => Method::Rk4 {
                 step: self.step.expect("a fixed-step row has its step"),
             },

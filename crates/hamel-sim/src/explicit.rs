@@ -139,9 +139,65 @@ impl Stages {
         self.sums(w, |i, sum| out[i] = sum);
     }
 
-    /// `put(i, Σ_j w_j k_j[i])` for every component `i`, in order.
+    /// `out[i] = Σ_j w_j (k_j[i] − k_base[i])`: for weights that sum to zero or one, the
+    /// differences of nearby stages keep their large coefficients from amplifying the
+    /// rounding of the stages themselves (a continuous extension in monomial form).
+    pub(crate) fn sum_relative<const M: usize>(&self, w: &Row<M>, base: usize, out: &mut [f64]) {
+        let out = &mut out[..self.n];
+        let ks: [&[f64]; M] = std::array::from_fn(|m| self.k(w.index[m]));
+        let kb = self.k(base);
+        for i in 0..self.n {
+            let mut sum = 0.0;
+            for m in 0..M {
+                sum += w.w[m] * (ks[m][i] - kb[i]);
+            }
+            out[i] = sum;
+        }
+    }
+
+    /// `put(i, Σ_j w_j k_j[i])` for every component `i`, in order. Small systems (the
+    /// reduced equations of a mechanism have a handful of states) take a kernel whose
+    /// dimension is a constant: no bounds checks, the loops unrolled and vectorised. The sums
+    /// are the same, term by term in the same order, so the results are identical bit for bit.
     #[inline(always)]
-    fn sums<const M: usize>(&self, w: &Row<M>, mut put: impl FnMut(usize, f64)) {
+    fn sums<const M: usize>(&self, w: &Row<M>, put: impl FnMut(usize, f64)) {
+        macro_rules! dispatch {
+            ($($n:literal)*) => {
+                match self.n {
+                    $($n => self.sums_fixed::<$n, M>(w, put),)*
+                    _ => self.sums_any(w, put),
+                }
+            };
+        }
+        dispatch!(1 2 3 4 5 6 7 8 9 10 11 12)
+    }
+
+    /// [`Stages::sums`] for `n = N`.
+    #[inline]
+    fn sums_fixed<const N: usize, const M: usize>(
+        &self,
+        w: &Row<M>,
+        mut put: impl FnMut(usize, f64),
+    ) {
+        let ks: [&[f64; N]; M] = std::array::from_fn(|m| {
+            self.k(w.index[m])
+                .try_into()
+                .expect("a stage has n = N components")
+        });
+        let mut sums = [0.0; N];
+        for m in 0..M {
+            for i in 0..N {
+                sums[i] += w.w[m] * ks[m][i];
+            }
+        }
+        for (i, sum) in sums.into_iter().enumerate() {
+            put(i, sum);
+        }
+    }
+
+    /// [`Stages::sums`] for any `n`.
+    #[inline]
+    fn sums_any<const M: usize>(&self, w: &Row<M>, mut put: impl FnMut(usize, f64)) {
         let ks: [&[f64]; M] = std::array::from_fn(|m| self.k(w.index[m]));
         for i in 0..self.n {
             let mut sum = 0.0;

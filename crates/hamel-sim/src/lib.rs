@@ -2,7 +2,7 @@
 //!
 //! **Job**: integrate `dy/dt = f(t, y)` and report the state at requested output times, with
 //! work counters and drift of monitored invariants. Methods ([`Method`]): fixed-step classical
-//! RK4; adaptive Dormand–Prince 5(4) and DOP853 with dense output, Hairer's step-size
+//! RK4; adaptive Dormand–Prince 5(4), DOP853 and Verner's 9(8) with dense output, Hairer's step-size
 //! controllers and published tableaus; implicit Gauss–Legendre collocation (2 or 3 stages,
 //! orders 4 and 6; symmetric and symplectic) with a fixed step or step-doubling control.
 //!
@@ -62,6 +62,7 @@ mod step;
 mod system;
 #[cfg(test)]
 mod testing;
+mod vern9;
 
 pub use driver::{Method, MethodName, Options, integrate};
 pub use ensemble::{Ensemble, EnsembleError, Shard, integrate_many};

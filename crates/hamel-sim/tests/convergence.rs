@@ -115,6 +115,11 @@ fn dop853_error_decreases_with_tolerance_and_meets_it() {
 }
 
 #[test]
+fn vern9_error_decreases_with_tolerance_and_meets_it() {
+    check_tolerance_sweep(Method::Vern9, |tol, _| 5.0 * tol);
+}
+
+#[test]
 fn adaptive_gauss_legendre_error_decreases_with_tolerance() {
     // Step doubling controls the error per step, and the un-extrapolated solution is
     // propagated: the global error stays below steps × tol (observed error/tol up to 10).

@@ -61,12 +61,18 @@ fn dop853_dense_output_tracks_the_tolerance() {
 }
 
 #[test]
+fn vern9_dense_output_tracks_the_tolerance() {
+    check_dense(Method::Vern9);
+}
+
+#[test]
 fn integration_runs_backward_with_dense_output() {
     let y1 = sample_exact(1.0);
     let outputs = [0.9, 0.55, 0.3, 0.0];
     for method in [
         Method::Dopri5,
         Method::Dop853,
+        Method::Vern9,
         Method::GaussLegendre {
             stages: 3,
             step: None,

@@ -92,6 +92,34 @@ fn dop853_takes_eleven_evaluations_per_attempt_plus_one_per_step() {
 }
 
 #[test]
+fn vern9_takes_fifteen_evaluations_per_attempt_plus_one_per_step_and_four_per_output_step() {
+    let options = Options {
+        rtol: 1e-10,
+        atol: 1e-10,
+        h0: Some(1.0),
+        ..Options::default()
+    };
+    let run = |outputs: &[f64]| {
+        integrate(&Sample, Method::Vern9, 0.0, &[1.0, 1.0], outputs, &options)
+            .unwrap()
+            .stats
+    };
+    let plain = run(&[3.0]);
+    assert!(plain.rejected > 0);
+    let base = |s: &hamel_sim::Stats| 15 * (s.steps + s.rejected) + s.steps + 1;
+    assert_eq!(plain.rhs_evals, base(&plain), "{plain:?}");
+    // The lazy extension: four more evaluations in each step with outputs inside it, none
+    // in a step without.
+    let outputs: Vec<f64> = (1..=30).map(|k| 0.1 * f64::from(k)).collect();
+    let dense = run(&outputs);
+    let extra = dense.rhs_evals - base(&dense);
+    assert!(
+        extra.is_multiple_of(4) && extra > 0 && extra <= 4 * dense.steps,
+        "{dense:?}"
+    );
+}
+
+#[test]
 fn fixed_step_gauss_counts_newton_iterations_and_jacobians() {
     let method = Method::GaussLegendre {
         stages: 3,
