@@ -699,7 +699,8 @@ fn simulate_the_knife_follows_its_closed_form_solution() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
     assert!(stats["energy_drift"].as_f64().unwrap() < 1e-12);
-    assert!(stats["constraint_drift"].as_f64().unwrap() < 1e-12);
+    // Not requested: α(q)Γ(q)η is identically zero, computed only when named.
+    assert!(stats["constraint_drift"].is_null(), "{stats}");
 }
 
 #[test]

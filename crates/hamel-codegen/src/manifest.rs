@@ -30,10 +30,13 @@ pub fn generated(package: &str) -> String {
 }
 
 /// The manifest of the vendored numeric runtime (`vendor/hamel-runtime` in a generated crate;
-/// std only).
+/// std and libm).
 pub fn runtime() -> String {
     let mut doc = DocumentMut::new();
     doc["package"] = package_table("hamel-runtime");
+    let mut deps = Table::new();
+    deps["libm"] = value("0.2");
+    doc["dependencies"] = Item::Table(deps);
     doc.to_string()
 }
 

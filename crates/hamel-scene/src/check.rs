@@ -127,7 +127,7 @@ fn request(
     let mut request = match &scene.request {
         Some(names) => Request::parse(names, &model.coordinates, model.sigma(), &expression_names)
             .map_err(|m| file.error(Some("request"), m))?,
-        None => Request::everything(model.coordinates.len(), parsed.len()),
+        None => Request::default_outputs(model.coordinates.len(), parsed.len()),
     };
     for &i in &request.expressions {
         for &k in &parsed[i].coordinates {

@@ -23,7 +23,7 @@ pub struct Scene {
     #[serde(default)]
     pub parameters: IndexMap<String, f64>,
     pub initial: Initial,
-    /// The outputs wanted (default: everything).
+    /// The outputs wanted (default: everything but the constraint residual).
     pub request: Option<Vec<String>>,
     /// Named outputs defined as expressions of the coordinates, the parameters and η (e.g.
     /// the position of a contact point): `name = "x + a*cos(theta)"`.

@@ -1,6 +1,13 @@
-//! What a scene asks for: `request = [...]` resolved against the model (everything when absent).
+//! What a scene asks for: `request = [...]` resolved against the model (when absent: every
+//! coordinate, η, the energy and the expressions).
+//!
+//! The constraint residual α(q)q̇ is computed only when named. For hamel's velocities
+//! q̇ = Γ(q)η it vanishes identically (αΓ = 0 is how Γ is built, checked exactly at the
+//! derivation), so evaluated along a run it shows only the rounding of α and Γ, at the price
+//! of both at every output: on the knife, whose right-hand side is four operations, that
+//! price is a fifth of the run (docs/performance.md).
 
-/// What a scene asks for (`request = [...]`; everything when absent).
+/// What a scene asks for (`request = [...]`; see the module doc for the default).
 #[derive(Clone, Debug)]
 pub struct Request {
     /// Requested coordinates, by index.
@@ -18,13 +25,14 @@ pub struct Request {
 }
 
 impl Request {
-    /// Everything (the default).
-    pub fn everything(ell: usize, expressions: usize) -> Request {
+    /// The default: every coordinate, η, the energy and every expression; not the constraint
+    /// residual (module doc).
+    pub fn default_outputs(ell: usize, expressions: usize) -> Request {
         Request {
             coordinates: (0..ell).collect(),
             eta: true,
             energy: true,
-            constraint_residual: true,
+            constraint_residual: false,
             expressions: (0..expressions).collect(),
             needed: Vec::new(),
         }
