@@ -1,0 +1,122 @@
+//! The atoms of a printing form: parameters, coordinates, velocities, and functions of them.
+
+use hamel_expr::Expr;
+
+/// What an atom is, in the order a paper writes the factors of a product.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Kind {
+    /// A parameter, or a function of parameters only (`sqrt(m)`).
+    Parameter,
+    /// A coordinate itself (`x`, `theta`).
+    Coordinate,
+    /// A function of coordinates (`sin(theta)`, `z13(phi)`).
+    Function,
+    /// A velocity or quasi-velocity (`der(x)`, `eta1`), or its rate.
+    Velocity,
+}
+
+/// Which names are which: the model's parameters, coordinates and quasi-velocities.
+#[derive(Clone, Debug, Default)]
+pub struct Vocabulary {
+    /// Parameter names, in the model's order.
+    pub parameters: Vec<String>,
+    /// Coordinate names, in the model's order.
+    pub coordinates: Vec<String>,
+    /// Names that are velocities although written as symbols (`eta1`, `eta1_dot`).
+    pub velocities: Vec<String>,
+}
+
+/// One atom: an expression that a polynomial treats as a variable.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Atom {
+    /// The atom's expression (a symbol, `der(q)`, or a function call).
+    pub expr: Expr,
+    /// Its kind.
+    pub kind: Kind,
+    /// Its text, the key that identifies it.
+    pub key: String,
+}
+
+/// The atoms met so far, each with its index; the index order is the printing order (kind,
+/// then the model's order of names, then text).
+#[derive(Clone, Debug)]
+pub struct Atoms {
+    vocabulary: Vocabulary,
+    list: Vec<Atom>,
+}
+
+impl Atoms {
+    /// No atoms yet.
+    pub fn new(vocabulary: Vocabulary) -> Atoms {
+        Atoms {
+            vocabulary,
+            list: Vec::new(),
+        }
+    }
+
+    /// The atom with index `i`.
+    pub fn get(&self, i: usize) -> &Atom {
+        &self.list[i]
+    }
+
+    /// The index of `expr`'s atom, added if new.
+    pub fn intern(&mut self, expr: &Expr) -> usize {
+        let key = expr.to_string();
+        if let Some(i) = self.list.iter().position(|a| a.key == key) {
+            return i;
+        }
+        let kind = self.kind_of(expr);
+        self.list.push(Atom {
+            expr: expr.clone(),
+            kind,
+            key,
+        });
+        self.list.len() - 1
+    }
+
+    /// The kind of an atom's expression.
+    fn kind_of(&self, expr: &Expr) -> Kind {
+        let v = &self.vocabulary;
+        match expr {
+            Expr::Der(_) => Kind::Velocity,
+            Expr::Sym(n) if v.velocities.contains(n) => Kind::Velocity,
+            Expr::Sym(n) if v.coordinates.contains(n) => Kind::Coordinate,
+            Expr::Sym(_) => Kind::Parameter,
+            _ if self.mentions_state(expr) => Kind::Function,
+            _ => Kind::Parameter,
+        }
+    }
+
+    /// Whether `expr` mentions a coordinate, a velocity or a free function.
+    fn mentions_state(&self, expr: &Expr) -> bool {
+        let v = &self.vocabulary;
+        let mut found = false;
+        expr.visit(&mut |e| match e {
+            Expr::Der(_) | Expr::Free { .. } => found = true,
+            Expr::Sym(n) if v.coordinates.contains(n) || v.velocities.contains(n) => found = true,
+            _ => {}
+        });
+        found
+    }
+
+    /// The sort key of atom `i`: kind, position of its name in the model, text.
+    pub fn order(&self, i: usize) -> (Kind, usize, &str) {
+        let a = &self.list[i];
+        let v = &self.vocabulary;
+        let position = match &a.expr {
+            Expr::Sym(n) => v
+                .parameters
+                .iter()
+                .chain(&v.coordinates)
+                .chain(&v.velocities)
+                .position(|p| p == n),
+            Expr::Der(n) => v.coordinates.iter().position(|p| p == n),
+            Expr::Call(_, arg) => match &**arg {
+                Expr::Sym(n) => v.coordinates.iter().position(|p| p == n),
+                _ => None,
+            },
+            _ => None,
+        };
+        (a.kind, position.unwrap_or(usize::MAX), &a.key)
+    }
+}

@@ -1,0 +1,285 @@
+//! Collection: a canonical polynomial written as a paper writes it.
+//!
+//! 1. The rational content and the common monomial come out in front.
+//! 2. What is left is collected over the monomials in the state's atoms (the coordinates'
+//!    functions and the velocities); each coefficient is a polynomial in the parameters.
+//! 3. A coefficient is factored greedily: its own content out, then, while some parameter
+//!    occurs in two terms or more, the one occurring most (the model's order breaks ties) is
+//!    pulled out of the terms that have it: `m_f ρ₁ + m_r ρ₁ + m_r ρ₂` → `m_r(ρ₁ + ρ₂) + m_f ρ₁`.
+
+use std::collections::BTreeMap;
+
+use hamel_expr::Rational;
+use num_integer::Integer;
+use num_traits::{One, Signed, Zero};
+
+use crate::atoms::{Atoms, Kind};
+use crate::form::{Factor, Form, factor_rank, is_zero};
+use crate::poly::{Fraction, Mono, Poly, leading_negative};
+
+/// The printing form of a fraction: a polynomial, or a quotient of two.
+pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
+    match f.den.as_constant() {
+        Some(c) if c.is_one() => poly(&f.num, atoms),
+        _ => Form::Quotient(Box::new(poly(&f.num, atoms)), Box::new(poly(&f.den, atoms))),
+    }
+}
+
+/// The printing form of a polynomial (step 1, then 2).
+pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
+    if p.is_zero() {
+        return constant(Rational::zero());
+    }
+    let (c, g, rest) = content(p);
+    let inner = if rest.as_constant().is_some() {
+        None
+    } else {
+        Some(by_state(&rest, atoms))
+    };
+    product(c, &g, inner, atoms)
+}
+
+/// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
+/// greatest common monomial `g`.
+fn content(p: &Poly) -> (Rational, Mono, Poly) {
+    let mut terms = p.0.iter();
+    let (m0, c0) = terms.next().expect("a nonzero polynomial");
+    let (mut num, mut den) = (c0.numer().abs(), c0.denom().clone());
+    let mut g = m0.clone();
+    for (m, c) in terms {
+        num = num.gcd(c.numer());
+        den = den.lcm(c.denom());
+        g = g.gcd(m);
+    }
+    let mut c = Rational::new(num, den);
+    if leading_negative(p) {
+        c = -c;
+    }
+    let mut rest = Poly::default();
+    for (m, d) in &p.0 {
+        rest.add_term(m.div(&g).expect("g divides every term"), d / &c);
+    }
+    (c, g, rest)
+}
+
+/// `c · g · (inner)`, factors in printing order; the sign taken out of a sum whose first printed
+/// term is negative.
+fn product(mut c: Rational, g: &Mono, mut inner: Option<Form>, atoms: &Atoms) -> Form {
+    if let Some(Form::Sum(terms)) = &mut inner
+        && terms.first().is_some_and(negative)
+    {
+        terms.iter_mut().for_each(negate);
+        c = -c;
+    }
+    let mut factors = atoms_of(g);
+    match inner {
+        None => {}
+        Some(Form::Product {
+            coef,
+            factors: more,
+        }) => {
+            factors.extend(more);
+            return sorted(c * coef, factors, atoms);
+        }
+        Some(sum) => factors.push(Factor::Group(sum)),
+    }
+    sorted(c, factors, atoms)
+}
+
+fn sorted(coef: Rational, mut factors: Vec<Factor>, atoms: &Atoms) -> Form {
+    if coef.is_one()
+        && matches!(factors.as_slice(), [Factor::Group(_)])
+        && let Some(Factor::Group(sum)) = factors.pop()
+    {
+        return sum;
+    }
+    factors.sort_by_cached_key(|x| factor_rank(x, atoms));
+    Form::Product { coef, factors }
+}
+
+fn atoms_of(m: &Mono) -> Vec<Factor> {
+    m.0.iter()
+        .map(|&(index, power)| Factor::Atom { index, power })
+        .collect()
+}
+
+fn negative(f: &Form) -> bool {
+    match f {
+        Form::Product { coef, .. } => coef.is_negative(),
+        Form::Sum(terms) => terms.first().is_some_and(negative),
+        Form::Quotient(num, _) => negative(num),
+    }
+}
+
+fn negate(f: &mut Form) {
+    match f {
+        Form::Product { coef, .. } => *coef = -coef.clone(),
+        Form::Sum(terms) => terms.iter_mut().for_each(negate),
+        Form::Quotient(num, _) => negate(num),
+    }
+}
+
+fn constant(c: Rational) -> Form {
+    Form::Product {
+        coef: c,
+        factors: Vec::new(),
+    }
+}
+
+/// Step 2: the terms grouped by their monomial in the state's atoms; a coefficient that every
+/// group shares (up to a rational factor) comes out in front.
+fn by_state(p: &Poly, atoms: &Atoms) -> Form {
+    let groups = state_groups(p, atoms);
+    if let Some((common, scales)) = shared_coefficient(&groups) {
+        let mut rest = Poly::default();
+        for ((state, _), c) in groups.iter().zip(scales) {
+            rest.add_term(state.clone(), c);
+        }
+        let mut inner = by_state(&rest, atoms);
+        let sign = if negative(&inner) {
+            negate(&mut inner);
+            -Rational::one()
+        } else {
+            Rational::one()
+        };
+        let common = parameters(&common, atoms);
+        return sorted(
+            sign,
+            vec![Factor::Group(common), Factor::Group(inner)],
+            atoms,
+        );
+    }
+    collected(groups, atoms)
+}
+
+/// A state atom's place in the printing order, with its exponent.
+type StateKey = (Kind, usize, String, u32);
+
+/// The groups `(state monomial, parameter coefficient)` in printing order.
+fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
+    let mut groups: BTreeMap<Vec<StateKey>, (Mono, Poly)> = BTreeMap::new();
+    for (m, c) in &p.0 {
+        let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
+        let params = m.div(&state).expect("a part divides the whole");
+        let key = state
+            .0
+            .iter()
+            .map(|&(i, e)| {
+                let (k, pos, text) = atoms.order(i);
+                (k, pos, text.to_string(), e)
+            })
+            .collect();
+        let entry = groups
+            .entry(key)
+            .or_insert_with(|| (state, Poly::default()));
+        entry.1.add_term(params, c.clone());
+    }
+    groups.into_values().collect()
+}
+
+/// When there are two groups or more and every coefficient is `c_i · P` for one polynomial
+/// `P` of two terms or more: `P` and the `c_i`.
+fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Rational>)> {
+    if groups.len() < 2 {
+        return None;
+    }
+    let (_, _, first) = content(&groups[0].1);
+    if first.0.len() < 2 {
+        return None;
+    }
+    let mut scales = Vec::new();
+    for (_, coef) in groups {
+        let (c, g, rest) = content(coef);
+        if !g.0.is_empty() || rest != first {
+            return None;
+        }
+        scales.push(c);
+    }
+    Some((first, scales))
+}
+
+/// The collected sum of the groups.
+fn collected(groups: Vec<(Mono, Poly)>, atoms: &Atoms) -> Form {
+    let terms: Vec<Form> = groups
+        .into_iter()
+        .map(|(state, coef)| {
+            let c = parameters(&coef, atoms);
+            let (coef, mut factors) = match c {
+                Form::Product { coef, factors } => (coef, factors),
+                sum => (Rational::one(), vec![Factor::Group(sum)]),
+            };
+            factors.extend(atoms_of(&state));
+            sorted(coef, factors, atoms)
+        })
+        .filter(|t| !is_zero(t))
+        .collect();
+    if terms.len() == 1 {
+        return terms.into_iter().next().expect("one term");
+    }
+    Form::Sum(terms)
+}
+
+/// Step 3: a polynomial in the parameters, factored greedily.
+fn parameters(p: &Poly, atoms: &Atoms) -> Form {
+    let (c, g, rest) = content(p);
+    if rest.as_constant().is_some() {
+        return product(c, &g, None, atoms);
+    }
+    product(c, &g, Some(greedy(&rest, atoms)), atoms)
+}
+
+/// A content-free polynomial in the parameters as a sum, the most frequent parameter pulled
+/// out first.
+fn greedy(p: &Poly, atoms: &Atoms) -> Form {
+    let Some(a) = most_frequent(p, atoms) else {
+        let terms =
+            p.0.iter()
+                .map(|(m, c)| sorted(c.clone(), atoms_of(m), atoms))
+                .collect();
+        return in_order(terms, atoms);
+    };
+    let (mut with, mut without) = (Poly::default(), Poly::default());
+    for (m, c) in &p.0 {
+        match m.div(&Mono::atom(a)) {
+            Some(q) => with.add_term(q, c.clone()),
+            None => without.add_term(m.clone(), c.clone()),
+        }
+    }
+    let mut terms = vec![product(
+        Rational::one(),
+        &Mono::atom(a),
+        Some(parameters(&with, atoms)),
+        atoms,
+    )];
+    if !without.is_zero() {
+        match parameters(&without, atoms) {
+            Form::Sum(more) => terms.extend(more),
+            one => terms.push(one),
+        }
+    }
+    in_order(terms, atoms)
+}
+
+/// The terms of a sum in printing order: by their factors' ranks, the model's order first.
+fn in_order(mut terms: Vec<Form>, atoms: &Atoms) -> Form {
+    terms.sort_by_cached_key(|t| match t {
+        Form::Product { factors, .. } => factors.iter().map(|x| factor_rank(x, atoms)).collect(),
+        _ => Vec::new(),
+    });
+    Form::Sum(terms)
+}
+
+/// The parameter atom occurring in the most terms (at least two); ties go to the model's order.
+fn most_frequent(p: &Poly, atoms: &Atoms) -> Option<usize> {
+    let mut counts: BTreeMap<usize, usize> = BTreeMap::new();
+    for m in p.0.keys() {
+        for &(i, _) in &m.0 {
+            *counts.entry(i).or_default() += 1;
+        }
+    }
+    counts
+        .into_iter()
+        .filter(|&(_, n)| n >= 2)
+        .max_by(|(i, n), (j, k)| n.cmp(k).then_with(|| atoms.order(*j).cmp(&atoms.order(*i))))
+        .map(|(i, _)| i)
+}

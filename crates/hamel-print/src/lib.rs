@@ -1,0 +1,32 @@
+//! Printing forms of derived expressions: what a paper would print.
+//!
+//! **Job**: turn a canonical (expanded) expression into the form a mechanician writes
+//! (issue 22): the terms collected over the monomials in the coordinates' functions (sines,
+//! cosines, velocities), each coefficient a factored polynomial in the parameters; common
+//! factors and the rational content pulled out; parameters written before functions, rationals
+//! as `\tfrac`, no parentheses around a negated product.
+//!
+//! **Inputs**: an [`Expr`](hamel_expr::Expr) in canonical form (as `hamel-derive` exports it) and a
+//! [`Vocabulary`] saying which names are parameters, coordinates and velocities.
+//! **Outputs**: a [`Printed`] form, rendered as text ([`Printed::text`]) or LaTeX
+//! ([`Printed::latex`]), and back as an expression ([`Printed::to_expr`]).
+//!
+//! **Invariant**: printing never decides anything. A printed form equals the canonical form it
+//! came from, exactly: both expand to the same polynomial in the atoms ([`Poly`], a canonical
+//! form for the polynomial and rational expressions derivations produce), which
+//! [`Printed::check`] verifies and the tests assert for every entry of every seed model.
+//! Deciding (what is free of a coordinate, which hypotheses hold) stays on the CAS's canonical
+//! forms.
+#![warn(missing_docs)]
+
+mod atoms;
+mod collect;
+mod form;
+mod poly;
+
+pub use atoms::{Atom, Atoms, Kind, Vocabulary};
+pub use form::Printed;
+pub use poly::{Fraction, Mono, Poly, PolyError};
+
+#[cfg(test)]
+mod tests;

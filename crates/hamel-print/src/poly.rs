@@ -1,0 +1,283 @@
+//! Sparse polynomials with rational coefficients in the atoms: the canonical form against
+//! which a printed form is checked, and what collection works on.
+
+use std::collections::BTreeMap;
+
+use hamel_expr::{Expr, Rational};
+use num_traits::{One, Signed, ToPrimitive, Zero};
+
+use crate::atoms::Atoms;
+
+/// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1.
+#[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Mono(pub Vec<(usize, u32)>);
+
+impl Mono {
+    /// The atom `i` to the first power.
+    pub fn atom(i: usize) -> Mono {
+        Mono(vec![(i, 1)])
+    }
+
+    /// The product of two monomials.
+    pub fn mul(&self, other: &Mono) -> Mono {
+        let mut out: BTreeMap<usize, u32> = self.0.iter().copied().collect();
+        for &(i, e) in &other.0 {
+            *out.entry(i).or_default() += e;
+        }
+        Mono(out.into_iter().collect())
+    }
+
+    /// `self / other`, when `other` divides `self`.
+    pub fn div(&self, other: &Mono) -> Option<Mono> {
+        let mut out: BTreeMap<usize, u32> = self.0.iter().copied().collect();
+        for &(i, e) in &other.0 {
+            let have = out.get_mut(&i)?;
+            *have = have.checked_sub(e)?;
+            if *have == 0 {
+                out.remove(&i);
+            }
+        }
+        Some(Mono(out.into_iter().collect()))
+    }
+
+    /// The greatest common divisor (the smallest exponent of each shared atom).
+    pub fn gcd(&self, other: &Mono) -> Mono {
+        let theirs: BTreeMap<usize, u32> = other.0.iter().copied().collect();
+        Mono(
+            self.0
+                .iter()
+                .filter_map(|&(i, e)| theirs.get(&i).map(|&f| (i, e.min(f))))
+                .collect(),
+        )
+    }
+
+    /// The exponent of atom `i`.
+    pub fn exponent(&self, i: usize) -> u32 {
+        self.0.iter().find(|(a, _)| *a == i).map_or(0, |(_, e)| *e)
+    }
+
+    /// The part made of atoms for which `keep` holds.
+    pub fn filter(&self, keep: impl Fn(usize) -> bool) -> Mono {
+        Mono(self.0.iter().copied().filter(|&(i, _)| keep(i)).collect())
+    }
+}
+
+/// A polynomial: monomial ↦ nonzero coefficient.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Poly(pub BTreeMap<Mono, Rational>);
+
+/// A quotient of polynomials, as canonical forms with a division come.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Fraction {
+    /// Numerator.
+    pub num: Poly,
+    /// Denominator (the constant 1 for a polynomial).
+    pub den: Poly,
+}
+
+/// Why an expression has no polynomial form.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum PolyError {
+    /// A division by the zero polynomial.
+    #[error("division by zero in the expression")]
+    DivisionByZero,
+    /// An exponent that is not a small integer, on a base that is not an atom.
+    #[error("the exponent of `{0}` is not an integer")]
+    Exponent(String),
+}
+
+impl Poly {
+    /// The constant `c`.
+    pub fn constant(c: Rational) -> Poly {
+        let mut p = Poly::default();
+        p.add_term(Mono::default(), c);
+        p
+    }
+
+    /// `c · m`.
+    pub fn term(m: Mono, c: Rational) -> Poly {
+        let mut p = Poly::default();
+        p.add_term(m, c);
+        p
+    }
+
+    /// Adds `c · m`, dropping the term if it cancels.
+    pub fn add_term(&mut self, m: Mono, c: Rational) {
+        if c.is_zero() {
+            return;
+        }
+        let entry = self.0.entry(m.clone()).or_insert_with(Rational::zero);
+        *entry += c;
+        if entry.is_zero() {
+            self.0.remove(&m);
+        }
+    }
+
+    /// Whether this is the zero polynomial.
+    pub fn is_zero(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// `self + other`.
+    pub fn add(&self, other: &Poly) -> Poly {
+        let mut out = self.clone();
+        for (m, c) in &other.0 {
+            out.add_term(m.clone(), c.clone());
+        }
+        out
+    }
+
+    /// `self · other`.
+    pub fn mul(&self, other: &Poly) -> Poly {
+        let mut out = Poly::default();
+        for (m, c) in &self.0 {
+            for (n, d) in &other.0 {
+                out.add_term(m.mul(n), c * d);
+            }
+        }
+        out
+    }
+
+    /// `c · self`.
+    pub fn scale(&self, c: &Rational) -> Poly {
+        let mut out = Poly::default();
+        for (m, d) in &self.0 {
+            out.add_term(m.clone(), c * d);
+        }
+        out
+    }
+
+    /// `self^n`.
+    pub fn pow(&self, n: u32) -> Poly {
+        (0..n).fold(Poly::constant(Rational::one()), |acc, _| acc.mul(self))
+    }
+
+    /// The constant value, if this is a constant.
+    pub fn as_constant(&self) -> Option<Rational> {
+        match self.0.len() {
+            0 => Some(Rational::zero()),
+            1 => self.0.get(&Mono::default()).cloned(),
+            _ => None,
+        }
+    }
+}
+
+impl Fraction {
+    fn poly(p: Poly) -> Fraction {
+        Fraction {
+            num: p,
+            den: Poly::constant(Rational::one()),
+        }
+    }
+
+    /// The canonical expression `e` over the atoms: sums, products, integer powers and
+    /// quotients are expanded; anything else (functions, non-integer powers) is an atom.
+    pub fn from_expr(e: &Expr, atoms: &mut Atoms) -> Result<Fraction, PolyError> {
+        Ok(match e {
+            Expr::Num(r) => Fraction::poly(Poly::constant(r.clone())),
+            Expr::Add(v) => {
+                let mut acc = Fraction::poly(Poly::default());
+                for t in v {
+                    acc = acc.add(&Fraction::from_expr(t, atoms)?);
+                }
+                acc
+            }
+            Expr::Mul(v) => {
+                let mut acc = Fraction::poly(Poly::constant(Rational::one()));
+                for t in v {
+                    acc = acc.mul(&Fraction::from_expr(t, atoms)?);
+                }
+                acc
+            }
+            Expr::Neg(a) => {
+                let f = Fraction::from_expr(a, atoms)?;
+                Fraction {
+                    num: f.num.scale(&-Rational::one()),
+                    den: f.den,
+                }
+            }
+            Expr::Div(a, b) => {
+                let (a, b) = (
+                    Fraction::from_expr(a, atoms)?,
+                    Fraction::from_expr(b, atoms)?,
+                );
+                if b.num.is_zero() {
+                    return Err(PolyError::DivisionByZero);
+                }
+                a.mul(&Fraction {
+                    num: b.den,
+                    den: b.num,
+                })
+            }
+            Expr::Pow(base, exp) => Fraction::power(base, exp, e, atoms)?,
+            _ => Fraction::poly(Poly::term(Mono::atom(atoms.intern(e)), Rational::one())),
+        })
+    }
+
+    /// `base^exp`: expanded for a small integer exponent, an atom otherwise.
+    fn power(
+        base: &Expr,
+        exp: &Expr,
+        whole: &Expr,
+        atoms: &mut Atoms,
+    ) -> Result<Fraction, PolyError> {
+        let Some(n) = exp.as_integer().filter(|n| n.abs() <= 64) else {
+            if matches!(base, Expr::Sym(_) | Expr::Call(..) | Expr::Der(_)) {
+                let atom = atoms.intern(whole);
+                return Ok(Fraction::poly(Poly::term(
+                    Mono::atom(atom),
+                    Rational::one(),
+                )));
+            }
+            return Err(PolyError::Exponent(base.to_string()));
+        };
+        let f = Fraction::from_expr(base, atoms)?;
+        let k = n.unsigned_abs().to_u32().unwrap_or(0);
+        let (num, den) = (f.num.pow(k), f.den.pow(k));
+        if n >= 0 {
+            Ok(Fraction { num, den })
+        } else if num.is_zero() {
+            Err(PolyError::DivisionByZero)
+        } else {
+            Ok(Fraction { num: den, den: num })
+        }
+    }
+
+    fn add(&self, other: &Fraction) -> Fraction {
+        if self.den == other.den {
+            return Fraction {
+                num: self.num.add(&other.num),
+                den: self.den.clone(),
+            };
+        }
+        Fraction {
+            num: self.num.mul(&other.den).add(&other.num.mul(&self.den)),
+            den: self.den.mul(&other.den),
+        }
+    }
+
+    fn mul(&self, other: &Fraction) -> Fraction {
+        Fraction {
+            num: self.num.mul(&other.num),
+            den: self.den.mul(&other.den),
+        }
+    }
+
+    /// Whether `self` and `other` are the same rational function (cross-multiplied).
+    pub fn same(&self, other: &Fraction) -> bool {
+        self.num.mul(&other.den) == other.num.mul(&self.den)
+    }
+
+    /// A constant denominator folded into the numerator.
+    pub fn normalised(self) -> Fraction {
+        match self.den.as_constant() {
+            Some(c) if !c.is_zero() && !c.is_one() => Fraction::poly(self.num.scale(&c.recip())),
+            _ => self,
+        }
+    }
+}
+
+/// The sign of the first term in monomial order (for a deterministic sign convention).
+pub(crate) fn leading_negative(p: &Poly) -> bool {
+    p.0.values().next().is_some_and(|c| c.is_negative())
+}

@@ -1,0 +1,81 @@
+//! The printing forms of entries the issue names, checked exactly and parsed back.
+
+use hamel_expr::parse;
+
+use crate::{Printed, Vocabulary};
+
+fn unicycle() -> Vocabulary {
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    Vocabulary {
+        parameters: names(&["m_d", "m_f", "m_r", "R", "rho", "rho1", "rho2"]),
+        coordinates: names(&["xC", "yC", "phi", "psi", "theta", "theta1"]),
+        velocities: names(&["eta1", "eta2", "eta3", "eta4"]),
+    }
+}
+
+fn printed(text: &str, v: &Vocabulary) -> Printed {
+    let p = Printed::new(&parse(text).unwrap().expr, v).unwrap();
+    assert!(p.check(), "{text} → {}", p.text());
+    let back = Printed::new(&parse(&p.text()).unwrap().expr, v).unwrap();
+    assert_eq!(
+        back.text(),
+        p.text(),
+        "the text parses back to the same form"
+    );
+    p
+}
+
+/// The unicycle's A[1,3] (issue 22): the paper's −F₁ cos φ, F₁ = (m_f ρ₁ + m_r(ρ₁ + ρ₂) +
+/// m_d R) sin θ + m_r ρ sin θ₁.
+#[test]
+fn unicycle_a13_is_collected_and_factored() {
+    let a13 = "-(cos(phi)*sin(theta)*R*m_d) - cos(phi)*sin(theta)*m_f*rho1 \
+               - cos(phi)*sin(theta)*rho1*m_r - cos(phi)*sin(theta)*rho2*m_r \
+               - cos(phi)*sin(theta1)*m_r*rho";
+    let p = printed(a13, &unicycle());
+    assert_eq!(
+        p.text(),
+        "-((m_d*R + m_f*rho1 + m_r*(rho1 + rho2))*sin(theta) + m_r*rho*sin(theta1))*cos(phi)"
+    );
+    assert_eq!(
+        p.latex(),
+        "-\\left(\\left(m_{d} R + m_{f} \\rho_{1} + m_{r} \\left(\\rho_{1} + \\rho_{2}\\right)\\right) \\sin \\theta + m_{r} \\rho \\sin \\theta_{1}\\right) \\cos \\varphi"
+    );
+}
+
+#[test]
+fn rationals_are_tfrac_and_negated_products_bare() {
+    let v = unicycle();
+    let p = printed("-3/2*m_d*R^2*eta1", &v);
+    assert_eq!(p.latex(), "-\\tfrac{3}{2} m_{d} R^{2} \\eta_{1}");
+    // A common denominator comes out in front.
+    let p = printed("-3/2*m_d*R^2*eta1 + 1/2*m_f*rho1*eta2", &v);
+    assert_eq!(
+        p.latex(),
+        "-\\tfrac{1}{2} \\left(3 m_{d} R^{2} \\eta_{1} - m_{f} \\rho_{1} \\eta_{2}\\right)"
+    );
+    assert_eq!(printed("-(m_d*R)", &v).latex(), "-m_{d} R");
+}
+
+#[test]
+fn common_factors_and_content_come_out() {
+    let v = unicycle();
+    let p = printed("2*m_d*R*cos(theta)*eta1 + 4*m_d*R*sin(theta)*eta1", &v);
+    assert_eq!(p.text(), "2*m_d*R*(cos(theta) + 2*sin(theta))*eta1");
+}
+
+#[test]
+fn a_quotient_keeps_its_denominator() {
+    let v = unicycle();
+    let p = printed("(m_d*R*eta1)/(R^2*cos(theta)^2*m_d)", &v);
+    assert!(p.check());
+    assert!(p.latex().starts_with("\\frac{"), "{}", p.latex());
+}
+
+#[test]
+fn zero_and_constants() {
+    let v = unicycle();
+    assert_eq!(printed("0", &v).text(), "0");
+    assert_eq!(printed("3/4", &v).latex(), "\\tfrac{3}{4}");
+    assert_eq!(printed("-m_d", &v).text(), "-m_d");
+}
