@@ -54,6 +54,11 @@ impl Atoms {
         }
     }
 
+    /// The model's names.
+    pub fn vocabulary(&self) -> &Vocabulary {
+        &self.vocabulary
+    }
+
     /// The atom with index `i`.
     pub fn get(&self, i: usize) -> &Atom {
         &self.list[i]

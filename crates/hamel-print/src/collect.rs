@@ -41,7 +41,7 @@ pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
 
 /// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
 /// greatest common monomial `g`.
-fn content(p: &Poly) -> (Rational, Mono, Poly) {
+pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
     let mut terms = p.0.iter();
     let (m0, c0) = terms.next().expect("a nonzero polynomial");
     let (mut num, mut den) = (c0.numer().abs(), c0.denom().clone());
@@ -94,7 +94,26 @@ fn sorted(coef: Rational, mut factors: Vec<Factor>, atoms: &Atoms) -> Form {
         return sum;
     }
     factors.sort_by_cached_key(|x| factor_rank(x, atoms));
-    Form::Product { coef, factors }
+    Form::Product {
+        coef,
+        factors: merged(factors),
+    }
+}
+
+/// Equal atoms next to each other (after sorting) merged into one power.
+fn merged(factors: Vec<Factor>) -> Vec<Factor> {
+    let mut out: Vec<Factor> = Vec::with_capacity(factors.len());
+    for x in factors {
+        if let (Some(Factor::Atom { index: i, power: p }), Factor::Atom { index: j, power: q }) =
+            (out.last_mut(), &x)
+            && *i == *j
+        {
+            *p += q;
+            continue;
+        }
+        out.push(x);
+    }
+    out
 }
 
 fn atoms_of(m: &Mono) -> Vec<Factor> {
@@ -103,7 +122,7 @@ fn atoms_of(m: &Mono) -> Vec<Factor> {
         .collect()
 }
 
-fn negative(f: &Form) -> bool {
+pub(crate) fn negative(f: &Form) -> bool {
     match f {
         Form::Product { coef, .. } => coef.is_negative(),
         Form::Sum(terms) => terms.first().is_some_and(negative),
@@ -111,7 +130,7 @@ fn negative(f: &Form) -> bool {
     }
 }
 
-fn negate(f: &mut Form) {
+pub(crate) fn negate(f: &mut Form) {
     match f {
         Form::Product { coef, .. } => *coef = -coef.clone(),
         Form::Sum(terms) => terms.iter_mut().for_each(negate),
@@ -212,6 +231,10 @@ fn collected(groups: Vec<(Mono, Poly)>, atoms: &Atoms) -> Form {
             sorted(coef, factors, atoms)
         })
         .filter(|t| !is_zero(t))
+        .flat_map(|t| match t {
+            Form::Sum(inner) => inner,
+            one => vec![one],
+        })
         .collect();
     if terms.len() == 1 {
         return terms.into_iter().next().expect("one term");

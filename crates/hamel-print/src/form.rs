@@ -36,6 +36,30 @@ pub enum Factor {
     },
     /// A sum in parentheses.
     Group(Form),
+    /// A named group: definition `index` of the sheet's where-list.
+    Name {
+        /// The definition's index.
+        index: usize,
+    },
+}
+
+/// A named group of the where-list: `κ₁ = m_d R + …` (parameters only) or
+/// `F₁(θ, θ₁) = κ₁ sin θ + …` (a function of coordinates).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Definition {
+    /// The name in text (`kappa1`, `F1`).
+    pub name: String,
+    /// The coordinates it depends on (empty for a parameter group).
+    pub args: Vec<String>,
+    /// Its printing form (in earlier names).
+    pub form: Form,
+}
+
+/// What rendering needs besides the form: the atoms and the where-list.
+#[derive(Clone, Copy)]
+pub(crate) struct Ctx<'a> {
+    pub(crate) atoms: &'a Atoms,
+    pub(crate) names: &'a [Definition],
 }
 
 /// An expression in its printing form, with the atoms it is written in.
@@ -70,7 +94,14 @@ impl Printed {
 
     /// The form as an expression (for evaluation and checks).
     pub fn to_expr(&self) -> Expr {
-        to_expr(&self.form, &self.atoms)
+        to_expr(&self.form, self.ctx())
+    }
+
+    fn ctx(&self) -> Ctx<'_> {
+        Ctx {
+            atoms: &self.atoms,
+            names: &[],
+        }
     }
 
     /// Whether the printed form expands to the canonical form it came from: exact.
@@ -81,27 +112,29 @@ impl Printed {
 
     /// The form in the model-file syntax (it parses back to the same function).
     pub fn text(&self) -> String {
-        render(&self.form, &self.atoms, &Text)
+        render(&self.form, self.ctx(), &Text)
     }
 
     /// The form in LaTeX.
     pub fn latex(&self) -> String {
-        render(&self.form, &self.atoms, &Latex)
+        render(&self.form, self.ctx(), &Latex)
     }
 }
 
-fn to_expr(f: &Form, atoms: &Atoms) -> Expr {
+/// The form as an expression, names expanded.
+pub(crate) fn to_expr(f: &Form, ctx: Ctx<'_>) -> Expr {
     match f {
         Form::Product { coef, factors } => {
             let mut v = vec![Expr::Num(coef.clone())];
             v.extend(factors.iter().map(|x| match x {
-                Factor::Atom { index, power } => power_of(atoms, *index, *power),
-                Factor::Group(g) => to_expr(g, atoms),
+                Factor::Atom { index, power } => power_of(ctx.atoms, *index, *power),
+                Factor::Group(g) => to_expr(g, ctx),
+                Factor::Name { index } => to_expr(&ctx.names[*index].form, ctx),
             }));
             Expr::Mul(v)
         }
-        Form::Sum(v) => Expr::Add(v.iter().map(|t| to_expr(t, atoms)).collect()),
-        Form::Quotient(a, b) => Expr::Div(Box::new(to_expr(a, atoms)), Box::new(to_expr(b, atoms))),
+        Form::Sum(v) => Expr::Add(v.iter().map(|t| to_expr(t, ctx)).collect()),
+        Form::Quotient(a, b) => Expr::Div(Box::new(to_expr(a, ctx)), Box::new(to_expr(b, ctx))),
     }
 }
 
@@ -115,16 +148,17 @@ fn power_of(atoms: &Atoms, index: usize, power: u32) -> Expr {
 }
 
 /// How a syntax writes the pieces.
-trait Syntax {
+pub(crate) trait Syntax {
     fn rational(&self, r: &Rational) -> String;
     fn atom(&self, e: &Expr) -> String;
     fn times(&self) -> &'static str;
     fn group(&self, inner: &str) -> String;
     fn quotient(&self, num: &str, den: &str) -> String;
+    fn name(&self, d: &Definition) -> String;
 }
 
-struct Text;
-struct Latex;
+pub(crate) struct Text;
+pub(crate) struct Latex;
 
 impl Syntax for Text {
     fn rational(&self, r: &Rational) -> String {
@@ -133,7 +167,12 @@ impl Syntax for Text {
     fn atom(&self, e: &Expr) -> String {
         match e {
             Expr::Sym(_) | Expr::Der(_) | Expr::Call(..) | Expr::Free { .. } => e.to_string(),
-            Expr::Pow(b, n) if matches!(**b, Expr::Sym(_) | Expr::Der(_) | Expr::Call(..)) => {
+            Expr::Pow(b, n)
+                if matches!(
+                    **b,
+                    Expr::Sym(_) | Expr::Der(_) | Expr::Call(..) | Expr::Free { .. }
+                ) =>
+            {
                 format!("{b}^{n}")
             }
             _ => format!("({e})"),
@@ -147,6 +186,13 @@ impl Syntax for Text {
     }
     fn quotient(&self, num: &str, den: &str) -> String {
         format!("({num})/({den})")
+    }
+    fn name(&self, d: &Definition) -> String {
+        if d.args.is_empty() {
+            d.name.clone()
+        } else {
+            format!("{}({})", d.name, d.args.join(", "))
+        }
     }
 }
 
@@ -170,14 +216,23 @@ impl Syntax for Latex {
     fn quotient(&self, num: &str, den: &str) -> String {
         format!("\\frac{{{num}}}{{{den}}}")
     }
+    fn name(&self, d: &Definition) -> String {
+        let name = hamel_expr::latex_name(&d.name);
+        if d.args.is_empty() {
+            name
+        } else {
+            let args: Vec<String> = d.args.iter().map(|a| hamel_expr::latex_name(a)).collect();
+            format!("{name}({})", args.join(", "))
+        }
+    }
 }
 
-fn render(f: &Form, atoms: &Atoms, s: &dyn Syntax) -> String {
+pub(crate) fn render(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> String {
     match f {
         Form::Sum(terms) => {
             let mut out = String::new();
             for (i, t) in terms.iter().enumerate() {
-                let (negative, body) = unsigned(t, atoms, s);
+                let (negative, body) = unsigned(t, ctx, s);
                 out.push_str(match (i, negative) {
                     (0, true) => "-",
                     (0, false) => "",
@@ -189,7 +244,7 @@ fn render(f: &Form, atoms: &Atoms, s: &dyn Syntax) -> String {
             out
         }
         _ => {
-            let (negative, body) = unsigned(f, atoms, s);
+            let (negative, body) = unsigned(f, ctx, s);
             if negative { format!("-{body}") } else { body }
         }
     }
@@ -197,7 +252,7 @@ fn render(f: &Form, atoms: &Atoms, s: &dyn Syntax) -> String {
 
 /// A term's sign and the text of its magnitude: a negated product is written `- a b`, never
 /// `-(a b)`.
-fn unsigned(f: &Form, atoms: &Atoms, s: &dyn Syntax) -> (bool, String) {
+fn unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> (bool, String) {
     match f {
         Form::Product { coef, factors } => {
             let mut parts: Vec<String> = Vec::new();
@@ -207,17 +262,15 @@ fn unsigned(f: &Form, atoms: &Atoms, s: &dyn Syntax) -> (bool, String) {
             }
             for x in factors {
                 parts.push(match x {
-                    Factor::Atom { index, power } => s.atom(&power_of(atoms, *index, *power)),
-                    Factor::Group(g) => s.group(&render(g, atoms, s)),
+                    Factor::Atom { index, power } => s.atom(&power_of(ctx.atoms, *index, *power)),
+                    Factor::Group(g) => s.group(&render(g, ctx, s)),
+                    Factor::Name { index } => s.name(&ctx.names[*index]),
                 });
             }
             (coef.is_negative(), parts.join(s.times()))
         }
-        Form::Sum(_) => (false, s.group(&render(f, atoms, s))),
-        Form::Quotient(a, b) => (
-            false,
-            s.quotient(&render(a, atoms, s), &render(b, atoms, s)),
-        ),
+        Form::Sum(_) => (false, s.group(&render(f, ctx, s))),
+        Form::Quotient(a, b) => (false, s.quotient(&render(a, ctx, s), &render(b, ctx, s))),
     }
 }
 
@@ -229,7 +282,7 @@ pub(crate) fn factor_rank(x: &Factor, atoms: &Atoms) -> (u8, Kind, usize, String
             let rank = if kind == Kind::Parameter { 0 } else { 2 };
             (rank, kind, pos, key.to_string())
         }
-        Factor::Group(_) => (1, Kind::Parameter, 0, String::new()),
+        Factor::Group(_) | Factor::Name { .. } => (1, Kind::Parameter, 0, String::new()),
     }
 }
 

@@ -23,10 +23,12 @@ mod atoms;
 mod collect;
 mod form;
 mod poly;
+mod sheet;
 
 pub use atoms::{Atom, Atoms, Kind, Vocabulary};
-pub use form::Printed;
+pub use form::{Definition, Factor, Form, Printed};
 pub use poly::{Fraction, Mono, Poly, PolyError};
+pub use sheet::Sheet;
 
 #[cfg(test)]
 mod tests;

@@ -163,6 +163,34 @@ impl Poly {
 }
 
 impl Fraction {
+    /// The constant `c`.
+    pub fn constant(c: Rational) -> Fraction {
+        Fraction::poly(Poly::constant(c))
+    }
+
+    /// Atom `i` to the power `n`.
+    pub fn atom(i: usize, n: u32) -> Fraction {
+        Fraction::poly(Poly::term(Mono(vec![(i, n)]), Rational::one()))
+    }
+
+    /// `self + other`.
+    pub fn plus(&self, other: &Fraction) -> Fraction {
+        self.add(other)
+    }
+
+    /// `self · other`.
+    pub fn times(&self, other: &Fraction) -> Fraction {
+        self.mul(other)
+    }
+
+    /// `self / other`.
+    pub fn over(&self, other: &Fraction) -> Fraction {
+        self.mul(&Fraction {
+            num: other.den.clone(),
+            den: other.num.clone(),
+        })
+    }
+
     fn poly(p: Poly) -> Fraction {
         Fraction {
             num: p,

@@ -79,3 +79,68 @@ fn zero_and_constants() {
     assert_eq!(printed("3/4", &v).latex(), "\\tfrac{3}{4}");
     assert_eq!(printed("-m_d", &v).text(), "-m_d");
 }
+
+/// The unicycle's A as the paper prints it (section 3.4): one group of parameters named once,
+/// and F₁(θ, θ₁) in four entries.
+#[test]
+fn unicycle_a_names_its_groups() {
+    let snapshot =
+        include_str!("../../../tests/snapshots/snapshots__derive__unicycle_rider__velocities.snap");
+    let json = snapshot.splitn(3, "---\n").nth(2).unwrap();
+    let a = json_matrix(json, "a");
+    let mut sheet = crate::Sheet::new(&unicycle());
+    let ids: Vec<Vec<usize>> = a
+        .iter()
+        .map(|row| {
+            row.iter()
+                .map(|e| sheet.add(&parse(e).unwrap().expr).unwrap())
+                .collect()
+        })
+        .collect();
+    sheet.name_groups();
+    let names = sheet.definitions_text();
+    assert_eq!(
+        names[0],
+        (
+            "kappa1".into(),
+            "m_d*R + m_f*rho1 + m_r*(rho1 + rho2)".into()
+        )
+    );
+    assert!(
+        names.contains(&(
+            "F1(theta, theta1)".into(),
+            "kappa1*sin(theta) + m_r*rho*sin(theta1)".into()
+        )),
+        "{names:?}"
+    );
+    assert_eq!(sheet.text(ids[0][2]), "-F1(theta, theta1)*cos(phi)");
+    for id in ids.iter().flatten() {
+        assert!(sheet.check(*id), "{}", sheet.text(*id));
+    }
+}
+
+/// The rows of matrix `key` of a derive snapshot (a tiny reader: the entries are strings).
+fn json_matrix(json: &str, key: &str) -> Vec<Vec<String>> {
+    let start = json.find(&format!("\"{key}\": [")).unwrap() + key.len() + 5;
+    let mut rows = Vec::new();
+    let mut row: Vec<String> = Vec::new();
+    let mut depth = 1;
+    let mut chars = json[start..].chars();
+    while let Some(c) = chars.next() {
+        match c {
+            '[' => depth += 1,
+            ']' => {
+                depth -= 1;
+                if depth == 1 {
+                    rows.push(std::mem::take(&mut row));
+                }
+                if depth == 0 {
+                    break;
+                }
+            }
+            '"' => row.push(chars.by_ref().take_while(|&c| c != '"').collect()),
+            _ => {}
+        }
+    }
+    rows
+}

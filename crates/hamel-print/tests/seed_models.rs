@@ -3,7 +3,7 @@
 //! expands back to it exactly, and whose text parses back to the same printing form.
 
 use hamel_expr::parse;
-use hamel_print::{Printed, Vocabulary};
+use hamel_print::{Printed, Sheet, Vocabulary};
 use serde_json::Value;
 
 fn strings(v: &Value, out: &mut Vec<String>) {
@@ -60,6 +60,29 @@ fn every_entry_of_every_seed_model_prints_exactly() {
             "delta",
         ] {
             strings(&json[key], &mut exprs);
+        }
+        let mut sheet = Sheet::new(&vocabulary);
+        let ids: Vec<usize> = exprs
+            .iter()
+            .filter_map(|e| parse(e).ok())
+            .map(|p| sheet.add(&p.expr).unwrap())
+            .collect();
+        sheet.name_groups();
+        for &i in &ids {
+            assert!(
+                sheet.check(i),
+                "{name}: entry {i} with names: {}",
+                sheet.text(i)
+            );
+        }
+        if std::env::var_os("SHOW_PRINTED").is_some() {
+            eprintln!("== {name}");
+            for (n, d) in sheet.definitions_text() {
+                eprintln!("  {n} = {d}");
+            }
+            for &i in ids.iter().take(40) {
+                eprintln!("  {}", sheet.text(i));
+            }
         }
         for e in exprs {
             let Ok(parsed) = parse(&e) else { continue };

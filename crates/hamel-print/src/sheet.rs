@@ -1,0 +1,317 @@
+//! A sheet: expressions printed together, sharing their atoms and a where-list of named
+//! groups, as a paper names κ₁, κ₂ and F₁(θ, θ₁) once and uses them in every entry.
+
+use std::collections::BTreeSet;
+
+use hamel_expr::{Expr, Rational};
+use num_traits::{One, Signed};
+
+use crate::atoms::{Atoms, Kind, Vocabulary};
+use crate::collect;
+use crate::form::{Ctx, Definition, Factor, Form, Latex, Text, render, to_expr};
+use crate::poly::{Fraction, Poly, PolyError};
+
+/// Expressions printed together with their where-list.
+#[derive(Clone, Debug)]
+pub struct Sheet {
+    atoms: Atoms,
+    entries: Vec<(Form, Fraction)>,
+    names: Vec<Definition>,
+}
+
+impl Sheet {
+    /// An empty sheet for a model's names.
+    pub fn new(vocabulary: &Vocabulary) -> Sheet {
+        Sheet {
+            atoms: Atoms::new(vocabulary.clone()),
+            entries: Vec::new(),
+            names: Vec::new(),
+        }
+    }
+
+    /// Adds the canonical expression `e`; returns its index.
+    ///
+    /// # Errors
+    /// An expression with no rational form over its atoms.
+    pub fn add(&mut self, e: &Expr) -> Result<usize, PolyError> {
+        let canonical = Fraction::from_expr(e, &mut self.atoms)?.normalised();
+        let form = collect::fraction(&canonical, &self.atoms);
+        self.entries.push((form, canonical));
+        Ok(self.entries.len() - 1)
+    }
+
+    fn ctx(&self) -> Ctx<'_> {
+        Ctx {
+            atoms: &self.atoms,
+            names: &self.names,
+        }
+    }
+
+    /// Entry `i` in the model syntax, named groups by name.
+    pub fn text(&self, i: usize) -> String {
+        render(&self.entries[i].0, self.ctx(), &Text)
+    }
+
+    /// Entry `i` in LaTeX.
+    pub fn latex(&self, i: usize) -> String {
+        render(&self.entries[i].0, self.ctx(), &Latex)
+    }
+
+    /// The where-list: `(name with arguments, definition)` in text.
+    pub fn definitions_text(&self) -> Vec<(String, String)> {
+        self.definitions(&Text)
+    }
+
+    /// The where-list in LaTeX.
+    pub fn definitions_latex(&self) -> Vec<(String, String)> {
+        self.definitions(&Latex)
+    }
+
+    fn definitions(&self, s: &dyn crate::form::Syntax) -> Vec<(String, String)> {
+        self.names
+            .iter()
+            .map(|d| (s.name(d), render(&d.form, self.ctx(), s)))
+            .collect()
+    }
+
+    /// Whether entry `i`, its names expanded, is exactly its canonical form.
+    pub fn check(&self, i: usize) -> bool {
+        let mut atoms = self.atoms.clone();
+        let e = to_expr(&self.entries[i].0, self.ctx());
+        Fraction::from_expr(&e, &mut atoms).is_ok_and(|f| f.same(&self.entries[i].1))
+    }
+
+    /// Names the groups that occur twice or more (up to a rational factor) across the
+    /// entries: parameter groups `kappa1`, `kappa2`, …, then functions of the coordinates
+    /// `F1`, `F2`, …, which may use the parameter names ([`Sheet::most_recurring`]).
+    pub fn name_groups(&mut self) {
+        loop {
+            let Some((key, form)) = self.most_recurring() else {
+                return;
+            };
+            let index = self.names.len();
+            let definition = self.definition(&key, form, index);
+            self.names.push(definition);
+            let mut entries = std::mem::take(&mut self.entries);
+            for (f, _) in &mut entries {
+                self.replace(f, &key, index);
+            }
+            self.entries = entries;
+            for j in 0..index {
+                let mut form = self.names[j].form.clone();
+                self.replace(&mut form, &key, index);
+                self.names[j].form = form;
+            }
+        }
+    }
+}
+
+/// A group's key: its polynomial without its rational content (sign of the first term
+/// positive), and that content.
+type Key = Poly;
+
+impl Sheet {
+    /// The form as a fraction over the sheet's atoms, names expanded.
+    fn fraction_of(&self, f: &Form) -> Fraction {
+        match f {
+            Form::Product { coef, factors } => {
+                let mut acc = Fraction::constant(coef.clone());
+                for x in factors {
+                    let part = match x {
+                        Factor::Atom { index, power } => Fraction::atom(*index, *power),
+                        Factor::Group(g) => self.fraction_of(g),
+                        Factor::Name { index } => self.fraction_of(&self.names[*index].form),
+                    };
+                    acc = acc.times(&part);
+                }
+                acc
+            }
+            Form::Sum(terms) => terms.iter().fold(
+                Fraction::constant(Rational::from_integer(0.into())),
+                |acc, t| acc.plus(&self.fraction_of(t)),
+            ),
+            Form::Quotient(a, b) => self.fraction_of(a).over(&self.fraction_of(b)),
+        }
+    }
+
+    /// `(content, key)` of a group that is a polynomial with no common monomial.
+    fn key_of(&self, g: &Form) -> Option<(Rational, Key)> {
+        let f = self.fraction_of(g);
+        if f.den.as_constant().is_none() || f.num.0.len() < 2 {
+            return None;
+        }
+        let (c, m, rest) = collect::content(&f.num);
+        let scale = c / f.den.as_constant().expect("checked");
+        m.0.is_empty().then_some((scale, rest))
+    }
+
+    /// Every unnamed group of a form, outer before inner.
+    fn groups<'a>(f: &'a Form, out: &mut Vec<&'a Form>) {
+        match f {
+            Form::Product { factors, .. } => {
+                for x in factors {
+                    if let Factor::Group(g) = x {
+                        out.push(g);
+                        Sheet::groups(g, out);
+                    }
+                }
+            }
+            Form::Sum(terms) => terms.iter().for_each(|t| Sheet::groups(t, out)),
+            Form::Quotient(a, b) => {
+                Sheet::groups(a, out);
+                Sheet::groups(b, out);
+            }
+        }
+    }
+
+    /// The group to name next: one occurring twice at least, free of velocities, of three
+    /// terms or more if it holds parameters only (`ρ₁ + ρ₂` reads better than a name); parameter groups before
+    /// functions of the coordinates, the more frequent first, then the larger (so inner groups
+    /// stay inside their definitions), then the first met.
+    fn most_recurring(&self) -> Option<(Key, Form)> {
+        let mut found: Vec<&Form> = Vec::new();
+        for (f, _) in &self.entries {
+            Sheet::groups(f, &mut found);
+        }
+        for d in &self.names {
+            Sheet::groups(&d.form, &mut found);
+        }
+        let mut counted: Vec<(Key, Form, usize)> = Vec::new();
+        for g in found {
+            let Some((c, key)) = self.key_of(g) else {
+                continue;
+            };
+            match counted.iter_mut().find(|(k, _, _)| *k == key) {
+                Some(entry) => entry.2 += 1,
+                None => counted.push((key, positive(scaled(g, &c.recip())), 1)),
+            }
+        }
+        counted
+            .into_iter()
+            .enumerate()
+            .filter(|(_, (key, _, n))| {
+                *n >= 2
+                    && !self.has_velocities(key)
+                    && (key.0.len() >= 3 || !self.parameters_only(key))
+            })
+            .min_by_key(|(i, (key, _, n))| {
+                let size = std::cmp::Reverse(key.0.len());
+                (!self.parameters_only(key), std::cmp::Reverse(*n), size, *i)
+            })
+            .map(|(_, (key, form, _))| (key, form))
+    }
+
+    /// Whether a velocity occurs in `key` (such groups are not named: the where-list holds
+    /// parameter groups and functions of the coordinates).
+    fn has_velocities(&self, key: &Key) -> bool {
+        key.0.keys().any(|m| {
+            m.0.iter()
+                .any(|&(i, _)| self.atoms.get(i).kind == Kind::Velocity)
+        })
+    }
+
+    fn parameters_only(&self, key: &Key) -> bool {
+        key.0.keys().all(|m| {
+            m.0.iter()
+                .all(|&(i, _)| self.atoms.get(i).kind == Kind::Parameter)
+        })
+    }
+
+    /// The definition of the group `key` (printed as `form`), the `index`-th name.
+    fn definition(&self, key: &Key, form: Form, index: usize) -> Definition {
+        let parameter = self.parameters_only(key);
+        let same_kind = self.names[..index]
+            .iter()
+            .filter(|d| d.args.is_empty() == parameter)
+            .count();
+        let args = if parameter {
+            Vec::new()
+        } else {
+            self.coordinates_in(key)
+        };
+        let name = if parameter {
+            format!("kappa{}", same_kind + 1)
+        } else {
+            format!("F{}", same_kind + 1)
+        };
+        Definition { name, args, form }
+    }
+
+    /// The coordinates `key` depends on, in the model's order.
+    fn coordinates_in(&self, key: &Key) -> Vec<String> {
+        let mut seen = BTreeSet::new();
+        for m in key.0.keys() {
+            for &(i, _) in &m.0 {
+                self.atoms.get(i).expr.visit(&mut |e| {
+                    if let Expr::Sym(n) = e {
+                        seen.insert(n.clone());
+                    }
+                });
+            }
+        }
+        self.atoms
+            .vocabulary()
+            .coordinates
+            .iter()
+            .filter(|c| seen.contains(*c))
+            .cloned()
+            .collect()
+    }
+
+    /// Every group of `f` equal to `key` up to a rational factor becomes name `index`.
+    fn replace(&self, f: &mut Form, key: &Key, index: usize) {
+        match f {
+            Form::Product { coef, factors } => {
+                for x in factors.iter_mut() {
+                    let Factor::Group(g) = x else { continue };
+                    match self.key_of(g) {
+                        Some((c, k)) if &k == key => {
+                            *coef = &*coef * c * self.orientation(index);
+                            *x = Factor::Name { index };
+                        }
+                        _ => self.replace(g, key, index),
+                    }
+                }
+            }
+            Form::Sum(terms) => terms.iter_mut().for_each(|t| self.replace(t, key, index)),
+            Form::Quotient(a, b) => {
+                self.replace(a, key, index);
+                self.replace(b, key, index);
+            }
+        }
+    }
+}
+
+/// A definition printed with its first term positive.
+impl Sheet {
+    /// ±1: the definition `index` as printed over its key (whose first term in monomial order
+    /// is positive).
+    fn orientation(&self, index: usize) -> Rational {
+        let printed = self.fraction_of(&self.names[index].form);
+        let (c, _, _) = collect::content(&printed.num);
+        if c.is_negative() {
+            -Rational::one()
+        } else {
+            Rational::one()
+        }
+    }
+}
+
+fn positive(mut f: Form) -> Form {
+    if collect::negative(&f) {
+        collect::negate(&mut f);
+    }
+    f
+}
+
+/// `r · f`, the factor put into the coefficients.
+fn scaled(f: &Form, r: &Rational) -> Form {
+    match f {
+        Form::Product { coef, factors } => Form::Product {
+            coef: coef * r,
+            factors: factors.clone(),
+        },
+        Form::Sum(terms) => Form::Sum(terms.iter().map(|t| scaled(t, r)).collect()),
+        Form::Quotient(a, b) => Form::Quotient(Box::new(scaled(a, r)), b.clone()),
+    }
+}
