@@ -77,9 +77,13 @@ pub enum Command {
         /// The quasi-velocity choice (a `[quasi_velocities.NAME]` of the model; default: the first).
         #[arg(long)]
         eta: Option<String>,
-        /// Output format.
+        /// Output format. `latex` is a complete document (landscape A4) with the entries
+        /// collected and factored and recurring groups named once.
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
+        /// With `--format latex`: the equation blocks alone, without the document around them.
+        #[arg(long)]
+        fragment: bool,
         /// Closed form (every object expanded and canonical) or structured form (the
         /// ingredients A, α, Z, U exact; for models too large to expand, such as the bicycle).
         #[arg(long, value_enum, default_value = "auto")]

@@ -65,9 +65,13 @@ fn run(command: Command) -> Result<(), ModelError> {
             model,
             eta,
             format,
+            fragment,
             form,
             output,
-        } => derive(&model, eta.as_deref(), format, form, Output::new(output)?),
+        } => {
+            let how = Rendering { format, fragment };
+            derive(&model, eta.as_deref(), how, form, Output::new(output)?)
+        }
         Command::Expand { model, output } => {
             let out = Output::new(output)?;
             out.write(&Model::load(&model)?.to_lagrangian_toml())
@@ -220,10 +224,16 @@ fn load_for(path: &Path, eta: Option<&str>) -> Result<Model, ModelError> {
     Ok(model)
 }
 
+/// How `hamel derive` writes its result.
+struct Rendering {
+    format: Format,
+    fragment: bool,
+}
+
 fn derive(
     path: &Path,
     eta: Option<&str>,
-    format: Format,
+    how: Rendering,
     form: FormArg,
     out: Output,
 ) -> Result<(), ModelError> {
@@ -238,9 +248,15 @@ fn derive(
         d.eta_name,
         started.elapsed().as_secs_f64()
     );
-    out.write(&match format {
+    out.write(&match how.format {
         Format::Text => d.to_text(),
-        Format::Latex => d.to_latex(),
+        Format::Latex => {
+            let options = hamel_print::derivation::Options {
+                fragment: how.fragment,
+            };
+            hamel_print::derivation::latex(&d, options)
+                .map_err(|e| ModelError::engine(format!("printing the derivation: {e}")))?
+        }
         Format::Json => json(&d.json()),
     })
 }

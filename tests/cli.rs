@@ -9,6 +9,8 @@ use std::sync::Mutex;
 
 #[path = "cli/ensembles.rs"]
 mod ensembles;
+#[path = "cli/latex.rs"]
+mod latex;
 
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 

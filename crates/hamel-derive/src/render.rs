@@ -1,8 +1,7 @@
-//! Human-readable renderings of a derivation: plain text and LaTeX.
+//! The plain-text rendering of a derivation (LaTeX: `hamel-print`, which collects, factors
+//! and names).
 
 use std::fmt::Write;
-
-use hamel_expr::latex_name;
 
 use crate::derivation::{Closed, Derivation, Entry, Form, Mat, StructuredForm};
 
@@ -156,90 +155,6 @@ impl Derivation {
         match &self.form {
             Form::Closed(c) => closed_text(&mut o, self, c),
             Form::Structured(st) => structured_text(&mut o, self, st),
-        }
-        o
-    }
-
-    /// The derivation as a LaTeX fragment (an `align*` environment per block).
-    pub fn to_latex(&self) -> String {
-        let mut o = String::new();
-        let tex_mat = |m: &Mat| -> String {
-            if m.rows == 0 || m.cols == 0 {
-                return "\\varnothing".into();
-            }
-            let rows: Vec<String> = m
-                .entries
-                .iter()
-                .map(|r| {
-                    r.iter()
-                        .map(|e| e.expr.to_latex())
-                        .collect::<Vec<_>>()
-                        .join(" & ")
-                })
-                .collect();
-            format!(
-                "\\begin{{pmatrix}} {} \\end{{pmatrix}}",
-                rows.join(" \\\\ ")
-            )
-        };
-        let _ = writeln!(
-            o,
-            "% hamel derive: model {}, quasi-velocities {}",
-            self.model, self.eta_name
-        );
-        let _ = writeln!(o, "\\begin{{align*}}");
-        let q: Vec<String> = self.coordinates.iter().map(|c| latex_name(c)).collect();
-        let _ = writeln!(o, "q &= ({}) \\\\", q.join(", "));
-        let _ = writeln!(o, "A &= {} \\\\", tex_mat(&self.a));
-        let _ = writeln!(o, "\\alpha &= {} \\\\", tex_mat(&self.alpha));
-        let _ = writeln!(o, "Z &= {} \\\\", tex_mat(&self.z));
-        let Some(c) = self.closed() else {
-            let _ = writeln!(o, "\\end{{align*}}");
-            let _ = writeln!(o, "% structured form: the equations are not expanded");
-            return o;
-        };
-        let _ = writeln!(o, "\\delta &= {} \\\\", c.delta.expr.to_latex());
-        let _ = writeln!(o, "\\Gamma &= {} \\\\", tex_mat(&c.gamma));
-        let _ = writeln!(o, "A_\\Gamma &= {}", tex_mat(&c.a_gamma));
-        let _ = writeln!(o, "\\end{{align*}}");
-        let _ = writeln!(o, "% true equations (from (9))");
-        let _ = writeln!(o, "\\begin{{align*}}");
-        for (i, e) in c.equations.iter().enumerate() {
-            let sep = if i + 1 < c.equations.len() {
-                " \\\\"
-            } else {
-                ""
-            };
-            let _ = writeln!(o, "{} &= 0{sep}", e.expr.to_latex());
-        }
-        let _ = writeln!(o, "\\end{{align*}}");
-        let _ = writeln!(o, "% kinematic equations (6)");
-        let _ = writeln!(o, "\\begin{{align*}}");
-        for (k, e) in c.kinematics.iter().enumerate() {
-            let sep = if k + 1 < c.kinematics.len() {
-                " \\\\"
-            } else {
-                ""
-            };
-            let l = latex_name(&self.coordinates[k]);
-            let _ = writeln!(o, "\\dot{{{l}}} &= {}{sep}", e.expr.to_latex());
-        }
-        let _ = writeln!(o, "\\end{{align*}}");
-        if !c.checks.paper_is_exact {
-            let _ = writeln!(
-                o,
-                "% the paper's equations (11)/(15) differ: they miss the correction term"
-            );
-            let _ = writeln!(o, "\\begin{{align*}}");
-            for (i, e) in c.equations_paper.iter().enumerate() {
-                let sep = if i + 1 < c.equations_paper.len() {
-                    " \\\\"
-                } else {
-                    ""
-                };
-                let _ = writeln!(o, "{} &= 0{sep}", e.expr.to_latex());
-            }
-            let _ = writeln!(o, "\\end{{align*}}");
         }
         o
     }

@@ -227,6 +227,41 @@ impl Syntax for Latex {
     }
 }
 
+/// The terms of a sum as signed pieces: the first `-t` or `t`, the others ` - t` or ` + t`.
+pub(crate) fn render_terms(terms: &[Form], ctx: Ctx<'_>) -> Vec<String> {
+    terms
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let (negative, body) = unsigned(t, ctx, &Latex);
+            let sign = match (i, negative) {
+                (0, true) => "-",
+                (0, false) => "",
+                (_, true) => " - ",
+                (_, false) => " + ",
+            };
+            format!("{sign}{body}")
+        })
+        .collect()
+}
+
+/// A form's sign and magnitude in LaTeX.
+pub(crate) fn unsigned_latex(f: &Form, ctx: Ctx<'_>) -> (bool, String) {
+    unsigned(f, ctx, &Latex)
+}
+
+impl Latex {
+    /// An opening parenthesis that may close on a later line.
+    pub(crate) fn open(&self) -> &'static str {
+        "\\left("
+    }
+
+    /// Its closing.
+    pub(crate) fn close(&self) -> String {
+        "\\right)".to_string()
+    }
+}
+
 pub(crate) fn render(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> String {
     match f {
         Form::Sum(terms) => {

@@ -21,12 +21,15 @@
 
 mod atoms;
 mod collect;
+pub mod derivation;
 mod form;
+mod layout;
 mod poly;
 mod sheet;
 
 pub use atoms::{Atom, Atoms, Kind, Vocabulary};
 pub use form::{Definition, Factor, Form, Printed};
+pub use layout::{LINE, width};
 pub use poly::{Fraction, Mono, Poly, PolyError};
 pub use sheet::Sheet;
 

@@ -40,7 +40,12 @@ impl Sheet {
         Ok(self.entries.len() - 1)
     }
 
-    fn ctx(&self) -> Ctx<'_> {
+    /// The printing form of entry `i`.
+    pub fn form(&self, i: usize) -> &Form {
+        &self.entries[i].0
+    }
+
+    pub(crate) fn ctx(&self) -> Ctx<'_> {
         Ctx {
             atoms: &self.atoms,
             names: &self.names,
@@ -83,25 +88,26 @@ impl Sheet {
 
     /// Names the groups that occur twice or more (up to a rational factor) across the
     /// entries: parameter groups `kappa1`, `kappa2`, …, then functions of the coordinates
-    /// `F1`, `F2`, …, which may use the parameter names ([`Sheet::most_recurring`]).
+    /// `F1`, `F2`, …, which may use the parameter names ([`Sheet::candidates`] says which and
+    /// in what order). Two passes over the groups: one to count, one to replace.
     pub fn name_groups(&mut self) {
-        loop {
-            let Some((key, form)) = self.most_recurring() else {
-                return;
-            };
+        let chosen = self.candidates();
+        for (key, form) in &chosen {
             let index = self.names.len();
-            let definition = self.definition(&key, form, index);
+            let definition = self.definition(key, form.clone(), index);
             self.names.push(definition);
-            let mut entries = std::mem::take(&mut self.entries);
-            for (f, _) in &mut entries {
-                self.replace(f, &key, index);
-            }
-            self.entries = entries;
-            for j in 0..index {
-                let mut form = self.names[j].form.clone();
-                self.replace(&mut form, &key, index);
-                self.names[j].form = form;
-            }
+        }
+        let keys: Vec<Key> = chosen.into_iter().map(|(k, _)| k).collect();
+        let orientation: Vec<Rational> = (0..keys.len()).map(|i| self.orientation(i)).collect();
+        let mut entries = std::mem::take(&mut self.entries);
+        for (f, _) in &mut entries {
+            self.replace(f, &keys, &orientation, None);
+        }
+        self.entries = entries;
+        for j in 0..self.names.len() {
+            let mut form = self.names[j].form.clone();
+            self.replace(&mut form, &keys, &orientation, Some(j));
+            self.names[j].form = form;
         }
     }
 }
@@ -164,17 +170,14 @@ impl Sheet {
         }
     }
 
-    /// The group to name next: one occurring twice at least, free of velocities, of three
-    /// terms or more if it holds parameters only (`ρ₁ + ρ₂` reads better than a name); parameter groups before
-    /// functions of the coordinates, the more frequent first, then the larger (so inner groups
-    /// stay inside their definitions), then the first met.
-    fn most_recurring(&self) -> Option<(Key, Form)> {
+    /// The groups to name, in naming order: those occurring twice at least, free of
+    /// velocities, of three terms or more if they hold parameters only (`ρ₁ + ρ₂` reads better
+    /// than a name); parameter groups before functions of the coordinates, the more frequent
+    /// first, then the larger, then the first met. Their forms are scaled to the key.
+    fn candidates(&self) -> Vec<(Key, Form)> {
         let mut found: Vec<&Form> = Vec::new();
         for (f, _) in &self.entries {
             Sheet::groups(f, &mut found);
-        }
-        for d in &self.names {
-            Sheet::groups(&d.form, &mut found);
         }
         let mut counted: Vec<(Key, Form, usize)> = Vec::new();
         for g in found {
@@ -186,7 +189,7 @@ impl Sheet {
                 None => counted.push((key, positive(scaled(g, &c.recip())), 1)),
             }
         }
-        counted
+        let mut chosen: Vec<(usize, (Key, Form, usize))> = counted
             .into_iter()
             .enumerate()
             .filter(|(_, (key, _, n))| {
@@ -194,11 +197,12 @@ impl Sheet {
                     && !self.has_velocities(key)
                     && (key.0.len() >= 3 || !self.parameters_only(key))
             })
-            .min_by_key(|(i, (key, _, n))| {
-                let size = std::cmp::Reverse(key.0.len());
-                (!self.parameters_only(key), std::cmp::Reverse(*n), size, *i)
-            })
-            .map(|(_, (key, form, _))| (key, form))
+            .collect();
+        chosen.sort_by_key(|(i, (key, _, n))| {
+            let size = std::cmp::Reverse(key.0.len());
+            (!self.parameters_only(key), std::cmp::Reverse(*n), size, *i)
+        });
+        chosen.into_iter().map(|(_, (k, f, _))| (k, f)).collect()
     }
 
     /// Whether a velocity occurs in `key` (such groups are not named: the where-list holds
@@ -258,31 +262,37 @@ impl Sheet {
             .collect()
     }
 
-    /// Every group of `f` equal to `key` up to a rational factor becomes name `index`.
-    fn replace(&self, f: &mut Form, key: &Key, index: usize) {
+    /// Every group of `f` whose key is a name's becomes that name (not `skip`: a definition
+    /// does not name itself).
+    fn replace(&self, f: &mut Form, keys: &[Key], orientation: &[Rational], skip: Option<usize>) {
         match f {
             Form::Product { coef, factors } => {
                 for x in factors.iter_mut() {
                     let Factor::Group(g) = x else { continue };
-                    match self.key_of(g) {
-                        Some((c, k)) if &k == key => {
-                            *coef = &*coef * c * self.orientation(index);
+                    let named = self.key_of(g).and_then(|(c, k)| {
+                        let index = keys.iter().position(|key| *key == k)?;
+                        (Some(index) != skip).then_some((c, index))
+                    });
+                    match named {
+                        Some((c, index)) => {
+                            *coef = &*coef * c * &orientation[index];
                             *x = Factor::Name { index };
                         }
-                        _ => self.replace(g, key, index),
+                        None => self.replace(g, keys, orientation, skip),
                     }
                 }
             }
-            Form::Sum(terms) => terms.iter_mut().for_each(|t| self.replace(t, key, index)),
+            Form::Sum(terms) => terms
+                .iter_mut()
+                .for_each(|t| self.replace(t, keys, orientation, skip)),
             Form::Quotient(a, b) => {
-                self.replace(a, key, index);
-                self.replace(b, key, index);
+                self.replace(a, keys, orientation, skip);
+                self.replace(b, keys, orientation, skip);
             }
         }
     }
 }
 
-/// A definition printed with its first term positive.
 impl Sheet {
     /// ±1: the definition `index` as printed over its key (whose first term in monomial order
     /// is positive).

@@ -169,7 +169,7 @@ impl Trajectory {
             s.rhs_evals,
             s.energy_drift.map_or("n/a".into(), |x| format!("{x:.2e}")),
             s.constraint_drift
-                .map_or("n/a".into(), |x| format!("{x:.2e}")),
+                .map_or("not requested".into(), |x| format!("{x:.2e}")),
             if self.complete { "" } else { "; INCOMPLETE" }
         ) + self
             .initial_projection

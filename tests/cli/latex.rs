@@ -1,0 +1,110 @@
+//! `hamel derive --format latex` (issue 22): the document of every model file's every choice of
+//! quasi-velocities compiles with pdflatex on landscape A4 with 1 cm margins, with no error and
+//! no overfull line. Skipped, with a message, where pdflatex is missing (.ci/run installs
+//! texlive-latex-base).
+
+use std::path::Path;
+use std::process::Command;
+
+use super::{hamel, scratch, stderr};
+
+/// Every `(model file, choice)` under models/.
+fn choices() -> Vec<(String, String)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files: Vec<_> = ["models", "models/bodies"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(root.join(d)).unwrap())
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    let mut out = Vec::new();
+    for f in files {
+        let t: toml::Value = toml::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
+        let rel = f.strip_prefix(root).unwrap().to_string_lossy().to_string();
+        let table = t.get("quasi_velocities").and_then(|q| q.as_table());
+        for name in table.into_iter().flat_map(|t| t.keys()) {
+            out.push((rel.clone(), name.clone()));
+        }
+    }
+    out
+}
+
+/// pdflatex's verdict on `tex`: None when it compiled with no overfull box, else the reason.
+fn pdflatex(tex: &Path) -> Option<String> {
+    let dir = tex.parent().unwrap();
+    let o = Command::new("pdflatex")
+        .args(["-interaction=nonstopmode", "-halt-on-error"])
+        .arg(tex.file_name().unwrap())
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    let log = std::fs::read_to_string(tex.with_extension("log")).unwrap_or_default();
+    if !o.status.success() {
+        let error = log
+            .lines()
+            .find(|l| l.starts_with('!'))
+            .unwrap_or("no message");
+        return Some(format!("pdflatex failed: {error}"));
+    }
+    let overfull: Vec<&str> = log.lines().filter(|l| l.starts_with("Overfull")).collect();
+    (!overfull.is_empty()).then(|| format!("{} overfull: {}", overfull.len(), overfull[0]))
+}
+
+/// Choices whose document does not fit yet (issue 22 is open): entries too wide for any break
+/// this printer makes (a long square root, a quotient of long sums inside a product). Listed so
+/// that every other choice is held to the acceptance now, and the list can only shrink: a
+/// listed choice that passes fails this test until it is taken off.
+const NOT_YET: &[&str] = &[
+    "models/bar_wheels.toml --eta a_orthogonal",
+    "models/bar_wheels.toml --eta paper_z",
+    "models/bar_wheels.toml --eta search_functions",
+    "models/unicycle_rider.toml --eta family",
+    "models/unicycle_rider.toml --eta momenta",
+    "models/whipple_bicycle.toml --eta benchmark",
+];
+
+#[test]
+fn every_derivation_compiles_with_pdflatex_and_fits_the_page() {
+    if Command::new("pdflatex").arg("--version").output().is_err() {
+        eprintln!("skipped: pdflatex is not installed (apt install texlive-latex-base)");
+        return;
+    }
+    let dir = scratch("latex");
+    let mut failures = Vec::new();
+    for (model, eta) in choices() {
+        let stem = format!(
+            "{}_{eta}",
+            Path::new(&model).file_stem().unwrap().to_string_lossy()
+        );
+        let tex = dir.join(format!("{stem}.tex"));
+        let o = hamel(
+            &[
+                "derive",
+                &model,
+                "--eta",
+                &eta,
+                "--format",
+                "latex",
+                "--output",
+                tex.to_str().unwrap(),
+            ],
+            None,
+        );
+        let err = stderr(&o);
+        assert!(
+            o.status.success(),
+            "{model} {eta}: {}",
+            &err[..err.len().min(2000)]
+        );
+        let listed = NOT_YET.contains(&format!("{model} --eta {eta}").as_str());
+        match (pdflatex(&tex), listed) {
+            (Some(why), false) => failures.push(format!("{model} --eta {eta}: {why}")),
+            (None, true) => {
+                failures.push(format!("{model} --eta {eta} fits now: take it off NOT_YET"))
+            }
+            _ => {}
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
