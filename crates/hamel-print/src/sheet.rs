@@ -112,8 +112,8 @@ impl Sheet {
     }
 }
 
-/// A group's key: its polynomial without its rational content (sign of the first term
-/// positive), and that content.
+/// A group's key: its polynomial without its rational content, the first term (in monomial
+/// order) positive, so that groups equal up to a rational factor share it.
 type Key = Poly;
 
 impl Sheet {
