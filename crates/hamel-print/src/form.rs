@@ -4,9 +4,7 @@
 use hamel_expr::{Expr, Rational};
 use num_traits::{One, Signed, Zero};
 
-use crate::atoms::{Atoms, Kind, Vocabulary};
-use crate::collect;
-use crate::poly::{Fraction, PolyError};
+use crate::atoms::{Atoms, Kind};
 
 /// A node of a printing form.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,65 +58,6 @@ pub struct Definition {
 pub(crate) struct Ctx<'a> {
     pub(crate) atoms: &'a Atoms,
     pub(crate) names: &'a [Definition],
-}
-
-/// An expression in its printing form, with the atoms it is written in.
-#[derive(Clone, Debug)]
-pub struct Printed {
-    form: Form,
-    atoms: Atoms,
-    canonical: Fraction,
-}
-
-impl Printed {
-    /// The printing form of the canonical expression `e`.
-    ///
-    /// # Errors
-    /// An expression with no polynomial or rational form over its atoms (a non-integer power
-    /// of a sum, a division by zero).
-    pub fn new(e: &Expr, vocabulary: &Vocabulary) -> Result<Printed, PolyError> {
-        let mut atoms = Atoms::new(vocabulary.clone());
-        let canonical = Fraction::from_expr(e, &mut atoms)?.normalised();
-        let form = collect::fraction(&canonical, &atoms);
-        Ok(Printed {
-            form,
-            atoms,
-            canonical,
-        })
-    }
-
-    /// The form's tree.
-    pub fn form(&self) -> &Form {
-        &self.form
-    }
-
-    /// The form as an expression (for evaluation and checks).
-    pub fn to_expr(&self) -> Expr {
-        to_expr(&self.form, self.ctx())
-    }
-
-    fn ctx(&self) -> Ctx<'_> {
-        Ctx {
-            atoms: &self.atoms,
-            names: &[],
-        }
-    }
-
-    /// Whether the printed form expands to the canonical form it came from: exact.
-    pub fn check(&self) -> bool {
-        let mut atoms = self.atoms.clone();
-        Fraction::from_expr(&self.to_expr(), &mut atoms).is_ok_and(|f| f.same(&self.canonical))
-    }
-
-    /// The form in the model-file syntax (it parses back to the same function).
-    pub fn text(&self) -> String {
-        render(&self.form, self.ctx(), &Text)
-    }
-
-    /// The form in LaTeX.
-    pub fn latex(&self) -> String {
-        render(&self.form, self.ctx(), &Latex)
-    }
 }
 
 /// The form as an expression, names expanded.
@@ -229,11 +168,15 @@ impl Syntax for Latex {
 
 /// The terms of a sum as signed pieces: the first `-t` or `t`, the others ` - t` or ` + t`.
 pub(crate) fn render_terms(terms: &[Form], ctx: Ctx<'_>) -> Vec<String> {
+    signed_terms(terms, ctx, &Latex)
+}
+
+fn signed_terms(terms: &[Form], ctx: Ctx<'_>, s: &dyn Syntax) -> Vec<String> {
     terms
         .iter()
         .enumerate()
         .map(|(i, t)| {
-            let (negative, body) = unsigned(t, ctx, &Latex);
+            let (negative, body) = unsigned(t, ctx, s);
             let sign = match (i, negative) {
                 (0, true) => "-",
                 (0, false) => "",
@@ -264,20 +207,7 @@ impl Latex {
 
 pub(crate) fn render(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> String {
     match f {
-        Form::Sum(terms) => {
-            let mut out = String::new();
-            for (i, t) in terms.iter().enumerate() {
-                let (negative, body) = unsigned(t, ctx, s);
-                out.push_str(match (i, negative) {
-                    (0, true) => "-",
-                    (0, false) => "",
-                    (_, true) => " - ",
-                    (_, false) => " + ",
-                });
-                out.push_str(&body);
-            }
-            out
-        }
+        Form::Sum(terms) => signed_terms(terms, ctx, s).concat(),
         _ => {
             let (negative, body) = unsigned(f, ctx, s);
             if negative { format!("-{body}") } else { body }

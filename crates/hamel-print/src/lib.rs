@@ -25,12 +25,14 @@ pub mod derivation;
 mod form;
 mod layout;
 mod poly;
+mod printed;
 mod sheet;
 
 pub use atoms::{Atom, Atoms, Kind, Vocabulary};
-pub use form::{Definition, Factor, Form, Printed};
+pub use form::{Definition, Factor, Form};
 pub use layout::{LINE, width};
 pub use poly::{Fraction, Mono, Poly, PolyError};
+pub use printed::Printed;
 pub use sheet::Sheet;
 
 #[cfg(test)]

@@ -79,10 +79,15 @@ impl Sheet {
             .collect()
     }
 
+    /// Entry `i` as an expression, names expanded (for evaluation and checks).
+    pub fn to_expr(&self, i: usize) -> Expr {
+        to_expr(&self.entries[i].0, self.ctx())
+    }
+
     /// Whether entry `i`, its names expanded, is exactly its canonical form.
     pub fn check(&self, i: usize) -> bool {
         let mut atoms = self.atoms.clone();
-        let e = to_expr(&self.entries[i].0, self.ctx());
+        let e = self.to_expr(i);
         Fraction::from_expr(&e, &mut atoms).is_ok_and(|f| f.same(&self.entries[i].1))
     }
 
