@@ -173,19 +173,9 @@ impl Fraction {
         Fraction::poly(Poly::term(Mono(vec![(i, n)]), Rational::one()))
     }
 
-    /// `self + other`.
-    pub fn plus(&self, other: &Fraction) -> Fraction {
-        self.add(other)
-    }
-
-    /// `self · other`.
-    pub fn times(&self, other: &Fraction) -> Fraction {
-        self.mul(other)
-    }
-
     /// `self / other`.
     pub fn over(&self, other: &Fraction) -> Fraction {
-        self.mul(&Fraction {
+        self.times(&Fraction {
             num: other.den.clone(),
             den: other.num.clone(),
         })
@@ -206,14 +196,14 @@ impl Fraction {
             Expr::Add(v) => {
                 let mut acc = Fraction::poly(Poly::default());
                 for t in v {
-                    acc = acc.add(&Fraction::from_expr(t, atoms)?);
+                    acc = acc.plus(&Fraction::from_expr(t, atoms)?);
                 }
                 acc
             }
             Expr::Mul(v) => {
                 let mut acc = Fraction::poly(Poly::constant(Rational::one()));
                 for t in v {
-                    acc = acc.mul(&Fraction::from_expr(t, atoms)?);
+                    acc = acc.times(&Fraction::from_expr(t, atoms)?);
                 }
                 acc
             }
@@ -232,7 +222,7 @@ impl Fraction {
                 if b.num.is_zero() {
                     return Err(PolyError::DivisionByZero);
                 }
-                a.mul(&Fraction {
+                a.times(&Fraction {
                     num: b.den,
                     den: b.num,
                 })
@@ -271,7 +261,8 @@ impl Fraction {
         }
     }
 
-    fn add(&self, other: &Fraction) -> Fraction {
+    /// `self + other`.
+    pub fn plus(&self, other: &Fraction) -> Fraction {
         if self.den == other.den {
             return Fraction {
                 num: self.num.add(&other.num),
@@ -284,7 +275,8 @@ impl Fraction {
         }
     }
 
-    fn mul(&self, other: &Fraction) -> Fraction {
+    /// `self · other`.
+    pub fn times(&self, other: &Fraction) -> Fraction {
         Fraction {
             num: self.num.mul(&other.num),
             den: self.den.mul(&other.den),
