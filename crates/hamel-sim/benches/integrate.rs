@@ -9,6 +9,9 @@
 //! * `rhs/<scene>/dop853-<tol>`: the evaluations of that run alone, replayed: the same states,
 //!   in the same order, through `OdeSystem::rhs`, each waiting for the result of the one
 //!   before (as the stages of a step do).
+//! * `monitors/<scene>/dop853-<tol>/<which>`: the run with every output and the monitors a
+//!   scene may request — none, the energy, the constraint residual ‖α(q)Γ(q)η‖∞, both — each
+//!   evaluated at every output by the core's own functions, as `hamel simulate` does.
 //! * `integrate/still/dop853/101-outputs`: ẏ = 0 in five dimensions, one step: the fixed cost
 //!   of a run with 101 outputs.
 //!
@@ -35,6 +38,42 @@ impl OdeSystem for Full {
         (self.0.full_into)(y, dy).map_err(|e| SystemError::new(e.to_string()))
     }
 }
+
+/// The full state with the monitors a scene requested.
+struct Monitored {
+    full: Full,
+    energy: bool,
+    residual: bool,
+}
+
+impl OdeSystem for Monitored {
+    fn dim(&self) -> usize {
+        self.full.dim()
+    }
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+        self.full.rhs(t, y, dy)
+    }
+    fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
+        let ell = self.full.0.dims.ell;
+        self.energy
+            .then(|| (self.full.0.energy)(&y[..ell], &y[ell..]).ok())
+            .flatten()
+    }
+    fn constraint_residual(&self, _t: f64, y: &[f64]) -> Option<f64> {
+        let ell = self.full.0.dims.ell;
+        self.residual
+            .then(|| (self.full.0.residual)(&y[..ell], &y[ell..]).ok())
+            .flatten()
+    }
+}
+
+/// The monitors compared: (name, energy, residual).
+const MONITORS: [(&str, bool, bool); 4] = [
+    ("none", false, false),
+    ("energy", true, false),
+    ("residual", false, true),
+    ("both", true, true),
+];
 
 /// ẏ = 0 in five dimensions: with a first step over the whole interval, DOP853 takes one
 /// step (its error estimate is zero), so a run is the fixed cost alone: set-up, one step, 101
@@ -177,11 +216,37 @@ fn benches(c: &mut Criterion) {
         }
         group.finish();
     }
+    monitors(c);
     let ts: Vec<f64> = (0..101).map(|k| 0.1 * k as f64).collect();
     let o = still_options();
     c.bench_function("integrate/still/dop853/101-outputs", |b| {
         b.iter(|| integrate(&Still, Method::Dop853, 0.0, black_box(&[0.0; 5]), &ts, &o).unwrap())
     });
+}
+
+/// Every scene's run with every output, under each set of monitors.
+fn monitors(c: &mut Criterion) {
+    for case in &CASES {
+        let mut group = c.benchmark_group(format!("monitors/{}", case.name));
+        for tol in TOLERANCES {
+            let ts = case.times(case.outputs);
+            let o = options(tol);
+            for (name, energy, residual) in MONITORS {
+                let system = Monitored {
+                    full: case.system(),
+                    energy,
+                    residual,
+                };
+                group.bench_function(format!("dop853-{tol:e}/{name}"), |b| {
+                    b.iter(|| {
+                        integrate(&system, Method::Dop853, 0.0, black_box(case.y0), &ts, &o)
+                            .unwrap()
+                    })
+                });
+            }
+        }
+        group.finish();
+    }
 }
 
 /// The first step over the whole interval (the heuristic would start small and grow by at
@@ -236,10 +301,35 @@ fn summary() {
     }
 }
 
+/// What each monitor adds to a run, from this run's estimates.
+fn monitors_summary() {
+    println!("\nWhat a requested monitor costs (every output; run time, and over no monitor)");
+    println!("| scene | tol | none | energy | residual | both |");
+    println!("|---|---|---|---|---|---|");
+    for case in &CASES {
+        for tol in TOLERANCES {
+            let id = |m: &str| estimate(&format!("monitors_{}/dop853-{tol:e}_{m}", case.name));
+            let Some(none) = id("none") else { continue };
+            let cells: Vec<String> = MONITORS[1..]
+                .iter()
+                .filter_map(|(m, _, _)| id(m))
+                .map(|t| format!("{:.2} µs ({:+.1} %)", t * 1e6, (t / none - 1.0) * 100.0))
+                .collect();
+            println!(
+                "| {} | {tol:e} | {:.2} µs | {} |",
+                case.name,
+                none * 1e6,
+                cells.join(" | ")
+            );
+        }
+    }
+}
+
 criterion_group!(group, benches);
 
 fn main() {
     group();
     Criterion::default().configure_from_args().final_summary();
     summary();
+    monitors_summary();
 }

@@ -520,6 +520,7 @@ impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
         }
     }
 
+    #[inline]
     fn push(&mut self, t: f64, y: &[f64]) {
         let solution = &mut self.solution;
         solution.t.push(t);
@@ -556,6 +557,7 @@ impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
     }
 }
 
+#[inline]
 fn finite(value: Option<f64>) -> Option<f64> {
     value.filter(|v| v.is_finite())
 }

@@ -419,6 +419,7 @@ pub fn a_gamma_and_forcing(q: &[f64], eta: &[f64], p: &Parameters) -> Result<(Ve
 }
 
 /// The energy E = ½ηᵀA_Γη − U at (q, η), by straight-line code of the closed form.
+#[inline]
 pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
     let e = energy_from(q, eta, p)?;
     runtime::finite("the energy", &[e])?;
@@ -481,6 +482,7 @@ fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -
 }
 
 /// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
+#[inline]
 pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
     let mut r = [0.0; DIMS.mu];
     residual_from(q, eta, p, &mut r)?;
