@@ -2,6 +2,7 @@
 //! which a printed form is checked, and what collection works on.
 
 use std::collections::BTreeMap;
+use std::collections::btree_map::Entry;
 
 use hamel_expr::{Expr, Rational};
 use num_traits::{One, Signed, ToPrimitive, Zero};
@@ -18,26 +19,52 @@ impl Mono {
         Mono(vec![(i, 1)])
     }
 
-    /// The product of two monomials.
+    /// The product of two monomials (a merge of the sorted pairs).
     pub fn mul(&self, other: &Mono) -> Mono {
-        let mut out: BTreeMap<usize, u32> = self.0.iter().copied().collect();
-        for &(i, e) in &other.0 {
-            *out.entry(i).or_default() += e;
+        let (a, b) = (&self.0, &other.0);
+        let mut out = Vec::with_capacity(a.len() + b.len());
+        let (mut i, mut j) = (0, 0);
+        while i < a.len() && j < b.len() {
+            match a[i].0.cmp(&b[j].0) {
+                std::cmp::Ordering::Less => {
+                    out.push(a[i]);
+                    i += 1;
+                }
+                std::cmp::Ordering::Greater => {
+                    out.push(b[j]);
+                    j += 1;
+                }
+                std::cmp::Ordering::Equal => {
+                    out.push((a[i].0, a[i].1 + b[j].1));
+                    i += 1;
+                    j += 1;
+                }
+            }
         }
-        Mono(out.into_iter().collect())
+        out.extend_from_slice(&a[i..]);
+        out.extend_from_slice(&b[j..]);
+        Mono(out)
     }
 
     /// `self / other`, when `other` divides `self`.
     pub fn div(&self, other: &Mono) -> Option<Mono> {
-        let mut out: BTreeMap<usize, u32> = self.0.iter().copied().collect();
-        for &(i, e) in &other.0 {
-            let have = out.get_mut(&i)?;
-            *have = have.checked_sub(e)?;
-            if *have == 0 {
-                out.remove(&i);
+        let mut out = Vec::with_capacity(self.0.len());
+        let mut theirs = other.0.iter().peekable();
+        for &(i, e) in &self.0 {
+            let f = match theirs.peek() {
+                Some(&&(k, f)) if k == i => {
+                    theirs.next();
+                    f
+                }
+                Some(&&(k, _)) if k < i => return None,
+                _ => 0,
+            };
+            let left = e.checked_sub(f)?;
+            if left > 0 {
+                out.push((i, left));
             }
         }
-        Some(Mono(out.into_iter().collect()))
+        theirs.next().is_none().then_some(Mono(out))
     }
 
     /// The greatest common divisor (the smallest exponent of each shared atom).
@@ -63,7 +90,7 @@ impl Mono {
 }
 
 /// A polynomial: monomial ↦ nonzero coefficient.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Poly(pub BTreeMap<Mono, Rational>);
 
 /// A quotient of polynomials, as canonical forms with a division come.
@@ -106,10 +133,16 @@ impl Poly {
         if c.is_zero() {
             return;
         }
-        let entry = self.0.entry(m.clone()).or_insert_with(Rational::zero);
-        *entry += c;
-        if entry.is_zero() {
-            self.0.remove(&m);
+        match self.0.entry(m) {
+            Entry::Vacant(v) => {
+                v.insert(c);
+            }
+            Entry::Occupied(mut o) => {
+                *o.get_mut() += c;
+                if o.get().is_zero() {
+                    o.remove();
+                }
+            }
         }
     }
 
@@ -121,14 +154,25 @@ impl Poly {
     /// `self + other`.
     pub fn add(&self, other: &Poly) -> Poly {
         let mut out = self.clone();
-        for (m, c) in &other.0 {
-            out.add_term(m.clone(), c.clone());
-        }
+        out.add_assign(other);
         out
+    }
+
+    /// `self += other`.
+    pub fn add_assign(&mut self, other: &Poly) {
+        for (m, c) in &other.0 {
+            self.add_term(m.clone(), c.clone());
+        }
     }
 
     /// `self · other`.
     pub fn mul(&self, other: &Poly) -> Poly {
+        if let Some(c) = other.as_constant() {
+            return self.scale(&c);
+        }
+        if let Some(c) = self.as_constant() {
+            return other.scale(&c);
+        }
         let mut out = Poly::default();
         for (m, c) in &self.0 {
             for (n, d) in &other.0 {
@@ -140,6 +184,9 @@ impl Poly {
 
     /// `c · self`.
     pub fn scale(&self, c: &Rational) -> Poly {
+        if c.is_one() {
+            return self.clone();
+        }
         let mut out = Poly::default();
         for (m, d) in &self.0 {
             out.add_term(m.clone(), c * d);
@@ -150,6 +197,21 @@ impl Poly {
     /// `self^n`.
     pub fn pow(&self, n: u32) -> Poly {
         (0..n).fold(Poly::constant(Rational::one()), |acc, _| acc.mul(self))
+    }
+
+    /// `c` with `self = c · other`, when there is one (`other` nonzero).
+    pub fn ratio(&self, other: &Poly) -> Option<Rational> {
+        if self.0.len() != other.0.len() {
+            return None;
+        }
+        let (_, a) = self.0.iter().next()?;
+        let (_, b) = other.0.iter().next()?;
+        let c = a / b;
+        self.0
+            .iter()
+            .zip(&other.0)
+            .all(|((m, x), (n, y))| m == n && *x == &c * y)
+            .then_some(c)
     }
 
     /// The constant value, if this is a constant.
@@ -261,16 +323,17 @@ impl Fraction {
         }
     }
 
-    /// `self + other`.
-    pub fn plus(&self, other: &Fraction) -> Fraction {
+    /// `self + other` (`self` taken, its numerator added to in place when the denominators
+    /// agree).
+    pub fn plus(mut self, other: &Fraction) -> Fraction {
         if self.den == other.den {
-            return Fraction {
-                num: self.num.add(&other.num),
-                den: self.den.clone(),
-            };
+            self.num.add_assign(&other.num);
+            return self;
         }
+        let mut num = self.num.mul(&other.den);
+        num.add_assign(&other.num.mul(&self.den));
         Fraction {
-            num: self.num.mul(&other.den).add(&other.num.mul(&self.den)),
+            num,
             den: self.den.mul(&other.den),
         }
     }
@@ -283,9 +346,13 @@ impl Fraction {
         }
     }
 
-    /// Whether `self` and `other` are the same rational function (cross-multiplied).
+    /// Whether `self` and `other` are the same rational function: numerators compared
+    /// directly when the denominators are equal up to a constant, cross-multiplied otherwise.
     pub fn same(&self, other: &Fraction) -> bool {
-        self.num.mul(&other.den) == other.num.mul(&self.den)
+        match self.den.ratio(&other.den) {
+            Some(c) => self.num == other.num.scale(&c),
+            None => self.num.mul(&other.den) == other.num.mul(&self.den),
+        }
     }
 
     /// A constant denominator folded into the numerator.

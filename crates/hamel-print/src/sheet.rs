@@ -1,7 +1,7 @@
 //! A sheet: expressions printed together, sharing their atoms and a where-list of named
 //! groups, as a paper names κ₁, κ₂ and F₁(θ, θ₁) once and uses them in every entry.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use hamel_expr::{Expr, Rational};
 use num_traits::{One, Signed};
@@ -17,6 +17,8 @@ pub struct Sheet {
     atoms: Atoms,
     entries: Vec<(Form, Fraction)>,
     names: Vec<Definition>,
+    /// Each name's value, its definition expanded (computed once).
+    values: Vec<Fraction>,
 }
 
 impl Sheet {
@@ -26,6 +28,7 @@ impl Sheet {
             atoms: Atoms::new(vocabulary.clone()),
             entries: Vec::new(),
             names: Vec::new(),
+            values: Vec::new(),
         }
     }
 
@@ -86,35 +89,52 @@ impl Sheet {
 
     /// Whether entry `i`, its names expanded, is exactly its canonical form.
     pub fn check(&self, i: usize) -> bool {
-        let mut atoms = self.atoms.clone();
-        let e = self.to_expr(i);
-        Fraction::from_expr(&e, &mut atoms).is_ok_and(|f| f.same(&self.entries[i].1))
+        let (form, canonical) = &self.entries[i];
+        self.fraction_of(form).same(canonical)
     }
 
     /// Names the groups that occur twice or more (up to a rational factor) across the
     /// entries: parameter groups `kappa1`, `kappa2`, …, then functions of the coordinates
     /// `F1`, `F2`, …, which may use the parameter names ([`Sheet::candidates`] says which and
-    /// in what order). Two passes over the groups: one to count, one to replace.
+    /// in what order). Two passes over the groups, one to count, one to replace, each
+    /// computing the value of a group once, from its parts' values.
     pub fn name_groups(&mut self) {
-        let chosen = self.candidates();
-        for (key, form) in &chosen {
+        let (chosen, at) = self.candidates();
+        let mut places = Vec::new();
+        for c in chosen {
             let index = self.names.len();
-            let definition = self.definition(key, form.clone(), index);
+            let definition = self.definition(&c.key, c.form, index);
+            self.values.push(self.fraction_of(&definition.form));
             self.names.push(definition);
+            places.push(c.place);
         }
-        let keys: Vec<Key> = chosen.into_iter().map(|(k, _)| k).collect();
-        let orientation: Vec<Rational> = (0..keys.len()).map(|i| self.orientation(i)).collect();
-        let mut entries = std::mem::take(&mut self.entries);
-        for (f, _) in &mut entries {
-            self.replace(f, &keys, &orientation, None);
+        let orientation: Vec<Rational> = self.values.iter().map(orientation).collect();
+        let mut next = 0;
+        for (f, _) in &mut self.entries {
+            replace_at(f, &mut next, &at, &orientation);
         }
-        self.entries = entries;
-        for j in 0..self.names.len() {
-            let mut form = self.names[j].form.clone();
-            self.replace(&mut form, &keys, &orientation, Some(j));
-            self.names[j].form = form;
+        // A definition has the shape of its group's first occurrence: its inner groups are
+        // the places after that one.
+        for (d, place) in self.names.iter_mut().zip(places) {
+            replace_at(&mut d.form, &mut (place + 1), &at, &orientation);
         }
     }
+}
+
+/// A group that may be named: its key, its form scaled to the key, its first place (outer
+/// before inner, entry after entry) and how often it occurs.
+struct Candidate {
+    key: Key,
+    form: Form,
+    place: usize,
+    count: usize,
+}
+
+/// A group's name, or its candidate's index while counting, and its factor over the key.
+#[derive(Clone)]
+struct Placed {
+    factor: Rational,
+    name: usize,
 }
 
 /// A group's key: its polynomial without its rational content, the first term (in monomial
@@ -131,7 +151,7 @@ impl Sheet {
                     let part = match x {
                         Factor::Atom { index, power } => Fraction::atom(*index, *power),
                         Factor::Group(g) => self.fraction_of(g),
-                        Factor::Name { index } => self.fraction_of(&self.names[*index].form),
+                        Factor::Name { index } => self.values[*index].clone(),
                     };
                     acc = acc.times(&part);
                 }
@@ -145,32 +165,48 @@ impl Sheet {
         }
     }
 
-    /// `(content, key)` of a group that is a polynomial with no common monomial.
-    fn key_of(&self, g: &Form) -> Option<(Rational, Key)> {
-        let f = self.fraction_of(g);
-        if f.den.as_constant().is_none() || f.num.0.len() < 2 {
-            return None;
-        }
-        let (c, m, rest) = collect::content(&f.num);
-        let scale = c / f.den.as_constant().expect("checked");
-        m.0.is_empty().then_some((scale, rest))
-    }
-
-    /// Every unnamed group of a form, outer before inner.
-    fn groups<'a>(f: &'a Form, out: &mut Vec<&'a Form>) {
+    /// The value of `f` from its parts' values, bottom-up, when `need`ed (a group's value
+    /// always is); `visit` sees every unnamed group with its value and its place in the order
+    /// outer before inner (`next`, counted on).
+    fn walk<'a>(
+        &self,
+        f: &'a Form,
+        need: bool,
+        next: &mut usize,
+        visit: &mut dyn FnMut(usize, &'a Form, &Fraction),
+    ) -> Option<Fraction> {
         match f {
-            Form::Product { factors, .. } => {
+            Form::Product { coef, factors } => {
+                let mut acc = need.then(|| Fraction::constant(coef.clone()));
                 for x in factors {
-                    if let Factor::Group(g) = x {
-                        out.push(g);
-                        Sheet::groups(g, out);
-                    }
+                    let part = match x {
+                        Factor::Group(g) => {
+                            let place = *next;
+                            *next += 1;
+                            let value = self.walk(g, true, next, visit).expect("needed");
+                            visit(place, g, &value);
+                            value
+                        }
+                        _ if !need => continue,
+                        Factor::Atom { index, power } => Fraction::atom(*index, *power),
+                        Factor::Name { index } => self.values[*index].clone(),
+                    };
+                    acc = acc.map(|a| a.times(&part));
                 }
+                acc
             }
-            Form::Sum(terms) => terms.iter().for_each(|t| Sheet::groups(t, out)),
+            Form::Sum(terms) => {
+                let mut acc = need.then(|| Fraction::constant(Rational::from_integer(0.into())));
+                for t in terms {
+                    let value = self.walk(t, need, next, visit);
+                    acc = acc.zip(value).map(|(a, v)| a.plus(&v));
+                }
+                acc
+            }
             Form::Quotient(a, b) => {
-                Sheet::groups(a, out);
-                Sheet::groups(b, out);
+                let a = self.walk(a, need, next, visit);
+                let b = self.walk(b, need, next, visit);
+                a.zip(b).map(|(a, b)| a.over(&b))
             }
         }
     }
@@ -179,35 +215,70 @@ impl Sheet {
     /// velocities, of three terms or more if they hold parameters only (`ρ₁ + ρ₂` reads better
     /// than a name); parameter groups before functions of the coordinates, the more frequent
     /// first, then the larger, then the first met. Their forms are scaled to the key.
-    fn candidates(&self) -> Vec<(Key, Form)> {
-        let mut found: Vec<&Form> = Vec::new();
+    /// Also, for each group of the entries by its place (outer before inner, entry after
+    /// entry), the name it gets and its factor over the name's key, if it gets one.
+    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>) {
+        let mut found: Vec<(usize, &Form, Rational, Key)> = Vec::new();
+        let mut next = 0;
         for (f, _) in &self.entries {
-            Sheet::groups(f, &mut found);
+            self.walk(f, false, &mut next, &mut |place, g, value| {
+                if let Some((c, key)) = key(value) {
+                    found.push((place, g, c, key));
+                }
+            });
         }
-        let mut counted: Vec<(Key, Form, usize)> = Vec::new();
-        for g in found {
-            let Some((c, key)) = self.key_of(g) else {
-                continue;
-            };
-            match counted.iter_mut().find(|(k, _, _)| *k == key) {
-                Some(entry) => entry.2 += 1,
-                None => counted.push((key, positive(scaled(g, &c.recip())), 1)),
-            }
+        found.sort_by_key(|(place, ..)| *place);
+        let mut counted: Vec<Candidate> = Vec::new();
+        let mut index: BTreeMap<Key, usize> = BTreeMap::new();
+        let mut at: Vec<Option<Placed>> = vec![None; next];
+        for (place, g, factor, key) in found {
+            let i = *index.entry(key.clone()).or_insert_with(|| {
+                let form = positive(scaled(g, &factor.recip()));
+                counted.push(Candidate {
+                    key,
+                    form,
+                    place,
+                    count: 0,
+                });
+                counted.len() - 1
+            });
+            counted[i].count += 1;
+            at[place] = Some(Placed { factor, name: i });
         }
-        let mut chosen: Vec<(usize, (Key, Form, usize))> = counted
+        let mut chosen: Vec<(usize, Candidate)> = counted
             .into_iter()
             .enumerate()
-            .filter(|(_, (key, _, n))| {
-                *n >= 2
-                    && !self.has_velocities(key)
-                    && (key.0.len() >= 3 || !self.parameters_only(key))
+            .filter(|(_, c)| {
+                c.count >= 2
+                    && !self.has_velocities(&c.key)
+                    && (c.key.0.len() >= 3 || !self.parameters_only(&c.key))
             })
             .collect();
-        chosen.sort_by_key(|(i, (key, _, n))| {
-            let size = std::cmp::Reverse(key.0.len());
-            (!self.parameters_only(key), std::cmp::Reverse(*n), size, *i)
+        chosen.sort_by_key(|(i, c)| {
+            let size = std::cmp::Reverse(c.key.0.len());
+            (
+                !self.parameters_only(&c.key),
+                std::cmp::Reverse(c.count),
+                size,
+                *i,
+            )
         });
-        chosen.into_iter().map(|(_, (k, f, _))| (k, f)).collect()
+        let mut name_of = vec![None; index.len()];
+        for (name, (i, _)) in chosen.iter().enumerate() {
+            name_of[*i] = Some(name);
+        }
+        let at = at
+            .into_iter()
+            .map(|a| {
+                a.and_then(|p| {
+                    Some(Placed {
+                        name: name_of[p.name]?,
+                        ..p
+                    })
+                })
+            })
+            .collect();
+        (chosen.into_iter().map(|(_, c)| c).collect(), at)
     }
 
     /// Whether a velocity occurs in `key` (such groups are not named: the where-list holds
@@ -266,49 +337,52 @@ impl Sheet {
             .cloned()
             .collect()
     }
+}
 
-    /// Every group of `f` whose key is a name's becomes that name (not `skip`: a definition
-    /// does not name itself).
-    fn replace(&self, f: &mut Form, keys: &[Key], orientation: &[Rational], skip: Option<usize>) {
-        match f {
-            Form::Product { coef, factors } => {
-                for x in factors.iter_mut() {
-                    let Factor::Group(g) = x else { continue };
-                    let named = self.key_of(g).and_then(|(c, k)| {
-                        let index = keys.iter().position(|key| *key == k)?;
-                        (Some(index) != skip).then_some((c, index))
-                    });
-                    match named {
-                        Some((c, index)) => {
-                            *coef = &*coef * c * &orientation[index];
-                            *x = Factor::Name { index };
-                        }
-                        None => self.replace(g, keys, orientation, skip),
-                    }
+/// The groups of `f` named where `at` says, by their places counted on from `next` (the
+/// order of [`Sheet::candidates`]), inner groups first.
+fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>], orientation: &[Rational]) {
+    match f {
+        Form::Product { coef, factors } => {
+            for x in factors.iter_mut() {
+                let Factor::Group(g) = x else { continue };
+                let place = *next;
+                *next += 1;
+                replace_at(g, next, at, orientation);
+                if let Some(p) = &at[place] {
+                    *coef = &*coef * &p.factor * &orientation[p.name];
+                    *x = Factor::Name { index: p.name };
                 }
             }
-            Form::Sum(terms) => terms
-                .iter_mut()
-                .for_each(|t| self.replace(t, keys, orientation, skip)),
-            Form::Quotient(a, b) => {
-                self.replace(a, keys, orientation, skip);
-                self.replace(b, keys, orientation, skip);
-            }
+        }
+        Form::Sum(terms) => terms
+            .iter_mut()
+            .for_each(|t| replace_at(t, next, at, orientation)),
+        Form::Quotient(a, b) => {
+            replace_at(a, next, at, orientation);
+            replace_at(b, next, at, orientation);
         }
     }
 }
 
-impl Sheet {
-    /// ±1: the definition `index` as printed over its key (whose first term in monomial order
-    /// is positive).
-    fn orientation(&self, index: usize) -> Rational {
-        let printed = self.fraction_of(&self.names[index].form);
-        let (c, _, _) = collect::content(&printed.num);
-        if c.is_negative() {
-            -Rational::one()
-        } else {
-            Rational::one()
-        }
+/// `(content, key)` of a group's value that is a polynomial of two terms or more with no
+/// common monomial.
+fn key(f: &Fraction) -> Option<(Rational, Key)> {
+    let den = f.den.as_constant()?;
+    if f.num.0.len() < 2 {
+        return None;
+    }
+    let (c, m, rest) = collect::content(&f.num);
+    m.0.is_empty().then_some((c / den, rest))
+}
+
+/// ±1: a definition's value over its key (whose first term in monomial order is positive).
+fn orientation(value: &Fraction) -> Rational {
+    let (c, _, _) = collect::content(&value.num);
+    if c.is_negative() {
+        -Rational::one()
+    } else {
+        Rational::one()
     }
 }
 

@@ -144,3 +144,50 @@ fn json_matrix(json: &str, key: &str) -> Vec<Vec<String>> {
     }
     rows
 }
+
+/// Monomial products and quotients as merges of sorted pairs.
+#[test]
+fn monomial_product_and_quotient() {
+    use crate::Mono;
+    let a = Mono(vec![(0, 2), (3, 1), (5, 4)]);
+    let b = Mono(vec![(1, 1), (3, 2)]);
+    let ab = a.mul(&b);
+    assert_eq!(ab, Mono(vec![(0, 2), (1, 1), (3, 3), (5, 4)]));
+    assert_eq!(ab.div(&b), Some(a.clone()));
+    assert_eq!(ab.div(&a), Some(b.clone()));
+    assert_eq!(a.div(&b), None, "atom 1 is not in a");
+    assert_eq!(a.div(&Mono(vec![(3, 2)])), None, "exponent too high");
+    assert_eq!(a.div(&Mono(vec![(7, 1)])), None, "an atom after a's last");
+    assert_eq!(a.div(&a), Some(Mono::default()));
+}
+
+/// `ratio` finds the constant between proportional polynomials and only then; `same`
+/// compares fractions whose denominators are proportional.
+#[test]
+fn proportional_denominators() {
+    use crate::{Fraction, Mono, Poly};
+    use hamel_expr::Rational;
+    let q = |n: i64, d: i64| Rational::new(n.into(), d.into());
+    let mut p = Poly::default();
+    p.add_term(Mono::atom(0), q(2, 3));
+    p.add_term(Mono::atom(1), q(-1, 1));
+    let p3 = p.scale(&q(-3, 2));
+    assert_eq!(p3.ratio(&p), Some(q(-3, 2)));
+    let mut other = p3.clone();
+    other.add_term(Mono::atom(2), q(1, 1));
+    assert_eq!(other.ratio(&p), None);
+    let x = Fraction {
+        num: Poly::term(Mono::atom(3), q(1, 1)),
+        den: p.clone(),
+    };
+    let y = Fraction {
+        num: Poly::term(Mono::atom(3), q(-3, 2)),
+        den: p3.clone(),
+    };
+    assert!(x.same(&y));
+    let z = Fraction {
+        num: Poly::term(Mono::atom(3), q(3, 2)),
+        den: p3,
+    };
+    assert!(!x.same(&z));
+}
