@@ -51,19 +51,6 @@ fn pdflatex(tex: &Path) -> Option<String> {
     (!overfull.is_empty()).then(|| format!("{} overfull: {}", overfull.len(), overfull[0]))
 }
 
-/// Choices whose document does not fit yet (issue 22 is open): entries too wide for any break
-/// this printer makes (a long square root, a quotient of long sums inside a product). Listed so
-/// that every other choice is held to the acceptance now, and the list can only shrink: a
-/// listed choice that passes fails this test until it is taken off.
-const NOT_YET: &[&str] = &[
-    "models/bar_wheels.toml --eta a_orthogonal",
-    "models/bar_wheels.toml --eta paper_z",
-    "models/bar_wheels.toml --eta search_functions",
-    "models/unicycle_rider.toml --eta family",
-    "models/unicycle_rider.toml --eta momenta",
-    "models/whipple_bicycle.toml --eta benchmark",
-];
-
 #[test]
 fn every_derivation_compiles_with_pdflatex_and_fits_the_page() {
     if Command::new("pdflatex").arg("--version").output().is_err() {
@@ -97,13 +84,8 @@ fn every_derivation_compiles_with_pdflatex_and_fits_the_page() {
             "{model} {eta}: {}",
             &err[..err.len().min(2000)]
         );
-        let listed = NOT_YET.contains(&format!("{model} --eta {eta}").as_str());
-        match (pdflatex(&tex), listed) {
-            (Some(why), false) => failures.push(format!("{model} --eta {eta}: {why}")),
-            (None, true) => {
-                failures.push(format!("{model} --eta {eta} fits now: take it off NOT_YET"))
-            }
-            _ => {}
+        if let Some(why) = pdflatex(&tex) {
+            failures.push(format!("{model} --eta {eta}: {why}"));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

@@ -56,6 +56,9 @@ pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
             }
         }
     }
+    if !sheet.check_arguments() {
+        return Err(PrintError::Mismatch("a named argument".into()));
+    }
     let mut body = String::new();
     let _ = writeln!(
         body,
@@ -265,14 +268,24 @@ fn equations(sheet: &Sheet, heading: &str, rows: &[(String, usize)], zero: bool,
     let _ = writeln!(o, "\\end{{align*}}");
 }
 
-/// The named groups, once.
+/// The named groups, once, each broken over lines where it is long.
 fn where_list(sheet: &Sheet, o: &mut String) {
     let defs = sheet.definitions_latex();
     if defs.is_empty() {
         return;
     }
     let _ = writeln!(o, "\\noindent where\n\\begin{{align*}}");
-    let lines: Vec<String> = defs.iter().map(|(n, d)| format!("{n} &= {d}")).collect();
+    let mut lines = Vec::new();
+    for (j, (name, _)) in defs.iter().enumerate() {
+        let parts = sheet.definition_lines(j, LINE.saturating_sub(width(name)));
+        for (k, p) in parts.into_iter().enumerate() {
+            lines.push(if k == 0 {
+                format!("{name} &= {p}")
+            } else {
+                format!("&\\quad {p}")
+            });
+        }
+    }
     let _ = writeln!(o, "{}", lines.join(" \\\\\n"));
     let _ = writeln!(o, "\\end{{align*}}");
 }

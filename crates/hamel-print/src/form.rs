@@ -1,6 +1,8 @@
 //! The printing form: a tree of sums, products and groups over the atoms, rendered as text
 //! (the model-file syntax, so that it parses back) or LaTeX.
 
+use std::collections::BTreeMap;
+
 use hamel_expr::{Expr, Rational};
 use num_traits::{One, Signed, Zero};
 
@@ -58,6 +60,8 @@ pub struct Definition {
 pub(crate) struct Ctx<'a> {
     pub(crate) atoms: &'a Atoms,
     pub(crate) names: &'a [Definition],
+    /// Atoms printed with their argument by name (atom ↦ name): `\sqrt{F_7(θ)}`.
+    pub(crate) arguments: &'a BTreeMap<usize, usize>,
 }
 
 /// The form as an expression, names expanded.
@@ -74,6 +78,45 @@ pub(crate) fn to_expr(f: &Form, ctx: Ctx<'_>) -> Expr {
         }
         Form::Sum(v) => Expr::Add(v.iter().map(|t| to_expr(t, ctx)).collect()),
         Form::Quotient(a, b) => Expr::Div(Box::new(to_expr(a, ctx)), Box::new(to_expr(b, ctx))),
+    }
+}
+
+/// Atom `index` to `power`, its argument by name where the sheet named it.
+fn atom(ctx: Ctx<'_>, index: usize, power: u32, s: &dyn Syntax) -> String {
+    let e = power_of(ctx.atoms, index, power);
+    let Some(&name) = ctx.arguments.get(&index) else {
+        return s.atom(&e);
+    };
+    let mark = Expr::Sym(ARGUMENT.to_string());
+    let marked = with_argument(&ctx.atoms.get(index).expr, mark.clone());
+    let marked = if power == 1 {
+        marked
+    } else {
+        Expr::powi(marked, i64::from(power))
+    };
+    s.atom(&marked)
+        .replace(&s.atom(&mark), &s.name(&ctx.names[name]))
+}
+
+/// A symbol no model uses, standing for a named argument while an atom is rendered.
+const ARGUMENT: &str = "hamelNamedArgument";
+
+/// The argument of a function or of a power with a non-integer exponent (what
+/// [`crate::Sheet::name_wide`] names), if `e` is one.
+pub(crate) fn argument(e: &Expr) -> Option<&Expr> {
+    match e {
+        Expr::Call(_, a) => Some(a),
+        Expr::Pow(b, n) if n.as_integer().is_none() => Some(b),
+        _ => None,
+    }
+}
+
+/// `e` with its argument replaced by `by`.
+fn with_argument(e: &Expr, by: Expr) -> Expr {
+    match e {
+        Expr::Call(f, _) => Expr::Call(*f, Box::new(by)),
+        Expr::Pow(_, n) => Expr::Pow(Box::new(by), n.clone()),
+        other => other.clone(),
     }
 }
 
@@ -227,7 +270,7 @@ fn unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> (bool, String) {
             }
             for x in factors {
                 parts.push(match x {
-                    Factor::Atom { index, power } => s.atom(&power_of(ctx.atoms, *index, *power)),
+                    Factor::Atom { index, power } => atom(ctx, *index, *power, s),
                     Factor::Group(g) => s.group(&render(g, ctx, s)),
                     Factor::Name { index } => s.name(&ctx.names[*index]),
                 });

@@ -45,12 +45,21 @@ impl Sheet {
     /// allows: a sum broken between terms; `c (sum)` and a quotient of a sum, written
     /// `1/den (sum)`, broken inside the parentheses. Later lines begin with their sign.
     pub fn latex_lines(&self, i: usize, budget: usize) -> Vec<String> {
-        let whole = self.latex(i);
+        self.form_lines(self.form(i), budget)
+    }
+
+    /// The definition of name `j` in LaTeX, as lines (as [`Sheet::latex_lines`]).
+    pub fn definition_lines(&self, j: usize, budget: usize) -> Vec<String> {
+        self.form_lines(&self.names[j].form, budget)
+    }
+
+    fn form_lines(&self, f: &Form, budget: usize) -> Vec<String> {
+        let ctx = self.ctx();
+        let whole = render(f, ctx, &Latex);
         if width(&whole) <= budget {
             return vec![whole];
         }
-        let ctx = self.ctx();
-        let (lead, terms, tail, over) = match self.form(i) {
+        let (lead, terms, tail, over) = match f {
             Form::Sum(terms) => return pack(render_terms(terms, ctx), budget, "", ""),
             Form::Quotient(num, den) => {
                 let over = format!("\\frac{{1}}{{{}}} ", render(den, ctx, &Latex));

@@ -27,6 +27,7 @@ mod layout;
 mod poly;
 mod printed;
 mod sheet;
+mod wide;
 
 pub use atoms::{Atom, Atoms, Kind, Vocabulary};
 pub use form::{Definition, Factor, Form};

@@ -8,17 +8,20 @@ use num_traits::{One, Signed};
 
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
-use crate::form::{Ctx, Definition, Factor, Form, Latex, Text, render, to_expr};
+use crate::form::{Ctx, Definition, Factor, Form, Latex, Text, argument, render, to_expr};
 use crate::poly::{Fraction, Poly, PolyError};
 
 /// Expressions printed together with their where-list.
 #[derive(Clone, Debug)]
 pub struct Sheet {
-    atoms: Atoms,
-    entries: Vec<(Form, Fraction)>,
-    names: Vec<Definition>,
+    pub(crate) atoms: Atoms,
+    pub(crate) entries: Vec<(Form, Fraction)>,
+    pub(crate) names: Vec<Definition>,
     /// Each name's value, its definition expanded (computed once).
-    values: Vec<Fraction>,
+    pub(crate) values: Vec<Fraction>,
+    /// Atoms whose argument is printed by name (atom ↦ name; the name's value is the
+    /// argument, checked by [`Sheet::check_arguments`]).
+    pub(crate) arguments: BTreeMap<usize, usize>,
 }
 
 impl Sheet {
@@ -29,6 +32,7 @@ impl Sheet {
             entries: Vec::new(),
             names: Vec::new(),
             values: Vec::new(),
+            arguments: BTreeMap::new(),
         }
     }
 
@@ -52,6 +56,7 @@ impl Sheet {
         Ctx {
             atoms: &self.atoms,
             names: &self.names,
+            arguments: &self.arguments,
         }
     }
 
@@ -93,11 +98,23 @@ impl Sheet {
         self.fraction_of(form).same(canonical)
     }
 
+    /// Whether every atom printed with a named argument has that name's value as its
+    /// argument, exactly.
+    pub fn check_arguments(&self) -> bool {
+        self.arguments.iter().all(|(&atom, &name)| {
+            let mut atoms = self.atoms.clone();
+            argument(&self.atoms.get(atom).expr)
+                .and_then(|a| Fraction::from_expr(a, &mut atoms).ok())
+                .is_some_and(|f| f.same(&self.values[name]))
+        })
+    }
+
     /// Names the groups that occur twice or more (up to a rational factor) across the
     /// entries: parameter groups `kappa1`, `kappa2`, …, then functions of the coordinates
     /// `F1`, `F2`, …, which may use the parameter names ([`Sheet::candidates`] says which and
     /// in what order). Two passes over the groups, one to count, one to replace, each
-    /// computing the value of a group once, from its parts' values.
+    /// computing the value of a group once, from its parts' values. Then the groups still too
+    /// wide for a line are named too ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
         let (chosen, at) = self.candidates();
         let mut places = Vec::new();
@@ -118,6 +135,7 @@ impl Sheet {
         for (d, place) in self.names.iter_mut().zip(places) {
             replace_at(&mut d.form, &mut (place + 1), &at, &orientation);
         }
+        self.name_wide();
     }
 }
 
@@ -143,7 +161,7 @@ type Key = Poly;
 
 impl Sheet {
     /// The form as a fraction over the sheet's atoms, names expanded.
-    fn fraction_of(&self, f: &Form) -> Fraction {
+    pub(crate) fn fraction_of(&self, f: &Form) -> Fraction {
         match f {
             Form::Product { coef, factors } => {
                 let mut acc = Fraction::constant(coef.clone());
@@ -283,7 +301,7 @@ impl Sheet {
 
     /// Whether a velocity occurs in `key` (such groups are not named: the where-list holds
     /// parameter groups and functions of the coordinates).
-    fn has_velocities(&self, key: &Key) -> bool {
+    pub(crate) fn has_velocities(&self, key: &Key) -> bool {
         key.0.keys().any(|m| {
             m.0.iter()
                 .any(|&(i, _)| self.atoms.get(i).kind == Kind::Velocity)
@@ -298,7 +316,7 @@ impl Sheet {
     }
 
     /// The definition of the group `key` (printed as `form`), the `index`-th name.
-    fn definition(&self, key: &Key, form: Form, index: usize) -> Definition {
+    pub(crate) fn definition(&self, key: &Key, form: Form, index: usize) -> Definition {
         let parameter = self.parameters_only(key);
         let same_kind = self.names[..index]
             .iter()

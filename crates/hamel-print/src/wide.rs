@@ -1,0 +1,131 @@
+//! Groups too wide for a line get names, as MotionGenesis's z variables and the paper's F₁
+//! do: a long parameter coefficient becomes κₙ, a long function of the coordinates (a
+//! denominator, a nested factor) Fₙ(q…), each defined once in the where-list, where its own
+//! terms can be broken over lines.
+
+use crate::collect;
+use crate::form::{Factor, Form, Latex, Syntax, argument, render};
+use crate::layout::{LINE, width};
+use crate::poly::{Fraction, Poly};
+use crate::sheet::Sheet;
+
+/// The widest group left unnamed: half a line, so that a term holding one still fits beside
+/// its coefficient and monomial.
+pub const WIDE: usize = LINE / 2;
+
+impl Sheet {
+    /// Names every velocity-free group wider than [`WIDE`] once rendered, inner groups first
+    /// (so a name's definition is itself made of narrow groups), in the entries and then in
+    /// the definitions (including those this adds). A group equal to a name's value takes
+    /// that name.
+    pub fn name_wide(&mut self) {
+        let mut entries = std::mem::take(&mut self.entries);
+        for (f, _) in &mut entries {
+            self.name_wide_in(f);
+        }
+        self.entries = entries;
+        let mut j = 0;
+        while j < self.names.len() {
+            let mut form = std::mem::replace(&mut self.names[j].form, Form::Sum(Vec::new()));
+            self.name_wide_in_definition(&mut form);
+            self.names[j].form = form;
+            j += 1;
+        }
+    }
+
+    /// A definition's own top level stays (it is what the where-list breaks over lines).
+    fn name_wide_in_definition(&mut self, f: &mut Form) {
+        match f {
+            Form::Sum(terms) => terms.iter_mut().for_each(|t| self.name_wide_in(t)),
+            other => self.name_wide_in(other),
+        }
+    }
+
+    fn name_wide_in(&mut self, f: &mut Form) {
+        match f {
+            Form::Product { factors, .. } => {
+                for x in factors.iter_mut() {
+                    if let Factor::Atom { index, .. } = x {
+                        self.name_wide_argument(*index);
+                        continue;
+                    }
+                    let Factor::Group(g) = x else { continue };
+                    self.name_wide_in(g);
+                    if width(&render(g, self.ctx(), &Latex)) > WIDE
+                        && let Some(index) = self.name_for(g)
+                    {
+                        *x = Factor::Name { index };
+                    }
+                }
+            }
+            Form::Sum(terms) => terms.iter_mut().for_each(|t| self.name_wide_in(t)),
+            Form::Quotient(a, b) => {
+                self.name_wide_in(a);
+                self.name_wide_in(b);
+                self.name_wide_denominator(b);
+            }
+        }
+    }
+
+    /// A denominator that is a sum too wide for a line becomes a name (a fraction's
+    /// denominator is not broken over lines).
+    fn name_wide_denominator(&mut self, b: &mut Form) {
+        if !matches!(b, Form::Sum(_)) || width(&render(b, self.ctx(), &Latex)) <= WIDE {
+            return;
+        }
+        if let Some(index) = self.name_for(b) {
+            *b = Form::Product {
+                coef: num_traits::One::one(),
+                factors: vec![Factor::Name { index }],
+            };
+        }
+    }
+
+    /// A function or root of the coordinates too wide for a line gets its argument named
+    /// (`\sqrt{F_7(θ)}`), when the argument has a rational form.
+    fn name_wide_argument(&mut self, index: usize) {
+        if self.arguments.contains_key(&index) {
+            return;
+        }
+        let atom = self.atoms.get(index).expr.clone();
+        let Some(arg) = argument(&atom) else { return };
+        if width(&Latex.atom(&atom)) <= WIDE {
+            return;
+        }
+        let Ok(value) = Fraction::from_expr(arg, &mut self.atoms) else {
+            return;
+        };
+        let value = value.normalised();
+        let form = collect::fraction(&value, &self.atoms);
+        if let Some(name) = self.name_for(&form) {
+            self.arguments.insert(index, name);
+        }
+    }
+
+    /// The name whose value `g` is (a new one if none is), unless `g` holds a velocity.
+    fn name_for(&mut self, g: &Form) -> Option<usize> {
+        let value = self.fraction_of(g);
+        let atoms = atoms_of(&value);
+        if self.has_velocities(&atoms) {
+            return None;
+        }
+        if let Some(index) = self.values.iter().position(|v| *v == value) {
+            return Some(index);
+        }
+        let index = self.names.len();
+        let definition = self.definition(&atoms, g.clone(), index);
+        self.names.push(definition);
+        self.values.push(value);
+        Some(index)
+    }
+}
+
+/// A polynomial with a term for every monomial of `f`'s numerator and denominator (what
+/// [`Sheet::definition`] reads the kind and the arguments of a name from).
+fn atoms_of(f: &Fraction) -> Poly {
+    let mut p = Poly::default();
+    for m in f.num.0.keys().chain(f.den.0.keys()) {
+        p.0.insert(m.clone(), num_traits::One::one());
+    }
+    p
+}
