@@ -249,7 +249,8 @@ fn derive(
         started.elapsed().as_secs_f64()
     );
     out.write(&match how.format {
-        Format::Text => d.to_text(),
+        Format::Text => hamel_print::derivation::text(&d)
+            .map_err(|e| ModelError::engine(format!("printing the derivation: {e}")))?,
         Format::Latex => {
             let options = hamel_print::derivation::Options {
                 fragment: how.fragment,
@@ -257,8 +258,23 @@ fn derive(
             hamel_print::derivation::latex(&d, options)
                 .map_err(|e| ModelError::engine(format!("printing the derivation: {e}")))?
         }
-        Format::Json => json(&d.json()),
+        Format::Json => {
+            let printed = hamel_print::derivation::json(&d)
+                .map_err(|e| ModelError::engine(format!("printing the derivation: {e}")))?;
+            json(&DeriveJson {
+                derivation: d.json(),
+                printed,
+            })
+        }
     })
+}
+
+/// `hamel derive --format json`: the derivation (entries canonical) and their printed forms.
+#[derive(serde::Serialize)]
+struct DeriveJson<'a> {
+    #[serde(flatten)]
+    derivation: hamel_derive::DerivationJson<'a>,
+    printed: hamel_print::derivation::PrintedJson,
 }
 
 fn reduce(

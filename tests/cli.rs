@@ -226,6 +226,96 @@ fn derive_text_and_latex() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("\\begin{align*}"));
 }
 
+/// The text, the JSON and the LaTeX document of one derivation use the same names for the
+/// same groups (issue 22): the text's where-list is the JSON's, in order, and every name the
+/// LaTeX where-list defines is one of them, under the same number.
+#[test]
+fn derive_text_json_and_latex_share_their_names() {
+    let dir = scratch("shared_names");
+    let run = |format: &str, file: &str| {
+        let out = dir.join(file);
+        let o = hamel(
+            &[
+                "derive",
+                "models/unicycle_rider.toml",
+                "--eta",
+                "velocities",
+                "--format",
+                format,
+                "--output",
+                out.to_str().unwrap(),
+            ],
+            None,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read_to_string(out).unwrap()
+    };
+    let text = run("text", "u.txt");
+    let where_list: Vec<(String, String)> = text
+        .split("\nwhere\n")
+        .nth(1)
+        .expect("a where-list")
+        .lines()
+        .map(|l| {
+            let (name, def) = l.trim().split_once(" = ").unwrap();
+            (name.to_string(), def.to_string())
+        })
+        .collect();
+    assert!(where_list.len() >= 5, "{where_list:?}");
+    let json: serde_json::Value = serde_json::from_str(&run("json", "u.json")).unwrap();
+    let names: Vec<(String, String)> = json["printed"]["names"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| {
+            let args: Vec<&str> = n["args"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|a| a.as_str().unwrap())
+                .collect();
+            let name = n["name"].as_str().unwrap();
+            let name = if args.is_empty() {
+                name.to_string()
+            } else {
+                format!("{name}({})", args.join(", "))
+            };
+            (name, n["definition"].as_str().unwrap().to_string())
+        })
+        .collect();
+    assert_eq!(names, where_list);
+    // A canonical entry and its printed form: A[1,3] is −F(θ, θ₁) cos φ, a name of the list.
+    let a13 = json["a"][0][2].as_str().unwrap();
+    let printed = json["printed"]["entries"][a13].as_str().unwrap();
+    assert!(
+        printed.starts_with("-F") && printed.ends_with("*cos(phi)"),
+        "{printed}"
+    );
+    let latex = run("latex", "u.tex");
+    let defined = latex
+        .split("\\noindent where")
+        .nth(1)
+        .expect("a LaTeX where-list");
+    for line in defined.lines().filter(|l| l.contains("&=")) {
+        let name = line.split("&=").next().unwrap().trim();
+        let (letter, rest) = if let Some(r) = name.strip_prefix("\\kappa_{") {
+            ("kappa", r)
+        } else if let Some(r) = name.strip_prefix("F_{") {
+            ("F", r)
+        } else {
+            panic!("unexpected name {name}")
+        };
+        let number = rest.split('}').next().unwrap();
+        let text_name = format!("{letter}{number}");
+        assert!(
+            where_list
+                .iter()
+                .any(|(n, _)| n == &text_name || n.starts_with(&format!("{text_name}("))),
+            "{name} in the LaTeX is not {text_name} of the text"
+        );
+    }
+}
+
 #[test]
 fn a_bad_model_is_an_error_with_file_place_and_reason_and_writes_nothing() {
     let dir = scratch("bad_model");

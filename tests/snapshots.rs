@@ -1,4 +1,5 @@
-//! Snapshots of `hamel derive`, `hamel reduce` and `hamel search` (their JSON reports) for
+//! Snapshots of `hamel derive`, `hamel reduce` and `hamel search` (their JSON reports, and
+//! `hamel derive`'s printed text) for
 //! every bundled model: derive and reduce for every quasi-velocity choice, reduce and search
 //! for the coordinates the paper eliminates (`common::ELIMINATE`).
 //!
@@ -48,6 +49,28 @@ fn derive_json_snapshots() {
         for choice in &model.choices {
             let name = format!("derive__{}__{}", model.name, choice.name);
             insta::assert_snapshot!(name, snapshot_of(&model, &choice.name));
+        }
+    }
+}
+
+/// `hamel derive`'s text: every entry in its printing form (collected, factored, named), the
+/// where-list at the end. Lines longer than 2000 characters are digested as above.
+#[test]
+fn printed_text_snapshots() {
+    for model in models() {
+        for choice in &model.choices {
+            let d = hamel_derive::derive(&model, Some(&choice.name)).unwrap();
+            let text = hamel_print::derivation::text(&d).unwrap();
+            let lines: Vec<String> = text
+                .lines()
+                .map(|l| {
+                    let mut v = serde_json::Value::String(l.to_string());
+                    digest_long_strings(&mut v);
+                    v.as_str().unwrap().to_string()
+                })
+                .collect();
+            let name = format!("printed__{}__{}", model.name, choice.name);
+            insta::assert_snapshot!(name, lines.join("\n"));
         }
     }
 }

@@ -21,6 +21,7 @@ mod derivation;
 mod numeric;
 pub mod progress;
 mod render;
+pub use render::Printer;
 pub mod states;
 pub mod symbolic;
 

@@ -1,26 +1,30 @@
-//! The plain-text rendering of a derivation (LaTeX: `hamel-print`, which collects, factors
-//! and names).
+//! The plain-text rendering of a derivation: each entry by a printer given to
+//! [`Derivation::to_text_with`] (its canonical text in [`Derivation::to_text`]; `hamel-print`
+//! gives the collected, factored and named forms), the rest around them.
 
 use std::fmt::Write;
 
 use crate::derivation::{Closed, Derivation, Entry, Form, Mat, StructuredForm};
 
-fn mat_text(out: &mut String, name: &str, m: &Mat) {
+/// How an entry is written.
+pub type Printer<'a> = &'a dyn Fn(&Entry) -> String;
+
+fn mat_text(out: &mut String, name: &str, m: &Mat, p: Printer<'_>) {
     if m.rows == 0 || m.cols == 0 {
         let _ = writeln!(out, "{name} = [] ({}×{})", m.rows, m.cols);
         return;
     }
     let _ = writeln!(out, "{name} =");
     for row in &m.entries {
-        let cells: Vec<&str> = row.iter().map(|e| e.text.as_str()).collect();
+        let cells: Vec<String> = row.iter().map(p).collect();
         let _ = writeln!(out, "  [{}]", cells.join(",  "));
     }
 }
 
-fn list_text(out: &mut String, name: &str, v: &[Entry]) {
+fn list_text(out: &mut String, name: &str, v: &[Entry], p: Printer<'_>) {
     let _ = writeln!(out, "{name} =");
     for (i, e) in v.iter().enumerate() {
-        let _ = writeln!(out, "  ({}) {}", i + 1, e.text);
+        let _ = writeln!(out, "  ({}) {}", i + 1, p(e));
     }
 }
 
@@ -29,33 +33,43 @@ fn yes(b: bool) -> &'static str {
 }
 
 /// The closed form: Γ, Θ, δ, A_Γ, Q, the equations and the exact checks.
-fn closed_text(o: &mut String, d: &Derivation, c: &Closed) {
-    let _ = writeln!(o, "δ = det[Z; α] = {}", c.delta.text);
+fn closed_text(o: &mut String, d: &Derivation, c: &Closed, p: Printer<'_>) {
+    let _ = writeln!(o, "δ = det[Z; α] = {}", p(&c.delta));
     let _ = writeln!(o, "singular set: {}", d.singular_set_text());
-    mat_text(o, "Γ (q̇ = Γη)", &c.gamma);
-    mat_text(o, "Θ", &c.theta);
-    mat_text(o, "A_Γ = ΓᵀAΓ", &c.a_gamma);
-    list_text(o, "Γᵀ∇U", &c.forcing);
-    mat_text(o, "ΘᵀAΓ (ν = ΘᵀAΓη)", &c.nu);
+    mat_text(o, "Γ (q̇ = Γη)", &c.gamma, p);
+    mat_text(o, "Θ", &c.theta, p);
+    mat_text(o, "A_Γ = ΓᵀAΓ", &c.a_gamma, p);
+    list_text(o, "Γᵀ∇U", &c.forcing, p);
+    mat_text(o, "ΘᵀAΓ (ν = ΘᵀAΓη)", &c.nu, p);
     for i in 0..d.sigma {
-        mat_text(o, &format!("Q({}) (true, symmetric)", i + 1), &c.q[i]);
-        mat_text(o, &format!("Q({}) paper (12)/(15)", i + 1), &c.q_paper[i]);
-        mat_text(o, &format!("Q({}) correction", i + 1), &c.q_correction[i]);
+        mat_text(o, &format!("Q({}) (true, symmetric)", i + 1), &c.q[i], p);
+        mat_text(
+            o,
+            &format!("Q({}) paper (12)/(15)", i + 1),
+            &c.q_paper[i],
+            p,
+        );
+        mat_text(
+            o,
+            &format!("Q({}) correction", i + 1),
+            &c.q_correction[i],
+            p,
+        );
     }
     o.push('\n');
     let _ = writeln!(o, "equations of motion (true, from (9)):");
     for (i, e) in c.equations.iter().enumerate() {
-        let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
+        let _ = writeln!(o, "  ({}) {} = 0", i + 1, p(e));
     }
     let _ = writeln!(o, "equations as printed in the paper (11)/(12):");
     for (i, e) in c.equations_paper.iter().enumerate() {
-        let _ = writeln!(o, "  ({}) {} = 0", i + 1, e.text);
+        let _ = writeln!(o, "  ({}) {} = 0", i + 1, p(e));
     }
     let _ = writeln!(o, "kinematic equations (6):");
     for (k, e) in c.kinematics.iter().enumerate() {
-        let _ = writeln!(o, "  der({}) = {}", d.coordinates[k], e.text);
+        let _ = writeln!(o, "  der({}) = {}", d.coordinates[k], p(e));
     }
-    let _ = writeln!(o, "energy E = T − U = {}", c.energy.text);
+    let _ = writeln!(o, "energy E = T − U = {}", p(&c.energy));
     o.push('\n');
     let checks = &c.checks;
     let _ = writeln!(o, "checks (exact):");
@@ -93,16 +107,13 @@ fn closed_text(o: &mut String, d: &Derivation, c: &Closed) {
 }
 
 /// The structured form: what the equations are made of, and the certificate.
-fn structured_text(o: &mut String, d: &Derivation, st: &StructuredForm) {
+fn structured_text(o: &mut String, d: &Derivation, st: &StructuredForm, p: Printer<'_>) {
     let _ = writeln!(
         o,
         "U = {}",
-        d.ingredients
-            .potential
-            .as_ref()
-            .map_or("", |u| u.text.as_str())
+        d.ingredients.potential.as_ref().map_or(String::new(), p)
     );
-    list_text(o, "∇U", &d.grad_u);
+    list_text(o, "∇U", &d.grad_u, p);
     let _ = writeln!(o, "\nstructured form: {}", st.structured);
     let _ = writeln!(
         o,
@@ -129,8 +140,13 @@ fn structured_text(o: &mut String, d: &Derivation, st: &StructuredForm) {
 }
 
 impl Derivation {
-    /// The derivation as plain text.
+    /// The derivation as plain text, entries in their canonical form.
     pub fn to_text(&self) -> String {
+        self.to_text_with(&|e| e.text.clone())
+    }
+
+    /// The derivation as plain text, each entry written by `p`.
+    pub fn to_text_with(&self, p: Printer<'_>) -> String {
         let mut o = String::new();
         let _ = writeln!(o, "model {}: {}", self.model, self.title);
         let _ = writeln!(
@@ -149,12 +165,12 @@ impl Derivation {
             let _ = writeln!(o, "free functions: {}", self.free_functions.join(", "));
         }
         o.push('\n');
-        mat_text(&mut o, "A (T = ½ q̇ᵀAq̇)", &self.a);
-        mat_text(&mut o, "α (constraints α q̇ = 0)", &self.alpha);
-        mat_text(&mut o, "Z (η = Z q̇)", &self.z);
+        mat_text(&mut o, "A (T = ½ q̇ᵀAq̇)", &self.a, p);
+        mat_text(&mut o, "α (constraints α q̇ = 0)", &self.alpha, p);
+        mat_text(&mut o, "Z (η = Z q̇)", &self.z, p);
         match &self.form {
-            Form::Closed(c) => closed_text(&mut o, self, c),
-            Form::Structured(st) => structured_text(&mut o, self, st),
+            Form::Closed(c) => closed_text(&mut o, self, c, p),
+            Form::Structured(st) => structured_text(&mut o, self, st, p),
         }
         o
     }

@@ -1,13 +1,14 @@
 //! A derivation as a LaTeX document (`hamel derive --format latex`): A, α, Z, the kinematic
 //! equations q̇ = Γη, A_Γ and the equations of motion, in one sheet with one where-list.
 
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap, hash_map};
 use std::fmt::Write;
 
-use hamel_derive::{Derivation, Mat};
-use hamel_expr::latex_name;
+use hamel_derive::{Derivation, Entry};
 
 use crate::atoms::Vocabulary;
-use crate::layout::{LINE, width};
+use crate::document;
 use crate::poly::PolyError;
 use crate::sheet::Sheet;
 
@@ -40,25 +41,72 @@ pub fn vocabulary(d: &Derivation) -> Vocabulary {
     }
 }
 
-/// The derivation as LaTeX: a complete document (landscape A4, 1 cm margins) or, with
-/// `fragment`, its equation blocks alone.
-///
-/// # Errors
-/// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
-pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
-    let mut sheet = Sheet::new(&vocabulary(d));
-    let blocks = blocks(d, &mut sheet)?;
-    sheet.name_groups();
-    for b in &blocks {
-        for (label, id) in b.ids() {
+/// One printing of a derivation: every entry its text shows in one sheet, named once, each
+/// checked exactly; the text, the JSON and the LaTeX document are written from it, so they
+/// use the same names.
+pub(crate) struct Printing {
+    pub(crate) sheet: Sheet,
+    ids: HashMap<usize, usize>,
+}
+
+impl Printing {
+    /// The entries of `d`'s text, printed and checked.
+    ///
+    /// # Errors
+    /// [`PrintError`]: an entry that cannot be printed exactly.
+    pub(crate) fn new(d: &Derivation) -> Result<Printing, PrintError> {
+        // The entries the text shows, in order, each once (by address: the printer is
+        // called with references into `d`).
+        let shown = RefCell::new(Vec::new());
+        d.to_text_with(&|e| {
+            shown
+                .borrow_mut()
+                .push((address(e), e.expr.clone(), e.text.clone()));
+            String::new()
+        });
+        let mut sheet = Sheet::new(&vocabulary(d));
+        let mut ids = HashMap::new();
+        let mut labels = Vec::new();
+        for (at, expr, label) in shown.into_inner() {
+            if let hash_map::Entry::Vacant(v) = ids.entry(at) {
+                v.insert(sheet.add(&expr)?);
+                labels.push(label);
+            }
+        }
+        sheet.name_groups();
+        for (id, label) in labels.into_iter().enumerate() {
             if !sheet.check(id) {
                 return Err(PrintError::Mismatch(label));
             }
         }
+        if !sheet.check_arguments() {
+            return Err(PrintError::Mismatch("a named argument".into()));
+        }
+        Ok(Printing { sheet, ids })
     }
-    if !sheet.check_arguments() {
-        return Err(PrintError::Mismatch("a named argument".into()));
+
+    /// The sheet's id of an entry of the derivation.
+    pub(crate) fn id(&self, e: &Entry) -> usize {
+        self.ids[&address(e)]
     }
+}
+
+/// Where an entry lives: which of the derivation's entries it is.
+fn address(e: &Entry) -> usize {
+    std::ptr::from_ref(e) as usize
+}
+
+/// The derivation as LaTeX: a complete document (landscape A4, 1 cm margins) or, with
+/// `fragment`, its equation blocks alone; the where-list holds the names they use (numbered
+/// as in the text and the JSON).
+///
+/// # Errors
+/// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
+pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
+    let p = Printing::new(d)?;
+    let blocks = document::blocks(d, &p);
+    let shown: Vec<usize> = blocks.iter().flat_map(|b| b.ids()).collect();
+    let used = p.sheet.names_used(&shown);
     let mut body = String::new();
     let _ = writeln!(
         body,
@@ -66,253 +114,81 @@ pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
         d.model, d.eta_name
     );
     for b in &blocks {
-        b.write(&sheet, &mut body);
+        b.write(&p.sheet, &mut body);
     }
-    where_list(&sheet, &mut body);
+    document::where_list(&p.sheet, &used, &mut body);
     Ok(if options.fragment {
         body
     } else {
-        document(d, &body)
+        document::document(d, &body)
     })
 }
 
-/// A block of the document: a matrix, or a list of equations `lhs = entry`.
-enum Block {
-    Matrix {
-        symbol: String,
-        rows: Vec<Vec<(String, usize)>>,
-    },
-    Equations {
-        heading: String,
-        rows: Vec<(String, usize)>,
-        rhs_zero: bool,
-    },
-}
-
-impl Block {
-    /// Every entry with a label for messages.
-    fn ids(&self) -> Vec<(String, usize)> {
-        match self {
-            Block::Matrix { rows, .. } => rows.iter().flatten().cloned().collect(),
-            Block::Equations { rows, .. } => rows.clone(),
+/// The derivation as plain text (`hamel derive`'s default output), every entry in its
+/// printing form, the where-list at the end, in the model syntax (each entry and definition
+/// parses back).
+///
+/// # Errors
+/// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
+pub fn text(d: &Derivation) -> Result<String, PrintError> {
+    let p = Printing::new(d)?;
+    let mut out = d.to_text_with(&|e| p.sheet.text(p.id(e)));
+    let defs = p.sheet.definitions_text();
+    if !defs.is_empty() {
+        out.push_str("\nwhere\n");
+        for (name, definition) in defs {
+            let _ = writeln!(out, "  {name} = {definition}");
         }
     }
-
-    fn write(&self, sheet: &Sheet, o: &mut String) {
-        match self {
-            Block::Matrix { symbol, rows } => matrix(sheet, symbol, rows, o),
-            Block::Equations {
-                heading,
-                rows,
-                rhs_zero,
-            } => equations(sheet, heading, rows, *rhs_zero, o),
-        }
-    }
-}
-
-/// The entries of `d` added to `sheet`, in the document's order.
-fn blocks(d: &Derivation, sheet: &mut Sheet) -> Result<Vec<Block>, PrintError> {
-    let mut out = vec![
-        mat_block(sheet, "A", &d.a)?,
-        mat_block(sheet, "\\alpha", &d.alpha)?,
-        mat_block(sheet, "Z", &d.z)?,
-    ];
-    let Some(c) = d.closed() else {
-        return Ok(out);
-    };
-    let q: Vec<String> = d.coordinates.iter().map(|c| latex_name(c)).collect();
-    let kinematics = c
-        .kinematics
-        .iter()
-        .zip(&q)
-        .map(|(e, q)| Ok((format!("\\dot{{{q}}}"), sheet.add(&e.expr)?)))
-        .collect::<Result<_, PrintError>>()?;
-    out.push(Block::Equations {
-        heading: "kinematic equations (6), $\\dot q = \\Gamma\\eta$".into(),
-        rows: kinematics,
-        rhs_zero: false,
-    });
-    out.push(mat_block(sheet, "A_\\Gamma", &c.a_gamma)?);
-    let equations = c
-        .equations
-        .iter()
-        .enumerate()
-        .map(|(i, e)| Ok((format!("({})", i + 1), sheet.add(&e.expr)?)))
-        .collect::<Result<_, PrintError>>()?;
-    out.push(Block::Equations {
-        heading: "equations of motion, $A_\\Gamma\\dot\\eta + Q - \\Gamma^T\\nabla U = 0$ (from (9), with the term the paper drops)".into(),
-        rows: equations,
-        rhs_zero: true,
-    });
     Ok(out)
 }
 
-fn mat_block(sheet: &mut Sheet, symbol: &str, m: &Mat) -> Result<Block, PrintError> {
-    let mut rows = Vec::new();
-    for (i, row) in m.entries.iter().enumerate() {
-        let mut r = Vec::new();
-        for (j, e) in row.iter().enumerate() {
-            r.push((
-                format!("{symbol}[{}, {}]", i + 1, j + 1),
-                sheet.add(&e.expr)?,
-            ));
-        }
-        rows.push(r);
-    }
-    Ok(Block::Matrix {
-        symbol: symbol.to_string(),
-        rows,
-    })
+/// What `hamel derive --format json` adds to the derivation (whose entries stay canonical):
+/// each entry's printed text, keyed by its canonical text, and the where-list.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PrintedJson {
+    /// The named groups, in order: name, arguments (none for a parameter group), definition.
+    pub names: Vec<NameJson>,
+    /// Canonical text ↦ printed text, for every entry of the text output.
+    pub entries: BTreeMap<String, String>,
 }
 
-/// A matrix as `pmatrix` when it fits the line, else its nonzero entries one per line
-/// (the upper triangle of a symmetric one).
-fn matrix(sheet: &Sheet, symbol: &str, rows: &[Vec<(String, usize)>], o: &mut String) {
-    let tex: Vec<Vec<String>> = rows
+/// One name of the where-list.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NameJson {
+    /// `kappa1`, `F2`.
+    pub name: String,
+    /// The coordinates a function depends on.
+    pub args: Vec<String>,
+    /// Its definition, in the model syntax.
+    pub definition: String,
+}
+
+/// The printed forms for `hamel derive --format json`, with the text's names.
+///
+/// # Errors
+/// [`PrintError`]: an entry that cannot be printed exactly.
+pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
+    let p = Printing::new(d)?;
+    let entries = RefCell::new(BTreeMap::new());
+    d.to_text_with(&|e| {
+        let printed = p.sheet.text(p.id(e));
+        entries.borrow_mut().insert(e.text.clone(), printed);
+        String::new()
+    });
+    let names = p
+        .sheet
+        .definitions()
         .iter()
-        .map(|r| r.iter().map(|(_, id)| sheet.latex(*id)).collect())
+        .zip(p.sheet.definitions_text())
+        .map(|(d, (_, definition))| NameJson {
+            name: d.name.clone(),
+            args: d.args.clone(),
+            definition,
+        })
         .collect();
-    let cols = tex.first().map_or(0, Vec::len);
-    let widths: usize = (0..cols)
-        .map(|j| tex.iter().map(|r| width(&r[j])).max().unwrap_or(0) + 3)
-        .sum();
-    let _ = writeln!(o, "\\begin{{align*}}");
-    if rows.is_empty() || cols == 0 {
-        let _ = writeln!(o, "{symbol} &= \\varnothing");
-    } else if widths <= LINE {
-        let body: Vec<String> = tex.iter().map(|r| r.join(" & ")).collect();
-        let _ = writeln!(
-            o,
-            "{symbol} &= \\begin{{pmatrix}} {} \\end{{pmatrix}}",
-            body.join(" \\\\ ")
-        );
-    } else {
-        entry_list(sheet, symbol, rows, &tex, o);
-    }
-    let _ = writeln!(o, "\\end{{align*}}");
-}
-
-fn entry_list(
-    sheet: &Sheet,
-    symbol: &str,
-    rows: &[Vec<(String, usize)>],
-    tex: &[Vec<String>],
-    o: &mut String,
-) {
-    let symmetric = (0..tex.len())
-        .all(|i| (0..tex[i].len()).all(|j| tex.get(j).and_then(|r| r.get(i)) == Some(&tex[i][j])));
-    let mut lines = Vec::new();
-    for (i, row) in rows.iter().enumerate() {
-        for (j, (_, id)) in row.iter().enumerate() {
-            if tex[i][j] == "0" || (symmetric && j < i) {
-                continue;
-            }
-            let lhs = format!("{{{symbol}}}_{{{}{}}}", i + 1, j + 1);
-            lines.extend(aligned(sheet, &lhs, *id, "", ""));
-        }
-    }
-    if symmetric {
-        lines.push(format!(
-            "&\\text{{(${symbol}$ is symmetric; the other entries are 0)}}"
-        ));
-    } else {
-        lines.push(format!(
-            "&\\text{{(the other entries of ${symbol}$ are 0)}}"
-        ));
-    }
-    let _ = writeln!(o, "{}", lines.join(" \\\\\n"));
-}
-
-/// `lhs &= entry` broken over lines (`&\quad` before each continuation).
-fn aligned(sheet: &Sheet, lhs: &str, id: usize, before: &str, after: &str) -> Vec<String> {
-    let budget = LINE.saturating_sub(width(lhs) + width(after));
-    let parts = sheet.latex_lines(id, budget);
-    let last = parts.len() - 1;
-    parts
-        .into_iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let tail = if k == last { after } else { "" };
-            if k == 0 {
-                format!("{lhs} &= {before}{p}{tail}")
-            } else {
-                format!("&\\quad {p}{tail}")
-            }
-        })
-        .collect()
-}
-
-fn equations(sheet: &Sheet, heading: &str, rows: &[(String, usize)], zero: bool, o: &mut String) {
-    let _ = writeln!(o, "\\noindent {heading}:");
-    let _ = writeln!(o, "\\begin{{align*}}");
-    let mut lines = Vec::new();
-    for (label, id) in rows {
-        if zero {
-            let parts = sheet.latex_lines(*id, LINE);
-            let last = parts.len() - 1;
-            for (k, p) in parts.into_iter().enumerate() {
-                let tail = if k == last { " = 0" } else { "" };
-                let tag = if k == 0 {
-                    format!("{label}\\quad")
-                } else {
-                    String::new()
-                };
-                let lead = if k == 0 { "" } else { "\\quad " };
-                lines.push(format!("{tag} & {lead}{p}{tail}"));
-            }
-        } else {
-            lines.extend(aligned(sheet, label, *id, "", ""));
-        }
-    }
-    let _ = writeln!(o, "{}", lines.join(" \\\\\n"));
-    let _ = writeln!(o, "\\end{{align*}}");
-}
-
-/// The named groups, once, each broken over lines where it is long.
-fn where_list(sheet: &Sheet, o: &mut String) {
-    let defs = sheet.definitions_latex();
-    if defs.is_empty() {
-        return;
-    }
-    let _ = writeln!(o, "\\noindent where\n\\begin{{align*}}");
-    let mut lines = Vec::new();
-    for (j, (name, _)) in defs.iter().enumerate() {
-        let parts = sheet.definition_lines(j, LINE.saturating_sub(width(name)));
-        for (k, p) in parts.into_iter().enumerate() {
-            lines.push(if k == 0 {
-                format!("{name} &= {p}")
-            } else {
-                format!("&\\quad {p}")
-            });
-        }
-    }
-    let _ = writeln!(o, "{}", lines.join(" \\\\\n"));
-    let _ = writeln!(o, "\\end{{align*}}");
-}
-
-/// The complete document around `body`.
-fn document(d: &Derivation, body: &str) -> String {
-    format!(
-        "\\documentclass[10pt]{{article}}\n\\usepackage[a4paper,landscape,margin=1cm]{{geometry}}\n\\usepackage{{amsmath,amssymb}}\n\\allowdisplaybreaks\n\\raggedright\n\\begin{{document}}\n\\section*{{{}: {}}}\n\\noindent Quasi-velocities \\texttt{{{}}}. Printed by hamel; every entry expands to its canonical form exactly (checked).\n\n{body}\\end{{document}}\n",
-        text(&d.model),
-        text(&d.title),
-        text(&d.eta_name)
-    )
-}
-
-/// Plain text for LaTeX: its special characters escaped, characters beyond Latin-1 (Greek
-/// letters in a title) dropped to `?`.
-fn text(s: &str) -> String {
-    s.chars()
-        .map(|c| match c {
-            '\\' => "\\textbackslash{}".to_string(),
-            '{' | '}' | '$' | '&' | '#' | '_' | '%' => format!("\\{c}"),
-            '^' => "\\^{}".to_string(),
-            '~' => "\\~{}".to_string(),
-            '–' => "--".to_string(),
-            '—' => "---".to_string(),
-            c if (c as u32) < 0x100 => c.to_string(),
-            _ => "?".to_string(),
-        })
-        .collect()
+    Ok(PrintedJson {
+        names,
+        entries: entries.into_inner(),
+    })
 }

@@ -22,6 +22,7 @@
 mod atoms;
 mod collect;
 pub mod derivation;
+mod document;
 mod form;
 mod layout;
 mod poly;

@@ -72,19 +72,41 @@ impl Sheet {
 
     /// The where-list: `(name with arguments, definition)` in text.
     pub fn definitions_text(&self) -> Vec<(String, String)> {
-        self.definitions(&Text)
+        self.definitions_in(&Text)
     }
 
     /// The where-list in LaTeX.
     pub fn definitions_latex(&self) -> Vec<(String, String)> {
-        self.definitions(&Latex)
+        self.definitions_in(&Latex)
     }
 
-    fn definitions(&self, s: &dyn crate::form::Syntax) -> Vec<(String, String)> {
+    fn definitions_in(&self, s: &dyn crate::form::Syntax) -> Vec<(String, String)> {
         self.names
             .iter()
             .map(|d| (s.name(d), render(&d.form, self.ctx(), s)))
             .collect()
+    }
+
+    /// The where-list's definitions, in order.
+    pub fn definitions(&self) -> &[Definition] {
+        &self.names
+    }
+
+    /// The names that entries `ids` use, directly, inside other names or as the argument of
+    /// an atom.
+    pub fn names_used(&self, ids: &[usize]) -> BTreeSet<usize> {
+        let mut used = BTreeSet::new();
+        let mut todo: Vec<&Form> = ids.iter().map(|&i| &self.entries[i].0).collect();
+        while let Some(f) = todo.pop() {
+            let mut found = Vec::new();
+            uses(f, &self.arguments, &mut found);
+            for j in found {
+                if used.insert(j) {
+                    todo.push(&self.names[j].form);
+                }
+            }
+        }
+        used
     }
 
     /// Entry `i` as an expression, names expanded (for evaluation and checks).
@@ -379,6 +401,26 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>], orientation
         Form::Quotient(a, b) => {
             replace_at(a, next, at, orientation);
             replace_at(b, next, at, orientation);
+        }
+    }
+}
+
+/// The names `f` uses directly (its named groups and its atoms' named arguments).
+fn uses(f: &Form, arguments: &BTreeMap<usize, usize>, out: &mut Vec<usize>) {
+    match f {
+        Form::Product { factors, .. } => {
+            for x in factors {
+                match x {
+                    Factor::Name { index } => out.push(*index),
+                    Factor::Group(g) => uses(g, arguments, out),
+                    Factor::Atom { index, .. } => out.extend(arguments.get(index)),
+                }
+            }
+        }
+        Form::Sum(terms) => terms.iter().for_each(|t| uses(t, arguments, out)),
+        Form::Quotient(a, b) => {
+            uses(a, arguments, out);
+            uses(b, arguments, out);
         }
     }
 }
