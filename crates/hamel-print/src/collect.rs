@@ -10,12 +10,12 @@
 use std::collections::BTreeMap;
 
 use hamel_expr::Rational;
-use num_integer::Integer;
 use num_traits::{One, Signed, Zero};
 
 use crate::atoms::{Atoms, Kind};
 use crate::form::{Factor, Form, factor_rank, is_zero};
 use crate::poly::{Fraction, Mono, Poly, leading_negative};
+use crate::q::Q;
 
 /// The printing form of a fraction: a polynomial, or a quotient of two.
 pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
@@ -42,24 +42,34 @@ pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
 /// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
 /// greatest common monomial `g`.
 pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
-    let mut terms = p.0.iter();
-    let (m0, c0) = terms.next().expect("a nonzero polynomial");
-    let (mut num, mut den) = (c0.numer().abs(), c0.denom().clone());
-    let mut g = m0.clone();
-    for (m, c) in terms {
-        num = num.gcd(c.numer());
-        den = den.lcm(c.denom());
+    let mut monomials = p.0.keys();
+    let mut g = monomials.next().expect("a nonzero polynomial").clone();
+    for m in monomials {
         g = g.gcd(m);
     }
-    let mut c = Rational::new(num, den);
+    let mut c = Q::content(p.0.values());
     if leading_negative(p) {
-        c = -c;
+        c = c.neg();
     }
-    let mut rest = Poly::default();
-    for (m, d) in &p.0 {
-        rest.add_term(m.div(&g).expect("g divides every term"), d / &c);
-    }
-    (c, g, rest)
+    let one = g.0.is_empty();
+    let rest = if c.is_one() && one {
+        p.clone()
+    } else {
+        let r = c.recip();
+        Poly(
+            p.0.iter()
+                .map(|(m, d)| {
+                    let m = if one {
+                        m.clone()
+                    } else {
+                        m.div(&g).expect("g divides every term")
+                    };
+                    (m, d.mul(&r))
+                })
+                .collect(),
+        )
+    };
+    (c.to_rational(), g, rest)
 }
 
 /// `c · g · (inner)`, factors in printing order; the sign taken out of a sum whose first printed
@@ -257,7 +267,7 @@ fn greedy(p: &Poly, atoms: &Atoms) -> Form {
     let Some(a) = most_frequent(p, atoms) else {
         let terms =
             p.0.iter()
-                .map(|(m, c)| sorted(c.clone(), atoms_of(m), atoms))
+                .map(|(m, c)| sorted(c.to_rational(), atoms_of(m), atoms))
                 .collect();
         return in_order(terms, atoms);
     };

@@ -9,7 +9,7 @@ use num_traits::{One, Signed, Zero};
 use crate::atoms::{Atoms, Kind};
 
 /// A node of a printing form.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Form {
     /// `coef · factors…` (factors in printing order).
     Product {
@@ -25,7 +25,7 @@ pub enum Form {
 }
 
 /// A factor of a product.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Factor {
     /// Atom `index` to a power ≥ 1.
     Atom {

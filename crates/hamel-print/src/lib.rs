@@ -27,6 +27,7 @@ mod form;
 mod layout;
 mod poly;
 mod printed;
+mod q;
 mod sheet;
 mod wide;
 
@@ -35,6 +36,7 @@ pub use form::{Definition, Factor, Form};
 pub use layout::{LINE, width};
 pub use poly::{Fraction, Mono, Poly, PolyError};
 pub use printed::Printed;
+pub use q::Q;
 pub use sheet::Sheet;
 
 #[cfg(test)]

@@ -4,10 +4,11 @@
 use std::collections::BTreeMap;
 use std::collections::btree_map::Entry;
 
-use hamel_expr::{Expr, Rational};
-use num_traits::{One, Signed, ToPrimitive, Zero};
+use hamel_expr::Expr;
+use num_traits::{Signed, ToPrimitive};
 
 use crate::atoms::Atoms;
+use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1.
 #[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -91,7 +92,7 @@ impl Mono {
 
 /// A polynomial: monomial ↦ nonzero coefficient.
 #[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Poly(pub BTreeMap<Mono, Rational>);
+pub struct Poly(pub BTreeMap<Mono, Q>);
 
 /// A quotient of polynomials, as canonical forms with a division come.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -115,21 +116,22 @@ pub enum PolyError {
 
 impl Poly {
     /// The constant `c`.
-    pub fn constant(c: Rational) -> Poly {
+    pub fn constant(c: impl Into<Q>) -> Poly {
         let mut p = Poly::default();
         p.add_term(Mono::default(), c);
         p
     }
 
     /// `c · m`.
-    pub fn term(m: Mono, c: Rational) -> Poly {
+    pub fn term(m: Mono, c: impl Into<Q>) -> Poly {
         let mut p = Poly::default();
         p.add_term(m, c);
         p
     }
 
     /// Adds `c · m`, dropping the term if it cancels.
-    pub fn add_term(&mut self, m: Mono, c: Rational) {
+    pub fn add_term(&mut self, m: Mono, c: impl Into<Q>) {
+        let c = c.into();
         if c.is_zero() {
             return;
         }
@@ -138,9 +140,11 @@ impl Poly {
                 v.insert(c);
             }
             Entry::Occupied(mut o) => {
-                *o.get_mut() += c;
-                if o.get().is_zero() {
+                let sum = o.get().add(&c);
+                if sum.is_zero() {
                     o.remove();
+                } else {
+                    *o.get_mut() = sum;
                 }
             }
         }
@@ -176,48 +180,47 @@ impl Poly {
         let mut out = Poly::default();
         for (m, c) in &self.0 {
             for (n, d) in &other.0 {
-                out.add_term(m.mul(n), c * d);
+                out.add_term(m.mul(n), c.mul(d));
             }
         }
         out
     }
 
     /// `c · self`.
-    pub fn scale(&self, c: &Rational) -> Poly {
+    pub fn scale(&self, c: &Q) -> Poly {
         if c.is_one() {
             return self.clone();
         }
-        let mut out = Poly::default();
-        for (m, d) in &self.0 {
-            out.add_term(m.clone(), c * d);
+        if c.is_zero() {
+            return Poly::default();
         }
-        out
+        Poly(self.0.iter().map(|(m, d)| (m.clone(), c.mul(d))).collect())
     }
 
     /// `self^n`.
     pub fn pow(&self, n: u32) -> Poly {
-        (0..n).fold(Poly::constant(Rational::one()), |acc, _| acc.mul(self))
+        (0..n).fold(Poly::constant(Q::one()), |acc, _| acc.mul(self))
     }
 
     /// `c` with `self = c · other`, when there is one (`other` nonzero).
-    pub fn ratio(&self, other: &Poly) -> Option<Rational> {
+    pub fn ratio(&self, other: &Poly) -> Option<Q> {
         if self.0.len() != other.0.len() {
             return None;
         }
         let (_, a) = self.0.iter().next()?;
         let (_, b) = other.0.iter().next()?;
-        let c = a / b;
+        let c = a.div(b);
         self.0
             .iter()
             .zip(&other.0)
-            .all(|((m, x), (n, y))| m == n && *x == &c * y)
+            .all(|((m, x), (n, y))| m == n && *x == c.mul(y))
             .then_some(c)
     }
 
     /// The constant value, if this is a constant.
-    pub fn as_constant(&self) -> Option<Rational> {
+    pub fn as_constant(&self) -> Option<Q> {
         match self.0.len() {
-            0 => Some(Rational::zero()),
+            0 => Some(Q::zero()),
             1 => self.0.get(&Mono::default()).cloned(),
             _ => None,
         }
@@ -226,13 +229,13 @@ impl Poly {
 
 impl Fraction {
     /// The constant `c`.
-    pub fn constant(c: Rational) -> Fraction {
+    pub fn constant(c: impl Into<Q>) -> Fraction {
         Fraction::poly(Poly::constant(c))
     }
 
     /// Atom `i` to the power `n`.
     pub fn atom(i: usize, n: u32) -> Fraction {
-        Fraction::poly(Poly::term(Mono(vec![(i, n)]), Rational::one()))
+        Fraction::poly(Poly::term(Mono(vec![(i, n)]), Q::one()))
     }
 
     /// `self / other`.
@@ -246,7 +249,7 @@ impl Fraction {
     fn poly(p: Poly) -> Fraction {
         Fraction {
             num: p,
-            den: Poly::constant(Rational::one()),
+            den: Poly::constant(Q::one()),
         }
     }
 
@@ -254,7 +257,7 @@ impl Fraction {
     /// quotients are expanded; anything else (functions, non-integer powers) is an atom.
     pub fn from_expr(e: &Expr, atoms: &mut Atoms) -> Result<Fraction, PolyError> {
         Ok(match e {
-            Expr::Num(r) => Fraction::poly(Poly::constant(r.clone())),
+            Expr::Num(r) => Fraction::poly(Poly::constant(r)),
             Expr::Add(v) => {
                 let mut acc = Fraction::poly(Poly::default());
                 for t in v {
@@ -263,7 +266,7 @@ impl Fraction {
                 acc
             }
             Expr::Mul(v) => {
-                let mut acc = Fraction::poly(Poly::constant(Rational::one()));
+                let mut acc = Fraction::poly(Poly::constant(Q::one()));
                 for t in v {
                     acc = acc.times(&Fraction::from_expr(t, atoms)?);
                 }
@@ -272,7 +275,7 @@ impl Fraction {
             Expr::Neg(a) => {
                 let f = Fraction::from_expr(a, atoms)?;
                 Fraction {
-                    num: f.num.scale(&-Rational::one()),
+                    num: f.num.scale(&Q::from(-1)),
                     den: f.den,
                 }
             }
@@ -290,7 +293,7 @@ impl Fraction {
                 })
             }
             Expr::Pow(base, exp) => Fraction::power(base, exp, e, atoms)?,
-            _ => Fraction::poly(Poly::term(Mono::atom(atoms.intern(e)), Rational::one())),
+            _ => Fraction::poly(Poly::term(Mono::atom(atoms.intern(e)), Q::one())),
         })
     }
 
@@ -304,10 +307,7 @@ impl Fraction {
         let Some(n) = exp.as_integer().filter(|n| n.abs() <= 64) else {
             if matches!(base, Expr::Sym(_) | Expr::Call(..) | Expr::Der(_)) {
                 let atom = atoms.intern(whole);
-                return Ok(Fraction::poly(Poly::term(
-                    Mono::atom(atom),
-                    Rational::one(),
-                )));
+                return Ok(Fraction::poly(Poly::term(Mono::atom(atom), Q::one())));
             }
             return Err(PolyError::Exponent(base.to_string()));
         };

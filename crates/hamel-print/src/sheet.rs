@@ -1,10 +1,9 @@
 //! A sheet: expressions printed together, sharing their atoms and a where-list of named
 //! groups, as a paper names κ₁, κ₂ and F₁(θ, θ₁) once and uses them in every entry.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use hamel_expr::{Expr, Rational};
-use num_traits::{One, Signed};
 
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
@@ -143,38 +142,31 @@ impl Sheet {
         for c in chosen {
             let index = self.names.len();
             let definition = self.definition(&c.key, c.form, index);
-            self.values.push(self.fraction_of(&definition.form));
+            self.values.push(c.value);
             self.names.push(definition);
             places.push(c.place);
         }
-        let orientation: Vec<Rational> = self.values.iter().map(orientation).collect();
         let mut next = 0;
         for (f, _) in &mut self.entries {
-            replace_at(f, &mut next, &at, &orientation);
+            replace_at(f, &mut next, &at);
         }
-        // A definition has the shape of its group's first occurrence: its inner groups are
-        // the places after that one.
+        // A definition is its group's first occurrence: its inner groups are the places
+        // after that one.
         for (d, place) in self.names.iter_mut().zip(places) {
-            replace_at(&mut d.form, &mut (place + 1), &at, &orientation);
+            replace_at(&mut d.form, &mut (place + 1), &at);
         }
         self.name_wide();
     }
 }
 
-/// A group that may be named: its key, its form scaled to the key, its first place (outer
-/// before inner, entry after entry) and how often it occurs.
+/// A group that recurs: its form, its value and key, its first place (outer before inner,
+/// entry after entry) and how often it occurs.
 struct Candidate {
-    key: Key,
     form: Form,
+    value: Fraction,
+    key: Key,
     place: usize,
     count: usize,
-}
-
-/// A group's name, or its candidate's index while counting, and its factor over the key.
-#[derive(Clone)]
-struct Placed {
-    factor: Rational,
-    name: usize,
 }
 
 /// A group's key: its polynomial without its rational content, the first term (in monomial
@@ -205,95 +197,53 @@ impl Sheet {
         }
     }
 
-    /// The value of `f` from its parts' values, bottom-up, when `need`ed (a group's value
-    /// always is); `visit` sees every unnamed group with its value and its place in the order
-    /// outer before inner (`next`, counted on).
-    fn walk<'a>(
-        &self,
-        f: &'a Form,
-        need: bool,
-        next: &mut usize,
-        visit: &mut dyn FnMut(usize, &'a Form, &Fraction),
-    ) -> Option<Fraction> {
-        match f {
-            Form::Product { coef, factors } => {
-                let mut acc = need.then(|| Fraction::constant(coef.clone()));
-                for x in factors {
-                    let part = match x {
-                        Factor::Group(g) => {
-                            let place = *next;
-                            *next += 1;
-                            let value = self.walk(g, true, next, visit).expect("needed");
-                            visit(place, g, &value);
-                            value
-                        }
-                        _ if !need => continue,
-                        Factor::Atom { index, power } => Fraction::atom(*index, *power),
-                        Factor::Name { index } => self.values[*index].clone(),
-                    };
-                    acc = acc.map(|a| a.times(&part));
-                }
-                acc
-            }
-            Form::Sum(terms) => {
-                let mut acc = need.then(|| Fraction::constant(Rational::from_integer(0.into())));
-                for t in terms {
-                    let value = self.walk(t, need, next, visit);
-                    acc = acc.zip(value).map(|(a, v)| a.plus(&v));
-                }
-                acc
-            }
-            Form::Quotient(a, b) => {
-                let a = self.walk(a, need, next, visit);
-                let b = self.walk(b, need, next, visit);
-                a.zip(b).map(|(a, b)| a.over(&b))
-            }
-        }
-    }
-
-    /// The groups to name, in naming order: those occurring twice at least, free of
-    /// velocities, of three terms or more if they hold parameters only (`ρ₁ + ρ₂` reads better
-    /// than a name); parameter groups before functions of the coordinates, the more frequent
-    /// first, then the larger, then the first met. Their forms are scaled to the key.
-    /// Also, for each group of the entries by its place (outer before inner, entry after
-    /// entry), the name it gets and its factor over the name's key, if it gets one.
-    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>) {
-        let mut found: Vec<(usize, &Form, Rational, Key)> = Vec::new();
-        let mut next = 0;
+    /// The groups to name, in naming order: those occurring twice at least (the same form:
+    /// collection writes a polynomial one way, so equal groups print alike and only these
+    /// are expanded), free of velocities, of three terms or more if they hold parameters
+    /// only (`ρ₁ + ρ₂` reads better than a name); parameter groups before functions of the
+    /// coordinates, the more frequent first, then the larger, then the first met. Also, for
+    /// each group of the entries by its place (outer before inner, entry after entry), the
+    /// name it gets, if it gets one.
+    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<usize>>) {
+        let mut found: Vec<&Form> = Vec::new();
         for (f, _) in &self.entries {
-            self.walk(f, false, &mut next, &mut |place, g, value| {
-                if let Some((c, key)) = key(value) {
-                    found.push((place, g, c, key));
-                }
-            });
+            groups(f, &mut found);
         }
-        found.sort_by_key(|(place, ..)| *place);
-        let mut counted: Vec<Candidate> = Vec::new();
-        let mut index: BTreeMap<Key, usize> = BTreeMap::new();
-        let mut at: Vec<Option<Placed>> = vec![None; next];
-        for (place, g, factor, key) in found {
-            let i = *index.entry(key.clone()).or_insert_with(|| {
-                let form = positive(scaled(g, &factor.recip()));
-                counted.push(Candidate {
-                    key,
-                    form,
-                    place,
-                    count: 0,
-                });
+        let mut index: HashMap<&Form, usize> = HashMap::new();
+        let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
+        let mut at: Vec<usize> = Vec::with_capacity(found.len());
+        for (place, g) in found.iter().enumerate() {
+            let i = *index.entry(g).or_insert_with(|| {
+                counted.push((g, place, 0));
                 counted.len() - 1
             });
-            counted[i].count += 1;
-            at[place] = Some(Placed { factor, name: i });
+            counted[i].2 += 1;
+            at.push(i);
         }
-        let mut chosen: Vec<(usize, Candidate)> = counted
-            .into_iter()
-            .enumerate()
-            .filter(|(_, c)| {
-                c.count >= 2
-                    && !self.has_velocities(&c.key)
-                    && (c.key.0.len() >= 3 || !self.parameters_only(&c.key))
-            })
-            .collect();
+        let mut chosen: Vec<(usize, Candidate)> = Vec::new();
+        for (i, &(g, place, count)) in counted.iter().enumerate() {
+            if count < 2 {
+                continue;
+            }
+            let value = self.fraction_of(g);
+            let Some((_, key)) = key(&value) else {
+                continue;
+            };
+            if self.has_velocities(&key) || (key.0.len() < 3 && self.parameters_only(&key)) {
+                continue;
+            }
+            let form = g.clone();
+            chosen.push((
+                i,
+                Candidate {
+                    form,
+                    value,
+                    key,
+                    place,
+                    count,
+                },
+            ));
+        }
         chosen.sort_by_key(|(i, c)| {
             let size = std::cmp::Reverse(c.key.0.len());
             (
@@ -303,21 +253,11 @@ impl Sheet {
                 *i,
             )
         });
-        let mut name_of = vec![None; index.len()];
+        let mut name_of = vec![None; counted.len()];
         for (name, (i, _)) in chosen.iter().enumerate() {
             name_of[*i] = Some(name);
         }
-        let at = at
-            .into_iter()
-            .map(|a| {
-                a.and_then(|p| {
-                    Some(Placed {
-                        name: name_of[p.name]?,
-                        ..p
-                    })
-                })
-            })
-            .collect();
+        let at = at.into_iter().map(|i| name_of[i]).collect();
         (chosen.into_iter().map(|(_, c)| c).collect(), at)
     }
 
@@ -379,28 +319,58 @@ impl Sheet {
     }
 }
 
-/// The groups of `f` named where `at` says, by their places counted on from `next` (the
-/// order of [`Sheet::candidates`]), inner groups first.
-fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>], orientation: &[Rational]) {
+/// Every group of `f`, outer before inner (the places of [`Sheet::candidates`]): the sums in
+/// parentheses, and the denominators that are sums.
+fn groups<'a>(f: &'a Form, out: &mut Vec<&'a Form>) {
     match f {
-        Form::Product { coef, factors } => {
+        Form::Product { factors, .. } => {
+            for x in factors {
+                if let Factor::Group(g) = x {
+                    out.push(g);
+                    groups(g, out);
+                }
+            }
+        }
+        Form::Sum(terms) => terms.iter().for_each(|t| groups(t, out)),
+        Form::Quotient(a, b) => {
+            groups(a, out);
+            if matches!(**b, Form::Sum(_)) {
+                out.push(b);
+            }
+            groups(b, out);
+        }
+    }
+}
+
+/// The groups of `f` named where `at` says, by their places counted on from `next` (the
+/// order of [`groups`]), inner groups first.
+fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<usize>]) {
+    match f {
+        Form::Product { factors, .. } => {
             for x in factors.iter_mut() {
                 let Factor::Group(g) = x else { continue };
                 let place = *next;
                 *next += 1;
-                replace_at(g, next, at, orientation);
-                if let Some(p) = &at[place] {
-                    *coef = &*coef * &p.factor * &orientation[p.name];
-                    *x = Factor::Name { index: p.name };
+                replace_at(g, next, at);
+                if let Some(index) = at[place] {
+                    *x = Factor::Name { index };
                 }
             }
         }
-        Form::Sum(terms) => terms
-            .iter_mut()
-            .for_each(|t| replace_at(t, next, at, orientation)),
+        Form::Sum(terms) => terms.iter_mut().for_each(|t| replace_at(t, next, at)),
         Form::Quotient(a, b) => {
-            replace_at(a, next, at, orientation);
-            replace_at(b, next, at, orientation);
+            replace_at(a, next, at);
+            let place = matches!(**b, Form::Sum(_)).then(|| {
+                *next += 1;
+                *next - 1
+            });
+            replace_at(b, next, at);
+            if let Some(index) = place.and_then(|p| at[p]) {
+                **b = Form::Product {
+                    coef: num_traits::One::one(),
+                    factors: vec![Factor::Name { index }],
+                };
+            }
         }
     }
 }
@@ -433,34 +403,5 @@ fn key(f: &Fraction) -> Option<(Rational, Key)> {
         return None;
     }
     let (c, m, rest) = collect::content(&f.num);
-    m.0.is_empty().then_some((c / den, rest))
-}
-
-/// ±1: a definition's value over its key (whose first term in monomial order is positive).
-fn orientation(value: &Fraction) -> Rational {
-    let (c, _, _) = collect::content(&value.num);
-    if c.is_negative() {
-        -Rational::one()
-    } else {
-        Rational::one()
-    }
-}
-
-fn positive(mut f: Form) -> Form {
-    if collect::negative(&f) {
-        collect::negate(&mut f);
-    }
-    f
-}
-
-/// `r · f`, the factor put into the coefficients.
-fn scaled(f: &Form, r: &Rational) -> Form {
-    match f {
-        Form::Product { coef, factors } => Form::Product {
-            coef: coef * r,
-            factors: factors.clone(),
-        },
-        Form::Sum(terms) => Form::Sum(terms.iter().map(|t| scaled(t, r)).collect()),
-        Form::Quotient(a, b) => Form::Quotient(Box::new(scaled(a, r)), b.clone()),
-    }
+    m.0.is_empty().then_some((c / den.to_rational(), rest))
 }

@@ -171,8 +171,8 @@ fn proportional_denominators() {
     let mut p = Poly::default();
     p.add_term(Mono::atom(0), q(2, 3));
     p.add_term(Mono::atom(1), q(-1, 1));
-    let p3 = p.scale(&q(-3, 2));
-    assert_eq!(p3.ratio(&p), Some(q(-3, 2)));
+    let p3 = p.scale(&q(-3, 2).into());
+    assert_eq!(p3.ratio(&p), Some(q(-3, 2).into()));
     let mut other = p3.clone();
     other.add_term(Mono::atom(2), q(1, 1));
     assert_eq!(other.ratio(&p), None);

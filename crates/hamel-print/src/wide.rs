@@ -125,7 +125,7 @@ impl Sheet {
 fn atoms_of(f: &Fraction) -> Poly {
     let mut p = Poly::default();
     for m in f.num.0.keys().chain(f.den.0.keys()) {
-        p.0.insert(m.clone(), num_traits::One::one());
+        p.0.insert(m.clone(), crate::Q::one());
     }
     p
 }
