@@ -24,6 +24,9 @@ pub struct Row {
     hamel_seconds: f64,
     /// Fastest repeat, seconds.
     hamel_min_seconds: f64,
+    /// Median time of printing the derivation as `hamel derive` writes it (collected,
+    /// factored, named, checked; `hamel_print::derivation::text`), seconds.
+    print_seconds: f64,
     /// Characters of A_Γ as hamel prints it (all entries); none for a structured derivation,
     /// which has no closed A_Γ (docs/derivation.md §6).
     hamel_a_gamma_chars: Option<usize>,
@@ -331,15 +334,21 @@ pub fn run(
 /// hamel's median time over `repeat` derivations, and the sizes of the last.
 fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError> {
     let mut times = Vec::with_capacity(repeat);
+    let mut printing = Vec::with_capacity(repeat);
     let mut last = None;
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
         let d = hamel_derive::derive(model, Some(eta))?;
         times.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        hamel_print::derivation::text(&d)
+            .map_err(|e| ModelError::engine(format!("printing the derivation: {e}")))?;
+        printing.push(t.elapsed().as_secs_f64());
         last = Some(d);
     }
     let d = last.expect("at least one derivation");
     times.sort_by(f64::total_cmp);
+    printing.sort_by(f64::total_cmp);
     let sizes = d.sizes();
     Ok(Row {
         model: model.name.clone(),
@@ -348,6 +357,7 @@ fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError
         sigma: d.sigma,
         hamel_seconds: times[times.len() / 2],
         hamel_min_seconds: times[0],
+        print_seconds: printing[printing.len() / 2],
         hamel_a_gamma_chars: sizes.get("a_gamma").map(|s| s.characters),
         hamel_total_chars: sizes.values().map(|s| s.characters).sum(),
         sympy: Baseline::not_run(),
@@ -378,17 +388,19 @@ pub fn table(report: &Report) -> String {
 /// A Markdown table of the derivations.
 fn derivation_table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| model | choice | ℓ | σ | hamel (median) | SymPy (cancel) | ratio | SymPy (simplify) | ratio | A_Γ chars: hamel | SymPy (cancel) | SymPy (simplify) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| model | choice | ℓ | σ | hamel (median) | printing | printing / derivation | SymPy (cancel) | ratio | SymPy (simplify) | ratio | A_Γ chars: hamel | SymPy (cancel) | SymPy (simplify) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let chars = |c: Option<usize>| c.map_or("–".to_string(), |c| c.to_string());
     for r in rows {
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {:.1} ms | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.1} ms | {:.1} ms | {:.0} % | {} | {} | {} | {} | {} | {} | {} |\n",
             r.model,
             r.eta,
             r.ell,
             r.sigma,
             r.hamel_seconds * 1e3,
+            r.print_seconds * 1e3,
+            r.print_seconds / r.hamel_seconds * 100.0,
             r.sympy.cell(),
             r.sympy.ratio_cell(r.hamel_seconds),
             r.sympy_simplify.cell(),

@@ -1,5 +1,7 @@
 //! The atoms of a printing form: parameters, coordinates, velocities, and functions of them.
 
+use std::collections::HashMap;
+
 use hamel_expr::Expr;
 
 /// What an atom is, in the order a paper writes the factors of a product.
@@ -43,6 +45,8 @@ pub struct Atom {
 pub struct Atoms {
     vocabulary: Vocabulary,
     list: Vec<Atom>,
+    /// Text ↦ index.
+    index: HashMap<String, usize>,
 }
 
 impl Atoms {
@@ -51,6 +55,7 @@ impl Atoms {
         Atoms {
             vocabulary,
             list: Vec::new(),
+            index: HashMap::new(),
         }
     }
 
@@ -67,10 +72,11 @@ impl Atoms {
     /// The index of `expr`'s atom, added if new.
     pub fn intern(&mut self, expr: &Expr) -> usize {
         let key = expr.to_string();
-        if let Some(i) = self.list.iter().position(|a| a.key == key) {
+        if let Some(&i) = self.index.get(&key) {
             return i;
         }
         let kind = self.kind_of(expr);
+        self.index.insert(key.clone(), self.list.len());
         self.list.push(Atom {
             expr: expr.clone(),
             kind,

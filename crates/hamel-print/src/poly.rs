@@ -217,6 +217,11 @@ impl Poly {
             .then_some(c)
     }
 
+    /// Whether this is the constant 1.
+    pub fn is_one(&self) -> bool {
+        self.0.len() == 1 && self.0.get(&Mono::default()).is_some_and(Q::is_one)
+    }
+
     /// The constant value, if this is a constant.
     pub fn as_constant(&self) -> Option<Q> {
         match self.0.len() {
@@ -261,9 +266,15 @@ impl Fraction {
             Expr::Add(v) => {
                 let mut acc = Fraction::poly(Poly::default());
                 for t in v {
-                    acc = acc.plus(&Fraction::from_expr(t, atoms)?);
+                    match monomial(t, atoms) {
+                        Some((c, m)) if acc.den.is_one() => acc.num.add_term(m, c),
+                        _ => acc = acc.plus(&Fraction::from_expr(t, atoms)?),
+                    }
                 }
                 acc
+            }
+            Expr::Mul(_) if let Some((c, m)) = monomial(e, atoms) => {
+                Fraction::poly(Poly::term(m, c))
             }
             Expr::Mul(v) => {
                 let mut acc = Fraction::poly(Poly::constant(Q::one()));
@@ -361,6 +372,30 @@ impl Fraction {
             Some(c) if !c.is_zero() && !c.is_one() => Fraction::poly(self.num.scale(&c.recip())),
             _ => self,
         }
+    }
+}
+
+/// `e` as `c · m` when it is a monomial (a product of numbers, atoms and their natural
+/// powers, possibly negated): the common shape of a canonical form's terms, read without
+/// building a polynomial per factor. The atoms are those [`Fraction::from_expr`] makes.
+fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
+    match e {
+        Expr::Num(r) => Some((Q::from(r), Mono::default())),
+        Expr::Neg(a) => monomial(a, atoms).map(|(c, m)| (c.neg(), m)),
+        Expr::Mul(v) => v.iter().try_fold((Q::one(), Mono::default()), |(c, m), t| {
+            let (d, n) = monomial(t, atoms)?;
+            Some((c.mul(&d), m.mul(&n)))
+        }),
+        Expr::Pow(base, exp) => {
+            let n = exp.as_integer()?;
+            let k = u32::try_from(n).ok().filter(|k| (1..=64).contains(k))?;
+            let (c, m) = monomial(base, atoms)?;
+            let c = (0..k).fold(Q::one(), |acc, _| acc.mul(&c));
+            let m = Mono(m.0.iter().map(|&(i, e)| (i, e * k)).collect());
+            Some((c, m))
+        }
+        Expr::Add(_) | Expr::Div(..) => None,
+        _ => Some((Q::one(), Mono::atom(atoms.intern(e)))),
     }
 }
 
