@@ -2016,7 +2016,8 @@ fn bench_reports_a_structured_derivation() {
         .lines()
         .find(|l| l.starts_with("| whipple_bicycle | benchmark | 8 | 3 |"))
         .unwrap_or_else(|| panic!("no bicycle row in\n{out}"));
-    assert!(row.contains(" ms | not run (use --sympy) |"), "{row}");
+    // Derivation time, printing time and their ratio, then the baseline not run.
+    assert!(row.contains(" ms | ") && row.contains(" % | not run (use --sympy) |"), "{row}");
     let o = hamel(&["bench", &path, "--repeat", "1", "--format", "json"], None);
     assert!(o.status.success(), "{}", stderr(&o));
     let v = json_on_stdout(&o);
@@ -2024,6 +2025,10 @@ fn bench_reports_a_structured_derivation() {
     assert!(d[0]["hamel_a_gamma_chars"].is_null(), "{v}");
     assert!(
         d[0]["hamel_seconds"].as_f64().is_some_and(|s| s > 0.0),
+        "{v}"
+    );
+    assert!(
+        d[0]["print_seconds"].as_f64().is_some_and(|s| s > 0.0),
         "{v}"
     );
     // The bicycle's linearisation about upright running, swept over v, has its row too.
