@@ -2017,7 +2017,10 @@ fn bench_reports_a_structured_derivation() {
         .find(|l| l.starts_with("| whipple_bicycle | benchmark | 8 | 3 |"))
         .unwrap_or_else(|| panic!("no bicycle row in\n{out}"));
     // Derivation time, printing time and their ratio, then the baseline not run.
-    assert!(row.contains(" ms | ") && row.contains(" % | not run (use --sympy) |"), "{row}");
+    assert!(
+        row.contains(" ms | ") && row.contains(" % | not run (use --sympy) |"),
+        "{row}"
+    );
     let o = hamel(&["bench", &path, "--repeat", "1", "--format", "json"], None);
     assert!(o.status.success(), "{}", stderr(&o));
     let v = json_on_stdout(&o);

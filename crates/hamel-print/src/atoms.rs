@@ -47,6 +47,9 @@ pub struct Atoms {
     list: Vec<Atom>,
     /// Text ↦ index.
     index: HashMap<String, usize>,
+    /// In how many terms of a sheet's entries each atom occurs (what ties between
+    /// parameters are broken by when a coefficient is factored).
+    weight: HashMap<usize, usize>,
 }
 
 impl Atoms {
@@ -56,6 +59,7 @@ impl Atoms {
             vocabulary,
             list: Vec::new(),
             index: HashMap::new(),
+            weight: HashMap::new(),
         }
     }
 
@@ -108,6 +112,16 @@ impl Atoms {
             _ => {}
         });
         found
+    }
+
+    /// Counts one more term in which atom `i` occurs.
+    pub(crate) fn weigh(&mut self, i: usize) {
+        *self.weight.entry(i).or_default() += 1;
+    }
+
+    /// In how many terms atom `i` occurs, as counted by [`Atoms::weigh`].
+    pub(crate) fn weight(&self, i: usize) -> usize {
+        self.weight.get(&i).copied().unwrap_or(0)
     }
 
     /// The sort key of atom `i`: kind, position of its name in the model, text.

@@ -4,8 +4,9 @@
 //! 2. What is left is collected over the monomials in the state's atoms (the coordinates'
 //!    functions and the velocities); each coefficient is a polynomial in the parameters.
 //! 3. A coefficient is factored greedily: its own content out, then, while some parameter
-//!    occurs in two terms or more, the one occurring most (the model's order breaks ties) is
-//!    pulled out of the terms that have it: `m_f ρ₁ + m_r ρ₁ + m_r ρ₂` → `m_r(ρ₁ + ρ₂) + m_f ρ₁`.
+//!    occurs in two terms or more, the one occurring most (ties: the one occurring in more
+//!    terms of the whole sheet, then the model's order) is pulled out of the terms that have
+//!    it: `m_f ρ₁ + m_r ρ₁ + m_r ρ₂` → `m_r(ρ₁ + ρ₂) + m_f ρ₁`.
 
 use std::collections::BTreeMap;
 
@@ -302,7 +303,8 @@ fn in_order(mut terms: Vec<Form>, atoms: &Atoms) -> Form {
     Form::Sum(terms)
 }
 
-/// The parameter atom occurring in the most terms (at least two); ties go to the model's order.
+/// The parameter atom occurring in the most terms (at least two); ties go to the one occurring
+/// in more terms of the whole sheet, then to the model's order.
 fn most_frequent(p: &Poly, atoms: &Atoms) -> Option<usize> {
     let mut counts: BTreeMap<usize, usize> = BTreeMap::new();
     for m in p.0.keys() {
@@ -313,6 +315,10 @@ fn most_frequent(p: &Poly, atoms: &Atoms) -> Option<usize> {
     counts
         .into_iter()
         .filter(|&(_, n)| n >= 2)
-        .max_by(|(i, n), (j, k)| n.cmp(k).then_with(|| atoms.order(*j).cmp(&atoms.order(*i))))
+        .max_by(|(i, n), (j, k)| {
+            n.cmp(k)
+                .then_with(|| atoms.weight(*i).cmp(&atoms.weight(*j)))
+                .then_with(|| atoms.order(*j).cmp(&atoms.order(*i)))
+        })
         .map(|(i, _)| i)
 }

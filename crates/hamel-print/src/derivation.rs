@@ -67,12 +67,15 @@ impl Printing {
         let mut sheet = Sheet::new(&vocabulary(d));
         let mut ids = HashMap::new();
         let mut labels = Vec::new();
+        let mut exprs = Vec::new();
         for (at, expr, label) in shown.into_inner() {
             if let hash_map::Entry::Vacant(v) = ids.entry(at) {
-                v.insert(sheet.add(&expr)?);
+                v.insert(exprs.len());
+                exprs.push(expr);
                 labels.push(label);
             }
         }
+        sheet.add_all(&exprs)?;
         sheet.name_groups();
         for (id, label) in labels.into_iter().enumerate() {
             if !sheet.check(id) {

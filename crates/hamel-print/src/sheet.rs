@@ -46,6 +46,36 @@ impl Sheet {
         Ok(self.entries.len() - 1)
     }
 
+    /// Adds the canonical expressions `es` together; returns their indices. Where the
+    /// factoring of a coefficient could pull out either of two parameters, it pulls out the
+    /// one that occurs in more terms across all of them (so that equal groups recur and the
+    /// entries are factored alike: `m_r(ρ₁ + ρ₂)` wherever the rider's mass multiplies both).
+    ///
+    /// # Errors
+    /// An expression with no rational form over its atoms (nothing is added then).
+    pub fn add_all<'a>(
+        &mut self,
+        es: impl IntoIterator<Item = &'a Expr>,
+    ) -> Result<Vec<usize>, PolyError> {
+        let mut canonical = Vec::new();
+        for e in es {
+            canonical.push(Fraction::from_expr(e, &mut self.atoms)?.normalised());
+        }
+        for f in &canonical {
+            for m in f.num.0.keys().chain(f.den.0.keys()) {
+                for &(i, _) in &m.0 {
+                    self.atoms.weigh(i);
+                }
+            }
+        }
+        let first = self.entries.len();
+        for f in canonical {
+            let form = collect::fraction(&f, &self.atoms);
+            self.entries.push((form, f));
+        }
+        Ok((first..self.entries.len()).collect())
+    }
+
     /// The printing form of entry `i`.
     pub fn form(&self, i: usize) -> &Form {
         &self.entries[i].0
@@ -148,7 +178,14 @@ impl Sheet {
         }
         let mut next = 0;
         for (f, _) in &mut self.entries {
+            let place = matches!(f, Form::Sum(_)).then(|| {
+                next += 1;
+                next - 1
+            });
             replace_at(f, &mut next, &at);
+            if let Some(index) = place.and_then(|p| at[p]) {
+                *f = named(index);
+            }
         }
         // A definition is its group's first occurrence: its inner groups are the places
         // after that one.
@@ -207,6 +244,9 @@ impl Sheet {
     fn candidates(&self) -> (Vec<Candidate>, Vec<Option<usize>>) {
         let mut found: Vec<&Form> = Vec::new();
         for (f, _) in &self.entries {
+            if matches!(f, Form::Sum(_)) {
+                found.push(f);
+            }
             groups(f, &mut found);
         }
         let mut index: HashMap<&Form, usize> = HashMap::new();
@@ -319,8 +359,16 @@ impl Sheet {
     }
 }
 
+/// The name `index` as a form.
+fn named(index: usize) -> Form {
+    Form::Product {
+        coef: num_traits::One::one(),
+        factors: vec![Factor::Name { index }],
+    }
+}
+
 /// Every group of `f`, outer before inner (the places of [`Sheet::candidates`]): the sums in
-/// parentheses, and the denominators that are sums.
+/// parentheses, and the denominators that are sums (an entry that is a sum is one too).
 fn groups<'a>(f: &'a Form, out: &mut Vec<&'a Form>) {
     match f {
         Form::Product { factors, .. } => {
@@ -366,10 +414,7 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<usize>]) {
             });
             replace_at(b, next, at);
             if let Some(index) = place.and_then(|p| at[p]) {
-                **b = Form::Product {
-                    coef: num_traits::One::one(),
-                    factors: vec![Factor::Name { index }],
-                };
+                **b = named(index);
             }
         }
     }

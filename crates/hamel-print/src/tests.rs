@@ -191,3 +191,28 @@ fn proportional_denominators() {
     };
     assert!(!x.same(&z));
 }
+
+/// A tie between two parameters that could be pulled out of a coefficient goes to the one
+/// occurring in more terms of the whole sheet, whatever the model's order.
+#[test]
+fn ties_in_factoring_go_to_the_parameter_of_more_terms() {
+    use crate::Sheet;
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    let v = Vocabulary {
+        parameters: names(&["rho1", "rho2", "m_f", "m_r"]),
+        coordinates: names(&["theta"]),
+        velocities: Vec::new(),
+    };
+    let e1 = parse("m_f*rho1 + m_r*rho1 + m_r*rho2").unwrap().expr;
+    let alone = Printed::new(&e1, &v).unwrap();
+    assert_eq!(
+        alone.text(),
+        "rho1*(m_f + m_r) + rho2*m_r",
+        "the model's order alone"
+    );
+    let e2 = parse("m_r*sin(theta) + m_r*cos(theta)*rho2").unwrap().expr;
+    let mut sheet = Sheet::new(&v);
+    let ids = sheet.add_all([&e1, &e2]).unwrap();
+    assert_eq!(sheet.text(ids[0]), "rho1*m_f + m_r*(rho1 + rho2)");
+    assert!(sheet.check(ids[0]) && sheet.check(ids[1]));
+}
