@@ -114,6 +114,13 @@ impl Atoms {
         found
     }
 
+    /// Whether atom `i` is the rate of a quasi-velocity (`etaN_dot`, a velocity of the
+    /// vocabulary whose name ends in `_dot`).
+    pub(crate) fn is_rate(&self, i: usize) -> bool {
+        let a = &self.list[i];
+        a.kind == Kind::Velocity && matches!(&a.expr, Expr::Sym(n) if n.ends_with("_dot"))
+    }
+
     /// Counts one more term in which atom `i` occurs.
     pub(crate) fn weigh(&mut self, i: usize) {
         *self.weight.entry(i).or_default() += 1;

@@ -159,6 +159,9 @@ fn constant(c: Rational) -> Form {
 /// Step 2: the terms grouped by their monomial in the state's atoms; a coefficient that every
 /// group shares (up to a rational factor) comes out in front.
 fn by_state(p: &Poly, atoms: &Atoms) -> Form {
+    if let Some(form) = by_rates(p, atoms) {
+        return form;
+    }
     let groups = state_groups(p, atoms);
     if let Some((common, scales)) = shared_coefficient(&groups) {
         let mut rest = Poly::default();
@@ -182,16 +185,19 @@ fn by_state(p: &Poly, atoms: &Atoms) -> Form {
     collected(groups, atoms)
 }
 
-/// A state atom's place in the printing order, with its exponent.
-type StateKey = (Kind, usize, String, u32);
-
-/// The groups `(state monomial, parameter coefficient)` in printing order.
-fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
-    let mut groups: BTreeMap<Vec<StateKey>, (Mono, Poly)> = BTreeMap::new();
+/// An equation as a paper writes it: the terms in the rates of the quasi-velocities collected
+/// by rate, each coefficient (a function of the coordinates) in parentheses, `(…) η̇₁ + (…) η̇₂`,
+/// then the other terms. None when `p` has no rate.
+fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
+    let mut by_rate: BTreeMap<Vec<StateKey>, (Mono, Poly)> = BTreeMap::new();
+    let mut rest = Poly::default();
     for (m, c) in &p.0 {
-        let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
-        let params = m.div(&state).expect("a part divides the whole");
-        let key = state
+        let rate = m.filter(|i| atoms.is_rate(i));
+        if rate.0.is_empty() {
+            rest.add_term(m.clone(), c.clone());
+            continue;
+        }
+        let key = rate
             .0
             .iter()
             .map(|&(i, e)| {
@@ -199,6 +205,61 @@ fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
                 (k, pos, text.to_string(), e)
             })
             .collect();
+        let coefficient = m.div(&rate).expect("a part divides the whole");
+        let entry = by_rate
+            .entry(key)
+            .or_insert_with(|| (rate, Poly::default()));
+        entry.1.add_term(coefficient, c.clone());
+    }
+    if by_rate.is_empty() || (by_rate.len() == 1 && rest.is_zero()) {
+        return None;
+    }
+    let mut terms: Vec<Form> = by_rate
+        .into_values()
+        .map(|(rate, coefficient)| {
+            let (coef, mut factors) = match poly(&coefficient, atoms) {
+                Form::Product { coef, factors } => (coef, factors),
+                sum => (Rational::one(), vec![Factor::Group(sum)]),
+            };
+            factors.extend(atoms_of(&rate));
+            sorted(coef, factors, atoms)
+        })
+        .collect();
+    if !rest.is_zero() {
+        match by_state(&rest, atoms) {
+            Form::Sum(more) => terms.extend(more),
+            one => terms.push(one),
+        }
+    }
+    Some(Form::Sum(terms))
+}
+
+/// A state atom's place in the printing order, with its exponent.
+type StateKey = (Kind, usize, String, u32);
+
+/// A group's place in a sum: the terms with rates of the quasi-velocities first (by those
+/// rates: `η̇₁` before `η̇₂`), as an equation of motion is written, `A_Γ η̇ + …`; then the
+/// state atoms in printing order.
+type GroupKey = (bool, Vec<StateKey>, Vec<StateKey>);
+
+/// The groups `(state monomial, parameter coefficient)` in printing order.
+fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
+    let mut groups: BTreeMap<GroupKey, (Mono, Poly)> = BTreeMap::new();
+    for (m, c) in &p.0 {
+        let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
+        let params = m.div(&state).expect("a part divides the whole");
+        let order = |&(i, e): &(usize, u32)| {
+            let (k, pos, text) = atoms.order(i);
+            (k, pos, text.to_string(), e)
+        };
+        let all: Vec<StateKey> = state.0.iter().map(order).collect();
+        let rates: Vec<StateKey> = state
+            .0
+            .iter()
+            .filter(|&&(i, _)| atoms.is_rate(i))
+            .map(order)
+            .collect();
+        let key = (rates.is_empty(), rates, all);
         let entry = groups
             .entry(key)
             .or_insert_with(|| (state, Poly::default()));

@@ -216,3 +216,22 @@ fn ties_in_factoring_go_to_the_parameter_of_more_terms() {
     assert_eq!(sheet.text(ids[0]), "rho1*m_f + m_r*(rho1 + rho2)");
     assert!(sheet.check(ids[0]) && sheet.check(ids[1]));
 }
+
+/// An equation of motion is written as a paper writes `A_Γ η̇ + …`: its rate terms first,
+/// collected by rate with their coefficients in parentheses, then the rest.
+#[test]
+fn equations_are_collected_by_the_rates_first() {
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    let v = Vocabulary {
+        parameters: names(&["m", "g"]),
+        coordinates: names(&["theta"]),
+        velocities: names(&["eta1", "eta1_dot", "eta2", "eta2_dot"]),
+    };
+    let row = "g*m*sin(theta) + m*eta1^2 + m*cos(theta)*eta2_dot + m*eta1_dot \
+               + 2*m*sin(theta)*eta1_dot";
+    let p = printed(row, &v);
+    assert_eq!(
+        p.text(),
+        "m*((1 + 2*sin(theta))*eta1_dot + cos(theta)*eta2_dot + g*sin(theta) + eta1^2)"
+    );
+}
