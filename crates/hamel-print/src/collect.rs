@@ -18,11 +18,19 @@ use crate::form::{Factor, Form, factor_rank, is_zero};
 use crate::poly::{Fraction, Mono, Poly, leading_negative};
 use crate::q::Q;
 
-/// The printing form of a fraction: a polynomial, or a quotient of two.
+/// The printing form of a fraction: a polynomial, or a quotient of two, the sign out of the
+/// denominator.
 pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
     match f.den.as_constant() {
         Some(c) if c.is_one() => poly(&f.num, atoms),
-        _ => Form::Quotient(Box::new(poly(&f.num, atoms)), Box::new(poly(&f.den, atoms))),
+        _ => {
+            let (mut num, mut den) = (poly(&f.num, atoms), poly(&f.den, atoms));
+            if negative(&den) {
+                negate(&mut num);
+                negate(&mut den);
+            }
+            Form::Quotient(Box::new(num), Box::new(den))
+        }
     }
 }
 
