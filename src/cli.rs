@@ -23,6 +23,37 @@ pub enum Format {
     Latex,
 }
 
+/// An object of `hamel derive --format latex`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ObjectArg {
+    /// The mass matrix A.
+    A,
+    /// The constraints α.
+    Alpha,
+    /// The matrix Z of the quasi-velocities.
+    Z,
+    /// The kinematic equations q̇ = Γη.
+    Kinematics,
+    /// A_Γ = ΓᵀAΓ.
+    AGamma,
+    /// The equations of motion.
+    Equations,
+}
+
+impl From<ObjectArg> for hamel_print::derivation::Object {
+    fn from(o: ObjectArg) -> Self {
+        use hamel_print::derivation::Object;
+        match o {
+            ObjectArg::A => Object::A,
+            ObjectArg::Alpha => Object::Alpha,
+            ObjectArg::Z => Object::Z,
+            ObjectArg::Kinematics => Object::Kinematics,
+            ObjectArg::AGamma => Object::AGamma,
+            ObjectArg::Equations => Object::Equations,
+        }
+    }
+}
+
 /// Which form of the equations `hamel derive` computes.
 #[derive(Clone, Copy, ValueEnum)]
 pub enum FormArg {
@@ -84,6 +115,9 @@ pub enum Command {
         /// With `--format latex`: the equation blocks alone, without the document around them.
         #[arg(long)]
         fragment: bool,
+        /// With `--format latex`: one object alone, with the names it uses.
+        #[arg(long, value_enum)]
+        only: Option<ObjectArg>,
         /// Closed form (every object expanded and canonical) or structured form (the
         /// ingredients A, α, Z, U exact; for models too large to expand, such as the bicycle).
         #[arg(long, value_enum, default_value = "auto")]

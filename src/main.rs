@@ -25,7 +25,8 @@ use clap::Parser;
 use hamel_model::{Model, ModelError};
 
 use crate::cli::{
-    Cli, Command, FormArg, Format, ReportFormat, SearchArgs, TableFormat, TrajectoryFormat,
+    Cli, Command, FormArg, Format, ObjectArg, ReportFormat, SearchArgs, TableFormat,
+    TrajectoryFormat,
 };
 use crate::output::Output;
 
@@ -66,10 +67,24 @@ fn run(command: Command) -> Result<(), ModelError> {
             eta,
             format,
             fragment,
+            only,
             form,
             output,
         } => {
-            let how = Rendering { format, fragment };
+            if only.is_some() && !matches!(format, Format::Latex) {
+                use clap::CommandFactory;
+                Cli::command()
+                    .error(
+                        clap::error::ErrorKind::ArgumentConflict,
+                        "--only chooses an object of the LaTeX output: use it with --format latex",
+                    )
+                    .exit();
+            }
+            let how = Rendering {
+                format,
+                fragment,
+                only,
+            };
             derive(&model, eta.as_deref(), how, form, Output::new(output)?)
         }
         Command::Expand { model, output } => {
@@ -228,6 +243,7 @@ fn load_for(path: &Path, eta: Option<&str>) -> Result<Model, ModelError> {
 struct Rendering {
     format: Format,
     fragment: bool,
+    only: Option<ObjectArg>,
 }
 
 fn derive(
@@ -254,6 +270,7 @@ fn derive(
         Format::Latex => {
             let options = hamel_print::derivation::Options {
                 fragment: how.fragment,
+                only: how.only.map(Into::into),
             };
             hamel_print::derivation::latex(&d, options)
                 .map_err(|e| ModelError::engine(format!("printing the derivation: {e}")))?

@@ -316,6 +316,72 @@ fn derive_text_json_and_latex_share_their_names() {
     }
 }
 
+/// The paper's section 3.4: the unicycle's matrix A (its upper triangle) and the definitions
+/// under it, as the paper typesets them (Talamucci 2015, between (37) and (38)).
+const PAPER_UNICYCLE_A: &str = "$$\\begin{pmatrix} m & 0 & -F_1 \\cos \\phi & 0 & -\\kappa_1 \\cos \\theta \\sin \\phi & -m_r \\ell \\cos \\theta_1 \\sin \\phi \\\\ m & -F_1 \\sin \\phi & 0 & \\kappa_1 \\cos \\theta \\cos \\phi & m_r \\ell \\cos \\theta_1 \\cos \\phi & \\\\ & F_2 & -I_d \\sin \\theta & 0 & 0 & \\\\ & & I_d & 0 & 0 & \\\\ & & & \\kappa_2 + \\frac{1}{2} I_d & \\kappa_3 \\cos(\\theta + \\theta_1) & \\\\ & & & & m_r \\ell^2 & \\end{pmatrix}$$";
+const PAPER_UNICYCLE_DEFINITIONS: &str = "where  $m = m_d + m_f + m_r$ ,  $I_d = \\frac{1}{2} m_d R^2$ ,  $\\kappa_2 = m_f \\ell_1^2 + m_r(\\rho_1 + \\rho_2)^2 + m_d R$ ,  $\\kappa_3 = m_r \\rho(\\rho_1 + \\rho_2)$  and  $F_1(\\theta, \\theta_1) = (m_f \\rho_1 + m_r(\\rho_1 + \\rho_2) + m_d R) \\sin \\theta + m_r \\rho \\sin \\theta_1$ ,  $F_2(\\theta, \\theta_1) = \\left( \\frac{1}{2} I_d + m_d R^2 + m_f \\rho_1^2 + m_r(\\rho_1 + \\rho_2)^2 \\right) \\sin^2 \\theta + m_r \\rho^2 \\sin^2 \\theta_1 + 2m_r \\rho(\\rho_1 + \\rho_2) \\sin \\theta \\sin \\theta_1$ .";
+
+/// Issue 22: the unicycle's A with its where-list is at most twice as long as the paper's
+/// matrix with its definitions (lengths in printed glyphs, `hamel_print::width`), and each
+/// entry of A is on one line.
+#[test]
+fn the_unicycles_a_with_its_names_is_at_most_twice_the_papers() {
+    let dir = scratch("unicycle_a");
+    let out = dir.join("a.tex");
+    let o = hamel(
+        &[
+            "derive",
+            "models/unicycle_rider.toml",
+            "--eta",
+            "velocities",
+            "--format",
+            "latex",
+            "--fragment",
+            "--only",
+            "a",
+            "--output",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let tex = std::fs::read_to_string(out).unwrap();
+    let body: Vec<&str> = tex
+        .lines()
+        .filter(|l| !l.starts_with('%') && !l.contains("{align*}") && !l.contains("noindent"))
+        .collect();
+    let ours: usize = body.iter().map(|l| hamel_print::width(l)).sum();
+    let paper =
+        hamel_print::width(PAPER_UNICYCLE_A) + hamel_print::width(PAPER_UNICYCLE_DEFINITIONS);
+    assert!(
+        ours <= 2 * paper,
+        "A with its where-list: {ours} glyphs, the paper's {paper}\n{tex}"
+    );
+    let a = body[0];
+    assert!(
+        a.starts_with("A &= \\begin{pmatrix}") && a.ends_with("\\end{pmatrix}"),
+        "{a}"
+    );
+    assert!(
+        !body.iter().any(|l| l.starts_with("&\\quad")),
+        "an entry broken over lines\n{tex}"
+    );
+    // The paper's F₁ cos φ and κ₁: a function of (θ, θ₁) times cos φ, and m_r(ρ₁ + ρ₂).
+    assert!(a.contains("(\\theta, \\theta_{1}) \\cos \\varphi"), "{a}");
+    assert!(
+        tex.contains("m_{r} \\left(\\rho_{1} + \\rho_{2}\\right)"),
+        "{tex}"
+    );
+    // `--only` belongs to the LaTeX output: with another format it is a usage error.
+    let o = hamel(&["derive", "models/knife.toml", "--only", "a"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("use it with --format latex"),
+        "{}",
+        stderr(&o)
+    );
+}
+
 #[test]
 fn a_bad_model_is_an_error_with_file_place_and_reason_and_writes_nothing() {
     let dir = scratch("bad_model");

@@ -17,6 +17,25 @@ use crate::sheet::Sheet;
 pub struct Options {
     /// The equation blocks alone, without the document around them.
     pub fragment: bool,
+    /// One object alone (with the names it uses), instead of all of them.
+    pub only: Option<Object>,
+}
+
+/// An object of the LaTeX document.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Object {
+    /// The mass matrix A of T = ½q̇ᵀAq̇.
+    A,
+    /// The constraints α of αq̇ = 0.
+    Alpha,
+    /// The quasi-velocities' matrix Z of η = Zq̇.
+    Z,
+    /// The kinematic equations (6), q̇ = Γη.
+    Kinematics,
+    /// A_Γ = ΓᵀAΓ (8).
+    AGamma,
+    /// The equations of motion A_Γη̇ + Q − Γᵀ∇U = 0.
+    Equations,
 }
 
 /// Why a derivation could not be printed.
@@ -107,7 +126,11 @@ fn address(e: &Entry) -> usize {
 /// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
 pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
     let p = Printing::new(d)?;
-    let blocks = document::blocks(d, &p);
+    let blocks: Vec<document::Block> = document::blocks(d, &p)
+        .into_iter()
+        .filter(|(object, _)| options.only.is_none_or(|o| o == *object))
+        .map(|(_, b)| b)
+        .collect();
     let shown: Vec<usize> = blocks.iter().flat_map(|b| b.ids()).collect();
     let used = p.sheet.names_used(&shown);
     let mut body = String::new();

@@ -8,7 +8,7 @@ use std::fmt::Write;
 use hamel_derive::{Derivation, Mat};
 use hamel_expr::latex_name;
 
-use crate::derivation::Printing;
+use crate::derivation::{Object, Printing};
 use crate::layout::{LINE, width};
 use crate::sheet::Sheet;
 
@@ -46,12 +46,13 @@ impl Block {
     }
 }
 
-/// The document's entries, in its order, by their ids in the printing.
-pub(crate) fn blocks(d: &Derivation, p: &Printing) -> Vec<Block> {
+/// The document's entries, in its order, by their ids in the printing, each block with the
+/// object it shows.
+pub(crate) fn blocks(d: &Derivation, p: &Printing) -> Vec<(Object, Block)> {
     let mut out = vec![
-        mat_block(p, "A", &d.a),
-        mat_block(p, "\\alpha", &d.alpha),
-        mat_block(p, "Z", &d.z),
+        (Object::A, mat_block(p, "A", &d.a)),
+        (Object::Alpha, mat_block(p, "\\alpha", &d.alpha)),
+        (Object::Z, mat_block(p, "Z", &d.z)),
     ];
     let Some(c) = d.closed() else {
         return out;
@@ -63,23 +64,26 @@ pub(crate) fn blocks(d: &Derivation, p: &Printing) -> Vec<Block> {
         .zip(&q)
         .map(|(e, q)| (format!("\\dot{{{q}}}"), p.id(e)))
         .collect();
-    out.push(Block::Equations {
-        heading: "kinematic equations (6), $\\dot q = \\Gamma\\eta$".into(),
-        rows: kinematics,
-        rhs_zero: false,
-    });
-    out.push(mat_block(p, "A_\\Gamma", &c.a_gamma));
+    out.push((
+        Object::Kinematics,
+        Block::Equations {
+            heading: "kinematic equations (6), $\\dot q = \\Gamma\\eta$".into(),
+            rows: kinematics,
+            rhs_zero: false,
+        },
+    ));
+    out.push((Object::AGamma, mat_block(p, "A_\\Gamma", &c.a_gamma)));
     let equations = c
         .equations
         .iter()
         .enumerate()
         .map(|(i, e)| (format!("({})", i + 1), p.id(e)))
         .collect();
-    out.push(Block::Equations {
+    out.push((Object::Equations, Block::Equations {
         heading: "equations of motion, $A_\\Gamma\\dot\\eta + Q - \\Gamma^T\\nabla U = 0$ (from (9), with the term the paper drops)".into(),
         rows: equations,
         rhs_zero: true,
-    });
+    }));
     out
 }
 
