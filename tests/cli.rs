@@ -303,7 +303,12 @@ fn derive_text_json_and_latex_share_their_names() {
         } else if let Some(r) = name.strip_prefix("F_{") {
             ("F", r)
         } else {
-            panic!("unexpected name {name}")
+            // One of the model's [abbreviations], written as given (`m`).
+            assert!(
+                where_list.iter().any(|(n, _)| n == name),
+                "{name} in the LaTeX is not in the text's where-list"
+            );
+            continue;
         };
         let number = rest.split('}').next().unwrap();
         let text_name = format!("{letter}{number}");

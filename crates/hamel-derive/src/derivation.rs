@@ -79,6 +79,10 @@ pub struct Derivation {
     pub eta: Vec<String>,
     /// Free functions of the choice, as `name(args)`.
     pub free_functions: Vec<String>,
+    /// The model's `[abbreviations]`: names for expressions in the parameters, which printing
+    /// uses (the derivation does not).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    pub abbreviations: IndexMap<String, Entry>,
     /// Coordinates q₁..q_ℓ.
     pub coordinates: Vec<String>,
     /// Parameters with their default values.

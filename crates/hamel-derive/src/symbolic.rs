@@ -661,6 +661,11 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
             .iter()
             .map(|(n, a)| format!("{n}({})", a.join(", ")))
             .collect(),
+        abbreviations: model
+            .abbreviations
+            .iter()
+            .map(|(k, i)| (k.clone(), Entry::of(i.expr.clone())))
+            .collect(),
         coordinates: model.coordinates.clone(),
         parameters: model.parameters.clone(),
         ell: model.ell(),

@@ -56,6 +56,13 @@ impl Model {
         if !self.steady.is_empty() {
             doc["steady"] = TomlItem::Table(self.steady_table());
         }
+        if !self.abbreviations.is_empty() {
+            let mut t = Table::new();
+            for (k, item) in &self.abbreviations {
+                t[k] = value(item.text.as_str());
+            }
+            doc["abbreviations"] = TomlItem::Table(t);
+        }
         format!("{}{doc}", self.header())
     }
 

@@ -87,6 +87,10 @@ pub struct Model {
     pub completion: Completion,
     /// Where L and α come from.
     pub origin: Origin,
+    /// `[abbreviations]`: names for expressions in the parameters, which printed equations use
+    /// wherever the expression occurs (as a paper writes m = m_d + m_f + m_r once); printing
+    /// only, the derivation never sees them.
+    pub abbreviations: IndexMap<String, Item>,
     /// What the expansion of bodies simplified, and how.
     pub notes: Vec<String>,
     /// Quasi-velocity choices, in file order.
@@ -172,6 +176,7 @@ impl Model {
         check_count(&raw, coordinates.len(), constraints.len(), &err)?;
         let mut choices = choices_of(&raw, &mut loader, constraints.len(), &err)?;
         let steady = crate::steady::steady_of(&raw.steady, &loader)?;
+        let abbreviations = abbreviations_of(&raw, &mut loader)?;
         if constraints.is_empty() && !choices.iter().any(|c| c.name == "identity") {
             choices.push(identity_choice(&coordinates));
         }
@@ -192,6 +197,7 @@ impl Model {
             holonomic: dynamics.holonomic,
             completion: dynamics.completion,
             origin: dynamics.origin,
+            abbreviations,
             notes: dynamics.notes,
             symmetries,
             steady,
@@ -517,6 +523,48 @@ fn forces_of(
         .collect()
 }
 
+/// `[abbreviations]`: each a new name for an expression in the parameters (no coordinate,
+/// velocity or free function).
+fn abbreviations_of(
+    raw: &RawModel,
+    loader: &mut Loader,
+) -> Result<IndexMap<String, Item>, ModelError> {
+    let mut out = IndexMap::new();
+    for (k, v) in &raw.abbreviations {
+        let key = format!("abbreviations.{k}");
+        let taken = loader.coordinates.contains(k)
+            || loader.parameters.contains_key(k)
+            || raw
+                .abbreviations
+                .keys()
+                .take_while(|j| *j != k)
+                .any(|j| j == k);
+        if !is_identifier(k) || taken {
+            return Err(loader.err(
+                v.span(),
+                &key,
+                format!("`{k}` must be a new identifier: it names an expression in the parameters, and is not a coordinate or a parameter"),
+            ));
+        }
+        let item = loader.item(v, &key, FieldKind::Positional)?;
+        let mut state = false;
+        item.expr.visit(&mut |e| match e {
+            Expr::Sym(n) if loader.coordinates.contains(n) => state = true,
+            Expr::Der(_) | Expr::Free { .. } => state = true,
+            _ => {}
+        });
+        if state {
+            return Err(loader.err(
+                v.span(),
+                &key,
+                "an abbreviation is an expression in the parameters only (no coordinate, velocity or function of them)",
+            ));
+        }
+        out.insert(k.clone(), item);
+    }
+    Ok(out)
+}
+
 /// `[constraints]`: each linear in the velocities.
 fn constraints_of(raw: &RawModel, loader: &mut Loader) -> Result<Vec<(String, Item)>, ModelError> {
     let mut constraints = Vec::new();
@@ -718,6 +766,22 @@ eta = ["cos(theta)*der(x) + sin(theta)*der(y)", "der(theta)"]
         assert!(e.line_col().is_some(), "{e}");
         let e = bad(&KNIFE.replace("[constraints]", "[constraint]"));
         assert!(e.to_string().contains("unknown field"), "{e}");
+    }
+
+    /// `[abbreviations]`: names for parameter expressions, kept for printing; a name that is
+    /// a parameter, or an expression with a coordinate, is a located error.
+    #[test]
+    fn abbreviations_are_parameter_expressions_with_new_names() {
+        let with = |table: &str| format!("{KNIFE}\n[abbreviations]\n{table}\n");
+        let m = Model::from_source("knife.toml", &with("ml = \"m*l + 2*m\"")).unwrap();
+        assert_eq!(m.abbreviations["ml"].text, "m*l + 2*m");
+        let e = bad(&with("m = \"2*l\""));
+        assert!(e.to_string().contains("abbreviations.m"), "{e}");
+        assert!(e.to_string().contains("must be a new identifier"), "{e}");
+        let e = bad(&with("s = \"m*sin(theta)\""));
+        assert!(e.to_string().contains("parameters only"), "{e}");
+        let e = bad(&with("s = \"m*q\""));
+        assert!(e.to_string().contains("unknown symbol `q`"), "{e}");
     }
 
     #[test]

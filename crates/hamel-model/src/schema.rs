@@ -43,6 +43,9 @@ pub(crate) struct RawModel {
     /// Steady motions, by name.
     #[serde(default)]
     pub steady: IndexMap<String, Spanned<RawSteady>>,
+    /// Names for groups of parameters that printing uses (`m = "m_d + m_f + m_r"`).
+    #[serde(default)]
+    pub abbreviations: IndexMap<String, Spanned<String>>,
 }
 
 /// `[steady.NAME]`: a steady motion in named steady parameters.

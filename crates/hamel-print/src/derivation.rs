@@ -84,6 +84,9 @@ impl Printing {
             String::new()
         });
         let mut sheet = Sheet::new(&vocabulary(d));
+        for (name, e) in &d.abbreviations {
+            sheet.abbreviate(name, &e.expr)?;
+        }
         let mut ids = HashMap::new();
         let mut labels = Vec::new();
         let mut exprs = Vec::new();

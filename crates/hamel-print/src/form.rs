@@ -53,6 +53,8 @@ pub struct Definition {
     pub args: Vec<String>,
     /// Its printing form (in earlier names).
     pub form: Form,
+    /// Whether the model gave it (`[abbreviations]`), rather than printing named it.
+    pub given: bool,
 }
 
 /// What rendering needs besides the form: the atoms and the where-list.

@@ -4,6 +4,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use hamel_expr::{Expr, Rational};
+use num_traits::One;
 
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
@@ -46,6 +47,47 @@ impl Sheet {
         Ok(self.entries.len() - 1)
     }
 
+    /// Names the parameter expression `e` `name` (a model's `[abbreviations]`): wherever
+    /// printing meets a group that is a rational multiple of it, it writes the name (`m` for
+    /// m_d + m_f + m_r). Call before [`Sheet::name_groups`].
+    ///
+    /// # Errors
+    /// An expression with no rational form over its atoms.
+    pub fn abbreviate(&mut self, name: &str, e: &Expr) -> Result<(), PolyError> {
+        let value = Fraction::from_expr(e, &mut self.atoms)?.normalised();
+        let form = collect::fraction(&value, &self.atoms);
+        self.names.push(Definition {
+            name: name.to_string(),
+            args: Vec::new(),
+            form,
+            given: true,
+        });
+        self.values.push(value);
+        Ok(())
+    }
+
+    /// The forms in which the given names' groups appear, content-free as collection writes
+    /// a group, with the factor from the form to the name's value: `(form, name, 1/c)`.
+    fn given_forms(&self) -> Vec<(Form, usize, Rational)> {
+        let mut out = Vec::new();
+        for (j, _) in self.names.iter().enumerate().filter(|(_, d)| d.given) {
+            let value = &self.values[j];
+            let Some(den) = value.den.as_constant() else {
+                continue;
+            };
+            if value.num.0.len() < 2 {
+                continue;
+            }
+            let (c, m, rest) = collect::content(&value.num);
+            if !m.0.is_empty() {
+                continue;
+            }
+            let c = c / den.to_rational();
+            out.push((collect::poly(&rest, &self.atoms), j, c.recip()));
+        }
+        out
+    }
+
     /// Adds the canonical expressions `es` together; returns their indices. Where the
     /// factoring of a coefficient could pull out either of two parameters, it pulls out the
     /// one that occurs in more terms across all of them (so that equal groups recur and the
@@ -72,6 +114,12 @@ impl Sheet {
         for f in canonical {
             let form = collect::fraction(&f, &self.atoms);
             self.entries.push((form, f));
+        }
+        // The model's abbreviations written with the same factoring.
+        for (d, v) in self.names.iter_mut().zip(&self.values) {
+            if d.given {
+                d.form = collect::fraction(v, &self.atoms);
+            }
         }
         Ok((first..self.entries.len()).collect())
     }
@@ -168,6 +216,7 @@ impl Sheet {
     /// wide for a line are named too ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
         let (chosen, at) = self.candidates();
+        let first = self.names.len();
         let mut places = Vec::new();
         for c in chosen {
             let index = self.names.len();
@@ -183,17 +232,24 @@ impl Sheet {
                 next - 1
             });
             replace_at(f, &mut next, &at);
-            if let Some(index) = place.and_then(|p| at[p]) {
-                *f = named(index);
+            if let Some(p) = place.and_then(|p| at[p].as_ref()) {
+                *f = named(p);
             }
         }
         // A definition is its group's first occurrence: its inner groups are the places
         // after that one.
-        for (d, place) in self.names.iter_mut().zip(places) {
+        for (d, place) in self.names[first..].iter_mut().zip(places) {
             replace_at(&mut d.form, &mut (place + 1), &at);
         }
         self.name_wide();
     }
+}
+
+/// The name a group's place gets, and the factor from the group to the name's value.
+#[derive(Clone)]
+struct Placed {
+    name: usize,
+    factor: Rational,
 }
 
 /// A group that recurs: its form, its value and key, its first place (outer before inner,
@@ -241,7 +297,8 @@ impl Sheet {
     /// coordinates, the more frequent first, then the larger, then the first met. Also, for
     /// each group of the entries by its place (outer before inner, entry after entry), the
     /// name it gets, if it gets one.
-    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<usize>>) {
+    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>) {
+        let given = self.given_forms();
         let mut found: Vec<&Form> = Vec::new();
         for (f, _) in &self.entries {
             if matches!(f, Form::Sum(_)) {
@@ -262,7 +319,7 @@ impl Sheet {
         }
         let mut chosen: Vec<(usize, Candidate)> = Vec::new();
         for (i, &(g, place, count)) in counted.iter().enumerate() {
-            if count < 2 {
+            if count < 2 || given.iter().any(|(f, _, _)| f == g) {
                 continue;
             }
             let value = self.fraction_of(g);
@@ -293,11 +350,23 @@ impl Sheet {
                 *i,
             )
         });
-        let mut name_of = vec![None; counted.len()];
+        let first = self.names.len();
+        let mut name_of: Vec<Option<Placed>> = vec![None; counted.len()];
         for (name, (i, _)) in chosen.iter().enumerate() {
-            name_of[*i] = Some(name);
+            name_of[*i] = Some(Placed {
+                name: first + name,
+                factor: Rational::one(),
+            });
         }
-        let at = at.into_iter().map(|i| name_of[i]).collect();
+        for (i, &(g, _, _)) in counted.iter().enumerate() {
+            if let Some((_, name, factor)) = given.iter().find(|(f, _, _)| f == g) {
+                name_of[i] = Some(Placed {
+                    name: *name,
+                    factor: factor.clone(),
+                });
+            }
+        }
+        let at = at.into_iter().map(|i| name_of[i].clone()).collect();
         (chosen.into_iter().map(|(_, c)| c).collect(), at)
     }
 
@@ -320,21 +389,37 @@ impl Sheet {
     /// The definition of the group `key` (printed as `form`), the `index`-th name.
     pub(crate) fn definition(&self, key: &Key, form: Form, index: usize) -> Definition {
         let parameter = self.parameters_only(key);
-        let same_kind = self.names[..index]
-            .iter()
-            .filter(|d| d.args.is_empty() == parameter)
-            .count();
         let args = if parameter {
             Vec::new()
         } else {
             self.coordinates_in(key)
         };
-        let name = if parameter {
-            format!("kappa{}", same_kind + 1)
-        } else {
-            format!("F{}", same_kind + 1)
-        };
-        Definition { name, args, form }
+        let stem = if parameter { "kappa" } else { "F" };
+        // The next number of this kind whose name no earlier name (the model's abbreviations
+        // among them) takes.
+        let taken = &self.names[..index];
+        let before = taken
+            .iter()
+            .filter(|d| d.args.is_empty() == parameter && !d.given)
+            .count();
+        let given: BTreeSet<&str> = taken
+            .iter()
+            .filter(|d| d.given)
+            .map(|d| d.name.as_str())
+            .collect();
+        let skipped = (1..=before + given.len())
+            .filter(|n| given.contains(format!("{stem}{n}").as_str()))
+            .count();
+        let name = (before + skipped + 1..)
+            .map(|n| format!("{stem}{n}"))
+            .find(|name| !given.contains(name.as_str()))
+            .expect("a free number");
+        Definition {
+            name,
+            args,
+            form,
+            given: false,
+        }
     }
 
     /// The coordinates `key` depends on, in the model's order.
@@ -359,11 +444,11 @@ impl Sheet {
     }
 }
 
-/// The name `index` as a form.
-fn named(index: usize) -> Form {
+/// A named group as a form: its factor times its name.
+fn named(p: &Placed) -> Form {
     Form::Product {
-        coef: num_traits::One::one(),
-        factors: vec![Factor::Name { index }],
+        coef: p.factor.clone(),
+        factors: vec![Factor::Name { index: p.name }],
     }
 }
 
@@ -392,16 +477,17 @@ fn groups<'a>(f: &'a Form, out: &mut Vec<&'a Form>) {
 
 /// The groups of `f` named where `at` says, by their places counted on from `next` (the
 /// order of [`groups`]), inner groups first.
-fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<usize>]) {
+fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
     match f {
-        Form::Product { factors, .. } => {
+        Form::Product { coef, factors } => {
             for x in factors.iter_mut() {
                 let Factor::Group(g) = x else { continue };
                 let place = *next;
                 *next += 1;
                 replace_at(g, next, at);
-                if let Some(index) = at[place] {
-                    *x = Factor::Name { index };
+                if let Some(p) = &at[place] {
+                    *coef = &*coef * &p.factor;
+                    *x = Factor::Name { index: p.name };
                 }
             }
         }
@@ -413,8 +499,8 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<usize>]) {
                 *next - 1
             });
             replace_at(b, next, at);
-            if let Some(index) = place.and_then(|p| at[p]) {
-                **b = named(index);
+            if let Some(p) = place.and_then(|p| at[p].as_ref()) {
+                **b = named(p);
             }
         }
     }

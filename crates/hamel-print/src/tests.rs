@@ -235,3 +235,41 @@ fn equations_are_collected_by_the_rates_first() {
         "m*((1 + 2*sin(theta))*eta1_dot + cos(theta)*eta2_dot + g*sin(theta) + eta1^2)"
     );
 }
+
+/// A model's abbreviation is written wherever a group is a rational multiple of it, and the
+/// names printing makes skip it.
+#[test]
+fn abbreviations_name_their_groups_up_to_a_factor() {
+    use crate::Sheet;
+    let v = unicycle();
+    let mut sheet = Sheet::new(&v);
+    sheet
+        .abbreviate("m", &parse("m_d + m_f + m_r").unwrap().expr)
+        .unwrap();
+    sheet
+        .abbreviate("kappa1", &parse("m_d*R + m_f*rho1").unwrap().expr)
+        .unwrap();
+    let es = [
+        "2*m_d*cos(phi) + 2*m_f*cos(phi) + 2*m_r*cos(phi)",
+        "(m_d + m_f + m_r)*sin(theta) + (R*m_d + rho2*m_r + rho*m_f)*sin(theta1)",
+        "(R*m_d + rho2*m_r + rho*m_f)*cos(theta1)",
+    ]
+    .map(|e| parse(e).unwrap().expr);
+    let ids = sheet.add_all(&es).unwrap();
+    sheet.name_groups();
+    assert_eq!(sheet.text(ids[0]), "2*m*cos(phi)");
+    assert!(
+        sheet.text(ids[1]).starts_with("m*sin(theta) + kappa2*"),
+        "{}",
+        sheet.text(ids[1])
+    );
+    for &i in &ids {
+        assert!(sheet.check(i), "{}", sheet.text(i));
+    }
+    let names: Vec<String> = sheet
+        .definitions_text()
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    assert_eq!(names, ["m", "kappa1", "kappa2"]);
+}
