@@ -2416,3 +2416,48 @@ fn without_timings(out: Vec<u8>) -> Vec<u8> {
         Err(_) => text.into_bytes(),
     }
 }
+
+/// `hamel reduce` writes the reduced system as `hamel derive` writes equations (issue 22):
+/// collected, rate terms first, named groups defined once in a where-list, every name it
+/// uses defined there.
+#[test]
+fn reduce_prints_the_reduced_system_with_its_names() {
+    let o = hamel(
+        &[
+            "reduce",
+            "models/unicycle_rider.toml",
+            "--eta",
+            "velocities",
+            "--eliminate",
+            "phi",
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let (report, where_list) = text.split_once("\nwhere\n").expect("a where-list");
+    let defined: Vec<&str> = where_list
+        .lines()
+        .filter_map(|l| l.trim().split(" = ").next())
+        .map(|n| n.split('(').next().unwrap())
+        .collect();
+    let system = report
+        .split("Reduced system")
+        .nth(1)
+        .expect("a reduced system");
+    let first = system.lines().find(|l| l.contains("(11.1) 0 = ")).unwrap();
+    let rhs = first.split(" 0 = ").nth(1).unwrap();
+    // Rate terms first.
+    let rate = rhs.find("eta1_dot").expect("η̇₁ in (11.1)");
+    assert!(!rhs[..rate].contains("eta1*"), "{rhs}");
+    for word in system.split(|c: char| !c.is_alphanumeric() && c != '_') {
+        let named = (word.starts_with("kappa") || word.starts_with('F'))
+            && word[1..].chars().last().is_some_and(|c| c.is_ascii_digit());
+        if named {
+            assert!(
+                defined.contains(&word),
+                "{word} is not defined in\n{where_list}"
+            );
+        }
+    }
+}

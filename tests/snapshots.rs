@@ -53,6 +53,19 @@ fn derive_json_snapshots() {
     }
 }
 
+/// `text` with its lines longer than 2000 characters digested.
+fn digest_lines(text: &str) -> String {
+    let lines: Vec<String> = text
+        .lines()
+        .map(|l| {
+            let mut v = serde_json::Value::String(l.to_string());
+            digest_long_strings(&mut v);
+            v.as_str().unwrap().to_string()
+        })
+        .collect();
+    lines.join("\n")
+}
+
 /// `hamel derive`'s text: every entry in its printing form (collected, factored, named), the
 /// where-list at the end. Lines longer than 2000 characters are digested as above.
 #[test]
@@ -61,16 +74,28 @@ fn printed_text_snapshots() {
         for choice in &model.choices {
             let d = hamel_derive::derive(&model, Some(&choice.name)).unwrap();
             let text = hamel_print::derivation::text(&d).unwrap();
-            let lines: Vec<String> = text
-                .lines()
-                .map(|l| {
-                    let mut v = serde_json::Value::String(l.to_string());
-                    digest_long_strings(&mut v);
-                    v.as_str().unwrap().to_string()
-                })
-                .collect();
             let name = format!("printed__{}__{}", model.name, choice.name);
-            insta::assert_snapshot!(name, lines.join("\n"));
+            insta::assert_snapshot!(name, digest_lines(&text));
+        }
+    }
+}
+
+/// `hamel reduce`'s text: the reduced system in printing forms, with its where-list.
+#[test]
+fn printed_reduce_snapshots() {
+    for model in models() {
+        let p = eliminate(&model);
+        let parameters: Vec<String> = model.parameters.keys().cloned().collect();
+        let abbreviations: Vec<(&str, &hamel_expr::Expr)> = model
+            .abbreviations
+            .iter()
+            .map(|(k, i)| (k.as_str(), &i.expr))
+            .collect();
+        for choice in &model.choices {
+            let r = hamel_reduce::reduce(&model, Some(&choice.name), &p).unwrap();
+            let text = hamel_print::reduction::text(&r, &parameters, &abbreviations).unwrap();
+            let name = format!("printed_reduce__{}__{}", model.name, choice.name);
+            insta::assert_snapshot!(name, digest_lines(&text));
         }
     }
 }

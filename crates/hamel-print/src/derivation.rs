@@ -5,7 +5,8 @@ use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap, hash_map};
 use std::fmt::Write;
 
-use hamel_derive::{Derivation, Entry};
+use hamel_derive::{Derivation, Entry, Printer};
+use hamel_expr::Expr;
 
 use crate::atoms::Vocabulary;
 use crate::document;
@@ -74,18 +75,36 @@ impl Printing {
     /// # Errors
     /// [`PrintError`]: an entry that cannot be printed exactly.
     pub(crate) fn new(d: &Derivation) -> Result<Printing, PrintError> {
-        // The entries the text shows, in order, each once (by address: the printer is
-        // called with references into `d`).
+        let abbreviations: Vec<(&str, &Expr)> = d
+            .abbreviations
+            .iter()
+            .map(|(k, e)| (k.as_str(), &e.expr))
+            .collect();
+        Printing::of(&vocabulary(d), &abbreviations, &|p| d.to_text_with(p))
+    }
+
+    /// The entries that `show` writes (with the printer it is given), printed in one sheet
+    /// with the model's `abbreviations`, named and checked.
+    ///
+    /// # Errors
+    /// [`PrintError`]: an entry that cannot be printed exactly.
+    pub(crate) fn of(
+        vocabulary: &Vocabulary,
+        abbreviations: &[(&str, &Expr)],
+        show: &dyn Fn(Printer<'_>) -> String,
+    ) -> Result<Printing, PrintError> {
+        // The entries shown, in order, each once (by address: the printer is called with
+        // references into the data shown).
         let shown = RefCell::new(Vec::new());
-        d.to_text_with(&|e| {
+        show(&|e| {
             shown
                 .borrow_mut()
                 .push((address(e), e.expr.clone(), e.text.clone()));
             String::new()
         });
-        let mut sheet = Sheet::new(&vocabulary(d));
-        for (name, e) in &d.abbreviations {
-            sheet.abbreviate(name, &e.expr)?;
+        let mut sheet = Sheet::new(vocabulary);
+        for (name, e) in abbreviations {
+            sheet.abbreviate(name, e)?;
         }
         let mut ids = HashMap::new();
         let mut labels = Vec::new();
@@ -108,6 +127,28 @@ impl Printing {
             return Err(PrintError::Mismatch("a named argument".into()));
         }
         Ok(Printing { sheet, ids })
+    }
+
+    /// `show`'s text with every entry in its printing form, and the where-list after it.
+    pub(crate) fn text(&self, show: &dyn Fn(Printer<'_>) -> String) -> String {
+        let mut out = show(&|e| self.sheet.text(self.id(e)));
+        let used = self.used();
+        let defs = self.sheet.definitions_text();
+        if !used.is_empty() {
+            out.push_str("\nwhere\n");
+            for (j, (name, definition)) in defs.into_iter().enumerate() {
+                if used.contains(&j) {
+                    let _ = writeln!(out, "  {name} = {definition}");
+                }
+            }
+        }
+        out
+    }
+
+    /// The names the entries use (a model's abbreviation that none uses is left out).
+    pub(crate) fn used(&self) -> std::collections::BTreeSet<usize> {
+        let ids: Vec<usize> = self.ids.values().copied().collect();
+        self.sheet.names_used(&ids)
     }
 
     /// The sheet's id of an entry of the derivation.
@@ -160,16 +201,7 @@ pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
 /// # Errors
 /// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
 pub fn text(d: &Derivation) -> Result<String, PrintError> {
-    let p = Printing::new(d)?;
-    let mut out = d.to_text_with(&|e| p.sheet.text(p.id(e)));
-    let defs = p.sheet.definitions_text();
-    if !defs.is_empty() {
-        out.push_str("\nwhere\n");
-        for (name, definition) in defs {
-            let _ = writeln!(out, "  {name} = {definition}");
-        }
-    }
-    Ok(out)
+    Ok(Printing::new(d)?.text(&|p| d.to_text_with(p)))
 }
 
 /// What `hamel derive --format json` adds to the derivation (whose entries stay canonical):
@@ -205,12 +237,15 @@ pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
         entries.borrow_mut().insert(e.text.clone(), printed);
         String::new()
     });
+    let used = p.used();
     let names = p
         .sheet
         .definitions()
         .iter()
         .zip(p.sheet.definitions_text())
-        .map(|(d, (_, definition))| NameJson {
+        .enumerate()
+        .filter(|(j, _)| used.contains(j))
+        .map(|(_, (d, (_, definition)))| NameJson {
             name: d.name.clone(),
             args: d.args.clone(),
             definition,

@@ -28,6 +28,7 @@ mod layout;
 mod poly;
 mod printed;
 mod q;
+pub mod reduction;
 mod sheet;
 mod wide;
 

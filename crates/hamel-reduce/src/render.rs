@@ -2,6 +2,8 @@
 
 use std::fmt::Write;
 
+use hamel_derive::Printer;
+
 use crate::report::{BlockStructure, CoordinateKind, Reduction, Witness};
 
 fn witness_line(w: &Witness) -> String {
@@ -16,7 +18,7 @@ fn witness_line(w: &Witness) -> String {
 }
 
 /// (17)/(18) as text.
-fn structure_text(o: &mut String, st: &BlockStructure) {
+fn structure_text(o: &mut String, st: &BlockStructure, p: Printer<'_>) {
     let _ = writeln!(o, "\nBlock structure (17)/(18): v = {}", st.v);
     let _ = writeln!(o, "  block 1 (μ + v): {}", st.block1.join(", "));
     let _ = writeln!(
@@ -31,12 +33,18 @@ fn structure_text(o: &mut String, st: &BlockStructure) {
     for (i, q) in &st.unit_rows {
         let _ = writeln!(o, "  eta{i} = der({q})");
     }
-    let _ = writeln!(o, "  δ_R = {}", st.delta_r.text);
+    let _ = writeln!(o, "  δ_R = {}", p(&st.delta_r));
 }
 
 impl Reduction {
-    /// The report as text.
+    /// The report as text, entries in their canonical form.
     pub fn to_text(&self) -> String {
+        self.to_text_with(&|e| e.text.clone())
+    }
+
+    /// The report as text, each entry of the block structure and of the reduced system
+    /// written by `p`.
+    pub fn to_text_with(&self, p: Printer<'_>) -> String {
         let mut o = String::new();
         let _ = writeln!(
             o,
@@ -72,7 +80,7 @@ impl Reduction {
             );
         }
         match &self.structure {
-            Some(st) => structure_text(&mut o, st),
+            Some(st) => structure_text(&mut o, st, p),
             None => {
                 let _ = writeln!(
                     o,
@@ -167,14 +175,14 @@ impl Reduction {
                     );
                 }
                 for (i, e) in r.equations.iter().enumerate() {
-                    let _ = writeln!(o, "  (11.{}) 0 = {}", i + 1, e.text);
+                    let _ = writeln!(o, "  (11.{}) 0 = {}", i + 1, p(e));
                 }
                 for k in &r.kinematics {
-                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, k.rate.text);
+                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, p(&k.rate));
                 }
                 let _ = writeln!(o, "Reconstruction:");
                 for k in &r.reconstruction {
-                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, k.rate.text);
+                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, p(&k.rate));
                 }
             }
         }
