@@ -1,17 +1,19 @@
-//! A derivation as a LaTeX document (`hamel derive --format latex`): A, α, Z, the kinematic
-//! equations q̇ = Γη, A_Γ and the equations of motion, in one sheet with one where-list.
+//! A derivation printed: `hamel derive`'s text, the `printed` part of its JSON, and its LaTeX
+//! document (A, α, Z, the kinematic equations q̇ = Γη, A_Γ and the equations of motion), all
+//! from one printing, so they use the same names.
 
 use std::cell::RefCell;
-use std::collections::{BTreeMap, HashMap, hash_map};
+use std::collections::BTreeMap;
 use std::fmt::Write;
 
-use hamel_derive::{Derivation, Entry, Printer};
+use hamel_derive::Derivation;
 use hamel_expr::Expr;
 
 use crate::atoms::Vocabulary;
 use crate::document;
-use crate::poly::PolyError;
-use crate::sheet::Sheet;
+pub use crate::document::Object;
+pub use crate::printing::PrintError;
+use crate::printing::Printing;
 
 /// What `hamel derive --format latex` writes.
 #[derive(Clone, Copy, Debug, Default)]
@@ -20,34 +22,6 @@ pub struct Options {
     pub fragment: bool,
     /// One object alone (with the names it uses), instead of all of them.
     pub only: Option<Object>,
-}
-
-/// An object of the LaTeX document.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Object {
-    /// The mass matrix A of T = ½q̇ᵀAq̇.
-    A,
-    /// The constraints α of αq̇ = 0.
-    Alpha,
-    /// The quasi-velocities' matrix Z of η = Zq̇.
-    Z,
-    /// The kinematic equations (6), q̇ = Γη.
-    Kinematics,
-    /// A_Γ = ΓᵀAΓ (8).
-    AGamma,
-    /// The equations of motion A_Γη̇ + Q − Γᵀ∇U = 0.
-    Equations,
-}
-
-/// Why a derivation could not be printed.
-#[derive(Debug, thiserror::Error)]
-pub enum PrintError {
-    /// An entry has no rational form over its atoms.
-    #[error("{0}")]
-    Poly(#[from] PolyError),
-    /// A printed form is not its canonical form (a bug in printing; nothing is written).
-    #[error("the printed form of {0} differs from its canonical form")]
-    Mismatch(String),
 }
 
 /// The names a derivation's expressions are written in.
@@ -61,105 +35,17 @@ pub fn vocabulary(d: &Derivation) -> Vocabulary {
     }
 }
 
-/// One printing of a derivation: every entry its text shows in one sheet, named once, each
-/// checked exactly; the text, the JSON and the LaTeX document are written from it, so they
-/// use the same names.
-pub(crate) struct Printing {
-    pub(crate) sheet: Sheet,
-    ids: HashMap<usize, usize>,
-}
-
-impl Printing {
-    /// The entries of `d`'s text, printed and checked.
-    ///
-    /// # Errors
-    /// [`PrintError`]: an entry that cannot be printed exactly.
-    pub(crate) fn new(d: &Derivation) -> Result<Printing, PrintError> {
-        let abbreviations: Vec<(&str, &Expr)> = d
-            .abbreviations
-            .iter()
-            .map(|(k, e)| (k.as_str(), &e.expr))
-            .collect();
-        Printing::of(&vocabulary(d), &abbreviations, &|p| d.to_text_with(p))
-    }
-
-    /// The entries that `show` writes (with the printer it is given), printed in one sheet
-    /// with the model's `abbreviations`, named and checked.
-    ///
-    /// # Errors
-    /// [`PrintError`]: an entry that cannot be printed exactly.
-    pub(crate) fn of(
-        vocabulary: &Vocabulary,
-        abbreviations: &[(&str, &Expr)],
-        show: &dyn Fn(Printer<'_>) -> String,
-    ) -> Result<Printing, PrintError> {
-        // The entries shown, in order, each once (by address: the printer is called with
-        // references into the data shown).
-        let shown = RefCell::new(Vec::new());
-        show(&|e| {
-            shown
-                .borrow_mut()
-                .push((address(e), e.expr.clone(), e.text.clone()));
-            String::new()
-        });
-        let mut sheet = Sheet::new(vocabulary);
-        for (name, e) in abbreviations {
-            sheet.abbreviate(name, e)?;
-        }
-        let mut ids = HashMap::new();
-        let mut labels = Vec::new();
-        let mut exprs = Vec::new();
-        for (at, expr, label) in shown.into_inner() {
-            if let hash_map::Entry::Vacant(v) = ids.entry(at) {
-                v.insert(exprs.len());
-                exprs.push(expr);
-                labels.push(label);
-            }
-        }
-        sheet.add_all(&exprs)?;
-        sheet.name_groups();
-        for (id, label) in labels.into_iter().enumerate() {
-            if !sheet.check(id) {
-                return Err(PrintError::Mismatch(label));
-            }
-        }
-        if !sheet.check_arguments() {
-            return Err(PrintError::Mismatch("a named argument".into()));
-        }
-        Ok(Printing { sheet, ids })
-    }
-
-    /// `show`'s text with every entry in its printing form, and the where-list after it.
-    pub(crate) fn text(&self, show: &dyn Fn(Printer<'_>) -> String) -> String {
-        let mut out = show(&|e| self.sheet.text(self.id(e)));
-        let used = self.used();
-        let defs = self.sheet.definitions_text();
-        if !used.is_empty() {
-            out.push_str("\nwhere\n");
-            for (j, (name, definition)) in defs.into_iter().enumerate() {
-                if used.contains(&j) {
-                    let _ = writeln!(out, "  {name} = {definition}");
-                }
-            }
-        }
-        out
-    }
-
-    /// The names the entries use (a model's abbreviation that none uses is left out).
-    pub(crate) fn used(&self) -> std::collections::BTreeSet<usize> {
-        let ids: Vec<usize> = self.ids.values().copied().collect();
-        self.sheet.names_used(&ids)
-    }
-
-    /// The sheet's id of an entry of the derivation.
-    pub(crate) fn id(&self, e: &Entry) -> usize {
-        self.ids[&address(e)]
-    }
-}
-
-/// Where an entry lives: which of the derivation's entries it is.
-fn address(e: &Entry) -> usize {
-    std::ptr::from_ref(e) as usize
+/// The entries of `d`'s text, printed and checked.
+///
+/// # Errors
+/// [`PrintError`]: an entry that cannot be printed exactly.
+fn printing(d: &Derivation) -> Result<Printing, PrintError> {
+    let abbreviations: Vec<(&str, &Expr)> = d
+        .abbreviations
+        .iter()
+        .map(|(k, e)| (k.as_str(), &e.expr))
+        .collect();
+    Printing::of(&vocabulary(d), &abbreviations, &|p| d.to_text_with(p))
 }
 
 /// The derivation as LaTeX: a complete document (landscape A4, 1 cm margins) or, with
@@ -169,7 +55,7 @@ fn address(e: &Entry) -> usize {
 /// # Errors
 /// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
 pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
-    let p = Printing::new(d)?;
+    let p = printing(d)?;
     let blocks: Vec<document::Block> = document::blocks(d, &p)
         .into_iter()
         .filter(|(object, _)| options.only.is_none_or(|o| o == *object))
@@ -201,7 +87,7 @@ pub fn latex(d: &Derivation, options: Options) -> Result<String, PrintError> {
 /// # Errors
 /// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
 pub fn text(d: &Derivation) -> Result<String, PrintError> {
-    Ok(Printing::new(d)?.text(&|p| d.to_text_with(p)))
+    Ok(printing(d)?.text(&|p| d.to_text_with(p)))
 }
 
 /// What `hamel derive --format json` adds to the derivation (whose entries stay canonical):
@@ -230,7 +116,7 @@ pub struct NameJson {
 /// # Errors
 /// [`PrintError`]: an entry that cannot be printed exactly.
 pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
-    let p = Printing::new(d)?;
+    let p = printing(d)?;
     let entries = RefCell::new(BTreeMap::new());
     d.to_text_with(&|e| {
         let printed = p.sheet.text(p.id(e));

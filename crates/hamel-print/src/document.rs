@@ -8,9 +8,26 @@ use std::fmt::Write;
 use hamel_derive::{Derivation, Mat};
 use hamel_expr::latex_name;
 
-use crate::derivation::{Object, Printing};
 use crate::layout::{LINE, width};
+use crate::printing::Printing;
 use crate::sheet::Sheet;
+
+/// An object of the LaTeX document.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Object {
+    /// The mass matrix A of T = ½q̇ᵀAq̇.
+    A,
+    /// The constraints α of αq̇ = 0.
+    Alpha,
+    /// The quasi-velocities' matrix Z of η = Zq̇.
+    Z,
+    /// The kinematic equations (6), q̇ = Γη.
+    Kinematics,
+    /// A_Γ = ΓᵀAΓ (8).
+    AGamma,
+    /// The equations of motion A_Γη̇ + Q − Γᵀ∇U = 0.
+    Equations,
+}
 
 /// A block of the document: a matrix, or a list of equations `lhs = entry`.
 pub(crate) enum Block {

@@ -27,6 +27,7 @@ mod form;
 mod layout;
 mod poly;
 mod printed;
+mod printing;
 mod q;
 pub mod reduction;
 mod sheet;

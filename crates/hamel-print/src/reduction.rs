@@ -6,7 +6,7 @@ use hamel_expr::Expr;
 use hamel_reduce::Reduction;
 
 use crate::atoms::Vocabulary;
-use crate::derivation::{PrintError, Printing};
+use crate::printing::{PrintError, Printing};
 
 /// The report as `hamel reduce` writes it, its entries in their printing forms. `parameters`
 /// are the model's (their order is the printing order), `abbreviations` the model's

@@ -1,0 +1,111 @@
+//! One printing of a report: the entries its text shows, in one sheet, named and checked.
+
+use std::cell::RefCell;
+use std::collections::{BTreeSet, HashMap, hash_map};
+use std::fmt::Write;
+
+use hamel_derive::{Entry, Printer};
+use hamel_expr::Expr;
+
+use crate::atoms::Vocabulary;
+use crate::poly::PolyError;
+use crate::sheet::Sheet;
+
+/// Why a derivation could not be printed.
+#[derive(Debug, thiserror::Error)]
+pub enum PrintError {
+    /// An entry has no rational form over its atoms.
+    #[error("{0}")]
+    Poly(#[from] PolyError),
+    /// A printed form is not its canonical form (a bug in printing; nothing is written).
+    #[error("the printed form of {0} differs from its canonical form")]
+    Mismatch(String),
+}
+
+/// One printing: every entry a report's text shows (a derivation's, a reduction's) in one
+/// sheet, named once, each checked exactly; the text, the JSON and the LaTeX document are
+/// written from it, so they use the same names.
+pub(crate) struct Printing {
+    pub(crate) sheet: Sheet,
+    ids: HashMap<usize, usize>,
+}
+
+impl Printing {
+    /// The entries that `show` writes (with the printer it is given), printed in one sheet
+    /// with the model's `abbreviations`, named and checked.
+    ///
+    /// # Errors
+    /// [`PrintError`]: an entry that cannot be printed exactly.
+    pub(crate) fn of(
+        vocabulary: &Vocabulary,
+        abbreviations: &[(&str, &Expr)],
+        show: &dyn Fn(Printer<'_>) -> String,
+    ) -> Result<Printing, PrintError> {
+        // The entries shown, in order, each once (by address: the printer is called with
+        // references into the data shown).
+        let shown = RefCell::new(Vec::new());
+        show(&|e| {
+            shown
+                .borrow_mut()
+                .push((address(e), e.expr.clone(), e.text.clone()));
+            String::new()
+        });
+        let mut sheet = Sheet::new(vocabulary);
+        for (name, e) in abbreviations {
+            sheet.abbreviate(name, e)?;
+        }
+        let mut ids = HashMap::new();
+        let mut labels = Vec::new();
+        let mut exprs = Vec::new();
+        for (at, expr, label) in shown.into_inner() {
+            if let hash_map::Entry::Vacant(v) = ids.entry(at) {
+                v.insert(exprs.len());
+                exprs.push(expr);
+                labels.push(label);
+            }
+        }
+        sheet.add_all(&exprs)?;
+        sheet.name_groups();
+        for (id, label) in labels.into_iter().enumerate() {
+            if !sheet.check(id) {
+                return Err(PrintError::Mismatch(label));
+            }
+        }
+        if !sheet.check_arguments() {
+            return Err(PrintError::Mismatch("a named argument".into()));
+        }
+        Ok(Printing { sheet, ids })
+    }
+
+    /// `show`'s text with every entry in its printing form, and the where-list after it.
+    pub(crate) fn text(&self, show: &dyn Fn(Printer<'_>) -> String) -> String {
+        let mut out = show(&|e| self.sheet.text(self.id(e)));
+        let used = self.used();
+        let defs = self.sheet.definitions_text();
+        if !used.is_empty() {
+            out.push_str("\nwhere\n");
+            for (j, (name, definition)) in defs.into_iter().enumerate() {
+                if used.contains(&j) {
+                    let _ = writeln!(out, "  {name} = {definition}");
+                }
+            }
+        }
+        out
+    }
+
+    /// The names the entries use (a model's abbreviation that none uses is left out).
+    pub(crate) fn used(&self) -> BTreeSet<usize> {
+        let ids: Vec<usize> = self.ids.values().copied().collect();
+        self.sheet.names_used(&ids)
+    }
+
+    /// The sheet's id of an entry of the derivation.
+    pub(crate) fn id(&self, e: &Entry) -> usize {
+        self.ids[&address(e)]
+    }
+}
+
+/// Where an entry lives: which of the derivation's entries it is.
+fn address(e: &Entry) -> usize {
+    std::ptr::from_ref(e) as usize
+}
