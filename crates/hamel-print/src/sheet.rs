@@ -19,6 +19,8 @@ pub struct Sheet {
     pub(crate) names: Vec<Definition>,
     /// Each name's value, its definition expanded (computed once).
     pub(crate) values: Vec<Fraction>,
+    /// The last number given to a parameter group (`kappaN`) and to a function (`FN`).
+    numbers: [usize; 2],
     /// Atoms whose argument is printed by name (atom ↦ name; the name's value is the
     /// argument, checked by [`Sheet::check_arguments`]).
     pub(crate) arguments: BTreeMap<usize, usize>,
@@ -33,6 +35,7 @@ impl Sheet {
             names: Vec::new(),
             values: Vec::new(),
             arguments: BTreeMap::new(),
+            numbers: [0, 0],
         }
     }
 
@@ -219,8 +222,7 @@ impl Sheet {
         let first = self.names.len();
         let mut places = Vec::new();
         for c in chosen {
-            let index = self.names.len();
-            let definition = self.definition(&c.key, c.form, index);
+            let definition = self.definition(&c.key, c.form);
             self.values.push(c.value);
             self.names.push(definition);
             places.push(c.place);
@@ -387,7 +389,7 @@ impl Sheet {
     }
 
     /// The definition of the group `key` (printed as `form`), the `index`-th name.
-    pub(crate) fn definition(&self, key: &Key, form: Form, index: usize) -> Definition {
+    pub(crate) fn definition(&mut self, key: &Key, form: Form) -> Definition {
         let parameter = self.parameters_only(key);
         let args = if parameter {
             Vec::new()
@@ -395,25 +397,15 @@ impl Sheet {
             self.coordinates_in(key)
         };
         let stem = if parameter { "kappa" } else { "F" };
-        // The next number of this kind whose name no earlier name (the model's abbreviations
-        // among them) takes.
-        let taken = &self.names[..index];
-        let before = taken
-            .iter()
-            .filter(|d| d.args.is_empty() == parameter && !d.given)
-            .count();
-        let given: BTreeSet<&str> = taken
-            .iter()
-            .filter(|d| d.given)
-            .map(|d| d.name.as_str())
-            .collect();
-        let skipped = (1..=before + given.len())
-            .filter(|n| given.contains(format!("{stem}{n}").as_str()))
-            .count();
-        let name = (before + skipped + 1..)
-            .map(|n| format!("{stem}{n}"))
-            .find(|name| !given.contains(name.as_str()))
-            .expect("a free number");
+        // The next number of this kind whose name the model's abbreviations do not take.
+        let counter = &mut self.numbers[usize::from(!parameter)];
+        let name = loop {
+            *counter += 1;
+            let name = format!("{stem}{counter}");
+            if !self.names.iter().any(|d| d.given && d.name == name) {
+                break name;
+            }
+        };
         Definition {
             name,
             args,
@@ -427,10 +419,12 @@ impl Sheet {
         let mut seen = BTreeSet::new();
         for m in key.0.keys() {
             for &(i, _) in &m.0 {
-                self.atoms.get(i).expr.visit(&mut |e| {
-                    if let Expr::Sym(n) = e {
+                self.atoms.get(i).expr.visit(&mut |e| match e {
+                    Expr::Sym(n) | Expr::Der(n) => {
                         seen.insert(n.clone());
                     }
+                    Expr::Free { args, .. } => seen.extend(args.iter().cloned()),
+                    _ => {}
                 });
             }
         }

@@ -113,7 +113,7 @@ impl Sheet {
             return Some(index);
         }
         let index = self.names.len();
-        let definition = self.definition(&atoms, g.clone(), index);
+        let definition = self.definition(&atoms, g.clone());
         self.names.push(definition);
         self.values.push(value);
         Some(index)
