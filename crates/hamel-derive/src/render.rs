@@ -7,9 +7,11 @@ use std::fmt::Write;
 use crate::derivation::{Closed, Derivation, Entry, Form, Mat, StructuredForm};
 
 /// How an entry is written.
-pub type Printer<'a> = &'a dyn Fn(&Entry) -> String;
+/// `'e`: the entries' own lifetime, so a printer may keep them (hamel-print collects the
+/// entries shown, then prints them together).
+pub type Printer<'p, 'e> = &'p dyn Fn(&'e Entry) -> String;
 
-fn mat_text(out: &mut String, name: &str, m: &Mat, p: Printer<'_>) {
+fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
     if m.rows == 0 || m.cols == 0 {
         let _ = writeln!(out, "{name} = [] ({}×{})", m.rows, m.cols);
         return;
@@ -21,7 +23,7 @@ fn mat_text(out: &mut String, name: &str, m: &Mat, p: Printer<'_>) {
     }
 }
 
-fn list_text(out: &mut String, name: &str, v: &[Entry], p: Printer<'_>) {
+fn list_text<'e>(out: &mut String, name: &str, v: &'e [Entry], p: Printer<'_, 'e>) {
     let _ = writeln!(out, "{name} =");
     for (i, e) in v.iter().enumerate() {
         let _ = writeln!(out, "  ({}) {}", i + 1, p(e));
@@ -33,7 +35,7 @@ fn yes(b: bool) -> &'static str {
 }
 
 /// The closed form: Γ, Θ, δ, A_Γ, Q, the equations and the exact checks.
-fn closed_text(o: &mut String, d: &Derivation, c: &Closed, p: Printer<'_>) {
+fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_, 'e>) {
     let _ = writeln!(o, "δ = det[Z; α] = {}", p(&c.delta));
     let _ = writeln!(o, "singular set: {}", d.singular_set_text());
     mat_text(o, "Γ (q̇ = Γη)", &c.gamma, p);
@@ -107,7 +109,7 @@ fn closed_text(o: &mut String, d: &Derivation, c: &Closed, p: Printer<'_>) {
 }
 
 /// The structured form: what the equations are made of, and the certificate.
-fn structured_text(o: &mut String, d: &Derivation, st: &StructuredForm, p: Printer<'_>) {
+fn structured_text<'e>(o: &mut String, d: &'e Derivation, st: &StructuredForm, p: Printer<'_, 'e>) {
     let _ = writeln!(
         o,
         "U = {}",
@@ -146,7 +148,7 @@ impl Derivation {
     }
 
     /// The derivation as plain text, each entry written by `p`.
-    pub fn to_text_with(&self, p: Printer<'_>) -> String {
+    pub fn to_text_with<'e>(&'e self, p: Printer<'_, 'e>) -> String {
         let mut o = String::new();
         let _ = writeln!(o, "model {}: {}", self.model, self.title);
         let _ = writeln!(

@@ -36,18 +36,16 @@ impl Printing {
     ///
     /// # Errors
     /// [`PrintError`]: an entry that cannot be printed exactly.
-    pub(crate) fn of(
+    pub(crate) fn of<'e>(
         vocabulary: &Vocabulary,
         abbreviations: &[(&str, &Expr)],
-        show: &dyn Fn(Printer<'_>) -> String,
+        show: &dyn Fn(Printer<'_, 'e>) -> String,
     ) -> Result<Printing, PrintError> {
         // The entries shown, in order, each once (by address: the printer is called with
         // references into the data shown).
-        let shown = RefCell::new(Vec::new());
-        show(&|e| {
-            shown
-                .borrow_mut()
-                .push((address(e), e.expr.clone(), e.text.clone()));
+        let shown: RefCell<Vec<&'e Entry>> = RefCell::new(Vec::new());
+        show(&|e: &'e Entry| {
+            shown.borrow_mut().push(e);
             String::new()
         });
         let mut sheet = Sheet::new(vocabulary);
@@ -57,18 +55,18 @@ impl Printing {
         let mut ids = HashMap::new();
         let mut labels = Vec::new();
         let mut exprs = Vec::new();
-        for (at, expr, label) in shown.into_inner() {
-            if let hash_map::Entry::Vacant(v) = ids.entry(at) {
+        for e in shown.into_inner() {
+            if let hash_map::Entry::Vacant(v) = ids.entry(address(e)) {
                 v.insert(exprs.len());
-                exprs.push(expr);
-                labels.push(label);
+                exprs.push(&e.expr);
+                labels.push(&e.text);
             }
         }
-        sheet.add_all(&exprs)?;
+        sheet.add_all(exprs)?;
         sheet.name_groups();
         for (id, label) in labels.into_iter().enumerate() {
             if !sheet.check(id) {
-                return Err(PrintError::Mismatch(label));
+                return Err(PrintError::Mismatch(label.clone()));
             }
         }
         if !sheet.check_arguments() {
@@ -78,7 +76,7 @@ impl Printing {
     }
 
     /// `show`'s text with every entry in its printing form, and the where-list after it.
-    pub(crate) fn text(&self, show: &dyn Fn(Printer<'_>) -> String) -> String {
+    pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
         let mut out = show(&|e| self.sheet.text(self.id(e)));
         let used = self.used();
         let defs = self.sheet.definitions_text();

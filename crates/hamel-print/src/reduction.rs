@@ -14,8 +14,8 @@ use crate::printing::{PrintError, Printing};
 ///
 /// # Errors
 /// [`PrintError`]: an entry that cannot be printed exactly; nothing is returned then.
-pub fn text(
-    r: &Reduction,
+pub fn text<'r>(
+    r: &'r Reduction,
     parameters: &[String],
     abbreviations: &[(&str, &Expr)],
 ) -> Result<String, PrintError> {
@@ -27,6 +27,6 @@ pub fn text(
             .flat_map(|i| [format!("eta{i}"), format!("eta{i}_dot")])
             .collect(),
     };
-    let show = |p: hamel_derive::Printer<'_>| r.to_text_with(p);
+    let show = |p: hamel_derive::Printer<'_, 'r>| r.to_text_with(p);
     Ok(Printing::of(&vocabulary, abbreviations, &show)?.text(&show))
 }

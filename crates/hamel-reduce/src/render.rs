@@ -18,7 +18,7 @@ fn witness_line(w: &Witness) -> String {
 }
 
 /// (17)/(18) as text.
-fn structure_text(o: &mut String, st: &BlockStructure, p: Printer<'_>) {
+fn structure_text<'e>(o: &mut String, st: &'e BlockStructure, p: Printer<'_, 'e>) {
     let _ = writeln!(o, "\nBlock structure (17)/(18): v = {}", st.v);
     let _ = writeln!(o, "  block 1 (μ + v): {}", st.block1.join(", "));
     let _ = writeln!(
@@ -44,7 +44,7 @@ impl Reduction {
 
     /// The report as text, each entry of the block structure and of the reduced system
     /// written by `p`.
-    pub fn to_text_with(&self, p: Printer<'_>) -> String {
+    pub fn to_text_with<'e>(&'e self, p: Printer<'_, 'e>) -> String {
         let mut o = String::new();
         let _ = writeln!(
             o,
