@@ -6,10 +6,16 @@
 //! factors and the rational content pulled out; parameters written before functions, rationals
 //! as `\tfrac`, no parentheses around a negated product.
 //!
+//! A [`Sheet`] prints many expressions together and names, once, in a where-list, what recurs or
+//! is too wide for a line (κₙ, Fₙ(q…), or a model's `[abbreviations]`), as a paper does.
+//!
 //! **Inputs**: an [`Expr`](hamel_expr::Expr) in canonical form (as `hamel-derive` exports it) and a
-//! [`Vocabulary`] saying which names are parameters, coordinates and velocities.
+//! [`Vocabulary`] saying which names are parameters, coordinates and velocities; or a whole
+//! `Derivation` ([`derivation`]) or `Reduction` ([`reduction`]).
 //! **Outputs**: a [`Printed`] form, rendered as text ([`Printed::text`]) or LaTeX
-//! ([`Printed::latex`]), and back as an expression ([`Printed::to_expr`]).
+//! ([`Printed::latex`]), and back as an expression ([`Printed::to_expr`]); `hamel derive`'s text,
+//! JSON and LaTeX document ([`derivation::text`], [`derivation::json`], [`derivation::latex`]);
+//! `hamel reduce`'s text ([`reduction::text`]).
 //!
 //! **Invariant**: printing never decides anything. A printed form equals the canonical form it
 //! came from, exactly: both expand to the same polynomial in the atoms ([`Poly`], a canonical
