@@ -211,12 +211,12 @@ impl Sheet {
         })
     }
 
-    /// Names the groups that occur twice or more (up to a rational factor) across the
-    /// entries: parameter groups `kappa1`, `kappa2`, …, then functions of the coordinates
-    /// `F1`, `F2`, …, which may use the parameter names ([`Sheet::candidates`] says which and
-    /// in what order). Two passes over the groups, one to count, one to replace, each
-    /// computing the value of a group once, from its parts' values. Then the groups still too
-    /// wide for a line are named too ([`Sheet::name_wide`]).
+    /// Names the groups that occur twice or more across the entries (the same form, or a
+    /// rational multiple of a model's abbreviation): parameter groups `kappa1`, `kappa2`, …,
+    /// then functions of the coordinates `F1`, `F2`, …, which may use the parameter names.
+    /// Two passes over the groups, one to count, one to replace; only the recurring groups are
+    /// expanded. Then the groups still too wide for a line are named too
+    /// ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
         let (chosen, at) = self.candidates();
         let first = self.names.len();
