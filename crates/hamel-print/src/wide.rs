@@ -14,10 +14,10 @@ use crate::sheet::Sheet;
 pub const WIDE: usize = LINE / 2;
 
 impl Sheet {
-    /// Names every velocity-free group wider than `WIDE` (half a line) once rendered, inner groups first
-    /// (so a name's definition is itself made of narrow groups), in the entries and then in
-    /// the definitions (including those this adds). A group equal to a name's value takes
-    /// that name.
+    /// Names every velocity-free group wider than `WIDE` (half a line) once rendered, inner
+    /// groups first (so a name's definition is itself made of narrow groups), in the entries
+    /// and then in the definitions (including those this adds). A group equal to a name's
+    /// value takes that name.
     pub fn name_wide(&mut self) {
         let mut entries = std::mem::take(&mut self.entries);
         for (f, _) in &mut entries {
