@@ -137,7 +137,8 @@ pub(crate) trait Syntax {
     fn atom(&self, e: &Expr) -> String;
     fn times(&self) -> &'static str;
     fn group(&self, inner: &str) -> String;
-    fn quotient(&self, num: &str, den: &str) -> String;
+    /// `num / den`; `bare` says which of them reads unambiguously without parentheses.
+    fn quotient(&self, num: &str, den: &str, bare: (bool, bool)) -> String;
     fn name(&self, d: &Definition) -> String;
 }
 
@@ -168,8 +169,18 @@ impl Syntax for Text {
     fn group(&self, inner: &str) -> String {
         format!("({inner})")
     }
-    fn quotient(&self, num: &str, den: &str) -> String {
-        format!("({num})/({den})")
+    fn quotient(&self, num: &str, den: &str, (num_bare, den_bare): (bool, bool)) -> String {
+        let num = if num_bare {
+            num.to_string()
+        } else {
+            format!("({num})")
+        };
+        let den = if den_bare {
+            den.to_string()
+        } else {
+            format!("({den})")
+        };
+        format!("{num}/{den}")
     }
     fn name(&self, d: &Definition) -> String {
         if d.args.is_empty() {
@@ -197,7 +208,7 @@ impl Syntax for Latex {
     fn group(&self, inner: &str) -> String {
         format!("\\left({inner}\\right)")
     }
-    fn quotient(&self, num: &str, den: &str) -> String {
+    fn quotient(&self, num: &str, den: &str, _: (bool, bool)) -> String {
         format!("\\frac{{{num}}}{{{den}}}")
     }
     fn name(&self, d: &Definition) -> String {
@@ -280,7 +291,36 @@ fn unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> (bool, String) {
             (coef.is_negative(), parts.join(s.times()))
         }
         Form::Sum(_) => (false, s.group(&render(f, ctx, s))),
-        Form::Quotient(a, b) => (false, s.quotient(&render(a, ctx, s), &render(b, ctx, s))),
+        Form::Quotient(a, b) => {
+            let bare = (bare_numerator(a), bare_denominator(b));
+            (
+                false,
+                s.quotient(&render(a, ctx, s), &render(b, ctx, s), bare),
+            )
+        }
+    }
+}
+
+/// A numerator that needs no parentheses before `/`: a product with a positive coefficient
+/// (`a*b/c` reads as `(a*b)/c`).
+fn bare_numerator(f: &Form) -> bool {
+    matches!(f, Form::Product { coef, .. } if coef.is_positive())
+}
+
+/// A denominator that needs no parentheses after `/`: one atom or name, or a positive integer.
+fn bare_denominator(f: &Form) -> bool {
+    match f {
+        Form::Product { coef, factors } if factors.is_empty() => {
+            coef.is_integer() && coef.is_positive()
+        }
+        Form::Product { coef, factors } => {
+            coef.is_one()
+                && matches!(
+                    factors.as_slice(),
+                    [Factor::Atom { .. } | Factor::Name { .. }]
+                )
+        }
+        _ => false,
     }
 }
 

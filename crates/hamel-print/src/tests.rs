@@ -273,3 +273,22 @@ fn abbreviations_name_their_groups_up_to_a_factor() {
         .collect();
     assert_eq!(names, ["m", "kappa1", "kappa2"]);
 }
+
+/// A quotient's text has parentheses only where they are needed to read it back.
+#[test]
+fn quotients_have_parentheses_only_where_needed() {
+    let v = unicycle();
+    assert_eq!(
+        printed("R*cos(phi)/sin(theta)", &v).text(),
+        "R*cos(phi)/sin(theta)"
+    );
+    assert_eq!(
+        printed("R/(m_d*sin(theta))", &v).text(),
+        "R/(m_d*sin(theta))"
+    );
+    assert_eq!(
+        printed("(R + rho)/sin(theta)^2", &v).text(),
+        "(R + rho)/sin(theta)^2"
+    );
+    assert_eq!(printed("-4/(R + rho)", &v).text(), "(-4)/(R + rho)");
+}
