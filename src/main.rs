@@ -71,20 +71,7 @@ fn run(command: Command) -> Result<(), ModelError> {
             form,
             output,
         } => {
-            if only.is_some() && !matches!(format, Format::Latex) {
-                use clap::CommandFactory;
-                Cli::command()
-                    .error(
-                        clap::error::ErrorKind::ArgumentConflict,
-                        "--only chooses an object of the LaTeX output: use it with --format latex",
-                    )
-                    .exit();
-            }
-            let how = Rendering {
-                format,
-                fragment,
-                only,
-            };
+            let how = Rendering::new(format, fragment, only);
             derive(&model, eta.as_deref(), how, form, Output::new(output)?)
         }
         Command::Expand { model, output } => {
@@ -244,6 +231,26 @@ struct Rendering {
     format: Format,
     fragment: bool,
     only: Option<ObjectArg>,
+}
+
+impl Rendering {
+    /// The options as given; `--only` without `--format latex` is a usage error (exit 2).
+    fn new(format: Format, fragment: bool, only: Option<ObjectArg>) -> Rendering {
+        if only.is_some() && !matches!(format, Format::Latex) {
+            use clap::CommandFactory;
+            Cli::command()
+                .error(
+                    clap::error::ErrorKind::ArgumentConflict,
+                    "--only chooses an object of the LaTeX output: use it with --format latex",
+                )
+                .exit();
+        }
+        Rendering {
+            format,
+            fragment,
+            only,
+        }
+    }
 }
 
 fn derive(

@@ -226,30 +226,28 @@ fn derive_text_and_latex() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("\\begin{align*}"));
 }
 
+/// `hamel derive models/unicycle_rider.toml --eta velocities ARGS --output OUT`: what it wrote.
+fn derive_unicycle(out: &Path, args: &[&str]) -> String {
+    let mut all = vec![
+        "derive",
+        "models/unicycle_rider.toml",
+        "--eta",
+        "velocities",
+    ];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--output", out.to_str().unwrap()]);
+    let o = hamel(&all, None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::read_to_string(out).unwrap()
+}
+
 /// The text, the JSON and the LaTeX document of one derivation use the same names for the
 /// same groups (issue 22): the text's where-list is the JSON's, in order, and every name the
 /// LaTeX where-list defines is one of them, under the same number.
 #[test]
 fn derive_text_json_and_latex_share_their_names() {
     let dir = scratch("shared_names");
-    let run = |format: &str, file: &str| {
-        let out = dir.join(file);
-        let o = hamel(
-            &[
-                "derive",
-                "models/unicycle_rider.toml",
-                "--eta",
-                "velocities",
-                "--format",
-                format,
-                "--output",
-                out.to_str().unwrap(),
-            ],
-            None,
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-        std::fs::read_to_string(out).unwrap()
-    };
+    let run = |format: &str, file: &str| derive_unicycle(&dir.join(file), &["--format", format]);
     let text = run("text", "u.txt");
     let where_list: Vec<(String, String)> = text
         .split("\nwhere\n")
@@ -331,26 +329,8 @@ const PAPER_UNICYCLE_DEFINITIONS: &str = "where  $m = m_d + m_f + m_r$ ,  $I_d =
 /// entry of A is on one line.
 #[test]
 fn the_unicycles_a_with_its_names_is_at_most_twice_the_papers() {
-    let dir = scratch("unicycle_a");
-    let out = dir.join("a.tex");
-    let o = hamel(
-        &[
-            "derive",
-            "models/unicycle_rider.toml",
-            "--eta",
-            "velocities",
-            "--format",
-            "latex",
-            "--fragment",
-            "--only",
-            "a",
-            "--output",
-            out.to_str().unwrap(),
-        ],
-        None,
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let tex = std::fs::read_to_string(out).unwrap();
+    let out = scratch("unicycle_a").join("a.tex");
+    let tex = derive_unicycle(&out, &["--format", "latex", "--fragment", "--only", "a"]);
     let body: Vec<&str> = tex
         .lines()
         .filter(|l| !l.starts_with('%') && !l.contains("{align*}") && !l.contains("noindent"))

@@ -124,17 +124,15 @@ pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
         String::new()
     });
     let used = p.used();
-    let names = p
-        .sheet
-        .definitions()
-        .iter()
-        .zip(p.sheet.definitions_text())
-        .enumerate()
-        .filter(|(j, _)| used.contains(j))
-        .map(|(_, (d, (_, definition)))| NameJson {
-            name: d.name.clone(),
-            args: d.args.clone(),
-            definition,
+    let names = used
+        .into_iter()
+        .map(|j| {
+            let d = &p.sheet.definitions()[j];
+            NameJson {
+                name: d.name.clone(),
+                args: d.args.clone(),
+                definition: p.sheet.definition_text(j).1,
+            }
         })
         .collect();
     Ok(PrintedJson {

@@ -224,17 +224,14 @@ fn equations(sheet: &Sheet, heading: &str, rows: &[(String, usize)], zero: bool,
 
 /// The named groups, once, each broken over lines where it is long.
 pub(crate) fn where_list(sheet: &Sheet, used: &BTreeSet<usize>, o: &mut String) {
-    let defs = sheet.definitions_latex();
     if used.is_empty() {
         return;
     }
     let _ = writeln!(o, "\\noindent where\n\\begin{{align*}}");
     let mut lines = Vec::new();
-    for (j, (name, _)) in defs.iter().enumerate() {
-        if !used.contains(&j) {
-            continue;
-        }
-        let parts = sheet.definition_lines(j, LINE.saturating_sub(width(name)));
+    for &j in used {
+        let name = sheet.name_latex(j);
+        let parts = sheet.definition_lines(j, LINE.saturating_sub(width(&name)));
         for (k, p) in parts.into_iter().enumerate() {
             lines.push(if k == 0 {
                 format!("{name} &= {p}")

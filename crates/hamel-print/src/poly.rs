@@ -155,13 +155,6 @@ impl Poly {
         self.0.is_empty()
     }
 
-    /// `self + other`.
-    pub fn add(&self, other: &Poly) -> Poly {
-        let mut out = self.clone();
-        out.add_assign(other);
-        out
-    }
-
     /// `self += other`.
     pub fn add_assign(&mut self, other: &Poly) {
         for (m, c) in &other.0 {

@@ -79,13 +79,11 @@ impl Printing {
     pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
         let mut out = show(&|e| self.sheet.text(self.id(e)));
         let used = self.used();
-        let defs = self.sheet.definitions_text();
         if !used.is_empty() {
             out.push_str("\nwhere\n");
-            for (j, (name, definition)) in defs.into_iter().enumerate() {
-                if used.contains(&j) {
-                    let _ = writeln!(out, "  {name} = {definition}");
-                }
+            for j in used {
+                let (name, definition) = self.sheet.definition_text(j);
+                let _ = writeln!(out, "  {name} = {definition}");
             }
         }
         out

@@ -8,7 +8,7 @@ use num_traits::One;
 
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
-use crate::form::{Ctx, Definition, Factor, Form, Latex, Text, argument, render, to_expr};
+use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
 use crate::poly::{Fraction, Poly, PolyError};
 
 /// Expressions printed together with their where-list.
@@ -44,10 +44,7 @@ impl Sheet {
     /// # Errors
     /// An expression with no rational form over its atoms.
     pub fn add(&mut self, e: &Expr) -> Result<usize, PolyError> {
-        let canonical = Fraction::from_expr(e, &mut self.atoms)?.normalised();
-        let form = collect::fraction(&canonical, &self.atoms);
-        self.entries.push((form, canonical));
-        Ok(self.entries.len() - 1)
+        Ok(self.add_all([e])?[0])
     }
 
     /// Names the parameter expression `e` `name` (a model's `[abbreviations]`): wherever
@@ -74,19 +71,9 @@ impl Sheet {
     fn given_forms(&self) -> Vec<(Form, usize, Rational)> {
         let mut out = Vec::new();
         for (j, _) in self.names.iter().enumerate().filter(|(_, d)| d.given) {
-            let value = &self.values[j];
-            let Some(den) = value.den.as_constant() else {
-                continue;
-            };
-            if value.num.0.len() < 2 {
-                continue;
+            if let Some((c, rest)) = key(&self.values[j]) {
+                out.push((collect::poly(&rest, &self.atoms), j, c.recip()));
             }
-            let (c, m, rest) = collect::content(&value.num);
-            if !m.0.is_empty() {
-                continue;
-            }
-            let c = c / den.to_rational();
-            out.push((collect::poly(&rest, &self.atoms), j, c.recip()));
         }
         out
     }
@@ -152,19 +139,20 @@ impl Sheet {
 
     /// The where-list: `(name with arguments, definition)` in text.
     pub fn definitions_text(&self) -> Vec<(String, String)> {
-        self.definitions_in(&Text)
-    }
-
-    /// The where-list in LaTeX.
-    pub fn definitions_latex(&self) -> Vec<(String, String)> {
-        self.definitions_in(&Latex)
-    }
-
-    fn definitions_in(&self, s: &dyn crate::form::Syntax) -> Vec<(String, String)> {
-        self.names
-            .iter()
-            .map(|d| (s.name(d), render(&d.form, self.ctx(), s)))
+        (0..self.names.len())
+            .map(|j| self.definition_text(j))
             .collect()
+    }
+
+    /// Name `j` (with its arguments) and its definition in the model syntax.
+    pub fn definition_text(&self, j: usize) -> (String, String) {
+        let d = &self.names[j];
+        (Text.name(d), render(&d.form, self.ctx(), &Text))
+    }
+
+    /// Name `j` with its arguments, in LaTeX.
+    pub fn name_latex(&self, j: usize) -> String {
+        Latex.name(&self.names[j])
     }
 
     /// The where-list's definitions, in order.
