@@ -179,6 +179,71 @@ fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
 
 /// The solved form checks the pivots of A_Γ = L D Lᵀ: with a negative mass A_Γ is not positive
 /// definite, and the generated code says so instead of returning accelerations.
+/// `energies` and `residuals` (four states at a time where the core has a closed form, with
+/// the lanes' own sine and cosine; one by one otherwise) agree with `energy` and `residual` at
+/// each state, over a number of states that leaves a partial group.
+#[test]
+fn monitors_of_many_states_agree_with_one_at_a_time() {
+    let mut rng = ChaCha8Rng::seed_from_u64(45);
+    for core in MODELS {
+        let (ell, sigma) = (core.dims.ell, core.dims.sigma);
+        let n = 37;
+        let rows: Vec<f64> = (0..n * (ell + sigma))
+            .map(|i| {
+                rng.random_range(if i % (ell + sigma) < ell {
+                    -3.0..3.0
+                } else {
+                    -2.0..2.0
+                })
+            })
+            .collect();
+        let (mut energies, mut residuals) = (vec![None; n], vec![None; n]);
+        (core.energies)(&rows, &mut energies);
+        (core.residuals)(&rows, &mut residuals);
+        for (j, y) in rows.chunks_exact(ell + sigma).enumerate() {
+            let (q, eta) = y.split_at(ell);
+            let one = (core.energy)(q, eta).ok();
+            assert_eq!(
+                energies[j].is_some(),
+                one.is_some(),
+                "{} state {j}",
+                core.model
+            );
+            if let (Some(a), Some(b)) = (energies[j], one) {
+                // A mix-up of lanes, rows or components would differ in the first digits; the
+                // lanes' sine and cosine (within an ulp of libm's, hamel-runtime's tests) move
+                // the value by rounding, which random states (some near a singularity)
+                // amplify up to about 1e-12 here.
+                let allow = 1e-10 * (1.0 + b.abs());
+                assert!(
+                    (a - b).abs() <= allow,
+                    "{} E: {a} vs {b}, allowed {allow:e}",
+                    core.model
+                );
+            }
+            let one = (core.residual)(q, eta).ok();
+            assert_eq!(
+                residuals[j].is_some(),
+                one.is_some(),
+                "{} state {j}",
+                core.model
+            );
+            // Both are rounding of the speeds q̇ = Γη (αΓ = 0 exactly).
+            let speed = (core.full)(q, eta).map_or(f64::INFINITY, |r| {
+                r.q_dot.iter().fold(1.0_f64, |m, v| m.max(v.abs()))
+            });
+            if let (Some(a), Some(b)) = (residuals[j], one) {
+                let bound = 1e-13 * speed;
+                assert!(
+                    a <= bound && b <= bound,
+                    "{} ‖αΓη‖: {a:e}, {b:e} (q̇ up to {speed:e})",
+                    core.model
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn the_solved_form_refuses_an_indefinite_a_gamma() {
     use hamel_models::{bar_blade__paper as bar, knife__paper as knife};

@@ -28,7 +28,8 @@ use std::time::Instant;
 
 use hamel_generated::{
     COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM, REDUCED_STATE,
-    energy, project, reduced_into_with, reduced_jacobian_with, residual_max,
+    energy, energy_many, project, reduced_into_with, reduced_jacobian_with, residual_max,
+    residual_max_many,
 };
 use hamel_sim::{
     Ensemble, Method, OdeSystem, Options, Shard, Solution, States, SystemError, integrate_many,
@@ -101,6 +102,20 @@ impl Reduced {
         }
         q
     }
+
+    /// The full states (q, η) of states of this system, one after another: `rows` itself
+    /// when the state is (q, η), every coordinate kept in its order.
+    fn full_rows<'a>(&self, rows: &'a [f64]) -> std::borrow::Cow<'a, [f64]> {
+        if KEPT.len() == DIMS.ell && KEPT.iter().enumerate().all(|(i, &k)| i == k) {
+            return rows.into();
+        }
+        let mut full = Vec::with_capacity(rows.len() / REDUCED_DIM * (DIMS.ell + DIMS.sigma));
+        for y in rows.chunks_exact(REDUCED_DIM) {
+            full.extend(self.full_q(y));
+            full.extend(&y[KEPT.len()..]);
+        }
+        full.into()
+    }
 }
 
 impl OdeSystem for Reduced {
@@ -122,6 +137,18 @@ impl OdeSystem for Reduced {
             return None;
         }
         residual_max(&self.full_q(y), &y[KEPT.len()..], &self.prep.p).ok()
+    }
+    /// Four outputs at a time (`energy_many`); the default of None when not requested.
+    fn energies(&self, _t: &[f64], rows: &[f64], out: &mut [Option<f64>]) {
+        if self.energy {
+            energy_many(&self.full_rows(rows), &self.prep.p, out);
+        }
+    }
+    /// Four outputs at a time (`residual_max_many`), as [`Self::constraint_residual`].
+    fn constraint_residuals(&self, _t: &[f64], rows: &[f64], out: &mut [Option<f64>]) {
+        if self.residual && ELIMINATED.is_empty() {
+            residual_max_many(&self.full_rows(rows), &self.prep.p, out);
+        }
     }
     /// Back onto the holonomic constraints, when the state holds every coordinate they
     /// mention (their dependent coordinates among them).

@@ -10,7 +10,7 @@
 use std::io::Read;
 
 use hamel_generated::{
-    COORDINATES, DIMS, KEPT, Parameters, Prepared, REDUCED_DIM, energy, full_into_with,
+    COORDINATES, DIMS, KEPT, Parameters, Prepared, REDUCED_DIM, energy, energy_many, full_into_with,
     reduced_into_with, reduced_jacobian_with,
 };
 use hamel_sim::{Method, OdeSystem, Options, SystemError};
@@ -38,6 +38,9 @@ impl OdeSystem for Full {
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
         energy(&y[..DIMS.ell], &y[DIMS.ell..], &self.0.p).ok()
+    }
+    fn energies(&self, _t: &[f64], rows: &[f64], out: &mut [Option<f64>]) {
+        energy_many(rows, &self.0.p, out);
     }
 }
 

@@ -1117,6 +1117,9 @@ struct Code {
     energy_part: (String, &'static str),
     /// The body of `residual_from`, and what it computes.
     residual_part: (String, &'static str),
+    /// Whether `energy_from` and `residual_from` are straight-line code (a closed form), so
+    /// that `energy_many` and `residual_max_many` evaluate them four states at a time.
+    monitors_in_lanes: bool,
     /// h(q) of the holonomic constraints.
     holonomic: Tape,
     ops_trees: usize,
@@ -1217,6 +1220,7 @@ impl Code {
             alpha,
             energy_part,
             residual_part,
+            monitors_in_lanes: d.closed().is_some(),
             ops_trees: exprs.iter().map(|e| e.tree_operations()).sum(),
             ops_shared: tape.operation_count(),
             solved_ops: solved.as_ref().map_or(0, |(_, t)| t.operation_count()),
@@ -1308,6 +1312,15 @@ impl Code {
             ("energy_doc", self.energy_part.1.to_string()),
             ("residual_body", self.residual_part.0.clone()),
             ("residual_doc", self.residual_part.1.to_string()),
+            ("many_doc", many_doc(self.monitors_in_lanes).into()),
+            (
+                "energy_many_body",
+                many_body(self.monitors_in_lanes, Monitor::Energy),
+            ),
+            (
+                "residual_many_body",
+                many_body(self.monitors_in_lanes, Monitor::Residual),
+            ),
             (
                 "holonomic_body",
                 straight_line(&self.holonomic, &full_slots),
@@ -1437,6 +1450,64 @@ fn residual_part(
     }
     body += "    Ok(())\n";
     Ok((body, "straight-line code of α(q)Γ(q)η from the closed form"))
+}
+
+/// A monitor the generated code evaluates at many states at once.
+#[derive(Clone, Copy)]
+enum Monitor {
+    /// `energy_from`: E = ½ηᵀA_Γη − U.
+    Energy,
+    /// `residual_from`: ‖α(q)Γ(q)η‖∞.
+    Residual,
+}
+
+/// How `energy_many` and `residual_max_many` evaluate, for their docs.
+fn many_doc(lanes: bool) -> &'static str {
+    if lanes {
+        "the closed form four states at a time (`runtime::over_rows`: vector instructions, \
+         AVX2 where the CPU has it, the same bits as one by one)"
+    } else {
+        "one state at a time (no closed form: the structured evaluation pivots on each \
+         state's own values)"
+    }
+}
+
+/// The body of `energy_many` or `residual_max_many`: with a closed form, the straight-line
+/// code over `runtime::Lanes` (a [`hamel_runtime::LaneFn`] defined in the body); without, the
+/// f64 function row by row.
+fn many_body(lanes: bool, monitor: Monitor) -> String {
+    let name = match monitor {
+        Monitor::Energy => "energy",
+        Monitor::Residual => "residual_max",
+    };
+    let one = |p: &str| format!("{name}(&y[..DIMS.ell], &y[DIMS.ell..], {p}).ok()");
+    if !lanes {
+        return format!(
+            "    let w = DIMS.ell + DIMS.sigma;\n    \
+             for (o, y) in out.iter_mut().zip(rows.chunks_exact(w)) {{\n        \
+             *o = {}.filter(|v| v.is_finite());\n    }}\n",
+            one("p")
+        );
+    }
+    let at = match monitor {
+        Monitor::Energy => "energy_from(&x[..DIMS.ell], &x[DIMS.ell..], self.0)",
+        Monitor::Residual => {
+            "let mut r = [runtime::Lanes::default(); DIMS.mu];\n            \
+             residual_from(&x[..DIMS.ell], &x[DIMS.ell..], self.0, &mut r)?;\n            \
+             Ok(runtime::abs_max(&r))"
+        }
+    };
+    format!(
+        "    struct Monitor<'a>(&'a Parameters);\n    \
+         impl runtime::LaneFn for Monitor<'_> {{\n        \
+         #[inline(always)]\n        \
+         fn at(&self, x: &[runtime::Lanes]) -> Result<runtime::Lanes, EvalError> {{\n            \
+         {at}\n        }}\n        \
+         fn one(&self, y: &[f64]) -> Option<f64> {{\n            {}\n        }}\n    \
+         }}\n    \
+         runtime::over_rows::<{{ DIMS.ell + DIMS.sigma }}, _>(&Monitor(p), rows, out);\n",
+        one("self.0")
+    )
 }
 
 /// Above this many shared operations of the ingredients, the generated code wraps its wide

@@ -103,6 +103,11 @@ pub struct Core {
     pub energy: fn(&[f64], &[f64]) -> Result<f64, EvalError>,
     /// ‖α(q)Γ(q)η‖∞ at (q, η).
     pub residual: fn(&[f64], &[f64]) -> Result<f64, EvalError>,
+    /// [`Core::energy`] at full states (q, η) one after another, one entry each (None where
+    /// it fails): four at a time where the core has a closed form.
+    pub energies: fn(&[f64], &mut [Option<f64>]),
+    /// [`Core::residual`] at full states, as [`Core::energies`].
+    pub residuals: fn(&[f64], &mut [Option<f64>]),
     /// Operation counts (trees, shared).
     pub operations: (usize, usize),
 }
@@ -138,6 +143,8 @@ macro_rules! core {
             constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),
             energy: |q, e| $m::energy(q, e, &$m::Parameters::default()),
             residual: |q, e| $m::residual_max(q, e, &$m::Parameters::default()),
+            energies: |rows, out| $m::energy_many(rows, &$m::Parameters::default(), out),
+            residuals: |rows, out| $m::residual_max_many(rows, &$m::Parameters::default(), out),
             operations: $m::OPERATIONS,
         }
     };

@@ -2,7 +2,8 @@
 //!
 //! **Job**: the arithmetic every numeric part of hamel shares: the [`Scalar`] types (f64,
 //! dual numbers [`Dual`] and [`DualN`] for exact derivatives, double-double [`DD`]), LU with
-//! partial pivoting over any scalar ([`lu`]), and the structured Boltzmann–Hamel right-hand
+//! partial pivoting over any scalar ([`lu`]), [`Lanes`] (four f64 evaluated together, for
+//! monitors over many states: [`over_rows`]), and the structured Boltzmann–Hamel right-hand
 //! side (6), (9), (11) assembled from the ingredients Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q
 //! ([`Structured`]), with its f64 error estimate.
 //!
@@ -22,6 +23,7 @@ mod dd;
 mod dual;
 mod error;
 mod fixed;
+mod lanes;
 pub mod lu;
 mod scalar;
 mod structured;
@@ -31,6 +33,7 @@ pub use dd::DD;
 pub use dual::{Dual, DualN};
 pub use error::{EvalError, cold_error, finite};
 pub use fixed::{Buffers, Fixed, Precision, Rhs, Storage};
+pub use lanes::{LANES, LaneFn, Lanes, abs_max, max_abs, over_rows};
 pub use lu::{Lu, solve_system};
 pub use scalar::{RationalParts, Scalar, widen};
 pub use structured::{DOUBLE_DOUBLE_ABOVE, Dims, Failure, Layout, Structured};

@@ -495,7 +495,8 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
 /// fails early does not hold memory for outputs it never reached).
 const RESERVED_OUTPUTS: usize = 1 << 16;
 
-/// Collects the outputs with their monitored invariants.
+/// Collects the outputs; their monitored invariants are evaluated all at once when the run
+/// ends ([`OdeSystem::energies`], [`OdeSystem::constraint_residuals`]).
 struct Recorder<'a, S: ?Sized> {
     system: &'a S,
     energy0: Option<f64>,
@@ -507,14 +508,15 @@ impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
     /// them allocates nothing.
     fn new(system: &'a S, t0: f64, y0: &[f64], outputs: usize) -> Self {
         let outputs = outputs.min(RESERVED_OUTPUTS);
+        // Evaluated as the outputs will be, so that an output at t0 has drift 0 exactly.
+        let mut energy0 = [None];
+        system.energies(&[t0], y0, &mut energy0);
         Recorder {
             system,
-            energy0: finite(system.energy(t0, y0)),
+            energy0: finite(energy0[0]),
             solution: Solution {
                 t: Vec::with_capacity(outputs),
                 y: States::with_capacity(y0.len(), outputs),
-                energy: Vec::with_capacity(outputs),
-                constraint: Vec::with_capacity(outputs),
                 ..Solution::default()
             },
         }
@@ -522,39 +524,48 @@ impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
 
     #[inline]
     fn push(&mut self, t: f64, y: &[f64]) {
-        let solution = &mut self.solution;
-        solution.t.push(t);
-        solution.y.push(y);
-        solution.energy.push(finite(self.system.energy(t, y)));
-        solution
-            .constraint
-            .push(finite(self.system.constraint_residual(t, y)));
+        self.solution.t.push(t);
+        self.solution.y.push(y);
     }
 
-    /// The solution with `stats` completed by the invariant drift.
+    /// The solution with its monitors evaluated at every output, and `stats` completed by the
+    /// invariant drift.
     fn finish(self, mut stats: Stats, complete: bool) -> Solution {
-        let solution = self.solution;
-        stats.energy_drift = self.energy0.and_then(|e0| {
-            let scale = e0.abs().max(f64::MIN_POSITIVE);
-            solution
-                .energy
-                .iter()
-                .flatten()
-                .map(|e| (e - e0).abs() / scale)
-                .reduce(f64::max)
-        });
-        stats.constraint_drift = solution
-            .constraint
-            .iter()
-            .flatten()
-            .map(|r| r.abs())
-            .reduce(f64::max);
+        let mut solution = self.solution;
+        let (t, rows) = (&solution.t, solution.y.as_flat());
+        solution.energy.resize(t.len(), None);
+        self.system.energies(t, rows, &mut solution.energy);
+        solution.constraint.resize(t.len(), None);
+        self.system
+            .constraint_residuals(t, rows, &mut solution.constraint);
+        // max |E − E0| / scale: the largest difference divided once (division is monotone).
+        let e0 = self.energy0;
+        let energy = keep_finite(&mut solution.energy, |e| (e - e0.unwrap_or(e)).abs());
+        let scale = e0.map(|e0| e0.abs().max(f64::MIN_POSITIVE));
+        stats.energy_drift = energy.zip(scale).map(|(d, scale)| d / scale);
+        stats.constraint_drift = keep_finite(&mut solution.constraint, f64::abs);
         Solution {
             stats,
             complete,
             ..solution
         }
     }
+}
+
+/// Keeps the finite values (None for the others) and returns the largest `of(v)` over them,
+/// `of(v)` ≥ 0 (four running maxima, so that the comparisons do not wait on each other).
+#[inline]
+fn keep_finite(values: &mut [Option<f64>], of: impl Fn(f64) -> f64) -> Option<f64> {
+    let mut largest = [-1.0_f64; 4];
+    for group in values.chunks_mut(4) {
+        for (m, v) in largest.iter_mut().zip(group) {
+            *v = finite(*v);
+            let d = v.map_or(-1.0, &of);
+            *m = if d > *m { d } else { *m };
+        }
+    }
+    let m = largest.into_iter().fold(-1.0, f64::max);
+    (m >= 0.0).then_some(m)
 }
 
 #[inline]

@@ -42,6 +42,27 @@ pub trait OdeSystem {
         None
     }
 
+    /// [`energy`](Self::energy) at many states at once, as the integrators ask for it after
+    /// a run: `rows` holds the states one after another ([`dim`](Self::dim) values each),
+    /// `t` their times, `out` one entry a state. The default evaluates them one by one; a
+    /// system that evaluates several states together faster (the generated cores: four at a
+    /// time in vector registers) overrides it.
+    fn energies(&self, t: &[f64], rows: &[f64], out: &mut [Option<f64>]) {
+        let states = rows.chunks_exact(self.dim());
+        for ((o, &t), y) in out.iter_mut().zip(t).zip(states) {
+            *o = self.energy(t, y);
+        }
+    }
+
+    /// [`constraint_residual`](Self::constraint_residual) at many states at once, as
+    /// [`energies`](Self::energies).
+    fn constraint_residuals(&self, t: &[f64], rows: &[f64], out: &mut [Option<f64>]) {
+        let states = rows.chunks_exact(self.dim());
+        for ((o, &t), y) in out.iter_mut().zip(t).zip(states) {
+            *o = self.constraint_residual(t, y);
+        }
+    }
+
     /// Optional projection onto a manifold the exact solution never leaves (holonomic
     /// constraints h(q) = 0), called after every accepted step: move `y` onto it and return
     /// the residual found before moving (for instance max |h_i|), or 0 when `y` was left

@@ -443,7 +443,8 @@ pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> 
     Ok(e)
 }
 
-/// The body of [`energy`].
+/// The body of [`energy`] and [`energy_many`].
+#[inline(always)]
 fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
     let _ = (q, eta, p);
     let t0 = eta[0];
@@ -487,6 +488,7 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 }
 
 /// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by straight-line code of α(q)Γ(q)η from the closed form.
+#[inline(always)]
 fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
     let _ = (q, eta, p, &out);
     let t0 = q[2];
@@ -505,7 +507,40 @@ fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -
 pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
     let mut r = [0.0; DIMS.mu];
     residual_from(q, eta, p, &mut r)?;
-    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
+    Ok(r.iter().fold(0.0, |m, &x| runtime::max_abs(m, x)))
+}
+
+/// [`energy`] at many full states (q, η), one after another in `rows`: `out[j]` that of the
+/// j-th, None where it fails or is not finite; the closed form four states at a time (`runtime::over_rows`: vector instructions, AVX2 where the CPU has it, the same bits as one by one).
+pub fn energy_many(rows: &[f64], p: &Parameters, out: &mut [Option<f64>]) {
+    struct Monitor<'a>(&'a Parameters);
+    impl runtime::LaneFn for Monitor<'_> {
+        #[inline(always)]
+        fn at(&self, x: &[runtime::Lanes]) -> Result<runtime::Lanes, EvalError> {
+            energy_from(&x[..DIMS.ell], &x[DIMS.ell..], self.0)
+        }
+        fn one(&self, y: &[f64]) -> Option<f64> {
+            energy(&y[..DIMS.ell], &y[DIMS.ell..], self.0).ok()
+        }
+    }
+    runtime::over_rows::<{ DIMS.ell + DIMS.sigma }, _>(&Monitor(p), rows, out);
+}
+
+/// [`residual_max`] at many full states (q, η), as [`energy_many`].
+pub fn residual_max_many(rows: &[f64], p: &Parameters, out: &mut [Option<f64>]) {
+    struct Monitor<'a>(&'a Parameters);
+    impl runtime::LaneFn for Monitor<'_> {
+        #[inline(always)]
+        fn at(&self, x: &[runtime::Lanes]) -> Result<runtime::Lanes, EvalError> {
+            let mut r = [runtime::Lanes::default(); DIMS.mu];
+            residual_from(&x[..DIMS.ell], &x[DIMS.ell..], self.0, &mut r)?;
+            Ok(runtime::abs_max(&r))
+        }
+        fn one(&self, y: &[f64]) -> Option<f64> {
+            residual_max(&y[..DIMS.ell], &y[DIMS.ell..], self.0).ok()
+        }
+    }
+    runtime::over_rows::<{ DIMS.ell + DIMS.sigma }, _>(&Monitor(p), rows, out);
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and

@@ -4288,7 +4288,8 @@ pub fn energy(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> 
     Ok(e)
 }
 
-/// The body of [`energy`].
+/// The body of [`energy`] and [`energy_many`].
+#[inline(always)]
 fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalError> {
     Ok(structured_unchecked(q, eta, p, false)?.energy)
 }
@@ -4593,6 +4594,7 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 }
 
 /// α(q)Γ(q)η at (q, η), the constraint residual of the velocities q̇ = Γη, by α times the structured evaluation's q̇.
+#[inline(always)]
 fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
     let r = structured_unchecked(q, eta, p, false)?;
     let mut a = [S::constant(0.0); DIMS.mu * DIMS.ell];
@@ -4608,7 +4610,24 @@ fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -
 pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
     let mut r = [0.0; DIMS.mu];
     residual_from(q, eta, p, &mut r)?;
-    Ok(r.iter().fold(0.0_f64, |m, x| m.max(x.abs())))
+    Ok(r.iter().fold(0.0, |m, &x| runtime::max_abs(m, x)))
+}
+
+/// [`energy`] at many full states (q, η), one after another in `rows`: `out[j]` that of the
+/// j-th, None where it fails or is not finite; one state at a time (no closed form: the structured evaluation pivots on each state's own values).
+pub fn energy_many(rows: &[f64], p: &Parameters, out: &mut [Option<f64>]) {
+    let w = DIMS.ell + DIMS.sigma;
+    for (o, y) in out.iter_mut().zip(rows.chunks_exact(w)) {
+        *o = energy(&y[..DIMS.ell], &y[DIMS.ell..], p).ok().filter(|v| v.is_finite());
+    }
+}
+
+/// [`residual_max`] at many full states (q, η), as [`energy_many`].
+pub fn residual_max_many(rows: &[f64], p: &Parameters, out: &mut [Option<f64>]) {
+    let w = DIMS.ell + DIMS.sigma;
+    for (o, y) in out.iter_mut().zip(rows.chunks_exact(w)) {
+        *o = residual_max(&y[..DIMS.ell], &y[DIMS.ell..], p).ok().filter(|v| v.is_finite());
+    }
 }
 
 /// The reduced right-hand side: x = (kept q, η) ↦ (their rates), see the module doc and
