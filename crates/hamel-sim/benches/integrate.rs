@@ -12,6 +12,9 @@
 //! * `monitors/<scene>/dop853-<tol>/<which>`: the run with every output and the monitors a
 //!   scene may request — none, the energy, the constraint residual ‖α(q)Γ(q)η‖∞, both — each
 //!   evaluated at every output by the core's own functions, as `hamel simulate` does.
+//! * `monitors/<scene>/dop853-<tol>/<energy|residual>-alone`: those monitors alone over that
+//!   run's outputs (`Core::energies`, `Core::residuals`, as the recorder calls them after a
+//!   run), so that their share of a run is read without the noise of comparing two runs.
 //! * `integrate/still/dop853/101-outputs`: ẏ = 0 in five dimensions, one step: the fixed cost
 //!   of a run with 101 outputs.
 //!
@@ -255,6 +258,17 @@ fn monitors(c: &mut Criterion) {
                     })
                 });
             }
+            // The monitors alone, as the recorder calls them after the run: over the run's own
+            // outputs (what they add to a run, without the noise of two whole runs).
+            let run = integrate(&case.system(), Method::Dop853, 0.0, case.y0, &ts, &o).unwrap();
+            let rows = run.y.as_flat();
+            let core = case.system().0;
+            let mut out = vec![None; run.t.len()];
+            for (name, batch) in [("energy", core.energies), ("residual", core.residuals)] {
+                group.bench_function(format!("dop853-{tol:e}/{name}-alone"), |b| {
+                    b.iter(|| batch(black_box(rows), &mut out))
+                });
+            }
         }
         group.finish();
     }
@@ -315,17 +329,23 @@ fn summary() {
 /// What each monitor adds to a run, from this run's estimates.
 fn monitors_summary() {
     println!("\nWhat a requested monitor costs (every output; run time, and over no monitor)");
-    println!("| scene | tol | none | energy | residual | both |");
-    println!("|---|---|---|---|---|---|");
+    println!(
+        "| scene | tol | none | energy | residual | both | energy alone, of none | residual alone, of none |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
     for case in &CASES {
         for tol in TOLERANCES {
             let id = |m: &str| estimate(&format!("monitors_{}/dop853-{tol:e}_{m}", case.name));
             let Some(none) = id("none") else { continue };
-            let cells: Vec<String> = MONITORS[1..]
+            let mut cells: Vec<String> = MONITORS[1..]
                 .iter()
                 .filter_map(|(m, _, _)| id(m))
                 .map(|t| format!("{:.2} µs ({:+.1} %)", t * 1e6, (t / none - 1.0) * 100.0))
                 .collect();
+            for m in ["energy-alone", "residual-alone"] {
+                let t = id(m).unwrap_or(f64::NAN);
+                cells.push(format!("{:.2} µs ({:.1} %)", t * 1e6, t / none * 100.0));
+            }
             println!(
                 "| {} | {tol:e} | {:.2} µs | {} |",
                 case.name,

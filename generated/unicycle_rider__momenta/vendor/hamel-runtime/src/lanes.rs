@@ -211,11 +211,18 @@ const REDUCED_UP_TO: f64 = 1_647_099.0;
 /// kernels, the others (large or not finite) by `libm::sincos`.
 #[inline(always)]
 pub fn sin_cos(x: Lanes) -> (Lanes, Lanes) {
-    if x.0.iter().all(|v| v.abs() <= REDUCED_UP_TO) {
+    if every(x.map(|v| v.abs() - REDUCED_UP_TO), |d| d <= 0.0) {
         return sin_cos_reduced(x);
     }
     let both = x.0.map(libm::sincos);
     (Lanes(both.map(|b| b.0)), Lanes(both.map(|b| b.1)))
+}
+
+/// Whether `test` holds in every lane, tested in all of them (no early exit, so that the
+/// compiler compares the lanes at once).
+#[inline(always)]
+fn every(x: Lanes, test: impl Fn(f64) -> bool) -> bool {
+    x.0.iter().fold(true, |all, &v| all & test(v))
 }
 
 /// [`sin_cos`] for |x| ≤ [`REDUCED_UP_TO`] in every lane, written lane by lane over arrays
@@ -264,8 +271,8 @@ fn reduce(x: Lanes) -> ([u64; LANES], Lanes, Lanes) {
     let r1 = x - n * c(PIO2_1);
     let w = n * c(PIO2_1T);
     let y0 = r1 - w;
-    let cancelled = (0..LANES).any(|i| y0.0[i].abs() < x.0[i].abs() * (1.0 / 65_536.0));
-    if !cancelled {
+    let kept = y0.zip(x, |y0, x| y0.abs() - x.abs() * (1.0 / 65_536.0));
+    if every(kept, |d| d >= 0.0) {
         return (k, y0, (r1 - y0) - w);
     }
     let (r2, e2) = two_diff(r1, n * c(PIO2_2));

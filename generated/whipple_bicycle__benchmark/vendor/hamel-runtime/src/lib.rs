@@ -2,7 +2,8 @@
 //!
 //! **Job**: the arithmetic every numeric part of hamel shares: the [`Scalar`] types (f64,
 //! dual numbers [`Dual`] and [`DualN`] for exact derivatives, double-double [`DD`]), LU with
-//! partial pivoting over any scalar ([`lu`]), and the structured Boltzmann–Hamel right-hand
+//! partial pivoting over any scalar ([`lu`]), [`Lanes`] (four f64 evaluated together, for
+//! monitors over many states: [`over_rows`]), and the structured Boltzmann–Hamel right-hand
 //! side (6), (9), (11) assembled from the ingredients Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q
 //! ([`Structured`]), with its f64 error estimate.
 //!
