@@ -1096,6 +1096,48 @@ fn simulate_with_a_request_writes_only_that_and_agrees_with_the_closed_form() {
     );
 }
 
+/// A requested constraint residual is a column at every output (JSON and CSV), rounding only
+/// (αΓ = 0), and its largest value is the reported drift.
+#[test]
+fn simulate_writes_a_requested_constraint_residual_at_every_output() {
+    let dir = scratch("simulate_residual");
+    let scene = knife_scene(
+        &dir,
+        "k.toml",
+        "request = [\"theta\", \"constraint_residual\"]",
+        "",
+    );
+    let file = dir.join("k.json");
+    let args = [
+        "simulate",
+        scene.to_str().unwrap(),
+        "--format",
+        "json",
+        "--output",
+    ];
+    let o = hamel(&[&args[..], &[file.to_str().unwrap()]].concat(), None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let residual: Vec<f64> = v["constraint_residual"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no constraint_residual in {v}"))
+        .iter()
+        .map(|r| r.as_f64().unwrap())
+        .collect();
+    assert_eq!(residual.len(), v["t"].as_array().unwrap().len());
+    assert!(
+        residual.iter().all(|r| (0.0..1e-15).contains(r)),
+        "{residual:?}"
+    );
+    let largest = residual.iter().copied().fold(0.0, f64::max);
+    assert_eq!(v["stats"]["constraint_drift"].as_f64(), Some(largest));
+    let o = hamel(&["simulate", scene.to_str().unwrap()], None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = String::from_utf8_lossy(&o.stdout);
+    assert!(csv.contains("\nt,theta,constraint_residual\n"), "{csv}");
+}
+
 #[test]
 fn a_bad_request_or_accuracy_is_an_error_naming_the_scene() {
     let dir = scratch("simulate_bad_request");

@@ -24,6 +24,10 @@ pub struct Trajectory {
     /// The energy (absent when not requested).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub energy: Option<Vec<Option<f64>>>,
+    /// ‖α(q)q̇‖∞ at the output times (absent when not requested; null where the state holds
+    /// too few coordinates to evaluate it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub constraint_residual: Option<Vec<Option<f64>>>,
     /// The requested `[expressions]` at the output times (null where an expression cannot be
     /// evaluated, e.g. outside its domain; stderr says where).
     #[serde(skip_serializing_if = "IndexMap::is_empty")]
@@ -108,11 +112,11 @@ impl Loaded {
             } else {
                 Vec::new()
             },
-            energy: if self.request.energy {
-                Some(solution.energy.clone())
-            } else {
-                None
-            },
+            energy: self.request.energy.then(|| solution.energy.clone()),
+            constraint_residual: self
+                .request
+                .constraint_residual
+                .then(|| solution.constraint.clone()),
             expressions: self.expression_values(solution),
             stats: StatsOut {
                 steps: solution.stats.steps,
@@ -206,8 +210,8 @@ impl Trajectory {
                 .as_str()
     }
 
-    /// CSV: t, the coordinates, eta1…, energy, the expressions (a `# incomplete` comment first
-    /// when cut short).
+    /// CSV: t, the coordinates, eta1…, energy, constraint_residual, the expressions (a
+    /// `# incomplete` comment first when cut short).
     pub fn to_csv(&self) -> String {
         let mut o = String::new();
         if let Some(e) = &self.error {
@@ -220,6 +224,9 @@ impl Trajectory {
         if self.energy.is_some() {
             header.push("energy".into());
         }
+        if self.constraint_residual.is_some() {
+            header.push("constraint_residual".into());
+        }
         header.extend(self.expressions.keys().cloned());
         o.push_str(&header.join(","));
         o.push('\n');
@@ -229,8 +236,11 @@ impl Trajectory {
             if let Some(eta) = self.eta.get(j) {
                 row.extend(eta.iter().map(|v| format!("{v:e}")));
             }
-            if let Some(energy) = &self.energy {
-                row.push(energy[j].map_or(String::new(), |e| format!("{e:e}")));
+            for monitor in [&self.energy, &self.constraint_residual]
+                .into_iter()
+                .flatten()
+            {
+                row.push(monitor[j].map_or(String::new(), |e| format!("{e:e}")));
             }
             row.extend(
                 self.expressions
