@@ -83,6 +83,10 @@ pub struct Derivation {
     /// uses (the derivation does not).
     #[serde(skip_serializing_if = "IndexMap::is_empty")]
     pub abbreviations: IndexMap<String, Entry>,
+    /// The parameters the model declares positive (`positive = [...]`), which printing uses
+    /// to multiply an equation through by its denominator.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub positive: Vec<String>,
     /// Coordinates q₁..q_ℓ.
     pub coordinates: Vec<String>,
     /// Parameters with their default values.
@@ -480,6 +484,10 @@ impl Derivation {
                 .iter()
                 .filter(|(k, _)| !values.contains_key(*k))
                 .map(|(k, v)| (k.clone(), *v))
+                .collect(),
+            positive: (self.positive.iter())
+                .filter(|k| !values.contains_key(*k))
+                .cloned()
                 .collect(),
             a: self.a.map_expr(&f),
             alpha: self.alpha.map_expr(&f),

@@ -8,7 +8,9 @@ use crate::derivation::{Closed, Derivation, Entry, Form, Mat, StructuredForm};
 
 /// How an entry is written.
 /// `'e`: the entries' own lifetime, so a printer may keep them (hamel-print collects the
-/// entries shown, then prints them together).
+/// entries shown, then prints them together). For a row of the equations of motion a printer
+/// may write the whole equation (text containing ` = 0`, with a note after it); otherwise
+/// ` = 0` is appended.
 pub type Printer<'p, 'e> = &'p dyn Fn(&'e Entry) -> String;
 
 fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
@@ -27,6 +29,18 @@ fn list_text<'e>(out: &mut String, name: &str, v: &'e [Entry], p: Printer<'_, 'e
     let _ = writeln!(out, "{name} =");
     for (i, e) in v.iter().enumerate() {
         let _ = writeln!(out, "  ({}) {}", i + 1, p(e));
+    }
+}
+
+/// A row set to zero: `p`'s text of it and ` = 0`, unless the printer wrote the whole
+/// equation (`hamel-print` writes a row multiplied through by its positive denominator as
+/// `num = 0   (multiplied by D > 0)`).
+fn equation<'e>(p: Printer<'_, 'e>, e: &'e Entry) -> String {
+    let text = p(e);
+    if text.contains(" = 0") {
+        text
+    } else {
+        format!("{text} = 0")
     }
 }
 
@@ -61,11 +75,11 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
     o.push('\n');
     let _ = writeln!(o, "equations of motion (true, from (9)):");
     for (i, e) in c.equations.iter().enumerate() {
-        let _ = writeln!(o, "  ({}) {} = 0", i + 1, p(e));
+        let _ = writeln!(o, "  ({}) {}", i + 1, equation(p, e));
     }
     let _ = writeln!(o, "equations as printed in the paper (11)/(12):");
     for (i, e) in c.equations_paper.iter().enumerate() {
-        let _ = writeln!(o, "  ({}) {} = 0", i + 1, p(e));
+        let _ = writeln!(o, "  ({}) {}", i + 1, equation(p, e));
     }
     let _ = writeln!(o, "kinematic equations (6):");
     for (k, e) in c.kinematics.iter().enumerate() {

@@ -666,6 +666,7 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
             .iter()
             .map(|(k, i)| (k.clone(), Entry::of(i.expr.clone())))
             .collect(),
+        positive: model.positive.clone(),
         coordinates: model.coordinates.clone(),
         parameters: model.parameters.clone(),
         ell: model.ell(),

@@ -21,6 +21,9 @@ impl Model {
             doc["description"] = value(d.as_str());
         }
         doc["coordinates"] = value(strings(self.coordinates.iter().map(String::as_str)));
+        if !self.positive.is_empty() {
+            doc["positive"] = value(strings(self.positive.iter().map(String::as_str)));
+        }
         doc["parameters"] = TomlItem::Table(self.parameter_table());
         if !self.inputs.is_empty() {
             let mut t = Table::new();

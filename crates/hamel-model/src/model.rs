@@ -91,6 +91,10 @@ pub struct Model {
     /// wherever the expression occurs (as a paper writes m = m_d + m_f + m_r once); printing
     /// only, the derivation never sees them.
     pub abbreviations: IndexMap<String, Item>,
+    /// `positive = [...]`: parameters declared positive (masses, lengths, radii), as SymPy's
+    /// `positive=True`; printing multiplies an equation through by a denominator it proves
+    /// positive from them. Each is a parameter whose default is positive.
+    pub positive: Vec<String>,
     /// What the expansion of bodies simplified, and how.
     pub notes: Vec<String>,
     /// Quasi-velocity choices, in file order.
@@ -177,6 +181,7 @@ impl Model {
         let mut choices = choices_of(&raw, &mut loader, constraints.len(), &err)?;
         let steady = crate::steady::steady_of(&raw.steady, &loader)?;
         let abbreviations = abbreviations_of(&raw, &mut loader)?;
+        let positive = positive_of(&raw, &loader, &parameters)?;
         if constraints.is_empty() && !choices.iter().any(|c| c.name == "identity") {
             choices.push(identity_choice(&coordinates));
         }
@@ -198,6 +203,7 @@ impl Model {
             completion: dynamics.completion,
             origin: dynamics.origin,
             abbreviations,
+            positive,
             notes: dynamics.notes,
             symmetries,
             steady,
@@ -523,6 +529,34 @@ fn forces_of(
         .collect()
 }
 
+/// `positive = [...]`: each a parameter, once, whose default value is positive.
+fn positive_of(
+    raw: &RawModel,
+    loader: &Loader,
+    parameters: &IndexMap<String, f64>,
+) -> Result<Vec<String>, ModelError> {
+    let Some(list) = &raw.positive else {
+        return Ok(Vec::new());
+    };
+    let mut out: Vec<String> = Vec::new();
+    for name in list.get_ref() {
+        let n = name.get_ref();
+        let why = match parameters.get(n) {
+            None => Some(format!("`{n}` is not a parameter of this model")),
+            Some(_) if out.contains(n) => Some(format!("`{n}` is named twice")),
+            Some(v) if v.is_nan() || *v <= 0.0 => Some(format!(
+                "`{n}` is declared positive, but its default value is {v}"
+            )),
+            Some(_) => None,
+        };
+        if let Some(why) = why {
+            return Err(loader.err(name.span(), "positive", why));
+        }
+        out.push(n.clone());
+    }
+    Ok(out)
+}
+
 /// `[abbreviations]`: each a new name for an expression in the parameters (no coordinate,
 /// velocity or free function).
 fn abbreviations_of(
@@ -782,6 +816,32 @@ eta = ["cos(theta)*der(x) + sin(theta)*der(y)", "der(theta)"]
         assert!(e.to_string().contains("parameters only"), "{e}");
         let e = bad(&with("s = \"m*q\""));
         assert!(e.to_string().contains("unknown symbol `q`"), "{e}");
+    }
+
+    /// `positive = [...]`: parameters with positive defaults, each once; otherwise a located
+    /// error naming the entry. `hamel expand` keeps the list.
+    #[test]
+    fn positive_parameters_are_parameters_with_positive_defaults() {
+        let with = |list: &str| {
+            KNIFE.replace(
+                "coordinates = [\"x\", \"y\", \"theta\"]",
+                &format!("coordinates = [\"x\", \"y\", \"theta\"]\npositive = [{list}]"),
+            )
+        };
+        let m = Model::from_source("knife.toml", &with("\"m\", \"l\"")).unwrap();
+        assert_eq!(m.positive, ["m", "l"]);
+        let back = Model::from_source("k.toml", &m.to_lagrangian_toml()).unwrap();
+        assert_eq!(back.positive, ["m", "l"]);
+        for (list, why) in [
+            ("\"theta\"", "`theta` is not a parameter"),
+            ("\"m\", \"m\"", "`m` is named twice"),
+        ] {
+            let e = bad(&with(list));
+            assert!(e.to_string().contains(why), "{e}");
+            assert!(e.line_col().is_some_and(|(line, _)| line == 5), "{e}");
+        }
+        let e = bad(&with("\"m\"").replace("m = 1.0", "m = -1.0"));
+        assert!(e.to_string().contains("its default value is -1"), "{e}");
     }
 
     #[test]

@@ -14,6 +14,9 @@ pub(crate) struct RawModel {
     pub coordinates: Spanned<Vec<Spanned<String>>>,
     #[serde(default)]
     pub parameters: IndexMap<String, Spanned<toml::Value>>,
+    /// Parameters declared positive (masses, lengths), for printing.
+    #[serde(default)]
+    pub positive: Option<Spanned<Vec<Spanned<String>>>>,
     /// Named inputs (steer torque, pedalling) and their default values.
     #[serde(default)]
     pub inputs: IndexMap<String, Spanned<toml::Value>>,

@@ -13,7 +13,7 @@ use crate::atoms::Vocabulary;
 use crate::document;
 pub use crate::document::Object;
 pub use crate::printing::PrintError;
-use crate::printing::Printing;
+use crate::printing::{Given, Printing};
 
 /// What `hamel derive --format latex` writes.
 #[derive(Clone, Copy, Debug, Default)]
@@ -45,7 +45,16 @@ fn printing(d: &Derivation) -> Result<Printing, PrintError> {
         .iter()
         .map(|(k, e)| (k.as_str(), &e.expr))
         .collect();
-    Printing::of(&vocabulary(d), &abbreviations, &|p| d.to_text_with(p))
+    let equations: Vec<&hamel_derive::Entry> = match &d.form {
+        hamel_derive::Form::Closed(c) => c.equations.iter().chain(&c.equations_paper).collect(),
+        hamel_derive::Form::Structured(_) => Vec::new(),
+    };
+    let given = Given {
+        abbreviations: &abbreviations,
+        positive: &d.positive,
+        equations: &equations,
+    };
+    Printing::of(&vocabulary(d), given, &|p| d.to_text_with(p))
 }
 
 /// The derivation as LaTeX: a complete document (landscape A4, 1 cm margins) or, with
@@ -98,6 +107,10 @@ pub struct PrintedJson {
     pub names: Vec<NameJson>,
     /// Canonical text ↦ printed text, for every entry of the text output.
     pub entries: BTreeMap<String, String>,
+    /// Canonical text of an equation ↦ the positive denominator it was multiplied through
+    /// by: its printed text is that multiple of the canonical row.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub multiplied_by: BTreeMap<String, String>,
 }
 
 /// One name of the where-list.
@@ -118,9 +131,15 @@ pub struct NameJson {
 pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
     let p = printing(d)?;
     let entries = RefCell::new(BTreeMap::new());
+    let multiplied_by = RefCell::new(BTreeMap::new());
     d.to_text_with(&|e| {
-        let printed = p.sheet.text(p.id(e));
-        entries.borrow_mut().insert(e.text.clone(), printed);
+        let id = p.id(e);
+        entries
+            .borrow_mut()
+            .insert(e.text.clone(), p.sheet.text(id));
+        if let Some(m) = p.sheet.multiplier_text(id) {
+            multiplied_by.borrow_mut().insert(e.text.clone(), m);
+        }
         String::new()
     });
     let used = p.used();
@@ -138,5 +157,6 @@ pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
     Ok(PrintedJson {
         names,
         entries: entries.into_inner(),
+        multiplied_by: multiplied_by.into_inner(),
     })
 }

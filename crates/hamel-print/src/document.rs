@@ -214,6 +214,11 @@ fn equations(sheet: &Sheet, heading: &str, rows: &[(String, usize)], zero: bool,
                 let lead = if k == 0 { "" } else { "\\quad " };
                 lines.push(format!("{tag} & {lead}{p}{tail}"));
             }
+            if let Some(d) = sheet.multiplier_latex(*id) {
+                lines.push(format!(
+                    "& \\qquad\\text{{(multiplied by }} {d} > 0\\text{{)}}"
+                ));
+            }
         } else {
             lines.extend(aligned(sheet, label, *id, "", ""));
         }

@@ -32,6 +32,7 @@ mod document;
 mod form;
 mod layout;
 mod poly;
+mod positive;
 mod printed;
 mod printing;
 mod q;

@@ -22,6 +22,15 @@ pub enum PrintError {
     Mismatch(String),
 }
 
+/// What the model gives printing besides the entries: its abbreviations, the parameters it
+/// declares positive, and which entries are equations (rows set to zero).
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Given<'a> {
+    pub(crate) abbreviations: &'a [(&'a str, &'a Expr)],
+    pub(crate) positive: &'a [String],
+    pub(crate) equations: &'a [&'a Entry],
+}
+
 /// One printing: every entry a report's text shows (a derivation's, a reduction's) in one
 /// sheet, named once, each checked exactly; the text, the JSON and the LaTeX document are
 /// written from it, so they use the same names.
@@ -32,13 +41,15 @@ pub(crate) struct Printing {
 
 impl Printing {
     /// The entries that `show` writes (with the printer it is given), printed in one sheet
-    /// with the model's `abbreviations`, named and checked.
+    /// with the model's `abbreviations`, named and checked; the `equations` among them (rows
+    /// set to zero) multiplied through by their denominators where a sign is proved from the
+    /// parameters declared `positive`.
     ///
     /// # Errors
     /// [`PrintError`]: an entry that cannot be printed exactly.
     pub(crate) fn of<'e>(
         vocabulary: &Vocabulary,
-        abbreviations: &[(&str, &Expr)],
+        model: Given<'_>,
         show: &dyn Fn(Printer<'_, 'e>) -> String,
     ) -> Result<Printing, PrintError> {
         // The entries shown, in order, each once (by address: the printer is called with
@@ -49,7 +60,7 @@ impl Printing {
             String::new()
         });
         let mut sheet = Sheet::new(vocabulary);
-        for (name, e) in abbreviations {
+        for (name, e) in model.abbreviations {
             sheet.abbreviate(name, e)?;
         }
         let mut ids = HashMap::new();
@@ -64,6 +75,12 @@ impl Printing {
         }
         sheet.add_all(exprs)?;
         sheet.name_groups();
+        let positive: BTreeSet<String> = model.positive.iter().cloned().collect();
+        for e in model.equations {
+            if let Some(&id) = ids.get(&address(e)) {
+                sheet.multiply_through(id, &positive);
+            }
+        }
         for (id, label) in labels.into_iter().enumerate() {
             if !sheet.check(id) {
                 return Err(PrintError::Mismatch(label.clone()));
@@ -75,9 +92,17 @@ impl Printing {
         Ok(Printing { sheet, ids })
     }
 
-    /// `show`'s text with every entry in its printing form, and the where-list after it.
+    /// `show`'s text with every entry in its printing form, and the where-list after it. An
+    /// equation multiplied through is written whole, `num = 0   (× D > 0)`.
     pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
-        let mut out = show(&|e| self.sheet.text(self.id(e)));
+        let mut out = show(&|e| {
+            let id = self.id(e);
+            let text = self.sheet.text(id);
+            match self.sheet.multiplier_text(id) {
+                Some(d) => format!("{text} = 0   (multiplied by {d} > 0)"),
+                None => text,
+            }
+        });
         let used = self.used();
         if !used.is_empty() {
             out.push_str("\nwhere\n");

@@ -6,7 +6,7 @@ use hamel_expr::Expr;
 use hamel_reduce::Reduction;
 
 use crate::atoms::Vocabulary;
-use crate::printing::{PrintError, Printing};
+use crate::printing::{Given, PrintError, Printing};
 
 /// The report as `hamel reduce` writes it, its entries in their printing forms. `parameters`
 /// are the model's (their order is the printing order), `abbreviations` the model's
@@ -28,5 +28,9 @@ pub fn text<'r>(
             .collect(),
     };
     let show = |p: hamel_derive::Printer<'_, 'r>| r.to_text_with(p);
-    Ok(Printing::of(&vocabulary, abbreviations, &show)?.text(&show))
+    let given = Given {
+        abbreviations,
+        ..Given::default()
+    };
+    Ok(Printing::of(&vocabulary, given, &show)?.text(&show))
 }

@@ -24,6 +24,10 @@ pub struct Sheet {
     /// Atoms whose argument is printed by name (atom ↦ name; the name's value is the
     /// argument, checked by [`Sheet::check_arguments`]).
     pub(crate) arguments: BTreeMap<usize, usize>,
+    /// Equations multiplied through by a denominator proved positive (entry ↦ that
+    /// denominator): the entry's form is then the numerator, and its canonical form times the
+    /// multiplier ([`Sheet::multiply_through`]).
+    pub(crate) multipliers: BTreeMap<usize, Form>,
 }
 
 impl Sheet {
@@ -36,6 +40,7 @@ impl Sheet {
             values: Vec::new(),
             arguments: BTreeMap::new(),
             numbers: [0, 0],
+            multipliers: BTreeMap::new(),
         }
     }
 
@@ -165,6 +170,7 @@ impl Sheet {
     pub fn names_used(&self, ids: &[usize]) -> BTreeSet<usize> {
         let mut used = BTreeSet::new();
         let mut todo: Vec<&Form> = ids.iter().map(|&i| &self.entries[i].0).collect();
+        todo.extend(ids.iter().filter_map(|i| self.multipliers.get(i)));
         while let Some(f) = todo.pop() {
             let mut found = Vec::new();
             uses(f, &self.arguments, &mut found);
@@ -185,7 +191,48 @@ impl Sheet {
     /// Whether entry `i`, its names expanded, is exactly its canonical form.
     pub fn check(&self, i: usize) -> bool {
         let (form, canonical) = &self.entries[i];
-        self.fraction_of(form).same(canonical)
+        match self.multipliers.get(&i) {
+            Some(d) => self
+                .fraction_of(form)
+                .same(&canonical.times(&self.fraction_of(d))),
+            None => self.fraction_of(form).same(canonical),
+        }
+    }
+
+    /// Writes equation `i` (an entry set to zero) multiplied through by its denominator, when
+    /// the denominator's sign is proved on the whole domain from the parameters declared
+    /// `positive` ([`crate::positive`]); by minus it when negative, so that the multiplier is
+    /// positive. Returns whether it did. Call after [`Sheet::name_groups`].
+    pub fn multiply_through(&mut self, i: usize, positive: &BTreeSet<String>) -> bool {
+        let Form::Quotient(num, den) = &self.entries[i].0 else {
+            return false;
+        };
+        let Some(sign) = crate::positive::sign(den, self.ctx(), positive) else {
+            return false;
+        };
+        let (mut num, mut den) = ((**num).clone(), (**den).clone());
+        if sign == crate::positive::Sign::NonPositive {
+            collect::negate(&mut num);
+            collect::negate(&mut den);
+        }
+        self.entries[i].0 = num;
+        self.multipliers.insert(i, den);
+        true
+    }
+
+    /// The positive multiplier of equation `i` in the model syntax, if it was multiplied
+    /// through ([`Sheet::multiply_through`]).
+    pub fn multiplier_text(&self, i: usize) -> Option<String> {
+        self.multipliers
+            .get(&i)
+            .map(|d| render(d, self.ctx(), &Text))
+    }
+
+    /// The same in LaTeX.
+    pub fn multiplier_latex(&self, i: usize) -> Option<String> {
+        self.multipliers
+            .get(&i)
+            .map(|d| render(d, self.ctx(), &Latex))
     }
 
     /// Whether every atom printed with a named argument has that name's value as its

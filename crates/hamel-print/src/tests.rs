@@ -292,3 +292,41 @@ fn quotients_have_parentheses_only_where_needed() {
     );
     assert_eq!(printed("-4/(R + rho)", &v).text(), "(-4)/(R + rho)");
 }
+
+/// An equation num/D = 0 is written num = 0 with D as its multiplier where D's sign is proved
+/// from the parameters declared positive (by −D where D < 0, the numerator negated), and kept
+/// a fraction where it is not; the check covers the multiplied row.
+#[test]
+fn equations_are_multiplied_through_by_a_denominator_proved_positive() {
+    use std::collections::BTreeSet;
+
+    use crate::sheet::Sheet;
+
+    let v = Vocabulary {
+        parameters: vec!["m".into(), "R".into()],
+        coordinates: vec!["theta".into()],
+        velocities: vec!["eta1".into(), "eta1_dot".into()],
+    };
+    let positive: BTreeSet<String> = ["m".to_string(), "R".to_string()].into();
+    let row = |den: &str, positive: &BTreeSet<String>| {
+        let mut sheet = Sheet::new(&v);
+        let text = format!("(m*eta1_dot + R*sin(theta)*eta1^2)/({den})");
+        let id = sheet.add(&parse(&text).unwrap().expr).unwrap();
+        sheet.name_groups();
+        let done = sheet.multiply_through(id, positive);
+        assert!(sheet.check(id), "{den}: {}", sheet.text(id));
+        done.then(|| (sheet.text(id), sheet.multiplier_text(id).unwrap()))
+    };
+    let (num, d) = row("m*R^2*cos(theta)^2", &positive).expect("proved positive");
+    assert_eq!(d, "m*R^2*cos(theta)^2");
+    assert!(!num.contains('/'), "{num}");
+    // D < 0 (or its minus sign moved to the numerator): multiplied by a positive multiple.
+    let (num, d) = row("-(m*R + 2*R^2)", &positive).expect("proved negative");
+    assert!(!d.starts_with('-') && num.starts_with('-'), "{num} | {d}");
+    // Not proved: an odd power of cos θ, a parameter not declared, a sum of mixed signs.
+    assert_eq!(row("m*cos(theta)", &positive), None);
+    assert_eq!(row("m*R^2", &BTreeSet::new()), None);
+    assert_eq!(row("m - R", &positive), None);
+    // Even powers need no declaration.
+    assert!(row("m^2 + R^2*cos(theta)^2", &BTreeSet::new()).is_some());
+}
