@@ -319,14 +319,8 @@ fn reduce(
         r.eta_name,
         started.elapsed().as_secs_f64()
     );
-    let abbreviations: Vec<(&str, &hamel_expr::Expr)> = model
-        .abbreviations
-        .iter()
-        .map(|(k, i)| (k.as_str(), &i.expr))
-        .collect();
-    let parameters: Vec<String> = model.parameters.keys().cloned().collect();
     out.write(&match format {
-        ReportFormat::Text => hamel_print::reduction::text(&r, &parameters, &abbreviations)
+        ReportFormat::Text => hamel_print::reduction::text(&r, &model)
             .map_err(|e| ModelError::engine(format!("printing the reduction: {e}")))?,
         ReportFormat::Json => json(&r),
     })

@@ -85,15 +85,9 @@ fn printed_text_snapshots() {
 fn printed_reduce_snapshots() {
     for model in models() {
         let p = eliminate(&model);
-        let parameters: Vec<String> = model.parameters.keys().cloned().collect();
-        let abbreviations: Vec<(&str, &hamel_expr::Expr)> = model
-            .abbreviations
-            .iter()
-            .map(|(k, i)| (k.as_str(), &i.expr))
-            .collect();
         for choice in &model.choices {
             let r = hamel_reduce::reduce(&model, Some(&choice.name), &p).unwrap();
-            let text = hamel_print::reduction::text(&r, &parameters, &abbreviations).unwrap();
+            let text = hamel_print::reduction::text(&r, &model).unwrap();
             let name = format!("printed_reduce__{}__{}", model.name, choice.name);
             insta::assert_snapshot!(name, digest_lines(&text));
         }

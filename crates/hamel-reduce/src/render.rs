@@ -175,7 +175,13 @@ impl Reduction {
                     );
                 }
                 for (i, e) in r.equations.iter().enumerate() {
-                    let _ = writeln!(o, "  (11.{}) 0 = {}", i + 1, p(e));
+                    // A printer may write the whole equation (see `Printer`).
+                    let text = p(e);
+                    if text.contains(" = 0") {
+                        let _ = writeln!(o, "  (11.{}) {text}", i + 1);
+                    } else {
+                        let _ = writeln!(o, "  (11.{}) 0 = {text}", i + 1);
+                    }
                 }
                 for k in &r.kinematics {
                     let _ = writeln!(o, "  der({}) = {}", k.coordinate, p(&k.rate));
