@@ -93,7 +93,7 @@ impl Printing {
     }
 
     /// `show`'s text with every entry in its printing form, and the where-list after it. An
-    /// equation multiplied through is written whole, `num = 0   (× D > 0)`.
+    /// equation multiplied through is written whole, `num = 0   (multiplied by D > 0)`.
     pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
         let mut out = show(&|e| {
             let id = self.id(e);
