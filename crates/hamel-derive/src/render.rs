@@ -37,11 +37,17 @@ fn list_text<'e>(out: &mut String, name: &str, v: &'e [Entry], p: Printer<'_, 'e
 /// `num = 0   (multiplied by D > 0)`).
 fn equation<'e>(p: Printer<'_, 'e>, e: &'e Entry) -> String {
     let text = p(e);
-    if text.contains(" = 0") {
+    if is_whole_equation(&text) {
         text
     } else {
         format!("{text} = 0")
     }
+}
+
+/// Whether a printer's text of an equation's row is the whole equation (see [`Printer`]):
+/// the one test of that convention, for every report that writes equations.
+pub fn is_whole_equation(text: &str) -> bool {
+    text.contains(" = 0")
 }
 
 fn yes(b: bool) -> &'static str {

@@ -175,9 +175,8 @@ impl Reduction {
                     );
                 }
                 for (i, e) in r.equations.iter().enumerate() {
-                    // A printer may write the whole equation (see `Printer`).
                     let text = p(e);
-                    if text.contains(" = 0") {
+                    if hamel_derive::is_whole_equation(&text) {
                         let _ = writeln!(o, "  (11.{}) {text}", i + 1);
                     } else {
                         let _ = writeln!(o, "  (11.{}) 0 = {text}", i + 1);
