@@ -56,7 +56,7 @@ impl Func {
 ///
 /// Sums and products are n-ary; subtraction is a sum with a negated term and division is
 /// [`Expr::Div`]. Symbols are resolved by name by whoever evaluates or converts the tree.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Expr {
     /// An exact rational literal.
     Num(Rational),

@@ -37,6 +37,9 @@ pub struct Atom {
     pub kind: Kind,
     /// Its text, the key that identifies it.
     pub key: String,
+    /// The position of its name in the model (parameters, coordinates, velocities), for
+    /// the printing order; `usize::MAX` for none.
+    position: usize,
 }
 
 /// The atoms met so far, each with its index; the index order is the printing order (kind,
@@ -47,6 +50,9 @@ pub struct Atoms {
     list: Vec<Atom>,
     /// Text ↦ index.
     index: HashMap<String, usize>,
+    /// Expression ↦ index, for the atoms met (what saves writing an atom's text at each of
+    /// its occurrences; the text stays what identifies an atom).
+    seen: HashMap<Expr, usize>,
     /// In how many terms of a sheet's entries each atom occurs (what ties between
     /// parameters are broken by when a coefficient is factored).
     weight: HashMap<usize, usize>,
@@ -59,6 +65,7 @@ impl Atoms {
             vocabulary,
             list: Vec::new(),
             index: HashMap::new(),
+            seen: HashMap::new(),
             weight: HashMap::new(),
         }
     }
@@ -75,16 +82,23 @@ impl Atoms {
 
     /// The index of `expr`'s atom, added if new.
     pub fn intern(&mut self, expr: &Expr) -> usize {
-        let key = expr.to_string();
-        if let Some(&i) = self.index.get(&key) {
+        if let Some(&i) = self.seen.get(expr) {
             return i;
         }
+        let key = expr.to_string();
+        if let Some(&i) = self.index.get(&key) {
+            self.seen.insert(expr.clone(), i);
+            return i;
+        }
+        self.seen.insert(expr.clone(), self.list.len());
         let kind = self.kind_of(expr);
+        let position = self.position_of(expr);
         self.index.insert(key.clone(), self.list.len());
         self.list.push(Atom {
             expr: expr.clone(),
             kind,
             key,
+            position,
         });
         self.list.len() - 1
     }
@@ -121,9 +135,9 @@ impl Atoms {
         a.kind == Kind::Velocity && matches!(&a.expr, Expr::Sym(n) if n.ends_with("_dot"))
     }
 
-    /// Counts one more term in which atom `i` occurs.
-    pub(crate) fn weigh(&mut self, i: usize) {
-        *self.weight.entry(i).or_default() += 1;
+    /// Counts `n` more terms in which atom `i` occurs.
+    pub(crate) fn weigh(&mut self, i: usize, n: usize) {
+        *self.weight.entry(i).or_default() += n;
     }
 
     /// In how many terms atom `i` occurs, as counted by [`Atoms::weigh`].
@@ -134,8 +148,14 @@ impl Atoms {
     /// The sort key of atom `i`: kind, position of its name in the model, text.
     pub fn order(&self, i: usize) -> (Kind, usize, &str) {
         let a = &self.list[i];
+        (a.kind, a.position, &a.key)
+    }
+
+    /// Where an atom's name stands in the model: a parameter, coordinate or velocity symbol,
+    /// the velocity of a coordinate, or a function of one coordinate.
+    fn position_of(&self, expr: &Expr) -> usize {
         let v = &self.vocabulary;
-        let position = match &a.expr {
+        let position = match expr {
             Expr::Sym(n) => v
                 .parameters
                 .iter()
@@ -149,6 +169,6 @@ impl Atoms {
             },
             _ => None,
         };
-        (a.kind, position.unwrap_or(usize::MAX), &a.key)
+        position.unwrap_or(usize::MAX)
     }
 }

@@ -51,12 +51,12 @@ pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
 /// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
 /// greatest common monomial `g`.
 pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
-    let mut monomials = p.0.keys();
+    let mut monomials = p.monomials();
     let mut g = monomials.next().expect("a nonzero polynomial").clone();
     for m in monomials {
         g = g.gcd(m);
     }
-    let mut c = Q::content(p.0.values());
+    let mut c = Q::content(p.coefficients());
     if leading_negative(p) {
         c = c.neg();
     }
@@ -65,8 +65,8 @@ pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
         p.clone()
     } else {
         let r = c.recip();
-        Poly(
-            p.0.iter()
+        Poly::from_terms(
+            p.terms()
                 .map(|(m, d)| {
                     let m = if one {
                         m.clone()
@@ -197,9 +197,9 @@ fn by_state(p: &Poly, atoms: &Atoms) -> Form {
 /// by rate, each coefficient (a function of the coordinates) in parentheses, `(…) η̇₁ + (…) η̇₂`,
 /// then the other terms. None when `p` has no rate.
 fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
-    let mut by_rate: BTreeMap<Vec<StateKey>, (Mono, Poly)> = BTreeMap::new();
+    let mut by_rate: BTreeMap<Vec<StateKey<'_>>, (Mono, Poly)> = BTreeMap::new();
     let mut rest = Poly::default();
-    for (m, c) in &p.0 {
+    for (m, c) in p.terms() {
         let rate = m.filter(|i| atoms.is_rate(i));
         if rate.0.is_empty() {
             rest.add_term(m.clone(), c.clone());
@@ -210,7 +210,7 @@ fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
             .iter()
             .map(|&(i, e)| {
                 let (k, pos, text) = atoms.order(i);
-                (k, pos, text.to_string(), e)
+                (k, pos, text, e)
             })
             .collect();
         let coefficient = m.div(&rate).expect("a part divides the whole");
@@ -243,25 +243,25 @@ fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
 }
 
 /// A state atom's place in the printing order, with its exponent.
-type StateKey = (Kind, usize, String, u32);
+type StateKey<'a> = (Kind, usize, &'a str, u32);
 
 /// A group's place in a sum: the terms with rates of the quasi-velocities first (by those
 /// rates: `η̇₁` before `η̇₂`), as an equation of motion is written, `A_Γ η̇ + …`; then the
 /// state atoms in printing order.
-type GroupKey = (bool, Vec<StateKey>, Vec<StateKey>);
+type GroupKey<'a> = (bool, Vec<StateKey<'a>>, Vec<StateKey<'a>>);
 
 /// The groups `(state monomial, parameter coefficient)` in printing order.
 fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
-    let mut groups: BTreeMap<GroupKey, (Mono, Poly)> = BTreeMap::new();
-    for (m, c) in &p.0 {
+    let mut groups: BTreeMap<GroupKey<'_>, (Mono, Poly)> = BTreeMap::new();
+    for (m, c) in p.terms() {
         let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
         let params = m.div(&state).expect("a part divides the whole");
         let order = |&(i, e): &(usize, u32)| {
             let (k, pos, text) = atoms.order(i);
-            (k, pos, text.to_string(), e)
+            (k, pos, text, e)
         };
-        let all: Vec<StateKey> = state.0.iter().map(order).collect();
-        let rates: Vec<StateKey> = state
+        let all: Vec<StateKey<'_>> = state.0.iter().map(order).collect();
+        let rates: Vec<StateKey<'_>> = state
             .0
             .iter()
             .filter(|&&(i, _)| atoms.is_rate(i))
@@ -283,7 +283,7 @@ fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Rational>)> 
         return None;
     }
     let (_, _, first) = content(&groups[0].1);
-    if first.0.len() < 2 {
+    if first.size() < 2 {
         return None;
     }
     let mut scales = Vec::new();
@@ -335,14 +335,14 @@ fn parameters(p: &Poly, atoms: &Atoms) -> Form {
 /// out first.
 fn greedy(p: &Poly, atoms: &Atoms) -> Form {
     let Some(a) = most_frequent(p, atoms) else {
-        let terms =
-            p.0.iter()
-                .map(|(m, c)| sorted(c.to_rational(), atoms_of(m), atoms))
-                .collect();
+        let terms = p
+            .terms()
+            .map(|(m, c)| sorted(c.to_rational(), atoms_of(m), atoms))
+            .collect();
         return in_order(terms, atoms);
     };
     let (mut with, mut without) = (Poly::default(), Poly::default());
-    for (m, c) in &p.0 {
+    for (m, c) in p.terms() {
         match m.div(&Mono::atom(a)) {
             Some(q) => with.add_term(q, c.clone()),
             None => without.add_term(m.clone(), c.clone()),
@@ -376,7 +376,7 @@ fn in_order(mut terms: Vec<Form>, atoms: &Atoms) -> Form {
 /// in more terms of the whole sheet, then to the model's order.
 fn most_frequent(p: &Poly, atoms: &Atoms) -> Option<usize> {
     let mut counts: BTreeMap<usize, usize> = BTreeMap::new();
-    for m in p.0.keys() {
+    for m in p.monomials() {
         for &(i, _) in &m.0 {
             *counts.entry(i).or_default() += 1;
         }

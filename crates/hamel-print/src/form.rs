@@ -325,14 +325,14 @@ fn bare_denominator(f: &Form) -> bool {
 }
 
 /// The kind order used to place factors: parameters, groups, then the state's atoms.
-pub(crate) fn factor_rank(x: &Factor, atoms: &Atoms) -> (u8, Kind, usize, String) {
+pub(crate) fn factor_rank<'a>(x: &Factor, atoms: &'a Atoms) -> (u8, Kind, usize, &'a str) {
     match x {
         Factor::Atom { index, .. } => {
             let (kind, pos, key) = atoms.order(*index);
             let rank = if kind == Kind::Parameter { 0 } else { 2 };
-            (rank, kind, pos, key.to_string())
+            (rank, kind, pos, key)
         }
-        Factor::Group(_) | Factor::Name { .. } => (1, Kind::Parameter, 0, String::new()),
+        Factor::Group(_) | Factor::Name { .. } => (1, Kind::Parameter, 0, ""),
     }
 }
 

@@ -2,7 +2,6 @@
 //! which a printed form is checked, and what collection works on.
 
 use std::collections::BTreeMap;
-use std::collections::btree_map::Entry;
 
 use hamel_expr::Expr;
 use num_traits::{Signed, ToPrimitive};
@@ -90,9 +89,10 @@ impl Mono {
     }
 }
 
-/// A polynomial: monomial ↦ nonzero coefficient.
+/// A polynomial: its terms sorted by monomial, each monomial once, each coefficient nonzero
+/// (a flat vector: sums merge sorted runs, products sort once).
 #[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Poly(pub BTreeMap<Mono, Q>);
+pub struct Poly(Vec<(Mono, Q)>);
 
 /// A quotient of polynomials, as canonical forms with a division come.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -117,16 +117,58 @@ pub enum PolyError {
 impl Poly {
     /// The constant `c`.
     pub fn constant(c: impl Into<Q>) -> Poly {
-        let mut p = Poly::default();
-        p.add_term(Mono::default(), c);
-        p
+        Poly::term(Mono::default(), c)
     }
 
     /// `c · m`.
     pub fn term(m: Mono, c: impl Into<Q>) -> Poly {
-        let mut p = Poly::default();
-        p.add_term(m, c);
-        p
+        let c = c.into();
+        if c.is_zero() {
+            return Poly::default();
+        }
+        Poly(vec![(m, c)])
+    }
+
+    /// The polynomial with these terms, in any order, a monomial possibly repeated (the
+    /// coefficients of equal monomials are added, zeros dropped).
+    pub fn from_terms(mut terms: Vec<(Mono, Q)>) -> Poly {
+        terms.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+        let mut out: Vec<(Mono, Q)> = Vec::with_capacity(terms.len());
+        for (m, c) in terms {
+            match out.last_mut() {
+                Some((last, d)) if *last == m => *d = d.add(&c),
+                _ => {
+                    if out.last().is_some_and(|(_, d)| d.is_zero()) {
+                        out.pop();
+                    }
+                    out.push((m, c));
+                }
+            }
+        }
+        if out.last().is_some_and(|(_, d)| d.is_zero()) {
+            out.pop();
+        }
+        Poly(out)
+    }
+
+    /// The terms, in monomial order.
+    pub fn terms(&self) -> impl ExactSizeIterator<Item = (&Mono, &Q)> + Clone {
+        self.0.iter().map(|(m, c)| (m, c))
+    }
+
+    /// The monomials, in order.
+    pub fn monomials(&self) -> impl Iterator<Item = &Mono> + Clone {
+        self.0.iter().map(|(m, _)| m)
+    }
+
+    /// The coefficients, in monomial order.
+    pub fn coefficients(&self) -> impl Iterator<Item = &Q> + Clone {
+        self.0.iter().map(|(_, c)| c)
+    }
+
+    /// The number of terms.
+    pub fn size(&self) -> usize {
+        self.0.len()
     }
 
     /// Adds `c · m`, dropping the term if it cancels.
@@ -135,18 +177,16 @@ impl Poly {
         if c.is_zero() {
             return;
         }
-        match self.0.entry(m) {
-            Entry::Vacant(v) => {
-                v.insert(c);
-            }
-            Entry::Occupied(mut o) => {
-                let sum = o.get().add(&c);
+        match self.0.binary_search_by(|(n, _)| n.cmp(&m)) {
+            Ok(k) => {
+                let sum = self.0[k].1.add(&c);
                 if sum.is_zero() {
-                    o.remove();
+                    self.0.remove(k);
                 } else {
-                    *o.get_mut() = sum;
+                    self.0[k].1 = sum;
                 }
             }
+            Err(k) => self.0.insert(k, (m, c)),
         }
     }
 
@@ -155,11 +195,30 @@ impl Poly {
         self.0.is_empty()
     }
 
-    /// `self += other`.
+    /// `self += other` (a merge of the two sorted runs).
     pub fn add_assign(&mut self, other: &Poly) {
-        for (m, c) in &other.0 {
-            self.add_term(m.clone(), c.clone());
+        if other.is_zero() {
+            return;
         }
+        let mine = std::mem::take(&mut self.0);
+        let mut out = Vec::with_capacity(mine.len() + other.0.len());
+        let mut theirs = other.0.iter().peekable();
+        for (m, c) in mine {
+            while let Some((n, d)) = theirs.next_if(|(n, _)| *n < m) {
+                out.push((n.clone(), d.clone()));
+            }
+            match theirs.next_if(|(n, _)| *n == m) {
+                Some((_, d)) => {
+                    let sum = c.add(d);
+                    if !sum.is_zero() {
+                        out.push((m, sum));
+                    }
+                }
+                None => out.push((m, c)),
+            }
+        }
+        out.extend(theirs.cloned());
+        self.0 = out;
     }
 
     /// `self · other`.
@@ -170,13 +229,13 @@ impl Poly {
         if let Some(c) = self.as_constant() {
             return other.scale(&c);
         }
-        let mut out = Poly::default();
+        let mut out = Vec::with_capacity(self.0.len() * other.0.len());
         for (m, c) in &self.0 {
             for (n, d) in &other.0 {
-                out.add_term(m.mul(n), c.mul(d));
+                out.push((m.mul(n), c.mul(d)));
             }
         }
-        out
+        Poly::from_terms(out)
     }
 
     /// `c · self`.
@@ -200,8 +259,8 @@ impl Poly {
         if self.0.len() != other.0.len() {
             return None;
         }
-        let (_, a) = self.0.iter().next()?;
-        let (_, b) = other.0.iter().next()?;
+        let (_, a) = self.0.first()?;
+        let (_, b) = other.0.first()?;
         let c = a.div(b);
         self.0
             .iter()
@@ -212,14 +271,14 @@ impl Poly {
 
     /// Whether this is the constant 1.
     pub fn is_one(&self) -> bool {
-        self.0.len() == 1 && self.0.get(&Mono::default()).is_some_and(Q::is_one)
+        matches!(self.0.as_slice(), [(m, c)] if m.0.is_empty() && c.is_one())
     }
 
     /// The constant value, if this is a constant.
     pub fn as_constant(&self) -> Option<Q> {
-        match self.0.len() {
-            0 => Some(Q::zero()),
-            1 => self.0.get(&Mono::default()).cloned(),
+        match self.0.as_slice() {
+            [] => Some(Q::zero()),
+            [(m, c)] if m.0.is_empty() => Some(c.clone()),
             _ => None,
         }
     }
@@ -257,14 +316,17 @@ impl Fraction {
         Ok(match e {
             Expr::Num(r) => Fraction::poly(Poly::constant(r)),
             Expr::Add(v) => {
-                let mut acc = Fraction::poly(Poly::default());
+                // The monomial terms gathered and sorted once, the others added one by one.
+                let mut monomials = Vec::with_capacity(v.len());
+                let mut others = Vec::new();
                 for t in v {
                     match monomial(t, atoms) {
-                        Some((c, m)) if acc.den.is_one() => acc.num.add_term(m, c),
-                        _ => acc = acc.plus(&Fraction::from_expr(t, atoms)?),
+                        Some((c, m)) => monomials.push((m, c)),
+                        None => others.push(Fraction::from_expr(t, atoms)?),
                     }
                 }
-                acc
+                others.push(Fraction::poly(Poly::from_terms(monomials)));
+                Fraction::sum(others)
             }
             Expr::Mul(_) if let Some((c, m)) = monomial(e, atoms) => {
                 Fraction::poly(Poly::term(m, c))
@@ -342,6 +404,21 @@ impl Fraction {
         }
     }
 
+    /// The sum of `parts`: the polynomial ones gathered and sorted once (adding them one by
+    /// one would merge the growing sum again at every step), the others added in turn.
+    pub fn sum(parts: impl IntoIterator<Item = Fraction>) -> Fraction {
+        let mut terms = Vec::new();
+        let mut acc = Fraction::poly(Poly::default());
+        for f in parts {
+            if f.den.is_one() {
+                terms.extend(f.num.0);
+            } else {
+                acc = acc.plus(&f);
+            }
+        }
+        acc.plus(&Fraction::poly(Poly::from_terms(terms)))
+    }
+
     /// `self · other`.
     pub fn times(&self, other: &Fraction) -> Fraction {
         Fraction {
@@ -372,27 +449,59 @@ impl Fraction {
 /// powers, possibly negated): the common shape of a canonical form's terms, read without
 /// building a polynomial per factor. The atoms are those [`Fraction::from_expr`] makes.
 fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
+    let mut c = Q::one();
+    let mut pairs = Vec::new();
+    factors_of(e, 1, &mut c, &mut pairs, atoms)?;
+    pairs.sort_unstable_by_key(|&(i, _)| i);
+    pairs.dedup_by(|later, earlier| {
+        let same = later.0 == earlier.0;
+        if same {
+            earlier.1 += later.1;
+        }
+        same
+    });
+    Some((c, Mono(pairs)))
+}
+
+/// The factors of the monomial `e^k`: its number multiplied into `c`, its atoms' pairs
+/// pushed (unsorted, an atom possibly twice); None if `e` is not a monomial.
+fn factors_of(
+    e: &Expr,
+    k: u32,
+    c: &mut Q,
+    pairs: &mut Vec<(usize, u32)>,
+    atoms: &mut Atoms,
+) -> Option<()> {
     match e {
-        Expr::Num(r) => Some((Q::from(r), Mono::default())),
-        Expr::Neg(a) => monomial(a, atoms).map(|(c, m)| (c.neg(), m)),
-        Expr::Mul(v) => v.iter().try_fold((Q::one(), Mono::default()), |(c, m), t| {
-            let (d, n) = monomial(t, atoms)?;
-            Some((c.mul(&d), m.mul(&n)))
-        }),
+        Expr::Num(r) => {
+            let r = Q::from(r);
+            for _ in 0..k {
+                *c = c.mul(&r);
+            }
+        }
+        Expr::Neg(a) => {
+            factors_of(a, k, c, pairs, atoms)?;
+            if k % 2 == 1 {
+                *c = c.neg();
+            }
+        }
+        Expr::Mul(v) => {
+            for t in v {
+                factors_of(t, k, c, pairs, atoms)?;
+            }
+        }
         Expr::Pow(base, exp) => {
             let n = exp.as_integer()?;
-            let k = u32::try_from(n).ok().filter(|k| (1..=64).contains(k))?;
-            let (c, m) = monomial(base, atoms)?;
-            let c = (0..k).fold(Q::one(), |acc, _| acc.mul(&c));
-            let m = Mono(m.0.iter().map(|&(i, e)| (i, e * k)).collect());
-            Some((c, m))
+            let n = u32::try_from(n).ok().filter(|n| (1..=64).contains(n))?;
+            factors_of(base, k.checked_mul(n)?, c, pairs, atoms)?;
         }
-        Expr::Add(_) | Expr::Div(..) => None,
-        _ => Some((Q::one(), Mono::atom(atoms.intern(e)))),
+        Expr::Add(_) | Expr::Div(..) => return None,
+        _ => pairs.push((atoms.intern(e), k)),
     }
+    Some(())
 }
 
 /// The sign of the first term in monomial order (for a deterministic sign convention).
 pub(crate) fn leading_negative(p: &Poly) -> bool {
-    p.0.values().next().is_some_and(|c| c.is_negative())
+    p.0.first().is_some_and(|(_, c)| c.is_negative())
 }

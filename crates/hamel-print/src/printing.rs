@@ -63,17 +63,27 @@ impl Printing {
         for (name, e) in model.abbreviations {
             sheet.abbreviate(name, e)?;
         }
+        // Equal entries (the same canonical text, both equations or neither) are printed
+        // once, and counted as often as they are shown.
+        let equation: BTreeSet<usize> = model.equations.iter().map(|e| address(e)).collect();
         let mut ids = HashMap::new();
+        let mut by_text: HashMap<(&str, bool), usize> = HashMap::new();
         let mut labels = Vec::new();
-        let mut exprs = Vec::new();
+        let mut exprs: Vec<(&Expr, usize)> = Vec::new();
         for e in shown.into_inner() {
-            if let hash_map::Entry::Vacant(v) = ids.entry(address(e)) {
-                v.insert(exprs.len());
-                exprs.push(&e.expr);
+            let hash_map::Entry::Vacant(v) = ids.entry(address(e)) else {
+                continue;
+            };
+            let key = (e.text.as_str(), equation.contains(&address(e)));
+            let id = *by_text.entry(key).or_insert_with(|| {
+                exprs.push((&e.expr, 0));
                 labels.push(&e.text);
-            }
+                exprs.len() - 1
+            });
+            exprs[id].1 += 1;
+            v.insert(id);
         }
-        sheet.add_all(exprs)?;
+        sheet.add_counted(exprs)?;
         sheet.name_groups();
         let positive: BTreeSet<String> = model.positive.iter().cloned().collect();
         for e in model.equations {
@@ -81,10 +91,8 @@ impl Printing {
                 sheet.multiply_through(id, &positive);
             }
         }
-        for (id, label) in labels.into_iter().enumerate() {
-            if !sheet.check(id) {
-                return Err(PrintError::Mismatch(label.clone()));
-            }
+        if let Some(id) = sheet.first_mismatch() {
+            return Err(PrintError::Mismatch(labels[id].clone()));
         }
         if !sheet.check_arguments() {
             return Err(PrintError::Mismatch("a named argument".into()));

@@ -16,6 +16,9 @@ use crate::poly::{Fraction, Poly, PolyError};
 pub struct Sheet {
     pub(crate) atoms: Atoms,
     pub(crate) entries: Vec<(Form, Fraction)>,
+    /// How many times each entry is shown (equal entries are printed once and counted, so
+    /// that a group in two equal entries recurs).
+    counts: Vec<usize>,
     pub(crate) names: Vec<Definition>,
     /// Each name's value, its definition expanded (computed once).
     pub(crate) values: Vec<Fraction>,
@@ -28,6 +31,8 @@ pub struct Sheet {
     /// denominator): the entry's form is then the numerator, and its canonical form times the
     /// multiplier ([`Sheet::multiply_through`]).
     pub(crate) multipliers: BTreeMap<usize, Form>,
+    /// The atoms whose argument [`Sheet::name_wide`] has looked at (each once).
+    pub(crate) examined: BTreeSet<usize>,
 }
 
 impl Sheet {
@@ -36,11 +41,13 @@ impl Sheet {
         Sheet {
             atoms: Atoms::new(vocabulary.clone()),
             entries: Vec::new(),
+            counts: Vec::new(),
             names: Vec::new(),
             values: Vec::new(),
             arguments: BTreeMap::new(),
             numbers: [0, 0],
             multipliers: BTreeMap::new(),
+            examined: BTreeSet::new(),
         }
     }
 
@@ -94,22 +101,33 @@ impl Sheet {
         &mut self,
         es: impl IntoIterator<Item = &'a Expr>,
     ) -> Result<Vec<usize>, PolyError> {
+        self.add_counted(es.into_iter().map(|e| (e, 1)))
+    }
+
+    /// [`Sheet::add_all`], each expression with the number of times it is shown.
+    pub(crate) fn add_counted<'a>(
+        &mut self,
+        es: impl IntoIterator<Item = (&'a Expr, usize)>,
+    ) -> Result<Vec<usize>, PolyError> {
         let mut canonical = Vec::new();
-        for e in es {
+        let mut counts = Vec::new();
+        for (e, n) in es {
             canonical.push(Fraction::from_expr(e, &mut self.atoms)?.normalised());
+            counts.push(n);
         }
-        for f in &canonical {
-            for m in f.num.0.keys().chain(f.den.0.keys()) {
+        for (f, &n) in canonical.iter().zip(&counts) {
+            for m in f.num.monomials().chain(f.den.monomials()) {
                 for &(i, _) in &m.0 {
-                    self.atoms.weigh(i);
+                    self.atoms.weigh(i, n);
                 }
             }
         }
         let first = self.entries.len();
-        for f in canonical {
-            let form = collect::fraction(&f, &self.atoms);
-            self.entries.push((form, f));
-        }
+        let atoms = &self.atoms;
+        let parallel = crate::par::worth_it(&canonical);
+        let forms = crate::par::map(&canonical, parallel, |f| collect::fraction(f, atoms));
+        self.entries.extend(forms.into_iter().zip(canonical));
+        self.counts.extend(counts);
         // The model's abbreviations written with the same factoring.
         for (d, v) in self.names.iter_mut().zip(&self.values) {
             if d.given {
@@ -186,6 +204,15 @@ impl Sheet {
     /// Entry `i` as an expression, names expanded (for evaluation and checks).
     pub fn to_expr(&self, i: usize) -> Expr {
         to_expr(&self.entries[i].0, self.ctx())
+    }
+
+    /// The first entry (by index) whose printed form is not its canonical form
+    /// ([`Sheet::check`]), if any; the entries are checked in parallel when they are large.
+    pub fn first_mismatch(&self) -> Option<usize> {
+        let ids: Vec<usize> = (0..self.entries.len()).collect();
+        let parallel = crate::par::worth_it(self.entries.iter().map(|(_, f)| f));
+        let ok = crate::par::map(&ids, parallel, |&i| self.check(i));
+        ok.iter().position(|ok| !ok)
     }
 
     /// Whether entry `i`, its names expanded, is exactly its canonical form.
@@ -319,10 +346,7 @@ impl Sheet {
                 }
                 acc
             }
-            Form::Sum(terms) => terms.iter().fold(
-                Fraction::constant(Rational::from_integer(0.into())),
-                |acc, t| acc.plus(&self.fraction_of(t)),
-            ),
+            Form::Sum(terms) => Fraction::sum(terms.iter().map(|t| self.fraction_of(t))),
             Form::Quotient(a, b) => self.fraction_of(a).over(&self.fraction_of(b)),
         }
     }
@@ -337,33 +361,35 @@ impl Sheet {
     fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>) {
         let given = self.given_forms();
         let mut found: Vec<&Form> = Vec::new();
-        for (f, _) in &self.entries {
+        let mut shown: Vec<usize> = Vec::new();
+        for ((f, _), &n) in self.entries.iter().zip(&self.counts) {
             if matches!(f, Form::Sum(_)) {
                 found.push(f);
             }
             groups(f, &mut found);
+            shown.resize(found.len(), n);
         }
         let mut index: HashMap<&Form, usize> = HashMap::new();
         let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
         let mut at: Vec<usize> = Vec::with_capacity(found.len());
-        for (place, g) in found.iter().enumerate() {
+        for (place, (g, n)) in found.iter().zip(shown).enumerate() {
             let i = *index.entry(g).or_insert_with(|| {
                 counted.push((g, place, 0));
                 counted.len() - 1
             });
-            counted[i].2 += 1;
+            counted[i].2 += n;
             at.push(i);
         }
         let mut chosen: Vec<(usize, Candidate)> = Vec::new();
         for (i, &(g, place, count)) in counted.iter().enumerate() {
-            if count < 2 || given.iter().any(|(f, _, _)| f == g) {
+            if count < 2 || given.iter().any(|(f, _, _)| f == g) || self.mentions_velocity(g) {
                 continue;
             }
             let value = self.fraction_of(g);
             let Some((_, key)) = key(&value) else {
                 continue;
             };
-            if self.has_velocities(&key) || (key.0.len() < 3 && self.parameters_only(&key)) {
+            if self.has_velocities(&key) || (key.size() < 3 && self.parameters_only(&key)) {
                 continue;
             }
             let form = g.clone();
@@ -379,7 +405,7 @@ impl Sheet {
             ));
         }
         chosen.sort_by_key(|(i, c)| {
-            let size = std::cmp::Reverse(c.key.0.len());
+            let size = std::cmp::Reverse(c.key.size());
             (
                 !self.parameters_only(&c.key),
                 std::cmp::Reverse(c.count),
@@ -407,17 +433,34 @@ impl Sheet {
         (chosen.into_iter().map(|(_, c)| c).collect(), at)
     }
 
+    /// Whether a velocity occurs in the form `f` (read from its factors, without expanding
+    /// it: a collected form's terms do not cancel).
+    fn mentions_velocity(&self, f: &Form) -> bool {
+        match f {
+            Form::Product { factors, .. } => factors.iter().any(|x| match x {
+                Factor::Atom { index, .. } => self.atoms.get(*index).kind == Kind::Velocity,
+                Factor::Group(g) => self.mentions_velocity(g),
+                Factor::Name { index } => {
+                    let v = &self.values[*index];
+                    self.has_velocities(&v.num) || self.has_velocities(&v.den)
+                }
+            }),
+            Form::Sum(terms) => terms.iter().any(|t| self.mentions_velocity(t)),
+            Form::Quotient(a, b) => self.mentions_velocity(a) || self.mentions_velocity(b),
+        }
+    }
+
     /// Whether a velocity occurs in `key` (such groups are not named: the where-list holds
     /// parameter groups and functions of the coordinates).
     pub(crate) fn has_velocities(&self, key: &Key) -> bool {
-        key.0.keys().any(|m| {
+        key.monomials().any(|m| {
             m.0.iter()
                 .any(|&(i, _)| self.atoms.get(i).kind == Kind::Velocity)
         })
     }
 
     fn parameters_only(&self, key: &Key) -> bool {
-        key.0.keys().all(|m| {
+        key.monomials().all(|m| {
             m.0.iter()
                 .all(|&(i, _)| self.atoms.get(i).kind == Kind::Parameter)
         })
@@ -452,7 +495,7 @@ impl Sheet {
     /// The coordinates `key` depends on, in the model's order.
     fn coordinates_in(&self, key: &Key) -> Vec<String> {
         let mut seen = BTreeSet::new();
-        for m in key.0.keys() {
+        for m in key.monomials() {
             for &(i, _) in &m.0 {
                 self.atoms.get(i).expr.visit(&mut |e| match e {
                     Expr::Sym(n) | Expr::Der(n) => {
@@ -559,7 +602,7 @@ fn uses(f: &Form, arguments: &BTreeMap<usize, usize>, out: &mut Vec<usize>) {
 /// common monomial.
 fn key(f: &Fraction) -> Option<(Rational, Key)> {
     let den = f.den.as_constant()?;
-    if f.num.0.len() < 2 {
+    if f.num.size() < 2 {
         return None;
     }
     let (c, m, rest) = collect::content(&f.num);

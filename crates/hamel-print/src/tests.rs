@@ -161,6 +161,48 @@ fn monomial_product_and_quotient() {
     assert_eq!(a.div(&a), Some(Mono::default()));
 }
 
+/// The flat polynomial's ways of adding agree: terms gathered in any order with repeats and
+/// cancellations (`from_terms`), one at a time (`add_term`), a merge of two sorted runs
+/// (`add_assign`) and a sum of fractions (`Fraction::sum`); the terms come out sorted, each
+/// monomial once, no zero coefficient.
+#[test]
+fn flat_polynomials_add_alike() {
+    use crate::{Fraction, Mono, Poly, Q};
+    use hamel_expr::Rational;
+    let q = |n: i64| -> Q { Rational::from_integer(n.into()).into() };
+    let m = |pairs: &[(usize, u32)]| Mono(pairs.to_vec());
+    let terms = vec![
+        (m(&[(2, 1)]), q(3)),
+        (m(&[(0, 2)]), q(1)),
+        (m(&[(0, 1), (1, 1)]), q(-2)),
+        (m(&[(2, 1)]), q(-3)),
+        (Mono::default(), q(5)),
+        (m(&[(0, 2)]), q(4)),
+    ];
+    let gathered = Poly::from_terms(terms.clone());
+    let mut one_by_one = Poly::default();
+    for (mono, c) in terms.iter().cloned() {
+        one_by_one.add_term(mono, c);
+    }
+    assert_eq!(gathered, one_by_one);
+    assert_eq!(gathered.size(), 3, "x2 cancels, x0^2 is added up");
+    let monomials: Vec<&Mono> = gathered.monomials().collect();
+    assert!(
+        monomials.windows(2).all(|w| w[0] < w[1]),
+        "sorted, each once"
+    );
+    let (first, second) = terms.split_at(3);
+    let mut merged = Poly::from_terms(first.to_vec());
+    merged.add_assign(&Poly::from_terms(second.to_vec()));
+    assert_eq!(merged, gathered);
+    let parts = terms.iter().map(|(mono, c)| Fraction {
+        num: Poly::term(mono.clone(), c.clone()),
+        den: Poly::constant(q(1)),
+    });
+    assert_eq!(Fraction::sum(parts).num, gathered);
+    assert!(Poly::from_terms(vec![(m(&[(1, 1)]), q(1)), (m(&[(1, 1)]), q(-1))]).is_zero());
+}
+
 /// `ratio` finds the constant between proportional polynomials and only then; `same`
 /// compares fractions whose denominators are proportional.
 #[test]
@@ -215,6 +257,40 @@ fn ties_in_factoring_go_to_the_parameter_of_more_terms() {
     let ids = sheet.add_all([&e1, &e2]).unwrap();
     assert_eq!(sheet.text(ids[0]), "rho1*m_f + m_r*(rho1 + rho2)");
     assert!(sheet.check(ids[0]) && sheet.check(ids[1]));
+}
+
+/// An entry shown twice is printed once but counted twice: a group it holds once recurs on
+/// the page and is named, as it is when two different entries hold it.
+#[test]
+fn an_entry_shown_twice_counts_twice() {
+    use crate::Sheet;
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    let v = Vocabulary {
+        parameters: names(&["a", "b", "c"]),
+        coordinates: names(&["theta"]),
+        velocities: Vec::new(),
+    };
+    let e = parse("(a + b + c)*sin(theta)*a + cos(theta)").unwrap().expr;
+    let named = |n: usize| {
+        let mut sheet = Sheet::new(&v);
+        let id = sheet.add_counted([(&e, n)]).unwrap()[0];
+        sheet.name_groups();
+        assert!(sheet.check(id));
+        sheet.definitions_text()
+    };
+    assert!(named(1).is_empty(), "once on the page: {:?}", named(1));
+    // Twice: its parameter group is named, and so is the whole entry, a function of θ
+    // shown twice (as a paper names what it writes twice).
+    assert_eq!(
+        named(2),
+        [
+            ("kappa1".to_string(), "a + b + c".to_string()),
+            (
+                "F1(theta)".to_string(),
+                "cos(theta) + a*kappa1*sin(theta)".to_string()
+            )
+        ]
+    );
 }
 
 /// An equation of motion is written as a paper writes `A_Γ η̇ + …`: its rate terms first,

@@ -84,7 +84,7 @@ impl Sheet {
     /// A function or root of the coordinates too wide for a line gets its argument named
     /// (`\sqrt{F_7(θ)}`), when the argument has a rational form.
     fn name_wide_argument(&mut self, index: usize) {
-        if self.arguments.contains_key(&index) {
+        if !self.examined.insert(index) {
             return;
         }
         let atom = self.atoms.get(index).expr.clone();
@@ -123,9 +123,11 @@ impl Sheet {
 /// A polynomial with a term for every monomial of `f`'s numerator and denominator (what
 /// [`Sheet::definition`] reads the kind and the arguments of a name from).
 fn atoms_of(f: &Fraction) -> Poly {
-    let mut p = Poly::default();
-    for m in f.num.0.keys().chain(f.den.0.keys()) {
-        p.0.insert(m.clone(), crate::Q::one());
-    }
-    p
+    Poly::from_terms(
+        f.num
+            .monomials()
+            .chain(f.den.monomials())
+            .map(|m| (m.clone(), crate::Q::one()))
+            .collect(),
+    )
 }

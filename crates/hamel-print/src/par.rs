@@ -1,0 +1,47 @@
+//! Work over a sheet's entries, on a pool of printing's own when it is large enough to pay for
+//! the threads. Printing is CAS-free, and its pool is its own (threads named `hamel-print`),
+//! so its threads never run computer-algebra code nor share a pool with it.
+
+use std::sync::OnceLock;
+
+use rayon::prelude::*;
+
+use crate::poly::Fraction;
+
+/// Below this many terms in all, a sheet's entries are worked on the calling thread (a small
+/// model's sheet prints in a tenth of a millisecond, less than waking the pool costs).
+const PARALLEL_FROM: usize = 2000;
+
+/// Whether entries with these canonical forms are worth the pool.
+pub(crate) fn worth_it<'a>(canonical: impl IntoIterator<Item = &'a Fraction>) -> bool {
+    canonical
+        .into_iter()
+        .map(|f| f.num.size() + f.den.size())
+        .sum::<usize>()
+        >= PARALLEL_FROM
+}
+
+/// Printing's pool: one thread per core; None if the threads could not be started (the work
+/// then runs on the calling thread).
+fn pool() -> Option<&'static rayon::ThreadPool> {
+    static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
+    POOL.get_or_init(|| {
+        rayon::ThreadPoolBuilder::new()
+            .thread_name(|i| format!("hamel-print-{i}"))
+            .build()
+            .ok()
+    })
+    .as_ref()
+}
+
+/// `f` over `items`, in order; on printing's pool when `parallel`.
+pub(crate) fn map<T: Sync, R: Send>(
+    items: &[T],
+    parallel: bool,
+    f: impl Fn(&T) -> R + Sync + Send,
+) -> Vec<R> {
+    match pool().filter(|_| parallel) {
+        Some(pool) => pool.install(|| items.par_iter().map(f).collect()),
+        None => items.iter().map(f).collect(),
+    }
+}
