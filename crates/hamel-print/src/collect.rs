@@ -8,7 +8,7 @@
 //!    terms of the whole sheet, then the model's order) is pulled out of the terms that have
 //!    it: `m_f ρ₁ + m_r ρ₁ + m_r ρ₂` → `m_r(ρ₁ + ρ₂) + m_f ρ₁`.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use hamel_expr::Rational;
 use num_traits::{One, Signed, Zero};
@@ -51,9 +51,15 @@ pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
 /// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
 /// greatest common monomial `g`.
 pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
+    if let Some((m, c)) = p.terms().next().filter(|_| p.size() == 1) {
+        return (c.to_rational(), m.clone(), Poly::constant(Q::one()));
+    }
     let mut monomials = p.monomials();
     let mut g = monomials.next().expect("a nonzero polynomial").clone();
     for m in monomials {
+        if g.0.is_empty() {
+            break;
+        }
         g = g.gcd(m);
     }
     let mut c = Q::content(p.coefficients());
@@ -63,6 +69,8 @@ pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
     let one = g.0.is_empty();
     let rest = if c.is_one() && one {
         p.clone()
+    } else if one {
+        p.scale(&c.recip())
     } else {
         let r = c.recip();
         Poly::from_terms(
@@ -252,28 +260,36 @@ type GroupKey<'a> = (bool, Vec<StateKey<'a>>, Vec<StateKey<'a>>);
 
 /// The groups `(state monomial, parameter coefficient)` in printing order.
 fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
-    let mut groups: BTreeMap<GroupKey<'_>, (Mono, Poly)> = BTreeMap::new();
+    // Gathered by state monomial first, so that each group's printing key is made once.
+    let mut by_state: HashMap<Mono, Vec<(Mono, Q)>> = HashMap::new();
     for (m, c) in p.terms() {
         let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
         let params = m.div(&state).expect("a part divides the whole");
-        let order = |&(i, e): &(usize, u32)| {
-            let (k, pos, text) = atoms.order(i);
-            (k, pos, text, e)
-        };
-        let all: Vec<StateKey<'_>> = state.0.iter().map(order).collect();
-        let rates: Vec<StateKey<'_>> = state
-            .0
-            .iter()
-            .filter(|&&(i, _)| atoms.is_rate(i))
-            .map(order)
-            .collect();
-        let key = (rates.is_empty(), rates, all);
-        let entry = groups
-            .entry(key)
-            .or_insert_with(|| (state, Poly::default()));
-        entry.1.add_term(params, c.clone());
+        by_state.entry(state).or_default().push((params, c.clone()));
     }
-    groups.into_values().collect()
+    let order = |&(i, e): &(usize, u32)| {
+        let (k, pos, text) = atoms.order(i);
+        (k, pos, text, e)
+    };
+    let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = by_state
+        .into_iter()
+        .map(|(state, terms)| {
+            let all: Vec<StateKey<'_>> = state.0.iter().map(order).collect();
+            let rates: Vec<StateKey<'_>> = state
+                .0
+                .iter()
+                .filter(|&&(i, _)| atoms.is_rate(i))
+                .map(order)
+                .collect();
+            (
+                (rates.is_empty(), rates, all),
+                state,
+                Poly::from_terms(terms),
+            )
+        })
+        .collect();
+    groups.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+    groups.into_iter().map(|(_, m, p)| (m, p)).collect()
 }
 
 /// When there are two groups or more and every coefficient is `c_i · P` for one polynomial

@@ -2,6 +2,7 @@
 //! (the model-file syntax, so that it parses back) or LaTeX.
 
 use std::collections::BTreeMap;
+use std::hash::{Hash, Hasher};
 
 use hamel_expr::{Expr, Rational};
 use num_traits::{One, Signed, Zero};
@@ -9,7 +10,7 @@ use num_traits::{One, Signed, Zero};
 use crate::atoms::{Atoms, Kind};
 
 /// A node of a printing form.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Form {
     /// `coef · factors…` (factors in printing order).
     Product {
@@ -22,6 +23,28 @@ pub enum Form {
     Sum(Vec<Form>),
     /// `num / den`.
     Quotient(Box<Form>, Box<Form>),
+}
+
+/// Hashed by the coefficients' numerators and denominators (a rational is always kept in
+/// lowest terms with a positive denominator, so equal values hash alike), not by
+/// `Ratio`'s own hash, which divides to stay consistent with unreduced ratios: forms are
+/// hashed by the thousand when recurring groups are counted.
+impl Hash for Form {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        std::mem::discriminant(self).hash(h);
+        match self {
+            Form::Product { coef, factors } => {
+                coef.numer().hash(h);
+                coef.denom().hash(h);
+                factors.hash(h);
+            }
+            Form::Sum(terms) => terms.hash(h),
+            Form::Quotient(a, b) => {
+                a.hash(h);
+                b.hash(h);
+            }
+        }
+    }
 }
 
 /// A factor of a product.

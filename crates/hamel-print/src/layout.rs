@@ -146,3 +146,22 @@ fn pack(terms: Vec<String>, budget: usize, open: &str, close: &str) -> Vec<Strin
     lines.push(line);
     lines
 }
+
+/// A lower bound of [`width`] of `f` rendered in LaTeX, found without rendering it: every atom, name and coefficient
+/// shows one glyph at least, and terms are joined by a sign (a quotient counts both its
+/// parts, as `width` does).
+pub fn width_at_least(f: &Form) -> usize {
+    match f {
+        Form::Product { factors, .. } => factors
+            .iter()
+            .map(|x| match x {
+                Factor::Group(g) => width_at_least(g),
+                Factor::Atom { .. } | Factor::Name { .. } => 1,
+            })
+            .sum(),
+        Form::Sum(terms) => {
+            terms.iter().map(width_at_least).sum::<usize>() + terms.len().saturating_sub(1)
+        }
+        Form::Quotient(a, b) => width_at_least(a) + width_at_least(b),
+    }
+}

@@ -43,7 +43,7 @@ mod wide;
 
 pub use atoms::{Atom, Atoms, Kind, Vocabulary};
 pub use form::{Definition, Factor, Form};
-pub use layout::{LINE, width};
+pub use layout::{LINE, width, width_at_least};
 pub use poly::{Fraction, Mono, Poly, PolyError};
 pub use printed::Printed;
 pub use q::Q;

@@ -1,8 +1,6 @@
 //! Sparse polynomials with rational coefficients in the atoms: the canonical form against
 //! which a printed form is checked, and what collection works on.
 
-use std::collections::BTreeMap;
-
 use hamel_expr::Expr;
 use num_traits::{Signed, ToPrimitive};
 
@@ -69,13 +67,15 @@ impl Mono {
 
     /// The greatest common divisor (the smallest exponent of each shared atom).
     pub fn gcd(&self, other: &Mono) -> Mono {
-        let theirs: BTreeMap<usize, u32> = other.0.iter().copied().collect();
-        Mono(
-            self.0
-                .iter()
-                .filter_map(|&(i, e)| theirs.get(&i).map(|&f| (i, e.min(f))))
-                .collect(),
-        )
+        let mut out = Vec::new();
+        let mut theirs = other.0.iter().peekable();
+        for &(i, e) in &self.0 {
+            while theirs.next_if(|&&(k, _)| k < i).is_some() {}
+            if let Some(&(_, f)) = theirs.next_if(|&&(k, _)| k == i) {
+                out.push((i, e.min(f)));
+            }
+        }
+        Mono(out)
     }
 
     /// The exponent of atom `i`.
@@ -281,6 +281,13 @@ impl Poly {
             [(m, c)] if m.0.is_empty() => Some(c.clone()),
             _ => None,
         }
+    }
+}
+
+impl From<Poly> for Fraction {
+    /// The polynomial over 1.
+    fn from(p: Poly) -> Fraction {
+        Fraction::poly(p)
     }
 }
 

@@ -58,6 +58,11 @@ impl Q {
 
     /// The canonical form of `n / d` (`d ≠ 0`) given in 128-bit integers.
     fn from_i128(n: i128, d: i128) -> Q {
+        if d == 1
+            && let Ok(n) = i64::try_from(n)
+        {
+            return Q::Small(n, 1);
+        }
         let g = n.gcd(&d);
         let (mut n, mut d) = (n / g, d / g);
         if d < 0 {

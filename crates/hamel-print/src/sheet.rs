@@ -1,6 +1,7 @@
 //! A sheet: expressions printed together, sharing their atoms and a where-list of named
 //! groups, as a paper names κ₁, κ₂ and F₁(θ, θ₁) once and uses them in every entry.
 
+use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use hamel_expr::{Expr, Rational};
@@ -9,7 +10,7 @@ use num_traits::One;
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
 use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
-use crate::poly::{Fraction, Poly, PolyError};
+use crate::poly::{Fraction, Mono, Poly, PolyError};
 
 /// Expressions printed together with their where-list.
 #[derive(Clone, Debug)]
@@ -335,16 +336,28 @@ impl Sheet {
     pub(crate) fn fraction_of(&self, f: &Form) -> Fraction {
         match f {
             Form::Product { coef, factors } => {
-                let mut acc = Fraction::constant(coef.clone());
+                // The atoms make one monomial; only groups and names are multiplied in.
+                let mut monomial = Mono::default();
+                let mut acc: Option<Fraction> = None;
                 for x in factors {
                     let part = match x {
-                        Factor::Atom { index, power } => Fraction::atom(*index, *power),
-                        Factor::Group(g) => self.fraction_of(g),
-                        Factor::Name { index } => self.values[*index].clone(),
+                        Factor::Atom { index, power } => {
+                            monomial = monomial.mul(&Mono(vec![(*index, *power)]));
+                            continue;
+                        }
+                        Factor::Group(g) => Cow::Owned(self.fraction_of(g)),
+                        Factor::Name { index } => Cow::Borrowed(&self.values[*index]),
                     };
-                    acc = acc.times(&part);
+                    acc = Some(match acc {
+                        Some(a) => a.times(&part),
+                        None => part.into_owned(),
+                    });
                 }
-                acc
+                let front = Fraction::from(Poly::term(monomial, coef.clone()));
+                match acc {
+                    Some(rest) => rest.times(&front),
+                    None => front,
+                }
             }
             Form::Sum(terms) => Fraction::sum(terms.iter().map(|t| self.fraction_of(t))),
             Form::Quotient(a, b) => self.fraction_of(a).over(&self.fraction_of(b)),

@@ -5,7 +5,7 @@
 
 use crate::collect;
 use crate::form::{Factor, Form, Latex, Syntax, argument, render};
-use crate::layout::{LINE, width};
+use crate::layout::{LINE, width, width_at_least};
 use crate::poly::{Fraction, Poly};
 use crate::sheet::Sheet;
 
@@ -51,7 +51,7 @@ impl Sheet {
                     }
                     let Factor::Group(g) = x else { continue };
                     self.name_wide_in(g);
-                    if width(&render(g, self.ctx(), &Latex)) > WIDE
+                    if self.wider_than_wide(g)
                         && let Some(index) = self.name_for(g)
                     {
                         *x = Factor::Name { index };
@@ -67,10 +67,16 @@ impl Sheet {
         }
     }
 
+    /// Whether `g` rendered in LaTeX is wider than [`WIDE`]: decided by a lower bound
+    /// without rendering when the bound is over (a large group), by rendering otherwise.
+    fn wider_than_wide(&self, g: &Form) -> bool {
+        width_at_least(g) > WIDE || width(&render(g, self.ctx(), &Latex)) > WIDE
+    }
+
     /// A denominator that is a sum too wide for a line becomes a name (a fraction's
     /// denominator is not broken over lines).
     fn name_wide_denominator(&mut self, b: &mut Form) {
-        if !matches!(b, Form::Sum(_)) || width(&render(b, self.ctx(), &Latex)) <= WIDE {
+        if !matches!(b, Form::Sum(_)) || !self.wider_than_wide(b) {
             return;
         }
         if let Some(index) = self.name_for(b) {

@@ -3,7 +3,7 @@
 //! expands back to it exactly, and whose text parses back to the same printing form.
 
 use hamel_expr::parse;
-use hamel_print::{Printed, Sheet, Vocabulary};
+use hamel_print::{Printed, Sheet, Vocabulary, width, width_at_least};
 use serde_json::Value;
 
 fn strings(v: &Value, out: &mut Vec<String>) {
@@ -74,6 +74,16 @@ fn every_entry_of_every_seed_model_prints_exactly() {
                 "{name}: entry {i} with names: {}",
                 sheet.text(i)
             );
+            // The bound by which wide groups are found without rendering them is a bound.
+            let latex = sheet.latex(i);
+            assert!(
+                width_at_least(sheet.form(i)) <= width(&latex),
+                "{name}: entry {i}: {latex}"
+            );
+        }
+        for (j, d) in sheet.definitions().iter().enumerate() {
+            let latex = sheet.definition_lines(j, usize::MAX).concat();
+            assert!(width_at_least(&d.form) <= width(&latex), "{name}: {latex}");
         }
         if std::env::var_os("SHOW_PRINTED").is_some() {
             eprintln!("== {name}");
