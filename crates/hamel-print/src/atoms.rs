@@ -1,6 +1,6 @@
 //! The atoms of a printing form: parameters, coordinates, velocities, and functions of them.
 
-use std::collections::HashMap;
+use foldhash::HashMap;
 
 use hamel_expr::Expr;
 
@@ -64,9 +64,9 @@ impl Atoms {
         Atoms {
             vocabulary,
             list: Vec::new(),
-            index: HashMap::new(),
-            seen: HashMap::new(),
-            weight: HashMap::new(),
+            index: HashMap::default(),
+            seen: HashMap::default(),
+            weight: HashMap::default(),
         }
     }
 

@@ -8,7 +8,9 @@
 //!    terms of the whole sheet, then the model's order) is pulled out of the terms that have
 //!    it: `m_f ρ₁ + m_r ρ₁ + m_r ρ₂` → `m_r(ρ₁ + ρ₂) + m_f ρ₁`.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
+
+use foldhash::HashMap;
 
 use hamel_expr::Rational;
 use num_traits::{One, Signed, Zero};
@@ -261,7 +263,7 @@ type GroupKey<'a> = (bool, Vec<StateKey<'a>>, Vec<StateKey<'a>>);
 /// The groups `(state monomial, parameter coefficient)` in printing order.
 fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
     // Gathered by state monomial first, so that each group's printing key is made once.
-    let mut by_state: HashMap<Mono, Vec<(Mono, Q)>> = HashMap::new();
+    let mut by_state: HashMap<Mono, Vec<(Mono, Q)>> = HashMap::default();
     for (m, c) in p.terms() {
         let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
         let params = m.div(&state).expect("a part divides the whole");

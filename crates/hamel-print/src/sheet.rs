@@ -2,7 +2,9 @@
 //! groups, as a paper names κ₁, κ₂ and F₁(θ, θ₁) once and uses them in every entry.
 
 use std::borrow::Cow;
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet};
+
+use foldhash::HashMap;
 
 use hamel_expr::{Expr, Rational};
 use num_traits::One;
@@ -382,7 +384,7 @@ impl Sheet {
             groups(f, &mut found);
             shown.resize(found.len(), n);
         }
-        let mut index: HashMap<&Form, usize> = HashMap::new();
+        let mut index: HashMap<&Form, usize> = HashMap::default();
         let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
         let mut at: Vec<usize> = Vec::with_capacity(found.len());
         for (place, (g, n)) in found.iter().zip(shown).enumerate() {
