@@ -69,22 +69,14 @@ pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
         c = c.neg();
     }
     let one = g.0.is_empty();
-    let rest = if c.is_one() && one {
-        p.clone()
-    } else if one {
+    // Scaling keeps the terms' order; dividing by g may not, so those are sorted again.
+    let rest = if one {
         p.scale(&c.recip())
     } else {
         let r = c.recip();
         Poly::from_terms(
             p.terms()
-                .map(|(m, d)| {
-                    let m = if one {
-                        m.clone()
-                    } else {
-                        m.div(&g).expect("g divides every term")
-                    };
-                    (m, d.mul(&r))
-                })
+                .map(|(m, d)| (m.div(&g).expect("g divides every term"), d.mul(&r)))
                 .collect(),
         )
     };
@@ -215,14 +207,7 @@ fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
             rest.add_term(m.clone(), c.clone());
             continue;
         }
-        let key = rate
-            .0
-            .iter()
-            .map(|&(i, e)| {
-                let (k, pos, text) = atoms.order(i);
-                (k, pos, text, e)
-            })
-            .collect();
+        let key = state_key(rate.0.iter(), atoms);
         let coefficient = m.div(&rate).expect("a part divides the whole");
         let entry = by_rate
             .entry(key)
@@ -255,6 +240,19 @@ fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
 /// A state atom's place in the printing order, with its exponent.
 type StateKey<'a> = (Kind, usize, &'a str, u32);
 
+/// The printing-order keys of a monomial's `(atom, exponent)` pairs.
+fn state_key<'a, 'p>(
+    pairs: impl Iterator<Item = &'p (usize, u32)>,
+    atoms: &'a Atoms,
+) -> Vec<StateKey<'a>> {
+    pairs
+        .map(|&(i, e)| {
+            let (k, pos, text) = atoms.order(i);
+            (k, pos, text, e)
+        })
+        .collect()
+}
+
 /// A group's place in a sum: the terms with rates of the quasi-velocities first (by those
 /// rates: `η̇₁` before `η̇₂`), as an equation of motion is written, `A_Γ η̇ + …`; then the
 /// state atoms in printing order.
@@ -269,20 +267,11 @@ fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
         let params = m.div(&state).expect("a part divides the whole");
         by_state.entry(state).or_default().push((params, c.clone()));
     }
-    let order = |&(i, e): &(usize, u32)| {
-        let (k, pos, text) = atoms.order(i);
-        (k, pos, text, e)
-    };
     let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = by_state
         .into_iter()
         .map(|(state, terms)| {
-            let all: Vec<StateKey<'_>> = state.0.iter().map(order).collect();
-            let rates: Vec<StateKey<'_>> = state
-                .0
-                .iter()
-                .filter(|&&(i, _)| atoms.is_rate(i))
-                .map(order)
-                .collect();
+            let all = state_key(state.0.iter(), atoms);
+            let rates = state_key(state.0.iter().filter(|&&(i, _)| atoms.is_rate(i)), atoms);
             (
                 (rates.is_empty(), rates, all),
                 state,
