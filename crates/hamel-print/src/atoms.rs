@@ -37,6 +37,10 @@ pub struct Atom {
     pub kind: Kind,
     /// Its text, the key that identifies it.
     pub key: String,
+    /// Its text in the model syntax as a factor of a product (`sin(theta)`, `(x^(1/2))`).
+    pub(crate) text: String,
+    /// Its LaTeX.
+    pub(crate) latex: String,
     /// The position of its name in the model (parameters, coordinates, velocities), for
     /// the printing order; `usize::MAX` for none.
     position: usize,
@@ -75,6 +79,16 @@ impl Atoms {
         &self.vocabulary
     }
 
+    /// How many atoms there are.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
     /// The atom with index `i`.
     pub fn get(&self, i: usize) -> &Atom {
         &self.list[i]
@@ -97,6 +111,8 @@ impl Atoms {
         self.list.push(Atom {
             expr: expr.clone(),
             kind,
+            text: text_of(expr),
+            latex: expr.to_latex(),
             key,
             position,
         });
@@ -170,5 +186,23 @@ impl Atoms {
             _ => None,
         };
         position.unwrap_or(usize::MAX)
+    }
+}
+
+/// Whether an expression is a name or a call, which a power follows without parentheses.
+pub(crate) fn simple(e: &Expr) -> bool {
+    matches!(
+        e,
+        Expr::Sym(_) | Expr::Der(_) | Expr::Call(..) | Expr::Free { .. }
+    )
+}
+
+/// An atom's text as a factor of a product: a name or call as it is, a power of one with its
+/// exponent, anything else in parentheses.
+pub(crate) fn text_of(e: &Expr) -> String {
+    match e {
+        _ if simple(e) => e.to_string(),
+        Expr::Pow(b, n) if simple(b) => format!("{b}^{n}"),
+        _ => format!("({e})"),
     }
 }

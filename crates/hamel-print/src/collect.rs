@@ -12,9 +12,6 @@ use std::collections::BTreeMap;
 
 use foldhash::HashMap;
 
-use hamel_expr::Rational;
-use num_traits::{One, Signed, Zero};
-
 use crate::atoms::{Atoms, Kind};
 use crate::form::{Factor, Form, factor_rank, is_zero};
 use crate::poly::{Fraction, Mono, Poly, leading_negative};
@@ -39,7 +36,7 @@ pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
 /// The printing form of a polynomial (step 1, then 2).
 pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
     if p.is_zero() {
-        return constant(Rational::zero());
+        return constant(Q::zero());
     }
     let (c, g, rest) = content(p);
     let inner = if rest.as_constant().is_some() {
@@ -52,9 +49,9 @@ pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
 
 /// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
 /// greatest common monomial `g`.
-pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
+pub(crate) fn content(p: &Poly) -> (Q, Mono, Poly) {
     if let Some((m, c)) = p.terms().next().filter(|_| p.size() == 1) {
-        return (c.to_rational(), m.clone(), Poly::constant(Q::one()));
+        return (c.clone(), m.clone(), Poly::constant(Q::one()));
     }
     let mut monomials = p.monomials();
     let mut g = monomials.next().expect("a nonzero polynomial").clone();
@@ -80,17 +77,17 @@ pub(crate) fn content(p: &Poly) -> (Rational, Mono, Poly) {
                 .collect(),
         )
     };
-    (c.to_rational(), g, rest)
+    (c, g, rest)
 }
 
 /// `c · g · (inner)`, factors in printing order; the sign taken out of a sum whose first printed
 /// term is negative.
-fn product(mut c: Rational, g: &Mono, mut inner: Option<Form>, atoms: &Atoms) -> Form {
+fn product(mut c: Q, g: &Mono, mut inner: Option<Form>, atoms: &Atoms) -> Form {
     if let Some(Form::Sum(terms)) = &mut inner
         && terms.first().is_some_and(negative)
     {
         terms.iter_mut().for_each(negate);
-        c = -c;
+        c = c.neg();
     }
     let mut factors = atoms_of(g);
     match inner {
@@ -100,14 +97,14 @@ fn product(mut c: Rational, g: &Mono, mut inner: Option<Form>, atoms: &Atoms) ->
             factors: more,
         }) => {
             factors.extend(more);
-            return sorted(c * coef, factors, atoms);
+            return sorted(c.mul(&coef), factors, atoms);
         }
         Some(sum) => factors.push(Factor::Group(sum)),
     }
     sorted(c, factors, atoms)
 }
 
-fn sorted(coef: Rational, mut factors: Vec<Factor>, atoms: &Atoms) -> Form {
+fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Atoms) -> Form {
     if coef.is_one()
         && matches!(factors.as_slice(), [Factor::Group(_)])
         && let Some(Factor::Group(sum)) = factors.pop()
@@ -153,13 +150,13 @@ pub(crate) fn negative(f: &Form) -> bool {
 
 pub(crate) fn negate(f: &mut Form) {
     match f {
-        Form::Product { coef, .. } => *coef = -coef.clone(),
+        Form::Product { coef, .. } => *coef = coef.neg(),
         Form::Sum(terms) => terms.iter_mut().for_each(negate),
         Form::Quotient(num, _) => negate(num),
     }
 }
 
-fn constant(c: Rational) -> Form {
+fn constant(c: Q) -> Form {
     Form::Product {
         coef: c,
         factors: Vec::new(),
@@ -181,9 +178,9 @@ fn by_state(p: &Poly, atoms: &Atoms) -> Form {
         let mut inner = by_state(&rest, atoms);
         let sign = if negative(&inner) {
             negate(&mut inner);
-            -Rational::one()
+            Q::from(-1)
         } else {
-            Rational::one()
+            Q::one()
         };
         let common = parameters(&common, atoms);
         return sorted(
@@ -222,7 +219,7 @@ fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
         .map(|(rate, coefficient)| {
             let (coef, mut factors) = match poly(&coefficient, atoms) {
                 Form::Product { coef, factors } => (coef, factors),
-                sum => (Rational::one(), vec![Factor::Group(sum)]),
+                sum => (Q::one(), vec![Factor::Group(sum)]),
             };
             factors.extend(atoms_of(&rate));
             sorted(coef, factors, atoms)
@@ -285,7 +282,7 @@ fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
 
 /// When there are two groups or more and every coefficient is `c_i · P` for one polynomial
 /// `P` of two terms or more: `P` and the `c_i`.
-fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Rational>)> {
+fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Q>)> {
     if groups.len() < 2 {
         return None;
     }
@@ -312,7 +309,7 @@ fn collected(groups: Vec<(Mono, Poly)>, atoms: &Atoms) -> Form {
             let c = parameters(&coef, atoms);
             let (coef, mut factors) = match c {
                 Form::Product { coef, factors } => (coef, factors),
-                sum => (Rational::one(), vec![Factor::Group(sum)]),
+                sum => (Q::one(), vec![Factor::Group(sum)]),
             };
             factors.extend(atoms_of(&state));
             sorted(coef, factors, atoms)
@@ -344,7 +341,7 @@ fn greedy(p: &Poly, atoms: &Atoms) -> Form {
     let Some(a) = most_frequent(p, atoms) else {
         let terms = p
             .terms()
-            .map(|(m, c)| sorted(c.to_rational(), atoms_of(m), atoms))
+            .map(|(m, c)| sorted(c.clone(), atoms_of(m), atoms))
             .collect();
         return in_order(terms, atoms);
     };
@@ -356,7 +353,7 @@ fn greedy(p: &Poly, atoms: &Atoms) -> Form {
         }
     }
     let mut terms = vec![product(
-        Rational::one(),
+        Q::one(),
         &Mono::atom(a),
         Some(parameters(&with, atoms)),
         atoms,

@@ -2,20 +2,21 @@
 //! (the model-file syntax, so that it parses back) or LaTeX.
 
 use std::collections::BTreeMap;
-use std::hash::{Hash, Hasher};
+use std::fmt::Write;
 
-use hamel_expr::{Expr, Rational};
-use num_traits::{One, Signed, Zero};
+use hamel_expr::Expr;
+use num_traits::Signed;
 
-use crate::atoms::{Atoms, Kind};
+use crate::atoms::{Atom, Atoms, Kind, simple, text_of};
+use crate::q::Q;
 
 /// A node of a printing form.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Form {
     /// `coef · factors…` (factors in printing order).
     Product {
         /// The rational coefficient.
-        coef: Rational,
+        coef: Q,
         /// The factors.
         factors: Vec<Factor>,
     },
@@ -23,28 +24,6 @@ pub enum Form {
     Sum(Vec<Form>),
     /// `num / den`.
     Quotient(Box<Form>, Box<Form>),
-}
-
-/// Hashed by the coefficients' numerators and denominators (a rational is always kept in
-/// lowest terms with a positive denominator, so equal values hash alike), not by
-/// `Ratio`'s own hash, which divides to stay consistent with unreduced ratios: forms are
-/// hashed by the thousand when recurring groups are counted.
-impl Hash for Form {
-    fn hash<H: Hasher>(&self, h: &mut H) {
-        std::mem::discriminant(self).hash(h);
-        match self {
-            Form::Product { coef, factors } => {
-                coef.numer().hash(h);
-                coef.denom().hash(h);
-                factors.hash(h);
-            }
-            Form::Sum(terms) => terms.hash(h),
-            Form::Quotient(a, b) => {
-                a.hash(h);
-                b.hash(h);
-            }
-        }
-    }
 }
 
 /// A factor of a product.
@@ -93,7 +72,7 @@ pub(crate) struct Ctx<'a> {
 pub(crate) fn to_expr(f: &Form, ctx: Ctx<'_>) -> Expr {
     match f {
         Form::Product { coef, factors } => {
-            let mut v = vec![Expr::Num(coef.clone())];
+            let mut v = vec![Expr::Num(coef.to_rational())];
             v.extend(factors.iter().map(|x| match x {
                 Factor::Atom { index, power } => power_of(ctx.atoms, *index, *power),
                 Factor::Group(g) => to_expr(g, ctx),
@@ -107,10 +86,9 @@ pub(crate) fn to_expr(f: &Form, ctx: Ctx<'_>) -> Expr {
 }
 
 /// Atom `index` to `power`, its argument by name where the sheet named it.
-fn atom(ctx: Ctx<'_>, index: usize, power: u32, s: &dyn Syntax) -> String {
-    let e = power_of(ctx.atoms, index, power);
+fn atom(ctx: Ctx<'_>, index: usize, power: u32, s: &dyn Syntax, out: &mut String) {
     let Some(&name) = ctx.arguments.get(&index) else {
-        return s.atom(&e);
+        return s.atom_power(ctx.atoms.get(index), power, out);
     };
     let mark = Expr::Sym(ARGUMENT.to_string());
     let marked = with_argument(&ctx.atoms.get(index).expr, mark.clone());
@@ -119,8 +97,10 @@ fn atom(ctx: Ctx<'_>, index: usize, power: u32, s: &dyn Syntax) -> String {
     } else {
         Expr::powi(marked, i64::from(power))
     };
-    s.atom(&marked)
-        .replace(&s.atom(&mark), &s.name(&ctx.names[name]))
+    out.push_str(
+        &s.atom(&marked)
+            .replace(&s.atom(&mark), &s.name(&ctx.names[name])),
+    );
 }
 
 /// A symbol no model uses, standing for a named argument while an atom is rendered.
@@ -156,12 +136,17 @@ fn power_of(atoms: &Atoms, index: usize, power: u32) -> Expr {
 
 /// How a syntax writes the pieces.
 pub(crate) trait Syntax {
-    fn rational(&self, r: &Rational) -> String;
+    /// The magnitude of `r`.
+    fn magnitude(&self, r: &Q, out: &mut String);
     fn atom(&self, e: &Expr) -> String;
+    /// An atom to a power (its text at power one is kept with the atom).
+    fn atom_power(&self, a: &Atom, power: u32, out: &mut String);
     fn times(&self) -> &'static str;
-    fn group(&self, inner: &str) -> String;
-    /// `num / den`; `bare` says which of them reads unambiguously without parentheses.
-    fn quotient(&self, num: &str, den: &str, bare: (bool, bool)) -> String;
+    /// What opens and closes a group.
+    fn group(&self) -> (&'static str, &'static str);
+    /// What is written before the numerator, between it and the denominator, and after the
+    /// denominator; `bare` says which of them reads unambiguously without parentheses.
+    fn quotient(&self, bare: (bool, bool)) -> [&'static str; 3];
     fn name(&self, d: &Definition) -> String;
 }
 
@@ -169,41 +154,44 @@ pub(crate) struct Text;
 pub(crate) struct Latex;
 
 impl Syntax for Text {
-    fn rational(&self, r: &Rational) -> String {
-        r.to_string()
+    fn magnitude(&self, r: &Q, out: &mut String) {
+        match r {
+            Q::Small(n, 1) => {
+                let _ = write!(out, "{}", n.unsigned_abs());
+            }
+            Q::Small(n, d) => {
+                let _ = write!(out, "{}/{d}", n.unsigned_abs());
+            }
+            Q::Big(r) => {
+                let _ = write!(out, "{}", r.abs());
+            }
+        }
     }
     fn atom(&self, e: &Expr) -> String {
-        match e {
-            Expr::Sym(_) | Expr::Der(_) | Expr::Call(..) | Expr::Free { .. } => e.to_string(),
-            Expr::Pow(b, n)
-                if matches!(
-                    **b,
-                    Expr::Sym(_) | Expr::Der(_) | Expr::Call(..) | Expr::Free { .. }
-                ) =>
-            {
-                format!("{b}^{n}")
-            }
-            _ => format!("({e})"),
+        text_of(e)
+    }
+    fn atom_power(&self, a: &Atom, power: u32, out: &mut String) {
+        if power == 1 {
+            out.push_str(&a.text);
+        } else if simple(&a.expr) {
+            let _ = write!(out, "{}^{power}", a.text);
+        } else {
+            out.push_str(&self.atom(&Expr::powi(a.expr.clone(), i64::from(power))));
         }
     }
     fn times(&self) -> &'static str {
         "*"
     }
-    fn group(&self, inner: &str) -> String {
-        format!("({inner})")
+    fn group(&self) -> (&'static str, &'static str) {
+        ("(", ")")
     }
-    fn quotient(&self, num: &str, den: &str, (num_bare, den_bare): (bool, bool)) -> String {
-        let num = if num_bare {
-            num.to_string()
-        } else {
-            format!("({num})")
-        };
-        let den = if den_bare {
-            den.to_string()
-        } else {
-            format!("({den})")
-        };
-        format!("{num}/{den}")
+    fn quotient(&self, bare: (bool, bool)) -> [&'static str; 3] {
+        match bare {
+            (true, true) => ["", "/", ""],
+            (true, false) => ["", "/(", ")"],
+            (false, true) => ["(", ")/", ""],
+            (false, false) => ["(", ")/(", ")"],
+        }
     }
     fn name(&self, d: &Definition) -> String {
         if d.args.is_empty() {
@@ -215,24 +203,40 @@ impl Syntax for Text {
 }
 
 impl Syntax for Latex {
-    fn rational(&self, r: &Rational) -> String {
-        if r.is_integer() {
-            r.to_string()
-        } else {
-            format!("\\tfrac{{{}}}{{{}}}", r.numer(), r.denom())
+    fn magnitude(&self, r: &Q, out: &mut String) {
+        match r {
+            Q::Small(n, 1) => {
+                let _ = write!(out, "{}", n.unsigned_abs());
+            }
+            Q::Small(n, d) => {
+                let _ = write!(out, "\\tfrac{{{}}}{{{d}}}", n.unsigned_abs());
+            }
+            Q::Big(r) if r.is_integer() => {
+                let _ = write!(out, "{}", r.numer().magnitude());
+            }
+            Q::Big(r) => {
+                let _ = write!(out, "\\tfrac{{{}}}{{{}}}", r.numer().magnitude(), r.denom());
+            }
         }
     }
     fn atom(&self, e: &Expr) -> String {
         e.to_latex()
     }
+    fn atom_power(&self, a: &Atom, power: u32, out: &mut String) {
+        if power == 1 {
+            out.push_str(&a.latex);
+        } else {
+            out.push_str(&Expr::powi(a.expr.clone(), i64::from(power)).to_latex());
+        }
+    }
     fn times(&self) -> &'static str {
         " "
     }
-    fn group(&self, inner: &str) -> String {
-        format!("\\left({inner}\\right)")
+    fn group(&self) -> (&'static str, &'static str) {
+        ("\\left(", "\\right)")
     }
-    fn quotient(&self, num: &str, den: &str, _: (bool, bool)) -> String {
-        format!("\\frac{{{num}}}{{{den}}}")
+    fn quotient(&self, _: (bool, bool)) -> [&'static str; 3] {
+        ["\\frac{", "}{", "}"]
     }
     fn name(&self, d: &Definition) -> String {
         let name = hamel_expr::latex_name(&d.name);
@@ -247,29 +251,33 @@ impl Syntax for Latex {
 
 /// The terms of a sum as signed pieces: the first `-t` or `t`, the others ` - t` or ` + t`.
 pub(crate) fn render_terms(terms: &[Form], ctx: Ctx<'_>) -> Vec<String> {
-    signed_terms(terms, ctx, &Latex)
-}
-
-fn signed_terms(terms: &[Form], ctx: Ctx<'_>, s: &dyn Syntax) -> Vec<String> {
     terms
         .iter()
         .enumerate()
         .map(|(i, t)| {
-            let (negative, body) = unsigned(t, ctx, s);
-            let sign = match (i, negative) {
-                (0, true) => "-",
-                (0, false) => "",
-                (_, true) => " - ",
-                (_, false) => " + ",
-            };
-            format!("{sign}{body}")
+            let mut out = String::new();
+            write_term(i, t, ctx, &Latex, &mut out);
+            out
         })
         .collect()
 }
 
+/// Term `i` of a sum with its sign.
+fn write_term(i: usize, t: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
+    out.push_str(match (i, negative_term(t)) {
+        (0, true) => "-",
+        (0, false) => "",
+        (_, true) => " - ",
+        (_, false) => " + ",
+    });
+    write_unsigned(t, ctx, s, out);
+}
+
 /// A form's sign and magnitude in LaTeX.
 pub(crate) fn unsigned_latex(f: &Form, ctx: Ctx<'_>) -> (bool, String) {
-    unsigned(f, ctx, &Latex)
+    let mut out = String::new();
+    write_unsigned(f, ctx, &Latex, &mut out);
+    (negative_term(f), out)
 }
 
 impl Latex {
@@ -285,41 +293,68 @@ impl Latex {
 }
 
 pub(crate) fn render(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> String {
+    let mut out = String::new();
+    write(f, ctx, s, &mut out);
+    out
+}
+
+/// [`render`] into `out`.
+fn write(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
     match f {
-        Form::Sum(terms) => signed_terms(terms, ctx, s).concat(),
-        _ => {
-            let (negative, body) = unsigned(f, ctx, s);
-            if negative { format!("-{body}") } else { body }
+        Form::Sum(terms) => {
+            for (i, t) in terms.iter().enumerate() {
+                write_term(i, t, ctx, s, out);
+            }
         }
+        _ => write_term(0, f, ctx, s, out),
     }
 }
 
-/// A term's sign and the text of its magnitude: a negated product is written `- a b`, never
-/// `-(a b)`.
-fn unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> (bool, String) {
+/// Whether a term is written with a minus: a product with a negative coefficient (a sum or
+/// a quotient is written in parentheses or as a fraction, its signs inside).
+fn negative_term(f: &Form) -> bool {
+    matches!(f, Form::Product { coef, .. } if coef.is_negative())
+}
+
+/// A term's magnitude: a negated product is written `- a b`, never `-(a b)`.
+fn write_unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
     match f {
         Form::Product { coef, factors } => {
-            let mut parts: Vec<String> = Vec::new();
-            let magnitude = coef.abs();
-            if !magnitude.is_one() || factors.is_empty() {
-                parts.push(s.rational(&magnitude));
+            let one = coef.is_unit();
+            let mut first = true;
+            if !one || factors.is_empty() {
+                s.magnitude(coef, out);
+                first = false;
             }
             for x in factors {
-                parts.push(match x {
-                    Factor::Atom { index, power } => atom(ctx, *index, *power, s),
-                    Factor::Group(g) => s.group(&render(g, ctx, s)),
-                    Factor::Name { index } => s.name(&ctx.names[*index]),
-                });
+                if !std::mem::take(&mut first) {
+                    out.push_str(s.times());
+                }
+                match x {
+                    Factor::Atom { index, power } => atom(ctx, *index, *power, s, out),
+                    Factor::Group(g) => {
+                        let (open, close) = s.group();
+                        out.push_str(open);
+                        write(g, ctx, s, out);
+                        out.push_str(close);
+                    }
+                    Factor::Name { index } => out.push_str(&s.name(&ctx.names[*index])),
+                }
             }
-            (coef.is_negative(), parts.join(s.times()))
         }
-        Form::Sum(_) => (false, s.group(&render(f, ctx, s))),
+        Form::Sum(_) => {
+            let (open, close) = s.group();
+            out.push_str(open);
+            write(f, ctx, s, out);
+            out.push_str(close);
+        }
         Form::Quotient(a, b) => {
-            let bare = (bare_numerator(a), bare_denominator(b));
-            (
-                false,
-                s.quotient(&render(a, ctx, s), &render(b, ctx, s), bare),
-            )
+            let [before, between, after] = s.quotient((bare_numerator(a), bare_denominator(b)));
+            out.push_str(before);
+            write(a, ctx, s, out);
+            out.push_str(between);
+            write(b, ctx, s, out);
+            out.push_str(after);
         }
     }
 }

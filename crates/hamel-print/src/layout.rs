@@ -91,7 +91,7 @@ impl Sheet {
 /// product with the coefficient), the sum's terms, and the factors after it.
 fn split(f: &Form) -> Option<(Form, &[Form], Form)> {
     let empty = || Form::Product {
-        coef: num_traits::One::one(),
+        coef: crate::Q::one(),
         factors: Vec::new(),
     };
     match f {
@@ -108,7 +108,7 @@ fn split(f: &Form) -> Option<(Form, &[Form], Form)> {
                 factors: factors[..k].to_vec(),
             };
             let tail = Form::Product {
-                coef: num_traits::One::one(),
+                coef: crate::Q::one(),
                 factors: factors[k + 1..].to_vec(),
             };
             Some((lead, terms, tail))

@@ -31,6 +31,7 @@ pub mod derivation;
 mod document;
 mod form;
 mod layout;
+mod modular;
 mod par;
 mod poly;
 mod positive;

@@ -11,7 +11,6 @@
 use std::collections::BTreeSet;
 
 use hamel_expr::{Expr, Func};
-use num_traits::Signed;
 
 use crate::form::{Ctx, Factor, Form};
 

@@ -15,8 +15,8 @@ use num_traits::{One, Signed, ToPrimitive, Zero};
 pub enum Q {
     /// `n / d` in machine integers.
     Small(i64, i64),
-    /// Anything larger.
-    Big(Rational),
+    /// Anything larger (boxed, so that a coefficient is three words).
+    Big(Box<Rational>),
 }
 
 impl Q {
@@ -48,11 +48,32 @@ impl Q {
         }
     }
 
+    /// Whether this is positive.
+    pub fn is_positive(&self) -> bool {
+        match self {
+            Q::Small(n, _) => *n > 0,
+            Q::Big(r) => r.is_positive(),
+        }
+    }
+
+    /// Whether this is an integer.
+    pub fn is_integer(&self) -> bool {
+        match self {
+            Q::Small(_, d) => *d == 1,
+            Q::Big(r) => r.is_integer(),
+        }
+    }
+
+    /// Whether this is 1 or −1.
+    pub fn is_unit(&self) -> bool {
+        matches!(self, Q::Small(1 | -1, 1))
+    }
+
     /// The value as a big rational.
     pub fn to_rational(&self) -> Rational {
         match self {
             Q::Small(n, d) => Rational::new_raw(BigInt::from(*n), BigInt::from(*d)),
-            Q::Big(r) => r.clone(),
+            Q::Big(r) => (**r).clone(),
         }
     }
 
@@ -71,7 +92,7 @@ impl Q {
         }
         match (i64::try_from(n), i64::try_from(d)) {
             (Ok(n), Ok(d)) => Q::Small(n, d),
-            _ => Q::Big(Rational::new(BigInt::from(n), BigInt::from(d))),
+            _ => Q::Big(Box::new(Rational::new(BigInt::from(n), BigInt::from(d)))),
         }
     }
 
@@ -159,7 +180,7 @@ impl From<Rational> for Q {
     fn from(r: Rational) -> Q {
         match (r.numer().to_i64(), r.denom().to_i64()) {
             (Some(n), Some(d)) => Q::Small(n, d),
-            _ => Q::Big(r),
+            _ => Q::Big(Box::new(r)),
         }
     }
 }

@@ -406,3 +406,38 @@ fn equations_are_multiplied_through_by_a_denominator_proved_positive() {
     // Even powers need no declaration.
     assert!(row("m^2 + R^2*cos(theta)^2", &BTreeSet::new()).is_some());
 }
+
+/// The check at a random point modulo a prime finds a printed form that is off by a term or
+/// by a factor, with names and quotients, and passes the right one.
+#[test]
+fn the_modular_check_finds_a_wrong_form() {
+    use crate::Sheet;
+    use crate::form::{Factor, Form};
+    let v = unicycle();
+    let entries = [
+        "(m_d*R*sin(theta) + m_f*rho1*sin(theta) + m_r*rho*sin(theta1))*cos(phi)",
+        "(m_d*R*sin(theta) + m_f*rho1*sin(theta) + m_r*rho*sin(theta1))*sin(phi)*eta1",
+        "(m_d + m_f*rho1*cos(theta))/(R^2*m_d + rho2*m_r*sin(theta)^2)",
+    ];
+    let exprs: Vec<_> = entries.iter().map(|e| parse(e).unwrap().expr).collect();
+    let mut sheet = Sheet::new(&v);
+    sheet.add_all(&exprs).unwrap();
+    sheet.name_groups();
+    assert!(!sheet.definitions().is_empty(), "a group is named");
+    assert_eq!(sheet.first_mismatch(), None);
+    for i in 0..entries.len() {
+        // Doubled, and with one more factor of an atom: both differ from the canonical form.
+        for wrong in [
+            |f: Form| Form::Sum(vec![f.clone(), f]),
+            |f: Form| Form::Product {
+                coef: crate::Q::one(),
+                factors: vec![Factor::Atom { index: 0, power: 1 }, Factor::Group(f)],
+            },
+        ] {
+            let mut bad = sheet.clone();
+            bad.entries[i].0 = wrong(bad.entries[i].0.clone());
+            assert_eq!(bad.first_mismatch(), Some(i), "entry {i}");
+            assert!(!bad.check(i));
+        }
+    }
+}

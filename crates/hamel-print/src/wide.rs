@@ -81,7 +81,7 @@ impl Sheet {
         }
         if let Some(index) = self.name_for(b) {
             *b = Form::Product {
-                coef: num_traits::One::one(),
+                coef: crate::Q::one(),
                 factors: vec![Factor::Name { index }],
             };
         }

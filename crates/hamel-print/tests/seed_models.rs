@@ -68,6 +68,8 @@ fn every_entry_of_every_seed_model_prints_exactly() {
             .map(|p| sheet.add(&p.expr).unwrap())
             .collect();
         sheet.name_groups();
+        // The check at a random point modulo a prime agrees with the exact one below.
+        assert_eq!(sheet.first_mismatch(), None, "{name}");
         for &i in &ids {
             assert!(
                 sheet.check(i),

@@ -1,0 +1,230 @@
+//! The check that a printed form is its canonical form, made cheap: both evaluated at a random
+//! point, exactly, in the integers modulo the prime p = 2⁶¹ − 1.
+//!
+//! Two different rational functions of degree at most d agree at a point drawn uniformly from
+//! 𝔽ₚⁿ with probability at most d/p (Schwartz–Zippel), below 10⁻¹⁶ for every derivation hamel
+//! prints; an agreement is therefore the identity with that probability, and a disagreement
+//! is certain. Where the point hits a pole (a denominator, or a coefficient's, that vanishes
+//! mod p) nothing is concluded and the caller falls back to expanding
+//! ([`crate::Sheet::check`], exact, which the tests also run on every entry of every seed
+//! model). Evaluation allocates nothing per term: it is what makes the check a few percent of
+//! printing instead of a third.
+
+use std::hash::{BuildHasher, RandomState};
+
+use hamel_expr::Rational;
+use num_traits::ToPrimitive;
+
+use crate::form::{Factor, Form};
+use crate::poly::{Fraction, Poly};
+use crate::q::Q;
+
+/// The modulus, a Mersenne prime.
+const P: u64 = (1 << 61) - 1;
+
+/// `a · b mod p`.
+fn mul(a: u64, b: u64) -> u64 {
+    let x = u128::from(a) * u128::from(b);
+    // 2⁶¹ ≡ 1: fold the high bits onto the low ones.
+    let folded = (x & u128::from(P)) + (x >> 61);
+    reduce(u64::try_from(folded).unwrap_or(u64::MAX))
+}
+
+fn reduce(x: u64) -> u64 {
+    let y = (x & P) + (x >> 61);
+    if y >= P { y - P } else { y }
+}
+
+fn add(a: u64, b: u64) -> u64 {
+    reduce(a + b)
+}
+
+fn neg(a: u64) -> u64 {
+    if a == 0 { 0 } else { P - a }
+}
+
+fn pow(mut a: u64, mut n: u64) -> u64 {
+    if n == 1 {
+        return a;
+    }
+    let mut r = 1;
+    while n > 0 {
+        if n & 1 == 1 {
+            r = mul(r, a);
+        }
+        a = mul(a, a);
+        n >>= 1;
+    }
+    r
+}
+
+/// `1/a`, none for zero.
+fn inverse(a: u64) -> Option<u64> {
+    (a != 0).then(|| pow(a, P - 2))
+}
+
+/// A signed machine integer mod p.
+fn of_i64(n: i64) -> u64 {
+    let m = n.unsigned_abs() % P;
+    if n < 0 { neg(m) } else { m }
+}
+
+/// A big integer mod p.
+fn of_big(n: &num_bigint::BigInt) -> u64 {
+    if let Some(small) = n.to_i64() {
+        return of_i64(small);
+    }
+    let m = n % num_bigint::BigInt::from(P);
+    of_i64(m.to_i64().expect("a residue fits"))
+}
+
+/// A rational mod p; none when its denominator vanishes mod p.
+fn of_rational(r: &Rational) -> Option<u64> {
+    let d = of_big(r.denom());
+    let n = of_big(r.numer());
+    if d == 1 {
+        return Some(n);
+    }
+    inverse(d).map(|i| mul(n, i))
+}
+
+fn of_q(q: &Q) -> Option<u64> {
+    match q {
+        Q::Small(n, 1) => Some(of_i64(*n)),
+        Q::Small(n, d) => inverse(of_i64(*d)).map(|i| mul(of_i64(*n), i)),
+        Q::Big(r) => of_rational(r),
+    }
+}
+
+/// A point: a random residue for every atom, and the names' values there (each computed once,
+/// when first met).
+pub(crate) struct Point<'a> {
+    atoms: Vec<u64>,
+    names: &'a [crate::form::Definition],
+    named: Vec<Option<Option<u64>>>,
+}
+
+impl<'a> Point<'a> {
+    /// A fresh random point for `n` atoms (a new seed in each process and sheet).
+    pub(crate) fn random(n: usize, names: &'a [crate::form::Definition]) -> Point<'a> {
+        let seed = RandomState::new().hash_one(n);
+        let mut state = seed;
+        let atoms = (0..n)
+            .map(|_| {
+                // SplitMix64, drawn until it lands in [1, p).
+                loop {
+                    state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+                    let mut z = state;
+                    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+                    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+                    let v = (z ^ (z >> 31)) >> 3;
+                    if v != 0 && v < P {
+                        break v;
+                    }
+                }
+            })
+            .collect();
+        Point {
+            atoms,
+            names,
+            named: vec![None; names.len()],
+        }
+    }
+
+    /// A polynomial's value; none if a coefficient's denominator vanishes.
+    pub(crate) fn poly(&self, p: &Poly) -> Option<u64> {
+        let mut sum = 0;
+        for (m, c) in p.terms() {
+            let mut v = of_q(c)?;
+            for &(i, e) in &m.0 {
+                v = mul(v, pow(self.atoms[i], u64::from(e)));
+            }
+            sum = add(sum, v);
+        }
+        Some(sum)
+    }
+
+    /// A fraction as (numerator, denominator) values; none if a coefficient's denominator
+    /// vanishes.
+    pub(crate) fn fraction(&self, f: &Fraction) -> Option<(u64, u64)> {
+        Some((self.poly(&f.num)?, self.poly(&f.den)?))
+    }
+
+    /// A form's value, names expanded; none at a pole.
+    pub(crate) fn form(&mut self, f: &Form) -> Option<u64> {
+        match f {
+            Form::Product { coef, factors } => {
+                let mut v = of_q(coef)?;
+                for x in factors {
+                    let y = match x {
+                        Factor::Atom { index, power } => pow(self.atoms[*index], u64::from(*power)),
+                        Factor::Group(g) => self.form(g)?,
+                        Factor::Name { index } => self.name(*index)?,
+                    };
+                    v = mul(v, y);
+                }
+                Some(v)
+            }
+            Form::Sum(terms) => {
+                let mut sum = 0;
+                for t in terms {
+                    sum = add(sum, self.form(t)?);
+                }
+                Some(sum)
+            }
+            Form::Quotient(a, b) => {
+                let d = inverse(self.form(b)?)?;
+                Some(mul(self.form(a)?, d))
+            }
+        }
+    }
+
+    fn name(&mut self, j: usize) -> Option<u64> {
+        if let Some(v) = self.named[j] {
+            return v;
+        }
+        let v = self.form(&self.names[j].form);
+        self.named[j] = Some(v);
+        v
+    }
+}
+
+/// Whether `form` (times `multiplier`'s inverse, when the entry was multiplied through) takes
+/// `canonical`'s value at the point: Some(true) or Some(false) when decided, none at a pole.
+pub(crate) fn agrees(
+    point: &mut Point<'_>,
+    form: &Form,
+    multiplier: Option<&Form>,
+    canonical: &Fraction,
+) -> Option<bool> {
+    let (num, den) = point.fraction(canonical)?;
+    if den == 0 {
+        return None;
+    }
+    let printed = point.form(form)?;
+    let scale = match multiplier {
+        Some(m) => point.form(m).filter(|&v| v != 0)?,
+        None => 1,
+    };
+    // printed = canonical · multiplier  ⇔  printed · den = num · multiplier.
+    Some(mul(printed, den) == mul(num, scale))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arithmetic_mod_the_mersenne_prime() {
+        assert_eq!(mul(P - 1, P - 1), 1);
+        assert_eq!(add(P - 1, 1), 0);
+        assert_eq!(of_i64(-1), P - 1);
+        for a in [2, 3, 12345, P - 2] {
+            assert_eq!(mul(a, inverse(a).unwrap()), 1);
+        }
+        assert_eq!(inverse(0), None);
+        let big = num_bigint::BigInt::from(P) * 3 + 5;
+        assert_eq!(of_big(&big), 5);
+        assert_eq!(of_big(&-big), P - 5);
+    }
+}
