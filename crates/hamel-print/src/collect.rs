@@ -8,6 +8,7 @@
 //!    terms of the whole sheet, then the model's order) is pulled out of the terms that have
 //!    it: `m_f ρ₁ + m_r ρ₁ + m_r ρ₂` → `m_r(ρ₁ + ρ₂) + m_f ρ₁`.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use foldhash::HashMap;
@@ -49,33 +50,35 @@ pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
 
 /// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
 /// greatest common monomial `g`.
-pub(crate) fn content(p: &Poly) -> (Q, Mono, Poly) {
+pub(crate) fn content(p: &Poly) -> (Q, Mono, Cow<'_, Poly>) {
     if let Some((m, c)) = p.terms().next().filter(|_| p.size() == 1) {
-        return (c.clone(), m.clone(), Poly::constant(Q::one()));
+        return (c.clone(), m.clone(), Cow::Owned(Poly::constant(Q::one())));
     }
     let mut monomials = p.monomials();
     let mut g = monomials.next().expect("a nonzero polynomial").clone();
     for m in monomials {
-        if g.0.is_empty() {
+        if g.is_one() {
             break;
         }
-        g = g.gcd(m);
+        g.retain_common(m);
     }
     let mut c = Q::content(p.coefficients());
     if leading_negative(p) {
         c = c.neg();
     }
-    let one = g.0.is_empty();
+    let one = g.is_one();
     // Scaling keeps the terms' order; dividing by g may not, so those are sorted again.
-    let rest = if one {
-        p.scale(&c.recip())
+    let rest = if one && c.is_one() {
+        Cow::Borrowed(p)
+    } else if one {
+        Cow::Owned(p.scale(&c.recip()))
     } else {
         let r = c.recip();
-        Poly::from_terms(
+        Cow::Owned(Poly::from_terms(
             p.terms()
                 .map(|(m, d)| (m.div(&g).expect("g divides every term"), d.mul(&r)))
                 .collect(),
-        )
+        ))
     };
     (c, g, rest)
 }
@@ -111,7 +114,7 @@ fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Atoms) -> Form {
     {
         return sum;
     }
-    factors.sort_by_cached_key(|x| factor_rank(x, atoms));
+    factors.sort_by(|x, y| factor_rank(x, atoms).cmp(&factor_rank(y, atoms)));
     Form::Product {
         coef,
         factors: merged(factors),
@@ -135,8 +138,8 @@ fn merged(factors: Vec<Factor>) -> Vec<Factor> {
 }
 
 fn atoms_of(m: &Mono) -> Vec<Factor> {
-    m.0.iter()
-        .map(|&(index, power)| Factor::Atom { index, power })
+    m.pairs()
+        .map(|(index, power)| Factor::Atom { index, power })
         .collect()
 }
 
@@ -196,15 +199,19 @@ fn by_state(p: &Poly, atoms: &Atoms) -> Form {
 /// by rate, each coefficient (a function of the coordinates) in parentheses, `(…) η̇₁ + (…) η̇₂`,
 /// then the other terms. None when `p` has no rate.
 fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
+    let has_rate = |m: &Mono| m.atoms().any(|i| atoms.is_rate(i));
+    if !p.monomials().any(has_rate) {
+        return None;
+    }
     let mut by_rate: BTreeMap<Vec<StateKey<'_>>, (Mono, Poly)> = BTreeMap::new();
     let mut rest = Poly::default();
     for (m, c) in p.terms() {
         let rate = m.filter(|i| atoms.is_rate(i));
-        if rate.0.is_empty() {
+        if rate.is_one() {
             rest.add_term(m.clone(), c.clone());
             continue;
         }
-        let key = state_key(rate.0.iter(), atoms);
+        let key = state_key(rate.pairs(), atoms);
         let coefficient = m.div(&rate).expect("a part divides the whole");
         let entry = by_rate
             .entry(key)
@@ -238,12 +245,9 @@ fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
 type StateKey<'a> = (Kind, usize, &'a str, u32);
 
 /// The printing-order keys of a monomial's `(atom, exponent)` pairs.
-fn state_key<'a, 'p>(
-    pairs: impl Iterator<Item = &'p (usize, u32)>,
-    atoms: &'a Atoms,
-) -> Vec<StateKey<'a>> {
+fn state_key<'a>(pairs: impl Iterator<Item = (usize, u32)>, atoms: &'a Atoms) -> Vec<StateKey<'a>> {
     pairs
-        .map(|&(i, e)| {
+        .map(|(i, e)| {
             let (k, pos, text) = atoms.order(i);
             (k, pos, text, e)
         })
@@ -267,8 +271,8 @@ fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
     let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = by_state
         .into_iter()
         .map(|(state, terms)| {
-            let all = state_key(state.0.iter(), atoms);
-            let rates = state_key(state.0.iter().filter(|&&(i, _)| atoms.is_rate(i)), atoms);
+            let all = state_key(state.pairs(), atoms);
+            let rates = state_key(state.pairs().filter(|&(i, _)| atoms.is_rate(i)), atoms);
             (
                 (rates.is_empty(), rates, all),
                 state,
@@ -293,12 +297,12 @@ fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Q>)> {
     let mut scales = Vec::new();
     for (_, coef) in groups {
         let (c, g, rest) = content(coef);
-        if !g.0.is_empty() || rest != first {
+        if !g.is_one() || rest != first {
             return None;
         }
         scales.push(c);
     }
-    Some((first, scales))
+    Some((first.into_owned(), scales))
 }
 
 /// The collected sum of the groups.
@@ -381,7 +385,7 @@ fn in_order(mut terms: Vec<Form>, atoms: &Atoms) -> Form {
 fn most_frequent(p: &Poly, atoms: &Atoms) -> Option<usize> {
     let mut counts: BTreeMap<usize, usize> = BTreeMap::new();
     for m in p.monomials() {
-        for &(i, _) in &m.0 {
+        for i in m.atoms() {
             *counts.entry(i).or_default() += 1;
         }
     }

@@ -57,6 +57,33 @@ pub struct Definition {
     pub form: Form,
     /// Whether the model gave it (`[abbreviations]`), rather than printing named it.
     pub given: bool,
+    /// The name with its arguments as text and as LaTeX (written where it is used).
+    written: [String; 2],
+}
+
+impl Definition {
+    /// The definition `name(args) = form`.
+    pub(crate) fn new(name: String, args: Vec<String>, form: Form, given: bool) -> Definition {
+        let text = if args.is_empty() {
+            name.clone()
+        } else {
+            format!("{name}({})", args.join(", "))
+        };
+        let latex_name = hamel_expr::latex_name(&name);
+        let latex = if args.is_empty() {
+            latex_name
+        } else {
+            let args: Vec<String> = args.iter().map(|a| hamel_expr::latex_name(a)).collect();
+            format!("{latex_name}({})", args.join(", "))
+        };
+        Definition {
+            name,
+            args,
+            form,
+            given,
+            written: [text, latex],
+        }
+    }
 }
 
 /// What rendering needs besides the form: the atoms and the where-list.
@@ -99,7 +126,7 @@ fn atom(ctx: Ctx<'_>, index: usize, power: u32, s: &dyn Syntax, out: &mut String
     };
     out.push_str(
         &s.atom(&marked)
-            .replace(&s.atom(&mark), &s.name(&ctx.names[name])),
+            .replace(&s.atom(&mark), s.name(&ctx.names[name])),
     );
 }
 
@@ -147,7 +174,8 @@ pub(crate) trait Syntax {
     /// What is written before the numerator, between it and the denominator, and after the
     /// denominator; `bare` says which of them reads unambiguously without parentheses.
     fn quotient(&self, bare: (bool, bool)) -> [&'static str; 3];
-    fn name(&self, d: &Definition) -> String;
+    /// A name with its arguments.
+    fn name<'d>(&self, d: &'d Definition) -> &'d str;
 }
 
 pub(crate) struct Text;
@@ -193,12 +221,8 @@ impl Syntax for Text {
             (false, false) => ["(", ")/(", ")"],
         }
     }
-    fn name(&self, d: &Definition) -> String {
-        if d.args.is_empty() {
-            d.name.clone()
-        } else {
-            format!("{}({})", d.name, d.args.join(", "))
-        }
+    fn name<'d>(&self, d: &'d Definition) -> &'d str {
+        &d.written[0]
     }
 }
 
@@ -238,14 +262,8 @@ impl Syntax for Latex {
     fn quotient(&self, _: (bool, bool)) -> [&'static str; 3] {
         ["\\frac{", "}{", "}"]
     }
-    fn name(&self, d: &Definition) -> String {
-        let name = hamel_expr::latex_name(&d.name);
-        if d.args.is_empty() {
-            name
-        } else {
-            let args: Vec<String> = d.args.iter().map(|a| hamel_expr::latex_name(a)).collect();
-            format!("{name}({})", args.join(", "))
-        }
+    fn name<'d>(&self, d: &'d Definition) -> &'d str {
+        &d.written[1]
     }
 }
 
@@ -338,7 +356,7 @@ fn write_unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
                         write(g, ctx, s, out);
                         out.push_str(close);
                     }
-                    Factor::Name { index } => out.push_str(&s.name(&ctx.names[*index])),
+                    Factor::Name { index } => out.push_str(s.name(&ctx.names[*index])),
                 }
             }
         }

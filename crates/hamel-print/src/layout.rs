@@ -13,24 +13,31 @@ pub const LINE: usize = 110;
 /// markers and spaces nothing, subscripts and superscripts count.
 pub fn width(tex: &str) -> usize {
     let mut n = 0;
-    let mut chars = tex.chars().peekable();
-    while let Some(c) = chars.next() {
+    let mut chars = tex.char_indices();
+    while let Some((i, c)) = chars.next() {
         match c {
             '\\' => {
-                let mut word = String::new();
-                while let Some(&d) = chars.peek().filter(|d| d.is_ascii_alphabetic()) {
-                    word.push(d);
-                    chars.next();
-                }
+                let rest = &tex[i + 1..];
+                let len = rest
+                    .bytes()
+                    .position(|b| !b.is_ascii_alphabetic())
+                    .unwrap_or(rest.len());
+                let word = &rest[..len];
                 let silent = ["left", "right", "tfrac", "frac", "mathrm", "dot", "quad"];
                 let named = ["sin", "cos", "tan", "exp", "log", "sqrt"];
                 if word.is_empty() {
                     chars.next();
                     n += 1;
-                } else if named.contains(&word.as_str()) {
-                    n += 3;
-                } else if !silent.contains(&word.as_str()) {
-                    n += 1;
+                } else {
+                    // The word is ASCII: skip its characters.
+                    for _ in 0..len {
+                        chars.next();
+                    }
+                    if named.contains(&word) {
+                        n += 3;
+                    } else if !silent.contains(&word) {
+                        n += 1;
+                    }
                 }
             }
             '{' | '}' | '^' | '_' | ' ' | '&' => {}

@@ -12,7 +12,6 @@
 
 use std::hash::{BuildHasher, RandomState};
 
-use hamel_expr::Rational;
 use num_traits::ToPrimitive;
 
 use crate::form::{Factor, Form};
@@ -58,11 +57,6 @@ fn pow(mut a: u64, mut n: u64) -> u64 {
     r
 }
 
-/// `1/a`, none for zero.
-fn inverse(a: u64) -> Option<u64> {
-    (a != 0).then(|| pow(a, P - 2))
-}
-
 /// A signed machine integer mod p.
 fn of_i64(n: i64) -> u64 {
     let m = n.unsigned_abs() % P;
@@ -78,22 +72,38 @@ fn of_big(n: &num_bigint::BigInt) -> u64 {
     of_i64(m.to_i64().expect("a residue fits"))
 }
 
-/// A rational mod p; none when its denominator vanishes mod p.
-fn of_rational(r: &Rational) -> Option<u64> {
-    let d = of_big(r.denom());
-    let n = of_big(r.numer());
-    if d == 1 {
-        return Some(n);
+/// A value mod p kept as a fraction `(n, d)`, `d ≠ 0`, so that sums and quotients need no
+/// inverse.
+#[derive(Clone, Copy)]
+struct V(u64, u64);
+
+impl V {
+    const ZERO: V = V(0, 1);
+
+    fn plus(self, o: V) -> V {
+        if self.1 == o.1 {
+            return V(add(self.0, o.0), self.1);
+        }
+        V(add(mul(self.0, o.1), mul(o.0, self.1)), mul(self.1, o.1))
     }
-    inverse(d).map(|i| mul(n, i))
+
+    fn times(self, o: V) -> V {
+        V(mul(self.0, o.0), mul(self.1, o.1))
+    }
+
+    /// `self / o`; none when `o` vanishes.
+    fn over(self, o: V) -> Option<V> {
+        (o.0 != 0).then(|| V(mul(self.0, o.1), mul(self.1, o.0)))
+    }
 }
 
-fn of_q(q: &Q) -> Option<u64> {
-    match q {
-        Q::Small(n, 1) => Some(of_i64(*n)),
-        Q::Small(n, d) => inverse(of_i64(*d)).map(|i| mul(of_i64(*n), i)),
-        Q::Big(r) => of_rational(r),
-    }
+/// A rational mod p; none when its denominator vanishes mod p.
+fn of_q(q: &Q) -> Option<V> {
+    let (n, d) = match q {
+        Q::Small(n, d) => (of_i64(*n), of_i64(*d)),
+        Q::Big(r) => (of_big(r.numer()), of_big(r.denom())),
+    };
+    (d != 0).then_some(V(n, d))
 }
 
 /// A point: a random residue for every atom, and the names' values there (each computed once,
@@ -101,7 +111,7 @@ fn of_q(q: &Q) -> Option<u64> {
 pub(crate) struct Point<'a> {
     atoms: Vec<u64>,
     names: &'a [crate::form::Definition],
-    named: Vec<Option<Option<u64>>>,
+    named: Vec<Option<Option<V>>>,
 }
 
 impl<'a> Point<'a> {
@@ -132,54 +142,46 @@ impl<'a> Point<'a> {
     }
 
     /// A polynomial's value; none if a coefficient's denominator vanishes.
-    pub(crate) fn poly(&self, p: &Poly) -> Option<u64> {
-        let mut sum = 0;
+    fn poly(&self, p: &Poly) -> Option<V> {
+        let mut sum = V::ZERO;
         for (m, c) in p.terms() {
             let mut v = of_q(c)?;
-            for &(i, e) in &m.0 {
-                v = mul(v, pow(self.atoms[i], u64::from(e)));
+            for (i, e) in m.pairs() {
+                v.0 = mul(v.0, pow(self.atoms[i], u64::from(e)));
             }
-            sum = add(sum, v);
+            sum = sum.plus(v);
         }
         Some(sum)
     }
 
-    /// A fraction as (numerator, denominator) values; none if a coefficient's denominator
-    /// vanishes.
-    pub(crate) fn fraction(&self, f: &Fraction) -> Option<(u64, u64)> {
-        Some((self.poly(&f.num)?, self.poly(&f.den)?))
-    }
-
     /// A form's value, names expanded; none at a pole.
-    pub(crate) fn form(&mut self, f: &Form) -> Option<u64> {
+    fn form(&mut self, f: &Form) -> Option<V> {
         match f {
             Form::Product { coef, factors } => {
                 let mut v = of_q(coef)?;
                 for x in factors {
-                    let y = match x {
-                        Factor::Atom { index, power } => pow(self.atoms[*index], u64::from(*power)),
-                        Factor::Group(g) => self.form(g)?,
-                        Factor::Name { index } => self.name(*index)?,
-                    };
-                    v = mul(v, y);
+                    match x {
+                        Factor::Atom { index, power } => {
+                            v.0 = mul(v.0, pow(self.atoms[*index], u64::from(*power)));
+                        }
+                        Factor::Group(g) => v = v.times(self.form(g)?),
+                        Factor::Name { index } => v = v.times(self.name(*index)?),
+                    }
                 }
                 Some(v)
             }
             Form::Sum(terms) => {
-                let mut sum = 0;
+                let mut sum = V::ZERO;
                 for t in terms {
-                    sum = add(sum, self.form(t)?);
+                    sum = sum.plus(self.form(t)?);
                 }
                 Some(sum)
             }
-            Form::Quotient(a, b) => {
-                let d = inverse(self.form(b)?)?;
-                Some(mul(self.form(a)?, d))
-            }
+            Form::Quotient(a, b) => self.form(a)?.over(self.form(b)?),
         }
     }
 
-    fn name(&mut self, j: usize) -> Option<u64> {
+    fn name(&mut self, j: usize) -> Option<V> {
         if let Some(v) = self.named[j] {
             return v;
         }
@@ -197,17 +199,15 @@ pub(crate) fn agrees(
     multiplier: Option<&Form>,
     canonical: &Fraction,
 ) -> Option<bool> {
-    let (num, den) = point.fraction(canonical)?;
-    if den == 0 {
-        return None;
-    }
+    let value = point
+        .poly(&canonical.num)?
+        .over(point.poly(&canonical.den)?)?;
     let printed = point.form(form)?;
-    let scale = match multiplier {
-        Some(m) => point.form(m).filter(|&v| v != 0)?,
-        None => 1,
+    let expected = match multiplier {
+        Some(m) => value.times(point.form(m).filter(|v| v.0 != 0)?),
+        None => value,
     };
-    // printed = canonical · multiplier  ⇔  printed · den = num · multiplier.
-    Some(mul(printed, den) == mul(num, scale))
+    Some(mul(printed.0, expected.1) == mul(expected.0, printed.1))
 }
 
 #[cfg(test)]
@@ -220,11 +220,14 @@ mod tests {
         assert_eq!(add(P - 1, 1), 0);
         assert_eq!(of_i64(-1), P - 1);
         for a in [2, 3, 12345, P - 2] {
-            assert_eq!(mul(a, inverse(a).unwrap()), 1);
+            assert_eq!(mul(a, pow(a, P - 2)), 1);
         }
-        assert_eq!(inverse(0), None);
         let big = num_bigint::BigInt::from(P) * 3 + 5;
         assert_eq!(of_big(&big), 5);
         assert_eq!(of_big(&-big), P - 5);
+        // 1/2 + 1/3 = 5/6, compared crosswise.
+        let v = V(1, 2).plus(V(1, 3));
+        assert_eq!(mul(v.0, 6), mul(5, v.1));
+        assert!(V(1, 1).over(V::ZERO).is_none());
     }
 }

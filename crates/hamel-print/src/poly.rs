@@ -4,23 +4,56 @@
 use hamel_expr::Expr;
 use num_traits::{Signed, ToPrimitive};
 
+use smallvec::SmallVec;
+
 use crate::atoms::Atoms;
 use crate::q::Q;
 
-/// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1.
+/// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
+/// held inline (most monomials of a derivation have four atoms or fewer), more on the heap.
 #[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Mono(pub Vec<(usize, u32)>);
+pub struct Mono(Pairs);
+
+/// A monomial's pairs.
+type Pairs = SmallVec<[(u32, u32); 8]>;
+
+/// An atom's index as a monomial stores it. A sheet's atoms are distinct subexpressions of
+/// what it prints, far fewer than 2³².
+fn stored(i: usize) -> u32 {
+    u32::try_from(i).expect("fewer than 2^32 atoms")
+}
 
 impl Mono {
     /// The atom `i` to the first power.
     pub fn atom(i: usize) -> Mono {
-        Mono(vec![(i, 1)])
+        Mono::from_pairs([(i, 1)])
+    }
+
+    /// The monomial with these `(atom, exponent)` pairs, given sorted by atom, each atom
+    /// once, exponents ≥ 1.
+    pub fn from_pairs(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
+        Mono(pairs.into_iter().map(|(i, e)| (stored(i), e)).collect())
+    }
+
+    /// The `(atom, exponent)` pairs, sorted by atom.
+    pub fn pairs(&self) -> impl ExactSizeIterator<Item = (usize, u32)> + Clone + '_ {
+        self.0.iter().map(|&(i, e)| (i as usize, e))
+    }
+
+    /// The atoms, in order.
+    pub fn atoms(&self) -> impl ExactSizeIterator<Item = usize> + Clone + '_ {
+        self.0.iter().map(|&(i, _)| i as usize)
+    }
+
+    /// Whether this is the monomial 1 (no atom).
+    pub fn is_one(&self) -> bool {
+        self.0.is_empty()
     }
 
     /// The product of two monomials (a merge of the sorted pairs).
     pub fn mul(&self, other: &Mono) -> Mono {
         let (a, b) = (&self.0, &other.0);
-        let mut out = Vec::with_capacity(a.len() + b.len());
+        let mut out = Pairs::with_capacity(a.len() + b.len());
         let (mut i, mut j) = (0, 0);
         while i < a.len() && j < b.len() {
             match a[i].0.cmp(&b[j].0) {
@@ -46,7 +79,7 @@ impl Mono {
 
     /// `self / other`, when `other` divides `self`.
     pub fn div(&self, other: &Mono) -> Option<Mono> {
-        let mut out = Vec::with_capacity(self.0.len());
+        let mut out = Pairs::with_capacity(self.0.len());
         let mut theirs = other.0.iter().peekable();
         for &(i, e) in &self.0 {
             let f = match theirs.peek() {
@@ -67,25 +100,40 @@ impl Mono {
 
     /// The greatest common divisor (the smallest exponent of each shared atom).
     pub fn gcd(&self, other: &Mono) -> Mono {
-        let mut out = Vec::new();
+        let mut out = self.clone();
+        out.retain_common(other);
+        out
+    }
+
+    /// `self` made the greatest common divisor of itself and `other`, in place.
+    pub(crate) fn retain_common(&mut self, other: &Mono) {
         let mut theirs = other.0.iter().peekable();
-        for &(i, e) in &self.0 {
-            while theirs.next_if(|&&(k, _)| k < i).is_some() {}
-            if let Some(&(_, f)) = theirs.next_if(|&&(k, _)| k == i) {
-                out.push((i, e.min(f)));
+        let mut kept = 0;
+        for k in 0..self.0.len() {
+            let (i, e) = self.0[k];
+            while theirs.next_if(|&&(j, _)| j < i).is_some() {}
+            if let Some(&(_, f)) = theirs.next_if(|&&(j, _)| j == i) {
+                self.0[kept] = (i, e.min(f));
+                kept += 1;
             }
         }
-        Mono(out)
+        self.0.truncate(kept);
     }
 
     /// The exponent of atom `i`.
     pub fn exponent(&self, i: usize) -> u32 {
-        self.0.iter().find(|(a, _)| *a == i).map_or(0, |(_, e)| *e)
+        self.pairs().find(|&(a, _)| a == i).map_or(0, |(_, e)| e)
     }
 
     /// The part made of atoms for which `keep` holds.
     pub fn filter(&self, keep: impl Fn(usize) -> bool) -> Mono {
-        Mono(self.0.iter().copied().filter(|&(i, _)| keep(i)).collect())
+        Mono(
+            self.0
+                .iter()
+                .copied()
+                .filter(|&(i, _)| keep(i as usize))
+                .collect(),
+        )
     }
 }
 
@@ -271,14 +319,14 @@ impl Poly {
 
     /// Whether this is the constant 1.
     pub fn is_one(&self) -> bool {
-        matches!(self.0.as_slice(), [(m, c)] if m.0.is_empty() && c.is_one())
+        matches!(self.0.as_slice(), [(m, c)] if m.is_one() && c.is_one())
     }
 
     /// The constant value, if this is a constant.
     pub fn as_constant(&self) -> Option<Q> {
         match self.0.as_slice() {
             [] => Some(Q::zero()),
-            [(m, c)] if m.0.is_empty() => Some(c.clone()),
+            [(m, c)] if m.is_one() => Some(c.clone()),
             _ => None,
         }
     }
@@ -299,7 +347,7 @@ impl Fraction {
 
     /// Atom `i` to the power `n`.
     pub fn atom(i: usize, n: u32) -> Fraction {
-        Fraction::poly(Poly::term(Mono(vec![(i, n)]), Q::one()))
+        Fraction::poly(Poly::term(Mono::from_pairs([(i, n)]), Q::one()))
     }
 
     /// `self / other`.
@@ -457,7 +505,7 @@ impl Fraction {
 /// building a polynomial per factor. The atoms are those [`Fraction::from_expr`] makes.
 fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
     let mut c = Q::one();
-    let mut pairs = Vec::new();
+    let mut pairs = Pairs::new();
     factors_of(e, 1, &mut c, &mut pairs, atoms)?;
     pairs.sort_unstable_by_key(|&(i, _)| i);
     pairs.dedup_by(|later, earlier| {
@@ -472,13 +520,7 @@ fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
 
 /// The factors of the monomial `e^k`: its number multiplied into `c`, its atoms' pairs
 /// pushed (unsorted, an atom possibly twice); None if `e` is not a monomial.
-fn factors_of(
-    e: &Expr,
-    k: u32,
-    c: &mut Q,
-    pairs: &mut Vec<(usize, u32)>,
-    atoms: &mut Atoms,
-) -> Option<()> {
+fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms) -> Option<()> {
     match e {
         Expr::Num(r) => {
             let r = Q::from(r);
@@ -503,7 +545,7 @@ fn factors_of(
             factors_of(base, k.checked_mul(n)?, c, pairs, atoms)?;
         }
         Expr::Add(_) | Expr::Div(..) => return None,
-        _ => pairs.push((atoms.intern(e), k)),
+        _ => pairs.push((stored(atoms.intern(e)), k)),
     }
     Some(())
 }

@@ -1,7 +1,9 @@
 //! One printing of a report: the entries its text shows, in one sheet, named and checked.
 
 use std::cell::RefCell;
-use std::collections::{BTreeSet, HashMap, hash_map};
+use std::collections::{BTreeSet, hash_map};
+
+use foldhash::{HashMap, HashSet};
 use std::fmt::Write;
 
 use hamel_derive::{Entry, Printer};
@@ -65,9 +67,9 @@ impl Printing {
         }
         // Equal entries (the same canonical text, both equations or neither) are printed
         // once, and counted as often as they are shown.
-        let equation: BTreeSet<usize> = model.equations.iter().map(|e| address(e)).collect();
-        let mut ids = HashMap::new();
-        let mut by_text: HashMap<(&str, bool), usize> = HashMap::new();
+        let equation: HashSet<usize> = model.equations.iter().map(|e| address(e)).collect();
+        let mut ids = HashMap::default();
+        let mut by_text: HashMap<(&str, bool), usize> = HashMap::default();
         let mut labels = Vec::new();
         let mut exprs: Vec<(&Expr, usize)> = Vec::new();
         for e in shown.into_inner() {

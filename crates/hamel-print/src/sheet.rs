@@ -71,12 +71,8 @@ impl Sheet {
     pub fn abbreviate(&mut self, name: &str, e: &Expr) -> Result<(), PolyError> {
         let value = Fraction::from_expr(e, &mut self.atoms)?.normalised();
         let form = collect::fraction(&value, &self.atoms);
-        self.names.push(Definition {
-            name: name.to_string(),
-            args: Vec::new(),
-            form,
-            given: true,
-        });
+        self.names
+            .push(Definition::new(name.to_string(), Vec::new(), form, true));
         self.values.push(value);
         Ok(())
     }
@@ -120,7 +116,7 @@ impl Sheet {
         }
         for (f, &n) in canonical.iter().zip(&counts) {
             for m in f.num.monomials().chain(f.den.monomials()) {
-                for &(i, _) in &m.0 {
+                for i in m.atoms() {
                     self.atoms.weigh(i, n);
                 }
             }
@@ -173,12 +169,12 @@ impl Sheet {
     /// Name `j` (with its arguments) and its definition in the model syntax.
     pub fn definition_text(&self, j: usize) -> (String, String) {
         let d = &self.names[j];
-        (Text.name(d), render(&d.form, self.ctx(), &Text))
+        (Text.name(d).to_string(), render(&d.form, self.ctx(), &Text))
     }
 
     /// Name `j` with its arguments, in LaTeX.
     pub fn name_latex(&self, j: usize) -> String {
-        Latex.name(&self.names[j])
+        Latex.name(&self.names[j]).to_string()
     }
 
     /// The where-list's definitions, in order.
@@ -351,7 +347,7 @@ impl Sheet {
                 for x in factors {
                     let part = match x {
                         Factor::Atom { index, power } => {
-                            monomial = monomial.mul(&Mono(vec![(*index, *power)]));
+                            monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
                             continue;
                         }
                         Factor::Group(g) => Cow::Owned(self.fraction_of(g)),
@@ -475,17 +471,13 @@ impl Sheet {
     /// Whether a velocity occurs in `key` (such groups are not named: the where-list holds
     /// parameter groups and functions of the coordinates).
     pub(crate) fn has_velocities(&self, key: &Key) -> bool {
-        key.monomials().any(|m| {
-            m.0.iter()
-                .any(|&(i, _)| self.atoms.get(i).kind == Kind::Velocity)
-        })
+        key.monomials()
+            .any(|m| m.atoms().any(|i| self.atoms.get(i).kind == Kind::Velocity))
     }
 
     fn parameters_only(&self, key: &Key) -> bool {
-        key.monomials().all(|m| {
-            m.0.iter()
-                .all(|&(i, _)| self.atoms.get(i).kind == Kind::Parameter)
-        })
+        key.monomials()
+            .all(|m| m.atoms().all(|i| self.atoms.get(i).kind == Kind::Parameter))
     }
 
     /// The definition of the group `key` (printed as `form`), the `index`-th name.
@@ -506,19 +498,14 @@ impl Sheet {
                 break name;
             }
         };
-        Definition {
-            name,
-            args,
-            form,
-            given: false,
-        }
+        Definition::new(name, args, form, false)
     }
 
     /// The coordinates `key` depends on, in the model's order.
     fn coordinates_in(&self, key: &Key) -> Vec<String> {
         let mut seen = BTreeSet::new();
         for m in key.monomials() {
-            for &(i, _) in &m.0 {
+            for i in m.atoms() {
                 self.atoms.get(i).expr.visit(&mut |e| match e {
                     Expr::Sym(n) | Expr::Der(n) => {
                         seen.insert(n.clone());
@@ -628,5 +615,5 @@ fn key(f: &Fraction) -> Option<(Q, Key)> {
         return None;
     }
     let (c, m, rest) = collect::content(&f.num);
-    m.0.is_empty().then_some((c.div(&den), rest))
+    m.is_one().then_some((c.div(&den), rest.into_owned()))
 }

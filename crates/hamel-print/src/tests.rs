@@ -149,15 +149,23 @@ fn json_matrix(json: &str, key: &str) -> Vec<Vec<String>> {
 #[test]
 fn monomial_product_and_quotient() {
     use crate::Mono;
-    let a = Mono(vec![(0, 2), (3, 1), (5, 4)]);
-    let b = Mono(vec![(1, 1), (3, 2)]);
+    let a = Mono::from_pairs([(0, 2), (3, 1), (5, 4)]);
+    let b = Mono::from_pairs([(1, 1), (3, 2)]);
     let ab = a.mul(&b);
-    assert_eq!(ab, Mono(vec![(0, 2), (1, 1), (3, 3), (5, 4)]));
+    assert_eq!(ab, Mono::from_pairs([(0, 2), (1, 1), (3, 3), (5, 4)]));
     assert_eq!(ab.div(&b), Some(a.clone()));
     assert_eq!(ab.div(&a), Some(b.clone()));
     assert_eq!(a.div(&b), None, "atom 1 is not in a");
-    assert_eq!(a.div(&Mono(vec![(3, 2)])), None, "exponent too high");
-    assert_eq!(a.div(&Mono(vec![(7, 1)])), None, "an atom after a's last");
+    assert_eq!(
+        a.div(&Mono::from_pairs([(3, 2)])),
+        None,
+        "exponent too high"
+    );
+    assert_eq!(
+        a.div(&Mono::from_pairs([(7, 1)])),
+        None,
+        "an atom after a's last"
+    );
     assert_eq!(a.div(&a), Some(Mono::default()));
 }
 
@@ -170,7 +178,7 @@ fn flat_polynomials_add_alike() {
     use crate::{Fraction, Mono, Poly, Q};
     use hamel_expr::Rational;
     let q = |n: i64| -> Q { Rational::from_integer(n.into()).into() };
-    let m = |pairs: &[(usize, u32)]| Mono(pairs.to_vec());
+    let m = |pairs: &[(usize, u32)]| Mono::from_pairs(pairs.iter().copied());
     let terms = vec![
         (m(&[(2, 1)]), q(3)),
         (m(&[(0, 2)]), q(1)),
