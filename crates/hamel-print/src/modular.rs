@@ -14,7 +14,7 @@ use std::hash::{BuildHasher, RandomState};
 
 use num_traits::ToPrimitive;
 
-use crate::form::{Factor, Form};
+use crate::form::{Definition, Factor, Form};
 use crate::poly::{Fraction, Poly};
 use crate::q::Q;
 
@@ -74,8 +74,8 @@ fn of_big(n: &num_bigint::BigInt) -> u64 {
 
 /// A value mod p kept as a fraction `(n, d)`, `d ≠ 0`, so that sums and quotients need no
 /// inverse.
-#[derive(Clone, Copy)]
-struct V(u64, u64);
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct V(u64, u64);
 
 impl V {
     const ZERO: V = V(0, 1);
@@ -106,66 +106,69 @@ fn of_q(q: &Q) -> Option<V> {
     (d != 0).then_some(V(n, d))
 }
 
-/// A point: a random residue for every atom, and the names' values there (each computed once,
-/// when first met).
-pub(crate) struct Point<'a> {
+/// A point: a random residue for every atom (drawn as atoms are met), and the names' values
+/// there (each computed once, when first met; a name's value never changes, whatever later
+/// naming does to its definition's form).
+#[derive(Clone, Debug)]
+pub(crate) struct Point {
+    state: u64,
     atoms: Vec<u64>,
-    names: &'a [crate::form::Definition],
     named: Vec<Option<Option<V>>>,
 }
 
-impl<'a> Point<'a> {
-    /// A fresh random point for `n` atoms (a new seed in each process and sheet).
-    pub(crate) fn random(n: usize, names: &'a [crate::form::Definition]) -> Point<'a> {
-        let seed = RandomState::new().hash_one(n);
-        let mut state = seed;
-        let atoms = (0..n)
-            .map(|_| {
-                // SplitMix64, drawn until it lands in [1, p).
-                loop {
-                    state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-                    let mut z = state;
-                    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-                    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-                    let v = (z ^ (z >> 31)) >> 3;
-                    if v != 0 && v < P {
-                        break v;
-                    }
-                }
-            })
-            .collect();
+impl Point {
+    /// A fresh random point (a new seed in each process and sheet).
+    pub(crate) fn random() -> Point {
         Point {
-            atoms,
-            names,
-            named: vec![None; names.len()],
+            state: RandomState::new().hash_one(0x0068_616d_656c_u64),
+            atoms: Vec::new(),
+            named: Vec::new(),
         }
     }
 
+    /// Atom `i`'s residue, drawn (SplitMix64, until it lands in [1, p)) when first asked.
+    fn atom(&mut self, i: usize) -> u64 {
+        while self.atoms.len() <= i {
+            let v = loop {
+                self.state = self.state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+                let mut z = self.state;
+                z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+                let v = (z ^ (z >> 31)) >> 3;
+                if v != 0 && v < P {
+                    break v;
+                }
+            };
+            self.atoms.push(v);
+        }
+        self.atoms[i]
+    }
+
     /// A polynomial's value; none if a coefficient's denominator vanishes.
-    fn poly(&self, p: &Poly) -> Option<V> {
+    fn poly(&mut self, p: &Poly) -> Option<V> {
         let mut sum = V::ZERO;
         for (m, c) in p.terms() {
             let mut v = of_q(c)?;
             for (i, e) in m.pairs() {
-                v.0 = mul(v.0, pow(self.atoms[i], u64::from(e)));
+                v.0 = mul(v.0, pow(self.atom(i), u64::from(e)));
             }
             sum = sum.plus(v);
         }
         Some(sum)
     }
 
-    /// A form's value, names expanded; none at a pole.
-    fn form(&mut self, f: &Form) -> Option<V> {
+    /// A form's value, `names` expanded; none at a pole.
+    pub(crate) fn form(&mut self, f: &Form, names: &[Definition]) -> Option<V> {
         match f {
             Form::Product { coef, factors } => {
                 let mut v = of_q(coef)?;
                 for x in factors {
                     match x {
                         Factor::Atom { index, power } => {
-                            v.0 = mul(v.0, pow(self.atoms[*index], u64::from(*power)));
+                            v.0 = mul(v.0, pow(self.atom(*index), u64::from(*power)));
                         }
-                        Factor::Group(g) => v = v.times(self.form(g)?),
-                        Factor::Name { index } => v = v.times(self.name(*index)?),
+                        Factor::Group(g) => v = v.times(self.form(g, names)?),
+                        Factor::Name { index } => v = v.times(self.name(*index, names)?),
                     }
                 }
                 Some(v)
@@ -173,28 +176,38 @@ impl<'a> Point<'a> {
             Form::Sum(terms) => {
                 let mut sum = V::ZERO;
                 for t in terms {
-                    sum = sum.plus(self.form(t)?);
+                    sum = sum.plus(self.form(t, names)?);
                 }
                 Some(sum)
             }
-            Form::Quotient(a, b) => self.form(a)?.over(self.form(b)?),
+            Form::Quotient(a, b) => self.form(a, names)?.over(self.form(b, names)?),
         }
     }
 
-    fn name(&mut self, j: usize) -> Option<V> {
+    /// Name `j`'s value; none at a pole.
+    pub(crate) fn name(&mut self, j: usize, names: &[Definition]) -> Option<V> {
+        if self.named.len() <= j {
+            self.named.resize(j + 1, None);
+        }
         if let Some(v) = self.named[j] {
             return v;
         }
-        let v = self.form(&self.names[j].form);
+        let v = self.form(&names[j].form, names);
         self.named[j] = Some(v);
         v
     }
 }
 
+/// Whether two values are equal.
+pub(crate) fn equal(a: V, b: V) -> bool {
+    mul(a.0, b.1) == mul(b.0, a.1)
+}
+
 /// Whether `form` (times `multiplier`'s inverse, when the entry was multiplied through) takes
 /// `canonical`'s value at the point: Some(true) or Some(false) when decided, none at a pole.
 pub(crate) fn agrees(
-    point: &mut Point<'_>,
+    point: &mut Point,
+    names: &[Definition],
     form: &Form,
     multiplier: Option<&Form>,
     canonical: &Fraction,
@@ -202,12 +215,12 @@ pub(crate) fn agrees(
     let value = point
         .poly(&canonical.num)?
         .over(point.poly(&canonical.den)?)?;
-    let printed = point.form(form)?;
+    let printed = point.form(form, names)?;
     let expected = match multiplier {
-        Some(m) => value.times(point.form(m).filter(|v| v.0 != 0)?),
+        Some(m) => value.times(point.form(m, names).filter(|v| v.0 != 0)?),
         None => value,
     };
-    Some(mul(printed.0, expected.1) == mul(expected.0, printed.1))
+    Some(equal(printed, expected))
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 
 use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::OnceLock;
 
 use foldhash::HashMap;
 
@@ -23,8 +24,12 @@ pub struct Sheet {
     /// that a group in two equal entries recurs).
     counts: Vec<usize>,
     pub(crate) names: Vec<Definition>,
-    /// Each name's value, its definition expanded (computed once).
-    pub(crate) values: Vec<Fraction>,
+    /// Each name's value, its definition expanded (computed once, when first needed: a
+    /// name is told apart from the others by its value at [`Sheet::point`]).
+    values: Vec<OnceLock<Fraction>>,
+    /// A random point at which names' values are compared before they are expanded
+    /// ([`crate::modular`]).
+    pub(crate) point: crate::modular::Point,
     /// The last number given to a parameter group (`kappaN`) and to a function (`FN`).
     numbers: [usize; 2],
     /// Atoms whose argument is printed by name (atom ↦ name; the name's value is the
@@ -47,6 +52,7 @@ impl Sheet {
             counts: Vec::new(),
             names: Vec::new(),
             values: Vec::new(),
+            point: crate::modular::Point::random(),
             arguments: BTreeMap::new(),
             numbers: [0, 0],
             multipliers: BTreeMap::new(),
@@ -73,7 +79,7 @@ impl Sheet {
         let form = collect::fraction(&value, &self.atoms);
         self.names
             .push(Definition::new(name.to_string(), Vec::new(), form, true));
-        self.values.push(value);
+        self.values.push(OnceLock::from(value));
         Ok(())
     }
 
@@ -82,7 +88,7 @@ impl Sheet {
     fn given_forms(&self) -> Vec<(Form, usize, Q)> {
         let mut out = Vec::new();
         for (j, _) in self.names.iter().enumerate().filter(|(_, d)| d.given) {
-            if let Some((c, rest)) = key(&self.values[j]) {
+            if let Some((c, rest)) = key(self.value(j)) {
                 out.push((collect::poly(&rest, &self.atoms), j, c.recip()));
             }
         }
@@ -129,7 +135,7 @@ impl Sheet {
         self.counts.extend(counts);
         // The model's abbreviations written with the same factoring.
         for (d, v) in self.names.iter_mut().zip(&self.values) {
-            if d.given {
+            if let Some(v) = v.get().filter(|_| d.given) {
                 d.form = collect::fraction(v, &self.atoms);
             }
         }
@@ -210,15 +216,27 @@ impl Sheet {
     /// certain, an agreement wrong with probability below 10⁻¹⁶), and expanded exactly
     /// ([`Sheet::check`]) where the point is a pole.
     pub fn first_mismatch(&self) -> Option<usize> {
-        let mut point = crate::modular::Point::random(self.atoms.len(), &self.names);
+        let mut point = crate::modular::Point::random();
         (0..self.entries.len()).find(|&i| {
             let (form, canonical) = &self.entries[i];
             let multiplier = self.multipliers.get(&i);
-            match crate::modular::agrees(&mut point, form, multiplier, canonical) {
+            match crate::modular::agrees(&mut point, &self.names, form, multiplier, canonical) {
                 Some(same) => !same,
                 None => !self.check(i),
             }
         })
+    }
+
+    /// Name `j`'s value, its definition expanded (once).
+    pub(crate) fn value(&self, j: usize) -> &Fraction {
+        self.values[j].get_or_init(|| self.fraction_of(&self.names[j].form))
+    }
+
+    /// Adds the definition of a name whose value, `value` when known, is its form expanded.
+    pub(crate) fn push_name(&mut self, d: Definition, value: Option<Fraction>) {
+        self.names.push(d);
+        self.values
+            .push(value.map(OnceLock::from).unwrap_or_default());
     }
 
     /// Whether entry `i`, its names expanded, is exactly its canonical form.
@@ -275,7 +293,7 @@ impl Sheet {
             let mut atoms = self.atoms.clone();
             argument(&self.atoms.get(atom).expr)
                 .and_then(|a| Fraction::from_expr(a, &mut atoms).ok())
-                .is_some_and(|f| f.same(&self.values[name]))
+                .is_some_and(|f| f.same(self.value(name)))
         })
     }
 
@@ -291,8 +309,7 @@ impl Sheet {
         let mut places = Vec::new();
         for c in chosen {
             let definition = self.definition(&c.key, c.form);
-            self.values.push(c.value);
-            self.names.push(definition);
+            self.push_name(definition, Some(c.value));
             places.push(c.place);
         }
         let mut next = 0;
@@ -351,7 +368,7 @@ impl Sheet {
                             continue;
                         }
                         Factor::Group(g) => Cow::Owned(self.fraction_of(g)),
-                        Factor::Name { index } => Cow::Borrowed(&self.values[*index]),
+                        Factor::Name { index } => Cow::Borrowed(self.value(*index)),
                     };
                     acc = Some(match acc {
                         Some(a) => a.times(&part),
@@ -458,10 +475,7 @@ impl Sheet {
             Form::Product { factors, .. } => factors.iter().any(|x| match x {
                 Factor::Atom { index, .. } => self.atoms.get(*index).kind == Kind::Velocity,
                 Factor::Group(g) => self.mentions_velocity(g),
-                Factor::Name { index } => {
-                    let v = &self.values[*index];
-                    self.has_velocities(&v.num) || self.has_velocities(&v.den)
-                }
+                Factor::Name { index } => self.mentions_velocity(&self.names[*index].form),
             }),
             Form::Sum(terms) => terms.iter().any(|t| self.mentions_velocity(t)),
             Form::Quotient(a, b) => self.mentions_velocity(a) || self.mentions_velocity(b),

@@ -6,7 +6,7 @@
 use crate::collect;
 use crate::form::{Factor, Form, Latex, Syntax, argument, render};
 use crate::layout::{LINE, width, width_at_least};
-use crate::poly::{Fraction, Poly};
+use crate::poly::{Fraction, Mono, Poly};
 use crate::sheet::Sheet;
 
 /// The widest group left unnamed: half a line, so that a term holding one still fits beside
@@ -108,32 +108,70 @@ impl Sheet {
         }
     }
 
-    /// The name whose value `g` is (a new one if none is), unless `g` holds a velocity.
+    /// The name whose value `g` is (a new one if none is), unless `g` holds a velocity. The
+    /// names are told apart by their values at the sheet's random point, and only a name
+    /// that agrees there is compared exactly (expanded); a new name's value is expanded when
+    /// first needed.
     fn name_for(&mut self, g: &Form) -> Option<usize> {
-        let value = self.fraction_of(g);
-        let atoms = atoms_of(&value);
+        let atoms = self.atoms_in(g);
         if self.has_velocities(&atoms) {
             return None;
         }
-        if let Some(index) = self.values.iter().position(|v| *v == value) {
-            return Some(index);
+        let here = self.point.form(g, &self.names);
+        let mut value = None;
+        for j in 0..self.names.len() {
+            let there = self.point.name(j, &self.names);
+            if let (Some(a), Some(b)) = (here, there)
+                && !crate::modular::equal(a, b)
+            {
+                continue;
+            }
+            let v = value.get_or_insert_with(|| self.fraction_of(g));
+            if self.value(j) == v {
+                return Some(j);
+            }
         }
         let index = self.names.len();
         let definition = self.definition(&atoms, g.clone());
-        self.names.push(definition);
-        self.values.push(value);
+        self.push_name(definition, value);
         Some(index)
     }
-}
 
-/// A polynomial with a term for every monomial of `f`'s numerator and denominator (what
-/// [`Sheet::definition`] reads the kind and the arguments of a name from).
-fn atoms_of(f: &Fraction) -> Poly {
-    Poly::from_terms(
-        f.num
-            .monomials()
-            .chain(f.den.monomials())
-            .map(|m| (m.clone(), crate::Q::one()))
-            .collect(),
-    )
+    /// A polynomial with a term for every atom of `f` (names expanded), which is every atom of
+    /// its value: the terms of a collected form do not cancel, and a product of nonzero
+    /// polynomials holds every atom of each factor. What [`Sheet::definition`] reads the kind
+    /// and the arguments of a name from.
+    fn atoms_in(&self, f: &Form) -> Poly {
+        let mut found = std::collections::BTreeSet::new();
+        self.gather_atoms(f, &mut found);
+        Poly::from_terms(
+            found
+                .into_iter()
+                .map(|a| (Mono::atom(a), crate::Q::one()))
+                .collect(),
+        )
+    }
+
+    fn gather_atoms(&self, f: &Form, found: &mut std::collections::BTreeSet<usize>) {
+        match f {
+            Form::Product { factors, .. } => {
+                for x in factors {
+                    match x {
+                        Factor::Atom { index, .. } => {
+                            found.insert(*index);
+                        }
+                        Factor::Group(g) => self.gather_atoms(g, found),
+                        Factor::Name { index } => {
+                            self.gather_atoms(&self.definitions()[*index].form, found);
+                        }
+                    }
+                }
+            }
+            Form::Sum(terms) => terms.iter().for_each(|t| self.gather_atoms(t, found)),
+            Form::Quotient(a, b) => {
+                self.gather_atoms(a, found);
+                self.gather_atoms(b, found);
+            }
+        }
+    }
 }
