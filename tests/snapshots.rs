@@ -73,6 +73,20 @@ fn printed_text_snapshots() {
     for model in models() {
         for choice in &model.choices {
             let d = hamel_derive::derive(&model, Some(&choice.name)).unwrap();
+            // The entries printing reads first are those the text shows, in its order.
+            let recorded = std::cell::RefCell::new(Vec::new());
+            d.to_text_with(&|e| {
+                recorded.borrow_mut().push(std::ptr::from_ref(e));
+                String::new()
+            });
+            let shown: Vec<_> = d.shown().into_iter().map(std::ptr::from_ref).collect();
+            assert_eq!(
+                shown,
+                recorded.into_inner(),
+                "{} {}",
+                model.name,
+                choice.name
+            );
             let text = hamel_print::derivation::text(&d).unwrap();
             let name = format!("printed__{}__{}", model.name, choice.name);
             insta::assert_snapshot!(name, digest_lines(&text));

@@ -162,6 +162,40 @@ fn structured_text<'e>(o: &mut String, d: &'e Derivation, st: &StructuredForm, p
 }
 
 impl Derivation {
+    /// The entries [`Derivation::to_text_with`] gives its printer, in that order (an entry as
+    /// often as it is shown), without writing the text: what a printer that prints the
+    /// entries together (hamel-print) reads first. The tests hold it to the text's order.
+    pub fn shown(&self) -> Vec<&Entry> {
+        let mut out: Vec<&Entry> = Vec::new();
+        for m in [&self.a, &self.alpha, &self.z] {
+            out.extend(m.entries.iter().flatten());
+        }
+        match &self.form {
+            Form::Closed(c) => {
+                out.push(&c.delta);
+                for m in [&c.gamma, &c.theta, &c.a_gamma] {
+                    out.extend(m.entries.iter().flatten());
+                }
+                out.extend(&c.forcing);
+                out.extend(c.nu.entries.iter().flatten());
+                for i in 0..self.sigma {
+                    for m in [&c.q[i], &c.q_paper[i], &c.q_correction[i]] {
+                        out.extend(m.entries.iter().flatten());
+                    }
+                }
+                out.extend(&c.equations);
+                out.extend(&c.equations_paper);
+                out.extend(&c.kinematics);
+                out.push(&c.energy);
+            }
+            Form::Structured(_) => {
+                out.extend(&self.ingredients.potential);
+                out.extend(&self.grad_u);
+            }
+        }
+        out
+    }
+
     /// The derivation as plain text, entries in their canonical form.
     pub fn to_text(&self) -> String {
         self.to_text_with(&|e| e.text.clone())

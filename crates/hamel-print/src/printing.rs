@@ -54,13 +54,26 @@ impl Printing {
         model: Given<'_>,
         show: &dyn Fn(Printer<'_, 'e>) -> String,
     ) -> Result<Printing, PrintError> {
-        // The entries shown, in order, each once (by address: the printer is called with
-        // references into the data shown).
+        // The entries shown, in order (by address: the printer is called with references into
+        // the data shown).
         let shown: RefCell<Vec<&'e Entry>> = RefCell::new(Vec::new());
         show(&|e: &'e Entry| {
             shown.borrow_mut().push(e);
             String::new()
         });
+        Printing::of_shown(vocabulary, model, shown.into_inner())
+    }
+
+    /// [`Printing::of`] for the entries `shown`, in the order shown (an entry as often as it
+    /// is shown).
+    ///
+    /// # Errors
+    /// [`PrintError`]: an entry that cannot be printed exactly.
+    pub(crate) fn of_shown(
+        vocabulary: &Vocabulary,
+        model: Given<'_>,
+        shown: Vec<&Entry>,
+    ) -> Result<Printing, PrintError> {
         let mut sheet = Sheet::new(vocabulary);
         for (name, e) in model.abbreviations {
             sheet.abbreviate(name, e)?;
@@ -72,7 +85,7 @@ impl Printing {
         let mut by_text: HashMap<(&str, bool), usize> = HashMap::default();
         let mut labels = Vec::new();
         let mut exprs: Vec<(&Expr, usize)> = Vec::new();
-        for e in shown.into_inner() {
+        for e in shown {
             let hash_map::Entry::Vacant(v) = ids.entry(address(e)) else {
                 continue;
             };
