@@ -9,6 +9,7 @@
 //!    it: `m_f ρ₁ + m_r ρ₁ + m_r ρ₂` → `m_r(ρ₁ + ρ₂) + m_f ρ₁`.
 
 use std::borrow::Cow;
+use std::cell::RefCell;
 use std::collections::BTreeMap;
 
 use foldhash::HashMap;
@@ -18,13 +19,44 @@ use crate::form::{Factor, Form, factor_rank, is_zero};
 use crate::poly::{Fraction, Mono, Poly, leading_negative};
 use crate::q::Q;
 
+/// What collection works with: the atoms, and the parameter polynomials factored so far (each
+/// polynomial is factored once, whatever the number of groups it is the coefficient of).
+pub(crate) struct Cx<'a> {
+    atoms: &'a Atoms,
+    memo: RefCell<HashMap<Poly, Form>>,
+}
+
+impl<'a> Cx<'a> {
+    /// Nothing factored yet.
+    pub(crate) fn new(atoms: &'a Atoms) -> Cx<'a> {
+        Cx {
+            atoms,
+            memo: RefCell::default(),
+        }
+    }
+}
+
+impl std::ops::Deref for Cx<'_> {
+    type Target = Atoms;
+
+    fn deref(&self) -> &Atoms {
+        self.atoms
+    }
+}
+
 /// The printing form of a fraction: a polynomial, or a quotient of two, the sign out of the
 /// denominator.
 pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
+    fraction_in(f, &Cx::new(atoms))
+}
+
+/// [`fraction`] with the parameter polynomials already factored in `cx` (the entries of a
+/// sheet share their coefficients: the unicycle's 15,931 factorings are of 245 polynomials).
+pub(crate) fn fraction_in(f: &Fraction, atoms: &Cx<'_>) -> Form {
     match f.den.as_constant() {
-        Some(c) if c.is_one() => poly(&f.num, atoms),
+        Some(c) if c.is_one() => poly_in(&f.num, atoms),
         _ => {
-            let (mut num, mut den) = (poly(&f.num, atoms), poly(&f.den, atoms));
+            let (mut num, mut den) = (poly_in(&f.num, atoms), poly_in(&f.den, atoms));
             if negative(&den) {
                 negate(&mut num);
                 negate(&mut den);
@@ -36,6 +68,10 @@ pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
 
 /// The printing form of a polynomial (step 1, then 2).
 pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
+    poly_in(p, &Cx::new(atoms))
+}
+
+fn poly_in(p: &Poly, atoms: &Cx<'_>) -> Form {
     if p.is_zero() {
         return constant(Q::zero());
     }
@@ -85,7 +121,7 @@ pub(crate) fn content(p: &Poly) -> (Q, Mono, Cow<'_, Poly>) {
 
 /// `c · g · (inner)`, factors in printing order; the sign taken out of a sum whose first printed
 /// term is negative.
-fn product(mut c: Q, g: &Mono, mut inner: Option<Form>, atoms: &Atoms) -> Form {
+fn product(mut c: Q, g: &Mono, mut inner: Option<Form>, atoms: &Cx<'_>) -> Form {
     if let Some(Form::Sum(terms)) = &mut inner
         && terms.first().is_some_and(negative)
     {
@@ -107,7 +143,7 @@ fn product(mut c: Q, g: &Mono, mut inner: Option<Form>, atoms: &Atoms) -> Form {
     sorted(c, factors, atoms)
 }
 
-fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Atoms) -> Form {
+fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Cx<'_>) -> Form {
     if coef.is_one()
         && matches!(factors.as_slice(), [Factor::Group(_)])
         && let Some(Factor::Group(sum)) = factors.pop()
@@ -168,7 +204,7 @@ fn constant(c: Q) -> Form {
 
 /// Step 2: the terms grouped by their monomial in the state's atoms; a coefficient that every
 /// group shares (up to a rational factor) comes out in front.
-fn by_state(p: &Poly, atoms: &Atoms) -> Form {
+fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
     if let Some(form) = by_rates(p, atoms) {
         return form;
     }
@@ -198,7 +234,7 @@ fn by_state(p: &Poly, atoms: &Atoms) -> Form {
 /// An equation as a paper writes it: the terms in the rates of the quasi-velocities collected
 /// by rate, each coefficient (a function of the coordinates) in parentheses, `(…) η̇₁ + (…) η̇₂`,
 /// then the other terms. None when `p` has no rate.
-fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
+fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
     let has_rate = |m: &Mono| m.atoms().any(|i| atoms.is_rate(i));
     if !p.monomials().any(has_rate) {
         return None;
@@ -224,7 +260,7 @@ fn by_rates(p: &Poly, atoms: &Atoms) -> Option<Form> {
     let mut terms: Vec<Form> = by_rate
         .into_values()
         .map(|(rate, coefficient)| {
-            let (coef, mut factors) = match poly(&coefficient, atoms) {
+            let (coef, mut factors) = match poly_in(&coefficient, atoms) {
                 Form::Product { coef, factors } => (coef, factors),
                 sum => (Q::one(), vec![Factor::Group(sum)]),
             };
@@ -260,7 +296,7 @@ fn state_key<'a>(pairs: impl Iterator<Item = (usize, u32)>, atoms: &'a Atoms) ->
 type GroupKey<'a> = (bool, Vec<StateKey<'a>>, Vec<StateKey<'a>>);
 
 /// The groups `(state monomial, parameter coefficient)` in printing order.
-fn state_groups(p: &Poly, atoms: &Atoms) -> Vec<(Mono, Poly)> {
+fn state_groups(p: &Poly, atoms: &Cx<'_>) -> Vec<(Mono, Poly)> {
     // Gathered by state monomial first, so that each group's printing key is made once.
     let mut by_state: HashMap<Mono, Vec<(Mono, Q)>> = HashMap::default();
     for (m, c) in p.terms() {
@@ -306,7 +342,7 @@ fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Q>)> {
 }
 
 /// The collected sum of the groups.
-fn collected(groups: Vec<(Mono, Poly)>, atoms: &Atoms) -> Form {
+fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
     let terms: Vec<Form> = groups
         .into_iter()
         .map(|(state, coef)| {
@@ -331,7 +367,16 @@ fn collected(groups: Vec<(Mono, Poly)>, atoms: &Atoms) -> Form {
 }
 
 /// Step 3: a polynomial in the parameters, factored greedily.
-fn parameters(p: &Poly, atoms: &Atoms) -> Form {
+fn parameters(p: &Poly, atoms: &Cx<'_>) -> Form {
+    if let Some(f) = atoms.memo.borrow().get(p) {
+        return f.clone();
+    }
+    let f = factored(p, atoms);
+    atoms.memo.borrow_mut().insert(p.clone(), f.clone());
+    f
+}
+
+fn factored(p: &Poly, atoms: &Cx<'_>) -> Form {
     let (c, g, rest) = content(p);
     if rest.as_constant().is_some() {
         return product(c, &g, None, atoms);
@@ -341,7 +386,7 @@ fn parameters(p: &Poly, atoms: &Atoms) -> Form {
 
 /// A content-free polynomial in the parameters as a sum, the most frequent parameter pulled
 /// out first.
-fn greedy(p: &Poly, atoms: &Atoms) -> Form {
+fn greedy(p: &Poly, atoms: &Cx<'_>) -> Form {
     let Some(a) = most_frequent(p, atoms) else {
         let terms = p
             .terms()
@@ -372,7 +417,7 @@ fn greedy(p: &Poly, atoms: &Atoms) -> Form {
 }
 
 /// The terms of a sum in printing order: by their factors' ranks, the model's order first.
-fn in_order(mut terms: Vec<Form>, atoms: &Atoms) -> Form {
+fn in_order(mut terms: Vec<Form>, atoms: &Cx<'_>) -> Form {
     terms.sort_by_cached_key(|t| match t {
         Form::Product { factors, .. } => factors.iter().map(|x| factor_rank(x, atoms)).collect(),
         _ => Vec::new(),

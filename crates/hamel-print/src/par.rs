@@ -34,14 +34,19 @@ fn pool() -> Option<&'static rayon::ThreadPool> {
     .as_ref()
 }
 
-/// `f` over `items`, in order; on printing's pool when `parallel`.
-pub(crate) fn map<T: Sync, R: Send>(
+/// `f` over `items`, in order, with a state made by `init` for each thread (and reused for
+/// every item that thread takes); on printing's pool when `parallel`.
+pub(crate) fn map_init<T: Sync, S, R: Send>(
     items: &[T],
     parallel: bool,
-    f: impl Fn(&T) -> R + Sync + Send,
+    init: impl Fn() -> S + Sync + Send,
+    f: impl Fn(&mut S, &T) -> R + Sync + Send,
 ) -> Vec<R> {
     match pool().filter(|_| parallel) {
-        Some(pool) => pool.install(|| items.par_iter().map(f).collect()),
-        None => items.iter().map(f).collect(),
+        Some(pool) => pool.install(|| items.par_iter().map_init(&init, &f).collect()),
+        None => {
+            let mut state = init();
+            items.iter().map(|x| f(&mut state, x)).collect()
+        }
     }
 }

@@ -130,7 +130,12 @@ impl Sheet {
         let first = self.entries.len();
         let atoms = &self.atoms;
         let parallel = crate::par::worth_it(&canonical);
-        let forms = crate::par::map(&canonical, parallel, |f| collect::fraction(f, atoms));
+        let forms = crate::par::map_init(
+            &canonical,
+            parallel,
+            || collect::Cx::new(atoms),
+            |cx, f| collect::fraction_in(f, cx),
+        );
         self.entries.extend(forms.into_iter().zip(canonical));
         self.counts.extend(counts);
         // The model's abbreviations written with the same factoring.
