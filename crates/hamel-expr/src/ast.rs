@@ -122,7 +122,8 @@ impl Expr {
     /// The value of a literal as an integer, if it is one.
     pub fn as_integer(&self) -> Option<i64> {
         match self {
-            Expr::Num(r) if r.is_integer() => r.to_integer().to_i64(),
+            // In lowest terms: an integer is its numerator (no division, no allocation).
+            Expr::Num(r) if r.is_integer() => r.numer().to_i64(),
             Expr::Neg(e) => e.as_integer().map(|n| -n),
             _ => None,
         }

@@ -123,6 +123,12 @@ impl Q {
 
     /// `self · other`.
     pub fn mul(&self, other: &Q) -> Q {
+        if self.is_one() {
+            return other.clone();
+        }
+        if other.is_one() {
+            return self.clone();
+        }
         if let (Some((a, b)), Some((c, d))) = (self.small(), other.small()) {
             return Q::from_i128(a * c, b * d);
         }
@@ -187,7 +193,11 @@ impl From<Rational> for Q {
 
 impl From<&Rational> for Q {
     fn from(r: &Rational) -> Q {
-        Q::from(r.clone())
+        // Read without cloning the big integers (a canonical form's every term has one).
+        match (r.numer().to_i64(), r.denom().to_i64()) {
+            (Some(n), Some(d)) => Q::Small(n, d),
+            _ => Q::Big(Box::new(r.clone())),
+        }
     }
 }
 
