@@ -297,25 +297,30 @@ type GroupKey<'a> = (bool, Vec<StateKey<'a>>, Vec<StateKey<'a>>);
 
 /// The groups `(state monomial, parameter coefficient)` in printing order.
 fn state_groups(p: &Poly, atoms: &Cx<'_>) -> Vec<(Mono, Poly)> {
-    // Gathered by state monomial first, so that each group's printing key is made once.
-    let mut by_state: HashMap<Mono, Vec<(Mono, Q)>> = HashMap::default();
-    for (m, c) in p.terms() {
-        let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
-        let params = m.div(&state).expect("a part divides the whole");
-        by_state.entry(state).or_default().push((params, c.clone()));
-    }
-    let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = by_state
-        .into_iter()
-        .map(|(state, terms)| {
-            let all = state_key(state.pairs(), atoms);
-            let rates = state_key(state.pairs().filter(|&(i, _)| atoms.is_rate(i)), atoms);
-            (
-                (rates.is_empty(), rates, all),
-                state,
-                Poly::from_terms(terms),
-            )
+    // Sorted by state monomial, then parameter monomial: each group is a run, its terms
+    // already in order (the monomials of `p` are distinct), and its printing key made once.
+    let mut split: Vec<(Mono, Mono, Q)> = p
+        .terms()
+        .map(|(m, c)| {
+            let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
+            let params = m.div(&state).expect("a part divides the whole");
+            (state, params, c.clone())
         })
         .collect();
+    split.sort_unstable_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
+    let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = Vec::new();
+    let mut run: Vec<(Mono, Q)> = Vec::new();
+    let mut terms = split.into_iter().peekable();
+    while let Some((state, params, c)) = terms.next() {
+        run.push((params, c));
+        if terms.peek().is_some_and(|(next, _, _)| *next == state) {
+            continue;
+        }
+        let all = state_key(state.pairs(), atoms);
+        let rates = state_key(state.pairs().filter(|&(i, _)| atoms.is_rate(i)), atoms);
+        let coefficient = Poly::from_sorted(std::mem::take(&mut run));
+        groups.push(((rates.is_empty(), rates, all), state, coefficient));
+    }
     groups.sort_unstable_by(|a, b| a.0.cmp(&b.0));
     groups.into_iter().map(|(_, m, p)| (m, p)).collect()
 }

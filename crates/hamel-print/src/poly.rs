@@ -199,6 +199,14 @@ impl Poly {
         Poly(out)
     }
 
+    /// The polynomial with these terms, given sorted by monomial, each monomial once, no
+    /// coefficient zero.
+    pub(crate) fn from_sorted(terms: Vec<(Mono, Q)>) -> Poly {
+        debug_assert!(terms.windows(2).all(|w| w[0].0 < w[1].0));
+        debug_assert!(terms.iter().all(|(_, c)| !c.is_zero()));
+        Poly(terms)
+    }
+
     /// The terms, in monomial order.
     pub fn terms(&self) -> impl ExactSizeIterator<Item = (&Mono, &Q)> + Clone {
         self.0.iter().map(|(m, c)| (m, c))
