@@ -361,6 +361,12 @@ type Key = Poly;
 impl Sheet {
     /// The form as a fraction over the sheet's atoms, names expanded.
     pub(crate) fn fraction_of(&self, f: &Form) -> Fraction {
+        self.fraction_of_in(f, &mut HashMap::default())
+    }
+
+    /// [`Sheet::fraction_of`], each group's value taken from `memo` when it is there (equal
+    /// groups recur across a sheet), and added to it.
+    fn fraction_of_in<'f>(&self, f: &'f Form, memo: &mut HashMap<&'f Form, Fraction>) -> Fraction {
         match f {
             Form::Product { coef, factors } => {
                 // The atoms make one monomial; only groups and names are multiplied in.
@@ -372,7 +378,13 @@ impl Sheet {
                             monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
                             continue;
                         }
-                        Factor::Group(g) => Cow::Owned(self.fraction_of(g)),
+                        Factor::Group(g) => {
+                            if !memo.contains_key(g) {
+                                let v = self.fraction_of_in(g, memo);
+                                memo.insert(g, v);
+                            }
+                            Cow::Borrowed(&memo[g])
+                        }
                         Factor::Name { index } => Cow::Borrowed(self.value(*index)),
                     };
                     acc = Some(match acc {
@@ -386,8 +398,15 @@ impl Sheet {
                     None => front,
                 }
             }
-            Form::Sum(terms) => Fraction::sum(terms.iter().map(|t| self.fraction_of(t))),
-            Form::Quotient(a, b) => self.fraction_of(a).over(&self.fraction_of(b)),
+            Form::Sum(terms) => {
+                let parts: Vec<Fraction> =
+                    terms.iter().map(|t| self.fraction_of_in(t, memo)).collect();
+                Fraction::sum(parts)
+            }
+            Form::Quotient(a, b) => {
+                let a = self.fraction_of_in(a, memo);
+                a.over(&self.fraction_of_in(b, memo))
+            }
         }
     }
 
@@ -421,11 +440,16 @@ impl Sheet {
             at.push(i);
         }
         let mut chosen: Vec<(usize, Candidate)> = Vec::new();
+        // Outer groups come first: their expansion leaves their inner groups' values here.
+        let mut memo: HashMap<&Form, Fraction> = HashMap::default();
         for (i, &(g, place, count)) in counted.iter().enumerate() {
             if count < 2 || given.iter().any(|(f, _, _)| f == g) || self.mentions_velocity(g) {
                 continue;
             }
-            let value = self.fraction_of(g);
+            let value = match memo.get(g) {
+                Some(v) => v.clone(),
+                None => self.fraction_of_in(g, &mut memo),
+            };
             let Some((_, key)) = key(&value) else {
                 continue;
             };
@@ -522,17 +546,16 @@ impl Sheet {
 
     /// The coordinates `key` depends on, in the model's order.
     fn coordinates_in(&self, key: &Key) -> Vec<String> {
-        let mut seen = BTreeSet::new();
-        for m in key.monomials() {
-            for i in m.atoms() {
-                self.atoms.get(i).expr.visit(&mut |e| match e {
-                    Expr::Sym(n) | Expr::Der(n) => {
-                        seen.insert(n.clone());
-                    }
-                    Expr::Free { args, .. } => seen.extend(args.iter().cloned()),
-                    _ => {}
-                });
-            }
+        let atoms: BTreeSet<usize> = key.monomials().flat_map(Mono::atoms).collect();
+        let mut seen: BTreeSet<String> = BTreeSet::new();
+        for i in atoms {
+            self.atoms.get(i).expr.visit(&mut |e| match e {
+                Expr::Sym(n) | Expr::Der(n) => {
+                    seen.insert(n.clone());
+                }
+                Expr::Free { args, .. } => seen.extend(args.iter().cloned()),
+                _ => {}
+            });
         }
         self.atoms
             .vocabulary()
