@@ -388,7 +388,11 @@ impl Fraction {
                         None => others.push(Fraction::from_expr(t, atoms)?),
                     }
                 }
-                others.push(Fraction::poly(Poly::from_terms(monomials)));
+                let sum = Fraction::poly(Poly::from_terms(monomials));
+                if others.is_empty() {
+                    return Ok(sum);
+                }
+                others.push(sum);
                 Fraction::sum(others)
             }
             Expr::Mul(_) if let Some((c, m)) = monomial(e, atoms) => {
@@ -471,15 +475,22 @@ impl Fraction {
     /// one would merge the growing sum again at every step), the others added in turn.
     pub fn sum(parts: impl IntoIterator<Item = Fraction>) -> Fraction {
         let mut terms = Vec::new();
-        let mut acc = Fraction::poly(Poly::default());
+        let mut acc: Option<Fraction> = None;
         for f in parts {
             if f.den.is_one() {
                 terms.extend(f.num.0);
             } else {
-                acc = acc.plus(&f);
+                acc = Some(
+                    acc.unwrap_or_else(|| Fraction::poly(Poly::default()))
+                        .plus(&f),
+                );
             }
         }
-        acc.plus(&Fraction::poly(Poly::from_terms(terms)))
+        let polynomial = Fraction::poly(Poly::from_terms(terms));
+        match acc {
+            Some(acc) => acc.plus(&polynomial),
+            None => polynomial,
+        }
     }
 
     /// `self · other`.
