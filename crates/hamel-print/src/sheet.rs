@@ -28,7 +28,7 @@ pub struct Sheet {
     /// name is told apart from the others by its value at [`Sheet::point`]).
     values: Vec<OnceLock<Fraction>>,
     /// A random point at which names' values are compared before they are expanded
-    /// ([`crate::modular`]).
+    /// (`modular.rs`).
     pub(crate) point: crate::modular::Point,
     /// The last number given to a parameter group (`kappaN`) and to a function (`FN`).
     numbers: [usize; 2],
@@ -217,7 +217,7 @@ impl Sheet {
     }
 
     /// The first entry (by index) whose printed form is not its canonical form, if any:
-    /// both evaluated at a random point modulo a prime ([`crate::modular`]: a disagreement is
+    /// both evaluated at a random point modulo a prime (`modular.rs`: a disagreement is
     /// certain, an agreement wrong with probability below 10⁻¹⁶), and expanded exactly
     /// ([`Sheet::check`]) where the point is a pole.
     pub fn first_mismatch(&self) -> Option<usize> {
@@ -257,7 +257,7 @@ impl Sheet {
 
     /// Writes equation `i` (an entry set to zero) multiplied through by its denominator, when
     /// the denominator's sign is proved on the whole domain from the parameters declared
-    /// `positive` ([`crate::positive`]); by minus it when negative, so that the multiplier is
+    /// `positive` (`positive.rs`); by minus it when negative, so that the multiplier is
     /// positive. Returns whether it did. Call after [`Sheet::name_groups`].
     pub fn multiply_through(&mut self, i: usize, positive: &BTreeSet<String>) -> bool {
         let Form::Quotient(num, den) = &self.entries[i].0 else {
