@@ -5,7 +5,6 @@ use std::collections::BTreeMap;
 use std::fmt::Write;
 
 use hamel_expr::Expr;
-use num_traits::Signed;
 
 use crate::atoms::{Atom, Atoms, Kind, simple, text_of};
 use crate::q::Q;
@@ -181,19 +180,23 @@ pub(crate) trait Syntax {
 pub(crate) struct Text;
 pub(crate) struct Latex;
 
+/// Writes |r|: an integer as it is, a fraction by `fraction(out, numerator, denominator)`.
+fn write_magnitude(
+    r: &Q,
+    out: &mut String,
+    fraction: impl Fn(&mut String, &dyn std::fmt::Display, &dyn std::fmt::Display) -> std::fmt::Result,
+) {
+    let _ = match r {
+        Q::Small(n, 1) => write!(out, "{}", n.unsigned_abs()),
+        Q::Small(n, d) => fraction(out, &n.unsigned_abs(), d),
+        Q::Big(r) if r.is_integer() => write!(out, "{}", r.numer().magnitude()),
+        Q::Big(r) => fraction(out, r.numer().magnitude(), r.denom()),
+    };
+}
+
 impl Syntax for Text {
     fn magnitude(&self, r: &Q, out: &mut String) {
-        match r {
-            Q::Small(n, 1) => {
-                let _ = write!(out, "{}", n.unsigned_abs());
-            }
-            Q::Small(n, d) => {
-                let _ = write!(out, "{}/{d}", n.unsigned_abs());
-            }
-            Q::Big(r) => {
-                let _ = write!(out, "{}", r.abs());
-            }
-        }
+        write_magnitude(r, out, |out, n, d| write!(out, "{n}/{d}"));
     }
     fn atom(&self, e: &Expr) -> String {
         text_of(e)
@@ -228,20 +231,7 @@ impl Syntax for Text {
 
 impl Syntax for Latex {
     fn magnitude(&self, r: &Q, out: &mut String) {
-        match r {
-            Q::Small(n, 1) => {
-                let _ = write!(out, "{}", n.unsigned_abs());
-            }
-            Q::Small(n, d) => {
-                let _ = write!(out, "\\tfrac{{{}}}{{{d}}}", n.unsigned_abs());
-            }
-            Q::Big(r) if r.is_integer() => {
-                let _ = write!(out, "{}", r.numer().magnitude());
-            }
-            Q::Big(r) => {
-                let _ = write!(out, "\\tfrac{{{}}}{{{}}}", r.numer().magnitude(), r.denom());
-            }
-        }
+        write_magnitude(r, out, |out, n, d| write!(out, "\\tfrac{{{n}}}{{{d}}}"));
     }
     fn atom(&self, e: &Expr) -> String {
         e.to_latex()
