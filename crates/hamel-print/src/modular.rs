@@ -10,7 +10,7 @@
 //! expanding ([`crate::Sheet::check`], exact, which the tests run on every entry of every seed
 //! model). The point is drawn afresh for every sheet (a seed from the process's random hash
 //! keys), so no fixed input can be made to pass. Evaluation allocates nothing per term: the
-//! check is 2 % of printing, where expanding was 10 to 20 %.
+//! check is 2 % of printing, where expanding was 9 to 12 %.
 //!
 //! A sheet keeps a second point to tell its names apart (`Sheet::name_for`): two names whose
 //! values differ there differ; names that agree there are compared exactly.
