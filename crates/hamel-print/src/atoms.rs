@@ -79,16 +79,6 @@ impl Atoms {
         &self.vocabulary
     }
 
-    /// How many atoms there are.
-    pub fn len(&self) -> usize {
-        self.list.len()
-    }
-
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.list.is_empty()
-    }
-
     /// The atom with index `i`.
     pub fn get(&self, i: usize) -> &Atom {
         &self.list[i]

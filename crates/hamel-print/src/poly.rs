@@ -98,13 +98,6 @@ impl Mono {
         theirs.next().is_none().then_some(Mono(out))
     }
 
-    /// The greatest common divisor (the smallest exponent of each shared atom).
-    pub fn gcd(&self, other: &Mono) -> Mono {
-        let mut out = self.clone();
-        out.retain_common(other);
-        out
-    }
-
     /// `self` made the greatest common divisor of itself and `other`, in place.
     pub(crate) fn retain_common(&mut self, other: &Mono) {
         let mut theirs = other.0.iter().peekable();
