@@ -28,6 +28,19 @@ pub struct Vocabulary {
     pub velocities: Vec<String>,
 }
 
+/// What numbers the atoms met while an expression is read ([`Atoms`], or an entry's own
+/// numbering while entries are read in parallel).
+pub(crate) trait Intern<'e> {
+    /// The index of `expr`'s atom, added if new.
+    fn intern(&mut self, expr: &'e Expr) -> usize;
+}
+
+impl<'e> Intern<'e> for Atoms {
+    fn intern(&mut self, expr: &'e Expr) -> usize {
+        Atoms::intern(self, expr)
+    }
+}
+
 /// One atom: an expression that a polynomial treats as a variable.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Atom {
@@ -44,6 +57,8 @@ pub struct Atom {
     /// The position of its name in the model (parameters, coordinates, velocities), for
     /// the printing order; `usize::MAX` for none.
     position: usize,
+    /// Whether it is the rate of a quasi-velocity ([`Atoms::is_rate`]).
+    rate: bool,
 }
 
 /// The atoms met so far, each with its index; the index order is the printing order (kind,
@@ -79,6 +94,11 @@ impl Atoms {
         &self.vocabulary
     }
 
+    /// How many atoms there are.
+    pub(crate) fn len(&self) -> usize {
+        self.list.len()
+    }
+
     /// The atom with index `i`.
     pub fn get(&self, i: usize) -> &Atom {
         &self.list[i]
@@ -98,6 +118,7 @@ impl Atoms {
         let kind = self.kind_of(expr);
         let position = self.position_of(expr);
         self.index.insert(key.clone(), self.list.len());
+        let rate = kind == Kind::Velocity && matches!(expr, Expr::Sym(n) if n.ends_with("_dot"));
         self.list.push(Atom {
             expr: expr.clone(),
             kind,
@@ -105,6 +126,7 @@ impl Atoms {
             latex: expr.to_latex(),
             key,
             position,
+            rate,
         });
         self.list.len() - 1
     }
@@ -137,8 +159,7 @@ impl Atoms {
     /// Whether atom `i` is the rate of a quasi-velocity (`etaN_dot`, a velocity of the
     /// vocabulary whose name ends in `_dot`).
     pub(crate) fn is_rate(&self, i: usize) -> bool {
-        let a = &self.list[i];
-        a.kind == Kind::Velocity && matches!(&a.expr, Expr::Sym(n) if n.ends_with("_dot"))
+        self.list[i].rate
     }
 
     /// Counts `n` more terms in which atom `i` occurs.

@@ -239,27 +239,30 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
     if !p.monomials().any(has_rate) {
         return None;
     }
-    let mut by_rate: BTreeMap<Vec<StateKey<'_>>, (Mono, Poly)> = BTreeMap::new();
-    let mut rest = Poly::default();
+    // Each term split into its rates and the rest, sorted by rates then rest: each rate's
+    // coefficient is a run, its terms in order (the monomials of `p` are distinct).
+    let mut rest = Vec::new();
+    let mut split: Vec<(Mono, Mono, Q)> = Vec::new();
     for (m, c) in p.terms() {
-        let rate = m.filter(|i| atoms.is_rate(i));
+        let (rate, coefficient) = m.split(|i| atoms.is_rate(i));
         if rate.is_one() {
-            rest.add_term(m.clone(), c.clone());
-            continue;
+            rest.push((coefficient, c.clone()));
+        } else {
+            split.push((rate, coefficient, c.clone()));
         }
-        let key = state_key(rate.pairs(), atoms);
-        let coefficient = m.div(&rate).expect("a part divides the whole");
-        let entry = by_rate
-            .entry(key)
-            .or_insert_with(|| (rate, Poly::default()));
-        entry.1.add_term(coefficient, c.clone());
     }
+    let mut by_rate: Vec<(Vec<StateKey<'_>>, Mono, Poly)> = runs(split)
+        .into_iter()
+        .map(|(rate, coefficient)| (state_key(rate.pairs(), atoms), rate, coefficient))
+        .collect();
+    let rest = Poly::from_sorted(rest);
     if by_rate.is_empty() || (by_rate.len() == 1 && rest.is_zero()) {
         return None;
     }
+    by_rate.sort_unstable_by(|a, b| a.0.cmp(&b.0));
     let mut terms: Vec<Form> = by_rate
-        .into_values()
-        .map(|(rate, coefficient)| {
+        .into_iter()
+        .map(|(_, rate, coefficient)| {
             let (coef, mut factors) = match poly_in(&coefficient, atoms) {
                 Form::Product { coef, factors } => (coef, factors),
                 sum => (Q::one(), vec![Factor::Group(sum)]),
@@ -299,30 +302,48 @@ type GroupKey<'a> = (bool, Vec<StateKey<'a>>, Vec<StateKey<'a>>);
 fn state_groups(p: &Poly, atoms: &Cx<'_>) -> Vec<(Mono, Poly)> {
     // Sorted by state monomial, then parameter monomial: each group is a run, its terms
     // already in order (the monomials of `p` are distinct), and its printing key made once.
-    let mut split: Vec<(Mono, Mono, Q)> = p
+    let split: Vec<(Mono, Mono, Q)> = p
         .terms()
         .map(|(m, c)| {
-            let state = m.filter(|i| atoms.get(i).kind != Kind::Parameter);
-            let params = m.div(&state).expect("a part divides the whole");
+            let (state, params) = m.split(|i| atoms.get(i).kind != Kind::Parameter);
             (state, params, c.clone())
         })
         .collect();
-    split.sort_unstable_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
-    let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = Vec::new();
-    let mut run: Vec<(Mono, Q)> = Vec::new();
-    let mut terms = split.into_iter().peekable();
-    while let Some((state, params, c)) = terms.next() {
-        run.push((params, c));
-        if terms.peek().is_some_and(|(next, _, _)| *next == state) {
-            continue;
-        }
-        let all = state_key(state.pairs(), atoms);
-        let rates = state_key(state.pairs().filter(|&(i, _)| atoms.is_rate(i)), atoms);
-        let coefficient = Poly::from_sorted(std::mem::take(&mut run));
-        groups.push(((rates.is_empty(), rates, all), state, coefficient));
-    }
+    let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = runs(split)
+        .into_iter()
+        .map(|(state, coefficient)| {
+            let all = state_key(state.pairs(), atoms);
+            let rates = state_key(state.pairs().filter(|&(i, _)| atoms.is_rate(i)), atoms);
+            ((rates.is_empty(), rates, all), state, coefficient)
+        })
+        .collect();
     groups.sort_unstable_by(|a, b| a.0.cmp(&b.0));
     groups.into_iter().map(|(_, m, p)| (m, p)).collect()
+}
+
+/// Terms `(key, rest, c)` (the products `key · rest` distinct) gathered by key: each key with
+/// the polynomial of its rests, keys in order. The terms are sorted by key then rest through
+/// their indices (a term is three monomials and a rational: moving indices is cheaper), so
+/// that each key's terms are a run, already in order.
+fn runs(split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
+    let mut order: Vec<usize> = (0..split.len()).collect();
+    order.sort_unstable_by(|&a, &b| {
+        let (x, y) = (&split[a], &split[b]);
+        (&x.0, &x.1).cmp(&(&y.0, &y.1))
+    });
+    let mut split: Vec<Option<(Mono, Mono, Q)>> = split.into_iter().map(Some).collect();
+    let mut out: Vec<(Mono, Poly)> = Vec::new();
+    let mut run: Vec<(Mono, Q)> = Vec::new();
+    for (k, &i) in order.iter().enumerate() {
+        let (key, rest, c) = split[i].take().expect("each term once");
+        run.push((rest, c));
+        let next = order.get(k + 1).and_then(|&j| split[j].as_ref());
+        if next.is_some_and(|(n, _, _)| *n == key) {
+            continue;
+        }
+        out.push((key, Poly::from_sorted(std::mem::take(&mut run))));
+    }
+    out
 }
 
 /// When there are two groups or more and every coefficient is `c_i · P` for one polynomial

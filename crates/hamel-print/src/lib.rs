@@ -41,6 +41,7 @@ mod positive;
 mod printed;
 mod printing;
 mod q;
+mod read;
 pub mod reduction;
 mod sheet;
 mod wide;

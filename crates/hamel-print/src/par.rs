@@ -6,19 +6,13 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use crate::poly::Fraction;
-
 /// Below this many terms in all, a sheet's entries are worked on the calling thread (a small
 /// model's sheet prints in a tenth of a millisecond, less than waking the pool costs).
 const PARALLEL_FROM: usize = 2000;
 
-/// Whether entries with these canonical forms are worth the pool.
-pub(crate) fn worth_it<'a>(canonical: impl IntoIterator<Item = &'a Fraction>) -> bool {
-    canonical
-        .into_iter()
-        .map(|f| f.num.size() + f.den.size())
-        .sum::<usize>()
-        >= PARALLEL_FROM
+/// Whether entries with these numbers of terms are worth the pool.
+pub(crate) fn worth_it(terms: impl IntoIterator<Item = usize>) -> bool {
+    terms.into_iter().sum::<usize>() >= PARALLEL_FROM
 }
 
 /// Printing's pool: one thread per core; None if the threads could not be started (the work
@@ -47,6 +41,22 @@ pub(crate) fn map_init<T: Sync, S, R: Send>(
         None => {
             let mut state = init();
             items.iter().map(|x| f(&mut state, x)).collect()
+        }
+    }
+}
+
+/// [`map_init`] over owned `items`.
+pub(crate) fn map_init_owned<T: Send, S, R: Send>(
+    items: Vec<T>,
+    parallel: bool,
+    init: impl Fn() -> S + Sync + Send,
+    f: impl Fn(&mut S, T) -> R + Sync + Send,
+) -> Vec<R> {
+    match pool().filter(|_| parallel) {
+        Some(pool) => pool.install(|| items.into_par_iter().map_init(&init, &f).collect()),
+        None => {
+            let mut state = init();
+            items.into_iter().map(|x| f(&mut state, x)).collect()
         }
     }
 }

@@ -6,7 +6,7 @@ use num_traits::{Signed, ToPrimitive};
 
 use smallvec::SmallVec;
 
-use crate::atoms::Atoms;
+use crate::atoms::{Atoms, Intern};
 use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
@@ -113,9 +113,41 @@ impl Mono {
         self.0.truncate(kept);
     }
 
+    /// Atom `i` renumbered `map[i]`, in place (two atoms given one number are merged).
+    pub(crate) fn renumber(&mut self, map: &[usize]) {
+        for p in &mut self.0 {
+            p.0 = stored(map[p.0 as usize]);
+        }
+        if self.0.windows(2).all(|w| w[0].0 < w[1].0) {
+            return;
+        }
+        self.0.sort_unstable_by_key(|&(i, _)| i);
+        self.0.dedup_by(|later, earlier| {
+            let same = later.0 == earlier.0;
+            if same {
+                earlier.1 += later.1;
+            }
+            same
+        });
+    }
+
     /// The exponent of atom `i`.
     pub fn exponent(&self, i: usize) -> u32 {
         self.pairs().find(|&(a, _)| a == i).map_or(0, |(_, e)| e)
+    }
+
+    /// The part made of atoms for which `keep` holds, and the rest (their product is
+    /// `self`).
+    pub(crate) fn split(&self, keep: impl Fn(usize) -> bool) -> (Mono, Mono) {
+        let (mut kept, mut rest) = (Pairs::new(), Pairs::new());
+        for &(i, e) in &self.0 {
+            if keep(i as usize) {
+                kept.push((i, e));
+            } else {
+                rest.push((i, e));
+            }
+        }
+        (Mono(kept), Mono(rest))
     }
 
     /// The part made of atoms for which `keep` holds.
@@ -190,6 +222,17 @@ impl Poly {
             out.pop();
         }
         Poly(out)
+    }
+
+    /// Atom `i` renumbered `map[i]`, in place (the terms sorted again where the order
+    /// changes, merged where two monomials become one).
+    pub(crate) fn renumber(&mut self, map: &[usize]) {
+        for (m, _) in &mut self.0 {
+            m.renumber(map);
+        }
+        if !self.0.windows(2).all(|w| w[0].0 < w[1].0) {
+            *self = Poly::from_terms(std::mem::take(&mut self.0));
+        }
     }
 
     /// The polynomial with these terms, given sorted by monomial, each monomial once, no
@@ -369,6 +412,15 @@ impl Fraction {
     /// The canonical expression `e` over the atoms: sums, products, integer powers and
     /// quotients are expanded; anything else (functions, non-integer powers) is an atom.
     pub fn from_expr(e: &Expr, atoms: &mut Atoms) -> Result<Fraction, PolyError> {
+        Fraction::read(e, atoms)
+    }
+
+    /// [`Fraction::from_expr`] with the atoms numbered by `atoms` (a sheet's, or an entry's
+    /// own while entries are read in parallel: `read.rs`).
+    pub(crate) fn read<'e>(
+        e: &'e Expr,
+        atoms: &mut impl Intern<'e>,
+    ) -> Result<Fraction, PolyError> {
         Ok(match e {
             Expr::Num(r) => Fraction::poly(Poly::constant(r)),
             Expr::Add(v) => {
@@ -378,7 +430,7 @@ impl Fraction {
                 for t in v {
                     match monomial(t, atoms) {
                         Some((c, m)) => monomials.push((m, c)),
-                        None => others.push(Fraction::from_expr(t, atoms)?),
+                        None => others.push(Fraction::read(t, atoms)?),
                     }
                 }
                 let sum = Fraction::poly(Poly::from_terms(monomials));
@@ -394,22 +446,19 @@ impl Fraction {
             Expr::Mul(v) => {
                 let mut acc = Fraction::poly(Poly::constant(Q::one()));
                 for t in v {
-                    acc = acc.times(&Fraction::from_expr(t, atoms)?);
+                    acc = acc.times(&Fraction::read(t, atoms)?);
                 }
                 acc
             }
             Expr::Neg(a) => {
-                let f = Fraction::from_expr(a, atoms)?;
+                let f = Fraction::read(a, atoms)?;
                 Fraction {
                     num: f.num.scale(&Q::from(-1)),
                     den: f.den,
                 }
             }
             Expr::Div(a, b) => {
-                let (a, b) = (
-                    Fraction::from_expr(a, atoms)?,
-                    Fraction::from_expr(b, atoms)?,
-                );
+                let (a, b) = (Fraction::read(a, atoms)?, Fraction::read(b, atoms)?);
                 if b.num.is_zero() {
                     return Err(PolyError::DivisionByZero);
                 }
@@ -424,11 +473,11 @@ impl Fraction {
     }
 
     /// `base^exp`: expanded for a small integer exponent, an atom otherwise.
-    fn power(
-        base: &Expr,
-        exp: &Expr,
-        whole: &Expr,
-        atoms: &mut Atoms,
+    fn power<'e>(
+        base: &'e Expr,
+        exp: &'e Expr,
+        whole: &'e Expr,
+        atoms: &mut impl Intern<'e>,
     ) -> Result<Fraction, PolyError> {
         let Some(n) = exp.as_integer().filter(|n| n.abs() <= 64) else {
             if matches!(base, Expr::Sym(_) | Expr::Call(..) | Expr::Der(_)) {
@@ -437,7 +486,7 @@ impl Fraction {
             }
             return Err(PolyError::Exponent(base.to_string()));
         };
-        let f = Fraction::from_expr(base, atoms)?;
+        let f = Fraction::read(base, atoms)?;
         let k = n.unsigned_abs().to_u32().unwrap_or(0);
         let (num, den) = (f.num.pow(k), f.den.pow(k));
         if n >= 0 {
@@ -447,6 +496,12 @@ impl Fraction {
         } else {
             Ok(Fraction { num: den, den: num })
         }
+    }
+
+    /// Atom `i` renumbered `map[i]`, in place.
+    pub(crate) fn renumber(&mut self, map: &[usize]) {
+        self.num.renumber(map);
+        self.den.renumber(map);
     }
 
     /// `self + other` (`self` taken, its numerator added to in place when the denominators
@@ -515,7 +570,7 @@ impl Fraction {
 /// `e` as `c · m` when it is a monomial (a product of numbers, atoms and their natural
 /// powers, possibly negated): the common shape of a canonical form's terms, read without
 /// building a polynomial per factor. The atoms are those [`Fraction::from_expr`] makes.
-fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
+fn monomial<'e>(e: &'e Expr, atoms: &mut impl Intern<'e>) -> Option<(Q, Mono)> {
     let mut c = Q::one();
     let mut pairs = Pairs::new();
     factors_of(e, 1, &mut c, &mut pairs, atoms)?;
@@ -532,7 +587,13 @@ fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
 
 /// The factors of the monomial `e^k`: its number multiplied into `c`, its atoms' pairs
 /// pushed (unsorted, an atom possibly twice); None if `e` is not a monomial.
-fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms) -> Option<()> {
+fn factors_of<'e>(
+    e: &'e Expr,
+    k: u32,
+    c: &mut Q,
+    pairs: &mut Pairs,
+    atoms: &mut impl Intern<'e>,
+) -> Option<()> {
     match e {
         Expr::Num(r) => {
             let r = Q::from(r);

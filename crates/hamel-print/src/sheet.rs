@@ -39,8 +39,8 @@ pub struct Sheet {
     /// denominator): the entry's form is then the numerator, and its canonical form times the
     /// multiplier ([`Sheet::multiply_through`]).
     pub(crate) multipliers: BTreeMap<usize, Form>,
-    /// The atoms whose argument [`Sheet::name_wide`] has looked at (each once).
-    pub(crate) examined: BTreeSet<usize>,
+    /// The atoms whose argument [`Sheet::name_wide`] has looked at (each once), by index.
+    pub(crate) examined: Vec<bool>,
 }
 
 impl Sheet {
@@ -56,7 +56,7 @@ impl Sheet {
             arguments: BTreeMap::new(),
             numbers: [0, 0],
             multipliers: BTreeMap::new(),
-            examined: BTreeSet::new(),
+            examined: Vec::new(),
         }
     }
 
@@ -109,34 +109,38 @@ impl Sheet {
         self.add_counted(es.into_iter().map(|e| (e, 1)))
     }
 
-    /// [`Sheet::add_all`], each expression with the number of times it is shown.
+    /// [`Sheet::add_all`], each expression with the number of times it is shown. The entries
+    /// are read and collected on printing's pool when they are large enough (`read.rs`).
     pub(crate) fn add_counted<'a>(
         &mut self,
         es: impl IntoIterator<Item = (&'a Expr, usize)>,
     ) -> Result<Vec<usize>, PolyError> {
-        let mut canonical = Vec::new();
-        let mut counts = Vec::new();
-        for (e, n) in es {
-            canonical.push(Fraction::from_expr(e, &mut self.atoms)?.normalised());
-            counts.push(n);
-        }
-        for (f, &n) in canonical.iter().zip(&counts) {
-            for m in f.num.monomials().chain(f.den.monomials()) {
-                for i in m.atoms() {
-                    self.atoms.weigh(i, n);
-                }
-            }
-        }
+        let es: Vec<(&Expr, usize)> = es.into_iter().collect();
+        let parallel = crate::par::worth_it(es.iter().map(|(e, _)| crate::read::terms(e)));
+        let seeds: Vec<Expr> = (0..self.atoms.len())
+            .map(|i| self.atoms.get(i).expr.clone())
+            .collect();
+        let read = crate::par::map_init(
+            &es,
+            parallel,
+            || crate::read::Local::seeded(&seeds),
+            |run, (e, _)| crate::read::local(e, run),
+        );
+        let read = read.into_iter().collect::<Result<Vec<_>, _>>()?;
+        let counts: Vec<usize> = es.iter().map(|(_, n)| *n).collect();
+        let numbered = crate::read::number(read, &counts, &mut self.atoms);
         let first = self.entries.len();
         let atoms = &self.atoms;
-        let parallel = crate::par::worth_it(&canonical);
-        let forms = crate::par::map_init(
-            &canonical,
+        let forms = crate::par::map_init_owned(
+            numbered,
             parallel,
             || collect::Cx::new(atoms),
-            |cx, f| collect::fraction_in(f, cx),
+            |cx, n| {
+                let canonical = n.into_fraction();
+                (collect::fraction_in(&canonical, cx), canonical)
+            },
         );
-        self.entries.extend(forms.into_iter().zip(canonical));
+        self.entries.extend(forms);
         self.counts.extend(counts);
         // The model's abbreviations written with the same factoring.
         for (d, v) in self.names.iter_mut().zip(&self.values) {

@@ -90,9 +90,13 @@ impl Sheet {
     /// A function or root of the coordinates too wide for a line gets its argument named
     /// (`\sqrt{F_7(θ)}`), when the argument has a rational form.
     fn name_wide_argument(&mut self, index: usize) {
-        if !self.examined.insert(index) {
+        if self.examined.get(index).copied().unwrap_or(false) {
             return;
         }
+        if self.examined.len() <= index {
+            self.examined.resize(index + 1, false);
+        }
+        self.examined[index] = true;
         let atom = self.atoms.get(index).expr.clone();
         let Some(arg) = argument(&atom) else { return };
         if width(&Latex.atom(&atom)) <= WIDE {

@@ -1,0 +1,298 @@
+//! Reading a sheet's entries: canonical expressions to fractions over the sheet's atoms, on
+//! printing's pool.
+//!
+//! The atoms are numbered in the order they are first met, entry after entry, depth first
+//! (the numbering decides the order of a polynomial's terms, and so which sign a sum is
+//! printed with). The pool splits the entries into runs of consecutive entries; each run is
+//! read with a numbering of its own that starts from the sheet's atoms ([`Local::seeded`]).
+//! The sheet then numbers each entry's new atoms in turn, which is the order reading the
+//! entries one after another would give: the first run's numbering is the sheet's, and only
+//! the entries of the other runs are renumbered (in parallel, with their collection).
+
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
+
+use foldhash::HashMap;
+use num_traits::ToPrimitive;
+
+use hamel_expr::Expr;
+
+use crate::atoms::{Atoms, Intern};
+use crate::poly::{Fraction, PolyError};
+
+/// A run of entries' atoms, numbered in the order met after the sheet's own.
+pub(crate) struct Local<'e> {
+    index: HashMap<Key<'e>, usize>,
+    list: Vec<&'e Expr>,
+    /// Whether an entry has been read with it.
+    used: bool,
+}
+
+impl<'e> Local<'e> {
+    /// A numbering that starts from the sheet's atoms `seeds` (numbered as in the sheet).
+    pub(crate) fn seeded(seeds: &'e [Expr]) -> Local<'e> {
+        let mut local = Local {
+            index: HashMap::default(),
+            list: Vec::new(),
+            used: false,
+        };
+        for e in seeds {
+            local.intern(e);
+        }
+        local
+    }
+}
+
+impl<'e> Intern<'e> for Local<'e> {
+    fn intern(&mut self, expr: &'e Expr) -> usize {
+        let next = self.list.len();
+        *self.index.entry(Key(expr)).or_insert_with(|| {
+            self.list.push(expr);
+            next
+        })
+    }
+}
+
+/// An atom as a key: hashed by its [`fingerprint`], compared whole. (An atom occurs at
+/// every term it is a factor of: hashing it whole, every name and argument, was a fifth of
+/// reading.)
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Key<'e>(&'e Expr);
+
+impl Hash for Key<'_> {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        state.write_u64(fingerprint(self.0));
+    }
+}
+
+/// A hash of an atom from its shape and names, each name read by its length and its first
+/// and last eight bytes (a function of the coordinates by its name and orders alone: its
+/// arguments are the same wherever it occurs). Equal atoms have equal fingerprints.
+fn fingerprint(e: &Expr) -> u64 {
+    const K: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mix = |h: u64, x: u64| (h.rotate_left(5) ^ x).wrapping_mul(K);
+    match e {
+        Expr::Sym(s) => name(s),
+        Expr::Der(s) => mix(name(s), 1),
+        Expr::Num(r) => mix(r.numer().to_i64().unwrap_or(0) as u64, 2),
+        Expr::Call(f, a) => mix(fingerprint(a), 3 + *f as u64),
+        Expr::Free {
+            name: n, orders, ..
+        } => orders
+            .iter()
+            .fold(mix(name(n), 10), |h, &o| mix(h, u64::from(o))),
+        Expr::Pow(b, x) => mix(mix(fingerprint(b), 11), fingerprint(x)),
+        Expr::Neg(a) => mix(fingerprint(a), 12),
+        Expr::Div(a, b) => mix(mix(fingerprint(a), 13), fingerprint(b)),
+        Expr::Add(v) => v.iter().fold(14, |h, x| mix(h, fingerprint(x))),
+        Expr::Mul(v) => v.iter().fold(15, |h, x| mix(h, fingerprint(x))),
+    }
+}
+
+/// A name's length and its first and last eight bytes.
+fn name(s: &str) -> u64 {
+    let b = s.as_bytes();
+    let word = |part: &[u8]| {
+        let mut w = [0u8; 8];
+        w[..part.len()].copy_from_slice(part);
+        u64::from_le_bytes(w)
+    };
+    let head = word(&b[..b.len().min(8)]);
+    let tail = word(&b[b.len().saturating_sub(8)..]);
+    head ^ tail.rotate_left(29) ^ (b.len() as u64).wrapping_mul(0xff51_afd7_ed55_8ccd)
+}
+
+/// An entry read in its run's numbering: its fraction, the atoms it met first in its run
+/// (numbered from `first` on), whether it is the first of its run, and in how many of its
+/// terms (numerator and denominator) each atom of the run so far occurs.
+pub(crate) struct Read<'e> {
+    fraction: Fraction,
+    starts: bool,
+    first: usize,
+    new: Vec<&'e Expr>,
+    weights: Vec<usize>,
+}
+
+/// `e` read in `run`'s numbering.
+///
+/// # Errors
+/// An expression with no rational form over its atoms.
+pub(crate) fn local<'e>(e: &'e Expr, run: &mut Local<'e>) -> Result<Read<'e>, PolyError> {
+    let starts = !std::mem::replace(&mut run.used, true);
+    let first = run.list.len();
+    let fraction = Fraction::read(e, run)?.normalised();
+    let mut weights = vec![0; run.list.len()];
+    for m in fraction.num.monomials().chain(fraction.den.monomials()) {
+        for i in m.atoms() {
+            weights[i] += 1;
+        }
+    }
+    Ok(Read {
+        fraction,
+        starts,
+        first,
+        new: run.list[first..].to_vec(),
+        weights,
+    })
+}
+
+/// An entry whose atoms the sheet has numbered: its fraction and, unless already in the
+/// sheet's numbering, the map from its run's numbering to the sheet's.
+pub(crate) struct Numbered {
+    fraction: Fraction,
+    map: Option<Arc<Vec<usize>>>,
+}
+
+impl Numbered {
+    /// The fraction in the sheet's numbering.
+    pub(crate) fn into_fraction(mut self) -> Fraction {
+        if let Some(map) = &self.map {
+            self.fraction.renumber(map);
+        }
+        self.fraction
+    }
+}
+
+/// Numbers the entries' atoms in the sheet's `atoms`, entry after entry (an entry's new atoms
+/// after those there, in the order it met them), and weighs them, each entry as often as it
+/// is shown (`counts`).
+pub(crate) fn number(read: Vec<Read<'_>>, counts: &[usize], atoms: &mut Atoms) -> Vec<Numbered> {
+    let seeds = atoms.len();
+    let mut map: Vec<usize> = Vec::new();
+    let mut shared: Option<Arc<Vec<usize>>> = None;
+    let mut out = Vec::with_capacity(read.len());
+    for (r, &count) in read.into_iter().zip(counts) {
+        if r.starts {
+            map = (0..seeds).collect();
+            shared = None;
+        }
+        debug_assert_eq!(map.len(), r.first);
+        let grew = !r.new.is_empty();
+        map.extend(r.new.iter().map(|e| atoms.intern(e)));
+        if !injective(&map) {
+            // Two atoms of the run are one of the sheet's (equal text): merged now, and
+            // weighed as merged.
+            let mut fraction = r.fraction;
+            fraction.renumber(&map);
+            weigh_all(&fraction, count, atoms);
+            out.push(Numbered {
+                fraction,
+                map: None,
+            });
+            continue;
+        }
+        for (&i, w) in map.iter().zip(&r.weights).filter(|(_, w)| **w > 0) {
+            atoms.weigh(i, w * count);
+        }
+        let map = if map.iter().enumerate().all(|(k, &i)| k == i) {
+            None
+        } else {
+            if grew || shared.is_none() {
+                shared = Some(Arc::new(map.clone()));
+            }
+            shared.clone()
+        };
+        out.push(Numbered {
+            fraction: r.fraction,
+            map,
+        });
+    }
+    out
+}
+
+/// Whether no two atoms of a run are given one number.
+fn injective(map: &[usize]) -> bool {
+    let mut sorted = map.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    sorted.len() == map.len()
+}
+
+/// Weighs every atom of `f`'s terms, `count` times.
+fn weigh_all(f: &Fraction, count: usize, atoms: &mut Atoms) {
+    for m in f.num.monomials().chain(f.den.monomials()) {
+        for i in m.atoms() {
+            atoms.weigh(i, count);
+        }
+    }
+}
+
+/// About how many terms `e` has (what decides whether reading it is worth the pool).
+pub(crate) fn terms(e: &Expr) -> usize {
+    match e {
+        Expr::Add(v) => v.len(),
+        Expr::Div(a, b) => terms(a) + terms(b),
+        Expr::Neg(a) => terms(a),
+        Expr::Mul(v) => v.iter().map(terms).sum(),
+        _ => 1,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use hamel_expr::parse;
+
+    use super::*;
+    use crate::atoms::Vocabulary;
+
+    fn atoms() -> Atoms {
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+        Atoms::new(Vocabulary {
+            parameters: names(&["a", "b", "m"]),
+            coordinates: names(&["x", "y"]),
+            velocities: names(&["eta1"]),
+        })
+    }
+
+    /// Entries read in runs (as the pool splits them) and numbered entry after entry give
+    /// the numbering, the fractions and the weights of reading them all in one run: the
+    /// order a sheet's text depends on.
+    #[test]
+    fn runs_number_atoms_as_one_reading_does() {
+        let texts = [
+            "a*sin(x)*eta1 + b*cos(y)^2",
+            "m*cos(y)*sin(x) - f(x, y)*a",
+            "(b*x^(1/2) + m*eta1)/(a + cos(y))",
+            "sin(x)^3*g(y) + b*m*f(x, y)",
+            "eta1*x^(1/2)*cos(x) - 3/2*a*g(y)",
+        ];
+        let exprs: Vec<Expr> = texts.iter().map(|t| parse(t).unwrap().expr).collect();
+        let counts = vec![1, 2, 1, 1, 3];
+        let numbered = |cuts: &[usize]| {
+            let mut sheet = atoms();
+            sheet.intern(&parse("m").unwrap().expr);
+            let seeds: Vec<Expr> = (0..sheet.len())
+                .map(|i| sheet.get(i).expr.clone())
+                .collect();
+            let mut read = Vec::new();
+            let mut run = Local::seeded(&seeds);
+            for (k, e) in exprs.iter().enumerate() {
+                if cuts.contains(&k) {
+                    run = Local::seeded(&seeds);
+                }
+                read.push(local(e, &mut run).unwrap());
+            }
+            let fractions: Vec<Fraction> = number(read, &counts, &mut sheet)
+                .into_iter()
+                .map(Numbered::into_fraction)
+                .collect();
+            let order: Vec<String> = (0..sheet.len()).map(|i| sheet.get(i).key.clone()).collect();
+            let weights: Vec<usize> = (0..sheet.len()).map(|i| sheet.weight(i)).collect();
+            (fractions, order, weights)
+        };
+        let one = numbered(&[]);
+        let mut sequential = atoms();
+        sequential.intern(&parse("m").unwrap().expr);
+        for (e, f) in exprs.iter().zip(&one.0) {
+            assert_eq!(
+                &Fraction::from_expr(e, &mut sequential)
+                    .unwrap()
+                    .normalised(),
+                f
+            );
+        }
+        for cuts in [&[1][..], &[2, 3], &[1, 2, 3, 4]] {
+            assert_eq!(numbered(cuts), one, "runs cut before entries {cuts:?}");
+        }
+    }
+}
