@@ -205,7 +205,9 @@ impl Syntax for Text {
         if power == 1 {
             out.push_str(&a.text);
         } else if simple(&a.expr) {
-            let _ = write!(out, "{}^{power}", a.text);
+            out.push_str(&a.text);
+            out.push('^');
+            let _ = write!(out, "{power}");
         } else {
             out.push_str(&self.atom(&Expr::powi(a.expr.clone(), i64::from(power))));
         }

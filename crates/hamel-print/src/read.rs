@@ -26,6 +26,8 @@ pub(crate) struct Local<'e> {
     list: Vec<&'e Expr>,
     /// Whether an entry has been read with it.
     used: bool,
+    /// Zeros, one per atom: where an entry's atoms are counted.
+    counts: Vec<usize>,
 }
 
 impl<'e> Local<'e> {
@@ -35,6 +37,7 @@ impl<'e> Local<'e> {
             index: HashMap::default(),
             list: Vec::new(),
             used: false,
+            counts: Vec::new(),
         };
         for e in seeds {
             local.intern(e);
@@ -104,13 +107,13 @@ fn name(s: &str) -> u64 {
 
 /// An entry read in its run's numbering: its fraction, the atoms it met first in its run
 /// (numbered from `first` on), whether it is the first of its run, and in how many of its
-/// terms (numerator and denominator) each atom of the run so far occurs.
+/// terms (numerator and denominator) each of its atoms occurs.
 pub(crate) struct Read<'e> {
     fraction: Fraction,
     starts: bool,
     first: usize,
     new: Vec<&'e Expr>,
-    weights: Vec<usize>,
+    weights: Vec<(usize, usize)>,
 }
 
 /// `e` read in `run`'s numbering.
@@ -121,11 +124,19 @@ pub(crate) fn local<'e>(e: &'e Expr, run: &mut Local<'e>) -> Result<Read<'e>, Po
     let starts = !std::mem::replace(&mut run.used, true);
     let first = run.list.len();
     let fraction = Fraction::read(e, run)?.normalised();
-    let mut weights = vec![0; run.list.len()];
+    let counts = &mut run.counts;
+    counts.resize(run.list.len(), 0);
+    let mut weights = Vec::new();
     for m in fraction.num.monomials().chain(fraction.den.monomials()) {
         for i in m.atoms() {
-            weights[i] += 1;
+            if counts[i] == 0 {
+                weights.push((i, 0));
+            }
+            counts[i] += 1;
         }
+    }
+    for (i, w) in &mut weights {
+        *w = std::mem::take(&mut counts[*i]);
     }
     Ok(Read {
         fraction,
@@ -158,22 +169,19 @@ impl Numbered {
 /// is shown (`counts`).
 pub(crate) fn number(read: Vec<Read<'_>>, counts: &[usize], atoms: &mut Atoms) -> Vec<Numbered> {
     let seeds = atoms.len();
-    let mut map: Vec<usize> = Vec::new();
-    let mut shared: Option<Arc<Vec<usize>>> = None;
+    let mut run = RunMap::new(seeds);
     let mut out = Vec::with_capacity(read.len());
     for (r, &count) in read.into_iter().zip(counts) {
         if r.starts {
-            map = (0..seeds).collect();
-            shared = None;
+            run = RunMap::new(seeds);
         }
-        debug_assert_eq!(map.len(), r.first);
-        let grew = !r.new.is_empty();
-        map.extend(r.new.iter().map(|e| atoms.intern(e)));
-        if !injective(&map) {
+        debug_assert_eq!(run.map.len(), r.first);
+        run.extend(&r.new, atoms);
+        if !run.injective {
             // Two atoms of the run are one of the sheet's (equal text): merged now, and
             // weighed as merged.
             let mut fraction = r.fraction;
-            fraction.renumber(&map);
+            fraction.renumber(&run.map);
             weigh_all(&fraction, count, atoms);
             out.push(Numbered {
                 fraction,
@@ -181,31 +189,66 @@ pub(crate) fn number(read: Vec<Read<'_>>, counts: &[usize], atoms: &mut Atoms) -
             });
             continue;
         }
-        for (&i, w) in map.iter().zip(&r.weights).filter(|(_, w)| **w > 0) {
-            atoms.weigh(i, w * count);
+        for &(i, w) in &r.weights {
+            atoms.weigh(run.map[i], w * count);
         }
-        let map = if map.iter().enumerate().all(|(k, &i)| k == i) {
-            None
-        } else {
-            if grew || shared.is_none() {
-                shared = Some(Arc::new(map.clone()));
-            }
-            shared.clone()
-        };
         out.push(Numbered {
             fraction: r.fraction,
-            map,
+            map: run.shared(),
         });
     }
     out
 }
 
-/// Whether no two atoms of a run are given one number.
-fn injective(map: &[usize]) -> bool {
-    let mut sorted = map.to_vec();
-    sorted.sort_unstable();
-    sorted.dedup();
-    sorted.len() == map.len()
+/// A run's numbering in the sheet's: the map, kept with whether it is one-to-one and the
+/// identity as the run's atoms are added.
+struct RunMap {
+    map: Vec<usize>,
+    /// The sheet's numbers the map gives, by number.
+    taken: Vec<bool>,
+    injective: bool,
+    identity: bool,
+    /// The map as the run's entries share it (made again when the map grows).
+    shared: Option<Arc<Vec<usize>>>,
+}
+
+impl RunMap {
+    /// The map of a run that has met only the sheet's `seeds` atoms.
+    fn new(seeds: usize) -> RunMap {
+        RunMap {
+            map: (0..seeds).collect(),
+            taken: vec![true; seeds],
+            injective: true,
+            identity: true,
+            shared: None,
+        }
+    }
+
+    /// The run's `new` atoms numbered in the sheet (added there when not there yet).
+    fn extend(&mut self, new: &[&Expr], atoms: &mut Atoms) {
+        for e in new {
+            let i = atoms.intern(e);
+            self.identity &= i == self.map.len();
+            if self.taken.len() <= i {
+                self.taken.resize(i + 1, false);
+            }
+            self.injective &= !std::mem::replace(&mut self.taken[i], true);
+            self.map.push(i);
+            self.shared = None;
+        }
+    }
+
+    /// The map for an entry of the run; None for the identity.
+    fn shared(&mut self) -> Option<Arc<Vec<usize>>> {
+        if self.identity {
+            return None;
+        }
+        Some(
+            self.shared
+                .get_or_insert_with(|| Arc::new(self.map.clone()))
+                .clone(),
+        )
+    }
 }
 
 /// Weighs every atom of `f`'s terms, `count` times.
@@ -223,7 +266,8 @@ pub(crate) fn terms(e: &Expr) -> usize {
         Expr::Add(v) => v.len(),
         Expr::Div(a, b) => terms(a) + terms(b),
         Expr::Neg(a) => terms(a),
-        Expr::Mul(v) => v.iter().map(terms).sum(),
+        Expr::Mul(v) => v.iter().map(terms).fold(1, usize::saturating_mul),
+        Expr::Pow(b, _) => terms(b),
         _ => 1,
     }
 }

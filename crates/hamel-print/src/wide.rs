@@ -146,9 +146,11 @@ impl Sheet {
     /// polynomials holds every atom of each factor. What [`Sheet::definition`] reads the kind
     /// and the arguments of a name from.
     fn atoms_in(&self, f: &Form) -> Poly {
-        let mut found = std::collections::BTreeSet::new();
+        let mut found = Vec::new();
         self.gather_atoms(f, &mut found);
-        Poly::from_terms(
+        found.sort_unstable();
+        found.dedup();
+        Poly::from_sorted(
             found
                 .into_iter()
                 .map(|a| (Mono::atom(a), crate::Q::one()))
@@ -156,14 +158,12 @@ impl Sheet {
         )
     }
 
-    fn gather_atoms(&self, f: &Form, found: &mut std::collections::BTreeSet<usize>) {
+    fn gather_atoms(&self, f: &Form, found: &mut Vec<usize>) {
         match f {
             Form::Product { factors, .. } => {
                 for x in factors {
                     match x {
-                        Factor::Atom { index, .. } => {
-                            found.insert(*index);
-                        }
+                        Factor::Atom { index, .. } => found.push(*index),
                         Factor::Group(g) => self.gather_atoms(g, found),
                         Factor::Name { index } => {
                             self.gather_atoms(&self.definitions()[*index].form, found);
