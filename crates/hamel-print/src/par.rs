@@ -28,21 +28,16 @@ fn pool() -> Option<&'static rayon::ThreadPool> {
     .as_ref()
 }
 
-/// `f` over `items`, in order, with a state made by `init` for each thread (and reused for
-/// every item that thread takes); on printing's pool when `parallel`.
+/// `f` over `items`, in order, with a state made by `init` for each run of consecutive items
+/// the pool takes (a run's items are given to `f` in order, with one state); on printing's
+/// pool when `parallel`, else as one run on the calling thread.
 pub(crate) fn map_init<T: Sync, S, R: Send>(
     items: &[T],
     parallel: bool,
     init: impl Fn() -> S + Sync + Send,
     f: impl Fn(&mut S, &T) -> R + Sync + Send,
 ) -> Vec<R> {
-    match pool().filter(|_| parallel) {
-        Some(pool) => pool.install(|| items.par_iter().map_init(&init, &f).collect()),
-        None => {
-            let mut state = init();
-            items.iter().map(|x| f(&mut state, x)).collect()
-        }
-    }
+    map_init_owned(items.iter().collect(), parallel, init, f)
 }
 
 /// [`map_init`] over owned `items`.

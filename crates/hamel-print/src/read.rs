@@ -11,6 +11,7 @@
 
 use std::hash::{Hash, Hasher};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use foldhash::HashMap;
 use num_traits::ToPrimitive;
@@ -24,8 +25,8 @@ use crate::poly::{Fraction, PolyError};
 pub(crate) struct Local<'e> {
     index: HashMap<Key<'e>, usize>,
     list: Vec<&'e Expr>,
-    /// Whether an entry has been read with it.
-    used: bool,
+    /// Which run it numbers (each numbering made has its own).
+    id: usize,
     /// Zeros, one per atom: where an entry's atoms are counted.
     counts: Vec<usize>,
 }
@@ -36,7 +37,7 @@ impl<'e> Local<'e> {
         let mut local = Local {
             index: HashMap::default(),
             list: Vec::new(),
-            used: false,
+            id: RUNS.fetch_add(1, Ordering::Relaxed),
             counts: Vec::new(),
         };
         for e in seeds {
@@ -105,12 +106,15 @@ fn name(s: &str) -> u64 {
     head ^ tail.rotate_left(29) ^ (b.len() as u64).wrapping_mul(0xff51_afd7_ed55_8ccd)
 }
 
-/// An entry read in its run's numbering: its fraction, the atoms it met first in its run
-/// (numbered from `first` on), whether it is the first of its run, and in how many of its
-/// terms (numerator and denominator) each of its atoms occurs.
+/// Numbers the runs' numberings (what tells the runs of a reading apart).
+static RUNS: AtomicUsize = AtomicUsize::new(0);
+
+/// An entry read in its run's numbering: its fraction, its run, the atoms it met first in its
+/// run (numbered from `first` on), and in how many of its terms (numerator and denominator)
+/// each of its atoms occurs.
 pub(crate) struct Read<'e> {
     fraction: Fraction,
-    starts: bool,
+    run: usize,
     first: usize,
     new: Vec<&'e Expr>,
     weights: Vec<(usize, usize)>,
@@ -121,7 +125,6 @@ pub(crate) struct Read<'e> {
 /// # Errors
 /// An expression with no rational form over its atoms.
 pub(crate) fn local<'e>(e: &'e Expr, run: &mut Local<'e>) -> Result<Read<'e>, PolyError> {
-    let starts = !std::mem::replace(&mut run.used, true);
     let first = run.list.len();
     let fraction = Fraction::read(e, run)?.normalised();
     let counts = &mut run.counts;
@@ -140,7 +143,7 @@ pub(crate) fn local<'e>(e: &'e Expr, run: &mut Local<'e>) -> Result<Read<'e>, Po
     }
     Ok(Read {
         fraction,
-        starts,
+        run: run.id,
         first,
         new: run.list[first..].to_vec(),
         weights,
@@ -164,18 +167,43 @@ impl Numbered {
     }
 }
 
+/// Whether every run was read in order, from the sheet's atoms on: each entry read in the
+/// numbering its run had after the entries before it in the sheet (the pool gives each run's
+/// entries to one numbering, in order; this is checked, not assumed, and a reading that fails
+/// it is done again on one thread).
+pub(crate) fn in_order(read: &[Read<'_>], seeds: usize) -> bool {
+    let mut at: Option<(usize, usize)> = None;
+    for r in read {
+        let expected = match at {
+            Some((run, len)) if run == r.run => len,
+            _ => seeds,
+        };
+        if r.first != expected {
+            return false;
+        }
+        at = Some((r.run, r.first + r.new.len()));
+    }
+    let mut runs: Vec<usize> = read.iter().map(|r| r.run).collect();
+    runs.dedup();
+    let count = runs.len();
+    runs.sort_unstable();
+    runs.dedup();
+    runs.len() == count
+}
+
 /// Numbers the entries' atoms in the sheet's `atoms`, entry after entry (an entry's new atoms
 /// after those there, in the order it met them), and weighs them, each entry as often as it
-/// is shown (`counts`).
+/// is shown (`counts`). The entries were read in order ([`in_order`]).
 pub(crate) fn number(read: Vec<Read<'_>>, counts: &[usize], atoms: &mut Atoms) -> Vec<Numbered> {
     let seeds = atoms.len();
     let mut run = RunMap::new(seeds);
+    let mut current = None;
     let mut out = Vec::with_capacity(read.len());
     for (r, &count) in read.into_iter().zip(counts) {
-        if r.starts {
+        if current != Some(r.run) {
             run = RunMap::new(seeds);
+            current = Some(r.run);
         }
-        debug_assert_eq!(run.map.len(), r.first);
         run.extend(&r.new, atoms);
         if !run.injective {
             // Two atoms of the run are one of the sheet's (equal text): merged now, and
@@ -316,6 +344,7 @@ mod tests {
                 }
                 read.push(local(e, &mut run).unwrap());
             }
+            assert!(in_order(&read, seeds.len()));
             let fractions: Vec<Fraction> = number(read, &counts, &mut sheet)
                 .into_iter()
                 .map(Numbered::into_fraction)
@@ -338,5 +367,44 @@ mod tests {
         for cuts in [&[1][..], &[2, 3], &[1, 2, 3, 4]] {
             assert_eq!(numbered(cuts), one, "runs cut before entries {cuts:?}");
         }
+    }
+
+    /// The entries `order` names (by index), each read with the first numbering or the
+    /// second.
+    fn read_in<'e>(
+        exprs: &'e [Expr],
+        order: &[(usize, bool)],
+        runs: &mut [Local<'e>; 2],
+    ) -> Vec<Read<'e>> {
+        order
+            .iter()
+            .map(|&(k, first)| local(&exprs[k], &mut runs[usize::from(!first)]).unwrap())
+            .collect()
+    }
+
+    /// A run whose entries are not consecutive, or were not read in order, is found (and the
+    /// sheet then reads again on one thread).
+    #[test]
+    fn a_run_read_out_of_order_is_found() {
+        let exprs: Vec<Expr> = ["a*x", "b*y", "m*x*y", "a*b"]
+            .iter()
+            .map(|t| parse(t).unwrap().expr)
+            .collect();
+        let fresh = || [Local::seeded(&[]), Local::seeded(&[])];
+        let runs = read_in(
+            &exprs,
+            &[(0, true), (1, true), (2, false), (3, false)],
+            &mut fresh(),
+        );
+        assert!(in_order(&runs, 0));
+        let resumed = read_in(
+            &exprs,
+            &[(0, true), (1, false), (2, true), (3, false)],
+            &mut fresh(),
+        );
+        assert!(!in_order(&resumed, 0), "a run resumed after another");
+        let mut swapped = read_in(&exprs, &[(0, true), (1, true), (2, false)], &mut fresh());
+        swapped.swap(0, 1);
+        assert!(!in_order(&swapped, 0), "a run's entries out of order");
     }
 }

@@ -126,7 +126,14 @@ impl Sheet {
             || crate::read::Local::seeded(&seeds),
             |run, (e, _)| crate::read::local(e, run),
         );
-        let read = read.into_iter().collect::<Result<Vec<_>, _>>()?;
+        let mut read = read.into_iter().collect::<Result<Vec<_>, _>>()?;
+        if !crate::read::in_order(&read, seeds.len()) {
+            let mut run = crate::read::Local::seeded(&seeds);
+            read = es
+                .iter()
+                .map(|(e, _)| crate::read::local(e, &mut run))
+                .collect::<Result<Vec<_>, _>>()?;
+        }
         let counts: Vec<usize> = es.iter().map(|(_, n)| *n).collect();
         let numbered = crate::read::number(read, &counts, &mut self.atoms);
         let first = self.entries.len();
