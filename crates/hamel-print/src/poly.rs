@@ -121,14 +121,7 @@ impl Mono {
         if self.0.windows(2).all(|w| w[0].0 < w[1].0) {
             return;
         }
-        self.0.sort_unstable_by_key(|&(i, _)| i);
-        self.0.dedup_by(|later, earlier| {
-            let same = later.0 == earlier.0;
-            if same {
-                earlier.1 += later.1;
-            }
-            same
-        });
+        sort_pairs(&mut self.0);
     }
 
     /// The exponent of atom `i`.
@@ -148,17 +141,6 @@ impl Mono {
             }
         }
         (Mono(kept), Mono(rest))
-    }
-
-    /// The part made of atoms for which `keep` holds.
-    pub fn filter(&self, keep: impl Fn(usize) -> bool) -> Mono {
-        Mono(
-            self.0
-                .iter()
-                .copied()
-                .filter(|&(i, _)| keep(i as usize))
-                .collect(),
-        )
     }
 }
 
@@ -574,6 +556,13 @@ fn monomial<'e>(e: &'e Expr, atoms: &mut impl Intern<'e>) -> Option<(Q, Mono)> {
     let mut c = Q::one();
     let mut pairs = Pairs::new();
     factors_of(e, 1, &mut c, &mut pairs, atoms)?;
+    sort_pairs(&mut pairs);
+    Some((c, Mono(pairs)))
+}
+
+/// Pairs sorted by atom, an atom's pairs merged into one (exponents added): a monomial's
+/// pairs from factors met in any order.
+fn sort_pairs(pairs: &mut Pairs) {
     pairs.sort_unstable_by_key(|&(i, _)| i);
     pairs.dedup_by(|later, earlier| {
         let same = later.0 == earlier.0;
@@ -582,7 +571,6 @@ fn monomial<'e>(e: &'e Expr, atoms: &mut impl Intern<'e>) -> Option<(Q, Mono)> {
         }
         same
     });
-    Some((c, Mono(pairs)))
 }
 
 /// The factors of the monomial `e^k`: its number multiplied into `c`, its atoms' pairs

@@ -21,8 +21,39 @@ use hamel_expr::Expr;
 use crate::atoms::{Atoms, Intern};
 use crate::poly::{Fraction, PolyError};
 
+/// The entries `es` (each with how often it is shown) read and numbered in the sheet's
+/// `atoms`, which weigh them; on printing's pool when `parallel`.
+///
+/// # Errors
+/// An entry with no rational form over its atoms (the first in order).
+pub(crate) fn entries(
+    es: &[(&Expr, usize)],
+    parallel: bool,
+    atoms: &mut Atoms,
+) -> Result<Vec<Numbered>, PolyError> {
+    let seeds: Vec<Expr> = (0..atoms.len())
+        .map(|i| atoms.get(i).expr.clone())
+        .collect();
+    let read = crate::par::map_init(
+        es,
+        parallel,
+        || Local::seeded(&seeds),
+        |run, (e, _)| local(e, run),
+    );
+    let mut read = read.into_iter().collect::<Result<Vec<_>, _>>()?;
+    if !in_order(&read, seeds.len()) {
+        let mut run = Local::seeded(&seeds);
+        read = es
+            .iter()
+            .map(|(e, _)| local(e, &mut run))
+            .collect::<Result<Vec<_>, _>>()?;
+    }
+    let counts: Vec<usize> = es.iter().map(|(_, n)| *n).collect();
+    Ok(number(read, &counts, atoms))
+}
+
 /// A run of entries' atoms, numbered in the order met after the sheet's own.
-pub(crate) struct Local<'e> {
+struct Local<'e> {
     index: HashMap<Key<'e>, usize>,
     list: Vec<&'e Expr>,
     /// Which run it numbers (each numbering made has its own).
@@ -33,7 +64,7 @@ pub(crate) struct Local<'e> {
 
 impl<'e> Local<'e> {
     /// A numbering that starts from the sheet's atoms `seeds` (numbered as in the sheet).
-    pub(crate) fn seeded(seeds: &'e [Expr]) -> Local<'e> {
+    fn seeded(seeds: &'e [Expr]) -> Local<'e> {
         let mut local = Local {
             index: HashMap::default(),
             list: Vec::new(),
@@ -112,7 +143,7 @@ static RUNS: AtomicUsize = AtomicUsize::new(0);
 /// An entry read in its run's numbering: its fraction, its run, the atoms it met first in its
 /// run (numbered from `first` on), and in how many of its terms (numerator and denominator)
 /// each of its atoms occurs.
-pub(crate) struct Read<'e> {
+struct Read<'e> {
     fraction: Fraction,
     run: usize,
     first: usize,
@@ -124,7 +155,7 @@ pub(crate) struct Read<'e> {
 ///
 /// # Errors
 /// An expression with no rational form over its atoms.
-pub(crate) fn local<'e>(e: &'e Expr, run: &mut Local<'e>) -> Result<Read<'e>, PolyError> {
+fn local<'e>(e: &'e Expr, run: &mut Local<'e>) -> Result<Read<'e>, PolyError> {
     let first = run.list.len();
     let fraction = Fraction::read(e, run)?.normalised();
     let counts = &mut run.counts;
@@ -171,7 +202,7 @@ impl Numbered {
 /// numbering its run had after the entries before it in the sheet (the pool gives each run's
 /// entries to one numbering, in order; this is checked, not assumed, and a reading that fails
 /// it is done again on one thread).
-pub(crate) fn in_order(read: &[Read<'_>], seeds: usize) -> bool {
+fn in_order(read: &[Read<'_>], seeds: usize) -> bool {
     let mut at: Option<(usize, usize)> = None;
     for r in read {
         let expected = match at {
@@ -194,7 +225,7 @@ pub(crate) fn in_order(read: &[Read<'_>], seeds: usize) -> bool {
 /// Numbers the entries' atoms in the sheet's `atoms`, entry after entry (an entry's new atoms
 /// after those there, in the order it met them), and weighs them, each entry as often as it
 /// is shown (`counts`). The entries were read in order ([`in_order`]).
-pub(crate) fn number(read: Vec<Read<'_>>, counts: &[usize], atoms: &mut Atoms) -> Vec<Numbered> {
+fn number(read: Vec<Read<'_>>, counts: &[usize], atoms: &mut Atoms) -> Vec<Numbered> {
     let seeds = atoms.len();
     let mut run = RunMap::new(seeds);
     let mut current = None;

@@ -117,25 +117,7 @@ impl Sheet {
     ) -> Result<Vec<usize>, PolyError> {
         let es: Vec<(&Expr, usize)> = es.into_iter().collect();
         let parallel = crate::par::worth_it(es.iter().map(|(e, _)| crate::read::terms(e)));
-        let seeds: Vec<Expr> = (0..self.atoms.len())
-            .map(|i| self.atoms.get(i).expr.clone())
-            .collect();
-        let read = crate::par::map_init(
-            &es,
-            parallel,
-            || crate::read::Local::seeded(&seeds),
-            |run, (e, _)| crate::read::local(e, run),
-        );
-        let mut read = read.into_iter().collect::<Result<Vec<_>, _>>()?;
-        if !crate::read::in_order(&read, seeds.len()) {
-            let mut run = crate::read::Local::seeded(&seeds);
-            read = es
-                .iter()
-                .map(|(e, _)| crate::read::local(e, &mut run))
-                .collect::<Result<Vec<_>, _>>()?;
-        }
-        let counts: Vec<usize> = es.iter().map(|(_, n)| *n).collect();
-        let numbered = crate::read::number(read, &counts, &mut self.atoms);
+        let numbered = crate::read::entries(&es, parallel, &mut self.atoms)?;
         let first = self.entries.len();
         let atoms = &self.atoms;
         let forms = crate::par::map_init_owned(
@@ -148,7 +130,7 @@ impl Sheet {
             },
         );
         self.entries.extend(forms);
-        self.counts.extend(counts);
+        self.counts.extend(es.iter().map(|(_, n)| *n));
         // The model's abbreviations written with the same factoring.
         for (d, v) in self.names.iter_mut().zip(&self.values) {
             if let Some(v) = v.get().filter(|_| d.given) {
