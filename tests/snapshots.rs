@@ -87,11 +87,43 @@ fn printed_text_snapshots() {
                 model.name,
                 choice.name
             );
+            reads_alike(&d, &format!("{} {}", model.name, choice.name));
             let text = hamel_print::derivation::text(&d).unwrap();
             let name = format!("printed__{}__{}", model.name, choice.name);
             insta::assert_snapshot!(name, digest_lines(&text));
         }
     }
+}
+
+/// Printing reads the polynomials the computer algebra exported as it would read their trees:
+/// the same fractions, the atoms numbered in the same order (entry after entry, as a sheet
+/// reads them), and each tree is the one written from its polynomials.
+fn reads_alike(d: &hamel_derive::Derivation, what: &str) {
+    use hamel_print::{Atoms, Fraction};
+    let vocabulary = hamel_print::derivation::vocabulary(d);
+    let mut by_tree = Atoms::new(vocabulary.clone());
+    let mut by_canonical = Atoms::new(vocabulary);
+    let mut read = 0;
+    for e in d.shown() {
+        let Some(c) = &e.canonical else { continue };
+        assert_eq!(c.to_expr(), e.expr, "{what}: {}", e.text);
+        let tree = Fraction::from_expr(&e.expr, &mut by_tree).unwrap();
+        let canonical = Fraction::from_canonical(c, &mut by_canonical);
+        assert_eq!(
+            canonical.normalised(),
+            tree.normalised(),
+            "{what}: {}",
+            e.text
+        );
+        read += 1;
+    }
+    assert!(read > 0, "{what}: no exported polynomials");
+    let keys = |a: &Atoms| {
+        (0..a.len())
+            .map(|i| a.get(i).key.clone())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(keys(&by_canonical), keys(&by_tree), "{what}");
 }
 
 /// `hamel reduce`'s text: the reduced system in printing forms, with its where-list.

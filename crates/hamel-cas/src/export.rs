@@ -3,7 +3,7 @@
 
 use std::cmp::Reverse;
 
-use hamel_expr::{Expr, Func, Rational};
+use hamel_expr::{Canonical, Expr, Func, Term, Terms};
 use num_bigint::BigInt;
 use num_traits::{One, Signed};
 
@@ -41,7 +41,7 @@ pub(crate) fn var_expr(f: &FieldInner, v: usize) -> Expr {
                         Expr::Div(Box::new(s), Box::new(Expr::int(*denom as i64)))
                     }
                 }
-                Angle::Kernel { arg } => quotient_expr(f, &arg.0, &arg.1, None),
+                Angle::Kernel { arg } => quotient_expr(f, &arg.0, &arg.1),
             };
             Expr::call(func, arg)
         }
@@ -55,10 +55,7 @@ pub(crate) fn var_expr(f: &FieldInner, v: usize) -> Expr {
         }
         VarKind::Kernel(k) => {
             let kernel = f.kernels.borrow()[*k].clone();
-            Expr::call(
-                kernel.func,
-                quotient_expr(f, &kernel.arg.0, &kernel.arg.1, None),
-            )
+            Expr::call(kernel.func, quotient_expr(f, &kernel.arg.0, &kernel.arg.1))
         }
     }
 }
@@ -79,120 +76,79 @@ pub(crate) fn sorted_terms(p: &Poly) -> Vec<(BigInt, Vec<u16>)> {
     terms
 }
 
-fn monomial_factors(f: &FieldInner, exps: &[u16], var_cache: &mut [Option<Expr>]) -> Vec<Expr> {
-    let mut out = Vec::new();
-    for (v, &e) in exps.iter().enumerate() {
-        if e == 0 {
-            continue;
+/// `num / (scale · ∏ fᵢ^eᵢ)` over the field variables its polynomials use (in field order),
+/// the terms in [`sorted_terms`]' order, the factors in their text's.
+fn canonical(f: &FieldInner, num: &Poly, scale: BigInt, factors: &[(&Poly, u32)]) -> Canonical {
+    let num = sorted_terms(num);
+    let factors: Vec<_> = factors.iter().map(|(p, e)| (sorted_terms(p), *e)).collect();
+    let mut used = vec![false; f.nvars()];
+    for (_, exps) in num.iter().chain(factors.iter().flat_map(|(t, _)| t)) {
+        if used.len() < exps.len() {
+            used.resize(exps.len(), false);
         }
-        let base = var_cache[v].get_or_insert_with(|| var_expr(f, v)).clone();
-        out.push(if e == 1 {
-            base
-        } else {
-            Expr::powi(base, e as i64)
-        });
-    }
-    out
-}
-
-/// `p / scale` as a sum of terms with rational coefficients.
-fn poly_expr(f: &FieldInner, p: &Poly, scale: Option<&BigInt>, cache: &mut [Option<Expr>]) -> Expr {
-    let terms = sorted_terms(p);
-    if terms.is_empty() {
-        return Expr::int(0);
-    }
-    let mut out = Vec::new();
-    for (c, e) in terms {
-        let coef = match scale {
-            Some(s) => Rational::new(c, s.clone()),
-            None => Rational::from_integer(c),
-        };
-        let negative = coef.is_negative();
-        let coef = coef.abs();
-        let mut factors = monomial_factors(f, &e, cache);
-        if !coef.is_one() || factors.is_empty() {
-            factors.insert(0, Expr::Num(coef));
+        for (v, &x) in exps.iter().enumerate() {
+            used[v] |= x > 0;
         }
-        let term = if factors.len() == 1 {
-            factors.pop().unwrap()
-        } else {
-            Expr::Mul(factors)
-        };
-        out.push(if negative {
-            Expr::Neg(Box::new(term))
-        } else {
-            term
-        });
     }
-    if out.len() == 1 {
-        out.pop().unwrap()
-    } else {
-        Expr::Add(out)
+    let mut index = vec![0u32; used.len()];
+    let mut atoms = Vec::new();
+    for (v, _) in used.iter().enumerate().filter(|(_, u)| **u) {
+        index[v] = u32::try_from(atoms.len()).expect("fewer than 2^32 variables");
+        atoms.push(var_expr(f, v));
     }
-}
-
-fn quotient_expr(
-    f: &FieldInner,
-    n: &Poly,
-    d: &Poly,
-    cache: Option<&mut Vec<Option<Expr>>>,
-) -> Expr {
-    let mut local = vec![None; f.nvars()];
-    let cache = cache.unwrap_or(&mut local);
-    if d.is_constant() {
-        let dc = integer_to_big(&d.lcoeff());
-        let scale = (!dc.is_one()).then_some(dc);
-        return poly_expr(f, n, scale.as_ref(), cache);
-    }
-    let num = poly_expr(f, n, None, cache);
-    let den = poly_expr(f, d, None, cache);
-    Expr::Div(Box::new(num), Box::new(den))
-}
-
-/// `num / (c · ∏ fᵢ^eᵢ)` as a tree, the denominator kept as a product of its factors: expanding
-/// powers of a denominator creates huge terms that cancel, which ruins f64 evaluation.
-pub(crate) fn factored_expr(
-    f: &FieldInner,
-    num: &Poly,
-    c: &BigInt,
-    factors: &[(Poly, u32)],
-) -> Expr {
-    let mut cache = vec![None; f.nvars()];
-    let factors: Vec<&(Poly, u32)> = factors.iter().filter(|(_, e)| *e > 0).collect();
-    if factors.is_empty() {
-        let scale = (!c.is_one()).then_some(c.clone());
-        return poly_expr(f, num, scale.as_ref(), &mut cache);
-    }
-    let mut den: Vec<Expr> = Vec::new();
-    if !c.is_one() {
-        den.push(Expr::Num(Rational::from_integer(c.clone())));
-    }
-    let mut sorted: Vec<(Expr, u32)> = factors
-        .iter()
-        .map(|(p, e)| (poly_expr(f, p, None, &mut cache), *e))
-        .collect();
-    sorted.sort_by_cached_key(|(e, _)| e.to_string());
-    for (base, e) in sorted {
-        den.push(if e == 1 {
-            base
-        } else {
-            Expr::powi(base, e as i64)
-        });
-    }
-    let den = if den.len() == 1 {
-        den.pop().unwrap()
-    } else {
-        Expr::Mul(den)
+    let terms = |ts: Vec<(BigInt, Vec<u16>)>| -> Terms {
+        ts.into_iter()
+            .map(|(coef, exps)| Term {
+                coef,
+                powers: exps
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, x)| **x > 0)
+                    .map(|(v, &x)| (index[v], u32::from(x)))
+                    .collect(),
+            })
+            .collect()
     };
-    Expr::Div(Box::new(poly_expr(f, num, None, &mut cache)), Box::new(den))
+    let mut c = Canonical {
+        atoms,
+        num: terms(num),
+        scale,
+        factors: factors.into_iter().map(|(t, e)| (terms(t), e)).collect(),
+    };
+    c.order_factors();
+    c
+}
+
+/// `n / d`: over an integer when `d` is constant, else over `d` expanded.
+fn quotient(f: &FieldInner, n: &Poly, d: &Poly) -> Canonical {
+    if d.is_constant() {
+        return canonical(f, n, integer_to_big(&d.lcoeff()), &[]);
+    }
+    canonical(f, n, BigInt::one(), &[(d, 1)])
+}
+
+/// `n / d` as a tree (a kernel's argument).
+fn quotient_expr(f: &FieldInner, n: &Poly, d: &Poly) -> Expr {
+    quotient(f, n, d).to_expr()
+}
+
+/// `num / (c · ∏ fᵢ^eᵢ)`, the denominator kept as a product of its factors: expanding powers
+/// of a denominator creates huge terms that cancel, which ruins f64 evaluation.
+fn factored(f: &FieldInner, num: &Poly, c: &BigInt, factors: &[(Poly, u32)]) -> Canonical {
+    let factors: Vec<(&Poly, u32)> = factors
+        .iter()
+        .filter(|(_, e)| *e > 0)
+        .map(|(p, e)| (p, *e))
+        .collect();
+    canonical(f, num, c.clone(), &factors)
 }
 
 /// The expression as a tree: the numerator expanded (terms in the deterministic order of
 /// [`sorted_terms`]) over the denominator as a product of its factors (for sin and cos, those of
 /// [`crate::half::trig_factors`]).
-pub(crate) fn to_expr(e: &Ex) -> Expr {
+pub(crate) fn to_canonical(e: &Ex) -> Canonical {
     if e.den.is_constant() {
-        return quotient_expr(&e.f, &e.num, &e.den, None);
+        return quotient(&e.f, &e.num, &e.den);
     }
     if let Some((kappa, factors)) = crate::half::trig_factors(&e.f, &e.den) {
         return factored_trig(e, kappa, &factors);
@@ -201,28 +157,28 @@ pub(crate) fn to_expr(e: &Ex) -> Expr {
 }
 
 /// [`to_expr`] for a value whose denominator's half-angle factorisation is known.
-pub(crate) fn to_expr_with(e: &Ex, hf: &crate::half::HalfFactors) -> Expr {
+pub(crate) fn to_canonical_with(e: &Ex, hf: &crate::half::HalfFactors) -> Canonical {
     if e.den.is_constant() {
-        return quotient_expr(&e.f, &e.num, &e.den, None);
+        return quotient(&e.f, &e.num, &e.den);
     }
     match crate::half::trig_factors_of(&e.f, &e.den, hf) {
         Some((kappa, factors)) => factored_trig(e, kappa, &factors),
-        None => to_expr(e),
+        None => to_canonical(e),
     }
 }
 
 /// N / (κ · ∏ Tᵢ^eᵢ), the sign of κ moved to the numerator.
-fn factored_trig(e: &Ex, kappa: symbolica::prelude::Integer, factors: &[(Poly, u32)]) -> Expr {
+fn factored_trig(e: &Ex, kappa: symbolica::prelude::Integer, factors: &[(Poly, u32)]) -> Canonical {
     let kappa = integer_to_big(&kappa);
     if kappa.is_negative() {
-        factored_expr(&e.f, &-e.num.clone(), &-kappa, factors)
+        factored(&e.f, &-e.num.clone(), &-kappa, factors)
     } else {
-        factored_expr(&e.f, &e.num, &kappa, factors)
+        factored(&e.f, &e.num, &kappa, factors)
     }
 }
 
 /// The denominator factored over the integers with all variables independent.
-fn plain_factored(e: &Ex) -> Expr {
+fn plain_factored(e: &Ex) -> Canonical {
     let mut c = integer_to_big(&e.den.lcoeff());
     let mut factors: Vec<(Poly, u32)> = Vec::new();
     let mut constant = BigInt::one();
@@ -250,15 +206,21 @@ fn plain_factored(e: &Ex) -> Expr {
         c = constant;
     } else {
         // Should not happen; fall back to the expanded denominator.
-        return quotient_expr(&e.f, &e.num, &e.den, None);
+        return quotient(&e.f, &e.num, &e.den);
     }
-    factored_expr(&e.f, &e.num, &c, &factors)
+    factored(&e.f, &e.num, &c, &factors)
 }
 
 impl Ex {
     /// The expression as a plain tree (numerator over denominator, expanded), for printing,
     /// numeric evaluation and code generation outside the worker.
     pub fn to_expr(&self) -> Expr {
-        to_expr(self)
+        to_canonical(self).to_expr()
+    }
+
+    /// The expression as polynomials over its atoms, from which [`Ex::to_expr`] writes its
+    /// tree.
+    pub fn to_canonical(&self) -> Canonical {
+        to_canonical(self)
     }
 }

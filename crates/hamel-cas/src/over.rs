@@ -172,9 +172,15 @@ impl Over {
 
     /// The value as a plain tree, in lowest terms, the denominator as a product of factors.
     pub fn to_expr(&self) -> hamel_expr::Expr {
+        self.to_canonical().to_expr()
+    }
+
+    /// The value in lowest terms as polynomials over its atoms, the denominator as a product
+    /// of factors; [`Over::to_expr`] is its tree.
+    pub fn to_canonical(&self) -> hamel_expr::Canonical {
         match self.canonical_factored() {
-            Canonical::Half(e, hf) => crate::export::to_expr_with(&e, &hf),
-            Canonical::Plain(lowest) => self.plain(lowest).to_expr(),
+            Canonical::Half(e, hf) => crate::export::to_canonical_with(&e, &hf),
+            Canonical::Plain(lowest) => self.plain(lowest).to_canonical(),
         }
     }
 

@@ -1,6 +1,8 @@
 //! The result of a derivation: plain data (canonical text plus evaluable trees), `Send`.
 
-use hamel_expr::Expr;
+use std::sync::Arc;
+
+use hamel_expr::{Canonical, Expr};
 use indexmap::IndexMap;
 use serde::{Serialize, Serializer};
 
@@ -14,6 +16,10 @@ pub struct Entry {
     pub text: String,
     /// The same expression as a tree, for numeric evaluation.
     pub expr: Expr,
+    /// The same expression as the computer algebra held it (polynomials over its atoms, of
+    /// which `expr` is the tree), where it was exported from there; None for a tree made
+    /// otherwise (a derivative taken on the tree, a substitution).
+    pub canonical: Option<Arc<Canonical>>,
 }
 
 impl Serialize for Entry {
@@ -346,6 +352,18 @@ impl Entry {
         Entry {
             text: expr.to_string(),
             expr,
+            canonical: None,
+        }
+    }
+
+    /// The entry of a value exported from the computer algebra: its tree written from
+    /// `canonical`, its text from the tree.
+    pub(crate) fn of_canonical(canonical: Canonical) -> Entry {
+        let expr = canonical.to_expr();
+        Entry {
+            text: expr.to_string(),
+            expr,
+            canonical: Some(Arc::new(canonical)),
         }
     }
 

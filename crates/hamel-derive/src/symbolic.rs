@@ -29,19 +29,11 @@ use crate::progress::Stage;
 
 /// An exact value as plain data (canonical text and tree).
 pub fn entry(e: &Ex) -> Entry {
-    let expr = e.to_expr();
-    Entry {
-        text: expr.to_string(),
-        expr,
-    }
+    Entry::of_canonical(e.to_canonical())
 }
 
 fn entry_over(e: &Over) -> Entry {
-    let expr = e.to_expr();
-    Entry {
-        text: expr.to_string(),
-        expr,
-    }
+    Entry::of_canonical(e.to_canonical())
 }
 
 fn mat_over(m: &OMatrix) -> Mat {

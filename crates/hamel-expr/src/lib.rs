@@ -17,6 +17,7 @@
 
 mod ast;
 pub mod build;
+mod canonical;
 mod diff;
 mod display;
 mod eval;
@@ -29,6 +30,7 @@ mod tape;
 mod tape_data;
 
 pub use ast::{Expr, Func, Rational, SubstituteError};
+pub use canonical::{Canonical, Term, Terms};
 pub use diff::DiffError;
 pub use eval::{Env, EvalError, rational_parts};
 /// The numeric runtime's scalars and LU (`hamel-runtime`), re-exported: expressions evaluate

@@ -95,8 +95,13 @@ impl Atoms {
     }
 
     /// How many atoms there are.
-    pub(crate) fn len(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.list.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
     }
 
     /// The atom with index `i`.

@@ -1,7 +1,8 @@
 //! Sparse polynomials with rational coefficients in the atoms: the canonical form against
 //! which a printed form is checked, and what collection works on.
 
-use hamel_expr::Expr;
+use hamel_expr::{Canonical, Expr, Terms};
+use num_bigint::BigInt;
 use num_traits::{Signed, ToPrimitive};
 
 use smallvec::SmallVec;
@@ -452,6 +453,45 @@ impl Fraction {
             Expr::Pow(base, exp) => Fraction::power(base, exp, e, atoms)?,
             _ => Fraction::poly(Poly::term(Mono::atom(atoms.intern(e)), Q::one())),
         })
+    }
+
+    /// The fraction of `c`, the polynomials the computer algebra exported: the same as
+    /// [`Fraction::from_expr`] of its tree (`c.to_expr()`), the atoms numbered in the same
+    /// order, without taking the tree apart.
+    pub fn from_canonical(c: &Canonical, atoms: &mut Atoms) -> Fraction {
+        Fraction::read_canonical(c, atoms)
+    }
+
+    /// [`Fraction::from_canonical`] with the atoms numbered by `atoms`.
+    pub(crate) fn read_canonical<'e>(c: &'e Canonical, atoms: &mut impl Intern<'e>) -> Fraction {
+        let mut map = vec![0; c.atoms.len()];
+        for a in c.atoms_met() {
+            map[a] = atoms.intern(&c.atoms[a]);
+        }
+        let poly = |terms: &Terms, scale: &BigInt| {
+            let terms = terms.iter().map(|t| {
+                let mut pairs: Pairs = t
+                    .powers
+                    .iter()
+                    .map(|&(a, e)| (stored(map[a as usize]), e))
+                    .collect();
+                sort_pairs(&mut pairs);
+                (Mono(pairs), Q::ratio(&t.coef, scale))
+            });
+            Poly::from_terms(terms.collect())
+        };
+        let one = BigInt::from(1);
+        if c.factors.is_empty() {
+            return Fraction::poly(poly(&c.num, &c.scale));
+        }
+        let mut den = Poly::constant(Q::ratio(&c.scale, &one));
+        for (terms, e) in &c.factors {
+            den = den.mul(&poly(terms, &one).pow(*e));
+        }
+        Fraction {
+            num: poly(&c.num, &one),
+            den,
+        }
     }
 
     /// `base^exp`: expanded for a small integer exponent, an atom otherwise.

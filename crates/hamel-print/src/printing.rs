@@ -11,6 +11,7 @@ use hamel_expr::Expr;
 
 use crate::atoms::Vocabulary;
 use crate::poly::PolyError;
+use crate::read::Source;
 use crate::sheet::Sheet;
 
 /// Why a derivation could not be printed.
@@ -84,14 +85,14 @@ impl Printing {
         let mut ids = HashMap::default();
         let mut by_text: HashMap<(&str, bool), usize> = HashMap::default();
         let mut labels = Vec::new();
-        let mut exprs: Vec<(&Expr, usize)> = Vec::new();
+        let mut exprs: Vec<(Source<'_>, usize)> = Vec::new();
         for e in shown {
             let hash_map::Entry::Vacant(v) = ids.entry(address(e)) else {
                 continue;
             };
             let key = (e.text.as_str(), equation.contains(&address(e)));
             let id = *by_text.entry(key).or_insert_with(|| {
-                exprs.push((&e.expr, 0));
+                exprs.push((source(e), 0));
                 labels.push(&e.text);
                 exprs.len() - 1
             });
@@ -147,6 +148,14 @@ impl Printing {
     pub(crate) fn id(&self, e: &Entry) -> usize {
         self.ids[&address(e)]
     }
+}
+
+/// What an entry is read from: the polynomials the computer algebra exported, when it kept
+/// them, else its tree.
+fn source(e: &Entry) -> Source<'_> {
+    e.canonical
+        .as_deref()
+        .map_or(Source::Tree(&e.expr), Source::Canonical)
 }
 
 /// Where an entry lives: which of the derivation's entries it is.

@@ -201,6 +201,17 @@ impl From<&Rational> for Q {
     }
 }
 
+impl Q {
+    /// `n / d` (`d` ≠ 0), without big-integer arithmetic when both fit a machine integer.
+    pub fn ratio(n: &BigInt, d: &BigInt) -> Q {
+        match (n.to_i64(), d.to_i64()) {
+            (Some(n), Some(1)) => Q::Small(n, 1),
+            (Some(n), Some(d)) => Q::from(n).div(&Q::from(d)),
+            _ => Q::from(Rational::new(n.clone(), d.clone())),
+        }
+    }
+}
+
 impl From<i64> for Q {
     fn from(n: i64) -> Q {
         Q::Small(n, 1)

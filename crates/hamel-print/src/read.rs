@@ -16,10 +16,26 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use foldhash::HashMap;
 use num_traits::ToPrimitive;
 
-use hamel_expr::Expr;
+use hamel_expr::{Canonical, Expr};
 
 use crate::atoms::{Atoms, Intern};
 use crate::poly::{Fraction, PolyError};
+
+/// What an entry is read from: its tree, or the polynomials the computer algebra wrote the
+/// tree from (read alike, atoms met in the same order, without taking a tree apart).
+#[derive(Clone, Copy)]
+pub(crate) enum Source<'e> {
+    /// A canonical tree.
+    Tree(&'e Expr),
+    /// An exported canonical form.
+    Canonical(&'e Canonical),
+}
+
+impl<'e> From<&'e Expr> for Source<'e> {
+    fn from(e: &'e Expr) -> Source<'e> {
+        Source::Tree(e)
+    }
+}
 
 /// The entries `es` (each with how often it is shown) read and numbered in the sheet's
 /// `atoms`, which weigh them; on printing's pool when `parallel`.
@@ -27,7 +43,7 @@ use crate::poly::{Fraction, PolyError};
 /// # Errors
 /// An entry with no rational form over its atoms (the first in order).
 pub(crate) fn entries(
-    es: &[(&Expr, usize)],
+    es: &[(Source<'_>, usize)],
     parallel: bool,
     atoms: &mut Atoms,
 ) -> Result<Vec<Numbered>, PolyError> {
@@ -155,9 +171,13 @@ struct Read<'e> {
 ///
 /// # Errors
 /// An expression with no rational form over its atoms.
-fn local<'e>(e: &'e Expr, run: &mut Local<'e>) -> Result<Read<'e>, PolyError> {
+fn local<'e>(e: &Source<'e>, run: &mut Local<'e>) -> Result<Read<'e>, PolyError> {
     let first = run.list.len();
-    let fraction = Fraction::read(e, run)?.normalised();
+    let fraction = match *e {
+        Source::Tree(e) => Fraction::read(e, run)?,
+        Source::Canonical(c) => Fraction::read_canonical(c, run),
+    }
+    .normalised();
     let counts = &mut run.counts;
     counts.resize(run.list.len(), 0);
     let mut weights = Vec::new();
@@ -320,13 +340,21 @@ fn weigh_all(f: &Fraction, count: usize, atoms: &mut Atoms) {
 }
 
 /// About how many terms `e` has (what decides whether reading it is worth the pool).
-pub(crate) fn terms(e: &Expr) -> usize {
+pub(crate) fn terms(e: &Source<'_>) -> usize {
+    match e {
+        Source::Tree(e) => tree_terms(e),
+        Source::Canonical(c) => c.num.len() + c.factors.iter().map(|(t, _)| t.len()).sum::<usize>(),
+    }
+}
+
+/// [`terms`] of a tree: as many as expanding it would make.
+fn tree_terms(e: &Expr) -> usize {
     match e {
         Expr::Add(v) => v.len(),
-        Expr::Div(a, b) => terms(a) + terms(b),
-        Expr::Neg(a) => terms(a),
-        Expr::Mul(v) => v.iter().map(terms).fold(1, usize::saturating_mul),
-        Expr::Pow(b, _) => terms(b),
+        Expr::Div(a, b) => tree_terms(a) + tree_terms(b),
+        Expr::Neg(a) => tree_terms(a),
+        Expr::Mul(v) => v.iter().map(tree_terms).fold(1, usize::saturating_mul),
+        Expr::Pow(b, _) => tree_terms(b),
         _ => 1,
     }
 }
@@ -373,7 +401,7 @@ mod tests {
                 if cuts.contains(&k) {
                     run = Local::seeded(&seeds);
                 }
-                read.push(local(e, &mut run).unwrap());
+                read.push(local(&Source::Tree(e), &mut run).unwrap());
             }
             assert!(in_order(&read, seeds.len()));
             let fractions: Vec<Fraction> = number(read, &counts, &mut sheet)
@@ -409,7 +437,9 @@ mod tests {
     ) -> Vec<Read<'e>> {
         order
             .iter()
-            .map(|&(k, first)| local(&exprs[k], &mut runs[usize::from(!first)]).unwrap())
+            .map(|&(k, first)| {
+                local(&Source::Tree(&exprs[k]), &mut runs[usize::from(!first)]).unwrap()
+            })
             .collect()
     }
 

@@ -14,6 +14,7 @@ use crate::collect;
 use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
 use crate::poly::{Fraction, Mono, Poly, PolyError};
 use crate::q::Q;
+use crate::read::Source;
 
 /// Expressions printed together with their where-list.
 #[derive(Clone, Debug)]
@@ -106,16 +107,16 @@ impl Sheet {
         &mut self,
         es: impl IntoIterator<Item = &'a Expr>,
     ) -> Result<Vec<usize>, PolyError> {
-        self.add_counted(es.into_iter().map(|e| (e, 1)))
+        self.add_counted(es.into_iter().map(|e| (Source::Tree(e), 1)))
     }
 
     /// [`Sheet::add_all`], each expression with the number of times it is shown. The entries
     /// are read and collected on printing's pool when they are large enough (`read.rs`).
     pub(crate) fn add_counted<'a>(
         &mut self,
-        es: impl IntoIterator<Item = (&'a Expr, usize)>,
+        es: impl IntoIterator<Item = (Source<'a>, usize)>,
     ) -> Result<Vec<usize>, PolyError> {
-        let es: Vec<(&Expr, usize)> = es.into_iter().collect();
+        let es: Vec<(Source<'a>, usize)> = es.into_iter().collect();
         let parallel = crate::par::worth_it(es.iter().map(|(e, _)| crate::read::terms(e)));
         let numbered = crate::read::entries(&es, parallel, &mut self.atoms)?;
         let first = self.entries.len();

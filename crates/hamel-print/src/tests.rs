@@ -281,7 +281,9 @@ fn an_entry_shown_twice_counts_twice() {
     let e = parse("(a + b + c)*sin(theta)*a + cos(theta)").unwrap().expr;
     let named = |n: usize| {
         let mut sheet = Sheet::new(&v);
-        let id = sheet.add_counted([(&e, n)]).unwrap()[0];
+        let id = sheet
+            .add_counted([(crate::read::Source::Tree(&e), n)])
+            .unwrap()[0];
         sheet.name_groups();
         assert!(sheet.check(id));
         sheet.definitions_text()
@@ -447,5 +449,68 @@ fn the_modular_check_finds_a_wrong_form() {
             assert_eq!(bad.first_mismatch(), Some(i), "entry {i}");
             assert!(!bad.check(i));
         }
+    }
+}
+
+/// An exported canonical form reads as its tree does: the same fraction over the same atoms,
+/// numbered in the order the tree meets them (numerator, then the denominator's factors),
+/// with a rational scale, powers of factors, and an atom listed twice merged.
+#[test]
+fn canonical_forms_read_as_their_trees() {
+    use hamel_expr::{Canonical, Expr, Func, Term};
+    use num_bigint::BigInt;
+
+    use crate::{Atoms, Fraction};
+
+    let term = |coef: i64, powers: &[(u32, u32)]| Term {
+        coef: BigInt::from(coef),
+        powers: powers.to_vec(),
+    };
+    let cos = Expr::call(Func::Cos, Expr::sym("theta"));
+    let atoms = vec![
+        Expr::sym("m_r"),
+        Expr::sym("rho"),
+        cos.clone(),
+        Expr::Der("phi".into()),
+        cos,
+    ];
+    let polynomial = Canonical {
+        atoms: atoms.clone(),
+        num: vec![
+            term(-3, &[(1, 1), (2, 2)]),
+            term(5, &[(0, 1), (3, 1), (4, 1)]),
+            term(2, &[]),
+        ],
+        scale: BigInt::from(6),
+        factors: vec![],
+    };
+    let mut quotient = Canonical {
+        factors: vec![
+            (vec![term(1, &[(1, 1)]), term(-1, &[(0, 2)])], 2),
+            (vec![term(1, &[(2, 1)])], 1),
+        ],
+        scale: BigInt::from(-4),
+        ..polynomial.clone()
+    };
+    quotient.order_factors();
+    let v = unicycle();
+    for c in [&polynomial, &quotient] {
+        let (mut by_tree, mut by_canonical) = (Atoms::new(v.clone()), Atoms::new(v.clone()));
+        by_tree.intern(&Expr::sym("rho1"));
+        by_canonical.intern(&Expr::sym("rho1"));
+        let tree = Fraction::from_expr(&c.to_expr(), &mut by_tree).unwrap();
+        let read = Fraction::from_canonical(c, &mut by_canonical);
+        assert_eq!(read.normalised(), tree.normalised(), "{}", c.to_expr());
+        let keys = |a: &Atoms| {
+            (0..a.len())
+                .map(|i| a.get(i).key.clone())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(keys(&by_canonical), keys(&by_tree));
+        assert_eq!(
+            by_tree.len(),
+            5,
+            "rho1, then rho, cos(theta), m_r, der(phi)"
+        );
     }
 }
