@@ -9,7 +9,8 @@
 //!
 //! **Inputs**: expression text (from model files, state files, scenes), or trees built by the
 //! symbolic stage when it exports its canonical results.
-//! **Outputs**: [`Expr`] trees, [`ParseError`]s with spans, numbers.
+//! **Outputs**: [`Expr`] trees, [`ParseError`]s with spans, numbers; and [`Canonical`], the
+//! polynomials a derived value is exported as, from which its tree is written.
 //!
 //! **Invariant**: this crate knows nothing of the computer-algebra engine; everything numeric in
 //! hamel (the independent oracle, `hamel eval`, generated code) can be built on it alone.

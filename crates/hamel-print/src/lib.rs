@@ -11,7 +11,8 @@
 //!
 //! **Inputs**: an [`Expr`](hamel_expr::Expr) in canonical form (as `hamel-derive` exports it) and a
 //! [`Vocabulary`] saying which names are parameters, coordinates and velocities; or a whole
-//! `Derivation` ([`derivation`]) or `Reduction` ([`reduction`]).
+//! `Derivation` ([`derivation`]) or `Reduction` ([`reduction`]), whose entries are read from
+//! the polynomials they were exported as where they kept them ([`Fraction::from_canonical`]).
 //! **Outputs**: a [`Printed`] form, rendered as text ([`Printed::text`]) or LaTeX
 //! ([`Printed::latex`]), and back as an expression ([`Printed::to_expr`]); `hamel derive`'s text,
 //! JSON and LaTeX document ([`derivation::text`], [`derivation::json`], [`derivation::latex`]);
