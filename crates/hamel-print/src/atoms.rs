@@ -124,10 +124,16 @@ impl Atoms {
         let position = self.position_of(expr);
         self.index.insert(key.clone(), self.list.len());
         let rate = kind == Kind::Velocity && matches!(expr, Expr::Sym(n) if n.ends_with("_dot"));
+        // A name or call is written as its key (the text of anything else differs).
+        let text = if simple(expr) {
+            key.clone()
+        } else {
+            text_of(expr)
+        };
         self.list.push(Atom {
             expr: expr.clone(),
             kind,
-            text: text_of(expr),
+            text,
             latex: expr.to_latex(),
             key,
             position,
