@@ -22,7 +22,7 @@ pub struct Term {
 /// A polynomial: its terms, in the order the tree writes them.
 pub type Terms = Vec<Term>;
 
-/// `num / (scale · ∏ fᵢ^eᵢ)` over atoms: the numerator expanded, the denominator a positive
+/// `num / (scale · ∏ fᵢ^eᵢ)` over atoms: the numerator expanded, the denominator a nonzero
 /// integer times powers of polynomial factors (none for a polynomial).
 ///
 /// **Invariant**: the atoms are distinct, and a term's atoms ascend in the order the tree
@@ -33,7 +33,7 @@ pub struct Canonical {
     pub atoms: Vec<Expr>,
     /// The numerator's terms.
     pub num: Terms,
-    /// The denominator's integer (≥ 1).
+    /// The denominator's integer (nonzero).
     pub scale: BigInt,
     /// The denominator's factors with their exponents (≥ 1).
     pub factors: Vec<(Terms, u32)>,
