@@ -119,13 +119,20 @@ impl Printing {
     /// `show`'s text with every entry in its printing form, and the where-list after it. An
     /// equation multiplied through is written whole, `num = 0   (multiplied by D > 0)`.
     pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
+        // An entry shown twice (a symmetric matrix's, an equal one) is written once.
+        let written: RefCell<HashMap<usize, String>> = RefCell::default();
         let mut out = show(&|e| {
             let id = self.id(e);
+            if let Some(text) = written.borrow().get(&id) {
+                return text.clone();
+            }
             let text = self.sheet.text(id);
-            match self.sheet.multiplier_text(id) {
+            let text = match self.sheet.multiplier_text(id) {
                 Some(d) => format!("{text} = 0   (multiplied by {d} > 0)"),
                 None => text,
-            }
+            };
+            written.borrow_mut().insert(id, text.clone());
+            text
         });
         let used = self.used();
         if !used.is_empty() {
