@@ -143,7 +143,7 @@ fn factored(f: &FieldInner, num: &Poly, c: &BigInt, factors: &[(Poly, u32)]) -> 
     canonical(f, num, c.clone(), &factors)
 }
 
-/// The expression as a tree: the numerator expanded (terms in the deterministic order of
+/// The expression as polynomials: the numerator expanded (terms in the deterministic order of
 /// [`sorted_terms`]) over the denominator as a product of its factors (for sin and cos, those of
 /// [`crate::half::trig_factors`]).
 pub(crate) fn to_canonical(e: &Ex) -> Canonical {
@@ -156,7 +156,7 @@ pub(crate) fn to_canonical(e: &Ex) -> Canonical {
     plain_factored(e)
 }
 
-/// [`to_expr`] for a value whose denominator's half-angle factorisation is known.
+/// [`to_canonical`] for a value whose denominator's half-angle factorisation is known.
 pub(crate) fn to_canonical_with(e: &Ex, hf: &crate::half::HalfFactors) -> Canonical {
     if e.den.is_constant() {
         return quotient(&e.f, &e.num, &e.den);

@@ -27,7 +27,8 @@ use crate::derivation::{
 };
 use crate::progress::Stage;
 
-/// An exact value as plain data (canonical text and tree).
+/// An exact value as plain data (canonical text, tree, and the polynomials the tree is
+/// written from).
 pub fn entry(e: &Ex) -> Entry {
     Entry::of_canonical(e.to_canonical())
 }

@@ -119,7 +119,8 @@ impl Printing {
     /// `show`'s text with every entry in its printing form, and the where-list after it. An
     /// equation multiplied through is written whole, `num = 0   (multiplied by D > 0)`.
     pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
-        // An entry shown twice (a symmetric matrix's, an equal one) is written once.
+        // An entry shown twice (a symmetric matrix's, equal ones) is written once; one shown
+        // once is not kept.
         let written: RefCell<HashMap<usize, String>> = RefCell::default();
         let mut out = show(&|e| {
             let id = self.id(e);
@@ -131,7 +132,9 @@ impl Printing {
                 Some(d) => format!("{text} = 0   (multiplied by {d} > 0)"),
                 None => text,
             };
-            written.borrow_mut().insert(id, text.clone());
+            if self.sheet.shown(id) > 1 {
+                written.borrow_mut().insert(id, text.clone());
+            }
             text
         });
         let used = self.used();

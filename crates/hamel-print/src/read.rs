@@ -31,12 +31,6 @@ pub(crate) enum Source<'e> {
     Canonical(&'e Canonical),
 }
 
-impl<'e> From<&'e Expr> for Source<'e> {
-    fn from(e: &'e Expr) -> Source<'e> {
-        Source::Tree(e)
-    }
-}
-
 /// The entries `es` (each with how often it is shown) read and numbered in the sheet's
 /// `atoms`, which weigh them; on printing's pool when `parallel`.
 ///

@@ -141,6 +141,11 @@ impl Sheet {
         Ok((first..self.entries.len()).collect())
     }
 
+    /// How many of the entries shown are entry `i` (equal entries are printed once).
+    pub(crate) fn shown(&self, i: usize) -> usize {
+        self.counts[i]
+    }
+
     /// The printing form of entry `i`.
     pub fn form(&self, i: usize) -> &Form {
         &self.entries[i].0
