@@ -54,6 +54,8 @@ pub struct Atom {
     pub(crate) text: String,
     /// Its LaTeX.
     pub(crate) latex: String,
+    /// The [`width`](crate::layout::width) of its LaTeX.
+    pub(crate) latex_width: usize,
     /// The position of its name in the model (parameters, coordinates, velocities), for
     /// the printing order; `usize::MAX` for none.
     position: usize,
@@ -130,11 +132,13 @@ impl Atoms {
         } else {
             text_of(expr)
         };
+        let latex = expr.to_latex();
         self.list.push(Atom {
             expr: expr.clone(),
             kind,
             text,
-            latex: expr.to_latex(),
+            latex_width: crate::layout::width(&latex),
+            latex,
             key,
             position,
             rate,

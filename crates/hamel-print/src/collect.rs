@@ -157,20 +157,16 @@ fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Cx<'_>) -> Form {
     }
 }
 
-/// Equal atoms next to each other (after sorting) merged into one power.
-fn merged(factors: Vec<Factor>) -> Vec<Factor> {
-    let mut out: Vec<Factor> = Vec::with_capacity(factors.len());
-    for x in factors {
-        if let (Some(Factor::Atom { index: i, power: p }), Factor::Atom { index: j, power: q }) =
-            (out.last_mut(), &x)
-            && *i == *j
-        {
-            *p += q;
-            continue;
+/// Equal atoms next to each other (after sorting) merged into one power, in place.
+fn merged(mut factors: Vec<Factor>) -> Vec<Factor> {
+    factors.dedup_by(|x, kept| match (kept, x) {
+        (Factor::Atom { index: i, power: p }, Factor::Atom { index: j, power: q }) if i == j => {
+            *p += *q;
+            true
         }
-        out.push(x);
-    }
-    out
+        _ => false,
+    });
+    factors
 }
 
 fn atoms_of(m: &Mono) -> Vec<Factor> {
@@ -293,15 +289,10 @@ fn state_key<'a>(pairs: impl Iterator<Item = (usize, u32)>, atoms: &'a Atoms) ->
         .collect()
 }
 
-/// A group's place in a sum: the terms with rates of the quasi-velocities first (by those
-/// rates: `η̇₁` before `η̇₂`), as an equation of motion is written, `A_Γ η̇ + …`; then the
-/// state atoms in printing order.
-type GroupKey<'a> = (bool, Vec<StateKey<'a>>, Vec<StateKey<'a>>);
-
 /// The groups `(state monomial, parameter coefficient)` in printing order.
 fn state_groups(p: &Poly, atoms: &Cx<'_>) -> Vec<(Mono, Poly)> {
     // Sorted by state monomial, then parameter monomial: each group is a run, its terms
-    // already in order (the monomials of `p` are distinct), and its printing key made once.
+    // already in order (the monomials of `p` are distinct).
     let split: Vec<(Mono, Mono, Q)> = p
         .terms()
         .map(|(m, c)| {
@@ -309,16 +300,30 @@ fn state_groups(p: &Poly, atoms: &Cx<'_>) -> Vec<(Mono, Poly)> {
             (state, params, c.clone())
         })
         .collect();
-    let mut groups: Vec<(GroupKey<'_>, Mono, Poly)> = runs(split)
-        .into_iter()
-        .map(|(state, coefficient)| {
-            let all = state_key(state.pairs(), atoms);
-            let rates = state_key(state.pairs().filter(|&(i, _)| atoms.is_rate(i)), atoms);
-            ((rates.is_empty(), rates, all), state, coefficient)
+    let mut groups = runs(split);
+    groups.sort_unstable_by(|(a, _), (b, _)| group_order(a, b, atoms));
+    groups
+}
+
+/// A group's place in a sum: the terms with rates of the quasi-velocities first (by those
+/// rates: `η̇₁` before `η̇₂`), as an equation of motion is written, `A_Γ η̇ + …`; then the
+/// state atoms in printing order.
+fn group_order(a: &Mono, b: &Mono, atoms: &Atoms) -> std::cmp::Ordering {
+    let no_rate = |m: &Mono| keys(m, true, atoms).next().is_none();
+    no_rate(a)
+        .cmp(&no_rate(b))
+        .then_with(|| keys(a, true, atoms).cmp(keys(b, true, atoms)))
+        .then_with(|| keys(a, false, atoms).cmp(keys(b, false, atoms)))
+}
+
+/// The printing-order keys of a monomial's pairs (its rates' alone when `rates`).
+fn keys<'a>(m: &'a Mono, rates: bool, atoms: &'a Atoms) -> impl Iterator<Item = StateKey<'a>> + 'a {
+    m.pairs()
+        .filter(move |&(i, _)| !rates || atoms.is_rate(i))
+        .map(move |(i, e)| {
+            let (k, pos, text) = atoms.order(i);
+            (k, pos, text, e)
         })
-        .collect();
-    groups.sort_unstable_by(|a, b| a.0.cmp(&b.0));
-    groups.into_iter().map(|(_, m, p)| (m, p)).collect()
 }
 
 /// Terms `(key, rest, c)` (the products `key · rest` distinct) gathered by key: each key with

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
-use hamel_expr::Expr;
+use hamel_expr::{Expr, Func};
 
 use crate::atoms::{Atom, Atoms, Kind, simple, text_of};
 use crate::q::Q;
@@ -241,8 +241,19 @@ impl Syntax for Latex {
     fn atom_power(&self, a: &Atom, power: u32, out: &mut String) {
         if power == 1 {
             out.push_str(&a.latex);
-        } else {
-            out.push_str(&Expr::powi(a.expr.clone(), i64::from(power)).to_latex());
+            return;
+        }
+        // What `Expr::to_latex` writes for the power, from the atom's LaTeX: `\sin^{2} θ`
+        // for a sine, cosine or tangent, `a^{2}` for another name or call.
+        match &a.expr {
+            Expr::Call(f @ (Func::Sin | Func::Cos | Func::Tan), _) => {
+                let head = f.name().len() + 1;
+                let _ = write!(out, "{}^{{{power}}}{}", &a.latex[..head], &a.latex[head..]);
+            }
+            e if simple(e) => {
+                let _ = write!(out, "{}^{{{power}}}", a.latex);
+            }
+            e => out.push_str(&Expr::powi(e.clone(), i64::from(power)).to_latex()),
         }
     }
     fn times(&self) -> &'static str {
@@ -303,7 +314,8 @@ impl Latex {
 }
 
 pub(crate) fn render(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> String {
-    let mut out = String::new();
+    // Room for a typical entry: growing a string from empty copies it at every doubling.
+    let mut out = String::with_capacity(128);
     write(f, ctx, s, &mut out);
     out
 }

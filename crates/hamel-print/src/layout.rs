@@ -1,7 +1,9 @@
 //! Lines that fit the page: the width of rendered LaTeX estimated, long sums broken at their
 //! terms, a factored sum broken inside its parentheses (`\left( … \right.` / `\left. … \right)`).
 
-use crate::form::{Factor, Form, Latex, render, render_terms, unsigned_latex};
+use crate::atoms::simple;
+use crate::form::{Ctx, Factor, Form, Latex, Syntax, render, render_terms, unsigned_latex};
+use crate::q::Q;
 use crate::sheet::Sheet;
 
 /// Widths, in the estimate of [`width`] (about one per printed glyph): what fits beside a
@@ -171,4 +173,78 @@ pub fn width_at_least(f: &Form) -> usize {
         }
         Form::Quotient(a, b) => width_at_least(a) + width_at_least(b),
     }
+}
+
+/// [`width`] of `f` rendered in LaTeX, found without rendering it: the widths of its pieces
+/// added (an atom's LaTeX and a power's exponent, a coefficient's digits, a name, a sign, a
+/// group's parentheses), which is the width of their concatenation, as no piece ends in a
+/// letter that the next could extend into a longer control word. None where it is not known
+/// without rendering: an atom whose argument is printed by name, a power of an atom that
+/// is not a name or a call, a big coefficient.
+pub(crate) fn latex_width(f: &Form, ctx: Ctx<'_>) -> Option<usize> {
+    match f {
+        Form::Sum(terms) => terms
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Some(usize::from(i > 0 || negative_term(t)) + unsigned_width(t, ctx)?))
+            .sum(),
+        _ => Some(usize::from(negative_term(f)) + unsigned_width(f, ctx)?),
+    }
+}
+
+/// [`latex_width`] of a term without its sign (as `write_unsigned` writes it).
+fn unsigned_width(f: &Form, ctx: Ctx<'_>) -> Option<usize> {
+    match f {
+        Form::Product { coef, factors } => {
+            let mut n = if !coef.is_unit() || factors.is_empty() {
+                magnitude_width(coef)?
+            } else {
+                0
+            };
+            for x in factors {
+                n += match x {
+                    Factor::Atom { index, power } => atom_width(*index, *power, ctx)?,
+                    // `\left(` and `\right)`: one each.
+                    Factor::Group(g) => 2 + latex_width(g, ctx)?,
+                    Factor::Name { index } => width(Latex.name(&ctx.names[*index])),
+                };
+            }
+            Some(n)
+        }
+        Form::Sum(_) => Some(2 + latex_width(f, ctx)?),
+        Form::Quotient(a, b) => Some(latex_width(a, ctx)? + latex_width(b, ctx)?),
+    }
+}
+
+/// An atom to a power: a name or a call takes its exponent without parentheses (`m^{2}`,
+/// `\sin^{2} \theta`).
+fn atom_width(index: usize, power: u32, ctx: Ctx<'_>) -> Option<usize> {
+    if ctx.arguments.contains_key(&index) {
+        return None;
+    }
+    let a = ctx.atoms.get(index);
+    match power {
+        1 => Some(a.latex_width),
+        _ if simple(&a.expr) => Some(a.latex_width + digits(u64::from(power))),
+        _ => None,
+    }
+}
+
+/// Whether a term is written with a minus (as `negative_term` in form.rs).
+fn negative_term(f: &Form) -> bool {
+    matches!(f, Form::Product { coef, .. } if coef.is_negative())
+}
+
+/// The width of a coefficient's magnitude (`\tfrac{n}{d}` counts its digits); None for a
+/// big one.
+fn magnitude_width(c: &Q) -> Option<usize> {
+    match c {
+        Q::Small(n, 1) => Some(digits(n.unsigned_abs())),
+        Q::Small(n, d) => Some(digits(n.unsigned_abs()) + digits(d.unsigned_abs())),
+        Q::Big(_) => None,
+    }
+}
+
+fn digits(n: u64) -> usize {
+    n.checked_ilog10().map_or(1, |k| k as usize + 1)
 }

@@ -514,3 +514,56 @@ fn canonical_forms_read_as_their_trees() {
         );
     }
 }
+
+/// The width of a form's LaTeX found from its pieces ([`crate::layout::latex_width`], what
+/// decides which groups are too wide without rendering them) is the width of its rendering,
+/// for every group of every entry: powers of names, calls and roots, rationals, quotients,
+/// names of the where-list, negative terms.
+#[test]
+fn widths_from_pieces_are_widths_of_the_rendering() {
+    use crate::form::{Factor, Form, Latex, render};
+    use crate::layout::{latex_width, width};
+    let v = unicycle();
+    let mut sheet = crate::Sheet::new(&v);
+    let texts = [
+        "-(cos(phi)*sin(theta)*R*m_d) - cos(phi)*sin(theta)*m_f*rho1 - cos(phi)*sin(theta1)*m_r*rho",
+        "-3/2*m_d*R^2*eta1^2 + 1/2*m_f*rho1*eta2*cos(theta)^2 - 12*rho2^3*eta3",
+        "(m_d*R^2 + sqrt(m_f)*rho1)/(2*cos(theta)^2 + 3*sin(theta)*rho - 5/7*rho2^2)",
+        "der(xC)^2*m_r - exp(theta1)*sin(theta + phi)^2/(rho1 + rho2)",
+        "m_r*(rho1 + rho2)*cos(phi)*(m_f*rho1*eta1 - m_d*R*eta2) + m_r*(rho1 + rho2)*eta4",
+    ];
+    let exprs: Vec<_> = texts.iter().map(|t| parse(t).unwrap().expr).collect();
+    sheet.add_all(exprs.iter()).unwrap();
+    sheet.name_groups();
+    fn groups<'f>(f: &'f Form, out: &mut Vec<&'f Form>) {
+        out.push(f);
+        match f {
+            Form::Product { factors, .. } => factors.iter().for_each(|x| {
+                if let Factor::Group(g) = x {
+                    groups(g, out);
+                }
+            }),
+            Form::Sum(terms) => terms.iter().for_each(|t| groups(t, out)),
+            Form::Quotient(a, b) => {
+                groups(a, out);
+                groups(b, out);
+            }
+        }
+    }
+    let mut all = Vec::new();
+    for (f, _) in &sheet.entries {
+        groups(f, &mut all);
+    }
+    for d in sheet.definitions() {
+        groups(&d.form, &mut all);
+    }
+    let mut known = 0;
+    for g in all {
+        let rendered = render(g, sheet.ctx(), &Latex);
+        if let Some(w) = latex_width(g, sheet.ctx()) {
+            assert_eq!(w, width(&rendered), "{rendered}");
+            known += 1;
+        }
+    }
+    assert!(known > 20, "{known} widths known without rendering");
+}

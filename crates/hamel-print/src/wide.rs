@@ -5,7 +5,7 @@
 
 use crate::collect;
 use crate::form::{Factor, Form, Latex, Syntax, argument, render};
-use crate::layout::{LINE, width, width_at_least};
+use crate::layout::{LINE, latex_width, width, width_at_least};
 use crate::poly::{Fraction, Mono, Poly};
 use crate::sheet::Sheet;
 
@@ -67,10 +67,15 @@ impl Sheet {
         }
     }
 
-    /// Whether `g` rendered in LaTeX is wider than [`WIDE`]: decided by a lower bound
-    /// without rendering when the bound is over (a large group), by rendering otherwise.
+    /// Whether `g` rendered in LaTeX is wider than [`WIDE`]: decided without rendering by a
+    /// lower bound when it is over (a large group), by the width of its pieces where they
+    /// are known, by rendering otherwise.
     fn wider_than_wide(&self, g: &Form) -> bool {
-        width_at_least(g) > WIDE || width(&render(g, self.ctx(), &Latex)) > WIDE
+        if width_at_least(g) > WIDE {
+            return true;
+        }
+        let w = latex_width(g, self.ctx()).unwrap_or_else(|| width(&render(g, self.ctx(), &Latex)));
+        w > WIDE
     }
 
     /// A denominator that is a sum too wide for a line becomes a name (a fraction's
