@@ -37,6 +37,7 @@ mod form;
 mod layout;
 mod modular;
 mod par;
+mod places;
 mod poly;
 mod positive;
 mod printed;

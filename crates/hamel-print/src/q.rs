@@ -106,6 +106,11 @@ impl Q {
 
     /// `self + other`.
     pub fn add(&self, other: &Q) -> Q {
+        if let (Q::Small(a, 1), Q::Small(c, 1)) = (self, other)
+            && let Some(n) = a.checked_add(*c)
+        {
+            return Q::Small(n, 1);
+        }
         if let (Some((a, b)), Some((c, d))) = (self.small(), other.small()) {
             if b == 1 && d == 1 {
                 return Q::from_i128(a + c, 1);
@@ -129,8 +134,13 @@ impl Q {
         if other.is_one() {
             return self.clone();
         }
-        if let (Some((a, b)), Some((c, d))) = (self.small(), other.small()) {
-            return Q::from_i128(a * c, b * d);
+        if let (Q::Small(a, b), Q::Small(c, d)) = (self, other) {
+            return mul_small(*a, *b, *c, *d).unwrap_or_else(|| {
+                Q::from_i128(
+                    i128::from(*a) * i128::from(*c),
+                    i128::from(*b) * i128::from(*d),
+                )
+            });
         }
         Q::from(self.to_rational() * other.to_rational())
     }
@@ -145,9 +155,11 @@ impl Q {
 
     /// `1 / self` (`self ≠ 0`).
     pub fn recip(&self) -> Q {
-        match self.small() {
-            Some((n, d)) => Q::from_i128(d, n),
-            None => Q::from(self.to_rational().recip()),
+        match self {
+            // Already in lowest terms: only the sign moves.
+            Q::Small(n, d) if *n > 0 => Q::Small(*d, *n),
+            Q::Small(n, d) if *n != i64::MIN => Q::Small(-d, -n),
+            _ => Q::from(self.to_rational().recip()),
         }
     }
 
@@ -159,13 +171,19 @@ impl Q {
     /// The content of a list of coefficients: gcd of the numerators over lcm of the
     /// denominators (positive; zero for none).
     pub fn content<'a>(qs: impl Iterator<Item = &'a Q> + Clone) -> Q {
-        let small: Option<(i128, i128)> = qs.clone().try_fold((0i128, 1i128), |(g, l), q| {
-            let (n, d) = q.small()?;
-            let l = l.checked_mul(d / l.gcd(&d))?;
-            Some((g.gcd(&n), l))
+        let small: Option<(u64, u64)> = qs.clone().try_fold((0u64, 1u64), |(g, l), q| {
+            let Q::Small(n, d) = q else { return None };
+            let d = d.unsigned_abs();
+            let l = l.checked_mul(d / gcd(l, d))?;
+            Some((gcd(g, n.unsigned_abs()), l))
         });
         match small {
-            Some((g, l)) if g != 0 => Q::from_i128(g, l),
+            // A prime of l divides some denominator, so not its numerator, so not g: g/l is
+            // in lowest terms.
+            Some((g, l)) if g != 0 => match (i64::try_from(g), i64::try_from(l)) {
+                (Ok(g), Ok(l)) => Q::Small(g, l),
+                _ => Q::from_i128(i128::from(g), i128::from(l)),
+            },
             Some(_) => Q::zero(),
             None => {
                 let (g, l) = qs.fold((BigInt::zero(), BigInt::one()), |(g, l), q| {
@@ -178,6 +196,38 @@ impl Q {
                     Q::from(Rational::new(g, l))
                 }
             }
+        }
+    }
+}
+
+/// `(a/b)·(c/d)` of two canonical small rationals, when it is small: each numerator reduced
+/// against the other's denominator first, so the product is in lowest terms.
+fn mul_small(a: i64, b: i64, c: i64, d: i64) -> Option<Q> {
+    if a == 0 || c == 0 {
+        return Some(Q::zero());
+    }
+    let g1 = i64::try_from(gcd(a.unsigned_abs(), d.unsigned_abs())).ok()?;
+    let g2 = i64::try_from(gcd(c.unsigned_abs(), b.unsigned_abs())).ok()?;
+    let n = (a / g1).checked_mul(c / g2)?;
+    let den = (b / g2).checked_mul(d / g1)?;
+    Some(Q::Small(n, den))
+}
+
+/// The greatest common divisor (binary: no division); gcd(0, n) = n.
+fn gcd(mut a: u64, mut b: u64) -> u64 {
+    if a == 0 || b == 0 {
+        return a | b;
+    }
+    let shift = (a | b).trailing_zeros();
+    a >>= a.trailing_zeros();
+    loop {
+        b >>= b.trailing_zeros();
+        if a > b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        b -= a;
+        if b == 0 {
+            return a << shift;
         }
     }
 }
@@ -240,6 +290,11 @@ mod tests {
             r(i64::MIN + 1, 1),
             r(1, i64::MAX),
             r(i64::MAX, 3),
+            r(i64::MIN, 1),
+            r(6, 1),
+            r(-4, 9),
+            r(2, 3),
+            Rational::new(BigInt::one(), BigInt::from(i64::MIN)),
             Rational::new(BigInt::from(i64::MAX) * 5, 7.into()),
         ];
         for a in &values {
@@ -252,6 +307,9 @@ mod tests {
                 }
                 assert_eq!(x.neg(), Q::from(-a));
                 assert_eq!(x.add(&y).to_rational(), a + b);
+                if !a.is_zero() {
+                    assert_eq!(x.recip(), Q::from(a.recip()), "1 / {a}");
+                }
             }
         }
         let qs: Vec<Q> = [r(6, 5), r(-9, 10), r(3, 4)].iter().map(Q::from).collect();

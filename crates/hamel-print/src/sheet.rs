@@ -12,6 +12,7 @@ use hamel_expr::Expr;
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
 use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
+use crate::places::{Keyed, hashed_groups, places};
 use crate::poly::{Fraction, Mono, Poly, PolyError};
 use crate::q::Q;
 use crate::read::Source;
@@ -418,20 +419,25 @@ impl Sheet {
     /// name it gets, if it gets one.
     fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>) {
         let given = self.given_forms();
-        let mut found: Vec<&Form> = Vec::new();
+        let mut found: Vec<Keyed<'_>> = Vec::new();
         let mut shown: Vec<usize> = Vec::new();
         for ((f, _), &n) in self.entries.iter().zip(&self.counts) {
             if matches!(f, Form::Sum(_)) {
-                found.push(f);
+                found.push(Keyed(0, f));
+                let slot = found.len() - 1;
+                found[slot].0 = hashed_groups(f, &mut found);
+            } else {
+                hashed_groups(f, &mut found);
             }
-            groups(f, &mut found);
             shown.resize(found.len(), n);
         }
-        let mut index: HashMap<&Form, usize> = HashMap::default();
+        let mut index: HashMap<Keyed<'_>, usize> = HashMap::default();
+        index.reserve(found.len());
         let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
         let mut at: Vec<usize> = Vec::with_capacity(found.len());
-        for (place, (g, n)) in found.iter().zip(shown).enumerate() {
-            let i = *index.entry(g).or_insert_with(|| {
+        for (place, (&k, n)) in found.iter().zip(shown).enumerate() {
+            let g = k.1;
+            let i = *index.entry(k).or_insert_with(|| {
                 counted.push((g, place, 0));
                 counted.len() - 1
             });
@@ -574,31 +580,9 @@ fn named(p: &Placed) -> Form {
     }
 }
 
-/// Every group of `f`, outer before inner (the places of [`Sheet::candidates`]): the sums in
-/// parentheses, and the denominators that are sums (an entry that is a sum is one too).
-fn groups<'a>(f: &'a Form, out: &mut Vec<&'a Form>) {
-    match f {
-        Form::Product { factors, .. } => {
-            for x in factors {
-                if let Factor::Group(g) = x {
-                    out.push(g);
-                    groups(g, out);
-                }
-            }
-        }
-        Form::Sum(terms) => terms.iter().for_each(|t| groups(t, out)),
-        Form::Quotient(a, b) => {
-            groups(a, out);
-            if matches!(**b, Form::Sum(_)) {
-                out.push(b);
-            }
-            groups(b, out);
-        }
-    }
-}
-
 /// The groups of `f` named where `at` says, by their places counted on from `next` (the
-/// order of [`groups`]), inner groups first.
+/// order of [`hashed_groups`]). A group that is named is not looked into: its inner places are
+/// counted and skipped.
 fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
     match f {
         Form::Product { coef, factors } => {
@@ -606,10 +590,13 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
                 let Factor::Group(g) = x else { continue };
                 let place = *next;
                 *next += 1;
-                replace_at(g, next, at);
-                if let Some(p) = &at[place] {
-                    *coef = coef.mul(&p.factor);
-                    *x = Factor::Name { index: p.name };
+                match &at[place] {
+                    Some(p) => {
+                        *next += places(g);
+                        *coef = coef.mul(&p.factor);
+                        *x = Factor::Name { index: p.name };
+                    }
+                    None => replace_at(g, next, at),
                 }
             }
         }
@@ -620,9 +607,12 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
                 *next += 1;
                 *next - 1
             });
-            replace_at(b, next, at);
-            if let Some(p) = place.and_then(|p| at[p].as_ref()) {
-                **b = named(p);
+            match place.and_then(|p| at[p].as_ref()) {
+                Some(p) => {
+                    *next += places(b);
+                    **b = named(p);
+                }
+                None => replace_at(b, next, at),
             }
         }
     }
