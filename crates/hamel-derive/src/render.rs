@@ -20,8 +20,14 @@ fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
     }
     let _ = writeln!(out, "{name} =");
     for row in &m.entries {
-        let cells: Vec<String> = row.iter().map(p).collect();
-        let _ = writeln!(out, "  [{}]", cells.join(",  "));
+        out.push_str("  [");
+        for (j, e) in row.iter().enumerate() {
+            if j > 0 {
+                out.push_str(",  ");
+            }
+            out.push_str(&p(e));
+        }
+        out.push_str("]\n");
     }
 }
 

@@ -326,7 +326,10 @@ impl Poly {
 
     /// `self^n`.
     pub fn pow(&self, n: u32) -> Poly {
-        (0..n).fold(Poly::constant(Q::one()), |acc, _| acc.mul(self))
+        match n {
+            0 => Poly::constant(Q::one()),
+            _ => (1..n).fold(self.clone(), |acc, _| acc.mul(self)),
+        }
     }
 
     /// `c` with `self = c · other`, when there is one (`other` nonzero).
@@ -484,10 +487,13 @@ impl Fraction {
         if c.factors.is_empty() {
             return Fraction::poly(poly(&c.num, &c.scale));
         }
-        let mut den = Poly::constant(Q::ratio(&c.scale, &one));
-        for (terms, e) in &c.factors {
-            den = den.mul(&poly(terms, &one).pow(*e));
-        }
+        let den = c
+            .factors
+            .iter()
+            .map(|(terms, e)| poly(terms, &one).pow(*e))
+            .reduce(|a, b| a.mul(&b))
+            .expect("a factor")
+            .scale(&Q::ratio(&c.scale, &one));
         Fraction {
             num: poly(&c.num, &one),
             den,
