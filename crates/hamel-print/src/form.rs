@@ -187,7 +187,10 @@ fn write_magnitude(
     fraction: impl Fn(&mut String, &dyn std::fmt::Display, &dyn std::fmt::Display) -> std::fmt::Result,
 ) {
     let _ = match r {
-        Q::Small(n, 1) => write!(out, "{}", n.unsigned_abs()),
+        Q::Small(n, 1) => {
+            out.push_str(itoa::Buffer::new().format(n.unsigned_abs()));
+            Ok(())
+        }
         Q::Small(n, d) => fraction(out, &n.unsigned_abs(), d),
         Q::Big(r) if r.is_integer() => write!(out, "{}", r.numer().magnitude()),
         Q::Big(r) => fraction(out, r.numer().magnitude(), r.denom()),
@@ -207,7 +210,7 @@ impl Syntax for Text {
         } else if simple(&a.expr) {
             out.push_str(&a.text);
             out.push('^');
-            let _ = write!(out, "{power}");
+            out.push_str(itoa::Buffer::new().format(power));
         } else {
             out.push_str(&self.atom(&Expr::powi(a.expr.clone(), i64::from(power))));
         }
@@ -248,10 +251,13 @@ impl Syntax for Latex {
         match &a.expr {
             Expr::Call(f @ (Func::Sin | Func::Cos | Func::Tan), _) => {
                 let head = f.name().len() + 1;
-                let _ = write!(out, "{}^{{{power}}}{}", &a.latex[..head], &a.latex[head..]);
+                out.push_str(&a.latex[..head]);
+                exponent(power, out);
+                out.push_str(&a.latex[head..]);
             }
             e if simple(e) => {
-                let _ = write!(out, "{}^{{{power}}}", a.latex);
+                out.push_str(&a.latex);
+                exponent(power, out);
             }
             e => out.push_str(&Expr::powi(e.clone(), i64::from(power)).to_latex()),
         }
@@ -268,6 +274,13 @@ impl Syntax for Latex {
     fn name<'d>(&self, d: &'d Definition) -> &'d str {
         &d.written[1]
     }
+}
+
+/// `^{power}`.
+fn exponent(power: u32, out: &mut String) {
+    out.push_str("^{");
+    out.push_str(itoa::Buffer::new().format(power));
+    out.push('}');
 }
 
 /// The terms of a sum as signed pieces: the first `-t` or `t`, the others ` - t` or ` + t`.
