@@ -209,7 +209,8 @@ impl Derivation {
 
     /// The derivation as plain text, each entry written by `p`.
     pub fn to_text_with<'e>(&'e self, p: Printer<'_, 'e>) -> String {
-        let mut o = String::new();
+        // Room for a small model's whole text: growing from empty copies it at every doubling.
+        let mut o = String::with_capacity(4096);
         let _ = writeln!(o, "model {}: {}", self.model, self.title);
         let _ = writeln!(
             o,

@@ -2,7 +2,6 @@
 //! which a printed form is checked, and what collection works on.
 
 use hamel_expr::{Canonical, Expr, Terms};
-use num_bigint::BigInt;
 use num_traits::{Signed, ToPrimitive};
 
 use smallvec::SmallVec;
@@ -467,11 +466,18 @@ impl Fraction {
 
     /// [`Fraction::from_canonical`] with the atoms numbered by `atoms`.
     pub(crate) fn read_canonical<'e>(c: &'e Canonical, atoms: &mut impl Intern<'e>) -> Fraction {
-        let mut map = vec![0; c.atoms.len()];
-        for a in c.atoms_met() {
-            map[a] = atoms.intern(&c.atoms[a]);
+        // The atoms numbered in the order met (`Canonical::atoms_met`: the numerator's terms,
+        // then the factors', each term's atoms in order).
+        let mut map = vec![usize::MAX; c.atoms.len()];
+        let all = c.factors.iter().flat_map(|(t, _)| t);
+        for t in c.num.iter().chain(all) {
+            for &(a, _) in &t.powers {
+                if map[a as usize] == usize::MAX {
+                    map[a as usize] = atoms.intern(&c.atoms[a as usize]);
+                }
+            }
         }
-        let poly = |terms: &Terms, scale: &BigInt| {
+        let poly = |terms: &Terms, scale: &Q| {
             let terms = terms.iter().map(|t| {
                 let mut pairs: Pairs = t
                     .powers
@@ -479,23 +485,31 @@ impl Fraction {
                     .map(|&(a, e)| (stored(map[a as usize]), e))
                     .collect();
                 sort_pairs(&mut pairs);
-                (Mono(pairs), Q::ratio(&t.coef, scale))
+                let coef = Q::integer(&t.coef);
+                (
+                    Mono(pairs),
+                    if scale.is_one() {
+                        coef
+                    } else {
+                        coef.div(scale)
+                    },
+                )
             });
             Poly::from_terms(terms.collect())
         };
-        let one = BigInt::from(1);
+        let scale = Q::integer(&c.scale);
         if c.factors.is_empty() {
-            return Fraction::poly(poly(&c.num, &c.scale));
+            return Fraction::poly(poly(&c.num, &scale));
         }
         let den = c
             .factors
             .iter()
-            .map(|(terms, e)| poly(terms, &one).pow(*e))
+            .map(|(terms, e)| poly(terms, &Q::one()).pow(*e))
             .reduce(|a, b| a.mul(&b))
             .expect("a factor")
-            .scale(&Q::ratio(&c.scale, &one));
+            .scale(&scale);
         Fraction {
-            num: poly(&c.num, &one),
+            num: poly(&c.num, &Q::one()),
             den,
         }
     }

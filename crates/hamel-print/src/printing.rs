@@ -83,7 +83,9 @@ impl Printing {
         // once, and counted as often as they are shown.
         let equation: HashSet<usize> = model.equations.iter().map(|e| address(e)).collect();
         let mut ids = HashMap::default();
+        ids.reserve(shown.len());
         let mut by_text: HashMap<(&str, bool), usize> = HashMap::default();
+        by_text.reserve(shown.len());
         let mut labels = Vec::new();
         let mut exprs: Vec<(Source<'_>, usize)> = Vec::new();
         for e in shown {

@@ -262,6 +262,16 @@ impl Q {
     }
 }
 
+impl Q {
+    /// The integer `n`.
+    pub fn integer(n: &BigInt) -> Q {
+        match n.to_i64() {
+            Some(n) => Q::Small(n, 1),
+            None => Q::Big(Box::new(Rational::from_integer(n.clone()))),
+        }
+    }
+}
+
 impl From<i64> for Q {
     fn from(n: i64) -> Q {
         Q::Small(n, 1)
