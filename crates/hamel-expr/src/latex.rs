@@ -1,5 +1,7 @@
 //! LaTeX rendering of expressions.
 
+use std::fmt::Write;
+
 use num_traits::{One, Signed};
 
 use crate::ast::{Expr, Func};
@@ -13,16 +15,32 @@ const GREEK: [&str; 24] = [
 /// A name in LaTeX: Greek letters become commands, a trailing number or `_suffix` a subscript
 /// (`theta1` → `\theta_{1}`, `m_d` → `m_{d}`, `eta2_dot` → `\dot{\eta}_{2}`).
 pub fn latex_name(name: &str) -> String {
+    let mut out = String::with_capacity(name.len() + 12);
+    write_name(name, &mut out);
+    out
+}
+
+/// [`latex_name`] into `out`.
+fn write_name(name: &str, out: &mut String) {
     if let Some(base) = name.strip_suffix("_dot") {
         let inner = latex_name(base);
         // put the dot on the letter, not on the subscript
-        return match inner.split_once("_{") {
-            Some((letter, sub)) => format!("\\dot{{{letter}}}_{{{sub}"),
-            None => format!("\\dot{{{inner}}}"),
-        };
+        out.push_str("\\dot{");
+        match inner.split_once("_{") {
+            Some((letter, sub)) => {
+                out.push_str(letter);
+                out.push_str("}_{");
+                out.push_str(sub);
+            }
+            None => {
+                out.push_str(&inner);
+                out.push('}');
+            }
+        }
+        return;
     }
     let (stem, sub) = match name.split_once('_') {
-        Some((s, rest)) => (s.to_string(), Some(rest.to_string())),
+        Some((s, rest)) => (s, Some(rest)),
         None => {
             let digits = name
                 .chars()
@@ -30,29 +48,29 @@ pub fn latex_name(name: &str) -> String {
                 .take_while(|c| c.is_ascii_digit())
                 .count();
             if digits > 0 && digits < name.len() {
-                (
-                    name[..name.len() - digits].to_string(),
-                    Some(name[name.len() - digits..].to_string()),
-                )
+                let at = name.len() - digits;
+                (&name[..at], Some(&name[at..]))
             } else {
-                (name.to_string(), None)
+                (name, None)
             }
         }
     };
-    let stem = if GREEK.contains(&stem.as_str()) {
-        if stem == "phi" {
-            "\\varphi".to_string()
-        } else {
-            format!("\\{stem}")
-        }
+    if stem == "phi" {
+        out.push_str("\\varphi");
+    } else if GREEK.contains(&stem) {
+        out.push('\\');
+        out.push_str(stem);
     } else if stem.len() > 1 {
-        format!("\\mathrm{{{stem}}}")
+        out.push_str("\\mathrm{");
+        out.push_str(stem);
+        out.push('}');
     } else {
-        stem
-    };
-    match sub {
-        Some(s) => format!("{stem}_{{{}}}", s.replace('_', ",")),
-        None => stem,
+        out.push_str(stem);
+    }
+    if let Some(sub) = sub {
+        out.push_str("_{");
+        out.extend(sub.chars().map(|c| if c == '_' { ',' } else { c }));
+        out.push('}');
     }
 }
 
@@ -67,100 +85,161 @@ fn prec(e: &Expr) -> u8 {
     }
 }
 
-fn wrap(e: &Expr, min: u8) -> String {
-    let s = e.to_latex();
+fn wrap_into(e: &Expr, min: u8, out: &mut String) {
     if prec(e) < min {
-        format!("\\left({s}\\right)")
+        out.push_str("\\left(");
+        e.write_latex(out);
+        out.push_str("\\right)");
     } else {
-        s
+        e.write_latex(out);
     }
 }
 
 impl Expr {
     /// The expression in LaTeX.
     pub fn to_latex(&self) -> String {
+        let mut out = String::with_capacity(32);
+        self.write_latex(&mut out);
+        out
+    }
+
+    /// [`Expr::to_latex`] written into `out`.
+    pub fn write_latex(&self, out: &mut String) {
         match self {
             Expr::Num(r) => {
-                if r.denom().is_one() {
-                    r.numer().to_string()
+                let _ = if r.denom().is_one() {
+                    write!(out, "{}", r.numer())
                 } else if r.is_negative() {
-                    format!("-\\frac{{{}}}{{{}}}", -r.numer(), r.denom())
+                    write!(out, "-\\frac{{{}}}{{{}}}", -r.numer(), r.denom())
                 } else {
-                    format!("\\frac{{{}}}{{{}}}", r.numer(), r.denom())
-                }
+                    write!(out, "\\frac{{{}}}{{{}}}", r.numer(), r.denom())
+                };
             }
-            Expr::Sym(n) => latex_name(n),
+            Expr::Sym(n) => write_name(n, out),
             Expr::Der(q) => {
                 let l = latex_name(q);
+                out.push_str("\\dot{");
                 match l.split_once("_{") {
-                    Some((letter, sub)) => format!("\\dot{{{letter}}}_{{{sub}"),
-                    None => format!("\\dot{{{l}}}"),
-                }
-            }
-            Expr::Free { name, args, orders } => {
-                let args_tex: Vec<String> = args.iter().map(|a| latex_name(a)).collect();
-                let total: u32 = orders.iter().sum();
-                let f = latex_name(name);
-                if total == 0 {
-                    format!("{f}({})", args_tex.join(", "))
-                } else {
-                    let mut den = String::new();
-                    for (a, &o) in args_tex.iter().zip(orders) {
-                        if o == 1 {
-                            den.push_str(&format!("\\partial {a}"));
-                        } else if o > 1 {
-                            den.push_str(&format!("\\partial {a}^{{{o}}}"));
-                        }
+                    Some((letter, sub)) => {
+                        out.push_str(letter);
+                        out.push_str("}_{");
+                        out.push_str(sub);
                     }
-                    let num = if total == 1 {
-                        "\\partial".to_string()
-                    } else {
-                        format!("\\partial^{{{total}}}")
-                    };
-                    format!("\\frac{{{num} {f}}}{{{den}}}({})", args_tex.join(", "))
+                    None => {
+                        out.push_str(&l);
+                        out.push('}');
+                    }
                 }
             }
+            Expr::Free { name, args, orders } => out.push_str(&free_latex(name, args, orders)),
             Expr::Add(v) => {
-                let mut s = String::new();
                 for (i, t) in v.iter().enumerate() {
                     match t {
                         Expr::Neg(inner) if i > 0 => {
-                            s.push_str(" - ");
-                            s.push_str(&wrap(inner, 2));
+                            out.push_str(" - ");
+                            wrap_into(inner, 2, out);
                         }
                         _ => {
                             if i > 0 {
-                                s.push_str(" + ");
+                                out.push_str(" + ");
                             }
-                            s.push_str(&wrap(t, 1));
+                            wrap_into(t, 1, out);
                         }
                     }
                 }
-                s
             }
-            Expr::Mul(v) => v.iter().map(|t| wrap(t, 3)).collect::<Vec<_>>().join(" "),
-            Expr::Neg(e) => format!("-{}", wrap(e, 3)),
-            Expr::Div(a, b) => format!("\\frac{{{}}}{{{}}}", a.to_latex(), b.to_latex()),
+            Expr::Mul(v) => {
+                for (i, t) in v.iter().enumerate() {
+                    if i > 0 {
+                        out.push(' ');
+                    }
+                    wrap_into(t, 3, out);
+                }
+            }
+            Expr::Neg(e) => {
+                out.push('-');
+                wrap_into(e, 3, out);
+            }
+            Expr::Div(a, b) => {
+                out.push_str("\\frac{");
+                a.write_latex(out);
+                out.push_str("}{");
+                b.write_latex(out);
+                out.push('}');
+            }
             Expr::Pow(b, e) => {
                 // sin(x)^2 reads better as \sin^{2} x
                 if let Expr::Call(f @ (Func::Sin | Func::Cos | Func::Tan), arg) = &**b {
-                    return format!("\\{}^{{{}}}{}", f.name(), e.to_latex(), func_arg(arg));
+                    out.push('\\');
+                    out.push_str(f.name());
+                    out.push_str("^{");
+                    e.write_latex(out);
+                    out.push('}');
+                    func_arg(arg, out);
+                    return;
                 }
-                format!("{}^{{{}}}", wrap(b, 5), e.to_latex())
+                wrap_into(b, 5, out);
+                out.push_str("^{");
+                e.write_latex(out);
+                out.push('}');
             }
             Expr::Call(f, a) => match f {
-                Func::Sqrt => format!("\\sqrt{{{}}}", a.to_latex()),
-                Func::Exp => format!("e^{{{}}}", a.to_latex()),
-                _ => format!("\\{}{}", f.name(), func_arg(a)),
+                Func::Sqrt => {
+                    out.push_str("\\sqrt{");
+                    a.write_latex(out);
+                    out.push('}');
+                }
+                Func::Exp => {
+                    out.push_str("e^{");
+                    a.write_latex(out);
+                    out.push('}');
+                }
+                _ => {
+                    out.push('\\');
+                    out.push_str(f.name());
+                    func_arg(a, out);
+                }
             },
         }
     }
 }
 
-fn func_arg(a: &Expr) -> String {
+/// A free function of the coordinates, or its derivative (`\frac{\partial f}{\partial q}(q)`).
+fn free_latex(name: &str, args: &[String], orders: &[u32]) -> String {
+    let args_tex: Vec<String> = args.iter().map(|a| latex_name(a)).collect();
+    let total: u32 = orders.iter().sum();
+    let f = latex_name(name);
+    if total == 0 {
+        format!("{f}({})", args_tex.join(", "))
+    } else {
+        let mut den = String::new();
+        for (a, &o) in args_tex.iter().zip(orders) {
+            if o == 1 {
+                den.push_str(&format!("\\partial {a}"));
+            } else if o > 1 {
+                den.push_str(&format!("\\partial {a}^{{{o}}}"));
+            }
+        }
+        let num = if total == 1 {
+            "\\partial".to_string()
+        } else {
+            format!("\\partial^{{{total}}}")
+        };
+        format!("\\frac{{{num} {f}}}{{{den}}}({})", args_tex.join(", "))
+    }
+}
+
+fn func_arg(a: &Expr, out: &mut String) {
     match a {
-        Expr::Sym(_) => format!(" {}", a.to_latex()),
-        _ => format!("\\left({}\\right)", a.to_latex()),
+        Expr::Sym(_) => {
+            out.push(' ');
+            a.write_latex(out);
+        }
+        _ => {
+            out.push_str("\\left(");
+            a.write_latex(out);
+            out.push_str("\\right)");
+        }
     }
 }
 
@@ -177,6 +256,11 @@ mod tests {
         assert_eq!(latex_name("eta2_dot"), "\\dot{\\eta}_{2}");
         assert_eq!(latex_name("rho1"), "\\rho_{1}");
         assert_eq!(latex_name("xC"), "\\mathrm{xC}");
+        assert_eq!(latex_name("rho_f_2"), "\\rho_{f,2}");
+        assert_eq!(latex_name("Omega"), "\\Omega");
+        assert_eq!(latex_name("xy12"), "\\mathrm{xy}_{12}");
+        assert_eq!(latex_name("l_dot"), "\\dot{l}");
+        assert_eq!(latex_name("rho1_dot"), "\\dot{\\rho}_{1}");
     }
 
     #[test]
