@@ -54,7 +54,7 @@ fn printing(d: &Derivation) -> Result<Printing, PrintError> {
         positive: &d.positive,
         equations: &equations,
     };
-    Printing::of_shown(&vocabulary(d), given, d.shown())
+    Printing::of_shown(vocabulary(d), given, d.shown())
 }
 
 /// The derivation as LaTeX: a complete document (landscape A4, 1 cm margins) or, with

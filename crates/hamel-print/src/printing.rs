@@ -62,7 +62,7 @@ impl Printing {
             shown.borrow_mut().push(e);
             String::new()
         });
-        Printing::of_shown(vocabulary, model, shown.into_inner())
+        Printing::of_shown(vocabulary.clone(), model, shown.into_inner())
     }
 
     /// [`Printing::of`] for the entries `shown`, in the order shown (an entry as often as it
@@ -71,11 +71,11 @@ impl Printing {
     /// # Errors
     /// [`PrintError`]: an entry that cannot be printed exactly.
     pub(crate) fn of_shown(
-        vocabulary: &Vocabulary,
+        vocabulary: Vocabulary,
         model: Given<'_>,
         shown: Vec<&Entry>,
     ) -> Result<Printing, PrintError> {
-        let mut sheet = Sheet::new(vocabulary);
+        let mut sheet = Sheet::of(vocabulary);
         for (name, e) in model.abbreviations {
             sheet.abbreviate(name, e)?;
         }

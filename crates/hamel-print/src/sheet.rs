@@ -48,8 +48,13 @@ pub struct Sheet {
 impl Sheet {
     /// An empty sheet for a model's names.
     pub fn new(vocabulary: &Vocabulary) -> Sheet {
+        Sheet::of(vocabulary.clone())
+    }
+
+    /// [`Sheet::new`], taking the names.
+    pub(crate) fn of(vocabulary: Vocabulary) -> Sheet {
         Sheet {
-            atoms: Atoms::new(vocabulary.clone()),
+            atoms: Atoms::new(vocabulary),
             entries: Vec::new(),
             counts: Vec::new(),
             names: Vec::new(),
