@@ -23,21 +23,7 @@ pub fn latex_name(name: &str) -> String {
 /// [`latex_name`] into `out`.
 fn write_name(name: &str, out: &mut String) {
     if let Some(base) = name.strip_suffix("_dot") {
-        let inner = latex_name(base);
-        // put the dot on the letter, not on the subscript
-        out.push_str("\\dot{");
-        match inner.split_once("_{") {
-            Some((letter, sub)) => {
-                out.push_str(letter);
-                out.push_str("}_{");
-                out.push_str(sub);
-            }
-            None => {
-                out.push_str(&inner);
-                out.push('}');
-            }
-        }
-        return;
+        return dotted(&latex_name(base), out);
     }
     let (stem, sub) = match name.split_once('_') {
         Some((s, rest)) => (s, Some(rest)),
@@ -71,6 +57,22 @@ fn write_name(name: &str, out: &mut String) {
         out.push_str("_{");
         out.extend(sub.chars().map(|c| if c == '_' { ',' } else { c }));
         out.push('}');
+    }
+}
+
+/// A name's LaTeX `l` with a dot on its letter, not on its subscript (`\\dot{\\eta}_{2}`).
+fn dotted(l: &str, out: &mut String) {
+    out.push_str("\\dot{");
+    match l.split_once("_{") {
+        Some((letter, sub)) => {
+            out.push_str(letter);
+            out.push_str("}_{");
+            out.push_str(sub);
+        }
+        None => {
+            out.push_str(l);
+            out.push('}');
+        }
     }
 }
 
@@ -116,21 +118,7 @@ impl Expr {
                 };
             }
             Expr::Sym(n) => write_name(n, out),
-            Expr::Der(q) => {
-                let l = latex_name(q);
-                out.push_str("\\dot{");
-                match l.split_once("_{") {
-                    Some((letter, sub)) => {
-                        out.push_str(letter);
-                        out.push_str("}_{");
-                        out.push_str(sub);
-                    }
-                    None => {
-                        out.push_str(&l);
-                        out.push('}');
-                    }
-                }
-            }
+            Expr::Der(q) => dotted(&latex_name(q), out),
             Expr::Free { name, args, orders } => out.push_str(&free_latex(name, args, orders)),
             Expr::Add(v) => {
                 for (i, t) in v.iter().enumerate() {

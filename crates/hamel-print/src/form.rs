@@ -347,7 +347,7 @@ fn write(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
 
 /// Whether a term is written with a minus: a product with a negative coefficient (a sum or
 /// a quotient is written in parentheses or as a fraction, its signs inside).
-fn negative_term(f: &Form) -> bool {
+pub(crate) fn negative_term(f: &Form) -> bool {
     matches!(f, Form::Product { coef, .. } if coef.is_negative())
 }
 

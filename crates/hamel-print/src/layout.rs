@@ -2,7 +2,9 @@
 //! terms, a factored sum broken inside its parentheses (`\left( … \right.` / `\left. … \right)`).
 
 use crate::atoms::simple;
-use crate::form::{Ctx, Factor, Form, Latex, Syntax, render, render_terms, unsigned_latex};
+use crate::form::{
+    Ctx, Factor, Form, Latex, Syntax, negative_term, render, render_terms, unsigned_latex,
+};
 use crate::q::Q;
 use crate::sheet::Sheet;
 
@@ -228,11 +230,6 @@ fn atom_width(index: usize, power: u32, ctx: Ctx<'_>) -> Option<usize> {
         _ if simple(&a.expr) => Some(a.latex_width + digits(u64::from(power))),
         _ => None,
     }
-}
-
-/// Whether a term is written with a minus (as `negative_term` in form.rs).
-fn negative_term(f: &Form) -> bool {
-    matches!(f, Form::Product { coef, .. } if coef.is_negative())
 }
 
 /// The width of a coefficient's magnitude (`\tfrac{n}{d}` counts its digits); None for a

@@ -54,7 +54,7 @@ pub(crate) fn hashed_groups<'a>(f: &'a Form, out: &mut Vec<Keyed<'a>>) -> u64 {
 }
 
 /// `g` as a place: listed before its inner groups, its hash filled in after them.
-fn place<'a>(g: &'a Form, out: &mut Vec<Keyed<'a>>) -> u64 {
+pub(crate) fn place<'a>(g: &'a Form, out: &mut Vec<Keyed<'a>>) -> u64 {
     let slot = out.len();
     out.push(Keyed(0, g));
     let h = hashed_groups(g, out);

@@ -252,17 +252,6 @@ impl From<&Rational> for Q {
 }
 
 impl Q {
-    /// `n / d` (`d` ≠ 0), without big-integer arithmetic when both fit a machine integer.
-    pub fn ratio(n: &BigInt, d: &BigInt) -> Q {
-        match (n.to_i64(), d.to_i64()) {
-            (Some(n), Some(1)) => Q::Small(n, 1),
-            (Some(n), Some(d)) => Q::from(n).div(&Q::from(d)),
-            _ => Q::from(Rational::new(n.clone(), d.clone())),
-        }
-    }
-}
-
-impl Q {
     /// The integer `n`.
     pub fn integer(n: &BigInt) -> Q {
         match n.to_i64() {

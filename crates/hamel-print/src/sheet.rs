@@ -12,7 +12,7 @@ use hamel_expr::Expr;
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
 use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
-use crate::places::{Keyed, hashed_groups, places};
+use crate::places::{Keyed, hashed_groups, place, places};
 use crate::poly::{Fraction, Mono, Poly, PolyError};
 use crate::q::Q;
 use crate::read::Source;
@@ -427,10 +427,9 @@ impl Sheet {
         let mut found: Vec<Keyed<'_>> = Vec::new();
         let mut shown: Vec<usize> = Vec::new();
         for ((f, _), &n) in self.entries.iter().zip(&self.counts) {
+            // An entry that is a sum is a place too.
             if matches!(f, Form::Sum(_)) {
-                found.push(Keyed(0, f));
-                let slot = found.len() - 1;
-                found[slot].0 = hashed_groups(f, &mut found);
+                place(f, &mut found);
             } else {
                 hashed_groups(f, &mut found);
             }
