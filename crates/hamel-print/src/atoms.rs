@@ -54,7 +54,7 @@ pub struct Atom {
     pub(crate) text: String,
     /// Its LaTeX.
     pub(crate) latex: String,
-    /// The [`width`](crate::layout::width) of its LaTeX.
+    /// The [`width`](crate::width) of its LaTeX.
     pub(crate) latex_width: usize,
     /// The position of its name in the model (parameters, coordinates, velocities), for
     /// the printing order; `usize::MAX` for none.
@@ -137,7 +137,7 @@ impl Atoms {
             expr: expr.clone(),
             kind,
             text,
-            latex_width: crate::layout::width(&latex),
+            latex_width: crate::tex_width::width(&latex),
             latex,
             key,
             position,

@@ -7,49 +7,11 @@ use crate::form::{
 };
 use crate::q::Q;
 use crate::sheet::Sheet;
+pub use crate::tex_width::width;
 
 /// Widths, in the estimate of [`width`] (about one per printed glyph): what fits beside a
 /// left-hand side on landscape A4 with 1 cm margins at 10 pt, with room to spare.
 pub const LINE: usize = 110;
-
-/// The printed width of LaTeX math, roughly: a control word is one glyph (`\sin`, `\cos` and
-/// the like three; `\left`, `\right`, fractions' and fonts' commands none), braces, scripts'
-/// markers and spaces nothing, subscripts and superscripts count.
-pub fn width(tex: &str) -> usize {
-    let mut n = 0;
-    let mut chars = tex.char_indices();
-    while let Some((i, c)) = chars.next() {
-        match c {
-            '\\' => {
-                let rest = &tex[i + 1..];
-                let len = rest
-                    .bytes()
-                    .position(|b| !b.is_ascii_alphabetic())
-                    .unwrap_or(rest.len());
-                let word = &rest[..len];
-                let silent = ["left", "right", "tfrac", "frac", "mathrm", "dot", "quad"];
-                let named = ["sin", "cos", "tan", "exp", "log", "sqrt"];
-                if word.is_empty() {
-                    chars.next();
-                    n += 1;
-                } else {
-                    // The word is ASCII: skip its characters.
-                    for _ in 0..len {
-                        chars.next();
-                    }
-                    if named.contains(&word) {
-                        n += 3;
-                    } else if !silent.contains(&word) {
-                        n += 1;
-                    }
-                }
-            }
-            '{' | '}' | '^' | '_' | ' ' | '&' => {}
-            _ => n += 1,
-        }
-    }
-    n
-}
 
 impl Sheet {
     /// Entry `i` in LaTeX, as lines of at most `budget` (estimated) wide where its shape

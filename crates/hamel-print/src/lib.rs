@@ -46,6 +46,7 @@ mod q;
 mod read;
 pub mod reduction;
 mod sheet;
+mod tex_width;
 mod wide;
 
 pub use atoms::{Atom, Atoms, Kind, Vocabulary};
