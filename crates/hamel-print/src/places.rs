@@ -7,19 +7,25 @@ use std::hash::{BuildHasher, Hash, Hasher};
 use crate::form::{Factor, Form};
 use crate::q::Q;
 
-/// A group's form with its hash ([`hashed_groups`]): hashed by that, compared whole.
+/// A group's place ([`hashed_groups`]): its form with its hash, and where its inner places
+/// end. Hashed by the hash, compared by the form.
 #[derive(Clone, Copy)]
-pub(crate) struct Keyed<'a>(pub(crate) u64, pub(crate) &'a Form);
+pub(crate) struct Keyed<'a> {
+    pub(crate) hash: u64,
+    pub(crate) form: &'a Form,
+    /// The index after its last inner place.
+    pub(crate) end: usize,
+}
 
 impl Hash for Keyed<'_> {
     fn hash<H: Hasher>(&self, state: &mut H) {
-        state.write_u64(self.0);
+        state.write_u64(self.hash);
     }
 }
 
 impl PartialEq for Keyed<'_> {
     fn eq(&self, other: &Self) -> bool {
-        self.0 == other.0 && self.1 == other.1
+        self.hash == other.hash && self.form == other.form
     }
 }
 
@@ -53,13 +59,18 @@ pub(crate) fn hashed_groups<'a>(f: &'a Form, out: &mut Vec<Keyed<'a>>) -> u64 {
     }
 }
 
-/// `g` as a place: listed before its inner groups, its hash filled in after them.
+/// `g` as a place: listed before its inner groups, its hash and end filled in after them.
 pub(crate) fn place<'a>(g: &'a Form, out: &mut Vec<Keyed<'a>>) -> u64 {
     let slot = out.len();
-    out.push(Keyed(0, g));
-    let h = hashed_groups(g, out);
-    out[slot].0 = h;
-    h
+    out.push(Keyed {
+        hash: 0,
+        form: g,
+        end: 0,
+    });
+    let hash = hashed_groups(g, out);
+    out[slot].hash = hash;
+    out[slot].end = out.len();
+    hash
 }
 
 fn q_hash(q: &Q) -> u64 {
@@ -72,19 +83,4 @@ fn q_hash(q: &Q) -> u64 {
 fn mix(h: u64, x: u64) -> u64 {
     const K: u64 = 0x9e37_79b9_7f4a_7c15;
     (h.rotate_left(5) ^ x).wrapping_mul(K)
-}
-
-/// How many places [`hashed_groups`] finds in `f`.
-pub(crate) fn places(f: &Form) -> usize {
-    match f {
-        Form::Product { factors, .. } => factors
-            .iter()
-            .map(|x| match x {
-                Factor::Group(g) => 1 + places(g),
-                _ => 0,
-            })
-            .sum(),
-        Form::Sum(terms) => terms.iter().map(places).sum(),
-        Form::Quotient(a, b) => places(a) + usize::from(matches!(**b, Form::Sum(_))) + places(b),
-    }
 }

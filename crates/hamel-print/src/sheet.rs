@@ -12,7 +12,7 @@ use hamel_expr::Expr;
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
 use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
-use crate::places::{Keyed, hashed_groups, place, places};
+use crate::places::{Keyed, hashed_groups, place};
 use crate::poly::{Fraction, Mono, Poly, PolyError};
 use crate::q::Q;
 use crate::read::Source;
@@ -342,11 +342,13 @@ impl Sheet {
     }
 }
 
-/// The name a group's place gets, and the factor from the group to the name's value.
+/// The name a group's place gets, the factor from the group to the name's value, and how
+/// many places lie inside the group (skipped when it is replaced).
 #[derive(Clone)]
 struct Placed {
     name: usize,
     factor: Q,
+    inner: usize,
 }
 
 /// A group that recurs: its form, its value and key, its first place (outer before inner,
@@ -440,7 +442,7 @@ impl Sheet {
         let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
         let mut at: Vec<usize> = Vec::with_capacity(found.len());
         for (place, (&k, n)) in found.iter().zip(shown).enumerate() {
-            let g = k.1;
+            let g = k.form;
             let i = *index.entry(k).or_insert_with(|| {
                 counted.push((g, place, 0));
                 counted.len() - 1
@@ -487,11 +489,14 @@ impl Sheet {
             )
         });
         let first = self.names.len();
+        // Equal groups have as many inner places as the first of them.
+        let inner = |i: usize| found[counted[i].1].end - counted[i].1 - 1;
         let mut name_of: Vec<Option<Placed>> = vec![None; counted.len()];
         for (name, (i, _)) in chosen.iter().enumerate() {
             name_of[*i] = Some(Placed {
                 name: first + name,
                 factor: Q::one(),
+                inner: inner(*i),
             });
         }
         for (i, &(g, _, _)) in counted.iter().enumerate() {
@@ -499,6 +504,7 @@ impl Sheet {
                 name_of[i] = Some(Placed {
                     name: *name,
                     factor: factor.clone(),
+                    inner: inner(i),
                 });
             }
         }
@@ -596,7 +602,7 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
                 *next += 1;
                 match &at[place] {
                     Some(p) => {
-                        *next += places(g);
+                        *next += p.inner;
                         *coef = coef.mul(&p.factor);
                         *x = Factor::Name { index: p.name };
                     }
@@ -613,7 +619,7 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
             });
             match place.and_then(|p| at[p].as_ref()) {
                 Some(p) => {
-                    *next += places(b);
+                    *next += p.inner;
                     **b = named(p);
                 }
                 None => replace_at(b, next, at),

@@ -67,15 +67,14 @@ impl Sheet {
         }
     }
 
-    /// Whether `g` rendered in LaTeX is wider than [`WIDE`]: decided without rendering by a
-    /// lower bound when it is over (a large group), by the width of its pieces where they
-    /// are known, by rendering otherwise.
+    /// Whether `g` rendered in LaTeX is wider than [`WIDE`]: by the width of its pieces where
+    /// they are known, else by a lower bound when it is over (a large group), else by
+    /// rendering it.
     fn wider_than_wide(&self, g: &Form) -> bool {
-        if width_at_least(g) > WIDE {
-            return true;
+        match latex_width(g, self.ctx()) {
+            Some(w) => w > WIDE,
+            None => width_at_least(g) > WIDE || width(&render(g, self.ctx(), &Latex)) > WIDE,
         }
-        let w = latex_width(g, self.ctx()).unwrap_or_else(|| width(&render(g, self.ctx(), &Latex)));
-        w > WIDE
     }
 
     /// A denominator that is a sum too wide for a line becomes a name (a fraction's
