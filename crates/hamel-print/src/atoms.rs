@@ -77,6 +77,9 @@ pub struct Atoms {
     /// In how many terms of a sheet's entries each atom occurs (what ties between
     /// parameters are broken by when a coefficient is factored).
     weight: HashMap<usize, usize>,
+    /// Each atom's place in the printing order ([`Atoms::order`]), kept as atoms are added:
+    /// what sorting compares instead of the kinds, positions and texts.
+    rank: Vec<u32>,
 }
 
 impl Atoms {
@@ -88,6 +91,7 @@ impl Atoms {
             index: HashMap::default(),
             seen: HashMap::default(),
             weight: HashMap::default(),
+            rank: Vec::new(),
         }
     }
 
@@ -133,6 +137,7 @@ impl Atoms {
             text_of(expr)
         };
         let latex = expr.to_latex();
+        self.rank_new((kind, position, &key));
         self.list.push(Atom {
             expr: expr.clone(),
             kind,
@@ -191,6 +196,26 @@ impl Atoms {
     pub fn order(&self, i: usize) -> (Kind, usize, &str) {
         let a = &self.list[i];
         (a.kind, a.position, &a.key)
+    }
+
+    /// Atom `i`'s place in the printing order: `rank(i) < rank(j)` exactly when
+    /// `order(i) < order(j)` (distinct atoms have distinct texts).
+    pub(crate) fn rank(&self, i: usize) -> u32 {
+        self.rank[i]
+    }
+
+    /// Ranks the atom about to be added with sort key `order`: the atoms after it move up.
+    fn rank_new(&mut self, order: (Kind, usize, &str)) {
+        let before = (0..self.list.len())
+            .filter(|&i| self.order(i) < order)
+            .count();
+        let r = u32::try_from(before).expect("fewer than 2^32 atoms");
+        for x in &mut self.rank {
+            if *x >= r {
+                *x += 1;
+            }
+        }
+        self.rank.push(r);
     }
 
     /// Where an atom's name stands in the model: a parameter, coordinate or velocity symbol,

@@ -150,7 +150,7 @@ fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Cx<'_>) -> Form {
     {
         return sum;
     }
-    factors.sort_by(|x, y| factor_rank(x, atoms).cmp(&factor_rank(y, atoms)));
+    factors.sort_by_key(|x| factor_rank(x, atoms));
     Form::Product {
         coef,
         factors: merged(factors),
@@ -247,7 +247,7 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
             split.push((rate, coefficient, c.clone()));
         }
     }
-    let mut by_rate: Vec<(Vec<StateKey<'_>>, Mono, Poly)> = runs(split)
+    let mut by_rate: Vec<(Vec<StateKey>, Mono, Poly)> = runs(split)
         .into_iter()
         .map(|(rate, coefficient)| (state_key(rate.pairs(), atoms), rate, coefficient))
         .collect();
@@ -276,17 +276,12 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
     Some(Form::Sum(terms))
 }
 
-/// A state atom's place in the printing order, with its exponent.
-type StateKey<'a> = (Kind, usize, &'a str, u32);
+/// A state atom's place in the printing order ([`Atoms::rank`]), with its exponent.
+type StateKey = (u32, u32);
 
 /// The printing-order keys of a monomial's `(atom, exponent)` pairs.
-fn state_key<'a>(pairs: impl Iterator<Item = (usize, u32)>, atoms: &'a Atoms) -> Vec<StateKey<'a>> {
-    pairs
-        .map(|(i, e)| {
-            let (k, pos, text) = atoms.order(i);
-            (k, pos, text, e)
-        })
-        .collect()
+fn state_key(pairs: impl Iterator<Item = (usize, u32)>, atoms: &Atoms) -> Vec<StateKey> {
+    pairs.map(|(i, e)| (atoms.rank(i), e)).collect()
 }
 
 /// The groups `(state monomial, parameter coefficient)` in printing order.
@@ -317,13 +312,10 @@ fn group_order(a: &Mono, b: &Mono, atoms: &Atoms) -> std::cmp::Ordering {
 }
 
 /// The printing-order keys of a monomial's pairs (its rates' alone when `rates`).
-fn keys<'a>(m: &'a Mono, rates: bool, atoms: &'a Atoms) -> impl Iterator<Item = StateKey<'a>> + 'a {
+fn keys<'a>(m: &'a Mono, rates: bool, atoms: &'a Atoms) -> impl Iterator<Item = StateKey> + 'a {
     m.pairs()
         .filter(move |&(i, _)| !rates || atoms.is_rate(i))
-        .map(move |(i, e)| {
-            let (k, pos, text) = atoms.order(i);
-            (k, pos, text, e)
-        })
+        .map(move |(i, e)| (atoms.rank(i), e))
 }
 
 /// Terms `(key, rest, c)` (the products `key · rest` distinct) gathered by key: each key with
@@ -471,7 +463,7 @@ fn most_frequent(p: &Poly, atoms: &Atoms) -> Option<usize> {
         .max_by(|(i, n), (j, k)| {
             n.cmp(k)
                 .then_with(|| atoms.weight(*i).cmp(&atoms.weight(*j)))
-                .then_with(|| atoms.order(*j).cmp(&atoms.order(*i)))
+                .then_with(|| atoms.rank(*j).cmp(&atoms.rank(*i)))
         })
         .map(|(i, _)| i)
 }

@@ -418,14 +418,17 @@ fn bare_denominator(f: &Form) -> bool {
 }
 
 /// The kind order used to place factors: parameters, groups, then the state's atoms.
-pub(crate) fn factor_rank<'a>(x: &Factor, atoms: &'a Atoms) -> (u8, Kind, usize, &'a str) {
+pub(crate) fn factor_rank(x: &Factor, atoms: &Atoms) -> (u8, u32) {
     match x {
         Factor::Atom { index, .. } => {
-            let (kind, pos, key) = atoms.order(*index);
-            let rank = if kind == Kind::Parameter { 0 } else { 2 };
-            (rank, kind, pos, key)
+            let rank = if atoms.get(*index).kind == Kind::Parameter {
+                0
+            } else {
+                2
+            };
+            (rank, atoms.rank(*index))
         }
-        Factor::Group(_) | Factor::Name { .. } => (1, Kind::Parameter, 0, ""),
+        Factor::Group(_) | Factor::Name { .. } => (1, 0),
     }
 }
 

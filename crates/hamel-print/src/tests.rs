@@ -567,3 +567,41 @@ fn widths_from_pieces_are_widths_of_the_rendering() {
     }
     assert!(known > 20, "{known} widths known without rendering");
 }
+
+/// Ranks kept as atoms are added agree with the printing order, whatever order the atoms
+/// come in (what sorting factors and groups compares).
+#[test]
+fn ranks_are_the_printing_order() {
+    let texts = [
+        "sin(theta)",
+        "m_r",
+        "eta2_dot",
+        "cos(phi)",
+        "rho",
+        "xC",
+        "der(psi)",
+        "R",
+        "f(theta1)",
+        "eta1",
+        "m_d",
+        "theta1^(1/2)",
+        "cos(theta)",
+    ];
+    for shift in 0..texts.len() {
+        let mut atoms = crate::atoms::Atoms::new(unicycle());
+        for t in texts.iter().cycle().skip(shift).take(texts.len()) {
+            atoms.intern(&parse(t).unwrap().expr);
+        }
+        for i in 0..atoms.len() {
+            for j in 0..atoms.len() {
+                assert_eq!(
+                    atoms.rank(i).cmp(&atoms.rank(j)),
+                    atoms.order(i).cmp(&atoms.order(j)),
+                    "{} against {}",
+                    atoms.get(i).key,
+                    atoms.get(j).key
+                );
+            }
+        }
+    }
+}
