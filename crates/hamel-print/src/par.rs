@@ -31,16 +31,6 @@ fn pool() -> Option<&'static rayon::ThreadPool> {
 /// `f` over `items`, in order, with a state made by `init` for each run of consecutive items
 /// the pool takes (a run's items are given to `f` in order, with one state); on printing's
 /// pool when `parallel`, else as one run on the calling thread.
-pub(crate) fn map_init<T: Sync, S, R: Send>(
-    items: &[T],
-    parallel: bool,
-    init: impl Fn() -> S + Sync + Send,
-    f: impl Fn(&mut S, &T) -> R + Sync + Send,
-) -> Vec<R> {
-    map_init_owned(items.iter().collect(), parallel, init, f)
-}
-
-/// [`map_init`] over owned `items`.
 pub(crate) fn map_init_owned<T: Send, S, R: Send>(
     items: Vec<T>,
     parallel: bool,

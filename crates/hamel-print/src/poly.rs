@@ -113,17 +113,6 @@ impl Mono {
         self.0.truncate(kept);
     }
 
-    /// Atom `i` renumbered `map[i]`, in place (two atoms given one number are merged).
-    pub(crate) fn renumber(&mut self, map: &[usize]) {
-        for p in &mut self.0 {
-            p.0 = stored(map[p.0 as usize]);
-        }
-        if self.0.windows(2).all(|w| w[0].0 < w[1].0) {
-            return;
-        }
-        sort_pairs(&mut self.0);
-    }
-
     /// The exponent of atom `i`.
     pub fn exponent(&self, i: usize) -> u32 {
         self.pairs().find(|&(a, _)| a == i).map_or(0, |(_, e)| e)
@@ -204,17 +193,6 @@ impl Poly {
             out.pop();
         }
         Poly(out)
-    }
-
-    /// Atom `i` renumbered `map[i]`, in place (the terms sorted again where the order
-    /// changes, merged where two monomials become one).
-    pub(crate) fn renumber(&mut self, map: &[usize]) {
-        for (m, _) in &mut self.0 {
-            m.renumber(map);
-        }
-        if !self.0.windows(2).all(|w| w[0].0 < w[1].0) {
-            *self = Poly::from_terms(std::mem::take(&mut self.0));
-        }
     }
 
     /// The polynomial with these terms, given sorted by monomial, each monomial once, no
@@ -466,17 +444,32 @@ impl Fraction {
 
     /// [`Fraction::from_canonical`] with the atoms numbered by `atoms`.
     pub(crate) fn read_canonical<'e>(c: &'e Canonical, atoms: &mut impl Intern<'e>) -> Fraction {
-        // The atoms numbered in the order met (`Canonical::atoms_met`: the numerator's terms,
-        // then the factors', each term's atoms in order).
+        Fraction::read_mapped(c, &Fraction::numbering(c, atoms))
+    }
+
+    /// The number `atoms` gives each of `c`'s atoms, numbered in the order met
+    /// (`Canonical::atoms_met`: the numerator's terms, then the factors', each term's atoms in
+    /// order); the terms are read only until every atom is met.
+    pub(crate) fn numbering<'e>(c: &'e Canonical, atoms: &mut impl Intern<'e>) -> Vec<usize> {
         let mut map = vec![usize::MAX; c.atoms.len()];
+        let mut left = c.atoms.len();
         let all = c.factors.iter().flat_map(|(t, _)| t);
         for t in c.num.iter().chain(all) {
+            if left == 0 {
+                break;
+            }
             for &(a, _) in &t.powers {
                 if map[a as usize] == usize::MAX {
                     map[a as usize] = atoms.intern(&c.atoms[a as usize]);
+                    left -= 1;
                 }
             }
         }
+        map
+    }
+
+    /// `c` with its atom `a` numbered `map[a]` (atoms two of which share a number are one).
+    pub(crate) fn read_mapped(c: &Canonical, map: &[usize]) -> Fraction {
         let poly = |terms: &Terms, scale: &Q| {
             let terms = terms.iter().map(|t| {
                 let mut pairs: Pairs = t
@@ -538,12 +531,6 @@ impl Fraction {
         } else {
             Ok(Fraction { num: den, den: num })
         }
-    }
-
-    /// Atom `i` renumbered `map[i]`, in place.
-    pub(crate) fn renumber(&mut self, map: &[usize]) {
-        self.num.renumber(map);
-        self.den.renumber(map);
     }
 
     /// `self + other` (`self` taken, its numerator added to in place when the denominators

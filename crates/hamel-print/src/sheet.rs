@@ -124,17 +124,14 @@ impl Sheet {
     ) -> Result<Vec<usize>, PolyError> {
         let es: Vec<(Source<'a>, usize)> = es.into_iter().collect();
         let parallel = crate::par::worth_it(es.iter().map(|(e, _)| crate::read::terms(e)));
-        let numbered = crate::read::entries(&es, parallel, &mut self.atoms)?;
+        let read = crate::read::entries(&es, parallel, &mut self.atoms)?;
         let first = self.entries.len();
         let atoms = &self.atoms;
         let forms = crate::par::map_init_owned(
-            numbered,
+            read,
             parallel,
             || collect::Cx::new(atoms),
-            |cx, n| {
-                let canonical = n.into_fraction();
-                (collect::fraction_in(&canonical, cx), canonical)
-            },
+            |cx, canonical| (collect::fraction_in(&canonical, cx), canonical),
         );
         self.entries.extend(forms);
         self.counts.extend(es.iter().map(|(_, n)| *n));
