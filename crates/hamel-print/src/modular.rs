@@ -9,8 +9,11 @@
 //! coefficient's, that vanishes mod p) nothing is concluded and the caller falls back to
 //! expanding ([`crate::Sheet::check`], exact, which the tests run on every entry of every seed
 //! model). The point is drawn afresh for every sheet (a seed from the process's random hash
-//! keys), so no fixed input can be made to pass. Evaluation allocates nothing per term: the
-//! check is 2 % of printing, where expanding was 9 to 12 %.
+//! keys), so no fixed input can be made to pass; an atom's residue comes from the seed and
+//! the atom's number alone, so that the canonical forms of a large sheet are evaluated on
+//! printing's pool as they are read, and the printed forms after naming, at the same point.
+//! Evaluation allocates nothing per term: the check is 2 % of printing, where expanding was 9
+//! to 12 %.
 //!
 //! A sheet keeps a second point to tell its names apart (`Sheet::name_for`): two names whose
 //! values differ there differ; names that agree there are compared exactly.
@@ -64,7 +67,7 @@ fn pow(mut a: u64, mut n: u64) -> u64 {
 
 /// A signed machine integer mod p.
 fn of_i64(n: i64) -> u64 {
-    let m = n.unsigned_abs() % P;
+    let m = reduce(n.unsigned_abs());
     if n < 0 { neg(m) } else { m }
 }
 
@@ -102,6 +105,22 @@ impl V {
     }
 }
 
+/// Atom `i`'s residue at the point with `seed`: SplitMix64 from the seed and `i`, drawn
+/// again until it lands in [1, p).
+fn residue(seed: u64, i: usize) -> u64 {
+    let mut state = seed ^ (i as u64).wrapping_mul(0xd1b5_4a32_d192_ed03);
+    loop {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        let v = (z ^ (z >> 31)) >> 3;
+        if v != 0 && v < P {
+            return v;
+        }
+    }
+}
+
 /// A rational mod p; none when its denominator vanishes mod p.
 fn of_q(q: &Q) -> Option<V> {
     let (n, d) = match q {
@@ -111,12 +130,13 @@ fn of_q(q: &Q) -> Option<V> {
     (d != 0).then_some(V(n, d))
 }
 
-/// A point: a random residue for every atom (drawn as atoms are met), and the names' values
-/// there (each computed once, when first met; a name's value never changes, whatever later
-/// naming does to its definition's form).
+/// A point: a random residue for every atom (atom `i`'s drawn from the point's seed and `i`
+/// alone, so that copies of a point on other threads agree), and the names' values there
+/// (each computed once, when first met; a name's value never changes, whatever later naming
+/// does to its definition's form).
 #[derive(Clone, Debug)]
 pub(crate) struct Point {
-    state: u64,
+    seed: u64,
     atoms: Vec<u64>,
     named: Vec<Option<Option<V>>>,
 }
@@ -125,28 +145,34 @@ impl Point {
     /// A fresh random point (a new seed in each process and sheet).
     pub(crate) fn random() -> Point {
         Point {
-            state: RandomState::new().hash_one(0x0068_616d_656c_u64),
+            seed: RandomState::new().hash_one(0x0068_616d_656c_u64),
             atoms: Vec::new(),
             named: Vec::new(),
         }
     }
 
-    /// Atom `i`'s residue, drawn (SplitMix64, until it lands in [1, p)) when first asked.
+    /// The same point, without the names' values (for the entries' canonical forms, which
+    /// use none, on printing's pool).
+    pub(crate) fn residues(&self) -> Point {
+        Point {
+            seed: self.seed,
+            atoms: self.atoms.clone(),
+            named: Vec::new(),
+        }
+    }
+
+    /// Atom `i`'s residue.
     fn atom(&mut self, i: usize) -> u64 {
         while self.atoms.len() <= i {
-            let v = loop {
-                self.state = self.state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-                let mut z = self.state;
-                z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-                z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-                let v = (z ^ (z >> 31)) >> 3;
-                if v != 0 && v < P {
-                    break v;
-                }
-            };
+            let v = residue(self.seed, self.atoms.len());
             self.atoms.push(v);
         }
         self.atoms[i]
+    }
+
+    /// A fraction's value; none at a pole.
+    pub(crate) fn fraction(&mut self, f: &Fraction) -> Option<V> {
+        self.poly(&f.num)?.over(self.poly(&f.den)?)
     }
 
     /// A polynomial's value; none if a coefficient's denominator vanishes.
@@ -209,17 +235,16 @@ pub(crate) fn equal(a: V, b: V) -> bool {
 }
 
 /// Whether `form` (times `multiplier`'s inverse, when the entry was multiplied through) takes
-/// `canonical`'s value at the point: Some(true) or Some(false) when decided, none at a pole.
+/// the value `canonical` (its canonical form's, none at a pole) at the point: Some(true) or
+/// Some(false) when decided, none at a pole.
 pub(crate) fn agrees(
     point: &mut Point,
     names: &[Definition],
     form: &Form,
     multiplier: Option<&Form>,
-    canonical: &Fraction,
+    canonical: Option<V>,
 ) -> Option<bool> {
-    let value = point
-        .poly(&canonical.num)?
-        .over(point.poly(&canonical.den)?)?;
+    let value = canonical?;
     let printed = point.form(form, names)?;
     let expected = match multiplier {
         Some(m) => value.times(point.form(m, names).filter(|v| v.0 != 0)?),
@@ -237,6 +262,9 @@ mod tests {
         assert_eq!(mul(P - 1, P - 1), 1);
         assert_eq!(add(P - 1, 1), 0);
         assert_eq!(of_i64(-1), P - 1);
+        // 2⁶³ = 4 · 2⁶¹ ≡ 4.
+        assert_eq!(of_i64(i64::MAX), 3);
+        assert_eq!(of_i64(i64::MIN), P - 4);
         for a in [2, 3, 12345, P - 2] {
             assert_eq!(mul(a, pow(a, P - 2)), 1);
         }
@@ -247,5 +275,41 @@ mod tests {
         let v = V(1, 2).plus(V(1, 3));
         assert_eq!(mul(v.0, 6), mul(5, v.1));
         assert!(V(1, 1).over(V::ZERO).is_none());
+    }
+
+    /// A polynomial's value is the sum of its terms' values; copies of a point agree on
+    /// every atom.
+    #[test]
+    fn a_polynomial_is_the_sum_of_its_terms() {
+        use crate::poly::Mono;
+        let monomials: [&[(usize, u32)]; 7] = [
+            &[],
+            &[(0, 1)],
+            &[(0, 1), (1, 2)],
+            &[(0, 1), (1, 2), (4, 1)],
+            &[(0, 1), (2, 1)],
+            &[(0, 3), (2, 1)],
+            &[(3, 5), (4, 1)],
+        ];
+        let terms = monomials
+            .iter()
+            .zip(1_i64..)
+            .map(|(m, c)| (Mono::from_pairs(m.iter().copied()), Q::from(c * c - 20)))
+            .collect();
+        let p = Poly::from_terms(terms);
+        let mut point = Point::random();
+        let copy = point.residues();
+        let mut expected = V::ZERO;
+        for (m, c) in p.terms() {
+            let mut v = of_q(c).unwrap();
+            for (i, e) in m.pairs() {
+                v = v.times(V(pow(point.atom(i), u64::from(e)), 1));
+            }
+            expected = expected.plus(v);
+        }
+        assert!(equal(point.poly(&p).unwrap(), expected));
+        let mut copy = copy;
+        assert!(equal(copy.poly(&p).unwrap(), expected));
+        assert_eq!(copy.atoms, point.atoms);
     }
 }

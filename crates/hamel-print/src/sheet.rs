@@ -32,6 +32,13 @@ pub struct Sheet {
     /// A random point at which names' values are compared before they are expanded
     /// (`modular.rs`).
     pub(crate) point: crate::modular::Point,
+    /// Another, at which each printed form is checked against its canonical form
+    /// ([`Sheet::first_mismatch`]).
+    check: crate::modular::Point,
+    /// Each entry's canonical form's value at [`Sheet::check`] (none at a pole), taken as it
+    /// is read on printing's pool; none for an entry read on the calling thread (its value
+    /// is taken when it is checked).
+    at_check: Vec<Option<Option<crate::modular::V>>>,
     /// The last number given to a parameter group (`kappaN`) and to a function (`FN`).
     numbers: [usize; 2],
     /// Atoms whose argument is printed by name (atom ↦ name; the name's value is the
@@ -60,6 +67,8 @@ impl Sheet {
             names: Vec::new(),
             values: Vec::new(),
             point: crate::modular::Point::random(),
+            check: crate::modular::Point::random(),
+            at_check: Vec::new(),
             arguments: BTreeMap::new(),
             numbers: [0, 0],
             multipliers: BTreeMap::new(),
@@ -126,14 +135,20 @@ impl Sheet {
         let parallel = crate::par::worth_it(es.iter().map(|(e, _)| crate::read::terms(e)));
         let read = crate::read::entries(&es, parallel, &mut self.atoms)?;
         let first = self.entries.len();
-        let atoms = &self.atoms;
+        let (atoms, check) = (&self.atoms, &self.check);
         let forms = crate::par::map_init_owned(
             read,
             parallel,
-            || collect::Cx::new(atoms),
-            |cx, canonical| (collect::fraction_in(&canonical, cx), canonical),
+            || (collect::Cx::new(atoms), check.residues()),
+            |(cx, point), canonical| {
+                let value = parallel.then(|| point.fraction(&canonical));
+                (collect::fraction_in(&canonical, cx), canonical, value)
+            },
         );
-        self.entries.extend(forms);
+        for (form, canonical, value) in forms {
+            self.entries.push((form, canonical));
+            self.at_check.push(value);
+        }
         self.counts.extend(es.iter().map(|(_, n)| *n));
         // The model's abbreviations written with the same factoring.
         for (d, v) in self.names.iter_mut().zip(&self.values) {
@@ -220,13 +235,15 @@ impl Sheet {
 
     /// The first entry (by index) whose printed form is not its canonical form, if any:
     /// both evaluated at a random point modulo a prime (`modular.rs`: a disagreement is
-    /// certain, an agreement wrong with probability below 10⁻¹⁶), and expanded exactly
-    /// ([`Sheet::check`]) where the point is a pole.
+    /// certain, an agreement wrong with probability below 10⁻¹⁶; the canonical forms'
+    /// values are taken as they are read), and expanded exactly ([`Sheet::check`]) where the
+    /// point is a pole.
     pub fn first_mismatch(&self) -> Option<usize> {
-        let mut point = crate::modular::Point::random();
+        let mut point = self.check.residues();
         (0..self.entries.len()).find(|&i| {
             let (form, canonical) = &self.entries[i];
             let multiplier = self.multipliers.get(&i);
+            let canonical = self.at_check[i].unwrap_or_else(|| point.fraction(canonical));
             match crate::modular::agrees(&mut point, &self.names, form, multiplier, canonical) {
                 Some(same) => !same,
                 None => !self.check(i),
