@@ -45,3 +45,27 @@ pub(crate) fn map_init_owned<T: Send, S, R: Send>(
         }
     }
 }
+
+/// `f` over `items`, results in order; on printing's pool when `parallel`.
+pub(crate) fn map_ref<'a, T: Sync, R: Send>(
+    items: &'a [T],
+    parallel: bool,
+    f: impl Fn(&'a T) -> R + Sync + Send,
+) -> Vec<R> {
+    match pool().filter(|_| parallel) {
+        Some(pool) => pool.install(|| items.par_iter().map(&f).collect()),
+        None => items.iter().map(f).collect(),
+    }
+}
+
+/// `f` on each of `items` with its index; on printing's pool when `parallel`.
+pub(crate) fn for_each_mut<T: Send>(
+    items: &mut [T],
+    parallel: bool,
+    f: impl Fn(usize, &mut T) + Sync + Send,
+) {
+    match pool().filter(|_| parallel) {
+        Some(pool) => pool.install(|| items.par_iter_mut().enumerate().for_each(|(i, x)| f(i, x))),
+        None => items.iter_mut().enumerate().for_each(|(i, x)| f(i, x)),
+    }
+}

@@ -50,6 +50,8 @@ pub struct Sheet {
     pub(crate) multipliers: BTreeMap<usize, Form>,
     /// The atoms whose argument [`Sheet::name_wide`] has looked at (each once), by index.
     pub(crate) examined: Vec<bool>,
+    /// Whether the entries are many enough to be worked on printing's pool.
+    parallel: bool,
 }
 
 impl Sheet {
@@ -73,6 +75,7 @@ impl Sheet {
             numbers: [0, 0],
             multipliers: BTreeMap::new(),
             examined: Vec::new(),
+            parallel: false,
         }
     }
 
@@ -133,6 +136,7 @@ impl Sheet {
     ) -> Result<Vec<usize>, PolyError> {
         let es: Vec<(Source<'a>, usize)> = es.into_iter().collect();
         let parallel = crate::par::worth_it(es.iter().map(|(e, _)| crate::read::terms(e)));
+        self.parallel |= parallel;
         let read = crate::read::entries(&es, parallel, &mut self.atoms)?;
         let first = self.entries.len();
         let (atoms, check) = (&self.atoms, &self.check);
@@ -328,7 +332,7 @@ impl Sheet {
     /// expanded. Then the groups still too wide for a line are named too
     /// ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
-        let (chosen, at) = self.candidates();
+        let (chosen, at, starts) = self.candidates();
         let first = self.names.len();
         let mut places = Vec::new();
         for c in chosen {
@@ -336,17 +340,18 @@ impl Sheet {
             self.push_name(definition, Some(c.value));
             places.push(c.place);
         }
-        let mut next = 0;
-        for (f, _) in &mut self.entries {
-            let place = matches!(f, Form::Sum(_)).then(|| {
+        // Each entry from its first place on (an entry that is a sum is a place itself).
+        crate::par::for_each_mut(&mut self.entries, self.parallel, |i, (f, _)| {
+            let mut next = starts[i];
+            if matches!(f, Form::Sum(_)) {
                 next += 1;
-                next - 1
-            });
-            replace_at(f, &mut next, &at);
-            if let Some(p) = place.and_then(|p| at[p].as_ref()) {
-                *f = named(p);
+                if let Some(p) = &at[starts[i]] {
+                    *f = named(p);
+                    return;
+                }
             }
-        }
+            replace_at(f, &mut next, &at);
+        });
         // A definition is its group's first occurrence: its inner groups are the places
         // after that one.
         for (d, place) in self.names[first..].iter_mut().zip(places) {
@@ -363,6 +368,14 @@ struct Placed {
     name: usize,
     factor: Q,
     inner: usize,
+}
+
+/// The places of a sheet's groups ([`Sheet::places`]) and, for each, the index of its kind
+/// (equal groups share one).
+#[derive(Clone, Copy)]
+struct Groups<'p, 'f> {
+    found: &'p [Keyed<'f>],
+    at: &'p [usize],
 }
 
 /// A group that recurs: its form, its value and key, its first place (outer before inner,
@@ -431,6 +444,87 @@ impl Sheet {
         }
     }
 
+    /// The value of the group `g` at place `*next` ([`Sheet::fraction_of_in`]), kept in
+    /// `memo` under the index its place has in `groups` (equal groups share it), computed if
+    /// not there; returns that index, `next` moved past the group's inner places. The inner
+    /// groups are valued alike, by their places, so no form is hashed or compared.
+    fn group_at(
+        &self,
+        g: &Form,
+        next: &mut usize,
+        groups: Groups<'_, '_>,
+        memo: &mut [Option<Fraction>],
+    ) -> usize {
+        let p = *next;
+        let i = groups.at[p];
+        if memo[i].is_none() {
+            *next = p + 1;
+            let v = self.fraction_at(g, next, groups, memo);
+            memo[i] = Some(v);
+        }
+        *next = groups.found[p].end;
+        i
+    }
+
+    /// The form `f` (whose groups are the places from `*next` on, in the order of
+    /// [`hashed_groups`]) as a fraction, names expanded, groups valued by [`Sheet::group_at`].
+    fn fraction_at(
+        &self,
+        f: &Form,
+        next: &mut usize,
+        groups: Groups<'_, '_>,
+        memo: &mut [Option<Fraction>],
+    ) -> Fraction {
+        match f {
+            Form::Product { coef, factors } => {
+                // The atoms make one monomial; only groups and names are multiplied in.
+                let mut monomial = Mono::default();
+                let mut parts: Vec<Result<usize, usize>> = Vec::new();
+                for x in factors {
+                    match x {
+                        Factor::Atom { index, power } => {
+                            monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
+                        }
+                        Factor::Group(g) => parts.push(Ok(self.group_at(g, next, groups, memo))),
+                        Factor::Name { index } => parts.push(Err(*index)),
+                    }
+                }
+                let mut acc: Option<Fraction> = None;
+                for part in parts {
+                    let v = match part {
+                        Ok(i) => memo[i].as_ref().expect("valued"),
+                        Err(j) => self.value(j),
+                    };
+                    acc = Some(match acc {
+                        Some(a) => a.times(v),
+                        None => v.clone(),
+                    });
+                }
+                let front = Fraction::from(Poly::term(monomial, coef.clone()));
+                match acc {
+                    Some(rest) => rest.times(&front),
+                    None => front,
+                }
+            }
+            Form::Sum(terms) => {
+                let parts: Vec<Fraction> = terms
+                    .iter()
+                    .map(|t| self.fraction_at(t, next, groups, memo))
+                    .collect();
+                Fraction::sum(parts)
+            }
+            Form::Quotient(a, b) => {
+                let a = self.fraction_at(a, next, groups, memo);
+                if matches!(**b, Form::Sum(_)) {
+                    let i = self.group_at(b, next, groups, memo);
+                    a.over(memo[i].as_ref().expect("valued"))
+                } else {
+                    a.over(&self.fraction_at(b, next, groups, memo))
+                }
+            }
+        }
+    }
+
     /// The groups to name, in naming order: those occurring twice at least (the same form:
     /// collection writes a polynomial one way, so equal groups print alike and only these
     /// are expanded), free of velocities, of three terms or more if they hold parameters
@@ -438,19 +532,9 @@ impl Sheet {
     /// coordinates, the more frequent first, then the larger, then the first met. Also, for
     /// each group of the entries by its place (outer before inner, entry after entry), the
     /// name it gets, if it gets one.
-    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>) {
+    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>, Vec<usize>) {
         let given = self.given_forms();
-        let mut found: Vec<Keyed<'_>> = Vec::new();
-        let mut shown: Vec<usize> = Vec::new();
-        for ((f, _), &n) in self.entries.iter().zip(&self.counts) {
-            // An entry that is a sum is a place too.
-            if matches!(f, Form::Sum(_)) {
-                place(f, &mut found);
-            } else {
-                hashed_groups(f, &mut found);
-            }
-            shown.resize(found.len(), n);
-        }
+        let (found, shown, starts) = self.places();
         let mut index: HashMap<Keyed<'_>, usize> = HashMap::default();
         index.reserve(found.len());
         let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
@@ -466,15 +550,17 @@ impl Sheet {
         }
         let mut chosen: Vec<(usize, Candidate)> = Vec::new();
         // Outer groups come first: their expansion leaves their inner groups' values here.
-        let mut memo: HashMap<&Form, Fraction> = HashMap::default();
+        let mut memo: Vec<Option<Fraction>> = vec![None; counted.len()];
+        let groups = Groups {
+            found: &found,
+            at: &at,
+        };
         for (i, &(g, place, count)) in counted.iter().enumerate() {
             if count < 2 || given.iter().any(|(f, _, _)| f == g) || self.mentions_velocity(g) {
                 continue;
             }
-            let value = match memo.get(g) {
-                Some(v) => v.clone(),
-                None => self.fraction_of_in(g, &mut memo),
-            };
+            self.group_at(g, &mut { place }, groups, &mut memo);
+            let value = memo[i].clone().expect("valued");
             let Some((_, key)) = key(&value) else {
                 continue;
             };
@@ -523,7 +609,35 @@ impl Sheet {
             }
         }
         let at = at.into_iter().map(|i| name_of[i].clone()).collect();
-        (chosen.into_iter().map(|(_, c)| c).collect(), at)
+        (chosen.into_iter().map(|(_, c)| c).collect(), at, starts)
+    }
+
+    /// Every group of the entries by its place (outer before inner, entry after entry, an
+    /// entry that is a sum a place too), with how often its entry is shown, and each entry's
+    /// first place. Each entry's groups are hashed on printing's pool when the sheet is large.
+    fn places(&self) -> (Vec<Keyed<'_>>, Vec<usize>, Vec<usize>) {
+        let each = crate::par::map_ref(&self.entries, self.parallel, |(f, _)| {
+            let mut found = Vec::new();
+            if matches!(f, Form::Sum(_)) {
+                place(f, &mut found);
+            } else {
+                hashed_groups(f, &mut found);
+            }
+            found
+        });
+        let total = each.iter().map(Vec::len).sum();
+        let (mut found, mut shown) = (Vec::with_capacity(total), Vec::with_capacity(total));
+        let mut starts = Vec::with_capacity(each.len());
+        for (places, &n) in each.into_iter().zip(&self.counts) {
+            let offset = found.len();
+            starts.push(offset);
+            found.extend(places.into_iter().map(|k| Keyed {
+                end: k.end + offset,
+                ..k
+            }));
+            shown.resize(found.len(), n);
+        }
+        (found, shown, starts)
     }
 
     /// Whether a velocity occurs in the form `f` (read from its factors, without expanding
