@@ -7,14 +7,15 @@ use std::hash::{BuildHasher, Hash, Hasher};
 use crate::form::{Factor, Form};
 use crate::q::Q;
 
-/// A group's place ([`hashed_groups`]): its form with its hash, and where its inner places
-/// end. Hashed by the hash, compared by the form.
+/// A group's place ([`hashed_groups`]): its form with its hash, where its inner places end,
+/// and whether a velocity occurs in it. Hashed by the hash, compared by the form.
 #[derive(Clone, Copy)]
 pub(crate) struct Keyed<'a> {
     pub(crate) hash: u64,
     pub(crate) form: &'a Form,
     /// The index after its last inner place.
     pub(crate) end: usize,
+    pub(crate) velocity: bool,
 }
 
 impl Hash for Keyed<'_> {
@@ -33,44 +34,64 @@ impl Eq for Keyed<'_> {}
 
 /// Every group of `f`, outer before inner (the sums in parentheses, and the denominators that
 /// are sums: the places of [`Sheet::candidates`](crate::Sheet)), each with its hash; returns
-/// the hash of `f`. Equal forms have equal hashes.
-pub(crate) fn hashed_groups<'a>(f: &'a Form, out: &mut Vec<Keyed<'a>>) -> u64 {
+/// the hash of `f`, and whether a velocity occurs in it (in an atom or a name of its, as
+/// `velocity` says). Equal forms have equal hashes.
+pub(crate) fn hashed_groups<'a>(
+    f: &'a Form,
+    out: &mut Vec<Keyed<'a>>,
+    velocity: &dyn Fn(&Factor) -> bool,
+) -> (u64, bool) {
     match f {
-        Form::Product { coef, factors } => factors.iter().fold(mix(q_hash(coef), 1), |h, x| {
-            mix(
-                h,
-                match x {
-                    Factor::Atom { index, power } => mix(*index as u64, u64::from(*power)),
-                    Factor::Group(g) => place(g, out),
-                    Factor::Name { index } => mix(*index as u64, 2),
-                },
-            )
+        Form::Product { coef, factors } => {
+            let (mut h, mut v) = (mix(q_hash(coef), 1), false);
+            for x in factors {
+                let (hx, vx) = match x {
+                    Factor::Atom { index, power } => {
+                        (mix(*index as u64, u64::from(*power)), velocity(x))
+                    }
+                    Factor::Group(g) => place(g, out, velocity),
+                    Factor::Name { index } => (mix(*index as u64, 2), velocity(x)),
+                };
+                h = mix(h, hx);
+                v |= vx;
+            }
+            (h, v)
+        }
+        Form::Sum(terms) => terms.iter().fold((3, false), |(h, v), t| {
+            let (ht, vt) = hashed_groups(t, out, velocity);
+            (mix(h, ht), v || vt)
         }),
-        Form::Sum(terms) => terms.iter().fold(3, |h, t| mix(h, hashed_groups(t, out))),
         Form::Quotient(a, b) => {
-            let a = hashed_groups(a, out);
+            let a = hashed_groups(a, out, velocity);
             let b = if matches!(**b, Form::Sum(_)) {
-                place(b, out)
+                place(b, out, velocity)
             } else {
-                hashed_groups(b, out)
+                hashed_groups(b, out, velocity)
             };
-            mix(mix(a, 4), b)
+            (mix(mix(a.0, 4), b.0), a.1 || b.1)
         }
     }
 }
 
-/// `g` as a place: listed before its inner groups, its hash and end filled in after them.
-pub(crate) fn place<'a>(g: &'a Form, out: &mut Vec<Keyed<'a>>) -> u64 {
+/// `g` as a place: listed before its inner groups, its hash, end and velocity filled in after
+/// them.
+pub(crate) fn place<'a>(
+    g: &'a Form,
+    out: &mut Vec<Keyed<'a>>,
+    velocity: &dyn Fn(&Factor) -> bool,
+) -> (u64, bool) {
     let slot = out.len();
     out.push(Keyed {
         hash: 0,
         form: g,
         end: 0,
+        velocity: false,
     });
-    let hash = hashed_groups(g, out);
+    let (hash, v) = hashed_groups(g, out, velocity);
     out[slot].hash = hash;
     out[slot].end = out.len();
-    hash
+    out[slot].velocity = v;
+    (hash, v)
 }
 
 fn q_hash(q: &Q) -> u64 {

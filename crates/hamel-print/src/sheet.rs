@@ -26,6 +26,8 @@ pub struct Sheet {
     /// that a group in two equal entries recurs).
     counts: Vec<usize>,
     pub(crate) names: Vec<Definition>,
+    /// The names the model gave ([`Sheet::abbreviate`]), by index.
+    given: Vec<usize>,
     /// Each name's value, its definition expanded (computed once, when first needed: a
     /// name is told apart from the others by its value at [`Sheet::point`]).
     values: Vec<OnceLock<Fraction>>,
@@ -67,6 +69,7 @@ impl Sheet {
             entries: Vec::new(),
             counts: Vec::new(),
             names: Vec::new(),
+            given: Vec::new(),
             values: Vec::new(),
             point: crate::modular::Point::random(),
             check: crate::modular::Point::random(),
@@ -96,6 +99,7 @@ impl Sheet {
     pub fn abbreviate(&mut self, name: &str, e: &Expr) -> Result<(), PolyError> {
         let value = Fraction::from_expr(e, &mut self.atoms)?.normalised();
         let form = collect::fraction(&value, &self.atoms);
+        self.given.push(self.names.len());
         self.names
             .push(Definition::new(name.to_string(), Vec::new(), form, true));
         self.values.push(OnceLock::from(value));
@@ -354,9 +358,9 @@ impl Sheet {
         });
         // A definition is its group's first occurrence: its inner groups are the places
         // after that one.
-        for (d, place) in self.names[first..].iter_mut().zip(places) {
-            replace_at(&mut d.form, &mut (place + 1), &at);
-        }
+        crate::par::for_each_mut(&mut self.names[first..], self.parallel, |k, d| {
+            replace_at(&mut d.form, &mut (places[k] + 1), &at);
+        });
         self.name_wide();
     }
 }
@@ -556,7 +560,7 @@ impl Sheet {
             at: &at,
         };
         for (i, &(g, place, count)) in counted.iter().enumerate() {
-            if count < 2 || given.iter().any(|(f, _, _)| f == g) || self.mentions_velocity(g) {
+            if count < 2 || found[place].velocity || given.iter().any(|(f, _, _)| f == g) {
                 continue;
             }
             self.group_at(g, &mut { place }, groups, &mut memo);
@@ -579,7 +583,7 @@ impl Sheet {
                 },
             ));
         }
-        chosen.sort_by_key(|(i, c)| {
+        chosen.sort_by_cached_key(|(i, c)| {
             let size = std::cmp::Reverse(c.key.size());
             (
                 !self.parameters_only(&c.key),
@@ -616,12 +620,17 @@ impl Sheet {
     /// entry that is a sum a place too), with how often its entry is shown, and each entry's
     /// first place. Each entry's groups are hashed on printing's pool when the sheet is large.
     fn places(&self) -> (Vec<Keyed<'_>>, Vec<usize>, Vec<usize>) {
+        let velocity = |x: &Factor| match x {
+            Factor::Atom { index, .. } => self.atoms.get(*index).kind == Kind::Velocity,
+            Factor::Name { index } => self.mentions_velocity(&self.names[*index].form),
+            Factor::Group(_) => false,
+        };
         let each = crate::par::map_ref(&self.entries, self.parallel, |(f, _)| {
             let mut found = Vec::new();
             if matches!(f, Form::Sum(_)) {
-                place(f, &mut found);
+                place(f, &mut found, &velocity);
             } else {
-                hashed_groups(f, &mut found);
+                hashed_groups(f, &mut found, &velocity);
             }
             found
         });
@@ -641,7 +650,8 @@ impl Sheet {
     }
 
     /// Whether a velocity occurs in the form `f` (read from its factors, without expanding
-    /// it: a collected form's terms do not cancel).
+    /// it: a collected form's terms do not cancel); a group's is found as its place is
+    /// ([`hashed_groups`]).
     fn mentions_velocity(&self, f: &Form) -> bool {
         match f {
             Form::Product { factors, .. } => factors.iter().any(|x| match x {
@@ -677,10 +687,11 @@ impl Sheet {
         let stem = if parameter { "kappa" } else { "F" };
         // The next number of this kind whose name the model's abbreviations do not take.
         let counter = &mut self.numbers[usize::from(!parameter)];
+        let given = &self.given;
         let name = loop {
             *counter += 1;
             let name = format!("{stem}{counter}");
-            if !self.names.iter().any(|d| d.given && d.name == name) {
+            if !given.iter().any(|&j| self.names[j].name == name) {
                 break name;
             }
         };
