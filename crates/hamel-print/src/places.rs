@@ -2,13 +2,16 @@
 //! entries, outer before inner, each with a hash of its form made bottom-up, so that counting
 //! equal groups hashes each form once instead of once per group that holds it.
 
-use std::hash::{BuildHasher, Hash, Hasher};
+use std::hash::BuildHasher;
+
+use foldhash::HashMap;
+use smallvec::SmallVec;
 
 use crate::form::{Factor, Form};
 use crate::q::Q;
 
 /// A group's place ([`hashed_groups`]): its form with its hash, where its inner places end,
-/// and whether a velocity occurs in it. Hashed by the hash, compared by the form.
+/// and whether a velocity occurs in it.
 #[derive(Clone, Copy)]
 pub(crate) struct Keyed<'a> {
     pub(crate) hash: u64,
@@ -17,20 +20,6 @@ pub(crate) struct Keyed<'a> {
     pub(crate) end: usize,
     pub(crate) velocity: bool,
 }
-
-impl Hash for Keyed<'_> {
-    fn hash<H: Hasher>(&self, state: &mut H) {
-        state.write_u64(self.hash);
-    }
-}
-
-impl PartialEq for Keyed<'_> {
-    fn eq(&self, other: &Self) -> bool {
-        self.hash == other.hash && self.form == other.form
-    }
-}
-
-impl Eq for Keyed<'_> {}
 
 /// Every group of `f`, outer before inner (the sums in parentheses, and the denominators that
 /// are sums: the places of [`Sheet::candidates`](crate::Sheet)), each with its hash; returns
@@ -92,6 +81,84 @@ pub(crate) fn place<'a>(
     out[slot].end = out.len();
     out[slot].velocity = v;
     (hash, v)
+}
+
+/// Each place's kind: places whose forms are equal share one, numbered as met from the last
+/// place back. Inner places are met first, so two forms of equal hash are compared down to
+/// their groups only, whose kinds are known by then: each form is walked about once, not once
+/// per group that holds it.
+pub(crate) fn kinds(found: &[Keyed<'_>]) -> Vec<usize> {
+    let mut kind = vec![usize::MAX; found.len()];
+    let mut first: Vec<usize> = Vec::new();
+    let mut by_hash: HashMap<u64, SmallVec<[usize; 1]>> = HashMap::default();
+    by_hash.reserve(found.len());
+    for p in (0..found.len()).rev() {
+        let bucket = by_hash.entry(found[p].hash).or_default();
+        let known = bucket
+            .iter()
+            .copied()
+            .find(|&k| same(found, &kind, first[k], p));
+        kind[p] = known.unwrap_or_else(|| {
+            first.push(p);
+            bucket.push(first.len() - 1);
+            first.len() - 1
+        });
+    }
+    kind
+}
+
+/// Whether the forms at places `a` and `b` are equal, their groups' kinds known.
+fn same(found: &[Keyed<'_>], kind: &[usize], a: usize, b: usize) -> bool {
+    let (mut next_a, mut next_b) = (a + 1, b + 1);
+    found[a].end - a == found[b].end - b
+        && Walk { found, kind }.equal(found[a].form, &mut next_a, found[b].form, &mut next_b)
+}
+
+/// Two forms walked side by side, each with the place its next group has.
+struct Walk<'k, 'a> {
+    found: &'k [Keyed<'a>],
+    kind: &'k [usize],
+}
+
+impl Walk<'_, '_> {
+    fn equal(&self, f: &Form, nf: &mut usize, g: &Form, ng: &mut usize) -> bool {
+        match (f, g) {
+            (
+                Form::Product { coef, factors },
+                Form::Product {
+                    coef: other,
+                    factors: theirs,
+                },
+            ) => {
+                coef == other
+                    && factors.len() == theirs.len()
+                    && factors.iter().zip(theirs).all(|pair| match pair {
+                        (Factor::Group(_), Factor::Group(_)) => self.group(nf, ng),
+                        (x, y) => x == y,
+                    })
+            }
+            (Form::Sum(ts), Form::Sum(us)) => {
+                ts.len() == us.len() && ts.iter().zip(us).all(|(t, u)| self.equal(t, nf, u, ng))
+            }
+            (Form::Quotient(a, b), Form::Quotient(c, d)) => {
+                self.equal(a, nf, c, ng)
+                    && match (matches!(**b, Form::Sum(_)), matches!(**d, Form::Sum(_))) {
+                        (true, true) => self.group(nf, ng),
+                        (false, false) => self.equal(b, nf, d, ng),
+                        _ => false,
+                    }
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether the groups at places `*nf` and `*ng` are of one kind; both moved past them.
+    fn group(&self, nf: &mut usize, ng: &mut usize) -> bool {
+        let (p, q) = (*nf, *ng);
+        *nf = self.found[p].end;
+        *ng = self.found[q].end;
+        self.kind[p] == self.kind[q]
+    }
 }
 
 fn q_hash(q: &Q) -> u64 {

@@ -12,7 +12,7 @@ use hamel_expr::Expr;
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
 use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
-use crate::places::{Keyed, hashed_groups, place};
+use crate::places::{Keyed, hashed_groups, kinds, place};
 use crate::poly::{Fraction, Mono, Poly, PolyError};
 use crate::q::Q;
 use crate::read::Source;
@@ -539,18 +539,18 @@ impl Sheet {
     fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>, Vec<usize>) {
         let given = self.given_forms();
         let (found, shown, starts) = self.places();
-        let mut index: HashMap<Keyed<'_>, usize> = HashMap::default();
-        index.reserve(found.len());
+        let kinds = kinds(&found);
         let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
+        let mut of_kind = vec![usize::MAX; found.len()];
         let mut at: Vec<usize> = Vec::with_capacity(found.len());
-        for (place, (&k, n)) in found.iter().zip(shown).enumerate() {
-            let g = k.form;
-            let i = *index.entry(k).or_insert_with(|| {
-                counted.push((g, place, 0));
-                counted.len() - 1
-            });
-            counted[i].2 += n;
-            at.push(i);
+        for (place, (k, n)) in found.iter().zip(shown).enumerate() {
+            let i = &mut of_kind[kinds[place]];
+            if *i == usize::MAX {
+                *i = counted.len();
+                counted.push((k.form, place, 0));
+            }
+            counted[*i].2 += n;
+            at.push(*i);
         }
         let mut chosen: Vec<(usize, Candidate)> = Vec::new();
         // Outer groups come first: their expansion leaves their inner groups' values here.

@@ -605,3 +605,42 @@ fn ranks_are_the_printing_order() {
         }
     }
 }
+
+/// Places share a kind exactly when their forms are equal (compared whole): groups that
+/// recur inside others, in quotients' denominators, and that differ only deep inside.
+#[test]
+fn kinds_are_equal_forms() {
+    use crate::Sheet;
+    use crate::places::{hashed_groups, kinds};
+    let entries = [
+        "(m_d + m_f)*(rho1 + rho2)*cos(phi) + (m_d + m_f)*sin(phi)",
+        "((m_d + m_f)*(rho1 + rho2)*sin(theta) + m_r)*cos(theta1)",
+        "((m_d + m_f)*(rho1 + rho2)*sin(theta) + m_r)*sin(theta1) + m_r*(rho1 - rho2)",
+        "(m_d + m_f*cos(theta))/((rho1 + rho2)*sin(theta) + R)",
+        "(m_d + m_f*cos(theta))/((rho1 - rho2)*sin(theta) + R) + eta1",
+    ];
+    let exprs: Vec<_> = entries.iter().map(|e| parse(e).unwrap().expr).collect();
+    let mut sheet = Sheet::new(&unicycle());
+    sheet.add_all(&exprs).unwrap();
+    let mut found = Vec::new();
+    for (f, _) in &sheet.entries {
+        hashed_groups(f, &mut found, &|_| false);
+    }
+    // Then every hash alike: the forms alone tell the places apart.
+    let colliding: Vec<_> = found
+        .iter()
+        .map(|k| crate::places::Keyed { hash: 0, ..*k })
+        .collect();
+    for found in [&found, &colliding] {
+        let kinds = kinds(found);
+        let mut pairs = 0;
+        for p in 0..found.len() {
+            for q in 0..found.len() {
+                let equal = found[p].form == found[q].form;
+                assert_eq!(kinds[p] == kinds[q], equal, "places {p} and {q}");
+                pairs += usize::from(equal && p != q);
+            }
+        }
+        assert!(pairs >= 4, "groups recur: {pairs} pairs");
+    }
+}
