@@ -121,33 +121,54 @@ impl Printing {
     /// `show`'s text with every entry in its printing form, and the where-list after it. An
     /// equation multiplied through is written whole, `num = 0   (multiplied by D > 0)`.
     pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
-        // An entry shown twice (a symmetric matrix's, equal ones) is written once; one shown
-        // once is not kept.
+        // Every entry of a large sheet written first, on printing's pool; an entry shown
+        // twice (a symmetric matrix's, equal ones) is written once, and one shown once is
+        // not kept.
+        let ids: Vec<usize> = (0..self.sheet.entries.len()).collect();
+        let ahead: Vec<RefCell<Option<String>>> = if self.sheet.parallel {
+            crate::par::map_ref(&ids, true, |&id| self.entry_text(id))
+                .into_iter()
+                .map(|t| RefCell::new(Some(t)))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let written: RefCell<HashMap<usize, String>> = RefCell::default();
         let mut out = show(&|e| {
             let id = self.id(e);
             if let Some(text) = written.borrow().get(&id) {
                 return text.clone();
             }
-            let text = self.sheet.text(id);
-            let text = match self.sheet.multiplier_text(id) {
-                Some(d) => format!("{text} = 0   (multiplied by {d} > 0)"),
-                None => text,
-            };
+            let text = ahead
+                .get(id)
+                .and_then(|t| t.borrow_mut().take())
+                .unwrap_or_else(|| self.entry_text(id));
             if self.sheet.shown(id) > 1 {
                 written.borrow_mut().insert(id, text.clone());
             }
             text
         });
-        let used = self.used();
+        let used: Vec<usize> = self.used().into_iter().collect();
         if !used.is_empty() {
             out.push_str("\nwhere\n");
-            for j in used {
-                let (name, definition) = self.sheet.definition_text(j);
+            let definitions = crate::par::map_ref(&used, self.sheet.parallel, |&j| {
+                self.sheet.definition_text(j)
+            });
+            for (name, definition) in definitions {
                 let _ = writeln!(out, "  {name} = {definition}");
             }
         }
         out
+    }
+
+    /// Entry `id` as the text writes it: an equation multiplied through is written whole,
+    /// `num = 0   (multiplied by D > 0)`.
+    fn entry_text(&self, id: usize) -> String {
+        let text = self.sheet.text(id);
+        match self.sheet.multiplier_text(id) {
+            Some(d) => format!("{text} = 0   (multiplied by {d} > 0)"),
+            None => text,
+        }
     }
 
     /// The names the entries use (a model's abbreviation that none uses is left out).

@@ -53,7 +53,7 @@ pub struct Sheet {
     /// The atoms whose argument [`Sheet::name_wide`] has looked at (each once), by index.
     pub(crate) examined: Vec<bool>,
     /// Whether the entries are many enough to be worked on printing's pool.
-    parallel: bool,
+    pub(crate) parallel: bool,
 }
 
 impl Sheet {
@@ -552,30 +552,17 @@ impl Sheet {
             counted[*i].2 += n;
             at.push(*i);
         }
-        let mut chosen: Vec<(usize, Candidate)> = Vec::new();
-        // Outer groups come first: their expansion leaves their inner groups' values here.
-        let mut memo: Vec<Option<Fraction>> = vec![None; counted.len()];
         let groups = Groups {
             found: &found,
             at: &at,
         };
-        for (i, &(g, place, count)) in counted.iter().enumerate() {
-            if count < 2 || found[place].velocity || given.iter().any(|(f, _, _)| f == g) {
-                continue;
-            }
-            self.group_at(g, &mut { place }, groups, &mut memo);
-            let value = memo[i].clone().expect("valued");
-            let Some((_, key)) = key(&value) else {
-                continue;
-            };
-            if self.has_velocities(&key) || (key.size() < 3 && self.parameters_only(&key)) {
-                continue;
-            }
-            let form = g.clone();
+        let mut chosen: Vec<(usize, Candidate)> = Vec::new();
+        for (i, value, key) in self.recurring(&counted, groups, &given) {
+            let (g, place, count) = counted[i];
             chosen.push((
                 i,
                 Candidate {
-                    form,
+                    form: g.clone(),
                     value,
                     key,
                     place,
@@ -614,6 +601,36 @@ impl Sheet {
         }
         let at = at.into_iter().map(|i| name_of[i].clone()).collect();
         (chosen.into_iter().map(|(_, c)| c).collect(), at, starts)
+    }
+
+    /// The groups that may be named, by their index in `counted`, in its order, with their
+    /// values and keys: counted twice or more, free of velocities, not a given name's form,
+    /// of three terms or more if they hold parameters only (`ρ₁ + ρ₂` reads better than a
+    /// name). Outer groups come first: valuing them values their inner groups, kept for the
+    /// groups after. (Dealt to two workers, each valuing inner groups anew, this was slower
+    /// on the unicycle's momenta.)
+    fn recurring(
+        &self,
+        counted: &[(&Form, usize, usize)],
+        groups: Groups<'_, '_>,
+        given: &[(Form, usize, Q)],
+    ) -> Vec<(usize, Fraction, Key)> {
+        let mut memo: Vec<Option<Fraction>> = vec![None; counted.len()];
+        let mut out = Vec::new();
+        for (i, &(g, place, count)) in counted.iter().enumerate() {
+            if count < 2 || groups.found[place].velocity || given.iter().any(|(f, _, _)| f == g) {
+                continue;
+            }
+            self.group_at(g, &mut { place }, groups, &mut memo);
+            let value = memo[i].clone().expect("valued");
+            let Some((_, key)) = key(&value) else {
+                continue;
+            };
+            if !self.has_velocities(&key) && (key.size() >= 3 || !self.parameters_only(&key)) {
+                out.push((i, value, key));
+            }
+        }
+        out
     }
 
     /// Every group of the entries by its place (outer before inner, entry after entry, an
