@@ -36,6 +36,7 @@ mod document;
 mod form;
 mod layout;
 mod modular;
+mod naming;
 mod par;
 mod places;
 mod poly;

@@ -1,0 +1,369 @@
+//! Naming a sheet's groups ([`Sheet::name_groups`]): the groups that recur are counted by
+//! kind, valued, and named once, parameter groups `κₙ`, then functions of the coordinates
+//! `Fₙ(q…)`; every place of a named group is then written with its name.
+//!
+//! The groups are found by their places: every group of the entries, outer before inner,
+//! entry after entry (`places.rs`). A group's inner groups are the places after its own, up
+//! to its end, so a group is valued, compared and replaced by walking its form alongside the
+//! place numbers, never by hashing or comparing forms whole. On a large sheet, the entries'
+//! groups are found and replaced on printing's pool, each entry from its own first place.
+
+use crate::atoms::Kind;
+use crate::form::{Factor, Form};
+use crate::places::{Keyed, hashed_groups, kinds, place};
+use crate::poly::{Fraction, Mono, Poly};
+use crate::q::Q;
+use crate::sheet::{Key, Sheet, key};
+
+impl Sheet {
+    /// Names the groups that occur twice or more across the entries (the same form, or a
+    /// rational multiple of a model's abbreviation): parameter groups `kappa1`, `kappa2`, …,
+    /// then functions of the coordinates `F1`, `F2`, …, which may use the parameter names.
+    /// Two passes over the groups, one to count, one to replace; only the recurring groups are
+    /// expanded. Then the groups still too wide for a line are named too
+    /// ([`Sheet::name_wide`]).
+    pub fn name_groups(&mut self) {
+        let (chosen, at, starts) = self.candidates();
+        let first = self.names.len();
+        let mut places = Vec::new();
+        for c in chosen {
+            let definition = self.definition(&c.key, c.form);
+            self.push_name(definition, Some(c.value));
+            places.push(c.place);
+        }
+        // Each entry from its first place on (an entry that is a sum is a place itself).
+        crate::par::for_each_mut(&mut self.entries, self.parallel, |i, (f, _)| {
+            let mut next = starts[i];
+            if matches!(f, Form::Sum(_)) {
+                next += 1;
+                if let Some(p) = &at[starts[i]] {
+                    *f = named(p);
+                    return;
+                }
+            }
+            replace_at(f, &mut next, &at);
+        });
+        // A definition is its group's first occurrence: its inner groups are the places
+        // after that one.
+        crate::par::for_each_mut(&mut self.names[first..], self.parallel, |k, d| {
+            replace_at(&mut d.form, &mut (places[k] + 1), &at);
+        });
+        self.name_wide();
+    }
+
+    /// The value of the group `g` at place `*next` ([`Sheet::fraction_of_in`]), kept in
+    /// `memo` under the index its place has in `groups` (equal groups share it), computed if
+    /// not there; returns that index, `next` moved past the group's inner places. The inner
+    /// groups are valued alike, by their places, so no form is hashed or compared.
+    fn group_at(
+        &self,
+        g: &Form,
+        next: &mut usize,
+        groups: Groups<'_, '_>,
+        memo: &mut [Option<Fraction>],
+    ) -> usize {
+        let p = *next;
+        let i = groups.at[p];
+        if memo[i].is_none() {
+            *next = p + 1;
+            let v = self.fraction_at(g, next, groups, memo);
+            memo[i] = Some(v);
+        }
+        *next = groups.found[p].end;
+        i
+    }
+
+    /// The form `f` (whose groups are the places from `*next` on, in the order of
+    /// [`hashed_groups`]) as a fraction, names expanded, groups valued by [`Sheet::group_at`].
+    fn fraction_at(
+        &self,
+        f: &Form,
+        next: &mut usize,
+        groups: Groups<'_, '_>,
+        memo: &mut [Option<Fraction>],
+    ) -> Fraction {
+        match f {
+            Form::Product { coef, factors } => {
+                // The atoms make one monomial; only groups and names are multiplied in.
+                let mut monomial = Mono::default();
+                let mut parts: Vec<Part> = Vec::new();
+                for x in factors {
+                    match x {
+                        Factor::Atom { index, power } => {
+                            monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
+                        }
+                        Factor::Group(g) => {
+                            parts.push(Part::Group(self.group_at(g, next, groups, memo)));
+                        }
+                        Factor::Name { index } => parts.push(Part::Name(*index)),
+                    }
+                }
+                let mut acc: Option<Fraction> = None;
+                for part in parts {
+                    let v = match part {
+                        Part::Group(i) => memo[i].as_ref().expect("valued"),
+                        Part::Name(j) => self.value(j),
+                    };
+                    acc = Some(match acc {
+                        Some(a) => a.times(v),
+                        None => v.clone(),
+                    });
+                }
+                let front = Fraction::from(Poly::term(monomial, coef.clone()));
+                match acc {
+                    Some(rest) => rest.times(&front),
+                    None => front,
+                }
+            }
+            Form::Sum(terms) => {
+                let parts: Vec<Fraction> = terms
+                    .iter()
+                    .map(|t| self.fraction_at(t, next, groups, memo))
+                    .collect();
+                Fraction::sum(parts)
+            }
+            Form::Quotient(a, b) => {
+                let a = self.fraction_at(a, next, groups, memo);
+                if matches!(**b, Form::Sum(_)) {
+                    let i = self.group_at(b, next, groups, memo);
+                    a.over(memo[i].as_ref().expect("valued"))
+                } else {
+                    a.over(&self.fraction_at(b, next, groups, memo))
+                }
+            }
+        }
+    }
+
+    /// The groups to name, in naming order: those occurring twice at least (the same form:
+    /// collection writes a polynomial one way, so equal groups print alike and only these
+    /// are expanded), free of velocities, of three terms or more if they hold parameters
+    /// only (`ρ₁ + ρ₂` reads better than a name); parameter groups before functions of the
+    /// coordinates, the more frequent first, then the larger, then the first met. Also, for
+    /// each group of the entries by its place (outer before inner, entry after entry), the
+    /// name it gets, if it gets one.
+    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>, Vec<usize>) {
+        let given = self.given_forms();
+        let (found, shown, starts) = self.places();
+        let kinds = kinds(&found);
+        let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
+        let mut of_kind = vec![usize::MAX; found.len()];
+        let mut at: Vec<usize> = Vec::with_capacity(found.len());
+        for (place, (k, n)) in found.iter().zip(shown).enumerate() {
+            let i = &mut of_kind[kinds[place]];
+            if *i == usize::MAX {
+                *i = counted.len();
+                counted.push((k.form, place, 0));
+            }
+            counted[*i].2 += n;
+            at.push(*i);
+        }
+        let groups = Groups {
+            found: &found,
+            at: &at,
+        };
+        let mut chosen: Vec<(usize, Candidate)> = Vec::new();
+        for (i, value, key) in self.recurring(&counted, groups, &given) {
+            let (g, place, count) = counted[i];
+            chosen.push((
+                i,
+                Candidate {
+                    form: g.clone(),
+                    value,
+                    key,
+                    place,
+                    count,
+                },
+            ));
+        }
+        chosen.sort_by_cached_key(|(i, c)| {
+            let size = std::cmp::Reverse(c.key.size());
+            (
+                !self.parameters_only(&c.key),
+                std::cmp::Reverse(c.count),
+                size,
+                *i,
+            )
+        });
+        let first = self.names.len();
+        // Equal groups have as many inner places as the first of them.
+        let inner = |i: usize| found[counted[i].1].end - counted[i].1 - 1;
+        let mut name_of: Vec<Option<Placed>> = vec![None; counted.len()];
+        for (name, (i, _)) in chosen.iter().enumerate() {
+            name_of[*i] = Some(Placed {
+                name: first + name,
+                factor: Q::one(),
+                inner: inner(*i),
+            });
+        }
+        for (i, &(g, _, _)) in counted.iter().enumerate() {
+            if let Some((_, name, factor)) = given.iter().find(|(f, _, _)| f == g) {
+                name_of[i] = Some(Placed {
+                    name: *name,
+                    factor: factor.clone(),
+                    inner: inner(i),
+                });
+            }
+        }
+        let at = at.into_iter().map(|i| name_of[i].clone()).collect();
+        (chosen.into_iter().map(|(_, c)| c).collect(), at, starts)
+    }
+
+    /// The groups that may be named, by their index in `counted`, in its order, with their
+    /// values and keys: counted twice or more, free of velocities, not a given name's form,
+    /// of three terms or more if they hold parameters only (`ρ₁ + ρ₂` reads better than a
+    /// name). Outer groups come first: valuing them values their inner groups, kept for the
+    /// groups after. (Dealt to two workers, each valuing inner groups anew, this was slower
+    /// on the unicycle's momenta.)
+    fn recurring(
+        &self,
+        counted: &[(&Form, usize, usize)],
+        groups: Groups<'_, '_>,
+        given: &[(Form, usize, Q)],
+    ) -> Vec<(usize, Fraction, Key)> {
+        let mut memo: Vec<Option<Fraction>> = vec![None; counted.len()];
+        let mut out = Vec::new();
+        for (i, &(g, place, count)) in counted.iter().enumerate() {
+            if count < 2 || groups.found[place].velocity || given.iter().any(|(f, _, _)| f == g) {
+                continue;
+            }
+            self.group_at(g, &mut { place }, groups, &mut memo);
+            let value = memo[i].clone().expect("valued");
+            let Some((_, key)) = key(&value) else {
+                continue;
+            };
+            if !self.has_velocities(&key) && (key.size() >= 3 || !self.parameters_only(&key)) {
+                out.push((i, value, key));
+            }
+        }
+        out
+    }
+
+    /// Every group of the entries by its place (outer before inner, entry after entry, an
+    /// entry that is a sum a place too), with how often its entry is shown, and each entry's
+    /// first place. Each entry's groups are hashed on printing's pool when the sheet is large.
+    fn places(&self) -> (Vec<Keyed<'_>>, Vec<usize>, Vec<usize>) {
+        let velocity = |x: &Factor| match x {
+            Factor::Atom { index, .. } => self.atoms.get(*index).kind == Kind::Velocity,
+            Factor::Name { index } => self.mentions_velocity(&self.names[*index].form),
+            Factor::Group(_) => false,
+        };
+        let each = crate::par::map_ref(&self.entries, self.parallel, |(f, _)| {
+            let mut found = Vec::new();
+            if matches!(f, Form::Sum(_)) {
+                place(f, &mut found, &velocity);
+            } else {
+                hashed_groups(f, &mut found, &velocity);
+            }
+            found
+        });
+        let total = each.iter().map(Vec::len).sum();
+        let (mut found, mut shown) = (Vec::with_capacity(total), Vec::with_capacity(total));
+        let mut starts = Vec::with_capacity(each.len());
+        for (places, &n) in each.into_iter().zip(&self.counts) {
+            let offset = found.len();
+            starts.push(offset);
+            found.extend(places.into_iter().map(|k| Keyed {
+                end: k.end + offset,
+                ..k
+            }));
+            shown.resize(found.len(), n);
+        }
+        (found, shown, starts)
+    }
+
+    /// Whether a velocity occurs in the form `f` (read from its factors, without expanding
+    /// it: a collected form's terms do not cancel); a group's is found as its place is
+    /// ([`hashed_groups`]).
+    fn mentions_velocity(&self, f: &Form) -> bool {
+        match f {
+            Form::Product { factors, .. } => factors.iter().any(|x| match x {
+                Factor::Atom { index, .. } => self.atoms.get(*index).kind == Kind::Velocity,
+                Factor::Group(g) => self.mentions_velocity(g),
+                Factor::Name { index } => self.mentions_velocity(&self.names[*index].form),
+            }),
+            Form::Sum(terms) => terms.iter().any(|t| self.mentions_velocity(t)),
+            Form::Quotient(a, b) => self.mentions_velocity(a) || self.mentions_velocity(b),
+        }
+    }
+}
+
+/// The name a group's place gets, the factor from the group to the name's value, and how
+/// many places lie inside the group (skipped when it is replaced).
+#[derive(Clone)]
+struct Placed {
+    name: usize,
+    factor: Q,
+    inner: usize,
+}
+
+/// The places of a sheet's groups ([`Sheet::places`]) and, for each, the index of its kind
+/// (equal groups share one).
+#[derive(Clone, Copy)]
+struct Groups<'p, 'f> {
+    found: &'p [Keyed<'f>],
+    at: &'p [usize],
+}
+
+/// A group that recurs: its form, its value and key, its first place (outer before inner,
+/// entry after entry) and how often it occurs.
+struct Candidate {
+    form: Form,
+    value: Fraction,
+    key: Key,
+    place: usize,
+    count: usize,
+}
+
+/// A named group as a form: its factor times its name.
+fn named(p: &Placed) -> Form {
+    Form::Product {
+        coef: p.factor.clone(),
+        factors: vec![Factor::Name { index: p.name }],
+    }
+}
+
+/// The groups of `f` named where `at` says, by their places counted on from `next` (the
+/// order of [`hashed_groups`]). A group that is named is not looked into: its inner places are
+/// counted and skipped.
+fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
+    match f {
+        Form::Product { coef, factors } => {
+            for x in factors.iter_mut() {
+                let Factor::Group(g) = x else { continue };
+                let place = *next;
+                *next += 1;
+                match &at[place] {
+                    Some(p) => {
+                        *next += p.inner;
+                        *coef = coef.mul(&p.factor);
+                        *x = Factor::Name { index: p.name };
+                    }
+                    None => replace_at(g, next, at),
+                }
+            }
+        }
+        Form::Sum(terms) => terms.iter_mut().for_each(|t| replace_at(t, next, at)),
+        Form::Quotient(a, b) => {
+            replace_at(a, next, at);
+            let place = matches!(**b, Form::Sum(_)).then(|| {
+                *next += 1;
+                *next - 1
+            });
+            match place.and_then(|p| at[p].as_ref()) {
+                Some(p) => {
+                    *next += p.inner;
+                    **b = named(p);
+                }
+                None => replace_at(b, next, at),
+            }
+        }
+    }
+}
+
+/// A factor of a product that [`Sheet::fraction_at`] multiplies in: a group, by the index of
+/// its kind's value, or a name.
+#[derive(Clone, Copy)]
+enum Part {
+    Group(usize),
+    Name(usize),
+}
