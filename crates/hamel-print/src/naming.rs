@@ -11,9 +11,9 @@
 use crate::atoms::Kind;
 use crate::form::{Factor, Form};
 use crate::places::{Keyed, hashed_groups, kinds, place};
-use crate::poly::{Fraction, Mono, Poly};
+use crate::poly::{Fraction, Mono};
 use crate::q::Q;
-use crate::sheet::{Key, Sheet, key};
+use crate::sheet::{Key, Sheet, key, product};
 
 impl Sheet {
     /// Names the groups that occur twice or more across the entries (the same form, or a
@@ -98,22 +98,11 @@ impl Sheet {
                         Factor::Name { index } => parts.push(Part::Name(*index)),
                     }
                 }
-                let mut acc: Option<Fraction> = None;
-                for part in parts {
-                    let v = match part {
-                        Part::Group(i) => memo[i].as_ref().expect("valued"),
-                        Part::Name(j) => self.value(j),
-                    };
-                    acc = Some(match acc {
-                        Some(a) => a.times(v),
-                        None => v.clone(),
-                    });
-                }
-                let front = Fraction::from(Poly::term(monomial, coef.clone()));
-                match acc {
-                    Some(rest) => rest.times(&front),
-                    None => front,
-                }
+                let parts = parts.into_iter().map(|part| match part {
+                    Part::Group(i) => memo[i].as_ref().expect("valued"),
+                    Part::Name(j) => self.value(j),
+                });
+                product(coef, monomial, parts)
             }
             Form::Sum(terms) => {
                 let parts: Vec<Fraction> = terms

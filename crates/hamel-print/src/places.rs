@@ -1,6 +1,8 @@
-//! The places of a sheet's groups ([`Sheet::candidates`](crate::Sheet)): every group of the
-//! entries, outer before inner, each with a hash of its form made bottom-up, so that counting
-//! equal groups hashes each form once instead of once per group that holds it.
+//! The places of a sheet's groups (`naming.rs`): every group of the entries, outer before
+//! inner, each with a hash of its form made bottom-up (each form is hashed once, not once per
+//! group that holds it), where its inner places end, and whether a velocity occurs in it; and
+//! the places' kinds ([`kinds`]): equal forms share one, found inner places first so that two
+//! forms are compared down to their groups only.
 
 use std::hash::BuildHasher;
 

@@ -1,7 +1,6 @@
 //! A sheet: expressions printed together, sharing their atoms and a where-list of named
 //! groups, as a paper names κ₁, κ₂ and F₁(θ, θ₁) once and uses them in every entry.
 
-use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::OnceLock;
 
@@ -346,32 +345,24 @@ impl Sheet {
             Form::Product { coef, factors } => {
                 // The atoms make one monomial; only groups and names are multiplied in.
                 let mut monomial = Mono::default();
-                let mut acc: Option<Fraction> = None;
                 for x in factors {
-                    let part = match x {
+                    match x {
                         Factor::Atom { index, power } => {
                             monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
-                            continue;
                         }
-                        Factor::Group(g) => {
-                            if !memo.contains_key(g) {
-                                let v = self.fraction_of_in(g, memo);
-                                memo.insert(g, v);
-                            }
-                            Cow::Borrowed(&memo[g])
+                        Factor::Group(g) if !memo.contains_key(g) => {
+                            let v = self.fraction_of_in(g, memo);
+                            memo.insert(g, v);
                         }
-                        Factor::Name { index } => Cow::Borrowed(self.value(*index)),
-                    };
-                    acc = Some(match acc {
-                        Some(a) => a.times(&part),
-                        None => part.into_owned(),
-                    });
+                        _ => {}
+                    }
                 }
-                let front = Fraction::from(Poly::term(monomial, coef.clone()));
-                match acc {
-                    Some(rest) => rest.times(&front),
-                    None => front,
-                }
+                let parts = factors.iter().filter_map(|x| match x {
+                    Factor::Atom { .. } => None,
+                    Factor::Group(g) => Some(&memo[g]),
+                    Factor::Name { index } => Some(self.value(*index)),
+                });
+                product(coef, monomial, parts)
             }
             Form::Sum(terms) => {
                 let parts: Vec<Fraction> =
@@ -459,6 +450,27 @@ fn uses(f: &Form, arguments: &BTreeMap<usize, usize>, out: &mut Vec<usize>) {
             uses(a, arguments, out);
             uses(b, arguments, out);
         }
+    }
+}
+
+/// `coef · monomial · parts…`: the parts multiplied in order, the monomial last (a form's
+/// product with its groups and names valued).
+pub(crate) fn product<'p>(
+    coef: &Q,
+    monomial: Mono,
+    parts: impl IntoIterator<Item = &'p Fraction>,
+) -> Fraction {
+    let mut acc: Option<Fraction> = None;
+    for v in parts {
+        acc = Some(match acc {
+            Some(a) => a.times(v),
+            None => v.clone(),
+        });
+    }
+    let front = Fraction::from(Poly::term(monomial, coef.clone()));
+    match acc {
+        Some(rest) => rest.times(&front),
+        None => front,
     }
 }
 
