@@ -28,19 +28,6 @@ pub struct Vocabulary {
     pub velocities: Vec<String>,
 }
 
-/// What numbers the atoms met while an expression is read ([`Atoms`], or an entry's own
-/// numbering while entries are read in parallel).
-pub(crate) trait Intern<'e> {
-    /// The index of `expr`'s atom, added if new.
-    fn intern(&mut self, expr: &'e Expr) -> usize;
-}
-
-impl<'e> Intern<'e> for Atoms {
-    fn intern(&mut self, expr: &'e Expr) -> usize {
-        Atoms::intern(self, expr)
-    }
-}
-
 /// One atom: an expression that a polynomial treats as a variable.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Atom {

@@ -6,7 +6,7 @@ use num_traits::{Signed, ToPrimitive};
 
 use smallvec::SmallVec;
 
-use crate::atoms::{Atoms, Intern};
+use crate::atoms::Atoms;
 use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
@@ -380,10 +380,7 @@ impl Fraction {
 
     /// [`Fraction::from_expr`] with the atoms numbered by `atoms` (a sheet's, or an entry's
     /// own while entries are read in parallel: `read.rs`).
-    pub(crate) fn read<'e>(
-        e: &'e Expr,
-        atoms: &mut impl Intern<'e>,
-    ) -> Result<Fraction, PolyError> {
+    pub(crate) fn read(e: &Expr, atoms: &mut Atoms) -> Result<Fraction, PolyError> {
         Ok(match e {
             Expr::Num(r) => Fraction::poly(Poly::constant(r)),
             Expr::Add(v) => {
@@ -443,14 +440,14 @@ impl Fraction {
     }
 
     /// [`Fraction::from_canonical`] with the atoms numbered by `atoms`.
-    pub(crate) fn read_canonical<'e>(c: &'e Canonical, atoms: &mut impl Intern<'e>) -> Fraction {
+    pub(crate) fn read_canonical(c: &Canonical, atoms: &mut Atoms) -> Fraction {
         Fraction::read_mapped(c, &Fraction::numbering(c, atoms))
     }
 
     /// The number `atoms` gives each of `c`'s atoms, numbered in the order met
     /// (`Canonical::atoms_met`: the numerator's terms, then the factors', each term's atoms in
     /// order); the terms are read only until every atom is met.
-    pub(crate) fn numbering<'e>(c: &'e Canonical, atoms: &mut impl Intern<'e>) -> Vec<usize> {
+    pub(crate) fn numbering(c: &Canonical, atoms: &mut Atoms) -> Vec<usize> {
         let mut map = vec![usize::MAX; c.atoms.len()];
         let mut left = c.atoms.len();
         let all = c.factors.iter().flat_map(|(t, _)| t);
@@ -508,11 +505,11 @@ impl Fraction {
     }
 
     /// `base^exp`: expanded for a small integer exponent, an atom otherwise.
-    fn power<'e>(
-        base: &'e Expr,
-        exp: &'e Expr,
-        whole: &'e Expr,
-        atoms: &mut impl Intern<'e>,
+    fn power(
+        base: &Expr,
+        exp: &Expr,
+        whole: &Expr,
+        atoms: &mut Atoms,
     ) -> Result<Fraction, PolyError> {
         let Some(n) = exp.as_integer().filter(|n| n.abs() <= 64) else {
             if matches!(base, Expr::Sym(_) | Expr::Call(..) | Expr::Der(_)) {
@@ -599,7 +596,7 @@ impl Fraction {
 /// `e` as `c · m` when it is a monomial (a product of numbers, atoms and their natural
 /// powers, possibly negated): the common shape of a canonical form's terms, read without
 /// building a polynomial per factor. The atoms are those [`Fraction::from_expr`] makes.
-fn monomial<'e>(e: &'e Expr, atoms: &mut impl Intern<'e>) -> Option<(Q, Mono)> {
+fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
     let mut c = Q::one();
     let mut pairs = Pairs::new();
     factors_of(e, 1, &mut c, &mut pairs, atoms)?;
@@ -622,13 +619,7 @@ fn sort_pairs(pairs: &mut Pairs) {
 
 /// The factors of the monomial `e^k`: its number multiplied into `c`, its atoms' pairs
 /// pushed (unsorted, an atom possibly twice); None if `e` is not a monomial.
-fn factors_of<'e>(
-    e: &'e Expr,
-    k: u32,
-    c: &mut Q,
-    pairs: &mut Pairs,
-    atoms: &mut impl Intern<'e>,
-) -> Option<()> {
+fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms) -> Option<()> {
     match e {
         Expr::Num(r) => {
             let r = Q::from(r);
