@@ -15,6 +15,7 @@ use std::collections::BTreeMap;
 use foldhash::HashMap;
 
 use crate::atoms::{Atoms, Kind};
+use crate::factored::Factored;
 use crate::form::{Factor, Form, factor_rank, is_zero};
 use crate::poly::{Fraction, Mono, Poly, leading_negative};
 use crate::q::Q;
@@ -24,6 +25,9 @@ use crate::q::Q;
 pub(crate) struct Cx<'a> {
     atoms: &'a Atoms,
     memo: RefCell<HashMap<Poly, Form>>,
+    /// The denominators' factors collected so far (a sheet's denominators are powers of a
+    /// few: each is collected once).
+    factors: RefCell<HashMap<Poly, Form>>,
 }
 
 impl<'a> Cx<'a> {
@@ -32,6 +36,7 @@ impl<'a> Cx<'a> {
         Cx {
             atoms,
             memo: RefCell::default(),
+            factors: RefCell::default(),
         }
     }
 }
@@ -47,22 +52,69 @@ impl std::ops::Deref for Cx<'_> {
 /// The printing form of a fraction: a polynomial, or a quotient of two, the sign out of the
 /// denominator.
 pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
-    fraction_in(f, &Cx::new(atoms))
-}
-
-/// [`fraction`] with the parameter polynomials already factored in `cx` (the entries of a
-/// sheet share their coefficients: the unicycle's 15,931 factorings are of 245 polynomials).
-pub(crate) fn fraction_in(f: &Fraction, atoms: &Cx<'_>) -> Form {
+    let cx = Cx::new(atoms);
     match f.den.as_constant() {
-        Some(c) if c.is_one() => poly_in(&f.num, atoms),
+        Some(c) if c.is_one() => poly_in(&f.num, &cx),
         _ => {
-            let (mut num, mut den) = (poly_in(&f.num, atoms), poly_in(&f.den, atoms));
+            let (mut num, mut den) = (poly_in(&f.num, &cx), poly_in(&f.den, &cx));
             if negative(&den) {
                 negate(&mut num);
                 negate(&mut den);
             }
             Form::Quotient(Box::new(num), Box::new(den))
         }
+    }
+}
+
+/// The printing form of an entry whose denominator is kept in factors: each factor written
+/// once and raised to its power (a group to a power is the group repeated, which rendering
+/// writes as the power: `12 F₁(φ)²`), the sign out of the denominator. The parameter
+/// polynomials are factored once in `cx` (the entries of a sheet share their coefficients:
+/// the unicycle's 15,931 factorings are of 245 polynomials).
+pub(crate) fn factored_in(f: &Factored, cx: &Cx<'_>) -> Form {
+    if f.factors.is_empty() {
+        return poly_in(&f.num, cx);
+    }
+    let mut coef = f.scale.clone();
+    let mut factors = Vec::new();
+    for (p, e) in &f.factors {
+        let form = cx.factors.borrow().get(p).cloned();
+        let form = form.unwrap_or_else(|| {
+            let form = poly_in(p, cx);
+            cx.factors.borrow_mut().insert(p.clone(), form.clone());
+            form
+        });
+        raise(form, *e, &mut coef, &mut factors);
+    }
+    let (mut num, mut den) = (poly_in(&f.num, cx), sorted(coef, factors, cx));
+    if negative(&den) {
+        negate(&mut num);
+        negate(&mut den);
+    }
+    Form::Quotient(Box::new(num), Box::new(den))
+}
+
+/// `form^e` multiplied into `coef · factors`.
+fn raise(form: Form, e: u32, coef: &mut Q, factors: &mut Vec<Factor>) {
+    match form {
+        Form::Product {
+            coef: c,
+            factors: more,
+        } => {
+            for _ in 0..e {
+                *coef = coef.mul(&c);
+            }
+            for x in more {
+                match x {
+                    Factor::Atom { index, power } => factors.push(Factor::Atom {
+                        index,
+                        power: power * e,
+                    }),
+                    other => factors.extend(std::iter::repeat_n(other, e as usize)),
+                }
+            }
+        }
+        sum => factors.extend(std::iter::repeat_n(Factor::Group(sum), e as usize)),
     }
 }
 

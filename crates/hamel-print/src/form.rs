@@ -175,6 +175,8 @@ pub(crate) trait Syntax {
     fn quotient(&self, bare: (bool, bool)) -> [&'static str; 3];
     /// A name with its arguments.
     fn name<'d>(&self, d: &'d Definition) -> &'d str;
+    /// The exponent after a group or a name: `^2`, `^{2}`.
+    fn exponent(&self, n: u32, out: &mut String);
 }
 
 pub(crate) struct Text;
@@ -232,6 +234,10 @@ impl Syntax for Text {
     fn name<'d>(&self, d: &'d Definition) -> &'d str {
         &d.written[0]
     }
+    fn exponent(&self, n: u32, out: &mut String) {
+        out.push('^');
+        out.push_str(itoa::Buffer::new().format(n));
+    }
 }
 
 impl Syntax for Latex {
@@ -273,6 +279,9 @@ impl Syntax for Latex {
     }
     fn name<'d>(&self, d: &'d Definition) -> &'d str {
         &d.written[1]
+    }
+    fn exponent(&self, n: u32, out: &mut String) {
+        exponent(n, out);
     }
 }
 
@@ -361,7 +370,7 @@ fn write_unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
                 s.magnitude(coef, out);
                 first = false;
             }
-            for x in factors {
+            for (x, n) in powers(factors) {
                 if !std::mem::take(&mut first) {
                     out.push_str(s.times());
                 }
@@ -374,6 +383,9 @@ fn write_unsigned(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
                         out.push_str(close);
                     }
                     Factor::Name { index } => out.push_str(s.name(&ctx.names[*index])),
+                }
+                if n > 1 {
+                    s.exponent(n, out);
                 }
             }
         }
@@ -400,17 +412,19 @@ fn bare_numerator(f: &Form) -> bool {
     matches!(f, Form::Product { coef, .. } if coef.is_positive())
 }
 
-/// A denominator that needs no parentheses after `/`: one atom or name, or a positive integer.
+/// A denominator that needs no parentheses after `/`: one atom or name (to a power), or a
+/// positive integer.
 fn bare_denominator(f: &Form) -> bool {
     match f {
         Form::Product { coef, factors } if factors.is_empty() => {
             coef.is_integer() && coef.is_positive()
         }
         Form::Product { coef, factors } => {
+            let mut runs = powers(factors);
             coef.is_one()
                 && matches!(
-                    factors.as_slice(),
-                    [Factor::Atom { .. } | Factor::Name { .. }]
+                    (runs.next(), runs.next()),
+                    (Some((Factor::Atom { .. } | Factor::Name { .. }, _)), None)
                 )
         }
         _ => false,
@@ -430,6 +444,21 @@ pub(crate) fn factor_rank(x: &Factor, atoms: &Atoms) -> (u8, u32) {
         }
         Factor::Group(_) | Factor::Name { .. } => (1, 0),
     }
+}
+
+/// A product's factors with each run of one group or name (a denominator's `δ²` is the
+/// group repeated) as one factor and the run's length, the power it is written with.
+pub(crate) fn powers(factors: &[Factor]) -> impl Iterator<Item = (&Factor, u32)> {
+    let mut k = 0;
+    std::iter::from_fn(move || {
+        let x = factors.get(k)?;
+        let n = match x {
+            Factor::Atom { .. } => 1,
+            _ => factors[k..].iter().take_while(|y| *y == x).count(),
+        };
+        k += n;
+        Some((x, u32::try_from(n).expect("a short product")))
+    })
 }
 
 /// Whether a form is the constant zero.

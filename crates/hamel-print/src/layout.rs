@@ -3,7 +3,7 @@
 
 use crate::atoms::simple;
 use crate::form::{
-    Ctx, Factor, Form, Latex, Syntax, negative_term, render, render_terms, unsigned_latex,
+    Ctx, Factor, Form, Latex, Syntax, negative_term, powers, render, render_terms, unsigned_latex,
 };
 use crate::q::Q;
 use crate::sheet::Sheet;
@@ -165,13 +165,16 @@ fn unsigned_width(f: &Form, ctx: Ctx<'_>) -> Option<usize> {
             } else {
                 0
             };
-            for x in factors {
+            for (x, k) in powers(factors) {
                 n += match x {
                     Factor::Atom { index, power } => atom_width(*index, *power, ctx)?,
                     // `\left(` and `\right)`: one each.
                     Factor::Group(g) => 2 + latex_width(g, ctx)?,
                     Factor::Name { index } => width(Latex.name(&ctx.names[*index])),
                 };
+                if k > 1 {
+                    n += digits(u64::from(k));
+                }
             }
             Some(n)
         }

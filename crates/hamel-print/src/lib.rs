@@ -33,6 +33,7 @@ mod atoms;
 mod collect;
 pub mod derivation;
 mod document;
+mod factored;
 mod form;
 mod layout;
 mod modular;
@@ -51,6 +52,7 @@ mod tex_width;
 mod wide;
 
 pub use atoms::{Atom, Atoms, Kind, Vocabulary};
+pub use factored::Factored;
 pub use form::{Definition, Factor, Form};
 pub use layout::{LINE, width, width_at_least};
 pub use poly::{Fraction, Mono, Poly, PolyError};

@@ -22,8 +22,9 @@ use std::hash::{BuildHasher, RandomState};
 
 use num_traits::ToPrimitive;
 
+use crate::factored::Factored;
 use crate::form::{Definition, Factor, Form};
-use crate::poly::{Fraction, Poly};
+use crate::poly::Poly;
 use crate::q::Q;
 
 /// The modulus, a Mersenne prime.
@@ -170,9 +171,16 @@ impl Point {
         self.atoms[i]
     }
 
-    /// A fraction's value; none at a pole.
-    pub(crate) fn fraction(&mut self, f: &Fraction) -> Option<V> {
-        self.poly(&f.num)?.over(self.poly(&f.den)?)
+    /// The value of a fraction with its denominator in factors; none at a pole.
+    pub(crate) fn factored(&mut self, f: &Factored) -> Option<V> {
+        let mut den = of_q(&f.scale)?;
+        for (p, e) in &f.factors {
+            let v = self.poly(p)?;
+            for _ in 0..*e {
+                den = den.times(v);
+            }
+        }
+        self.poly(&f.num)?.over(den)
     }
 
     /// A polynomial's value; none if a coefficient's denominator vanishes.

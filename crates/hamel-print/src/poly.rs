@@ -1,25 +1,26 @@
 //! Sparse polynomials with rational coefficients in the atoms: the canonical form against
 //! which a printed form is checked, and what collection works on.
 
-use hamel_expr::{Canonical, Expr, Terms};
+use hamel_expr::{Canonical, Expr};
 use num_traits::{Signed, ToPrimitive};
 
 use smallvec::SmallVec;
 
 use crate::atoms::Atoms;
+use crate::factored::Factored;
 use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
 /// held inline (most monomials of a derivation have four atoms or fewer), more on the heap.
 #[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Mono(Pairs);
+pub struct Mono(pub(crate) Pairs);
 
 /// A monomial's pairs.
-type Pairs = SmallVec<[(u32, u32); 8]>;
+pub(crate) type Pairs = SmallVec<[(u32, u32); 8]>;
 
 /// An atom's index as a monomial stores it. A sheet's atoms are distinct subexpressions of
 /// what it prints, far fewer than 2³².
-fn stored(i: usize) -> u32 {
+pub(crate) fn stored(i: usize) -> u32 {
     u32::try_from(i).expect("fewer than 2^32 atoms")
 }
 
@@ -365,7 +366,7 @@ impl Fraction {
         })
     }
 
-    fn poly(p: Poly) -> Fraction {
+    pub(crate) fn poly(p: Poly) -> Fraction {
         Fraction {
             num: p,
             den: Poly::constant(Q::one()),
@@ -436,12 +437,7 @@ impl Fraction {
     /// [`Fraction::from_expr`] of its tree (`c.to_expr()`), the atoms numbered in the same
     /// order, without taking the tree apart.
     pub fn from_canonical(c: &Canonical, atoms: &mut Atoms) -> Fraction {
-        Fraction::read_canonical(c, atoms)
-    }
-
-    /// [`Fraction::from_canonical`] with the atoms numbered by `atoms`.
-    pub(crate) fn read_canonical(c: &Canonical, atoms: &mut Atoms) -> Fraction {
-        Fraction::read_mapped(c, &Fraction::numbering(c, atoms))
+        Factored::from_canonical(c, atoms).expanded()
     }
 
     /// The number `atoms` gives each of `c`'s atoms, numbered in the order met
@@ -463,45 +459,6 @@ impl Fraction {
             }
         }
         map
-    }
-
-    /// `c` with its atom `a` numbered `map[a]` (atoms two of which share a number are one).
-    pub(crate) fn read_mapped(c: &Canonical, map: &[usize]) -> Fraction {
-        let poly = |terms: &Terms, scale: &Q| {
-            let terms = terms.iter().map(|t| {
-                let mut pairs: Pairs = t
-                    .powers
-                    .iter()
-                    .map(|&(a, e)| (stored(map[a as usize]), e))
-                    .collect();
-                sort_pairs(&mut pairs);
-                let coef = Q::integer(&t.coef);
-                (
-                    Mono(pairs),
-                    if scale.is_one() {
-                        coef
-                    } else {
-                        coef.div(scale)
-                    },
-                )
-            });
-            Poly::from_terms(terms.collect())
-        };
-        let scale = Q::integer(&c.scale);
-        if c.factors.is_empty() {
-            return Fraction::poly(poly(&c.num, &scale));
-        }
-        let den = c
-            .factors
-            .iter()
-            .map(|(terms, e)| poly(terms, &Q::one()).pow(*e))
-            .reduce(|a, b| a.mul(&b))
-            .expect("a factor")
-            .scale(&scale);
-        Fraction {
-            num: poly(&c.num, &Q::one()),
-            den,
-        }
     }
 
     /// `base^exp`: expanded for a small integer exponent, an atom otherwise.
@@ -606,7 +563,7 @@ fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
 
 /// Pairs sorted by atom, an atom's pairs merged into one (exponents added): a monomial's
 /// pairs from factors met in any order.
-fn sort_pairs(pairs: &mut Pairs) {
+pub(crate) fn sort_pairs(pairs: &mut Pairs) {
     pairs.sort_unstable_by_key(|&(i, _)| i);
     pairs.dedup_by(|later, earlier| {
         let same = later.0 == earlier.0;

@@ -6,7 +6,8 @@
 //! factors'; an even power is ≥ 0; a parameter the model declares positive, a square root
 //! and an exponential are ≥ 0; a sum whose terms all have one sign has it; a name has its
 //! definition's. ≥ 0 and not zero is > 0. Anything else (an odd power of cos θ, a sum of
-//! mixed signs) is not proved, and the fraction stays.
+//! mixed signs) is not proved, and the fraction stays. A group or a name
+//! repeated an even number of times (a denominator's `δ²`) is ≥ 0 whatever its sign.
 
 use std::collections::BTreeSet;
 
@@ -43,8 +44,10 @@ pub(crate) fn sign(f: &Form, ctx: Ctx<'_>, positive: &BTreeSet<String>) -> Optio
             } else {
                 Sign::NonNegative
             };
-            for x in factors {
-                s = s.times(factor_sign(x, ctx, positive)?);
+            for (x, n) in crate::form::powers(factors) {
+                if n % 2 == 1 {
+                    s = s.times(factor_sign(x, ctx, positive)?);
+                }
             }
             Some(s)
         }

@@ -11,6 +11,7 @@
 use hamel_expr::{Canonical, Expr};
 
 use crate::atoms::Atoms;
+use crate::factored::Factored;
 use crate::poly::{Fraction, PolyError};
 
 /// What an entry is read from: its tree, or the polynomials the computer algebra wrote the
@@ -33,7 +34,7 @@ pub(crate) fn entries(
     es: &[(Source<'_>, usize)],
     parallel: bool,
     atoms: &mut Atoms,
-) -> Result<Vec<Fraction>, PolyError> {
+) -> Result<Vec<Factored>, PolyError> {
     let mut numbered = Vec::with_capacity(es.len());
     for (e, _) in es {
         numbered.push(match *e {
@@ -48,10 +49,9 @@ pub(crate) fn entries(
         || vec![0; len],
         |counts, n| {
             let f = match n {
-                Numbered::Read(f) => f,
-                Numbered::Mapped(c, map) => Fraction::read_mapped(c, &map),
-            }
-            .normalised();
+                Numbered::Read(f) => Factored::from(f),
+                Numbered::Mapped(c, map) => Factored::read_mapped(c, &map),
+            };
             let weights = weights(&f, counts);
             (f, weights)
         },
@@ -73,11 +73,11 @@ enum Numbered<'e> {
     Mapped(&'e Canonical, Vec<usize>),
 }
 
-/// In how many of `f`'s terms (numerator and denominator) each of its atoms occurs, atoms in
-/// the order met; `counts` is zeros, one per atom, and left so.
-fn weights(f: &Fraction, counts: &mut [usize]) -> Vec<(usize, usize)> {
+/// In how many of `f`'s terms (numerator and the denominator's factors) each of its atoms
+/// occurs, atoms in the order met; `counts` is zeros, one per atom, and left so.
+fn weights(f: &Factored, counts: &mut [usize]) -> Vec<(usize, usize)> {
     let mut weights = Vec::new();
-    for m in f.num.monomials().chain(f.den.monomials()) {
+    for m in f.polys().flat_map(crate::poly::Poly::monomials) {
         for i in m.atoms() {
             if counts[i] == 0 {
                 weights.push((i, 0));
@@ -181,15 +181,14 @@ mod tests {
         ];
         let es: Vec<(Source<'_>, usize)> = sources.iter().copied().zip([1, 2, 1, 3, 1]).collect();
         let mut one = atoms();
-        let expected: Vec<Fraction> = es
+        let expected: Vec<Factored> = es
             .iter()
             .map(|(e, n)| {
                 let f = match *e {
-                    Source::Tree(t) => Fraction::from_expr(t, &mut one).unwrap(),
-                    Source::Canonical(c) => Fraction::from_canonical(c, &mut one),
-                }
-                .normalised();
-                for m in f.num.monomials().chain(f.den.monomials()) {
+                    Source::Tree(t) => Factored::from(Fraction::from_expr(t, &mut one).unwrap()),
+                    Source::Canonical(c) => Factored::from_canonical(c, &mut one),
+                };
+                for m in f.polys().flat_map(crate::poly::Poly::monomials) {
                     for i in m.atoms() {
                         one.weigh(i, *n);
                     }

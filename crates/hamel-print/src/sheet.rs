@@ -10,6 +10,7 @@ use hamel_expr::Expr;
 
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
+use crate::factored::Factored;
 use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
 use crate::poly::{Fraction, Mono, Poly, PolyError};
 use crate::q::Q;
@@ -19,7 +20,7 @@ use crate::read::Source;
 #[derive(Clone, Debug)]
 pub struct Sheet {
     pub(crate) atoms: Atoms,
-    pub(crate) entries: Vec<(Form, Fraction)>,
+    pub(crate) entries: Vec<(Form, Factored)>,
     /// How many times each entry is shown (equal entries are printed once and counted, so
     /// that a group in two equal entries recurs).
     pub(crate) counts: Vec<usize>,
@@ -147,8 +148,8 @@ impl Sheet {
             parallel,
             || (collect::Cx::new(atoms), check.residues()),
             |(cx, point), canonical| {
-                let value = parallel.then(|| point.fraction(&canonical));
-                (collect::fraction_in(&canonical, cx), canonical, value)
+                let value = parallel.then(|| point.factored(&canonical));
+                (collect::factored_in(&canonical, cx), canonical, value)
             },
         );
         for (form, canonical, value) in forms {
@@ -249,7 +250,7 @@ impl Sheet {
         (0..self.entries.len()).find(|&i| {
             let (form, canonical) = &self.entries[i];
             let multiplier = self.multipliers.get(&i);
-            let canonical = self.at_check[i].unwrap_or_else(|| point.fraction(canonical));
+            let canonical = self.at_check[i].unwrap_or_else(|| point.factored(canonical));
             match crate::modular::agrees(&mut point, &self.names, form, multiplier, canonical) {
                 Some(same) => !same,
                 None => !self.check(i),
@@ -272,6 +273,7 @@ impl Sheet {
     /// Whether entry `i`, its names expanded, is exactly its canonical form.
     pub fn check(&self, i: usize) -> bool {
         let (form, canonical) = &self.entries[i];
+        let canonical = &canonical.expanded();
         match self.multipliers.get(&i) {
             Some(d) => self
                 .fraction_of(form)

@@ -644,3 +644,83 @@ fn kinds_are_equal_forms() {
         assert!(pairs >= 4, "groups recur: {pairs} pairs");
     }
 }
+
+/// A denominator exported in factors is printed in them, each to its power (`δ²`, never its
+/// expansion), in text and LaTeX, and checked exactly; an even power of a factor is proved
+/// positive, so an equation over it is multiplied through, and an odd one is not.
+#[test]
+fn a_denominator_stays_in_its_factors() {
+    use std::collections::BTreeSet;
+
+    use hamel_expr::{Canonical, Expr, Func, Term};
+    use num_bigint::BigInt;
+
+    use crate::form::{Latex, render};
+    use crate::layout::{latex_width, width};
+    use crate::read::Source;
+    use crate::sheet::Sheet;
+
+    let term = |coef: i64, powers: &[(u32, u32)]| Term {
+        coef: BigInt::from(coef),
+        powers: powers.to_vec(),
+    };
+    let atoms = vec![
+        Expr::sym("m_r"),
+        Expr::sym("rho"),
+        Expr::call(Func::Cos, Expr::sym("theta")),
+        Expr::sym("eta1_dot"),
+    ];
+    // (m_r η̇₁ + ρ cos θ) / (4 (ρ − m_r²)² cos θ^k), printed over (m_r² − ρ)².
+    let over = |k: u32| {
+        let mut factors = vec![(vec![term(1, &[(1, 1)]), term(-1, &[(0, 2)])], 2)];
+        if k > 0 {
+            factors.push((vec![term(1, &[(2, 1)])], k));
+        }
+        Canonical {
+            atoms: atoms.clone(),
+            num: vec![term(1, &[(0, 1), (3, 1)]), term(1, &[(1, 1), (2, 1)])],
+            scale: BigInt::from(4),
+            factors,
+        }
+    };
+    let row = |c: &Canonical| {
+        let mut sheet = Sheet::new(&unicycle());
+        let id = sheet.add_counted([(Source::Canonical(c), 1)]).unwrap()[0];
+        sheet.name_groups();
+        assert_eq!(sheet.first_mismatch(), None);
+        assert!(sheet.check(id), "{}", sheet.text(id));
+        let den = match sheet.form(id) {
+            crate::Form::Quotient(_, den) => (**den).clone(),
+            other => panic!("a quotient: {other:?}"),
+        };
+        let latex = render(&den, sheet.ctx(), &Latex);
+        assert_eq!(
+            latex_width(&den, sheet.ctx()),
+            Some(width(&latex)),
+            "{latex}"
+        );
+        let text = sheet.text(id);
+        let positive = BTreeSet::new();
+        let through = sheet.multiply_through(id, &positive);
+        assert!(sheet.check(id), "{}", sheet.text(id));
+        (
+            text,
+            latex,
+            through.then(|| sheet.multiplier_text(id).unwrap()),
+        )
+    };
+    let (text, latex, multiplier) = row(&over(0));
+    assert_eq!(text, "(m_r*eta1_dot + rho*cos(theta))/(4*(m_r^2 - rho)^2)");
+    assert_eq!(latex, "4 \\left(m_{r}^{2} - \\rho\\right)^{2}");
+    assert_eq!(multiplier.as_deref(), Some("4*(m_r^2 - rho)^2"));
+    let (text, _, multiplier) = row(&over(1));
+    assert_eq!(
+        text,
+        "(m_r*eta1_dot + rho*cos(theta))/(4*(m_r^2 - rho)^2*cos(theta))"
+    );
+    assert_eq!(multiplier, None, "cos θ's sign is not proved");
+    assert_eq!(
+        row(&over(2)).2.as_deref(),
+        Some("4*(m_r^2 - rho)^2*cos(theta)^2")
+    );
+}
