@@ -13,6 +13,7 @@ use std::cell::RefCell;
 use std::collections::BTreeMap;
 
 use foldhash::HashMap;
+use smallvec::SmallVec;
 
 use crate::atoms::{Atoms, Kind};
 use crate::factored::Factored;
@@ -222,9 +223,13 @@ fn merged(mut factors: Vec<Factor>) -> Vec<Factor> {
 }
 
 fn atoms_of(m: &Mono) -> Vec<Factor> {
+    atom_factors(m).collect()
+}
+
+/// The atoms of `m` as factors.
+fn atom_factors(m: &Mono) -> impl Iterator<Item = Factor> + '_ {
     m.pairs()
         .map(|(index, power)| Factor::Atom { index, power })
-        .collect()
 }
 
 pub(crate) fn negative(f: &Form) -> bool {
@@ -315,7 +320,7 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
                 Form::Product { coef, factors } => (coef, factors),
                 sum => (Q::one(), vec![Factor::Group(sum)]),
             };
-            factors.extend(atoms_of(&rate));
+            factors.extend(atom_factors(&rate));
             sorted(coef, factors, atoms)
         })
         .collect();
@@ -348,19 +353,19 @@ fn state_groups(p: &Poly, atoms: &Cx<'_>) -> Vec<(Mono, Poly)> {
         })
         .collect();
     let mut groups = runs(split);
-    groups.sort_unstable_by(|(a, _), (b, _)| group_order(a, b, atoms));
+    groups.sort_by_cached_key(|(m, _)| group_order(m, atoms));
     groups
 }
 
 /// A group's place in a sum: the terms with rates of the quasi-velocities first (by those
 /// rates: `η̇₁` before `η̇₂`), as an equation of motion is written, `A_Γ η̇ + …`; then the
 /// state atoms in printing order.
-fn group_order(a: &Mono, b: &Mono, atoms: &Atoms) -> std::cmp::Ordering {
-    let no_rate = |m: &Mono| keys(m, true, atoms).next().is_none();
-    no_rate(a)
-        .cmp(&no_rate(b))
-        .then_with(|| keys(a, true, atoms).cmp(keys(b, true, atoms)))
-        .then_with(|| keys(a, false, atoms).cmp(keys(b, false, atoms)))
+fn group_order(
+    m: &Mono,
+    atoms: &Atoms,
+) -> (bool, SmallVec<[StateKey; 2]>, SmallVec<[StateKey; 6]>) {
+    let rates: SmallVec<[StateKey; 2]> = keys(m, true, atoms).collect();
+    (rates.is_empty(), rates, keys(m, false, atoms).collect())
 }
 
 /// The printing-order keys of a monomial's pairs (its rates' alone when `rates`).
@@ -418,23 +423,19 @@ fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Q>)> {
 
 /// The collected sum of the groups.
 fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
-    let terms: Vec<Form> = groups
-        .into_iter()
-        .map(|(state, coef)| {
-            let c = parameters(&coef, atoms);
-            let (coef, mut factors) = match c {
-                Form::Product { coef, factors } => (coef, factors),
-                sum => (Q::one(), vec![Factor::Group(sum)]),
-            };
-            factors.extend(atoms_of(&state));
-            sorted(coef, factors, atoms)
-        })
-        .filter(|t| !is_zero(t))
-        .flat_map(|t| match t {
-            Form::Sum(inner) => inner,
-            one => vec![one],
-        })
-        .collect();
+    let mut terms: Vec<Form> = Vec::with_capacity(groups.len());
+    for (state, coef) in groups {
+        let (coef, mut factors) = match parameters(&coef, atoms) {
+            Form::Product { coef, factors } => (coef, factors),
+            sum => (Q::one(), vec![Factor::Group(sum)]),
+        };
+        factors.extend(atom_factors(&state));
+        match sorted(coef, factors, atoms) {
+            t if is_zero(&t) => {}
+            Form::Sum(inner) => terms.extend(inner),
+            one => terms.push(one),
+        }
+    }
     if terms.len() == 1 {
         return terms.into_iter().next().expect("one term");
     }
@@ -443,6 +444,10 @@ fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
 
 /// Step 3: a polynomial in the parameters, factored greedily.
 fn parameters(p: &Poly, atoms: &Cx<'_>) -> Form {
+    // A monomial is written as it is: cheaper than looking it up.
+    if let (1, Some((m, c))) = (p.size(), p.terms().next()) {
+        return sorted(c.clone(), atoms_of(m), atoms);
+    }
     if let Some(f) = atoms.memo.borrow().get(p) {
         return f.clone();
     }

@@ -24,12 +24,9 @@ impl Sheet {
     /// ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
         let (chosen, at, starts) = self.candidates();
-        let first = self.names.len();
-        let mut places = Vec::new();
         for c in chosen {
             let definition = self.definition(&c.key, c.form);
             self.push_name(definition, Some(c.value));
-            places.push(c.place);
         }
         // Each entry from its first place on (an entry that is a sum is a place itself).
         crate::par::for_each_mut(&mut self.entries, self.parallel, |i, (f, _)| {
@@ -42,11 +39,6 @@ impl Sheet {
                 }
             }
             replace_at(f, &mut next, &at);
-        });
-        // A definition is its group's first occurrence: its inner groups are the places
-        // after that one.
-        crate::par::for_each_mut(&mut self.names[first..], self.parallel, |k, d| {
-            replace_at(&mut d.form, &mut (places[k] + 1), &at);
         });
         self.name_wide();
     }
@@ -152,11 +144,11 @@ impl Sheet {
         };
         let mut chosen: Vec<(usize, Candidate)> = Vec::new();
         for (i, value, key) in self.recurring(&counted, groups, &given) {
-            let (g, place, count) = counted[i];
+            let (_, place, count) = counted[i];
             chosen.push((
                 i,
                 Candidate {
-                    form: g.clone(),
+                    form: Form::Sum(Vec::new()),
                     value,
                     key,
                     place,
@@ -193,7 +185,12 @@ impl Sheet {
                 });
             }
         }
-        let at = at.into_iter().map(|i| name_of[i].clone()).collect();
+        let at: Vec<Option<Placed>> = at.into_iter().map(|i| name_of[i].clone()).collect();
+        // A definition is its group's first occurrence, its inner groups (the places after
+        // that one) named: copied so, never copying what a name replaces.
+        for (i, c) in &mut chosen {
+            c.form = named_copy(counted[*i].0, &mut (c.place + 1), &at);
+        }
         (chosen.into_iter().map(|(_, c)| c).collect(), at, starts)
     }
 
@@ -345,6 +342,53 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
                 }
                 None => replace_at(b, next, at),
             }
+        }
+    }
+}
+
+/// A copy of `f` with its groups named where `at` says ([`replace_at`] of a copy), a named
+/// group not copied.
+fn named_copy(f: &Form, next: &mut usize, at: &[Option<Placed>]) -> Form {
+    match f {
+        Form::Product { coef, factors } => {
+            let mut coef = coef.clone();
+            let mut copied = Vec::with_capacity(factors.len());
+            for x in factors {
+                let Factor::Group(g) = x else {
+                    copied.push(x.clone());
+                    continue;
+                };
+                let place = *next;
+                *next += 1;
+                copied.push(match &at[place] {
+                    Some(p) => {
+                        *next += p.inner;
+                        coef = coef.mul(&p.factor);
+                        Factor::Name { index: p.name }
+                    }
+                    None => Factor::Group(named_copy(g, next, at)),
+                });
+            }
+            Form::Product {
+                coef,
+                factors: copied,
+            }
+        }
+        Form::Sum(terms) => Form::Sum(terms.iter().map(|t| named_copy(t, next, at)).collect()),
+        Form::Quotient(a, b) => {
+            let a = named_copy(a, next, at);
+            let place = matches!(**b, Form::Sum(_)).then(|| {
+                *next += 1;
+                *next - 1
+            });
+            let b = match place.and_then(|p| at[p].as_ref()) {
+                Some(p) => {
+                    *next += p.inner;
+                    named(p)
+                }
+                None => named_copy(b, next, at),
+            };
+            Form::Quotient(Box::new(a), Box::new(b))
         }
     }
 }
