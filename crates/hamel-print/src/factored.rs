@@ -85,6 +85,11 @@ impl Factored {
         }
     }
 
+    /// How many terms the numerator and the denominator's factors have.
+    pub(crate) fn terms(&self) -> usize {
+        self.polys().map(Poly::size).sum()
+    }
+
     /// The numerator and the denominator's factors.
     pub(crate) fn polys(&self) -> impl Iterator<Item = &Poly> {
         std::iter::once(&self.num).chain(self.factors.iter().map(|(p, _)| p))

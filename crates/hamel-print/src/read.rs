@@ -45,6 +45,7 @@ pub(crate) fn entries(
     let len = atoms.len();
     let read = crate::par::map_init_owned(
         numbered,
+        Numbered::terms,
         parallel,
         || vec![0; len],
         |counts, n| {
@@ -71,6 +72,16 @@ pub(crate) fn entries(
 enum Numbered<'e> {
     Read(Fraction),
     Mapped(&'e Canonical, Vec<usize>),
+}
+
+impl Numbered<'_> {
+    /// About how many terms it has (what the pool takes the largest entries first by).
+    fn terms(&self) -> usize {
+        match self {
+            Numbered::Read(f) => f.num.size() + f.den.size(),
+            Numbered::Mapped(c, _) => terms(&Source::Canonical(c)),
+        }
+    }
 }
 
 /// In how many of `f`'s terms (numerator and the denominator's factors) each of its atoms

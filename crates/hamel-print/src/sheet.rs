@@ -145,6 +145,7 @@ impl Sheet {
         let (atoms, check) = (&self.atoms, &self.check);
         let forms = crate::par::map_init_owned(
             read,
+            Factored::terms,
             parallel,
             || (collect::Cx::new(atoms), check.residues()),
             |(cx, point), canonical| {
