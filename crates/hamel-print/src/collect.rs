@@ -11,6 +11,7 @@
 use std::borrow::Cow;
 use std::cell::RefCell;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use foldhash::HashMap;
 use smallvec::SmallVec;
@@ -115,7 +116,10 @@ fn raise(form: Form, e: u32, coef: &mut Q, factors: &mut Vec<Factor>) {
                 }
             }
         }
-        sum => factors.extend(std::iter::repeat_n(Factor::Group(sum), e as usize)),
+        sum => factors.extend(std::iter::repeat_n(
+            Factor::Group(Arc::new(sum)),
+            e as usize,
+        )),
     }
 }
 
@@ -191,7 +195,7 @@ fn product(mut c: Q, g: &Mono, mut inner: Option<Form>, atoms: &Cx<'_>) -> Form 
             factors.extend(more);
             return sorted(c.mul(&coef), factors, atoms);
         }
-        Some(sum) => factors.push(Factor::Group(sum)),
+        Some(sum) => factors.push(Factor::Group(Arc::new(sum))),
     }
     sorted(c, factors, atoms)
 }
@@ -201,7 +205,7 @@ fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Cx<'_>) -> Form {
         && matches!(factors.as_slice(), [Factor::Group(_)])
         && let Some(Factor::Group(sum)) = factors.pop()
     {
-        return sum;
+        return Arc::unwrap_or_clone(sum);
     }
     factors.sort_by_key(|x| factor_rank(x, atoms));
     Form::Product {
@@ -277,7 +281,10 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
         let common = parameters(&common, atoms);
         return sorted(
             sign,
-            vec![Factor::Group(common), Factor::Group(inner)],
+            vec![
+                Factor::Group(Arc::new(common)),
+                Factor::Group(Arc::new(inner)),
+            ],
             atoms,
         );
     }
@@ -318,7 +325,7 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
         .map(|(_, rate, coefficient)| {
             let (coef, mut factors) = match poly_in(&coefficient, atoms) {
                 Form::Product { coef, factors } => (coef, factors),
-                sum => (Q::one(), vec![Factor::Group(sum)]),
+                sum => (Q::one(), vec![Factor::Group(Arc::new(sum))]),
             };
             factors.extend(atom_factors(&rate));
             sorted(coef, factors, atoms)
@@ -427,7 +434,7 @@ fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
     for (state, coef) in groups {
         let (coef, mut factors) = match parameters(&coef, atoms) {
             Form::Product { coef, factors } => (coef, factors),
-            sum => (Q::one(), vec![Factor::Group(sum)]),
+            sum => (Q::one(), vec![Factor::Group(Arc::new(sum))]),
         };
         factors.extend(atom_factors(&state));
         match sorted(coef, factors, atoms) {

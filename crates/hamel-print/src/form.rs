@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write;
+use std::sync::Arc;
 
 use hamel_expr::{Expr, Func};
 
@@ -35,8 +36,9 @@ pub enum Factor {
         /// Its exponent.
         power: u32,
     },
-    /// A sum in parentheses.
-    Group(Form),
+    /// A sum in parentheses, shared: a coefficient factored once is the same group wherever
+    /// it occurs, and copying it copies a pointer.
+    Group(Arc<Form>),
     /// A named group: definition `index` of the sheet's where-list.
     Name {
         /// The definition's index.

@@ -72,8 +72,11 @@ fn split(f: &Form) -> Option<(Form, &[Form], Form)> {
         Form::Product { coef, factors } => {
             let k = factors
                 .iter()
-                .position(|x| matches!(x, Factor::Group(Form::Sum(_))))?;
-            let Factor::Group(Form::Sum(terms)) = &factors[k] else {
+                .position(|x| matches!(x, Factor::Group(g) if matches!(**g, Form::Sum(_))))?;
+            let Factor::Group(g) = &factors[k] else {
+                return None;
+            };
+            let Form::Sum(terms) = &**g else {
                 return None;
             };
             let lead = Form::Product {

@@ -8,6 +8,8 @@
 //! place numbers, never by hashing or comparing forms whole. On a large sheet, the entries'
 //! groups are found and replaced on printing's pool, each entry from its own first place.
 
+use std::sync::Arc;
+
 use crate::atoms::Kind;
 use crate::form::{Factor, Form};
 use crate::places::{Keyed, hashed_groups, kinds, place};
@@ -24,6 +26,7 @@ impl Sheet {
     /// ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
         let (chosen, at, starts) = self.candidates();
+        let at = &at;
         for c in chosen {
             let definition = self.definition(&c.key, c.form);
             self.push_name(definition, Some(c.value));
@@ -33,12 +36,12 @@ impl Sheet {
             let mut next = starts[i];
             if matches!(f, Form::Sum(_)) {
                 next += 1;
-                if let Some(p) = &at[starts[i]] {
+                if let Some(p) = &at.at[starts[i]] {
                     *f = named(p);
                     return;
                 }
             }
-            replace_at(f, &mut next, &at);
+            replace_at(f, &mut next, at);
         });
         self.name_wide();
     }
@@ -122,7 +125,7 @@ impl Sheet {
     /// coordinates, the more frequent first, then the larger, then the first met. Also, for
     /// each group of the entries by its place (outer before inner, entry after entry), the
     /// name it gets, if it gets one.
-    fn candidates(&self) -> (Vec<Candidate>, Vec<Option<Placed>>, Vec<usize>) {
+    fn candidates(&self) -> (Vec<Candidate>, Named, Vec<usize>) {
         let given = self.given_forms();
         let (found, shown, starts) = self.places();
         let kinds = kinds(&found);
@@ -185,7 +188,10 @@ impl Sheet {
                 });
             }
         }
-        let at: Vec<Option<Placed>> = at.into_iter().map(|i| name_of[i].clone()).collect();
+        let at = Named {
+            at: at.into_iter().map(|i| name_of[i].clone()).collect(),
+            ends: found.iter().map(|k| k.end).collect(),
+        };
         // A definition is its group's first occurrence, its inner groups (the places after
         // that one) named: copied so, never copying what a name replaces.
         for (i, c) in &mut chosen {
@@ -311,20 +317,22 @@ fn named(p: &Placed) -> Form {
 /// The groups of `f` named where `at` says, by their places counted on from `next` (the
 /// order of [`hashed_groups`]). A group that is named is not looked into: its inner places are
 /// counted and skipped.
-fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
+fn replace_at(f: &mut Form, next: &mut usize, at: &Named) {
     match f {
         Form::Product { coef, factors } => {
             for x in factors.iter_mut() {
                 let Factor::Group(g) = x else { continue };
                 let place = *next;
                 *next += 1;
-                match &at[place] {
+                match &at.at[place] {
                     Some(p) => {
                         *next += p.inner;
                         *coef = coef.mul(&p.factor);
                         *x = Factor::Name { index: p.name };
                     }
-                    None => replace_at(g, next, at),
+                    // A group shared with other places is copied only to be changed.
+                    None if at.inside(place) => replace_at(Arc::make_mut(g), next, at),
+                    None => *next = at.ends[place],
                 }
             }
         }
@@ -335,7 +343,7 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
                 *next += 1;
                 *next - 1
             });
-            match place.and_then(|p| at[p].as_ref()) {
+            match place.and_then(|p| at.at[p].as_ref()) {
                 Some(p) => {
                     *next += p.inner;
                     **b = named(p);
@@ -348,7 +356,7 @@ fn replace_at(f: &mut Form, next: &mut usize, at: &[Option<Placed>]) {
 
 /// A copy of `f` with its groups named where `at` says ([`replace_at`] of a copy), a named
 /// group not copied.
-fn named_copy(f: &Form, next: &mut usize, at: &[Option<Placed>]) -> Form {
+fn named_copy(f: &Form, next: &mut usize, at: &Named) -> Form {
     match f {
         Form::Product { coef, factors } => {
             let mut coef = coef.clone();
@@ -360,13 +368,17 @@ fn named_copy(f: &Form, next: &mut usize, at: &[Option<Placed>]) -> Form {
                 };
                 let place = *next;
                 *next += 1;
-                copied.push(match &at[place] {
+                copied.push(match &at.at[place] {
                     Some(p) => {
                         *next += p.inner;
                         coef = coef.mul(&p.factor);
                         Factor::Name { index: p.name }
                     }
-                    None => Factor::Group(named_copy(g, next, at)),
+                    None if at.inside(place) => Factor::Group(Arc::new(named_copy(g, next, at))),
+                    None => {
+                        *next = at.ends[place];
+                        Factor::Group(Arc::clone(g))
+                    }
                 });
             }
             Form::Product {
@@ -381,7 +393,7 @@ fn named_copy(f: &Form, next: &mut usize, at: &[Option<Placed>]) -> Form {
                 *next += 1;
                 *next - 1
             });
-            let b = match place.and_then(|p| at[p].as_ref()) {
+            let b = match place.and_then(|p| at.at[p].as_ref()) {
                 Some(p) => {
                     *next += p.inner;
                     named(p)
@@ -390,6 +402,22 @@ fn named_copy(f: &Form, next: &mut usize, at: &[Option<Placed>]) -> Form {
             };
             Form::Quotient(Box::new(a), Box::new(b))
         }
+    }
+}
+
+/// For each place of a sheet's groups (`places.rs`), the name it gets, if it gets one, and
+/// where its inner places end.
+struct Named {
+    at: Vec<Option<Placed>>,
+    ends: Vec<usize>,
+}
+
+impl Named {
+    /// Whether a group inside the one at `place` gets a name.
+    fn inside(&self, place: usize) -> bool {
+        self.at[place + 1..self.ends[place]]
+            .iter()
+            .any(Option::is_some)
     }
 }
 

@@ -353,7 +353,7 @@ impl Sheet {
                         Factor::Atom { index, power } => {
                             monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
                         }
-                        Factor::Group(g) if !memo.contains_key(g) => {
+                        Factor::Group(g) if !memo.contains_key(&**g) => {
                             let v = self.fraction_of_in(g, memo);
                             memo.insert(g, v);
                         }
@@ -362,7 +362,7 @@ impl Sheet {
                 }
                 let parts = factors.iter().filter_map(|x| match x {
                     Factor::Atom { .. } => None,
-                    Factor::Group(g) => Some(&memo[g]),
+                    Factor::Group(g) => Some(&memo[&**g]),
                     Factor::Name { index } => Some(self.value(*index)),
                 });
                 product(coef, monomial, parts)

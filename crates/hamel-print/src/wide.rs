@@ -3,6 +3,8 @@
 //! denominator, a nested factor) Fₙ(q…), each defined once in the where-list, where its own
 //! terms can be broken over lines.
 
+use std::sync::Arc;
+
 use crate::collect;
 use crate::form::{Factor, Form, Latex, Syntax, argument, render};
 use crate::layout::{LINE, latex_width, width, width_at_least};
@@ -50,7 +52,13 @@ impl Sheet {
                         continue;
                     }
                     let Factor::Group(g) = x else { continue };
-                    self.name_wide_in(g);
+                    // A group no wider than WIDE holds nothing wider (its atoms' arguments
+                    // included), so nothing in it is named: it is left as it is (and, shared
+                    // with other places, not copied).
+                    if !self.wider_than_wide(g) {
+                        continue;
+                    }
+                    self.name_wide_in(Arc::make_mut(g));
                     if self.wider_than_wide(g)
                         && let Some(index) = self.name_for(g)
                     {
