@@ -96,6 +96,15 @@ impl Factored {
     }
 }
 
+impl Fraction {
+    /// The fraction of `c`, the polynomials the computer algebra exported: the same as
+    /// [`Fraction::from_expr`] of its tree (`c.to_expr()`), the atoms numbered in the same
+    /// order, without taking the tree apart.
+    pub fn from_canonical(c: &Canonical, atoms: &mut Atoms) -> Fraction {
+        Factored::from_canonical(c, atoms).expanded()
+    }
+}
+
 /// Exported terms over `scale`, atom `a` numbered `map[a]`.
 fn read_terms(terms: &Terms, map: &[usize], scale: &Q) -> Poly {
     let terms = terms.iter().map(|t| {

@@ -7,7 +7,6 @@ use num_traits::{Signed, ToPrimitive};
 use smallvec::SmallVec;
 
 use crate::atoms::Atoms;
-use crate::factored::Factored;
 use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
@@ -431,13 +430,6 @@ impl Fraction {
             Expr::Pow(base, exp) => Fraction::power(base, exp, e, atoms)?,
             _ => Fraction::poly(Poly::term(Mono::atom(atoms.intern(e)), Q::one())),
         })
-    }
-
-    /// The fraction of `c`, the polynomials the computer algebra exported: the same as
-    /// [`Fraction::from_expr`] of its tree (`c.to_expr()`), the atoms numbered in the same
-    /// order, without taking the tree apart.
-    pub fn from_canonical(c: &Canonical, atoms: &mut Atoms) -> Fraction {
-        Factored::from_canonical(c, atoms).expanded()
     }
 
     /// The number `atoms` gives each of `c`'s atoms, numbered in the order met
