@@ -16,8 +16,8 @@ pub(crate) fn worth_it(terms: impl IntoIterator<Item = usize>) -> bool {
     terms.into_iter().sum::<usize>() >= PARALLEL_FROM
 }
 
-/// Printing's pool: one thread per core; None if the threads could not be started (the work
-/// then runs on the calling thread).
+/// Printing's pool: one thread per core, started the first time a sheet is large enough;
+/// None if the threads could not be started (the work then runs on the calling thread).
 fn pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
     POOL.get_or_init(|| {
@@ -42,7 +42,7 @@ pub(crate) fn map_init_owned<T: Send, S, R: Send>(
     init: impl Fn() -> S + Sync,
     f: impl Fn(&mut S, T) -> R + Sync,
 ) -> Vec<R> {
-    let Some(pool) = pool().filter(|_| parallel) else {
+    let Some(pool) = parallel.then(pool).flatten() else {
         let mut state = init();
         return items.into_iter().map(|x| f(&mut state, x)).collect();
     };
@@ -78,7 +78,7 @@ pub(crate) fn map_ref<'a, T: Sync, R: Send>(
     parallel: bool,
     f: impl Fn(&'a T) -> R + Sync + Send,
 ) -> Vec<R> {
-    match pool().filter(|_| parallel) {
+    match parallel.then(pool).flatten() {
         Some(pool) => pool.install(|| items.par_iter().with_max_len(1).map(&f).collect()),
         None => items.iter().map(f).collect(),
     }
@@ -90,7 +90,7 @@ pub(crate) fn for_each_mut<T: Send>(
     parallel: bool,
     f: impl Fn(usize, &mut T) + Sync + Send,
 ) {
-    match pool().filter(|_| parallel) {
+    match parallel.then(pool).flatten() {
         Some(pool) => pool.install(|| {
             items
                 .par_iter_mut()
