@@ -10,7 +10,7 @@
 use hamel_expr::{Canonical, Terms};
 
 use crate::atoms::Atoms;
-use crate::poly::{Fraction, Mono, Poly, sort_pairs, stored};
+use crate::poly::{Fraction, Mono, Poly};
 use crate::q::Q;
 
 /// `num / (scale · ∏ fₖ^eₖ)`: the factors as exported (each once, exponents ≥ 1); with no
@@ -108,19 +108,14 @@ impl Fraction {
 /// Exported terms over `scale`, atom `a` numbered `map[a]`.
 fn read_terms(terms: &Terms, map: &[usize], scale: &Q) -> Poly {
     let terms = terms.iter().map(|t| {
-        let mut pairs: crate::poly::Pairs = t
-            .powers
-            .iter()
-            .map(|&(a, e)| (stored(map[a as usize]), e))
-            .collect();
-        sort_pairs(&mut pairs);
+        let m = Mono::from_unsorted(t.powers.iter().map(|&(a, e)| (map[a as usize], e)));
         let coef = Q::integer(&t.coef);
         let coef = if scale.is_one() {
             coef
         } else {
             coef.div(scale)
         };
-        (Mono(pairs), coef)
+        (m, coef)
     });
     Poly::from_terms(terms.collect())
 }

@@ -213,8 +213,7 @@ impl Syntax for Text {
             out.push_str(&a.text);
         } else if simple(&a.expr) {
             out.push_str(&a.text);
-            out.push('^');
-            out.push_str(itoa::Buffer::new().format(power));
+            self.exponent(power, out);
         } else {
             out.push_str(&self.atom(&Expr::powi(a.expr.clone(), i64::from(power))));
         }

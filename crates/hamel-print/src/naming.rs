@@ -27,8 +27,8 @@ impl Sheet {
     pub fn name_groups(&mut self) {
         let (chosen, at, starts) = self.candidates();
         let at = &at;
-        for c in chosen {
-            let definition = self.definition(&c.key, c.form);
+        for (form, c) in chosen {
+            let definition = self.definition(&c.key, form);
             self.push_name(definition, Some(c.value));
         }
         // Each entry from its first place on (an entry that is a sum is a place itself).
@@ -124,8 +124,9 @@ impl Sheet {
     /// only (`ρ₁ + ρ₂` reads better than a name); parameter groups before functions of the
     /// coordinates, the more frequent first, then the larger, then the first met. Also, for
     /// each group of the entries by its place (outer before inner, entry after entry), the
-    /// name it gets, if it gets one.
-    fn candidates(&self) -> (Vec<Candidate>, Named, Vec<usize>) {
+    /// name it gets, if it gets one. Each group to name comes with its definition: its first
+    /// occurrence, its inner groups named.
+    fn candidates(&self) -> (Vec<(Form, Candidate)>, Named, Vec<usize>) {
         let given = self.given_forms();
         let (found, shown, starts) = self.places();
         let kinds = kinds(&found);
@@ -151,7 +152,6 @@ impl Sheet {
             chosen.push((
                 i,
                 Candidate {
-                    form: Form::Sum(Vec::new()),
                     value,
                     key,
                     place,
@@ -194,10 +194,11 @@ impl Sheet {
         };
         // A definition is its group's first occurrence, its inner groups (the places after
         // that one) named: copied so, never copying what a name replaces.
-        for (i, c) in &mut chosen {
-            c.form = named_copy(counted[*i].0, &mut (c.place + 1), &at);
-        }
-        (chosen.into_iter().map(|(_, c)| c).collect(), at, starts)
+        let chosen = chosen
+            .into_iter()
+            .map(|(i, c)| (named_copy(counted[i].0, &mut (c.place + 1), &at), c))
+            .collect();
+        (chosen, at, starts)
     }
 
     /// The groups that may be named, by their index in `counted`, in its order, with their
@@ -296,10 +297,9 @@ struct Groups<'p, 'f> {
     at: &'p [usize],
 }
 
-/// A group that recurs: its form, its value and key, its first place (outer before inner,
+/// A group that recurs: its value and key, its first place (outer before inner,
 /// entry after entry) and how often it occurs.
 struct Candidate {
-    form: Form,
     value: Fraction,
     key: Key,
     place: usize,

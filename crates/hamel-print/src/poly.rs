@@ -12,14 +12,14 @@ use crate::q::Q;
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
 /// held inline (most monomials of a derivation have four atoms or fewer), more on the heap.
 #[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Mono(pub(crate) Pairs);
+pub struct Mono(Pairs);
 
 /// A monomial's pairs.
-pub(crate) type Pairs = SmallVec<[(u32, u32); 8]>;
+type Pairs = SmallVec<[(u32, u32); 8]>;
 
 /// An atom's index as a monomial stores it. A sheet's atoms are distinct subexpressions of
 /// what it prints, far fewer than 2³².
-pub(crate) fn stored(i: usize) -> u32 {
+fn stored(i: usize) -> u32 {
     u32::try_from(i).expect("fewer than 2^32 atoms")
 }
 
@@ -33,6 +33,14 @@ impl Mono {
     /// once, exponents ≥ 1.
     pub fn from_pairs(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
         Mono(pairs.into_iter().map(|(i, e)| (stored(i), e)).collect())
+    }
+
+    /// The monomial with these `(atom, exponent)` pairs, in any order, an atom possibly more
+    /// than once (its exponents added).
+    pub(crate) fn from_unsorted(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
+        let mut pairs: Pairs = pairs.into_iter().map(|(i, e)| (stored(i), e)).collect();
+        sort_pairs(&mut pairs);
+        Mono(pairs)
     }
 
     /// The `(atom, exponent)` pairs, sorted by atom.
@@ -365,7 +373,7 @@ impl Fraction {
         })
     }
 
-    pub(crate) fn poly(p: Poly) -> Fraction {
+    fn poly(p: Poly) -> Fraction {
         Fraction {
             num: p,
             den: Poly::constant(Q::one()),
@@ -555,7 +563,7 @@ fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
 
 /// Pairs sorted by atom, an atom's pairs merged into one (exponents added): a monomial's
 /// pairs from factors met in any order.
-pub(crate) fn sort_pairs(pairs: &mut Pairs) {
+fn sort_pairs(pairs: &mut Pairs) {
     pairs.sort_unstable_by_key(|&(i, _)| i);
     pairs.dedup_by(|later, earlier| {
         let same = later.0 == earlier.0;
