@@ -75,10 +75,7 @@ fn printed_text_snapshots() {
             let d = hamel_derive::derive(&model, Some(&choice.name)).unwrap();
             // The entries printing reads first are those the text shows, in its order.
             let recorded = std::cell::RefCell::new(Vec::new());
-            d.to_text_with(&|e| {
-                recorded.borrow_mut().push(std::ptr::from_ref(e));
-                String::new()
-            });
+            d.to_text_with(&|e, _| recorded.borrow_mut().push(std::ptr::from_ref(e)));
             let shown: Vec<_> = d.shown().into_iter().map(std::ptr::from_ref).collect();
             assert_eq!(
                 shown,

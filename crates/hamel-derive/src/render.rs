@@ -6,12 +6,18 @@ use std::fmt::Write;
 
 use crate::derivation::{Closed, Derivation, Entry, Form, Mat, StructuredForm};
 
-/// How an entry is written.
+/// How an entry is written: the printer appends its text to the report's (no string per
+/// entry).
 /// `'e`: the entries' own lifetime, so a printer may keep them (hamel-print collects the
 /// entries shown, then prints them together). For a row of the equations of motion a printer
 /// may write the whole equation (text containing ` = 0`, with a note after it); otherwise
 /// ` = 0` is appended.
-pub type Printer<'p, 'e> = &'p dyn Fn(&'e Entry) -> String;
+pub type Printer<'p, 'e> = &'p dyn Fn(&'e Entry, &mut String);
+
+/// The canonical printer: each entry's canonical text.
+pub fn canonical(e: &Entry, out: &mut String) {
+    out.push_str(&e.text);
+}
 
 fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
     if m.rows == 0 || m.cols == 0 {
@@ -25,7 +31,7 @@ fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
             if j > 0 {
                 out.push_str(",  ");
             }
-            out.push_str(&p(e));
+            p(e, out);
         }
         out.push_str("]\n");
     }
@@ -34,19 +40,20 @@ fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
 fn list_text<'e>(out: &mut String, name: &str, v: &'e [Entry], p: Printer<'_, 'e>) {
     let _ = writeln!(out, "{name} =");
     for (i, e) in v.iter().enumerate() {
-        let _ = writeln!(out, "  ({}) {}", i + 1, p(e));
+        let _ = write!(out, "  ({}) ", i + 1);
+        p(e, out);
+        out.push('\n');
     }
 }
 
 /// A row set to zero: `p`'s text of it and ` = 0`, unless the printer wrote the whole
 /// equation (`hamel-print` writes a row multiplied through by its positive denominator as
 /// `num = 0   (multiplied by D > 0)`).
-fn equation<'e>(p: Printer<'_, 'e>, e: &'e Entry) -> String {
-    let text = p(e);
-    if is_whole_equation(&text) {
-        text
-    } else {
-        format!("{text} = 0")
+pub fn write_equation<'e>(out: &mut String, p: Printer<'_, 'e>, e: &'e Entry) {
+    let start = out.len();
+    p(e, out);
+    if !is_whole_equation(&out[start..]) {
+        out.push_str(" = 0");
     }
 }
 
@@ -62,7 +69,9 @@ fn yes(b: bool) -> &'static str {
 
 /// The closed form: Γ, Θ, δ, A_Γ, Q, the equations and the exact checks.
 fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_, 'e>) {
-    let _ = writeln!(o, "δ = det[Z; α] = {}", p(&c.delta));
+    o.push_str("δ = det[Z; α] = ");
+    p(&c.delta, o);
+    o.push('\n');
     let _ = writeln!(o, "singular set: {}", d.singular_set_text());
     mat_text(o, "Γ (q̇ = Γη)", &c.gamma, p);
     mat_text(o, "Θ", &c.theta, p);
@@ -87,17 +96,25 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
     o.push('\n');
     let _ = writeln!(o, "equations of motion (true, from (9)):");
     for (i, e) in c.equations.iter().enumerate() {
-        let _ = writeln!(o, "  ({}) {}", i + 1, equation(p, e));
+        let _ = write!(o, "  ({}) ", i + 1);
+        write_equation(o, p, e);
+        o.push('\n');
     }
     let _ = writeln!(o, "equations as printed in the paper (11)/(12):");
     for (i, e) in c.equations_paper.iter().enumerate() {
-        let _ = writeln!(o, "  ({}) {}", i + 1, equation(p, e));
+        let _ = write!(o, "  ({}) ", i + 1);
+        write_equation(o, p, e);
+        o.push('\n');
     }
     let _ = writeln!(o, "kinematic equations (6):");
     for (k, e) in c.kinematics.iter().enumerate() {
-        let _ = writeln!(o, "  der({}) = {}", d.coordinates[k], p(e));
+        let _ = write!(o, "  der({}) = ", d.coordinates[k]);
+        p(e, o);
+        o.push('\n');
     }
-    let _ = writeln!(o, "energy E = T − U = {}", p(&c.energy));
+    o.push_str("energy E = T − U = ");
+    p(&c.energy, o);
+    o.push('\n');
     o.push('\n');
     let checks = &c.checks;
     let _ = writeln!(o, "checks (exact):");
@@ -136,11 +153,11 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
 
 /// The structured form: what the equations are made of, and the certificate.
 fn structured_text<'e>(o: &mut String, d: &'e Derivation, st: &StructuredForm, p: Printer<'_, 'e>) {
-    let _ = writeln!(
-        o,
-        "U = {}",
-        d.ingredients.potential.as_ref().map_or(String::new(), p)
-    );
+    o.push_str("U = ");
+    if let Some(u) = &d.ingredients.potential {
+        p(u, o);
+    }
+    o.push('\n');
     list_text(o, "∇U", &d.grad_u, p);
     let _ = writeln!(o, "\nstructured form: {}", st.structured);
     let _ = writeln!(
@@ -204,7 +221,7 @@ impl Derivation {
 
     /// The derivation as plain text, entries in their canonical form.
     pub fn to_text(&self) -> String {
-        self.to_text_with(&|e| e.text.clone())
+        self.to_text_with(&canonical)
     }
 
     /// The derivation as plain text, each entry written by `p`.

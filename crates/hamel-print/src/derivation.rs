@@ -132,7 +132,7 @@ pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
     let p = printing(d)?;
     let entries = RefCell::new(BTreeMap::new());
     let multiplied_by = RefCell::new(BTreeMap::new());
-    d.to_text_with(&|e| {
+    d.to_text_with(&|e, _| {
         let id = p.id(e);
         entries
             .borrow_mut()
@@ -140,7 +140,6 @@ pub fn json(d: &Derivation) -> Result<PrintedJson, PrintError> {
         if let Some(m) = p.sheet.multiplier_text(id) {
             multiplied_by.borrow_mut().insert(e.text.clone(), m);
         }
-        String::new()
     });
     let used = p.used();
     let names = used

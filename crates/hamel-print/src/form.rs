@@ -344,7 +344,7 @@ pub(crate) fn render(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax) -> String {
 }
 
 /// [`render`] into `out`.
-fn write(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
+pub(crate) fn write(f: &Form, ctx: Ctx<'_>, s: &dyn Syntax, out: &mut String) {
     match f {
         Form::Sum(terms) => {
             for (i, t) in terms.iter().enumerate() {

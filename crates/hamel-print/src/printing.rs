@@ -58,10 +58,7 @@ impl Printing {
         // The entries shown, in order (by address: the printer is called with references into
         // the data shown).
         let shown: RefCell<Vec<&'e Entry>> = RefCell::new(Vec::new());
-        show(&|e: &'e Entry| {
-            shown.borrow_mut().push(e);
-            String::new()
-        });
+        show(&|e: &'e Entry, _| shown.borrow_mut().push(e));
         Printing::of_shown(vocabulary.clone(), model, shown.into_inner())
     }
 
@@ -122,31 +119,42 @@ impl Printing {
     /// equation multiplied through is written whole, `num = 0   (multiplied by D > 0)`.
     pub(crate) fn text<'e>(&self, show: &dyn Fn(Printer<'_, 'e>) -> String) -> String {
         // Every entry of a large sheet written first, on printing's pool; an entry shown
-        // twice (a symmetric matrix's, equal ones) is written once, and one shown once is
-        // not kept.
+        // twice (a symmetric matrix's, equal ones) is written once, and copied from where it
+        // was kept.
         let ids: Vec<usize> = (0..self.sheet.entries.len()).collect();
         let ahead: Vec<RefCell<Option<String>>> = if self.sheet.parallel {
-            crate::par::map_ref(&ids, true, |&id| self.entry_text(id))
-                .into_iter()
-                .map(|t| RefCell::new(Some(t)))
-                .collect()
+            crate::par::map_ref(&ids, true, |&id| {
+                let mut text = String::new();
+                self.write_entry(id, &mut text);
+                text
+            })
+            .into_iter()
+            .map(|t| RefCell::new(Some(t)))
+            .collect()
         } else {
             Vec::new()
         };
-        let written: RefCell<HashMap<usize, String>> = RefCell::default();
-        let mut out = show(&|e| {
+        let kept: RefCell<Kept> = RefCell::new(Kept {
+            text: String::new(),
+            at: vec![None; ids.len()],
+        });
+        let mut out = show(&|e, out| {
             let id = self.id(e);
-            if let Some(text) = written.borrow().get(&id) {
-                return text.clone();
+            let mut kept = kept.borrow_mut();
+            if let Some(r) = kept.at[id].clone() {
+                out.push_str(&kept.text[r]);
+                return;
             }
-            let text = ahead
-                .get(id)
-                .and_then(|t| t.borrow_mut().take())
-                .unwrap_or_else(|| self.entry_text(id));
+            let start = out.len();
+            match ahead.get(id).and_then(|t| t.borrow_mut().take()) {
+                Some(text) => out.push_str(&text),
+                None => self.write_entry(id, out),
+            }
             if self.sheet.shown(id) > 1 {
-                written.borrow_mut().insert(id, text.clone());
+                let from = kept.text.len();
+                kept.text.push_str(&out[start..]);
+                kept.at[id] = Some(from..kept.text.len());
             }
-            text
         });
         let used: Vec<usize> = self.used().into_iter().collect();
         if !used.is_empty() {
@@ -161,13 +169,15 @@ impl Printing {
         out
     }
 
-    /// Entry `id` as the text writes it: an equation multiplied through is written whole,
-    /// `num = 0   (multiplied by D > 0)`.
-    fn entry_text(&self, id: usize) -> String {
-        let text = self.sheet.text(id);
-        match self.sheet.multiplier_text(id) {
-            Some(d) => format!("{text} = 0   (multiplied by {d} > 0)"),
-            None => text,
+    /// Entry `id` as the text writes it, appended to `out`: an equation multiplied through
+    /// is written whole, `num = 0   (multiplied by D > 0)`.
+    fn write_entry(&self, id: usize, out: &mut String) {
+        self.sheet.write_text(id, out);
+        if self
+            .sheet
+            .write_multiplier_text(id, out, " = 0   (multiplied by ")
+        {
+            out.push_str(" > 0)");
         }
     }
 
@@ -181,6 +191,12 @@ impl Printing {
     pub(crate) fn id(&self, e: &Entry) -> usize {
         self.ids[&address(e)]
     }
+}
+
+/// The texts of the entries shown more than once, each written once: entry ↦ its range.
+struct Kept {
+    text: String,
+    at: Vec<Option<std::ops::Range<usize>>>,
 }
 
 /// What an entry is read from: the polynomials the computer algebra exported, when it kept

@@ -11,7 +11,9 @@ use hamel_expr::Expr;
 use crate::atoms::{Atoms, Kind, Vocabulary};
 use crate::collect;
 use crate::factored::Factored;
-use crate::form::{Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr};
+use crate::form::{
+    Ctx, Definition, Factor, Form, Latex, Syntax, Text, argument, render, to_expr, write,
+};
 use crate::poly::{Fraction, Mono, Poly, PolyError};
 use crate::q::Q;
 use crate::read::Source;
@@ -190,6 +192,11 @@ impl Sheet {
         render(&self.entries[i].0, self.ctx(), &Text)
     }
 
+    /// [`Sheet::text`] appended to `out`.
+    pub(crate) fn write_text(&self, i: usize, out: &mut String) {
+        write(&self.entries[i].0, self.ctx(), &Text, out);
+    }
+
     /// Entry `i` in LaTeX.
     pub fn latex(&self, i: usize) -> String {
         render(&self.entries[i].0, self.ctx(), &Latex)
@@ -310,6 +317,17 @@ impl Sheet {
         self.multipliers
             .get(&i)
             .map(|d| render(d, self.ctx(), &Text))
+    }
+
+    /// [`Sheet::multiplier_text`] appended to `out` after `before`, if entry `i` has one;
+    /// whether it has.
+    pub(crate) fn write_multiplier_text(&self, i: usize, out: &mut String, before: &str) -> bool {
+        let Some(d) = self.multipliers.get(&i) else {
+            return false;
+        };
+        out.push_str(before);
+        write(d, self.ctx(), &Text, out);
+        true
     }
 
     /// The same in LaTeX.

@@ -4,7 +4,7 @@ use std::fmt::Write;
 
 use hamel_derive::Printer;
 
-use crate::report::{BlockStructure, CoordinateKind, Reduction, Witness};
+use crate::report::{BlockStructure, CoordinateKind, KinematicEquation, Reduction, Witness};
 
 fn witness_line(w: &Witness) -> String {
     let idx: Vec<String> = w.index.iter().map(|i| i.to_string()).collect();
@@ -15,6 +15,13 @@ fn witness_line(w: &Witness) -> String {
         w.expression,
         w.note
     )
+}
+
+/// `  der(q) = rate`, the rate written by `p`.
+fn rate<'e>(o: &mut String, k: &'e KinematicEquation, p: Printer<'_, 'e>) {
+    let _ = write!(o, "  der({}) = ", k.coordinate);
+    p(&k.rate, o);
+    o.push('\n');
 }
 
 /// (17)/(18) as text.
@@ -33,13 +40,15 @@ fn structure_text<'e>(o: &mut String, st: &'e BlockStructure, p: Printer<'_, 'e>
     for (i, q) in &st.unit_rows {
         let _ = writeln!(o, "  eta{i} = der({q})");
     }
-    let _ = writeln!(o, "  δ_R = {}", p(&st.delta_r));
+    o.push_str("  δ_R = ");
+    p(&st.delta_r, o);
+    o.push('\n');
 }
 
 impl Reduction {
     /// The report as text, entries in their canonical form.
     pub fn to_text(&self) -> String {
-        self.to_text_with(&|e| e.text.clone())
+        self.to_text_with(&hamel_derive::canonical)
     }
 
     /// The report as text, each entry of the block structure and of the reduced system
@@ -175,19 +184,20 @@ impl Reduction {
                     );
                 }
                 for (i, e) in r.equations.iter().enumerate() {
-                    let text = p(e);
-                    if hamel_derive::is_whole_equation(&text) {
-                        let _ = writeln!(o, "  (11.{}) {text}", i + 1);
-                    } else {
-                        let _ = writeln!(o, "  (11.{}) 0 = {text}", i + 1);
+                    let _ = write!(o, "  (11.{}) ", i + 1);
+                    let start = o.len();
+                    p(e, &mut o);
+                    if !hamel_derive::is_whole_equation(&o[start..]) {
+                        o.insert_str(start, "0 = ");
                     }
+                    o.push('\n');
                 }
                 for k in &r.kinematics {
-                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, p(&k.rate));
+                    rate(&mut o, k, p);
                 }
                 let _ = writeln!(o, "Reconstruction:");
                 for k in &r.reconstruction {
-                    let _ = writeln!(o, "  der({}) = {}", k.coordinate, p(&k.rate));
+                    rate(&mut o, k, p);
                 }
             }
         }
