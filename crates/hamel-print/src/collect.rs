@@ -410,13 +410,12 @@ fn runs(split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
 /// When there are two groups or more and every coefficient is `c_i · P` for one polynomial
 /// `P` of two terms or more: `P` and the `c_i`.
 fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Q>)> {
-    if groups.len() < 2 {
+    // Equal polynomials up to a rational factor have as many terms: only those are compared.
+    let size = groups.first()?.1.size();
+    if groups.len() < 2 || size < 2 || groups.iter().any(|(_, coef)| coef.size() != size) {
         return None;
     }
     let (_, _, first) = content(&groups[0].1);
-    if first.size() < 2 {
-        return None;
-    }
     let mut scales = Vec::new();
     for (_, coef) in groups {
         let (c, g, rest) = content(coef);
