@@ -11,8 +11,16 @@ use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
 /// held inline (most monomials of a derivation have four atoms or fewer), more on the heap.
-#[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Mono(Pairs);
+
+impl Clone for Mono {
+    /// The pairs copied whole (smallvec's own clone pushes them one at a time: a monomial
+    /// is cloned for every term that collection moves).
+    fn clone(&self) -> Mono {
+        Mono(Pairs::from_slice(&self.0))
+    }
+}
 
 /// A monomial's pairs.
 type Pairs = SmallVec<[(u32, u32); 8]>;
