@@ -18,7 +18,7 @@ use smallvec::SmallVec;
 
 use crate::atoms::{Atoms, Kind};
 use crate::factored::Factored;
-use crate::form::{Factor, Form, factor_rank, is_zero};
+use crate::form::{Factor, Factors, Form, factor_rank, is_zero};
 use crate::poly::{Fraction, Mono, Poly, leading_negative};
 use crate::q::Q;
 
@@ -78,7 +78,7 @@ pub(crate) fn factored_in(f: &Factored, cx: &Cx<'_>) -> Form {
         return poly_in(&f.num, cx);
     }
     let mut coef = f.scale.clone();
-    let mut factors = Vec::new();
+    let mut factors = Factors::new();
     for (p, e) in &f.factors {
         let form = cx.factors.borrow().get(p).cloned();
         let form = form.unwrap_or_else(|| {
@@ -97,7 +97,7 @@ pub(crate) fn factored_in(f: &Factored, cx: &Cx<'_>) -> Form {
 }
 
 /// `form^e` multiplied into `coef · factors`.
-fn raise(form: Form, e: u32, coef: &mut Q, factors: &mut Vec<Factor>) {
+fn raise(form: Form, e: u32, coef: &mut Q, factors: &mut Factors) {
     match form {
         Form::Product {
             coef: c,
@@ -200,7 +200,7 @@ fn product(mut c: Q, g: &Mono, mut inner: Option<Form>, atoms: &Cx<'_>) -> Form 
     sorted(c, factors, atoms)
 }
 
-fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Cx<'_>) -> Form {
+fn sorted(coef: Q, mut factors: Factors, atoms: &Cx<'_>) -> Form {
     if coef.is_one()
         && matches!(factors.as_slice(), [Factor::Group(_)])
         && let Some(Factor::Group(sum)) = factors.pop()
@@ -215,7 +215,7 @@ fn sorted(coef: Q, mut factors: Vec<Factor>, atoms: &Cx<'_>) -> Form {
 }
 
 /// Equal atoms next to each other (after sorting) merged into one power, in place.
-fn merged(mut factors: Vec<Factor>) -> Vec<Factor> {
+fn merged(mut factors: Factors) -> Factors {
     factors.dedup_by(|x, kept| match (kept, x) {
         (Factor::Atom { index: i, power: p }, Factor::Atom { index: j, power: q }) if i == j => {
             *p += *q;
@@ -226,7 +226,7 @@ fn merged(mut factors: Vec<Factor>) -> Vec<Factor> {
     factors
 }
 
-fn atoms_of(m: &Mono) -> Vec<Factor> {
+fn atoms_of(m: &Mono) -> Factors {
     atom_factors(m).collect()
 }
 
@@ -255,7 +255,7 @@ pub(crate) fn negate(f: &mut Form) {
 fn constant(c: Q) -> Form {
     Form::Product {
         coef: c,
-        factors: Vec::new(),
+        factors: Factors::new(),
     }
 }
 
@@ -281,7 +281,7 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
         let common = parameters(&common, atoms);
         return sorted(
             sign,
-            vec![
+            smallvec::smallvec![
                 Factor::Group(Arc::new(common)),
                 Factor::Group(Arc::new(inner)),
             ],
@@ -325,7 +325,7 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
         .map(|(_, rate, coefficient)| {
             let (coef, mut factors) = match poly_in(&coefficient, atoms) {
                 Form::Product { coef, factors } => (coef, factors),
-                sum => (Q::one(), vec![Factor::Group(Arc::new(sum))]),
+                sum => (Q::one(), smallvec::smallvec![Factor::Group(Arc::new(sum))]),
             };
             factors.extend(atom_factors(&rate));
             sorted(coef, factors, atoms)
@@ -433,7 +433,7 @@ fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
     for (state, coef) in groups {
         let (coef, mut factors) = match parameters(&coef, atoms) {
             Form::Product { coef, factors } => (coef, factors),
-            sum => (Q::one(), vec![Factor::Group(Arc::new(sum))]),
+            sum => (Q::one(), smallvec::smallvec![Factor::Group(Arc::new(sum))]),
         };
         factors.extend(atom_factors(&state));
         match sorted(coef, factors, atoms) {

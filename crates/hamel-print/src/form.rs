@@ -18,13 +18,17 @@ pub enum Form {
         /// The rational coefficient.
         coef: Q,
         /// The factors.
-        factors: Vec<Factor>,
+        factors: Factors,
     },
     /// A sum of terms.
     Sum(Vec<Form>),
     /// `num / den`.
     Quotient(Box<Form>, Box<Form>),
 }
+
+/// A product's factors: most products have a few, held inline (a product built during
+/// collection is not an allocation).
+pub type Factors = smallvec::SmallVec<[Factor; 4]>;
 
 /// A factor of a product.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]

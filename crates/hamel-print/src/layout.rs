@@ -3,7 +3,8 @@
 
 use crate::atoms::simple;
 use crate::form::{
-    Ctx, Factor, Form, Latex, Syntax, negative_term, powers, render, render_terms, unsigned_latex,
+    Ctx, Factor, Factors, Form, Latex, Syntax, negative_term, powers, render, render_terms,
+    unsigned_latex,
 };
 use crate::q::Q;
 use crate::sheet::Sheet;
@@ -65,7 +66,7 @@ impl Sheet {
 fn split(f: &Form) -> Option<(Form, &[Form], Form)> {
     let empty = || Form::Product {
         coef: crate::Q::one(),
-        factors: Vec::new(),
+        factors: Factors::new(),
     };
     match f {
         Form::Sum(terms) => Some((empty(), terms, empty())),
@@ -81,11 +82,11 @@ fn split(f: &Form) -> Option<(Form, &[Form], Form)> {
             };
             let lead = Form::Product {
                 coef: coef.clone(),
-                factors: factors[..k].to_vec(),
+                factors: Factors::from(&factors[..k]),
             };
             let tail = Form::Product {
                 coef: crate::Q::one(),
-                factors: factors[k + 1..].to_vec(),
+                factors: Factors::from(&factors[k + 1..]),
             };
             Some((lead, terms, tail))
         }

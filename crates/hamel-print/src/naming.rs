@@ -11,7 +11,7 @@
 use std::sync::Arc;
 
 use crate::atoms::Kind;
-use crate::form::{Factor, Form};
+use crate::form::{Factor, Factors, Form};
 use crate::places::{Keyed, hashed_groups, kinds, place};
 use crate::poly::{Fraction, Mono};
 use crate::q::Q;
@@ -310,7 +310,7 @@ struct Candidate {
 fn named(p: &Placed) -> Form {
     Form::Product {
         coef: p.factor.clone(),
-        factors: vec![Factor::Name { index: p.name }],
+        factors: smallvec::smallvec![Factor::Name { index: p.name }],
     }
 }
 
@@ -360,7 +360,7 @@ fn named_copy(f: &Form, next: &mut usize, at: &Named) -> Form {
     match f {
         Form::Product { coef, factors } => {
             let mut coef = coef.clone();
-            let mut copied = Vec::with_capacity(factors.len());
+            let mut copied = Factors::with_capacity(factors.len());
             for x in factors {
                 let Factor::Group(g) = x else {
                     copied.push(x.clone());

@@ -441,7 +441,7 @@ fn the_modular_check_finds_a_wrong_form() {
             |f: Form| Form::Sum(vec![f.clone(), f]),
             |f: Form| Form::Product {
                 coef: crate::Q::one(),
-                factors: vec![
+                factors: smallvec::smallvec![
                     Factor::Atom { index: 0, power: 1 },
                     Factor::Group(std::sync::Arc::new(f)),
                 ],

@@ -94,7 +94,7 @@ impl Sheet {
         if let Some(index) = self.name_for(b) {
             *b = Form::Product {
                 coef: crate::Q::one(),
-                factors: vec![Factor::Name { index }],
+                factors: smallvec::smallvec![Factor::Name { index }],
             };
         }
     }
