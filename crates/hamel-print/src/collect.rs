@@ -383,26 +383,29 @@ fn keys<'a>(m: &'a Mono, rates: bool, atoms: &'a Atoms) -> impl Iterator<Item = 
 }
 
 /// Terms `(key, rest, c)` (the products `key · rest` distinct) gathered by key: each key with
-/// the polynomial of its rests, keys in order. The terms are sorted by key then rest through
-/// their indices (a term is three monomials and a rational: moving indices is cheaper), so
-/// that each key's terms are a run, already in order.
-fn runs(split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
-    let mut order: Vec<usize> = (0..split.len()).collect();
-    order.sort_unstable_by(|&a, &b| {
-        let (x, y) = (&split[a], &split[b]);
-        (&x.0, &x.1).cmp(&(&y.0, &y.1))
-    });
-    let mut split: Vec<Option<(Mono, Mono, Q)>> = split.into_iter().map(Some).collect();
-    let mut out: Vec<(Mono, Poly)> = Vec::new();
-    let mut run: Vec<(Mono, Q)> = Vec::new();
-    for (k, &i) in order.iter().enumerate() {
-        let (key, rest, c) = split[i].take().expect("each term once");
-        run.push((rest, c));
-        let next = order.get(k + 1).and_then(|&j| split[j].as_ref());
-        if next.is_some_and(|(n, _, _)| *n == key) {
-            continue;
+/// the polynomial of its rests, keys in order. The terms are sorted by key then rest, so that
+/// each key's terms are a run, already in order; each run is measured first, so that every
+/// vector is made at its size.
+fn runs(mut split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
+    split.sort_unstable_by(|x, y| (&x.0, &x.1).cmp(&(&y.0, &y.1)));
+    let mut lengths: SmallVec<[usize; 8]> = SmallVec::new();
+    let mut start = 0;
+    for k in 1..=split.len() {
+        if k == split.len() || split[k].0 != split[start].0 {
+            lengths.push(k - start);
+            start = k;
         }
-        out.push((key, Poly::from_sorted(std::mem::take(&mut run))));
+    }
+    let mut out = Vec::with_capacity(lengths.len());
+    let mut terms = split.into_iter();
+    for length in lengths {
+        let Some((key, rest, c)) = terms.next() else {
+            break;
+        };
+        let mut run = Vec::with_capacity(length);
+        run.push((rest, c));
+        run.extend(terms.by_ref().take(length - 1).map(|(_, r, c)| (r, c)));
+        out.push((key, Poly::from_sorted(run)));
     }
     out
 }
@@ -506,7 +509,7 @@ fn greedy(p: &Poly, atoms: &Cx<'_>) -> Form {
 fn in_order(mut terms: Vec<Form>, atoms: &Cx<'_>) -> Form {
     terms.sort_by_cached_key(|t| match t {
         Form::Product { factors, .. } => factors.iter().map(|x| factor_rank(x, atoms)).collect(),
-        _ => Vec::new(),
+        _ => SmallVec::<[_; 4]>::new(),
     });
     Form::Sum(terms)
 }

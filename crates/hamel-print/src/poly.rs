@@ -193,6 +193,12 @@ impl Poly {
     /// coefficients of equal monomials are added, zeros dropped).
     pub fn from_terms(mut terms: Vec<(Mono, Q)>) -> Poly {
         terms.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+        // Mostly the monomials are distinct already (an exported canonical form's are): then
+        // the sorted terms are the polynomial, kept where they are.
+        let distinct = terms.windows(2).all(|w| w[0].0 != w[1].0);
+        if distinct && terms.iter().all(|(_, c)| !c.is_zero()) {
+            return Poly(terms);
+        }
         let mut out: Vec<(Mono, Q)> = Vec::with_capacity(terms.len());
         for (m, c) in terms {
             match out.last_mut() {
