@@ -433,23 +433,29 @@ impl Sheet {
 
     /// The coordinates `key` depends on, in the model's order.
     fn coordinates_in(&self, key: &Key) -> Vec<String> {
-        let atoms: BTreeSet<usize> = key.monomials().flat_map(Mono::atoms).collect();
-        let mut seen: BTreeSet<String> = BTreeSet::new();
-        for i in atoms {
+        let coordinates = &self.atoms.vocabulary().coordinates;
+        let mut found = vec![false; coordinates.len()];
+        let mut mark = |n: &String| {
+            if let Some(k) = coordinates.iter().position(|c| c == n) {
+                found[k] = true;
+            }
+        };
+        let mut visited = vec![false; self.atoms.len()];
+        for i in key.monomials().flat_map(Mono::atoms) {
+            if std::mem::replace(&mut visited[i], true) {
+                continue;
+            }
             self.atoms.get(i).expr.visit(&mut |e| match e {
-                Expr::Sym(n) | Expr::Der(n) => {
-                    seen.insert(n.clone());
-                }
-                Expr::Free { args, .. } => seen.extend(args.iter().cloned()),
+                Expr::Sym(n) | Expr::Der(n) => mark(n),
+                Expr::Free { args, .. } => args.iter().for_each(&mut mark),
                 _ => {}
             });
         }
-        self.atoms
-            .vocabulary()
-            .coordinates
+        coordinates
             .iter()
-            .filter(|c| seen.contains(*c))
-            .cloned()
+            .zip(found)
+            .filter(|&(_, f)| f)
+            .map(|(c, _)| c.clone())
             .collect()
     }
 }

@@ -158,35 +158,40 @@ impl Sheet {
     /// polynomials holds every atom of each factor. What [`Sheet::definition`] reads the kind
     /// and the arguments of a name from.
     fn atoms_in(&self, f: &Form) -> Poly {
-        let mut found = Vec::new();
-        self.gather_atoms(f, &mut found);
-        found.sort_unstable();
-        found.dedup();
+        let mut found = vec![false; self.atoms.len()];
+        let mut names = vec![false; self.names.len()];
+        self.gather_atoms(f, &mut found, &mut names);
+        let atoms = found.iter().enumerate().filter(|&(_, &f)| f);
         Poly::from_sorted(
-            found
-                .into_iter()
-                .map(|a| (Mono::atom(a), crate::Q::one()))
+            atoms
+                .map(|(a, _)| (Mono::atom(a), crate::Q::one()))
                 .collect(),
         )
     }
 
-    fn gather_atoms(&self, f: &Form, found: &mut Vec<usize>) {
+    /// The atoms of `f` marked in `found` (by index), a name's definition read once
+    /// (`names`: the names read already).
+    fn gather_atoms(&self, f: &Form, found: &mut [bool], names: &mut [bool]) {
         match f {
             Form::Product { factors, .. } => {
                 for x in factors {
                     match x {
-                        Factor::Atom { index, .. } => found.push(*index),
-                        Factor::Group(g) => self.gather_atoms(g, found),
+                        Factor::Atom { index, .. } => found[*index] = true,
+                        Factor::Group(g) => self.gather_atoms(g, found, names),
                         Factor::Name { index } => {
-                            self.gather_atoms(&self.definitions()[*index].form, found);
+                            if !std::mem::replace(&mut names[*index], true) {
+                                self.gather_atoms(&self.definitions()[*index].form, found, names);
+                            }
                         }
                     }
                 }
             }
-            Form::Sum(terms) => terms.iter().for_each(|t| self.gather_atoms(t, found)),
+            Form::Sum(terms) => terms
+                .iter()
+                .for_each(|t| self.gather_atoms(t, found, names)),
             Form::Quotient(a, b) => {
-                self.gather_atoms(a, found);
-                self.gather_atoms(b, found);
+                self.gather_atoms(a, found, names);
+                self.gather_atoms(b, found, names);
             }
         }
     }
