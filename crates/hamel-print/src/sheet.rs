@@ -228,6 +228,10 @@ impl Sheet {
     /// The names that entries `ids` use, directly, inside other names or as the argument of
     /// an atom.
     pub fn names_used(&self, ids: &[usize]) -> BTreeSet<usize> {
+        // Each entry walked once, however often it is shown.
+        let mut ids = ids.to_vec();
+        ids.sort_unstable();
+        ids.dedup();
         let mut used = BTreeSet::new();
         let mut todo: Vec<&Form> = ids.iter().map(|&i| &self.entries[i].0).collect();
         todo.extend(ids.iter().filter_map(|i| self.multipliers.get(i)));
