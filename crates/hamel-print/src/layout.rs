@@ -149,19 +149,28 @@ pub fn width_at_least(f: &Form) -> usize {
 /// letter that the next could extend into a longer control word. None where it is not known
 /// without rendering: an atom whose argument is printed by name, a power of an atom that
 /// is not a name or a call, a big coefficient.
-pub(crate) fn latex_width(f: &Form, ctx: Ctx<'_>) -> Option<usize> {
+///
+/// Found up to `cap`: as soon as the pieces so far are wider than `cap`, their width is
+/// returned (what telling whether a group is wider than `cap` needs: the pieces after them
+/// only add to it, and none of them is looked at).
+pub(crate) fn latex_width_upto(f: &Form, ctx: Ctx<'_>, cap: usize) -> Option<usize> {
     match f {
-        Form::Sum(terms) => terms
-            .iter()
-            .enumerate()
-            .map(|(i, t)| Some(usize::from(i > 0 || negative_term(t)) + unsigned_width(t, ctx)?))
-            .sum(),
-        _ => Some(usize::from(negative_term(f)) + unsigned_width(f, ctx)?),
+        Form::Sum(terms) => {
+            let mut n = 0;
+            for (i, t) in terms.iter().enumerate() {
+                n += usize::from(i > 0 || negative_term(t)) + unsigned_width(t, ctx, cap)?;
+                if n > cap {
+                    break;
+                }
+            }
+            Some(n)
+        }
+        _ => Some(usize::from(negative_term(f)) + unsigned_width(f, ctx, cap)?),
     }
 }
 
-/// [`latex_width`] of a term without its sign (as `write_unsigned` writes it).
-fn unsigned_width(f: &Form, ctx: Ctx<'_>) -> Option<usize> {
+/// [`latex_width_upto`] of a term without its sign (as `write_unsigned` writes it).
+fn unsigned_width(f: &Form, ctx: Ctx<'_>, cap: usize) -> Option<usize> {
     match f {
         Form::Product { coef, factors } => {
             let mut n = if !coef.is_unit() || factors.is_empty() {
@@ -173,17 +182,26 @@ fn unsigned_width(f: &Form, ctx: Ctx<'_>) -> Option<usize> {
                 n += match x {
                     Factor::Atom { index, power } => atom_width(*index, *power, ctx)?,
                     // `\left(` and `\right)`: one each.
-                    Factor::Group(g) => 2 + latex_width(g, ctx)?,
+                    Factor::Group(g) => 2 + latex_width_upto(g, ctx, cap)?,
                     Factor::Name { index } => width(Latex.name(&ctx.names[*index])),
                 };
                 if k > 1 {
                     n += digits(u64::from(k));
                 }
+                if n > cap {
+                    break;
+                }
             }
             Some(n)
         }
-        Form::Sum(_) => Some(2 + latex_width(f, ctx)?),
-        Form::Quotient(a, b) => Some(latex_width(a, ctx)? + latex_width(b, ctx)?),
+        Form::Sum(_) => Some(2 + latex_width_upto(f, ctx, cap)?),
+        Form::Quotient(a, b) => {
+            let a = latex_width_upto(a, ctx, cap)?;
+            if a > cap {
+                return Some(a);
+            }
+            Some(a + latex_width_upto(b, ctx, cap)?)
+        }
     }
 }
 

@@ -140,6 +140,9 @@ pub(crate) struct Point {
     seed: u64,
     atoms: Vec<u64>,
     named: Vec<Option<Option<V>>>,
+    /// The values of groups shared between places, by address, when the forms valued stay as
+    /// they are while the point is used ([`Point::keeping_groups`]).
+    groups: Option<foldhash::HashMap<usize, Option<V>>>,
 }
 
 impl Point {
@@ -149,6 +152,7 @@ impl Point {
             seed: RandomState::new().hash_one(0x0068_616d_656c_u64),
             atoms: Vec::new(),
             named: Vec::new(),
+            groups: None,
         }
     }
 
@@ -159,7 +163,32 @@ impl Point {
             seed: self.seed,
             atoms: self.atoms.clone(),
             named: Vec::new(),
+            groups: None,
         }
+    }
+
+    /// This point, keeping the value of each group that several places share (a memoised
+    /// coefficient, a denominator's factor), by its address: for valuing forms that do not
+    /// change while it is used.
+    pub(crate) fn keeping_groups(mut self) -> Point {
+        self.groups = Some(foldhash::HashMap::default());
+        self
+    }
+
+    /// A group's value, kept when the group is shared and the point keeps groups.
+    fn group(&mut self, g: &std::sync::Arc<Form>, names: &[Definition]) -> Option<V> {
+        if std::sync::Arc::strong_count(g) == 1 || self.groups.is_none() {
+            return self.form(g, names);
+        }
+        let address = std::sync::Arc::as_ptr(g) as usize;
+        if let Some(v) = self.groups.as_ref().and_then(|k| k.get(&address)) {
+            return *v;
+        }
+        let v = self.form(g, names);
+        if let Some(kept) = &mut self.groups {
+            kept.insert(address, v);
+        }
+        v
     }
 
     /// Atom `i`'s residue.
@@ -206,7 +235,7 @@ impl Point {
                         Factor::Atom { index, power } => {
                             v.0 = mul(v.0, pow(self.atom(*index), u64::from(*power)));
                         }
-                        Factor::Group(g) => v = v.times(self.form(g, names)?),
+                        Factor::Group(g) => v = v.times(self.group(g, names)?),
                         Factor::Name { index } => v = v.times(self.name(*index, names)?),
                     }
                 }

@@ -258,7 +258,8 @@ impl Sheet {
     /// values are taken as they are read), and expanded exactly ([`Sheet::check`]) where the
     /// point is a pole.
     pub fn first_mismatch(&self) -> Option<usize> {
-        let mut point = self.check.residues();
+        // The forms stay as they are while they are checked: shared groups are valued once.
+        let mut point = self.check.residues().keeping_groups();
         (0..self.entries.len()).find(|&i| {
             let (form, canonical) = &self.entries[i];
             let multiplier = self.multipliers.get(&i);

@@ -518,14 +518,15 @@ fn canonical_forms_read_as_their_trees() {
     }
 }
 
-/// The width of a form's LaTeX found from its pieces ([`crate::layout::latex_width`], what
-/// decides which groups are too wide without rendering them) is the width of its rendering,
-/// for every group of every entry: powers of names, calls and roots, rationals, quotients,
-/// names of the where-list, negative terms.
+/// The width of a form's LaTeX found from its pieces ([`crate::layout::latex_width_upto`],
+/// what decides which groups are too wide without rendering them) is the width of its
+/// rendering, for every group of every entry: powers of names, calls and roots, rationals,
+/// quotients, names of the where-list, negative terms. Found up to a cap, it is over the cap
+/// exactly when the width is.
 #[test]
 fn widths_from_pieces_are_widths_of_the_rendering() {
     use crate::form::{Factor, Form, Latex, render};
-    use crate::layout::{latex_width, width};
+    use crate::layout::{latex_width_upto, width};
     let v = unicycle();
     let mut sheet = crate::Sheet::new(&v);
     let texts = [
@@ -563,9 +564,17 @@ fn widths_from_pieces_are_widths_of_the_rendering() {
     let mut known = 0;
     for g in all {
         let rendered = render(g, sheet.ctx(), &Latex);
-        if let Some(w) = latex_width(g, sheet.ctx()) {
+        if let Some(w) = latex_width_upto(g, sheet.ctx(), usize::MAX) {
             assert_eq!(w, width(&rendered), "{rendered}");
             known += 1;
+            for cap in [0, w / 2, w.saturating_sub(1), w, w + 1] {
+                let capped = latex_width_upto(g, sheet.ctx(), cap);
+                assert_eq!(
+                    capped.map(|c| c > cap),
+                    Some(w > cap),
+                    "{rendered}, cap {cap}"
+                );
+            }
         }
     }
     assert!(known > 20, "{known} widths known without rendering");
@@ -659,7 +668,7 @@ fn a_denominator_stays_in_its_factors() {
     use num_bigint::BigInt;
 
     use crate::form::{Latex, render};
-    use crate::layout::{latex_width, width};
+    use crate::layout::{latex_width_upto, width};
     use crate::read::Source;
     use crate::sheet::Sheet;
 
@@ -698,7 +707,7 @@ fn a_denominator_stays_in_its_factors() {
         };
         let latex = render(&den, sheet.ctx(), &Latex);
         assert_eq!(
-            latex_width(&den, sheet.ctx()),
+            latex_width_upto(&den, sheet.ctx(), usize::MAX),
             Some(width(&latex)),
             "{latex}"
         );

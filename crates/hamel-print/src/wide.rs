@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use crate::collect;
 use crate::form::{Factor, Form, Latex, Syntax, argument, render};
-use crate::layout::{LINE, latex_width, width, width_at_least};
+use crate::layout::{LINE, latex_width_upto, width, width_at_least};
 use crate::poly::{Fraction, Mono, Poly};
 use crate::sheet::Sheet;
 
@@ -79,7 +79,7 @@ impl Sheet {
     /// they are known, else by a lower bound when it is over (a large group), else by
     /// rendering it.
     fn wider_than_wide(&self, g: &Form) -> bool {
-        match latex_width(g, self.ctx()) {
+        match latex_width_upto(g, self.ctx(), WIDE) {
             Some(w) => w > WIDE,
             None => width_at_least(g) > WIDE || width(&render(g, self.ctx(), &Latex)) > WIDE,
         }
