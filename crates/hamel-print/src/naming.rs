@@ -80,13 +80,11 @@ impl Sheet {
         match f {
             Form::Product { coef, factors } => {
                 // The atoms make one monomial; only groups and names are multiplied in.
-                let mut monomial = Mono::default();
+                let mut pairs: smallvec::SmallVec<[(usize, u32); 8]> = smallvec::SmallVec::new();
                 let mut parts: Vec<Part> = Vec::new();
                 for x in factors {
                     match x {
-                        Factor::Atom { index, power } => {
-                            monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
-                        }
+                        Factor::Atom { index, power } => pairs.push((*index, *power)),
                         Factor::Group(g) => {
                             parts.push(Part::Group(self.group_at(g, next, groups, memo)));
                         }
@@ -97,7 +95,7 @@ impl Sheet {
                     Part::Group(i) => memo[i].as_ref().expect("valued"),
                     Part::Name(j) => self.value(j),
                 });
-                product(coef, monomial, parts)
+                product(coef, Mono::from_unsorted(pairs), parts)
             }
             Form::Sum(terms) => {
                 let parts: Vec<Fraction> = terms

@@ -370,12 +370,10 @@ impl Sheet {
         match f {
             Form::Product { coef, factors } => {
                 // The atoms make one monomial; only groups and names are multiplied in.
-                let mut monomial = Mono::default();
+                let mut pairs: smallvec::SmallVec<[(usize, u32); 8]> = smallvec::SmallVec::new();
                 for x in factors {
                     match x {
-                        Factor::Atom { index, power } => {
-                            monomial = monomial.mul(&Mono::from_pairs([(*index, *power)]));
-                        }
+                        Factor::Atom { index, power } => pairs.push((*index, *power)),
                         Factor::Group(g) if !memo.contains_key(&**g) => {
                             let v = self.fraction_of_in(g, memo);
                             memo.insert(g, v);
@@ -388,7 +386,7 @@ impl Sheet {
                     Factor::Group(g) => Some(&memo[&**g]),
                     Factor::Name { index } => Some(self.value(*index)),
                 });
-                product(coef, monomial, parts)
+                product(coef, Mono::from_unsorted(pairs), parts)
             }
             Form::Sum(terms) => {
                 let parts: Vec<Fraction> =
