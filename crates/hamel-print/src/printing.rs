@@ -173,10 +173,9 @@ impl Printing {
     /// is written whole, `num = 0   (multiplied by D > 0)`.
     fn write_entry(&self, id: usize, out: &mut String) {
         self.sheet.write_text(id, out);
-        if self
-            .sheet
-            .write_multiplier_text(id, out, " = 0   (multiplied by ")
-        {
+        if let Some(d) = self.sheet.multipliers.get(&id) {
+            out.push_str(" = 0   (multiplied by ");
+            self.sheet.write_form(d, out);
             out.push_str(" > 0)");
         }
     }

@@ -194,7 +194,12 @@ impl Sheet {
 
     /// [`Sheet::text`] appended to `out`.
     pub(crate) fn write_text(&self, i: usize, out: &mut String) {
-        write(&self.entries[i].0, self.ctx(), &Text, out);
+        self.write_form(&self.entries[i].0, out);
+    }
+
+    /// A form of the sheet in the model syntax, named groups by name, appended to `out`.
+    pub(crate) fn write_form(&self, f: &Form, out: &mut String) {
+        write(f, self.ctx(), &Text, out);
     }
 
     /// Entry `i` in LaTeX.
@@ -322,17 +327,6 @@ impl Sheet {
         self.multipliers
             .get(&i)
             .map(|d| render(d, self.ctx(), &Text))
-    }
-
-    /// [`Sheet::multiplier_text`] appended to `out` after `before`, if entry `i` has one;
-    /// whether it has.
-    pub(crate) fn write_multiplier_text(&self, i: usize, out: &mut String, before: &str) -> bool {
-        let Some(d) = self.multipliers.get(&i) else {
-            return false;
-        };
-        out.push_str(before);
-        write(d, self.ctx(), &Text, out);
-        true
     }
 
     /// The same in LaTeX.
