@@ -13,7 +13,7 @@ use std::sync::Arc;
 use crate::atoms::Kind;
 use crate::form::{Factor, Factors, Form};
 use crate::places::{Keyed, hashed_groups, kinds, place};
-use crate::poly::{Fraction, Mono};
+use crate::poly::Fraction;
 use crate::q::Q;
 use crate::sheet::{Key, Sheet, key, product};
 
@@ -79,12 +79,11 @@ impl Sheet {
     ) -> Fraction {
         match f {
             Form::Product { coef, factors } => {
-                // The atoms make one monomial; only groups and names are multiplied in.
-                let mut pairs: smallvec::SmallVec<[(usize, u32); 8]> = smallvec::SmallVec::new();
+                // Only groups and names are valued here; the atoms make one monomial.
                 let mut parts: Vec<Part> = Vec::new();
                 for x in factors {
                     match x {
-                        Factor::Atom { index, power } => pairs.push((*index, *power)),
+                        Factor::Atom { .. } => {}
                         Factor::Group(g) => {
                             parts.push(Part::Group(self.group_at(g, next, groups, memo)));
                         }
@@ -95,7 +94,7 @@ impl Sheet {
                     Part::Group(i) => memo[i].as_ref().expect("valued"),
                     Part::Name(j) => self.value(j),
                 });
-                product(coef, Mono::from_unsorted(pairs), parts)
+                product(coef, factors, parts)
             }
             Form::Sum(terms) => {
                 let parts: Vec<Fraction> = terms

@@ -363,16 +363,12 @@ impl Sheet {
     fn fraction_of_in<'f>(&self, f: &'f Form, memo: &mut HashMap<&'f Form, Fraction>) -> Fraction {
         match f {
             Form::Product { coef, factors } => {
-                // The atoms make one monomial; only groups and names are multiplied in.
-                let mut pairs: smallvec::SmallVec<[(usize, u32); 8]> = smallvec::SmallVec::new();
                 for x in factors {
-                    match x {
-                        Factor::Atom { index, power } => pairs.push((*index, *power)),
-                        Factor::Group(g) if !memo.contains_key(&**g) => {
-                            let v = self.fraction_of_in(g, memo);
-                            memo.insert(g, v);
-                        }
-                        _ => {}
+                    if let Factor::Group(g) = x
+                        && !memo.contains_key(&**g)
+                    {
+                        let v = self.fraction_of_in(g, memo);
+                        memo.insert(g, v);
                     }
                 }
                 let parts = factors.iter().filter_map(|x| match x {
@@ -380,7 +376,7 @@ impl Sheet {
                     Factor::Group(g) => Some(&memo[&**g]),
                     Factor::Name { index } => Some(self.value(*index)),
                 });
-                product(coef, Mono::from_unsorted(pairs), parts)
+                product(coef, factors, parts)
             }
             Form::Sum(terms) => {
                 let parts: Vec<Fraction> =
@@ -477,13 +473,18 @@ fn uses(f: &Form, arguments: &BTreeMap<usize, usize>, out: &mut Vec<usize>) {
     }
 }
 
-/// `coef · monomial · parts…`: the parts multiplied in order, the monomial last (a form's
-/// product with its groups and names valued).
+/// The value of a form's product `coef · factors`, given `parts`, the values of its groups and
+/// names in order: the parts multiplied in order, then the monomial its atoms make (their
+/// pairs gathered and sorted once).
 pub(crate) fn product<'p>(
     coef: &Q,
-    monomial: Mono,
+    factors: &[Factor],
     parts: impl IntoIterator<Item = &'p Fraction>,
 ) -> Fraction {
+    let monomial = Mono::from_unsorted(factors.iter().filter_map(|x| match x {
+        Factor::Atom { index, power } => Some((*index, *power)),
+        _ => None,
+    }));
     let mut acc: Option<Fraction> = None;
     for v in parts {
         acc = Some(match acc {
