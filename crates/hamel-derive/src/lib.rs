@@ -21,7 +21,7 @@ mod derivation;
 mod numeric;
 pub mod progress;
 mod render;
-pub use render::{Printer, canonical, is_whole_equation, write_equation};
+pub use render::{Printer, canonical, entry_line, is_whole_equation};
 pub mod states;
 pub mod symbolic;
 

@@ -19,6 +19,18 @@ pub fn canonical(e: &Entry, out: &mut String) {
     out.push_str(&e.text);
 }
 
+/// One line of a report: `before`, then `e` as `p` writes it.
+pub fn entry_line<'e>(
+    out: &mut String,
+    before: impl std::fmt::Display,
+    p: Printer<'_, 'e>,
+    e: &'e Entry,
+) {
+    let _ = write!(out, "{before}");
+    p(e, out);
+    out.push('\n');
+}
+
 fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
     if m.rows == 0 || m.cols == 0 {
         let _ = writeln!(out, "{name} = [] ({}×{})", m.rows, m.cols);
@@ -40,16 +52,14 @@ fn mat_text<'e>(out: &mut String, name: &str, m: &'e Mat, p: Printer<'_, 'e>) {
 fn list_text<'e>(out: &mut String, name: &str, v: &'e [Entry], p: Printer<'_, 'e>) {
     let _ = writeln!(out, "{name} =");
     for (i, e) in v.iter().enumerate() {
-        let _ = write!(out, "  ({}) ", i + 1);
-        p(e, out);
-        out.push('\n');
+        entry_line(out, format_args!("  ({}) ", i + 1), p, e);
     }
 }
 
 /// A row set to zero: `p`'s text of it and ` = 0`, unless the printer wrote the whole
 /// equation (`hamel-print` writes a row multiplied through by its positive denominator as
 /// `num = 0   (multiplied by D > 0)`).
-pub fn write_equation<'e>(out: &mut String, p: Printer<'_, 'e>, e: &'e Entry) {
+fn write_equation<'e>(out: &mut String, p: Printer<'_, 'e>, e: &'e Entry) {
     let start = out.len();
     p(e, out);
     if !is_whole_equation(&out[start..]) {
@@ -69,9 +79,7 @@ fn yes(b: bool) -> &'static str {
 
 /// The closed form: Γ, Θ, δ, A_Γ, Q, the equations and the exact checks.
 fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_, 'e>) {
-    o.push_str("δ = det[Z; α] = ");
-    p(&c.delta, o);
-    o.push('\n');
+    entry_line(o, "δ = det[Z; α] = ", p, &c.delta);
     let _ = writeln!(o, "singular set: {}", d.singular_set_text());
     mat_text(o, "Γ (q̇ = Γη)", &c.gamma, p);
     mat_text(o, "Θ", &c.theta, p);
@@ -108,13 +116,9 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
     }
     let _ = writeln!(o, "kinematic equations (6):");
     for (k, e) in c.kinematics.iter().enumerate() {
-        let _ = write!(o, "  der({}) = ", d.coordinates[k]);
-        p(e, o);
-        o.push('\n');
+        entry_line(o, format_args!("  der({}) = ", d.coordinates[k]), p, e);
     }
-    o.push_str("energy E = T − U = ");
-    p(&c.energy, o);
-    o.push('\n');
+    entry_line(o, "energy E = T − U = ", p, &c.energy);
     o.push('\n');
     let checks = &c.checks;
     let _ = writeln!(o, "checks (exact):");

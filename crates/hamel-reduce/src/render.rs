@@ -4,7 +4,7 @@ use std::fmt::Write;
 
 use hamel_derive::Printer;
 
-use crate::report::{BlockStructure, CoordinateKind, KinematicEquation, Reduction, Witness};
+use crate::report::{BlockStructure, CoordinateKind, Reduction, Witness};
 
 fn witness_line(w: &Witness) -> String {
     let idx: Vec<String> = w.index.iter().map(|i| i.to_string()).collect();
@@ -15,13 +15,6 @@ fn witness_line(w: &Witness) -> String {
         w.expression,
         w.note
     )
-}
-
-/// `  der(q) = rate`, the rate written by `p`.
-fn rate<'e>(o: &mut String, k: &'e KinematicEquation, p: Printer<'_, 'e>) {
-    let _ = write!(o, "  der({}) = ", k.coordinate);
-    p(&k.rate, o);
-    o.push('\n');
 }
 
 /// (17)/(18) as text.
@@ -40,9 +33,7 @@ fn structure_text<'e>(o: &mut String, st: &'e BlockStructure, p: Printer<'_, 'e>
     for (i, q) in &st.unit_rows {
         let _ = writeln!(o, "  eta{i} = der({q})");
     }
-    o.push_str("  δ_R = ");
-    p(&st.delta_r, o);
-    o.push('\n');
+    hamel_derive::entry_line(o, "  δ_R = ", p, &st.delta_r);
 }
 
 impl Reduction {
@@ -193,11 +184,21 @@ impl Reduction {
                     o.push('\n');
                 }
                 for k in &r.kinematics {
-                    rate(&mut o, k, p);
+                    hamel_derive::entry_line(
+                        &mut o,
+                        format_args!("  der({}) = ", k.coordinate),
+                        p,
+                        &k.rate,
+                    );
                 }
                 let _ = writeln!(o, "Reconstruction:");
                 for k in &r.reconstruction {
-                    rate(&mut o, k, p);
+                    hamel_derive::entry_line(
+                        &mut o,
+                        format_args!("  der({}) = ", k.coordinate),
+                        p,
+                        &k.rate,
+                    );
                 }
             }
         }
