@@ -1,11 +1,14 @@
 //! Naming a sheet's groups ([`Sheet::name_groups`]): the groups that recur are counted by
-//! kind, valued, and named once, parameter groups `κₙ`, then functions of the coordinates
+//! kind, measured, and named once, parameter groups `κₙ`, then functions of the coordinates
 //! `Fₙ(q…)`; every place of a named group is then written with its name.
 //!
 //! The groups are found by their places: every group of the entries, outer before inner,
 //! entry after entry (`places.rs`). A group's inner groups are the places after its own, up
-//! to its end, so a group is valued, compared and replaced by walking its form alongside the
-//! place numbers, never by hashing or comparing forms whole. On a large sheet, the entries'
+//! to its end, so a group is measured, compared and replaced by walking its form alongside
+//! the place numbers, never by hashing or comparing forms whole. What naming needs of a
+//! group's value (how many terms, which atoms, whether a monomial divides them all) is read
+//! from its form ([`Shape`]): no group is expanded to be named; a name's value is expanded
+//! when something asks for it (`Sheet::value`). On a large sheet, the entries'
 //! groups are found and replaced on printing's pool, each entry from its own first place.
 
 use std::sync::Arc;
@@ -13,23 +16,23 @@ use std::sync::Arc;
 use crate::atoms::Kind;
 use crate::form::{Factor, Factors, Form};
 use crate::places::{Keyed, hashed_groups, kinds, place};
-use crate::poly::Fraction;
+use crate::poly::{Mono, Poly};
 use crate::q::Q;
-use crate::sheet::{Key, Sheet, key, product};
+use crate::sheet::{Key, Sheet, key};
 
 impl Sheet {
     /// Names the groups that occur twice or more across the entries (the same form, or a
     /// rational multiple of a model's abbreviation): parameter groups `kappa1`, `kappa2`, …,
     /// then functions of the coordinates `F1`, `F2`, …, which may use the parameter names.
-    /// Two passes over the groups, one to count, one to replace; only the recurring groups are
-    /// expanded. Then the groups still too wide for a line are named too
+    /// Two passes over the groups, one to count, one to replace; no group is expanded. Then
+    /// the groups still too wide for a line are named too
     /// ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
         let (chosen, at, starts) = self.candidates();
         let at = &at;
         for (form, c) in chosen {
-            let definition = self.definition(&c.key, form);
-            self.push_name(definition, Some(c.value));
+            let definition = self.definition(&c.atoms, form);
+            self.push_name(definition, None);
         }
         // Each entry from its first place on (an entry that is a sum is a place itself).
         crate::par::for_each_mut(&mut self.entries, self.parallel, |i, (f, _)| {
@@ -46,72 +49,61 @@ impl Sheet {
         self.name_wide();
     }
 
-    /// The value of the group `g` at place `*next` ([`Sheet::fraction_of_in`]), kept in
-    /// `memo` under the index its place has in `groups` (equal groups share it), computed if
-    /// not there; returns that index, `next` moved past the group's inner places. The inner
-    /// groups are valued alike, by their places, so no form is hashed or compared.
-    fn group_at(
+    /// The shape of the group `g` at place `*next` ([`Shape`]), kept in `memo` under the
+    /// index its place has in `groups` (equal groups share it), computed if not there;
+    /// returns that index, `next` moved past the group's inner places. None when the group
+    /// holds a quotient or a name (its value is then expanded).
+    fn group_shape(
         &self,
         g: &Form,
         next: &mut usize,
         groups: Groups<'_, '_>,
-        memo: &mut [Option<Fraction>],
+        memo: &mut [Option<Option<Shape>>],
     ) -> usize {
         let p = *next;
         let i = groups.at[p];
         if memo[i].is_none() {
             *next = p + 1;
-            let v = self.fraction_at(g, next, groups, memo);
+            let v = self.shape_at(g, next, groups, memo);
             memo[i] = Some(v);
         }
         *next = groups.found[p].end;
         i
     }
 
-    /// The form `f` (whose groups are the places from `*next` on, in the order of
-    /// [`hashed_groups`]) as a fraction, names expanded, groups valued by [`Sheet::group_at`].
-    fn fraction_at(
+    /// The shape of the form `f` (whose groups are the places from `*next` on, in the order
+    /// of [`hashed_groups`]), its groups' shapes taken by [`Sheet::group_shape`].
+    fn shape_at(
         &self,
         f: &Form,
         next: &mut usize,
         groups: Groups<'_, '_>,
-        memo: &mut [Option<Fraction>],
-    ) -> Fraction {
+        memo: &mut [Option<Option<Shape>>],
+    ) -> Option<Shape> {
         match f {
-            Form::Product { coef, factors } => {
-                // Only groups and names are valued here; the atoms make one monomial.
-                let mut parts: Vec<Part> = Vec::new();
+            Form::Product { factors, .. } => {
+                let mut shape = Shape::of_atoms(factors, self.atoms.len());
                 for x in factors {
                     match x {
                         Factor::Atom { .. } => {}
                         Factor::Group(g) => {
-                            parts.push(Part::Group(self.group_at(g, next, groups, memo)));
+                            let i = self.group_shape(g, next, groups, memo);
+                            shape.times(memo[i].as_ref().expect("shaped").as_ref()?);
                         }
-                        Factor::Name { index } => parts.push(Part::Name(*index)),
+                        Factor::Name { .. } => return None,
                     }
                 }
-                let parts = parts.into_iter().map(|part| match part {
-                    Part::Group(i) => memo[i].as_ref().expect("valued"),
-                    Part::Name(j) => self.value(j),
-                });
-                product(coef, factors, parts)
+                Some(shape)
             }
             Form::Sum(terms) => {
-                let parts: Vec<Fraction> = terms
-                    .iter()
-                    .map(|t| self.fraction_at(t, next, groups, memo))
-                    .collect();
-                Fraction::sum(parts)
-            }
-            Form::Quotient(a, b) => {
-                let a = self.fraction_at(a, next, groups, memo);
-                if matches!(**b, Form::Sum(_)) {
-                    let i = self.group_at(b, next, groups, memo);
-                    a.over(memo[i].as_ref().expect("valued"))
-                } else {
-                    a.over(&self.fraction_at(b, next, groups, memo))
+                let mut shapes = terms.iter().map(|t| self.shape_at(t, next, groups, memo));
+                let mut sum = shapes.next()??;
+                for t in shapes {
+                    sum.plus(&t?);
                 }
+                Some(sum)
             }
+            Form::Quotient(..) => None,
         }
     }
 
@@ -144,22 +136,22 @@ impl Sheet {
             at: &at,
         };
         let mut chosen: Vec<(usize, Candidate)> = Vec::new();
-        for (i, value, key) in self.recurring(&counted, groups, &given) {
+        for (i, size, atoms) in self.recurring(&counted, groups, &given) {
             let (_, place, count) = counted[i];
             chosen.push((
                 i,
                 Candidate {
-                    value,
-                    key,
+                    size,
+                    atoms,
                     place,
                     count,
                 },
             ));
         }
         chosen.sort_by_cached_key(|(i, c)| {
-            let size = std::cmp::Reverse(c.key.size());
+            let size = std::cmp::Reverse(c.size);
             (
-                !self.parameters_only(&c.key),
+                !self.parameters_only(&c.atoms),
                 std::cmp::Reverse(c.count),
                 size,
                 *i,
@@ -198,34 +190,90 @@ impl Sheet {
         (chosen, at, starts)
     }
 
-    /// The groups that may be named, by their index in `counted`, in its order, with their
-    /// values and keys: counted twice or more, free of velocities, not a given name's form,
-    /// of three terms or more if they hold parameters only (`ρ₁ + ρ₂` reads better than a
-    /// name). Outer groups come first: valuing them values their inner groups, kept for the
-    /// groups after. (Dealt to two workers, each valuing inner groups anew, this was slower
-    /// on the unicycle's momenta.)
+    /// The groups that may be named, by their index in `counted`, in its order, with the
+    /// number of terms of their values and their atoms ([`Sheet::nameable`]): counted twice
+    /// or more, free of velocities, not a given name's form, of three terms or more if they
+    /// hold parameters only (`ρ₁ + ρ₂` reads better than a name). Outer groups come first:
+    /// measuring them measures their inner groups, kept for the groups after.
     fn recurring(
         &self,
         counted: &[(&Form, usize, usize)],
         groups: Groups<'_, '_>,
         given: &[(Form, usize, Q)],
-    ) -> Vec<(usize, Fraction, Key)> {
-        let mut memo: Vec<Option<Fraction>> = vec![None; counted.len()];
+    ) -> Vec<(usize, usize, Key)> {
+        let mut memo: Vec<Option<Option<Shape>>> = vec![None; counted.len()];
         let mut out = Vec::new();
         for (i, &(g, place, count)) in counted.iter().enumerate() {
             if count < 2 || groups.found[place].velocity || given.iter().any(|(f, _, _)| f == g) {
                 continue;
             }
-            self.group_at(g, &mut { place }, groups, &mut memo);
-            let value = memo[i].clone().expect("valued");
-            let Some((_, key)) = key(&value) else {
+            self.group_shape(g, &mut { place }, groups, &mut memo);
+            let shaped = memo[i].clone().expect("shaped");
+            let Some((size, atoms)) = self.nameable(g, shaped) else {
                 continue;
             };
-            if !self.has_velocities(&key) && (key.size() >= 3 || !self.parameters_only(&key)) {
-                out.push((i, value, key));
+            if !self.has_velocities(&atoms) && (size >= 3 || !self.parameters_only(&atoms)) {
+                out.push((i, size, atoms));
             }
         }
         out
+    }
+
+    /// How many terms the value of the group `g` (of shape `shaped`, if known) has, and a
+    /// polynomial with a term for each of its atoms; none unless the value is a polynomial of
+    /// two terms or more with no common monomial (what [`key`] takes). A group holding a
+    /// quotient or a name is expanded to tell.
+    fn nameable(&self, g: &Form, shaped: Option<Shape>) -> Option<(usize, Key)> {
+        let Some(shape) = shaped else {
+            let (_, key) = key(&self.fraction_of(g))?;
+            return Some((key.size(), key));
+        };
+        if shape.size < 2 || !shape.common.is_one() {
+            return None;
+        }
+        let atoms = shape.atoms.iter().enumerate().filter(|&(_, &a)| a);
+        let atoms = atoms.map(|(a, _)| (Mono::atom(a), Q::one())).collect();
+        Some((shape.size, Poly::from_sorted(atoms)))
+    }
+
+    /// Checks, for every kind of group of the sheet, that what its shape says (how many terms
+    /// its value has, which atoms, whether it may be named) is what expanding it says; returns
+    /// how many kinds it checked.
+    #[cfg(test)]
+    pub(crate) fn shapes_checked(&self) -> usize {
+        let (found, _, _) = self.places();
+        let kinds = kinds(&found);
+        let (mut first, mut at, mut forms) =
+            (vec![usize::MAX; found.len()], Vec::new(), Vec::new());
+        for (place, k) in found.iter().enumerate() {
+            let i = &mut first[kinds[place]];
+            if *i == usize::MAX {
+                *i = forms.len();
+                forms.push((k.form, place));
+            }
+            at.push(*i);
+        }
+        let groups = Groups {
+            found: &found,
+            at: &at,
+        };
+        let mut memo = vec![None; forms.len()];
+        let atoms = |(n, k): (usize, Key)| {
+            (
+                n,
+                k.monomials()
+                    .flat_map(Mono::atoms)
+                    .collect::<std::collections::BTreeSet<_>>(),
+            )
+        };
+        for (i, &(g, place)) in forms.iter().enumerate() {
+            self.group_shape(g, &mut { place }, groups, &mut memo);
+            let shaped = memo[i].clone().expect("shaped");
+            assert!(shaped.is_some(), "a collected group has a shape");
+            let by_shape = self.nameable(g, shaped).map(atoms);
+            assert_eq!(by_shape, self.nameable(g, None).map(atoms));
+        }
+        forms.len()
     }
 
     /// Every group of the entries by its place (outer before inner, entry after entry, an
@@ -294,13 +342,67 @@ struct Groups<'p, 'f> {
     at: &'p [usize],
 }
 
-/// A group that recurs: its value and key, its first place (outer before inner,
-/// entry after entry) and how often it occurs.
+/// A group that recurs: how many terms its value has, a polynomial with a term for each of
+/// its atoms, its first place (outer before inner, entry after entry) and how often it occurs.
 struct Candidate {
-    value: Fraction,
-    key: Key,
+    size: usize,
+    atoms: Key,
     place: usize,
     count: usize,
+}
+
+/// What naming reads of a group's value, from its form alone: how many terms it has, their
+/// common monomial, and which atoms occur (by index). The terms of a collected form do not
+/// cancel: each term of its expansion is one of the polynomial it was collected from, so a
+/// sum has the terms of its summands, a product the products of its factors' terms.
+#[derive(Clone)]
+struct Shape {
+    size: usize,
+    common: Mono,
+    atoms: Vec<bool>,
+}
+
+impl Shape {
+    /// The shape of the product of the atoms among `factors`, over `n` atoms.
+    fn of_atoms(factors: &[Factor], n: usize) -> Shape {
+        let mut atoms = vec![false; n];
+        let pairs = factors.iter().filter_map(|x| match x {
+            Factor::Atom { index, power } => {
+                atoms[*index] = true;
+                Some((*index, *power))
+            }
+            _ => None,
+        });
+        Shape {
+            size: 1,
+            common: Mono::from_unsorted(pairs),
+            atoms,
+        }
+    }
+
+    /// This shape times `other`'s.
+    fn times(&mut self, other: &Shape) {
+        self.size = self.size.saturating_mul(other.size);
+        if !other.common.is_one() {
+            self.common = self.common.mul(&other.common);
+        }
+        self.or(other);
+    }
+
+    /// This shape plus `other`'s.
+    fn plus(&mut self, other: &Shape) {
+        self.size = self.size.saturating_add(other.size);
+        if !self.common.is_one() {
+            self.common.retain_common(&other.common);
+        }
+        self.or(other);
+    }
+
+    fn or(&mut self, other: &Shape) {
+        for (a, b) in self.atoms.iter_mut().zip(&other.atoms) {
+            *a |= *b;
+        }
+    }
 }
 
 /// A named group as a form: its factor times its name.
@@ -416,12 +518,4 @@ impl Named {
             .iter()
             .any(Option::is_some)
     }
-}
-
-/// A factor of a product that [`Sheet::fraction_at`] multiplies in: a group, by the index of
-/// its kind's value, or a name.
-#[derive(Clone, Copy)]
-enum Part {
-    Group(usize),
-    Name(usize),
 }

@@ -736,3 +736,62 @@ fn a_denominator_stays_in_its_factors() {
         Some("4*(m_r^2 - rho)^2*cos(theta)^2")
     );
 }
+
+/// A group's shape (`naming.rs`: its number of terms and its atoms, read from its collected
+/// form without expanding it) is what expanding it gives, for every kind of group in the
+/// entries of four seed models' derivations (from their snapshots).
+#[test]
+fn group_shapes_are_what_expanding_gives() {
+    let snapshots = [
+        include_str!("../../../tests/snapshots/snapshots__derive__unicycle_rider__velocities.snap"),
+        include_str!("../../../tests/snapshots/snapshots__derive__unicycle_rider__family.snap"),
+        include_str!("../../../tests/snapshots/snapshots__derive__bar_wheels__paper_z.snap"),
+        include_str!("../../../tests/snapshots/snapshots__derive__knife__general.snap"),
+    ];
+    for snapshot in snapshots {
+        let json: serde_json::Value =
+            serde_json::from_str(snapshot.splitn(3, "---\n").nth(2).unwrap()).unwrap();
+        let names = |key: &str| -> Vec<String> {
+            let list = json[key].as_array().unwrap();
+            list.iter()
+                .map(|s| s.as_str().unwrap().to_string())
+                .collect()
+        };
+        let velocities = (1..=9).flat_map(|i| [format!("eta{i}"), format!("eta{i}_dot")]);
+        let mut sheet = crate::Sheet::new(&Vocabulary {
+            parameters: Vec::new(),
+            coordinates: names("coordinates"),
+            velocities: velocities.collect(),
+        });
+        let mut entries = Vec::new();
+        for key in [
+            "a",
+            "a_gamma",
+            "gamma",
+            "q",
+            "q_paper",
+            "equations",
+            "kinematics",
+        ] {
+            strings(&json[key], &mut entries);
+        }
+        // The matrices' entries (an equation's row, a kinematic equation's right side; not
+        // the labels some lists hold).
+        let exprs: Vec<_> = entries
+            .iter()
+            .filter_map(|e| parse(e).ok())
+            .map(|p| p.expr)
+            .collect();
+        sheet.add_all(&exprs).unwrap();
+        assert!(sheet.shapes_checked() > 3, "groups to check");
+    }
+}
+
+/// Every string in `v` (arrays, nested), in order.
+fn strings(v: &serde_json::Value, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::String(s) => out.push(s.clone()),
+        serde_json::Value::Array(items) => items.iter().for_each(|x| strings(x, out)),
+        _ => {}
+    }
+}
