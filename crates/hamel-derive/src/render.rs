@@ -193,33 +193,35 @@ impl Derivation {
     /// often as it is shown), without writing the text: what a printer that prints the
     /// entries together (hamel-print) reads first. The tests hold it to the text's order.
     pub fn shown(&self) -> Vec<&Entry> {
-        let mut out: Vec<&Entry> = Vec::new();
+        // The runs of entries first (a matrix's rows, lists, single entries), then one vector
+        // of the right size (growing it copies it, and a large model shows thousands).
+        let mut runs: Vec<&[Entry]> = Vec::new();
         for m in [&self.a, &self.alpha, &self.z] {
-            out.extend(m.entries.iter().flatten());
+            runs.extend(m.entries.iter().map(Vec::as_slice));
         }
         match &self.form {
             Form::Closed(c) => {
-                out.push(&c.delta);
+                runs.push(std::slice::from_ref(&c.delta));
                 for m in [&c.gamma, &c.theta, &c.a_gamma] {
-                    out.extend(m.entries.iter().flatten());
+                    runs.extend(m.entries.iter().map(Vec::as_slice));
                 }
-                out.extend(&c.forcing);
-                out.extend(c.nu.entries.iter().flatten());
+                runs.push(&c.forcing);
+                runs.extend(c.nu.entries.iter().map(Vec::as_slice));
                 for i in 0..self.sigma {
                     for m in [&c.q[i], &c.q_paper[i], &c.q_correction[i]] {
-                        out.extend(m.entries.iter().flatten());
+                        runs.extend(m.entries.iter().map(Vec::as_slice));
                     }
                 }
-                out.extend(&c.equations);
-                out.extend(&c.equations_paper);
-                out.extend(&c.kinematics);
-                out.push(&c.energy);
+                runs.extend([&c.equations[..], &c.equations_paper, &c.kinematics]);
+                runs.push(std::slice::from_ref(&c.energy));
             }
             Form::Structured(_) => {
-                out.extend(&self.ingredients.potential);
-                out.extend(&self.grad_u);
+                runs.push(self.ingredients.potential.as_slice());
+                runs.push(&self.grad_u);
             }
         }
+        let mut out = Vec::with_capacity(runs.iter().map(|r| r.len()).sum());
+        out.extend(runs.into_iter().flatten());
         out
     }
 

@@ -63,7 +63,7 @@ pub struct Atoms {
     seen: HashMap<Expr, usize>,
     /// In how many terms of a sheet's entries each atom occurs (what ties between
     /// parameters are broken by when a coefficient is factored).
-    weight: HashMap<usize, usize>,
+    weight: Vec<usize>,
     /// Each atom's place in the printing order ([`Atoms::order`]), kept as atoms are added:
     /// what sorting compares instead of the kinds, positions and texts.
     rank: Vec<u32>,
@@ -75,9 +75,10 @@ impl Atoms {
         Atoms {
             vocabulary,
             list: Vec::new(),
-            index: HashMap::default(),
-            seen: HashMap::default(),
-            weight: HashMap::default(),
+            // Room for a small model's atoms (growing a map rehashes it).
+            index: HashMap::with_capacity_and_hasher(32, Default::default()),
+            seen: HashMap::with_capacity_and_hasher(32, Default::default()),
+            weight: Vec::new(),
             rank: Vec::new(),
         }
     }
@@ -171,12 +172,15 @@ impl Atoms {
 
     /// Counts `n` more terms in which atom `i` occurs.
     pub(crate) fn weigh(&mut self, i: usize, n: usize) {
-        *self.weight.entry(i).or_default() += n;
+        if self.weight.len() <= i {
+            self.weight.resize(i + 1, 0);
+        }
+        self.weight[i] += n;
     }
 
     /// In how many terms atom `i` occurs, as counted by [`Atoms::weigh`].
     pub(crate) fn weight(&self, i: usize) -> usize {
-        self.weight.get(&i).copied().unwrap_or(0)
+        self.weight.get(i).copied().unwrap_or(0)
     }
 
     /// The sort key of atom `i`: kind, position of its name in the model, text.

@@ -87,7 +87,7 @@ impl Numbered<'_> {
 /// In how many of `f`'s terms (numerator and the denominator's factors) each of its atoms
 /// occurs, atoms in the order met; `counts` is zeros, one per atom, and left so.
 fn weights(f: &Factored, counts: &mut [usize]) -> Vec<(usize, usize)> {
-    let mut weights = Vec::new();
+    let mut weights = Vec::with_capacity(16);
     for m in f.polys().flat_map(crate::poly::Poly::monomials) {
         for i in m.atoms() {
             if counts[i] == 0 {
