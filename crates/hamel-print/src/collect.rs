@@ -26,10 +26,56 @@ use crate::q::Q;
 /// polynomial is factored once, whatever the number of groups it is the coefficient of).
 pub(crate) struct Cx<'a> {
     atoms: &'a Atoms,
-    memo: RefCell<HashMap<Poly, Form>>,
+    memo: RefCell<HashMap<Poly, Shared>>,
     /// The denominators' factors collected so far (a sheet's denominators are powers of a
     /// few: each is collected once).
-    factors: RefCell<HashMap<Poly, Form>>,
+    factors: RefCell<HashMap<Poly, Shared>>,
+}
+
+/// A polynomial's form as collection keeps it to use again: a sum behind one `Arc`, so that
+/// every place it is used shares it (a coefficient or a denominator's factor that recurs is
+/// one group, not copies: naming compares, and the check values, each once).
+#[derive(Clone)]
+enum Shared {
+    Sum(Arc<Form>),
+    Other(Form),
+}
+
+impl Shared {
+    fn of(f: Form) -> Shared {
+        match f {
+            Form::Sum(_) => Shared::Sum(Arc::new(f)),
+            other => Shared::Other(other),
+        }
+    }
+
+    /// As a product `coef · factors` (a sum one group).
+    fn factors(self) -> (Q, Factors) {
+        match self {
+            Shared::Other(Form::Product { coef, factors }) => (coef, factors),
+            Shared::Sum(sum) => (Q::one(), smallvec::smallvec![Factor::Group(sum)]),
+            Shared::Other(other) => (
+                Q::one(),
+                smallvec::smallvec![Factor::Group(Arc::new(other))],
+            ),
+        }
+    }
+
+    /// As a group (a product in parentheses too).
+    fn group(self) -> Arc<Form> {
+        match self {
+            Shared::Sum(sum) => sum,
+            Shared::Other(other) => Arc::new(other),
+        }
+    }
+
+    /// As a form of its own.
+    fn form(self) -> Form {
+        match self {
+            Shared::Sum(sum) => Arc::unwrap_or_clone(sum),
+            Shared::Other(other) => other,
+        }
+    }
 }
 
 impl<'a> Cx<'a> {
@@ -82,7 +128,7 @@ pub(crate) fn factored_in(f: &Factored, cx: &Cx<'_>) -> Form {
     for (p, e) in &f.factors {
         let form = cx.factors.borrow().get(p).cloned();
         let form = form.unwrap_or_else(|| {
-            let form = poly_in(p, cx);
+            let form = Shared::of(poly_in(p, cx));
             cx.factors.borrow_mut().insert(p.clone(), form.clone());
             form
         });
@@ -97,12 +143,12 @@ pub(crate) fn factored_in(f: &Factored, cx: &Cx<'_>) -> Form {
 }
 
 /// `form^e` multiplied into `coef · factors`.
-fn raise(form: Form, e: u32, coef: &mut Q, factors: &mut Factors) {
+fn raise(form: Shared, e: u32, coef: &mut Q, factors: &mut Factors) {
     match form {
-        Form::Product {
+        Shared::Other(Form::Product {
             coef: c,
             factors: more,
-        } => {
+        }) => {
             for _ in 0..e {
                 *coef = coef.mul(&c);
             }
@@ -116,10 +162,7 @@ fn raise(form: Form, e: u32, coef: &mut Q, factors: &mut Factors) {
                 }
             }
         }
-        sum => factors.extend(std::iter::repeat_n(
-            Factor::Group(Arc::new(sum)),
-            e as usize,
-        )),
+        sum => factors.extend(std::iter::repeat_n(Factor::Group(sum.group()), e as usize)),
     }
 }
 
@@ -278,13 +321,10 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
         } else {
             Q::one()
         };
-        let common = parameters(&common, atoms);
+        let common = parameters(&common, atoms).group();
         return sorted(
             sign,
-            smallvec::smallvec![
-                Factor::Group(Arc::new(common)),
-                Factor::Group(Arc::new(inner)),
-            ],
+            smallvec::smallvec![Factor::Group(common), Factor::Group(Arc::new(inner))],
             atoms,
         );
     }
@@ -434,10 +474,7 @@ fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Q>)> {
 fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
     let mut terms: Vec<Form> = Vec::with_capacity(groups.len());
     for (state, coef) in groups {
-        let (coef, mut factors) = match parameters(&coef, atoms) {
-            Form::Product { coef, factors } => (coef, factors),
-            sum => (Q::one(), smallvec::smallvec![Factor::Group(Arc::new(sum))]),
-        };
+        let (coef, mut factors) = parameters(&coef, atoms).factors();
         factors.extend(atom_factors(&state));
         match sorted(coef, factors, atoms) {
             t if is_zero(&t) => {}
@@ -451,16 +488,17 @@ fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
     Form::Sum(terms)
 }
 
-/// Step 3: a polynomial in the parameters, factored greedily.
-fn parameters(p: &Poly, atoms: &Cx<'_>) -> Form {
+/// Step 3: a polynomial in the parameters, factored greedily (each polynomial once: what it
+/// is factored into is shared by every place it occurs).
+fn parameters(p: &Poly, atoms: &Cx<'_>) -> Shared {
     // A monomial is written as it is: cheaper than looking it up.
     if let (1, Some((m, c))) = (p.size(), p.terms().next()) {
-        return sorted(c.clone(), atoms_of(m), atoms);
+        return Shared::Other(sorted(c.clone(), atoms_of(m), atoms));
     }
     if let Some(f) = atoms.memo.borrow().get(p) {
         return f.clone();
     }
-    let f = factored(p, atoms);
+    let f = Shared::of(factored(p, atoms));
     atoms.memo.borrow_mut().insert(p.clone(), f.clone());
     f
 }
@@ -490,14 +528,14 @@ fn greedy(p: &Poly, atoms: &Cx<'_>) -> Form {
             None => without.add_term(m.clone(), c.clone()),
         }
     }
-    let mut terms = vec![product(
-        Q::one(),
-        &Mono::atom(a),
-        Some(parameters(&with, atoms)),
-        atoms,
-    )];
+    // The sums the factoring makes are written with their first term positive (`product`):
+    // `a · (with)` is the atom times the factors of `with`.
+    let (coef, more) = parameters(&with, atoms).factors();
+    let mut factors: Factors = smallvec::smallvec![Factor::Atom { index: a, power: 1 }];
+    factors.extend(more);
+    let mut terms = vec![sorted(coef, factors, atoms)];
     if !without.is_zero() {
-        match parameters(&without, atoms) {
+        match parameters(&without, atoms).form() {
             Form::Sum(more) => terms.extend(more),
             one => terms.push(one),
         }

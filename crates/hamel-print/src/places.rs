@@ -112,8 +112,11 @@ pub(crate) fn kinds(found: &[Keyed<'_>]) -> Vec<usize> {
 /// Whether the forms at places `a` and `b` are equal, their groups' kinds known.
 fn same(found: &[Keyed<'_>], kind: &[usize], a: usize, b: usize) -> bool {
     let (mut next_a, mut next_b) = (a + 1, b + 1);
-    found[a].end - a == found[b].end - b
-        && Walk { found, kind }.equal(found[a].form, &mut next_a, found[b].form, &mut next_b)
+    // One group shared by two places (collection shares a coefficient or a factor that
+    // recurs) is equal to itself.
+    std::ptr::eq(found[a].form, found[b].form)
+        || found[a].end - a == found[b].end - b
+            && Walk { found, kind }.equal(found[a].form, &mut next_a, found[b].form, &mut next_b)
 }
 
 /// Two forms walked side by side, each with the place its next group has.
