@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 use crate::atoms::Kind;
 use crate::form::{Factor, Factors, Form};
-use crate::places::{Keyed, hashed_groups, kinds, place};
+use crate::places::{Keyed, Places, kinds};
 use crate::poly::{Mono, Poly};
 use crate::q::Q;
 use crate::sheet::{Key, Sheet, key};
@@ -72,7 +72,7 @@ impl Sheet {
     }
 
     /// The shape of the form `f` (whose groups are the places from `*next` on, in the order
-    /// of [`hashed_groups`]), its groups' shapes taken by [`Sheet::group_shape`].
+    /// of [`Places::hashed_groups`]), its groups' shapes taken by [`Sheet::group_shape`].
     fn shape_at(
         &self,
         f: &Form,
@@ -285,14 +285,22 @@ impl Sheet {
             Factor::Name { index } => self.mentions_velocity(&self.names[*index].form),
             Factor::Group(_) => false,
         };
-        let each = crate::par::map_ref(&self.entries, self.parallel, |(f, _)| {
-            let mut found = Vec::new();
-            if matches!(f, Form::Sum(_)) {
-                place(f, &mut found, &velocity);
-            } else {
-                hashed_groups(f, &mut found, &velocity);
+        if !self.parallel {
+            // One walk over the entries: a group they share is walked at its first place.
+            let mut found = Places::new(&velocity);
+            let mut starts = Vec::with_capacity(self.entries.len());
+            let mut shown = Vec::new();
+            for ((f, _), &n) in self.entries.iter().zip(&self.counts) {
+                starts.push(found.out.len());
+                found.entry(f);
+                shown.resize(found.out.len(), n);
             }
-            found
+            return (found.out, shown, starts);
+        }
+        let each = crate::par::map_ref(&self.entries, true, |(f, _)| {
+            let mut found = Places::new(&velocity);
+            found.entry(f);
+            found.out
         });
         let total = each.iter().map(Vec::len).sum();
         let (mut found, mut shown) = (Vec::with_capacity(total), Vec::with_capacity(total));
@@ -311,7 +319,7 @@ impl Sheet {
 
     /// Whether a velocity occurs in the form `f` (read from its factors, without expanding
     /// it: a collected form's terms do not cancel); a group's is found as its place is
-    /// ([`hashed_groups`]).
+    /// ([`Places::hashed_groups`]).
     fn mentions_velocity(&self, f: &Form) -> bool {
         match f {
             Form::Product { factors, .. } => factors.iter().any(|x| match x {
@@ -414,7 +422,7 @@ fn named(p: &Placed) -> Form {
 }
 
 /// The groups of `f` named where `at` says, by their places counted on from `next` (the
-/// order of [`hashed_groups`]). A group that is named is not looked into: its inner places are
+/// order of [`Places::hashed_groups`]). A group that is named is not looked into: its inner places are
 /// counted and skipped.
 fn replace_at(f: &mut Form, next: &mut usize, at: &Named) {
     match f {

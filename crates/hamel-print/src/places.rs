@@ -5,6 +5,7 @@
 //! forms are compared down to their groups only.
 
 use std::hash::BuildHasher;
+use std::sync::Arc;
 
 use foldhash::HashMap;
 use smallvec::SmallVec;
@@ -23,66 +24,107 @@ pub(crate) struct Keyed<'a> {
     pub(crate) velocity: bool,
 }
 
-/// Every group of `f`, outer before inner (the sums in parentheses, and the denominators that
-/// are sums: the places of [`Sheet::candidates`](crate::Sheet)), each with its hash; returns
-/// the hash of `f`, and whether a velocity occurs in it (in an atom or a name of its, as
-/// `velocity` says). Equal forms have equal hashes.
-pub(crate) fn hashed_groups<'a>(
-    f: &'a Form,
-    out: &mut Vec<Keyed<'a>>,
-    velocity: &dyn Fn(&Factor) -> bool,
-) -> (u64, bool) {
-    match f {
-        Form::Product { coef, factors } => {
-            let (mut h, mut v) = (mix(q_hash(coef), 1), false);
-            for x in factors {
-                let (hx, vx) = match x {
-                    Factor::Atom { index, power } => {
-                        (mix(*index as u64, u64::from(*power)), velocity(x))
-                    }
-                    Factor::Group(g) => place(g, out, velocity),
-                    Factor::Name { index } => (mix(*index as u64, 2), velocity(x)),
-                };
-                h = mix(h, hx);
-                v |= vx;
-            }
-            (h, v)
-        }
-        Form::Sum(terms) => terms.iter().fold((3, false), |(h, v), t| {
-            let (ht, vt) = hashed_groups(t, out, velocity);
-            (mix(h, ht), v || vt)
-        }),
-        Form::Quotient(a, b) => {
-            let a = hashed_groups(a, out, velocity);
-            let b = if matches!(**b, Form::Sum(_)) {
-                place(b, out, velocity)
-            } else {
-                hashed_groups(b, out, velocity)
-            };
-            (mix(mix(a.0, 4), b.0), a.1 || b.1)
-        }
-    }
+/// Finds the places of one form's groups ([`Places::hashed_groups`]), in `out`.
+pub(crate) struct Places<'a, 'v> {
+    pub(crate) out: Vec<Keyed<'a>>,
+    velocity: &'v dyn Fn(&Factor) -> bool,
+    /// The first place of each group shared by several (one `Arc`), by address: its later
+    /// places copy its inner places instead of walking it again.
+    shared: HashMap<usize, usize>,
 }
 
-/// `g` as a place: listed before its inner groups, its hash, end and velocity filled in after
-/// them.
-pub(crate) fn place<'a>(
-    g: &'a Form,
-    out: &mut Vec<Keyed<'a>>,
-    velocity: &dyn Fn(&Factor) -> bool,
-) -> (u64, bool) {
-    let slot = out.len();
-    out.push(Keyed {
-        hash: 0,
-        form: g,
-        end: 0,
-        velocity: false,
-    });
-    let (hash, v) = hashed_groups(g, out, velocity);
-    out[slot].hash = hash;
-    out[slot].end = out.len();
-    out[slot].velocity = v;
-    (hash, v)
+impl<'a, 'v> Places<'a, 'v> {
+    /// None found yet; `velocity` says whether a velocity occurs in an atom or a name.
+    pub(crate) fn new(velocity: &'v dyn Fn(&Factor) -> bool) -> Places<'a, 'v> {
+        Places {
+            out: Vec::new(),
+            velocity,
+            shared: HashMap::default(),
+        }
+    }
+
+    /// The places of an entry `f` (a sum is a place itself).
+    pub(crate) fn entry(&mut self, f: &'a Form) {
+        if matches!(f, Form::Sum(_)) {
+            self.place(f);
+        } else {
+            self.hashed_groups(f);
+        }
+    }
+
+    /// Every group of `f`, outer before inner (the sums in parentheses, and the denominators
+    /// that are sums: the places of [`Sheet::candidates`](crate::Sheet)), each with its hash;
+    /// returns the hash of `f`, and whether a velocity occurs in it. Equal forms have equal
+    /// hashes.
+    pub(crate) fn hashed_groups(&mut self, f: &'a Form) -> (u64, bool) {
+        match f {
+            Form::Product { coef, factors } => {
+                let (mut h, mut v) = (mix(q_hash(coef), 1), false);
+                for x in factors {
+                    let (hx, vx) = match x {
+                        Factor::Atom { index, power } => {
+                            (mix(*index as u64, u64::from(*power)), (self.velocity)(x))
+                        }
+                        Factor::Group(g) if Arc::strong_count(g) > 1 => self.place_shared(g),
+                        Factor::Group(g) => self.place(g),
+                        Factor::Name { index } => (mix(*index as u64, 2), (self.velocity)(x)),
+                    };
+                    h = mix(h, hx);
+                    v |= vx;
+                }
+                (h, v)
+            }
+            Form::Sum(terms) => terms.iter().fold((3, false), |(h, v), t| {
+                let (ht, vt) = self.hashed_groups(t);
+                (mix(h, ht), v || vt)
+            }),
+            Form::Quotient(a, b) => {
+                let a = self.hashed_groups(a);
+                let b = if matches!(**b, Form::Sum(_)) {
+                    self.place(b)
+                } else {
+                    self.hashed_groups(b)
+                };
+                (mix(mix(a.0, 4), b.0), a.1 || b.1)
+            }
+        }
+    }
+
+    /// `g` as a place: listed before its inner groups, its hash, end and velocity filled in
+    /// after them.
+    pub(crate) fn place(&mut self, g: &'a Form) -> (u64, bool) {
+        let slot = self.out.len();
+        self.out.push(Keyed {
+            hash: 0,
+            form: g,
+            end: 0,
+            velocity: false,
+        });
+        let (hash, v) = self.hashed_groups(g);
+        let end = self.out.len();
+        let k = &mut self.out[slot];
+        (k.hash, k.end, k.velocity) = (hash, end, v);
+        (hash, v)
+    }
+
+    /// [`Places::place`] of a group that several places share: its first place walked, the
+    /// later ones copied from it.
+    fn place_shared(&mut self, g: &'a Arc<Form>) -> (u64, bool) {
+        let address = Arc::as_ptr(g) as usize;
+        let Some(&first) = self.shared.get(&address) else {
+            self.shared.insert(address, self.out.len());
+            return self.place(g);
+        };
+        let (end, offset) = (self.out[first].end, self.out.len() - first);
+        for i in first..end {
+            let k = self.out[i];
+            self.out.push(Keyed {
+                end: k.end + offset,
+                ..k
+            });
+        }
+        (self.out[first].hash, self.out[first].velocity)
+    }
 }
 
 /// Each place's kind: places whose forms are equal share one, numbered as met from the last

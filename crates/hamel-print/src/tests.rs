@@ -623,7 +623,7 @@ fn ranks_are_the_printing_order() {
 #[test]
 fn kinds_are_equal_forms() {
     use crate::Sheet;
-    use crate::places::{hashed_groups, kinds};
+    use crate::places::{Places, kinds};
     let entries = [
         "(m_d + m_f)*(rho1 + rho2)*cos(phi) + (m_d + m_f)*sin(phi)",
         "((m_d + m_f)*(rho1 + rho2)*sin(theta) + m_r)*cos(theta1)",
@@ -634,9 +634,25 @@ fn kinds_are_equal_forms() {
     let exprs: Vec<_> = entries.iter().map(|e| parse(e).unwrap().expr).collect();
     let mut sheet = Sheet::new(&unicycle());
     sheet.add_all(&exprs).unwrap();
-    let mut found = Vec::new();
+    let velocity = |_: &crate::form::Factor| false;
+    let mut places = Places::new(&velocity);
     for (f, _) in &sheet.entries {
-        hashed_groups(f, &mut found, &|_| false);
+        places.hashed_groups(f);
+    }
+    let found = places.out;
+    // Each place's inner places (copied, where the group is shared with an earlier place)
+    // are those its form has alone.
+    for (p, k) in found.iter().enumerate() {
+        let mut alone = Places::new(&velocity);
+        alone.place(k.form);
+        assert_eq!(alone.out.len(), k.end - p, "place {p}");
+        for (i, a) in alone.out.iter().enumerate() {
+            assert_eq!(
+                (a.hash, a.end),
+                (found[p + i].hash, found[p + i].end - p),
+                "place {p}"
+            );
+        }
     }
     // Then every hash alike: the forms alone tell the places apart.
     let colliding: Vec<_> = found
