@@ -335,14 +335,15 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
 /// by rate, each coefficient (a function of the coordinates) in parentheses, `(…) η̇₁ + (…) η̇₂`,
 /// then the other terms. None when `p` has no rate.
 fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
-    let has_rate = |m: &Mono| m.atoms().any(|i| atoms.is_rate(i));
-    if !p.monomials().any(has_rate) {
+    let has_rate = |m: &&Mono| m.atoms().any(|i| atoms.is_rate(i));
+    let with_rates = p.monomials().filter(has_rate).count();
+    if with_rates == 0 {
         return None;
     }
     // Each term split into its rates and the rest, sorted by rates then rest: each rate's
     // coefficient is a run, its terms in order (the monomials of `p` are distinct).
-    let mut rest = Vec::new();
-    let mut split: Vec<(Mono, Mono, Q)> = Vec::new();
+    let mut rest = Vec::with_capacity(p.size() - with_rates);
+    let mut split: Vec<(Mono, Mono, Q)> = Vec::with_capacity(with_rates);
     for (m, c) in p.terms() {
         let (rate, coefficient) = m.split(|i| atoms.is_rate(i));
         if rate.is_one() {

@@ -83,8 +83,8 @@ impl Printing {
         ids.reserve(shown.len());
         let mut by_text: HashMap<(&str, bool), usize> = HashMap::default();
         by_text.reserve(shown.len());
-        let mut labels = Vec::new();
-        let mut exprs: Vec<(Source<'_>, usize)> = Vec::new();
+        let mut labels = Vec::with_capacity(shown.len());
+        let mut exprs: Vec<(Source<'_>, usize)> = Vec::with_capacity(shown.len());
         for e in shown {
             let hash_map::Entry::Vacant(v) = ids.entry(address(e)) else {
                 continue;
