@@ -16,9 +16,9 @@ use std::sync::Arc;
 use crate::atoms::Kind;
 use crate::form::{Factor, Factors, Form};
 use crate::places::{Keyed, Places, kinds};
-use crate::poly::{Mono, Poly};
+use crate::poly::Mono;
 use crate::q::Q;
-use crate::sheet::{Key, Sheet, key};
+use crate::sheet::{Key, Sheet, atoms_key, key};
 
 impl Sheet {
     /// Names the groups that occur twice or more across the entries (the same form, or a
@@ -118,18 +118,11 @@ impl Sheet {
     fn candidates(&self) -> (Vec<(Form, Candidate)>, Named, Vec<usize>) {
         let given = self.given_forms();
         let (found, shown, starts) = self.places();
-        let kinds = kinds(&found);
-        let mut counted: Vec<(&Form, usize, usize)> = Vec::new();
-        let mut of_kind = vec![usize::MAX; found.len()];
-        let mut at: Vec<usize> = Vec::with_capacity(found.len());
-        for (place, (k, n)) in found.iter().zip(shown).enumerate() {
-            let i = &mut of_kind[kinds[place]];
-            if *i == usize::MAX {
-                *i = counted.len();
-                counted.push((k.form, place, 0));
-            }
-            counted[*i].2 += n;
-            at.push(*i);
+        let (at, firsts) = kinds_in_order(&found);
+        let mut counted: Vec<(&Form, usize, usize)> =
+            firsts.into_iter().map(|(f, place)| (f, place, 0)).collect();
+        for (&i, n) in at.iter().zip(shown) {
+            counted[i].2 += n;
         }
         let groups = Groups {
             found: &found,
@@ -231,9 +224,7 @@ impl Sheet {
         if shape.size < 2 || !shape.common.is_one() {
             return None;
         }
-        let atoms = shape.atoms.iter().enumerate().filter(|&(_, &a)| a);
-        let atoms = atoms.map(|(a, _)| (Mono::atom(a), Q::one())).collect();
-        Some((shape.size, Poly::from_sorted(atoms)))
+        Some((shape.size, atoms_key(&shape.atoms)))
     }
 
     /// Checks, for every kind of group of the sheet, that what its shape says (how many terms
@@ -242,17 +233,7 @@ impl Sheet {
     #[cfg(test)]
     pub(crate) fn shapes_checked(&self) -> usize {
         let (found, _, _) = self.places();
-        let kinds = kinds(&found);
-        let (mut first, mut at, mut forms) =
-            (vec![usize::MAX; found.len()], Vec::new(), Vec::new());
-        for (place, k) in found.iter().enumerate() {
-            let i = &mut first[kinds[place]];
-            if *i == usize::MAX {
-                *i = forms.len();
-                forms.push((k.form, place));
-            }
-            at.push(*i);
-        }
+        let (at, forms) = kinds_in_order(&found);
         let groups = Groups {
             found: &found,
             at: &at,
@@ -331,6 +312,23 @@ impl Sheet {
             Form::Quotient(a, b) => self.mentions_velocity(a) || self.mentions_velocity(b),
         }
     }
+}
+
+/// Each place's kind numbered in the order the kinds are first met (outer before inner,
+/// entry after entry), and each kind's first form and place.
+fn kinds_in_order<'f>(found: &[Keyed<'f>]) -> (Vec<usize>, Vec<(&'f Form, usize)>) {
+    let kinds = kinds(found);
+    let mut number = vec![usize::MAX; found.len()];
+    let (mut at, mut firsts) = (Vec::with_capacity(found.len()), Vec::new());
+    for (place, k) in found.iter().enumerate() {
+        let i = &mut number[kinds[place]];
+        if *i == usize::MAX {
+            *i = firsts.len();
+            firsts.push((k.form, place));
+        }
+        at.push(*i);
+    }
+    (at, firsts)
 }
 
 /// The name a group's place gets, the factor from the group to the name's value, and how

@@ -352,6 +352,14 @@ impl Sheet {
 /// order) positive, so that groups equal up to a rational factor share it.
 pub(crate) type Key = Poly;
 
+/// A polynomial with a term for each atom marked in `found` (by index): what
+/// [`Sheet::definition`] reads a name's kind and arguments from, and what tells a group's
+/// velocities and parameters apart, when its value is not expanded.
+pub(crate) fn atoms_key(found: &[bool]) -> Key {
+    let atoms = found.iter().enumerate().filter(|&(_, &f)| f);
+    Poly::from_sorted(atoms.map(|(a, _)| (Mono::atom(a), Q::one())).collect())
+}
+
 impl Sheet {
     /// The form as a fraction over the sheet's atoms, names expanded.
     pub(crate) fn fraction_of(&self, f: &Form) -> Fraction {

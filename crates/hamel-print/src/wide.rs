@@ -8,7 +8,7 @@ use std::sync::Arc;
 use crate::collect;
 use crate::form::{Factor, Form, Latex, Syntax, argument, render};
 use crate::layout::{LINE, latex_width_upto, width, width_at_least};
-use crate::poly::{Fraction, Mono, Poly};
+use crate::poly::{Fraction, Poly};
 use crate::sheet::Sheet;
 
 /// The widest group left unnamed: half a line, so that a term holding one still fits beside
@@ -161,12 +161,7 @@ impl Sheet {
         let mut found = vec![false; self.atoms.len()];
         let mut names = vec![false; self.names.len()];
         self.gather_atoms(f, &mut found, &mut names);
-        let atoms = found.iter().enumerate().filter(|&(_, &f)| f);
-        Poly::from_sorted(
-            atoms
-                .map(|(a, _)| (Mono::atom(a), crate::Q::one()))
-                .collect(),
-        )
+        crate::sheet::atoms_key(&found)
     }
 
     /// The atoms of `f` marked in `found` (by index), a name's definition read once

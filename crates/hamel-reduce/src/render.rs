@@ -56,6 +56,35 @@ impl Reduction {
         for (i, e) in self.eta.iter().enumerate() {
             let _ = writeln!(o, "  eta{} = {e}", i + 1);
         }
+        self.classification_text(&mut o);
+        match &self.structure {
+            Some(st) => structure_text(&mut o, st, p),
+            None => {
+                let _ = writeln!(
+                    o,
+                    "\nStructured form: the block structure (17)/(18), the Properties and H0–H6 need Γ in closed form (not computed)"
+                );
+            }
+        }
+        self.properties_text(&mut o);
+        if let Some(applies) = self.proposition_2_1 {
+            let _ = writeln!(
+                o,
+                "\nProposition 2.1 (H0–H5 ⇒ the paper's (11) are free of them): {}",
+                if applies { "applies" } else { "does not apply" }
+            );
+        }
+        self.ground_truth_text(&mut o);
+        let _ = writeln!(o, "\nFindings:");
+        for f in &self.findings {
+            let _ = writeln!(o, "  - {f}");
+        }
+        self.reduced_system_text(&mut o, p);
+        o
+    }
+
+    /// The classification of the coordinates, (31).
+    fn classification_text(&self, o: &mut String) {
         let _ = writeln!(o, "\nClassification (31):");
         for c in &self.classification {
             let kind = match c.kind {
@@ -79,15 +108,10 @@ impl Reduction {
                 if c.in_z { "; Z depends on it" } else { "" }
             );
         }
-        match &self.structure {
-            Some(st) => structure_text(&mut o, st, p),
-            None => {
-                let _ = writeln!(
-                    o,
-                    "\nStructured form: the block structure (17)/(18), the Properties and H0–H6 need Γ in closed form (not computed)"
-                );
-            }
-        }
+    }
+
+    /// The Properties and the hypotheses H0–H6, each with its witness.
+    fn properties_text(&self, o: &mut String) {
         if !self.properties.is_empty() || !self.hypotheses.is_empty() {
             let _ = writeln!(o, "\nProperties:");
             for (name, p) in &self.properties {
@@ -114,13 +138,11 @@ impl Reduction {
                 }
             }
         }
-        if let Some(applies) = self.proposition_2_1 {
-            let _ = writeln!(
-                o,
-                "\nProposition 2.1 (H0–H5 ⇒ the paper's (11) are free of them): {}",
-                if applies { "applies" } else { "does not apply" }
-            );
-        }
+    }
+
+    /// The ground truth: which coordinates are absent from the true equations, and from the
+    /// paper's.
+    fn ground_truth_text(&self, o: &mut String) {
         let gt = &self.ground_truth;
         let _ = writeln!(
             o,
@@ -158,10 +180,10 @@ impl Reduction {
         if let Some(w) = &gt.kinematics_witness {
             let _ = writeln!(o, "  kinematics not closed: {}", witness_line(w));
         }
-        let _ = writeln!(o, "\nFindings:");
-        for f in &self.findings {
-            let _ = writeln!(o, "  - {f}");
-        }
+    }
+
+    /// The reduced system (11) with its kinematic equations, and the reconstruction.
+    fn reduced_system_text<'e>(&'e self, o: &mut String, p: Printer<'_, 'e>) {
         match &self.reduced_system {
             None => {
                 let _ = writeln!(o, "\nNo reduced system.");
@@ -177,7 +199,7 @@ impl Reduction {
                 for (i, e) in r.equations.iter().enumerate() {
                     let _ = write!(o, "  (11.{}) ", i + 1);
                     let start = o.len();
-                    p(e, &mut o);
+                    p(e, o);
                     if !hamel_derive::is_whole_equation(&o[start..]) {
                         o.insert_str(start, "0 = ");
                     }
@@ -185,7 +207,7 @@ impl Reduction {
                 }
                 for k in &r.kinematics {
                     hamel_derive::entry_line(
-                        &mut o,
+                        o,
                         format_args!("  der({}) = ", k.coordinate),
                         p,
                         &k.rate,
@@ -194,7 +216,7 @@ impl Reduction {
                 let _ = writeln!(o, "Reconstruction:");
                 for k in &r.reconstruction {
                     hamel_derive::entry_line(
-                        &mut o,
+                        o,
                         format_args!("  der({}) = ", k.coordinate),
                         p,
                         &k.rate,
@@ -202,6 +224,5 @@ impl Reduction {
                 }
             }
         }
-        o
     }
 }
