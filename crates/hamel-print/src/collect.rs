@@ -11,6 +11,7 @@
 use std::borrow::Cow;
 use std::cell::RefCell;
 use std::collections::BTreeMap;
+use std::ops::Range;
 use std::sync::Arc;
 
 use foldhash::HashMap;
@@ -308,11 +309,11 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
     if let Some(form) = by_rates(p, atoms) {
         return form;
     }
-    let groups = state_groups(p, atoms);
-    if let Some((common, scales)) = shared_coefficient(&groups) {
+    let groups = Groups::of(p, atoms);
+    if let Some((common, scales)) = groups.shared_coefficient() {
         let mut rest = Poly::default();
-        for ((state, _), c) in groups.iter().zip(scales) {
-            rest.add_term(state.clone(), c);
+        for (r, c) in groups.runs.iter().zip(scales) {
+            rest.add_term(groups.state(r).clone(), c);
         }
         let mut inner = by_state(&rest, atoms);
         let sign = if negative(&inner) {
@@ -328,7 +329,7 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
             atoms,
         );
     }
-    collected(groups, atoms)
+    groups.collected(atoms)
 }
 
 /// An equation as a paper writes it: the terms in the rates of the quasi-velocities collected
@@ -389,20 +390,96 @@ fn state_key(pairs: impl Iterator<Item = (usize, u32)>, atoms: &Atoms) -> Vec<St
     pairs.map(|(i, e)| (atoms.rank(i), e)).collect()
 }
 
-/// The groups `(state monomial, parameter coefficient)` in printing order.
-fn state_groups(p: &Poly, atoms: &Cx<'_>) -> Vec<(Mono, Poly)> {
-    // Sorted by state monomial, then parameter monomial: each group is a run, its terms
-    // already in order (the monomials of `p` are distinct).
-    let split: Vec<(Mono, Mono, Q)> = p
-        .terms()
-        .map(|(m, c)| {
-            let (state, params) = m.split(|i| atoms.get(i).kind != Kind::Parameter);
-            (state, params, c.clone())
-        })
-        .collect();
-    let mut groups = runs(split);
-    groups.sort_by_cached_key(|(m, _)| group_order(m, atoms));
-    groups
+/// A polynomial's terms grouped by their monomial in the state's atoms: each term split into
+/// its state and parameter monomials, sorted by state then parameters, so that each group is
+/// a run of terms, already in order (the monomials of the polynomial are distinct); the runs
+/// in printing order. A group's coefficient is made a polynomial only where it has two terms
+/// or more (most have one).
+struct Groups {
+    split: Vec<(Mono, Mono, Q)>,
+    runs: Vec<Range<usize>>,
+}
+
+impl Groups {
+    fn of(p: &Poly, atoms: &Atoms) -> Groups {
+        let mut split: Vec<(Mono, Mono, Q)> = p
+            .terms()
+            .map(|(m, c)| {
+                let (state, params) = m.split(|i| atoms.get(i).kind != Kind::Parameter);
+                (state, params, c.clone())
+            })
+            .collect();
+        split.sort_unstable_by(|x, y| (&x.0, &x.1).cmp(&(&y.0, &y.1)));
+        let mut runs = Vec::new();
+        let mut start = 0;
+        for k in 1..=split.len() {
+            if k == split.len() || split[k].0 != split[start].0 {
+                runs.push(start..k);
+                start = k;
+            }
+        }
+        if runs.len() > 1 {
+            runs.sort_by_cached_key(|r| group_order(&split[r.start].0, atoms));
+        }
+        Groups { split, runs }
+    }
+
+    /// The state monomial of the group `r`.
+    fn state(&self, r: &Range<usize>) -> &Mono {
+        &self.split[r.start].0
+    }
+
+    /// The parameter coefficient of the group `r`.
+    fn coefficient(&self, r: &Range<usize>) -> Poly {
+        let terms = self.split[r.clone()].iter();
+        Poly::from_sorted(terms.map(|(_, m, c)| (m.clone(), c.clone())).collect())
+    }
+
+    /// When there are two groups or more and every coefficient is `c_i · P` for one
+    /// polynomial `P` of two terms or more: `P` and the `c_i`.
+    fn shared_coefficient(&self) -> Option<(Poly, Vec<Q>)> {
+        // Equal polynomials up to a rational factor have as many terms: only those are
+        // compared.
+        let size = self.runs.first()?.len();
+        if self.runs.len() < 2 || size < 2 || self.runs.iter().any(|r| r.len() != size) {
+            return None;
+        }
+        let first = self.coefficient(&self.runs[0]);
+        let (_, _, first) = content(&first);
+        let first = first.into_owned();
+        let mut scales = Vec::new();
+        for r in &self.runs {
+            let coef = self.coefficient(r);
+            let (c, g, rest) = content(&coef);
+            if !g.is_one() || *rest != first {
+                return None;
+            }
+            scales.push(c);
+        }
+        Some((first, scales))
+    }
+
+    /// The collected sum of the groups.
+    fn collected(&self, atoms: &Cx<'_>) -> Form {
+        let mut terms: Vec<Form> = Vec::with_capacity(self.runs.len());
+        for r in &self.runs {
+            let coefficient = match &self.split[r.clone()] {
+                [(_, m, c)] => monomial(m, c, atoms),
+                _ => parameters(&self.coefficient(r), atoms),
+            };
+            let (coef, mut factors) = coefficient.factors();
+            factors.extend(atom_factors(self.state(r)));
+            match sorted(coef, factors, atoms) {
+                t if is_zero(&t) => {}
+                Form::Sum(inner) => terms.extend(inner),
+                one => terms.push(one),
+            }
+        }
+        if terms.len() == 1 {
+            return terms.into_iter().next().expect("one term");
+        }
+        Form::Sum(terms)
+    }
 }
 
 /// A group's place in a sum: the terms with rates of the quasi-velocities first (by those
@@ -451,50 +528,12 @@ fn runs(mut split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
     out
 }
 
-/// When there are two groups or more and every coefficient is `c_i · P` for one polynomial
-/// `P` of two terms or more: `P` and the `c_i`.
-fn shared_coefficient(groups: &[(Mono, Poly)]) -> Option<(Poly, Vec<Q>)> {
-    // Equal polynomials up to a rational factor have as many terms: only those are compared.
-    let size = groups.first()?.1.size();
-    if groups.len() < 2 || size < 2 || groups.iter().any(|(_, coef)| coef.size() != size) {
-        return None;
-    }
-    let (_, _, first) = content(&groups[0].1);
-    let mut scales = Vec::new();
-    for (_, coef) in groups {
-        let (c, g, rest) = content(coef);
-        if !g.is_one() || rest != first {
-            return None;
-        }
-        scales.push(c);
-    }
-    Some((first.into_owned(), scales))
-}
-
-/// The collected sum of the groups.
-fn collected(groups: Vec<(Mono, Poly)>, atoms: &Cx<'_>) -> Form {
-    let mut terms: Vec<Form> = Vec::with_capacity(groups.len());
-    for (state, coef) in groups {
-        let (coef, mut factors) = parameters(&coef, atoms).factors();
-        factors.extend(atom_factors(&state));
-        match sorted(coef, factors, atoms) {
-            t if is_zero(&t) => {}
-            Form::Sum(inner) => terms.extend(inner),
-            one => terms.push(one),
-        }
-    }
-    if terms.len() == 1 {
-        return terms.into_iter().next().expect("one term");
-    }
-    Form::Sum(terms)
-}
-
 /// Step 3: a polynomial in the parameters, factored greedily (each polynomial once: what it
 /// is factored into is shared by every place it occurs).
 fn parameters(p: &Poly, atoms: &Cx<'_>) -> Shared {
     // A monomial is written as it is: cheaper than looking it up.
     if let (1, Some((m, c))) = (p.size(), p.terms().next()) {
-        return Shared::Other(sorted(c.clone(), atoms_of(m), atoms));
+        return monomial(m, c, atoms);
     }
     if let Some(f) = atoms.memo.borrow().get(p) {
         return f.clone();
@@ -502,6 +541,11 @@ fn parameters(p: &Poly, atoms: &Cx<'_>) -> Shared {
     let f = Shared::of(factored(p, atoms));
     atoms.memo.borrow_mut().insert(p.clone(), f.clone());
     f
+}
+
+/// The monomial `c · m` in the parameters, as [`parameters`] writes it.
+fn monomial(m: &Mono, c: &Q, atoms: &Cx<'_>) -> Shared {
+    Shared::Other(sorted(c.clone(), atoms_of(m), atoms))
 }
 
 fn factored(p: &Poly, atoms: &Cx<'_>) -> Form {
