@@ -266,6 +266,12 @@ fn ring(prefix: &str, n: usize) -> Poly {
     MultivariatePolynomial::new(&Z, None, vars)
 }
 
+/// A number no field of this process had before.
+fn next_uid() -> u32 {
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
 fn build(spec: &FieldSpec, layout: Layout) -> Field {
     let zero = ring("hamel_v", layout.kinds.len());
     let half = HalfRing::new(&layout.kinds, |n| ring("hamel_t", n));
@@ -287,6 +293,7 @@ fn build(spec: &FieldSpec, layout: Layout) -> Field {
         free_var: layout.free_var,
         kernel_var: Vec::new(),
         dvar: RefCell::new(HashMap::new()),
+        uid: next_uid(),
     };
     let field = Field(Rc::new(inner));
     // sin(u)² = 1 − cos(u)² for every angle.

@@ -92,9 +92,11 @@ fn canonical(f: &FieldInner, num: &Poly, scale: BigInt, factors: &[(&Poly, u32)]
     }
     let mut index = vec![0u32; used.len()];
     let mut atoms = Vec::new();
+    let mut ids = Vec::new();
     for (v, _) in used.iter().enumerate().filter(|(_, u)| **u) {
         index[v] = u32::try_from(atoms.len()).expect("fewer than 2^32 variables");
         atoms.push(var_expr(f, v));
+        ids.push(f.atom_id(v));
     }
     let terms = |ts: Vec<(BigInt, Vec<u16>)>| -> Terms {
         ts.into_iter()
@@ -111,6 +113,7 @@ fn canonical(f: &FieldInner, num: &Poly, scale: BigInt, factors: &[(&Poly, u32)]
     };
     let mut c = Canonical {
         atoms,
+        ids,
         num: terms(num),
         scale,
         factors: factors.into_iter().map(|(t, e)| (terms(t), e)).collect(),

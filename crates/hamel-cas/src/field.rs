@@ -75,6 +75,13 @@ impl FieldInner {
         self.kinds.len()
     }
 
+    /// The exported atom of variable `v`'s number ([`hamel_expr::Canonical::ids`]): the
+    /// field's and the variable's, so that equal numbers are one variable of one field, whose
+    /// tree ([`crate::export::var_expr`]) never changes.
+    pub fn atom_id(&self, v: usize) -> u64 {
+        (u64::from(self.uid) << 32) | v as u64
+    }
+
     pub fn var_poly(&self, v: usize) -> Poly {
         let mut e = vec![0u16; self.nvars()];
         e[v] = 1;

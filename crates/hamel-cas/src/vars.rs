@@ -87,6 +87,9 @@ pub(crate) struct FieldInner {
     pub kernel_var: Vec<usize>,
     /// Memo of dv/dq_k.
     pub dvar: RefCell<DerivativeMemo>,
+    /// This field's number, distinct among the fields of a process: with a variable's index,
+    /// what tells an exported atom apart ([`FieldInner::atom_id`]).
+    pub uid: u32,
 }
 
 /// Memo of d(variable v)/dq_i by (v, i), as numerator and denominator; `None` where it is zero.

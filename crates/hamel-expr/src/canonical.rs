@@ -31,6 +31,11 @@ pub type Terms = Vec<Term>;
 pub struct Canonical {
     /// The atoms: symbols, velocities, sines and cosines, free functions, other functions.
     pub atoms: Vec<Expr>,
+    /// A number for each atom, given by the exporter, or none (empty): two atoms of forms from
+    /// one exporter with the same number are the same atom. A reader that meets the same atoms
+    /// in many forms (printing numbers every entry's) tells them apart by these numbers
+    /// without comparing trees.
+    pub ids: Vec<u64>,
     /// The numerator's terms.
     pub num: Terms,
     /// The denominator's integer (nonzero).
@@ -154,6 +159,7 @@ mod tests {
     fn trees_are_written_as_the_export_writes_them() {
         let c = Canonical {
             atoms: vec![Expr::sym("m"), Expr::call(crate::Func::Cos, Expr::sym("x"))],
+            ids: vec![],
             num: vec![term(-3, &[(0, 1), (1, 2)]), term(2, &[])],
             scale: BigInt::from(4),
             factors: vec![],

@@ -61,6 +61,9 @@ pub struct Atoms {
     /// Expression ↦ index, for the atoms met (what saves writing an atom's text at each of
     /// its occurrences; the text stays what identifies an atom).
     seen: HashMap<Expr, usize>,
+    /// An exported atom's number ([`hamel_expr::Canonical::ids`]) ↦ index: the atoms of a
+    /// derivation's entries are told apart by their numbers, their trees compared once.
+    by_id: HashMap<u64, usize>,
     /// In how many terms of a sheet's entries each atom occurs (what ties between
     /// parameters are broken by when a coefficient is factored).
     weight: Vec<usize>,
@@ -78,6 +81,7 @@ impl Atoms {
             // Room for a small model's atoms (growing a map rehashes it).
             index: HashMap::with_capacity_and_hasher(32, Default::default()),
             seen: HashMap::with_capacity_and_hasher(32, Default::default()),
+            by_id: HashMap::with_capacity_and_hasher(32, Default::default()),
             weight: Vec::new(),
             rank: Vec::new(),
         }
@@ -101,6 +105,16 @@ impl Atoms {
     /// The atom with index `i`.
     pub fn get(&self, i: usize) -> &Atom {
         &self.list[i]
+    }
+
+    /// The index of the atom the exporter numbered `id`, whose tree is `expr`, added if new.
+    pub(crate) fn intern_numbered(&mut self, id: u64, expr: &Expr) -> usize {
+        if let Some(&i) = self.by_id.get(&id) {
+            return i;
+        }
+        let i = self.intern(expr);
+        self.by_id.insert(id, i);
+        i
     }
 
     /// The index of `expr`'s atom, added if new.

@@ -467,7 +467,11 @@ impl Fraction {
             }
             for &(a, _) in &t.powers {
                 if map[a as usize] == usize::MAX {
-                    map[a as usize] = atoms.intern(&c.atoms[a as usize]);
+                    let atom = &c.atoms[a as usize];
+                    map[a as usize] = match c.ids.get(a as usize) {
+                        Some(&id) => atoms.intern_numbered(id, atom),
+                        None => atoms.intern(atom),
+                    };
                     left -= 1;
                 }
             }

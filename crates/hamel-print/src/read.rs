@@ -154,6 +154,7 @@ mod tests {
         };
         Canonical {
             atoms: atoms.iter().map(|t| parse(t).unwrap().expr).collect(),
+            ids: vec![],
             num: terms(num),
             scale: BigInt::from(2),
             factors: factors.iter().map(|(t, e)| (terms(t), *e)).collect(),
@@ -217,5 +218,30 @@ mod tests {
             assert_eq!(entries(&es, parallel, &mut sheet).unwrap(), expected);
             assert_eq!(summary(&sheet), summary(&one), "parallel: {parallel}");
         }
+        // The same canonical forms with the exporter's numbers of their atoms (one number
+        // for each tree, whichever form holds it) read as they do without.
+        let texts: Vec<String> = canonicals
+            .iter()
+            .flat_map(|c| c.atoms.iter().map(Expr::to_string))
+            .collect();
+        let numbered: Vec<Canonical> = canonicals
+            .iter()
+            .map(|c| {
+                let id = |a: &Expr| texts.iter().position(|t| *t == a.to_string()).unwrap();
+                let ids = c.atoms.iter().map(|a| 7 + id(a) as u64).collect();
+                Canonical { ids, ..c.clone() }
+            })
+            .collect();
+        let sources = [
+            sources[0],
+            Source::Canonical(&numbered[0]),
+            sources[2],
+            Source::Canonical(&numbered[1]),
+            sources[4],
+        ];
+        let es: Vec<(Source<'_>, usize)> = sources.iter().copied().zip([1, 2, 1, 3, 1]).collect();
+        let mut sheet = atoms();
+        assert_eq!(entries(&es, false, &mut sheet).unwrap(), expected);
+        assert_eq!(summary(&sheet), summary(&one), "numbered atoms");
     }
 }

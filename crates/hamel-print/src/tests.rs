@@ -479,6 +479,7 @@ fn canonical_forms_read_as_their_trees() {
     ];
     let polynomial = Canonical {
         atoms: atoms.clone(),
+        ids: vec![],
         num: vec![
             term(-3, &[(1, 1), (2, 2)]),
             term(5, &[(0, 1), (3, 1), (4, 1)]),
@@ -706,6 +707,7 @@ fn a_denominator_stays_in_its_factors() {
         }
         Canonical {
             atoms: atoms.clone(),
+            ids: vec![],
             num: vec![term(1, &[(0, 1), (3, 1)]), term(1, &[(1, 1), (2, 1)])],
             scale: BigInt::from(4),
             factors,
