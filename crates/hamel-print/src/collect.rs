@@ -10,9 +10,8 @@
 
 use std::borrow::Cow;
 use std::cell::RefCell;
-use std::collections::BTreeMap;
 use std::ops::Range;
-use std::sync::Arc;
+use std::sync::{Arc, LazyLock};
 
 use foldhash::HashMap;
 use smallvec::SmallVec;
@@ -189,7 +188,8 @@ fn poly_in(p: &Poly, atoms: &Cx<'_>) -> Form {
 /// greatest common monomial `g`.
 pub(crate) fn content(p: &Poly) -> (Q, Mono, Cow<'_, Poly>) {
     if let Some((m, c)) = p.terms().next().filter(|_| p.size() == 1) {
-        return (c.clone(), m.clone(), Cow::Owned(Poly::constant(Q::one())));
+        static ONE: LazyLock<Poly> = LazyLock::new(|| Poly::constant(Q::one()));
+        return (c.clone(), m.clone(), Cow::Borrowed(&ONE));
     }
     let mut monomials = p.monomials();
     let mut g = monomials.next().expect("a nonzero polynomial").clone();
@@ -590,6 +590,9 @@ fn greedy(p: &Poly, atoms: &Cx<'_>) -> Form {
 
 /// The terms of a sum in printing order: by their factors' ranks, the model's order first.
 fn in_order(mut terms: Vec<Form>, atoms: &Cx<'_>) -> Form {
+    if terms.len() < 2 {
+        return Form::Sum(terms);
+    }
     terms.sort_by_cached_key(|t| match t {
         Form::Product { factors, .. } => factors.iter().map(|x| factor_rank(x, atoms)).collect(),
         _ => SmallVec::<[_; 4]>::new(),
@@ -600,10 +603,14 @@ fn in_order(mut terms: Vec<Form>, atoms: &Cx<'_>) -> Form {
 /// The parameter atom occurring in the most terms (at least two); ties go to the one occurring
 /// in more terms of the whole sheet, then to the model's order.
 fn most_frequent(p: &Poly, atoms: &Atoms) -> Option<usize> {
-    let mut counts: BTreeMap<usize, usize> = BTreeMap::new();
+    // A coefficient has a few parameters: counted in a list, not a map.
+    let mut counts: SmallVec<[(usize, usize); 8]> = SmallVec::new();
     for m in p.monomials() {
         for i in m.atoms() {
-            *counts.entry(i).or_default() += 1;
+            match counts.iter_mut().find(|(j, _)| *j == i) {
+                Some((_, n)) => *n += 1,
+                None => counts.push((i, 1)),
+            }
         }
     }
     counts
