@@ -409,15 +409,7 @@ impl Groups {
                 (state, params, c.clone())
             })
             .collect();
-        split.sort_unstable_by(|x, y| (&x.0, &x.1).cmp(&(&y.0, &y.1)));
-        let mut runs = Vec::new();
-        let mut start = 0;
-        for k in 1..=split.len() {
-            if k == split.len() || split[k].0 != split[start].0 {
-                runs.push(start..k);
-                start = k;
-            }
-        }
+        let mut runs = sorted_runs(&mut split);
         if runs.len() > 1 {
             runs.sort_by_cached_key(|r| group_order(&split[r.start].0, atoms));
         }
@@ -505,18 +497,10 @@ fn keys<'a>(m: &'a Mono, rates: bool, atoms: &'a Atoms) -> impl Iterator<Item = 
 /// each key's terms are a run, already in order; each run is measured first, so that every
 /// vector is made at its size.
 fn runs(mut split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
-    split.sort_unstable_by(|x, y| (&x.0, &x.1).cmp(&(&y.0, &y.1)));
-    let mut lengths: SmallVec<[usize; 8]> = SmallVec::new();
-    let mut start = 0;
-    for k in 1..=split.len() {
-        if k == split.len() || split[k].0 != split[start].0 {
-            lengths.push(k - start);
-            start = k;
-        }
-    }
+    let lengths = sorted_runs(&mut split);
     let mut out = Vec::with_capacity(lengths.len());
     let mut terms = split.into_iter();
-    for length in lengths {
+    for length in lengths.iter().map(Range::len) {
         let Some((key, rest, c)) = terms.next() else {
             break;
         };
@@ -526,6 +510,20 @@ fn runs(mut split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
         out.push((key, Poly::from_sorted(run)));
     }
     out
+}
+
+/// Terms `(key, rest, c)` sorted by key then rest, and the runs of equal keys, in order.
+fn sorted_runs(split: &mut [(Mono, Mono, Q)]) -> Vec<Range<usize>> {
+    split.sort_unstable_by(|x, y| (&x.0, &x.1).cmp(&(&y.0, &y.1)));
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for k in 1..=split.len() {
+        if k == split.len() || split[k].0 != split[start].0 {
+            runs.push(start..k);
+            start = k;
+        }
+    }
+    runs
 }
 
 /// Step 3: a polynomial in the parameters, factored greedily (each polynomial once: what it
