@@ -353,7 +353,7 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
             split.push((rate, coefficient, c.clone()));
         }
     }
-    let mut by_rate: Vec<(Vec<StateKey>, Mono, Poly)> = runs(split)
+    let mut by_rate: Vec<(SmallVec<[StateKey; 2]>, Mono, Poly)> = runs(split)
         .into_iter()
         .map(|(rate, coefficient)| (state_key(rate.pairs(), atoms), rate, coefficient))
         .collect();
@@ -386,7 +386,7 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
 type StateKey = (u32, u32);
 
 /// The printing-order keys of a monomial's `(atom, exponent)` pairs.
-fn state_key(pairs: impl Iterator<Item = (usize, u32)>, atoms: &Atoms) -> Vec<StateKey> {
+fn state_key(pairs: impl Iterator<Item = (usize, u32)>, atoms: &Atoms) -> SmallVec<[StateKey; 2]> {
     pairs.map(|(i, e)| (atoms.rank(i), e)).collect()
 }
 
@@ -397,7 +397,7 @@ fn state_key(pairs: impl Iterator<Item = (usize, u32)>, atoms: &Atoms) -> Vec<St
 /// or more (most have one).
 struct Groups {
     split: Vec<(Mono, Mono, Q)>,
-    runs: Vec<Range<usize>>,
+    runs: Runs,
 }
 
 impl Groups {
@@ -512,10 +512,13 @@ fn runs(mut split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
     out
 }
 
+/// Runs of a sorted vector: a sum has a few groups, held in place.
+type Runs = SmallVec<[Range<usize>; 4]>;
+
 /// Terms `(key, rest, c)` sorted by key then rest, and the runs of equal keys, in order.
-fn sorted_runs(split: &mut [(Mono, Mono, Q)]) -> Vec<Range<usize>> {
+fn sorted_runs(split: &mut [(Mono, Mono, Q)]) -> Runs {
     split.sort_unstable_by(|x, y| (&x.0, &x.1).cmp(&(&y.0, &y.1)));
-    let mut runs = Vec::new();
+    let mut runs = Runs::new();
     let mut start = 0;
     for k in 1..=split.len() {
         if k == split.len() || split[k].0 != split[start].0 {
