@@ -436,19 +436,20 @@ impl Groups {
         if self.runs.len() < 2 || size < 2 || self.runs.iter().any(|r| r.len() != size) {
             return None;
         }
-        let first = self.coefficient(&self.runs[0]);
-        let (_, _, first) = content(&first);
-        let first = first.into_owned();
-        let mut scales = Vec::new();
+        let mut first: Option<Poly> = None;
+        let mut scales = Vec::with_capacity(self.runs.len());
         for r in &self.runs {
             let coef = self.coefficient(r);
             let (c, g, rest) = content(&coef);
-            if !g.is_one() || *rest != first {
-                return None;
+            match &first {
+                _ if !g.is_one() => return None,
+                None => first = Some(rest.into_owned()),
+                Some(p) if *p == *rest => {}
+                Some(_) => return None,
             }
             scales.push(c);
         }
-        Some((first, scales))
+        first.map(|p| (p, scales))
     }
 
     /// The collected sum of the groups.
@@ -497,10 +498,10 @@ fn keys<'a>(m: &'a Mono, rates: bool, atoms: &'a Atoms) -> impl Iterator<Item = 
 /// each key's terms are a run, already in order; each run is measured first, so that every
 /// vector is made at its size.
 fn runs(mut split: Vec<(Mono, Mono, Q)>) -> Vec<(Mono, Poly)> {
-    let lengths = sorted_runs(&mut split);
-    let mut out = Vec::with_capacity(lengths.len());
+    let ranges = sorted_runs(&mut split);
+    let mut out = Vec::with_capacity(ranges.len());
     let mut terms = split.into_iter();
-    for length in lengths.iter().map(Range::len) {
+    for length in ranges.iter().map(Range::len) {
         let Some((key, rest, c)) = terms.next() else {
             break;
         };
