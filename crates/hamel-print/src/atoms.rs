@@ -37,8 +37,9 @@ pub struct Atom {
     pub kind: Kind,
     /// Its text, the key that identifies it.
     pub key: String,
-    /// Its text in the model syntax as a factor of a product (`sin(theta)`, `(x^(1/2))`).
-    pub(crate) text: String,
+    /// Its text in the model syntax as a factor of a product (`(x^(1/2))`) where that is not
+    /// its key (a name or call is written as its key: `sin(theta)`).
+    factor_text: Option<String>,
     /// Its LaTeX.
     pub(crate) latex: String,
     /// The [`width`](crate::width) of its LaTeX.
@@ -70,6 +71,13 @@ pub struct Atoms {
     /// Each atom's place in the printing order ([`Atoms::order`]), kept as atoms are added:
     /// what sorting compares instead of the kinds, positions and texts.
     rank: Vec<u32>,
+}
+
+impl Atom {
+    /// Its text in the model syntax as a factor of a product (`sin(theta)`, `(x^(1/2))`).
+    pub(crate) fn text(&self) -> &str {
+        self.factor_text.as_deref().unwrap_or(&self.key)
+    }
 }
 
 impl Atoms {
@@ -107,12 +115,13 @@ impl Atoms {
         &self.list[i]
     }
 
-    /// The index of the atom the exporter numbered `id`, whose tree is `expr`, added if new.
+    /// The index of the atom the exporter numbered `id`, whose tree is `expr`, added if new
+    /// (an exported atom is met again by its number, so its tree is not kept for lookup).
     pub(crate) fn intern_numbered(&mut self, id: u64, expr: &Expr) -> usize {
         if let Some(&i) = self.by_id.get(&id) {
             return i;
         }
-        let i = self.intern(expr);
+        let i = self.intern_by_key(expr);
         self.by_id.insert(id, i);
         i
     }
@@ -122,28 +131,27 @@ impl Atoms {
         if let Some(&i) = self.seen.get(expr) {
             return i;
         }
+        let i = self.intern_by_key(expr);
+        self.seen.insert(expr.clone(), i);
+        i
+    }
+
+    /// The index of the atom whose text is `expr`'s, added if new.
+    fn intern_by_key(&mut self, expr: &Expr) -> usize {
         let key = expr.to_string();
         if let Some(&i) = self.index.get(&key) {
-            self.seen.insert(expr.clone(), i);
             return i;
         }
-        self.seen.insert(expr.clone(), self.list.len());
         let kind = self.kind_of(expr);
         let position = self.position_of(expr);
         self.index.insert(key.clone(), self.list.len());
         let rate = kind == Kind::Velocity && matches!(expr, Expr::Sym(n) if n.ends_with("_dot"));
-        // A name or call is written as its key (the text of anything else differs).
-        let text = if simple(expr) {
-            key.clone()
-        } else {
-            text_of(expr)
-        };
         let latex = expr.to_latex();
         self.rank_new((kind, position, &key));
         self.list.push(Atom {
             expr: expr.clone(),
             kind,
-            text,
+            factor_text: (!simple(expr)).then(|| text_of(expr)),
             latex_width: crate::tex_width::width(&latex),
             latex,
             key,

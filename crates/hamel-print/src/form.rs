@@ -214,9 +214,9 @@ impl Syntax for Text {
     }
     fn atom_power(&self, a: &Atom, power: u32, out: &mut String) {
         if power == 1 {
-            out.push_str(&a.text);
+            out.push_str(a.text());
         } else if simple(&a.expr) {
-            out.push_str(&a.text);
+            out.push_str(a.text());
             self.exponent(power, out);
         } else {
             out.push_str(&self.atom(&Expr::powi(a.expr.clone(), i64::from(power))));

@@ -28,6 +28,9 @@ impl Sheet {
     /// the groups still too wide for a line are named too
     /// ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
+        if self.entries.is_empty() {
+            self.write_given();
+        }
         let (chosen, at, starts) = self.candidates();
         let at = &at;
         for (form, c) in chosen {

@@ -93,18 +93,32 @@ impl Sheet {
 
     /// Names the parameter expression `e` `name` (a model's `[abbreviations]`): wherever
     /// printing meets a group that is a rational multiple of it, it writes the name (`m` for
-    /// m_d + m_f + m_r). Call before [`Sheet::name_groups`].
+    /// m_d + m_f + m_r). Call before adding the entries: the name's definition is written
+    /// when they are added (with their factoring), or when the groups are named.
     ///
     /// # Errors
     /// An expression with no rational form over its atoms.
     pub fn abbreviate(&mut self, name: &str, e: &Expr) -> Result<(), PolyError> {
         let value = Fraction::from_expr(e, &mut self.atoms)?.normalised();
-        let form = collect::fraction(&value, &self.atoms);
         self.given.push(self.names.len());
-        self.names
-            .push(Definition::new(name.to_string(), Vec::new(), form, true));
+        let unwritten = Form::Sum(Vec::new());
+        self.names.push(Definition::new(
+            name.to_string(),
+            Vec::new(),
+            unwritten,
+            true,
+        ));
         self.values.push(OnceLock::from(value));
         Ok(())
+    }
+
+    /// The model's abbreviations written with the factoring of the entries added so far.
+    pub(crate) fn write_given(&mut self) {
+        for &j in &self.given {
+            if let Some(v) = self.values[j].get() {
+                self.names[j].form = collect::fraction(v, &self.atoms);
+            }
+        }
     }
 
     /// The forms in which the given names' groups appear, content-free as collection writes
@@ -160,12 +174,7 @@ impl Sheet {
             self.at_check.push(value);
         }
         self.counts.extend(es.iter().map(|(_, n)| *n));
-        // The model's abbreviations written with the same factoring.
-        for (d, v) in self.names.iter_mut().zip(&self.values) {
-            if let Some(v) = v.get().filter(|_| d.given) {
-                d.form = collect::fraction(v, &self.atoms);
-            }
-        }
+        self.write_given();
         Ok((first..self.entries.len()).collect())
     }
 
@@ -237,19 +246,19 @@ impl Sheet {
         let mut ids = ids.to_vec();
         ids.sort_unstable();
         ids.dedup();
-        let mut used = BTreeSet::new();
+        let mut used = vec![false; self.names.len()];
         let mut todo: Vec<&Form> = ids.iter().map(|&i| &self.entries[i].0).collect();
         todo.extend(ids.iter().filter_map(|i| self.multipliers.get(i)));
+        let mut found = Vec::new();
         while let Some(f) = todo.pop() {
-            let mut found = Vec::new();
             uses(f, &self.arguments, &mut found);
-            for j in found {
-                if used.insert(j) {
+            for j in found.drain(..) {
+                if !std::mem::replace(&mut used[j], true) {
                     todo.push(&self.names[j].form);
                 }
             }
         }
-        used
+        (0..used.len()).filter(|&j| used[j]).collect()
     }
 
     /// Entry `i` as an expression, names expanded (for evaluation and checks).
