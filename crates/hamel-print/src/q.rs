@@ -206,8 +206,17 @@ fn mul_small(a: i64, b: i64, c: i64, d: i64) -> Option<Q> {
     if a == 0 || c == 0 {
         return Some(Q::zero());
     }
-    let g1 = i64::try_from(gcd(a.unsigned_abs(), d.unsigned_abs())).ok()?;
-    let g2 = i64::try_from(gcd(c.unsigned_abs(), b.unsigned_abs())).ok()?;
+    // An integer's denominator shares nothing (most coefficients are integers).
+    let g1 = if d == 1 {
+        1
+    } else {
+        i64::try_from(gcd(a.unsigned_abs(), d.unsigned_abs())).ok()?
+    };
+    let g2 = if b == 1 {
+        1
+    } else {
+        i64::try_from(gcd(c.unsigned_abs(), b.unsigned_abs())).ok()?
+    };
     let n = (a / g1).checked_mul(c / g2)?;
     let den = (b / g2).checked_mul(d / g1)?;
     Some(Q::Small(n, den))
