@@ -175,21 +175,68 @@ fn poly_in(p: &Poly, atoms: &Cx<'_>) -> Form {
     if p.is_zero() {
         return constant(Q::zero());
     }
-    let (c, g, rest) = content(p);
-    let inner = if rest.as_constant().is_some() {
-        None
-    } else {
-        Some(by_state(&rest, atoms))
-    };
+    let (c, g) = content_of(p);
+    // One term is c · g itself.
+    let inner = (p.size() > 1).then(|| {
+        by_state(
+            &Divided {
+                p,
+                by: c.recip(),
+                g: &g,
+            },
+            atoms,
+        )
+    });
     product(c, &g, inner, atoms)
 }
 
-/// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
+/// A polynomial's terms divided by `c · g` (its content, in [`poly_in`]), each made as it is
+/// read: the quotient is not made as a polynomial of its own (collection splits its terms
+/// anyway).
+struct Divided<'p> {
+    p: &'p Poly,
+    /// `1/c`.
+    by: Q,
+    g: &'p Mono,
+}
+
+impl<'p> Divided<'p> {
+    /// `p` itself.
+    fn whole(p: &'p Poly) -> Divided<'p> {
+        static ONE: LazyLock<Mono> = LazyLock::new(Mono::default);
+        Divided {
+            p,
+            by: Q::one(),
+            g: &ONE,
+        }
+    }
+
+    /// The terms `(m/g, a/c)`, in the order of `p`'s (which is monomial order when `g` is
+    /// one: scaling keeps it; dividing may not).
+    fn terms(&self) -> impl Iterator<Item = (Cow<'p, Mono>, Q)> + '_ {
+        self.p.terms().map(|(m, a)| {
+            let m = if self.g.is_one() {
+                Cow::Borrowed(m)
+            } else {
+                Cow::Owned(m.div(self.g).expect("g divides every term"))
+            };
+            (m, a.mul(&self.by))
+        })
+    }
+
+    /// Whether any term, divided, has an atom that `is`.
+    fn any_atom(&self, is: impl Fn(usize) -> bool) -> bool {
+        self.p
+            .monomials()
+            .any(|m| m.pairs().any(|(i, e)| is(i) && e > self.g.exponent(i)))
+    }
+}
+
+/// `p = c · g · rest`: the rational content `c` (its sign that of the first term) and the
 /// greatest common monomial `g`.
-pub(crate) fn content(p: &Poly) -> (Q, Mono, Cow<'_, Poly>) {
+fn content_of(p: &Poly) -> (Q, Mono) {
     if let Some((m, c)) = p.terms().next().filter(|_| p.size() == 1) {
-        static ONE: LazyLock<Poly> = LazyLock::new(|| Poly::constant(Q::one()));
-        return (c.clone(), m.clone(), Cow::Borrowed(&ONE));
+        return (c.clone(), m.clone());
     }
     let mut monomials = p.monomials();
     let mut g = monomials.next().expect("a nonzero polynomial").clone();
@@ -203,6 +250,18 @@ pub(crate) fn content(p: &Poly) -> (Q, Mono, Cow<'_, Poly>) {
     if leading_negative(p) {
         c = c.neg();
     }
+    (c, g)
+}
+
+/// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
+/// greatest common monomial `g`.
+pub(crate) fn content(p: &Poly) -> (Q, Mono, Cow<'_, Poly>) {
+    if p.size() == 1 {
+        static ONE: LazyLock<Poly> = LazyLock::new(|| Poly::constant(Q::one()));
+        let (c, g) = content_of(p);
+        return (c, g, Cow::Borrowed(&ONE));
+    }
+    let (c, g) = content_of(p);
     let one = g.is_one();
     // Scaling keeps the terms' order; dividing by g may not, so those are sorted again.
     let rest = if one && c.is_one() {
@@ -305,7 +364,7 @@ fn constant(c: Q) -> Form {
 
 /// Step 2: the terms grouped by their monomial in the state's atoms; a coefficient that every
 /// group shares (up to a rational factor) comes out in front.
-fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
+fn by_state(p: &Divided<'_>, atoms: &Cx<'_>) -> Form {
     if let Some(form) = by_rates(p, atoms) {
         return form;
     }
@@ -315,7 +374,7 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
         for (r, c) in groups.runs.iter().zip(scales) {
             rest.add_term(groups.state(r).clone(), c);
         }
-        let mut inner = by_state(&rest, atoms);
+        let mut inner = by_state(&Divided::whole(&rest), atoms);
         let sign = if negative(&inner) {
             negate(&mut inner);
             Q::from(-1)
@@ -335,29 +394,31 @@ fn by_state(p: &Poly, atoms: &Cx<'_>) -> Form {
 /// An equation as a paper writes it: the terms in the rates of the quasi-velocities collected
 /// by rate, each coefficient (a function of the coordinates) in parentheses, `(…) η̇₁ + (…) η̇₂`,
 /// then the other terms. None when `p` has no rate.
-fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
-    let has_rate = |m: &&Mono| m.atoms().any(|i| atoms.is_rate(i));
-    let with_rates = p.monomials().filter(has_rate).count();
-    if with_rates == 0 {
+fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
+    if !p.any_atom(|i| atoms.is_rate(i)) {
         return None;
     }
     // Each term split into its rates and the rest, sorted by rates then rest: each rate's
     // coefficient is a run, its terms in order (the monomials of `p` are distinct).
-    let mut rest = Vec::with_capacity(p.size() - with_rates);
-    let mut split: Vec<(Mono, Mono, Q)> = Vec::with_capacity(with_rates);
+    let mut rest = Vec::new();
+    let mut split: Vec<(Mono, Mono, Q)> = Vec::with_capacity(p.p.size());
     for (m, c) in p.terms() {
         let (rate, coefficient) = m.split(|i| atoms.is_rate(i));
         if rate.is_one() {
-            rest.push((coefficient, c.clone()));
+            rest.push((coefficient, c));
         } else {
-            split.push((rate, coefficient, c.clone()));
+            split.push((rate, coefficient, c));
         }
     }
     let mut by_rate: Vec<(SmallVec<[StateKey; 2]>, Mono, Poly)> = runs(split)
         .into_iter()
         .map(|(rate, coefficient)| (state_key(rate.pairs(), atoms), rate, coefficient))
         .collect();
-    let rest = Poly::from_sorted(rest);
+    let rest = if p.g.is_one() {
+        Poly::from_sorted(rest)
+    } else {
+        Poly::from_terms(rest)
+    };
     if by_rate.is_empty() || (by_rate.len() == 1 && rest.is_zero()) {
         return None;
     }
@@ -374,7 +435,7 @@ fn by_rates(p: &Poly, atoms: &Cx<'_>) -> Option<Form> {
         })
         .collect();
     if !rest.is_zero() {
-        match by_state(&rest, atoms) {
+        match by_state(&Divided::whole(&rest), atoms) {
             Form::Sum(more) => terms.extend(more),
             one => terms.push(one),
         }
@@ -401,12 +462,12 @@ struct Groups {
 }
 
 impl Groups {
-    fn of(p: &Poly, atoms: &Atoms) -> Groups {
+    fn of(p: &Divided<'_>, atoms: &Atoms) -> Groups {
         let mut split: Vec<(Mono, Mono, Q)> = p
             .terms()
             .map(|(m, c)| {
                 let (state, params) = m.split(|i| atoms.get(i).kind != Kind::Parameter);
-                (state, params, c.clone())
+                (state, params, c)
             })
             .collect();
         let mut runs = sorted_runs(&mut split);
