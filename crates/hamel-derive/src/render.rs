@@ -193,36 +193,47 @@ impl Derivation {
     /// often as it is shown), without writing the text: what a printer that prints the
     /// entries together (hamel-print) reads first. The tests hold it to the text's order.
     pub fn shown(&self) -> Vec<&Entry> {
-        // The runs of entries first (a matrix's rows, lists, single entries), then one vector
-        // of the right size (growing it copies it, and a large model shows thousands).
-        let mut runs: Vec<&[Entry]> = Vec::new();
+        // The runs of entries counted first, then gathered into one vector of the right size
+        // (growing it copies it, and a large model shows thousands).
+        let mut size = 0;
+        self.shown_runs(&mut |run| size += run.len());
+        let mut out = Vec::with_capacity(size);
+        self.shown_runs(&mut |run| out.extend(run));
+        out
+    }
+
+    /// [`Derivation::shown`]'s entries in runs (a matrix's rows, lists, single entries), each
+    /// given to `f`, in order.
+    fn shown_runs<'e>(&'e self, f: &mut impl FnMut(&'e [Entry])) {
+        let rows = |m: &'e Mat, f: &mut dyn FnMut(&'e [Entry])| {
+            m.entries.iter().for_each(|row| f(row));
+        };
         for m in [&self.a, &self.alpha, &self.z] {
-            runs.extend(m.entries.iter().map(Vec::as_slice));
+            rows(m, f);
         }
         match &self.form {
             Form::Closed(c) => {
-                runs.push(std::slice::from_ref(&c.delta));
+                f(std::slice::from_ref(&c.delta));
                 for m in [&c.gamma, &c.theta, &c.a_gamma] {
-                    runs.extend(m.entries.iter().map(Vec::as_slice));
+                    rows(m, f);
                 }
-                runs.push(&c.forcing);
-                runs.extend(c.nu.entries.iter().map(Vec::as_slice));
+                f(&c.forcing);
+                rows(&c.nu, f);
                 for i in 0..self.sigma {
                     for m in [&c.q[i], &c.q_paper[i], &c.q_correction[i]] {
-                        runs.extend(m.entries.iter().map(Vec::as_slice));
+                        rows(m, f);
                     }
                 }
-                runs.extend([&c.equations[..], &c.equations_paper, &c.kinematics]);
-                runs.push(std::slice::from_ref(&c.energy));
+                for run in [&c.equations[..], &c.equations_paper, &c.kinematics] {
+                    f(run);
+                }
+                f(std::slice::from_ref(&c.energy));
             }
             Form::Structured(_) => {
-                runs.push(self.ingredients.potential.as_slice());
-                runs.push(&self.grad_u);
+                f(self.ingredients.potential.as_slice());
+                f(&self.grad_u);
             }
         }
-        let mut out = Vec::with_capacity(runs.iter().map(|r| r.len()).sum());
-        out.extend(runs.into_iter().flatten());
-        out
     }
 
     /// The derivation as plain text, entries in their canonical form.

@@ -400,7 +400,7 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
     }
     // Each term split into its rates and the rest, sorted by rates then rest: each rate's
     // coefficient is a run, its terms in order (the monomials of `p` are distinct).
-    let mut rest = Vec::new();
+    let mut rest = Vec::with_capacity(p.p.size());
     let mut split: Vec<(Mono, Mono, Q)> = Vec::with_capacity(p.p.size());
     for (m, c) in p.terms() {
         let (rate, coefficient) = m.split(|i| atoms.is_rate(i));

@@ -365,8 +365,10 @@ pub(crate) type Key = Poly;
 /// [`Sheet::definition`] reads a name's kind and arguments from, and what tells a group's
 /// velocities and parameters apart, when its value is not expanded.
 pub(crate) fn atoms_key(found: &[bool]) -> Key {
+    let mut terms = Vec::with_capacity(found.iter().filter(|&&f| f).count());
     let atoms = found.iter().enumerate().filter(|&(_, &f)| f);
-    Poly::from_sorted(atoms.map(|(a, _)| (Mono::atom(a), Q::one())).collect())
+    terms.extend(atoms.map(|(a, _)| (Mono::atom(a), Q::one())));
+    Poly::from_sorted(terms)
 }
 
 impl Sheet {
