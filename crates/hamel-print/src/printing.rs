@@ -182,7 +182,8 @@ impl Printing {
 
     /// The names the entries use (a model's abbreviation that none uses is left out).
     pub(crate) fn used(&self) -> BTreeSet<usize> {
-        let ids: Vec<usize> = self.ids.values().copied().collect();
+        // Every entry of the sheet is one shown.
+        let ids: Vec<usize> = (0..self.sheet.entries.len()).collect();
         self.sheet.names_used(&ids)
     }
 

@@ -6,7 +6,7 @@
 use std::sync::Arc;
 
 use crate::collect;
-use crate::form::{Factor, Form, Latex, Syntax, argument, render};
+use crate::form::{Factor, Form, Latex, argument, render};
 use crate::layout::{LINE, latex_width_upto, width, width_at_least};
 use crate::poly::{Fraction, Poly};
 use crate::sheet::Sheet;
@@ -109,11 +109,13 @@ impl Sheet {
             self.examined.resize(index + 1, false);
         }
         self.examined[index] = true;
-        let atom = self.atoms.get(index).expr.clone();
-        let Some(arg) = argument(&atom) else { return };
-        if width(&Latex.atom(&atom)) <= WIDE {
+        // The atom's LaTeX is measured already.
+        let atom = self.atoms.get(index);
+        if argument(&atom.expr).is_none() || atom.latex_width <= WIDE {
             return;
         }
+        let atom = atom.expr.clone();
+        let Some(arg) = argument(&atom) else { return };
         let Ok(value) = Fraction::from_expr(arg, &mut self.atoms) else {
             return;
         };
