@@ -472,7 +472,7 @@ impl Groups {
             .collect();
         let mut runs = sorted_runs(&mut split);
         if runs.len() > 1 {
-            runs.sort_by_cached_key(|r| group_order(&split[r.start].0, atoms));
+            sort_by_key_of(&mut runs, |r| group_order(&split[r.start].0, atoms));
         }
         Groups { split, runs }
     }
@@ -656,11 +656,21 @@ fn in_order(mut terms: Vec<Form>, atoms: &Cx<'_>) -> Form {
     if terms.len() < 2 {
         return Form::Sum(terms);
     }
-    terms.sort_by_cached_key(|t| match t {
+    sort_by_key_of(&mut terms, |t| match t {
         Form::Product { factors, .. } => factors.iter().map(|x| factor_rank(x, atoms)).collect(),
         _ => SmallVec::<[_; 4]>::new(),
     });
     Form::Sum(terms)
+}
+
+/// `v` sorted by `key`: a few items by keys made at each comparison (most sums have a few
+/// terms: no vector of keys is made), more by keys made once.
+fn sort_by_key_of<T, K: Ord>(v: &mut [T], key: impl Fn(&T) -> K) {
+    if v.len() <= 8 {
+        v.sort_by_key(key);
+    } else {
+        v.sort_by_cached_key(key);
+    }
 }
 
 /// The parameter atom occurring in the most terms (at least two); ties go to the one occurring
