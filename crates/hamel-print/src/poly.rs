@@ -458,7 +458,16 @@ impl Fraction {
     /// (`Canonical::atoms_met`: the numerator's terms, then the factors', each term's atoms in
     /// order); the terms are read only until every atom is met.
     pub(crate) fn numbering(c: &Canonical, atoms: &mut Atoms) -> Vec<usize> {
-        let mut map = vec![usize::MAX; c.atoms.len()];
+        let mut map = Vec::new();
+        Fraction::numbering_into(c, atoms, &mut map);
+        map
+    }
+
+    /// [`Fraction::numbering`] appended to `out` (a sheet's entries' maps in one vector).
+    pub(crate) fn numbering_into(c: &Canonical, atoms: &mut Atoms, out: &mut Vec<usize>) {
+        let start = out.len();
+        out.resize(start + c.atoms.len(), usize::MAX);
+        let map = &mut out[start..];
         let mut left = c.atoms.len();
         let all = c.factors.iter().flat_map(|(t, _)| t);
         for t in c.num.iter().chain(all) {
@@ -476,7 +485,6 @@ impl Fraction {
                 }
             }
         }
-        map
     }
 
     /// `base^exp`: expanded for a small integer exponent, an atom otherwise.

@@ -35,11 +35,17 @@ pub(crate) fn entries(
     parallel: bool,
     atoms: &mut Atoms,
 ) -> Result<Vec<Factored>, PolyError> {
+    // The canonical forms' maps of atoms, one after another in one vector.
+    let mut maps = Vec::new();
     let mut numbered = Vec::with_capacity(es.len());
     for (e, _) in es {
         numbered.push(match *e {
             Source::Tree(t) => Numbered::Read(Fraction::read(t, atoms)?),
-            Source::Canonical(c) => Numbered::Mapped(c, Fraction::numbering(c, atoms)),
+            Source::Canonical(c) => {
+                let start = maps.len();
+                Fraction::numbering_into(c, atoms, &mut maps);
+                Numbered::Mapped(c, start..maps.len())
+            }
         });
     }
     let len = atoms.len();
@@ -51,7 +57,7 @@ pub(crate) fn entries(
         |counts, n| {
             let f = match n {
                 Numbered::Read(f) => Factored::from(f),
-                Numbered::Mapped(c, map) => Factored::read_mapped(c, &map),
+                Numbered::Mapped(c, map) => Factored::read_mapped(c, &maps[map]),
             };
             let weights = weights(&f, counts);
             (f, weights)
@@ -71,7 +77,8 @@ pub(crate) fn entries(
 /// with the sheet's number of each of its atoms.
 enum Numbered<'e> {
     Read(Fraction),
-    Mapped(&'e Canonical, Vec<usize>),
+    /// A canonical form and where its map of atoms is in the maps of all.
+    Mapped(&'e Canonical, std::ops::Range<usize>),
 }
 
 impl Numbered<'_> {
@@ -84,10 +91,13 @@ impl Numbered<'_> {
     }
 }
 
+/// An entry's atoms with the number of its terms each occurs in: a few, held in place.
+type Weights = smallvec::SmallVec<[(usize, usize); 12]>;
+
 /// In how many of `f`'s terms (numerator and the denominator's factors) each of its atoms
 /// occurs, atoms in the order met; `counts` is zeros, one per atom, and left so.
-fn weights(f: &Factored, counts: &mut [usize]) -> Vec<(usize, usize)> {
-    let mut weights = Vec::with_capacity(16);
+fn weights(f: &Factored, counts: &mut [usize]) -> Weights {
+    let mut weights = Weights::new();
     for m in f.polys().flat_map(crate::poly::Poly::monomials) {
         for i in m.atoms() {
             if counts[i] == 0 {
