@@ -629,13 +629,15 @@ fn greedy(p: &Poly, atoms: &Cx<'_>) -> Form {
             .collect();
         return in_order(terms, atoms);
     };
-    let (mut with, mut without) = (Poly::default(), Poly::default());
+    // The terms without `a` keep their order; those divided by it may not.
+    let (mut with, mut without) = (Vec::with_capacity(p.size()), Vec::with_capacity(p.size()));
     for (m, c) in p.terms() {
         match m.div(&Mono::atom(a)) {
-            Some(q) => with.add_term(q, c.clone()),
-            None => without.add_term(m.clone(), c.clone()),
+            Some(q) => with.push((q, c.clone())),
+            None => without.push((m.clone(), c.clone())),
         }
     }
+    let (with, without) = (Poly::from_terms(with), Poly::from_sorted(without));
     // The sums the factoring makes are written with their first term positive (`product`):
     // `a · (with)` is the atom times the factors of `with`.
     let (coef, more) = parameters(&with, atoms).factors();
