@@ -121,7 +121,7 @@ pub(crate) fn fraction(f: &Fraction, atoms: &Atoms) -> Form {
 /// the unicycle's 15,931 factorings are of 245 polynomials).
 pub(crate) fn factored_in(f: &Factored, cx: &Cx<'_>) -> Form {
     if f.factors.is_empty() {
-        return poly_in(&f.num, cx);
+        return poly_over(&f.num, &f.scale, cx);
     }
     let mut coef = f.scale.clone();
     let mut factors = Factors::new();
@@ -172,6 +172,11 @@ pub(crate) fn poly(p: &Poly, atoms: &Atoms) -> Form {
 }
 
 fn poly_in(p: &Poly, atoms: &Cx<'_>) -> Form {
+    poly_over(p, &Q::one(), atoms)
+}
+
+/// The printing form of `p / scale` (`scale` rational, nonzero): `p`'s content divided by it.
+fn poly_over(p: &Poly, scale: &Q, atoms: &Cx<'_>) -> Form {
     if p.is_zero() {
         return constant(Q::zero());
     }
@@ -187,7 +192,7 @@ fn poly_in(p: &Poly, atoms: &Cx<'_>) -> Form {
             atoms,
         )
     });
-    product(c, &g, inner, atoms)
+    product(c.div(scale), &g, inner, atoms)
 }
 
 /// A polynomial's terms divided by `c · g` (its content, in [`poly_in`]), each made as it is

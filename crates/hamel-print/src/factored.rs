@@ -13,8 +13,9 @@ use crate::atoms::Atoms;
 use crate::poly::{Fraction, Mono, Poly};
 use crate::q::Q;
 
-/// `num / (scale · ∏ fₖ^eₖ)`: the factors as exported (each once, exponents ≥ 1); with no
-/// factor, the scale is 1 (folded into the numerator).
+/// `num / (scale · ∏ fₖ^eₖ)`: the factors as exported (each once, exponents ≥ 1), the scale
+/// as exported too (collection divides the numerator's content by it, once, not each
+/// coefficient).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Factored {
     /// The numerator.
@@ -50,21 +51,13 @@ impl Factored {
 
     /// `c` with its atom `a` numbered `map[a]` (atoms two of which share a number are one).
     pub(crate) fn read_mapped(c: &Canonical, map: &[usize]) -> Factored {
-        let scale = Q::integer(&c.scale);
-        if c.factors.is_empty() {
-            return Factored {
-                num: read_terms(&c.num, map, &scale),
-                scale: Q::one(),
-                factors: Vec::new(),
-            };
-        }
         Factored {
-            num: read_terms(&c.num, map, &Q::one()),
-            scale,
+            num: read_terms(&c.num, map),
+            scale: Q::integer(&c.scale),
             factors: c
                 .factors
                 .iter()
-                .map(|(t, e)| (read_terms(t, map, &Q::one()), *e))
+                .map(|(t, e)| (read_terms(t, map), *e))
                 .collect(),
         }
     }
@@ -105,17 +98,11 @@ impl Fraction {
     }
 }
 
-/// Exported terms over `scale`, atom `a` numbered `map[a]`.
-fn read_terms(terms: &Terms, map: &[usize], scale: &Q) -> Poly {
+/// Exported terms, atom `a` numbered `map[a]`.
+fn read_terms(terms: &Terms, map: &[usize]) -> Poly {
     let terms = terms.iter().map(|t| {
         let m = Mono::from_unsorted(t.powers.iter().map(|&(a, e)| (map[a as usize], e)));
-        let coef = Q::integer(&t.coef);
-        let coef = if scale.is_one() {
-            coef
-        } else {
-            coef.div(scale)
-        };
-        (m, coef)
+        (m, Q::integer(&t.coef))
     });
     Poly::from_terms(terms.collect())
 }
