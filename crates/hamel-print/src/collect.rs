@@ -216,16 +216,16 @@ impl<'p> Divided<'p> {
         }
     }
 
-    /// The terms `(m/g, a/c)`, in the order of `p`'s (which is monomial order when `g` is
-    /// one: scaling keeps it; dividing may not).
-    fn terms(&self) -> impl Iterator<Item = (Cow<'p, Mono>, Q)> + '_ {
-        self.p.terms().map(|(m, a)| {
-            let m = if self.g.is_one() {
-                Cow::Borrowed(m)
-            } else {
-                Cow::Owned(m.div(self.g).expect("g divides every term"))
-            };
-            (m, a.mul(&self.by))
+    /// The terms `(m/g, a/c)`, each monomial split into the atoms that `keep` holds for and
+    /// the rest, in the order of `p`'s terms (which is monomial order when `g` is one:
+    /// scaling keeps it; dividing may not).
+    fn split_terms<'s>(
+        &'s self,
+        keep: impl Fn(usize) -> bool + Copy + 's,
+    ) -> impl Iterator<Item = (Mono, Mono, Q)> + 's {
+        self.p.terms().map(move |(m, a)| {
+            let (kept, rest) = m.split_divided(self.g, keep);
+            (kept, rest, a.mul(&self.by))
         })
     }
 
@@ -407,8 +407,7 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
     // coefficient is a run, its terms in order (the monomials of `p` are distinct).
     let mut rest = Vec::with_capacity(p.p.size());
     let mut split: Vec<(Mono, Mono, Q)> = Vec::with_capacity(p.p.size());
-    for (m, c) in p.terms() {
-        let (rate, coefficient) = m.split(|i| atoms.is_rate(i));
+    for (rate, coefficient, c) in p.split_terms(|i| atoms.is_rate(i)) {
         if rate.is_one() {
             rest.push((coefficient, c));
         } else {
@@ -469,11 +468,7 @@ struct Groups {
 impl Groups {
     fn of(p: &Divided<'_>, atoms: &Atoms) -> Groups {
         let mut split: Vec<(Mono, Mono, Q)> = p
-            .terms()
-            .map(|(m, c)| {
-                let (state, params) = m.split(|i| atoms.get(i).kind != Kind::Parameter);
-                (state, params, c)
-            })
+            .split_terms(|i| atoms.get(i).kind != Kind::Parameter)
             .collect();
         let mut runs = sorted_runs(&mut split);
         if runs.len() > 1 {

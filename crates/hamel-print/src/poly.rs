@@ -134,6 +134,28 @@ impl Mono {
         self.pairs().find(|&(a, _)| a == i).map_or(0, |(_, e)| e)
     }
 
+    /// [`Mono::split`] of `self / g` (`g` divides `self`), without making the quotient.
+    pub(crate) fn split_divided(&self, g: &Mono, keep: impl Fn(usize) -> bool) -> (Mono, Mono) {
+        if g.is_one() {
+            return self.split(keep);
+        }
+        let (mut kept, mut rest) = (Pairs::new(), Pairs::new());
+        let mut theirs = g.0.iter().peekable();
+        for &(i, e) in &self.0 {
+            let f = theirs.next_if(|&&(k, _)| k == i).map_or(0, |&(_, f)| f);
+            let left = e - f;
+            if left == 0 {
+                continue;
+            }
+            if keep(i as usize) {
+                kept.push((i, left));
+            } else {
+                rest.push((i, left));
+            }
+        }
+        (Mono(kept), Mono(rest))
+    }
+
     /// The part made of atoms for which `keep` holds, and the rest (their product is
     /// `self`).
     pub(crate) fn split(&self, keep: impl Fn(usize) -> bool) -> (Mono, Mono) {

@@ -167,6 +167,30 @@ fn monomial_product_and_quotient() {
         "an atom after a's last"
     );
     assert_eq!(a.div(&a), Some(Mono::default()));
+    // Splitting the quotient without making it splits what dividing makes, for every divisor
+    // of ab and every way of sorting the atoms (atom 3 leaves the quotient by ab / a^1 b^2).
+    let divisors = [
+        Mono::default(),
+        b.clone(),
+        a.clone(),
+        Mono::from_pairs([(3, 3)]),
+        Mono::from_pairs([(0, 1), (3, 2), (5, 4)]),
+        ab.clone(),
+    ];
+    for g in &divisors {
+        for keep in [
+            |i: usize| i.is_multiple_of(2),
+            |i: usize| i < 3,
+            |_: usize| true,
+        ] {
+            let quotient = ab.div(g).expect("a divisor");
+            assert_eq!(
+                ab.split_divided(g, keep),
+                quotient.split(keep),
+                "ab / {g:?}"
+            );
+        }
+    }
 }
 
 /// The flat polynomial's ways of adding agree: terms gathered in any order with repeats and
