@@ -195,8 +195,8 @@ fn poly_over(p: &Poly, scale: &Q, atoms: &Cx<'_>) -> Form {
     product(c.div(scale), &g, inner, atoms)
 }
 
-/// A polynomial's terms divided by `c · g` (its content, in [`poly_in`]), each made as it is
-/// read: the quotient is not made as a polynomial of its own (collection splits its terms
+/// A polynomial's terms divided by `c · g` (its content, in [`poly_over`]), each made as it
+/// is read: the quotient is not made as a polynomial of its own (collection splits its terms
 /// anyway).
 struct Divided<'p> {
     p: &'p Poly,
@@ -237,8 +237,8 @@ impl<'p> Divided<'p> {
     }
 }
 
-/// `p = c · g · rest`: the rational content `c` (its sign that of the first term) and the
-/// greatest common monomial `g`.
+/// [`content`] without `rest`: the rational content `c` (its sign that of the first term) and
+/// the greatest common monomial `g` of `p = c · g · rest`.
 fn content_of(p: &Poly) -> (Q, Mono) {
     if let Some((m, c)) = p.terms().next().filter(|_| p.size() == 1) {
         return (c.clone(), m.clone());

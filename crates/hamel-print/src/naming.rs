@@ -28,7 +28,7 @@ impl Sheet {
     /// the groups still too wide for a line are named too
     /// ([`Sheet::name_wide`]).
     pub fn name_groups(&mut self) {
-        if self.entries.is_empty() {
+        if self.given_unwritten {
             self.write_given();
         }
         let (chosen, at, starts) = self.candidates();

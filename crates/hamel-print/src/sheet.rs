@@ -29,6 +29,8 @@ pub struct Sheet {
     pub(crate) names: Vec<Definition>,
     /// The names the model gave ([`Sheet::abbreviate`]), by index.
     given: Vec<usize>,
+    /// Whether a given name's definition is not written yet ([`Sheet::write_given`]).
+    pub(crate) given_unwritten: bool,
     /// Each name's value, its definition expanded (computed once, when first needed: a
     /// name is told apart from the others by its value at [`Sheet::point`]).
     values: Vec<OnceLock<Fraction>>,
@@ -71,6 +73,7 @@ impl Sheet {
             counts: Vec::new(),
             names: Vec::new(),
             given: Vec::new(),
+            given_unwritten: false,
             values: Vec::new(),
             point: crate::modular::Point::random(),
             check: crate::modular::Point::random(),
@@ -93,8 +96,9 @@ impl Sheet {
 
     /// Names the parameter expression `e` `name` (a model's `[abbreviations]`): wherever
     /// printing meets a group that is a rational multiple of it, it writes the name (`m` for
-    /// m_d + m_f + m_r). Call before adding the entries: the name's definition is written
-    /// when they are added (with their factoring), or when the groups are named.
+    /// m_d + m_f + m_r). Call before [`Sheet::name_groups`]: the name's definition is
+    /// written when entries are added (with their factoring), else when the groups are
+    /// named.
     ///
     /// # Errors
     /// An expression with no rational form over its atoms.
@@ -109,11 +113,13 @@ impl Sheet {
             true,
         ));
         self.values.push(OnceLock::from(value));
+        self.given_unwritten = true;
         Ok(())
     }
 
     /// The model's abbreviations written with the factoring of the entries added so far.
     pub(crate) fn write_given(&mut self) {
+        self.given_unwritten = false;
         for &j in &self.given {
             if let Some(v) = self.values[j].get() {
                 self.names[j].form = collect::fraction(v, &self.atoms);

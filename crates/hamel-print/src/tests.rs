@@ -382,6 +382,22 @@ fn abbreviations_name_their_groups_up_to_a_factor() {
         .map(|(n, _)| n)
         .collect();
     assert_eq!(names, ["m", "kappa1", "kappa2"]);
+    // Every given name's definition is written, whether it was given before the entries
+    // were added or after them.
+    let mut late = Sheet::new(&v);
+    let ids = late.add_all(&es).unwrap();
+    late.abbreviate("m", &parse("m_d + m_f + m_r").unwrap().expr)
+        .unwrap();
+    late.name_groups();
+    assert_eq!(late.text(ids[0]), "2*m*cos(phi)");
+    assert_eq!(late.definitions_text()[0].1, "m_d + m_f + m_r");
+    assert_eq!(
+        sheet.definitions_text()[..2],
+        [
+            ("m".to_string(), "m_d + m_f + m_r".to_string()),
+            ("kappa1".to_string(), "m_d*R + m_f*rho1".to_string())
+        ]
+    );
 }
 
 /// A quotient's text has parentheses only where they are needed to read it back.
