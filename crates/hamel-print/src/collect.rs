@@ -229,6 +229,11 @@ impl<'p> Divided<'p> {
         })
     }
 
+    /// How many terms.
+    fn size(&self) -> usize {
+        self.p.size()
+    }
+
     /// Whether any term, divided, has an atom that `is`.
     fn any_atom(&self, is: impl Fn(usize) -> bool) -> bool {
         self.p
@@ -261,12 +266,11 @@ fn content_of(p: &Poly) -> (Q, Mono) {
 /// `p = c · g · rest`: the rational content `c` (its sign that of the first term), the
 /// greatest common monomial `g`.
 pub(crate) fn content(p: &Poly) -> (Q, Mono, Cow<'_, Poly>) {
+    let (c, g) = content_of(p);
     if p.size() == 1 {
         static ONE: LazyLock<Poly> = LazyLock::new(|| Poly::constant(Q::one()));
-        let (c, g) = content_of(p);
         return (c, g, Cow::Borrowed(&ONE));
     }
-    let (c, g) = content_of(p);
     let one = g.is_one();
     // Scaling keeps the terms' order; dividing by g may not, so those are sorted again.
     let rest = if one && c.is_one() {
@@ -405,8 +409,8 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
     }
     // Each term split into its rates and the rest, sorted by rates then rest: each rate's
     // coefficient is a run, its terms in order (the monomials of `p` are distinct).
-    let mut rest = Vec::with_capacity(p.p.size());
-    let mut split: Vec<(Mono, Mono, Q)> = Vec::with_capacity(p.p.size());
+    let mut rest = Vec::with_capacity(p.size());
+    let mut split: Vec<(Mono, Mono, Q)> = Vec::with_capacity(p.size());
     for (rate, coefficient, c) in p.split_terms(|i| atoms.is_rate(i)) {
         if rate.is_one() {
             rest.push((coefficient, c));
