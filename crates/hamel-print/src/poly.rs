@@ -11,6 +11,8 @@ use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
 /// held inline (most monomials of a derivation have four atoms or fewer), more on the heap.
+/// Each pair is packed in one word, the atom in the high half ([`pack`]): the words order as
+/// the pairs do, and compare, hash and test equal as one slice of machine integers.
 #[derive(Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Mono(Pairs);
 
@@ -22,8 +24,28 @@ impl Clone for Mono {
     }
 }
 
-/// A monomial's pairs.
-type Pairs = SmallVec<[(u32, u32); 8]>;
+/// A monomial's pairs, packed.
+type Pairs = SmallVec<[u64; 8]>;
+
+/// The pair `(i, e)` in one word: `i` high, `e` low, so that words order as pairs do.
+fn pack(i: u32, e: u32) -> u64 {
+    (u64::from(i) << 32) | u64::from(e)
+}
+
+/// A packed pair's atom.
+fn atom_of(p: u64) -> u32 {
+    (p >> 32) as u32
+}
+
+/// A packed pair's exponent.
+fn exponent_of(p: u64) -> u32 {
+    p as u32
+}
+
+/// A packed pair `(i, e)` as `(i, e)`.
+fn unpack(p: u64) -> (u32, u32) {
+    (atom_of(p), exponent_of(p))
+}
 
 /// An atom's index as a monomial stores it. A sheet's atoms are distinct subexpressions of
 /// what it prints, far fewer than 2³².
@@ -40,25 +62,27 @@ impl Mono {
     /// The monomial with these `(atom, exponent)` pairs, given sorted by atom, each atom
     /// once, exponents ≥ 1.
     pub fn from_pairs(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
-        Mono(pairs.into_iter().map(|(i, e)| (stored(i), e)).collect())
+        Mono(pairs.into_iter().map(|(i, e)| pack(stored(i), e)).collect())
     }
 
     /// The monomial with these `(atom, exponent)` pairs, in any order, an atom possibly more
     /// than once (its exponents added).
     pub(crate) fn from_unsorted(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
-        let mut pairs: Pairs = pairs.into_iter().map(|(i, e)| (stored(i), e)).collect();
+        let mut pairs: Pairs = pairs.into_iter().map(|(i, e)| pack(stored(i), e)).collect();
         sort_pairs(&mut pairs);
         Mono(pairs)
     }
 
     /// The `(atom, exponent)` pairs, sorted by atom.
     pub fn pairs(&self) -> impl ExactSizeIterator<Item = (usize, u32)> + Clone + '_ {
-        self.0.iter().map(|&(i, e)| (i as usize, e))
+        self.0
+            .iter()
+            .map(|&p| (atom_of(p) as usize, exponent_of(p)))
     }
 
     /// The atoms, in order.
     pub fn atoms(&self) -> impl ExactSizeIterator<Item = usize> + Clone + '_ {
-        self.0.iter().map(|&(i, _)| i as usize)
+        self.0.iter().map(|&p| atom_of(p) as usize)
     }
 
     /// Whether this is the monomial 1 (no atom).
@@ -72,7 +96,7 @@ impl Mono {
         let mut out = Pairs::with_capacity(a.len() + b.len());
         let (mut i, mut j) = (0, 0);
         while i < a.len() && j < b.len() {
-            match a[i].0.cmp(&b[j].0) {
+            match atom_of(a[i]).cmp(&atom_of(b[j])) {
                 std::cmp::Ordering::Less => {
                     out.push(a[i]);
                     i += 1;
@@ -82,7 +106,7 @@ impl Mono {
                     j += 1;
                 }
                 std::cmp::Ordering::Equal => {
-                    out.push((a[i].0, a[i].1 + b[j].1));
+                    out.push(pack(atom_of(a[i]), exponent_of(a[i]) + exponent_of(b[j])));
                     i += 1;
                     j += 1;
                 }
@@ -96,19 +120,19 @@ impl Mono {
     /// `self / other`, when `other` divides `self`.
     pub fn div(&self, other: &Mono) -> Option<Mono> {
         let mut out = Pairs::with_capacity(self.0.len());
-        let mut theirs = other.0.iter().peekable();
-        for &(i, e) in &self.0 {
+        let mut theirs = other.0.iter().map(|&p| unpack(p)).peekable();
+        for (i, e) in self.0.iter().map(|&p| unpack(p)) {
             let f = match theirs.peek() {
-                Some(&&(k, f)) if k == i => {
+                Some(&(k, f)) if k == i => {
                     theirs.next();
                     f
                 }
-                Some(&&(k, _)) if k < i => return None,
+                Some(&(k, _)) if k < i => return None,
                 _ => 0,
             };
             let left = e.checked_sub(f)?;
             if left > 0 {
-                out.push((i, left));
+                out.push(pack(i, left));
             }
         }
         theirs.next().is_none().then_some(Mono(out))
@@ -116,13 +140,13 @@ impl Mono {
 
     /// `self` made the greatest common divisor of itself and `other`, in place.
     pub(crate) fn retain_common(&mut self, other: &Mono) {
-        let mut theirs = other.0.iter().peekable();
+        let mut theirs = other.0.iter().map(|&p| unpack(p)).peekable();
         let mut kept = 0;
         for k in 0..self.0.len() {
-            let (i, e) = self.0[k];
-            while theirs.next_if(|&&(j, _)| j < i).is_some() {}
-            if let Some(&(_, f)) = theirs.next_if(|&&(j, _)| j == i) {
-                self.0[kept] = (i, e.min(f));
+            let (i, e) = unpack(self.0[k]);
+            while theirs.next_if(|&(j, _)| j < i).is_some() {}
+            if let Some((_, f)) = theirs.next_if(|&(j, _)| j == i) {
+                self.0[kept] = pack(i, e.min(f));
                 kept += 1;
             }
         }
@@ -140,17 +164,17 @@ impl Mono {
             return self.split(keep);
         }
         let (mut kept, mut rest) = (Pairs::new(), Pairs::new());
-        let mut theirs = g.0.iter().peekable();
-        for &(i, e) in &self.0 {
-            let f = theirs.next_if(|&&(k, _)| k == i).map_or(0, |&(_, f)| f);
+        let mut theirs = g.0.iter().map(|&p| unpack(p)).peekable();
+        for (i, e) in self.0.iter().map(|&p| unpack(p)) {
+            let f = theirs.next_if(|&(k, _)| k == i).map_or(0, |(_, f)| f);
             let left = e - f;
             if left == 0 {
                 continue;
             }
             if keep(i as usize) {
-                kept.push((i, left));
+                kept.push(pack(i, left));
             } else {
-                rest.push((i, left));
+                rest.push(pack(i, left));
             }
         }
         (Mono(kept), Mono(rest))
@@ -160,11 +184,11 @@ impl Mono {
     /// `self`).
     pub(crate) fn split(&self, keep: impl Fn(usize) -> bool) -> (Mono, Mono) {
         let (mut kept, mut rest) = (Pairs::new(), Pairs::new());
-        for &(i, e) in &self.0 {
-            if keep(i as usize) {
-                kept.push((i, e));
+        for &p in &self.0 {
+            if keep(atom_of(p) as usize) {
+                kept.push(p);
             } else {
-                rest.push((i, e));
+                rest.push(p);
             }
         }
         (Mono(kept), Mono(rest))
@@ -612,11 +636,14 @@ fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
 /// Pairs sorted by atom, an atom's pairs merged into one (exponents added): a monomial's
 /// pairs from factors met in any order.
 fn sort_pairs(pairs: &mut Pairs) {
-    pairs.sort_unstable_by_key(|&(i, _)| i);
+    pairs.sort_unstable_by_key(|&p| atom_of(p));
     pairs.dedup_by(|later, earlier| {
-        let same = later.0 == earlier.0;
+        let same = atom_of(*later) == atom_of(*earlier);
         if same {
-            earlier.1 += later.1;
+            *earlier = pack(
+                atom_of(*earlier),
+                exponent_of(*earlier) + exponent_of(*later),
+            );
         }
         same
     });
@@ -649,7 +676,7 @@ fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms)
             factors_of(base, k.checked_mul(n)?, c, pairs, atoms)?;
         }
         Expr::Add(_) | Expr::Div(..) => return None,
-        _ => pairs.push((stored(atoms.intern(e)), k)),
+        _ => pairs.push(pack(stored(atoms.intern(e)), k)),
     }
     Some(())
 }
