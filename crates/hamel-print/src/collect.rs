@@ -390,7 +390,7 @@ fn by_state(p: &Divided<'_>, atoms: &Cx<'_>) -> Form {
         } else {
             Q::one()
         };
-        let common = parameters(&common, atoms).group();
+        let common = parameters(common, atoms).group();
         return sorted(
             sign,
             smallvec::smallvec![Factor::Group(common), Factor::Group(Arc::new(inner))],
@@ -523,7 +523,7 @@ impl Groups {
         for r in &self.runs {
             let coefficient = match &self.split[r.clone()] {
                 [(_, m, c)] => monomial(m, c, atoms),
-                _ => parameters(&self.coefficient(r), atoms),
+                _ => parameters(self.coefficient(r), atoms),
             };
             let (coef, mut factors) = coefficient.factors();
             factors.extend(atom_factors(self.state(r)));
@@ -596,17 +596,18 @@ fn sorted_runs(split: &mut [(Mono, Mono, Q)]) -> Runs {
 }
 
 /// Step 3: a polynomial in the parameters, factored greedily (each polynomial once: what it
-/// is factored into is shared by every place it occurs).
-fn parameters(p: &Poly, atoms: &Cx<'_>) -> Shared {
+/// is factored into is shared by every place it occurs; a polynomial new to the memo is kept
+/// there, not copied).
+fn parameters(p: Poly, atoms: &Cx<'_>) -> Shared {
     // A monomial is written as it is: cheaper than looking it up.
     if let (1, Some((m, c))) = (p.size(), p.terms().next()) {
         return monomial(m, c, atoms);
     }
-    if let Some(f) = atoms.memo.borrow().get(p) {
+    if let Some(f) = atoms.memo.borrow().get(&p) {
         return f.clone();
     }
-    let f = Shared::of(factored(p, atoms));
-    atoms.memo.borrow_mut().insert(p.clone(), f.clone());
+    let f = Shared::of(factored(&p, atoms));
+    atoms.memo.borrow_mut().insert(p, f.clone());
     f
 }
 
@@ -644,12 +645,12 @@ fn greedy(p: &Poly, atoms: &Cx<'_>) -> Form {
     let (with, without) = (Poly::from_terms(with), Poly::from_sorted(without));
     // The sums the factoring makes are written with their first term positive (`product`):
     // `a · (with)` is the atom times the factors of `with`.
-    let (coef, more) = parameters(&with, atoms).factors();
+    let (coef, more) = parameters(with, atoms).factors();
     let mut factors: Factors = smallvec::smallvec![Factor::Atom { index: a, power: 1 }];
     factors.extend(more);
     let mut terms = vec![sorted(coef, factors, atoms)];
     if !without.is_zero() {
-        match parameters(&without, atoms).form() {
+        match parameters(without, atoms).form() {
             Form::Sum(more) => terms.extend(more),
             one => terms.push(one),
         }
