@@ -648,7 +648,8 @@ fn greedy(p: &Poly, atoms: &Cx<'_>) -> Form {
     let (coef, more) = parameters(with, atoms).factors();
     let mut factors: Factors = smallvec::smallvec![Factor::Atom { index: a, power: 1 }];
     factors.extend(more);
-    let mut terms = vec![sorted(coef, factors, atoms)];
+    let mut terms = Vec::with_capacity(1 + without.size());
+    terms.push(sorted(coef, factors, atoms));
     if !without.is_zero() {
         match parameters(without, atoms).form() {
             Form::Sum(more) => terms.extend(more),

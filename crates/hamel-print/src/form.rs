@@ -69,18 +69,22 @@ pub struct Definition {
 impl Definition {
     /// The definition `name(args) = form`.
     pub(crate) fn new(name: String, args: Vec<String>, form: Form, given: bool) -> Definition {
-        let text = if args.is_empty() {
-            name.clone()
-        } else {
-            format!("{name}({})", args.join(", "))
-        };
-        let latex_name = hamel_expr::latex_name(&name);
-        let latex = if args.is_empty() {
-            latex_name
-        } else {
-            let args: Vec<String> = args.iter().map(|a| hamel_expr::latex_name(a)).collect();
-            format!("{latex_name}({})", args.join(", "))
-        };
+        let size = args.iter().map(|a| a.len() + 2).sum::<usize>();
+        let mut text = String::with_capacity(name.len() + size);
+        text.push_str(&name);
+        let mut latex = hamel_expr::latex_name(&name);
+        latex.reserve(4 * size);
+        for (k, a) in args.iter().enumerate() {
+            let sep = if k == 0 { "(" } else { ", " };
+            text.push_str(sep);
+            text.push_str(a);
+            latex.push_str(sep);
+            latex.push_str(&hamel_expr::latex_name(a));
+        }
+        if !args.is_empty() {
+            text.push(')');
+            latex.push(')');
+        }
         Definition {
             name,
             args,

@@ -441,7 +441,9 @@ impl Sheet {
         let given = &self.given;
         let name = loop {
             *counter += 1;
-            let name = format!("{stem}{counter}");
+            let mut name = String::with_capacity(stem.len() + 4);
+            name.push_str(stem);
+            push_decimal(&mut name, *counter);
             if !given.iter().any(|&j| self.names[j].name == name) {
                 break name;
             }
@@ -533,4 +535,25 @@ pub(crate) fn key(f: &Fraction) -> Option<(Q, Key)> {
     }
     let (c, m, rest) = collect::content(&f.num);
     m.is_one().then_some((c.div(&den), rest.into_owned()))
+}
+
+/// `n` in decimal appended to `out`.
+fn push_decimal(out: &mut String, n: usize) {
+    if n >= 10 {
+        push_decimal(out, n / 10);
+    }
+    out.push(char::from(b'0' + (n % 10) as u8));
+}
+
+#[cfg(test)]
+mod decimal_tests {
+    /// The digits are those `to_string` writes, for one digit, several, and the largest.
+    #[test]
+    fn push_decimal_writes_the_digits() {
+        for n in [0, 7, 10, 19, 123, 4_096, usize::MAX] {
+            let mut out = String::from("kappa");
+            super::push_decimal(&mut out, n);
+            assert_eq!(out, format!("kappa{n}"));
+        }
+    }
 }
