@@ -30,6 +30,9 @@ pub(crate) struct Cx<'a> {
     /// The denominators' factors collected so far (a sheet's denominators are powers of a
     /// few: each is collected once).
     factors: RefCell<HashMap<Poly, Shared>>,
+    /// The equations' rate coefficients collected so far, as products (a sum one group):
+    /// the true equations and the paper's have the same, A_Γ's rows.
+    rates: RefCell<HashMap<Poly, (Q, Factors)>>,
 }
 
 /// A polynomial's form as collection keeps it to use again: a sum behind one `Arc`, so that
@@ -85,6 +88,7 @@ impl<'a> Cx<'a> {
             atoms,
             memo: RefCell::default(),
             factors: RefCell::default(),
+            rates: RefCell::default(),
         }
     }
 }
@@ -434,10 +438,7 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
     let mut terms: Vec<Form> = by_rate
         .into_iter()
         .map(|(_, rate, coefficient)| {
-            let (coef, mut factors) = match poly_in(&coefficient, atoms) {
-                Form::Product { coef, factors } => (coef, factors),
-                sum => (Q::one(), smallvec::smallvec![Factor::Group(Arc::new(sum))]),
-            };
+            let (coef, mut factors) = rate_coefficient(coefficient, atoms);
             factors.extend(atom_factors(&rate));
             sorted(coef, factors, atoms)
         })
@@ -449,6 +450,20 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
         }
     }
     Some(Form::Sum(terms))
+}
+
+/// A rate's coefficient `p` collected, as `coef · factors` (a sum one group); each polynomial
+/// collected once for the sheet, its groups shared by every place it occurs.
+fn rate_coefficient(p: Poly, atoms: &Cx<'_>) -> (Q, Factors) {
+    if let Some(kept) = atoms.rates.borrow().get(&p) {
+        return kept.clone();
+    }
+    let product = match poly_in(&p, atoms) {
+        Form::Product { coef, factors } => (coef, factors),
+        sum => (Q::one(), smallvec::smallvec![Factor::Group(Arc::new(sum))]),
+    };
+    atoms.rates.borrow_mut().insert(p, product.clone());
+    product
 }
 
 /// A state atom's place in the printing order ([`Atoms::rank`]), with its exponent.

@@ -346,6 +346,45 @@ fn equations_are_collected_by_the_rates_first() {
     );
 }
 
+/// Equations with the same rate coefficient (the true equations and the paper's have A_Γ's
+/// rows) share its collected group, one `Arc`, and each is still its canonical form.
+#[test]
+fn equations_share_their_rate_coefficients() {
+    use crate::Sheet;
+    use crate::form::{Factor, Form};
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    let v = Vocabulary {
+        parameters: names(&["m", "g"]),
+        coordinates: names(&["theta"]),
+        velocities: names(&["eta1", "eta1_dot", "eta2", "eta2_dot"]),
+    };
+    let rows = [
+        "(m + g*cos(theta))*eta1_dot + m*eta1^2",
+        "(m + g*cos(theta))*eta1_dot + g*sin(theta)*eta2",
+    ];
+    let exprs: Vec<_> = rows.iter().map(|r| parse(r).unwrap().expr).collect();
+    let mut sheet = Sheet::new(&v);
+    let ids = sheet.add_all(&exprs).unwrap();
+    let rate_group = |f: &Form| match f {
+        Form::Sum(terms) => match &terms[0] {
+            Form::Product { factors, .. } => factors.iter().find_map(|x| match x {
+                Factor::Group(g) => Some(g.clone()),
+                _ => None,
+            }),
+            _ => None,
+        },
+        _ => None,
+    };
+    let (a, b) = (
+        rate_group(sheet.form(ids[0])).expect("a rate coefficient in parentheses"),
+        rate_group(sheet.form(ids[1])).expect("a rate coefficient in parentheses"),
+    );
+    assert!(std::sync::Arc::ptr_eq(&a, &b), "one group for both");
+    for id in ids {
+        assert!(sheet.check(id), "{}", sheet.text(id));
+    }
+}
+
 /// A model's abbreviation is written wherever a group is a rational multiple of it, and the
 /// names printing makes skip it.
 #[test]
