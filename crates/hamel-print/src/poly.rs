@@ -11,7 +11,7 @@ use crate::q::Q;
 
 /// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
 /// held inline (most monomials of a derivation have four atoms or fewer), more on the heap.
-/// Each pair is packed in one word, the atom in the high half ([`pack`]): the words order as
+/// Each pair is packed in one word, the atom in the high half (`pack`): the words order as
 /// the pairs do, and compare, hash and test equal as one slice of machine integers.
 #[derive(Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Mono(Pairs);
@@ -684,4 +684,30 @@ fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms)
 /// The sign of the first term in monomial order (for a deterministic sign convention).
 pub(crate) fn leading_negative(p: &Poly) -> bool {
     p.0.first().is_some_and(|(_, c)| c.is_negative())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{pack, unpack};
+
+    /// Packed pairs order as the pairs do (what keeps a polynomial's terms, and so the
+    /// printed forms, in the order they had), and unpack to themselves.
+    #[test]
+    fn packed_pairs_order_as_pairs() {
+        let values = [0, 1, 2, 7, 255, 65_536, u32::MAX - 1, u32::MAX];
+        let pairs: Vec<(u32, u32)> = values
+            .iter()
+            .flat_map(|&i| values.iter().map(move |&e| (i, e)))
+            .collect();
+        for &a in &pairs {
+            assert_eq!(unpack(pack(a.0, a.1)), a);
+            for &b in &pairs {
+                assert_eq!(
+                    pack(a.0, a.1).cmp(&pack(b.0, b.1)),
+                    a.cmp(&b),
+                    "{a:?} {b:?}"
+                );
+            }
+        }
+    }
 }
