@@ -24,6 +24,10 @@ pub struct Row {
     hamel_seconds: f64,
     /// Fastest repeat, seconds.
     hamel_min_seconds: f64,
+    /// How many times it was derived and printed ([`Repeats`]).
+    repeats: usize,
+    /// The time those took in all (derivations and printings), seconds.
+    seconds_spent: f64,
     /// Median time of printing the derivation as `hamel derive` writes it (collected,
     /// factored, named, checked; `hamel_print::derivation::text`), seconds.
     print_seconds: f64,
@@ -275,10 +279,26 @@ fn linearisations(
     Ok(out)
 }
 
-/// Run the benchmark over `models` (files), `repeat` derivations each.
+/// How many times each model and choice is derived: at least `at_least` times, and until
+/// `min_seconds` have been spent on it (as criterion does: a fast derivation is timed many
+/// times, so that its median does not rest on a few).
+#[derive(Clone, Copy, Debug)]
+pub struct Repeats {
+    pub at_least: usize,
+    pub min_seconds: f64,
+}
+
+impl Repeats {
+    /// Whether `done` repeats, which took `spent` seconds, are enough.
+    fn enough(self, done: usize, spent: f64) -> bool {
+        done >= self.at_least.max(1) && spent >= self.min_seconds
+    }
+}
+
+/// Run the benchmark over `models` (files), each model and choice derived `repeats` times.
 pub fn run(
     models: &[PathBuf],
-    repeat: usize,
+    repeats: Repeats,
     with_sympy: bool,
     timeout: f64,
 ) -> Result<Report, ModelError> {
@@ -286,9 +306,14 @@ pub fn run(
     let mut linear = Vec::new();
     for path in models {
         let model = Model::load(path)?;
-        linear.extend(linearisations(&model, repeat, with_sympy, timeout)?);
+        linear.extend(linearisations(
+            &model,
+            repeats.at_least,
+            with_sympy,
+            timeout,
+        )?);
         for choice in &model.choices {
-            let mut row = time_hamel(&model, &choice.name, repeat)?;
+            let mut row = time_hamel(&model, &choice.name, repeats)?;
             if with_sympy {
                 let rows: Vec<String> = choice.eta.iter().map(|e| e.expr.to_string()).collect();
                 let eta = Choice {
@@ -331,12 +356,13 @@ pub fn run(
     })
 }
 
-/// hamel's median time over `repeat` derivations, and the sizes of the last.
-fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError> {
-    let mut times = Vec::with_capacity(repeat);
-    let mut printing = Vec::with_capacity(repeat);
+/// hamel's median time over the `repeats` derivations, and the sizes of the last.
+fn time_hamel(model: &Model, eta: &str, repeats: Repeats) -> Result<Row, ModelError> {
+    let mut times = Vec::with_capacity(repeats.at_least);
+    let mut printing = Vec::with_capacity(repeats.at_least);
+    let mut spent = 0.0;
     let mut last = None;
-    for _ in 0..repeat.max(1) {
+    while !repeats.enough(times.len(), spent) {
         let t = Instant::now();
         let d = hamel_derive::derive(model, Some(eta))?;
         times.push(t.elapsed().as_secs_f64());
@@ -344,8 +370,10 @@ fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError
         hamel_print::derivation::text(&d)
             .map_err(|e| ModelError::engine(format!("printing the derivation: {e}")))?;
         printing.push(t.elapsed().as_secs_f64());
+        spent += times[times.len() - 1] + printing[printing.len() - 1];
         last = Some(d);
     }
+    let repeated = times.len();
     let d = last.expect("at least one derivation");
     times.sort_by(f64::total_cmp);
     printing.sort_by(f64::total_cmp);
@@ -357,6 +385,8 @@ fn time_hamel(model: &Model, eta: &str, repeat: usize) -> Result<Row, ModelError
         sigma: d.sigma,
         hamel_seconds: times[times.len() / 2],
         hamel_min_seconds: times[0],
+        repeats: repeated,
+        seconds_spent: spent,
         print_seconds: printing[printing.len() / 2],
         hamel_a_gamma_chars: sizes.get("a_gamma").map(|s| s.characters),
         hamel_total_chars: sizes.values().map(|s| s.characters).sum(),
@@ -388,17 +418,18 @@ pub fn table(report: &Report) -> String {
 /// A Markdown table of the derivations.
 fn derivation_table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| model | choice | ℓ | σ | hamel (median) | printing | printing / derivation | SymPy (cancel) | ratio | SymPy (simplify) | ratio | A_Γ chars: hamel | SymPy (cancel) | SymPy (simplify) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| model | choice | ℓ | σ | hamel (median) | runs | printing | printing / derivation | SymPy (cancel) | ratio | SymPy (simplify) | ratio | A_Γ chars: hamel | SymPy (cancel) | SymPy (simplify) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let chars = |c: Option<usize>| c.map_or("–".to_string(), |c| c.to_string());
     for r in rows {
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {:.1} ms | {:.1} ms | {:.0} % | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.1} ms | {} | {:.1} ms | {:.0} % | {} | {} | {} | {} | {} | {} | {} |\n",
             r.model,
             r.eta,
             r.ell,
             r.sigma,
             r.hamel_seconds * 1e3,
+            r.repeats,
             r.print_seconds * 1e3,
             r.print_seconds / r.hamel_seconds * 100.0,
             r.sympy.cell(),

@@ -302,9 +302,14 @@ pub enum Command {
     Bench {
         /// Model files (default: every models/*.toml).
         models: Vec<PathBuf>,
-        /// Derivations per model and choice (the median is reported).
+        /// Derivations per model and choice, at least (the median is reported).
         #[arg(long, default_value_t = 5)]
         repeat: usize,
+        /// Keep deriving each model and choice until this many seconds have been spent on it
+        /// (derivations and printings), so that a fast one is timed many times (0: exactly
+        /// --repeat times).
+        #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = parse_min_time)]
+        min_time: f64,
         /// Also run the SymPy baseline (needs python3 with sympy).
         #[arg(long)]
         sympy: bool,
@@ -420,6 +425,15 @@ pub struct EnsembleArgs {
     /// into one result.
     #[arg(long, value_name = "PART", num_args = 1.., conflicts_with = "shard")]
     pub merge: Vec<PathBuf>,
+}
+
+/// `--min-time`: seconds, from 0 to 600 (a bound on how long one model and choice is timed).
+fn parse_min_time(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(t) if (0.0..=600.0).contains(&t) => Ok(t),
+        Ok(_) => Err(format!("`{s}` is not between 0 and 600 seconds")),
+        Err(_) => Err(format!("`{s}` is not a number of seconds")),
+    }
 }
 
 fn parse_set(s: &str) -> Result<(String, f64), String> {

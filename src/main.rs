@@ -199,11 +199,25 @@ fn run(command: Command) -> Result<(), ModelError> {
         Command::Bench {
             models,
             repeat,
+            min_time,
             sympy,
             timeout,
             format,
             output,
-        } => bench(models, repeat, sympy, timeout, format, Output::new(output)?),
+        } => {
+            let repeats = bench::Repeats {
+                at_least: repeat,
+                min_seconds: min_time,
+            };
+            bench(
+                models,
+                repeats,
+                sympy,
+                timeout,
+                format,
+                Output::new(output)?,
+            )
+        }
     }
 }
 
@@ -480,7 +494,7 @@ fn eval(
 
 fn bench(
     models: Vec<PathBuf>,
-    repeat: usize,
+    repeats: bench::Repeats,
     sympy: bool,
     timeout: f64,
     format: TableFormat,
@@ -491,7 +505,7 @@ fn bench(
     } else {
         models
     };
-    let rows = bench::run(&models, repeat, sympy, timeout)?;
+    let rows = bench::run(&models, repeats, sympy, timeout)?;
     out.write(&match format {
         TableFormat::Json => json(&rows),
         TableFormat::Markdown => bench::table(&rows),
