@@ -299,30 +299,7 @@ pub enum Command {
     Linearize(LinearizeArgs),
     /// Time the derivation of every model and choice; with --sympy, SymPy does the same
     /// derivation in the same run as the baseline (bench/sympy_derive.py).
-    Bench {
-        /// Model files (default: every models/*.toml).
-        models: Vec<PathBuf>,
-        /// Derivations per model and choice, at least (the median is reported).
-        #[arg(long, default_value_t = 5)]
-        repeat: usize,
-        /// Keep deriving each model and choice until this many seconds have been spent on it
-        /// (derivations and printings), so that a fast one is timed many times (0: exactly
-        /// --repeat times).
-        #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = parse_min_time)]
-        min_time: f64,
-        /// Also run the SymPy baseline (needs python3 with sympy).
-        #[arg(long)]
-        sympy: bool,
-        /// Time limit for each SymPy derivation, seconds.
-        #[arg(long, default_value_t = 300.0)]
-        timeout: f64,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "markdown")]
-        format: TableFormat,
-        /// Write the result to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
+    Bench(BenchArgs),
 }
 
 /// What evaluates the right-hand side (`hamel_scene::Engine`).
@@ -344,6 +321,33 @@ impl From<EngineArg> for hamel_scene::Engine {
 }
 
 /// `hamel search`.
+/// The options of `hamel bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Model files (default: every models/*.toml).
+    pub models: Vec<PathBuf>,
+    /// Derivations per model and choice, at least (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub repeat: usize,
+    /// Keep deriving each model and choice until this many seconds have been spent on it
+    /// (derivations and printings), so that a fast one is timed many times (0: exactly
+    /// --repeat times).
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = parse_min_time)]
+    pub min_time: f64,
+    /// Also run the SymPy baseline (needs python3 with sympy).
+    #[arg(long)]
+    pub sympy: bool,
+    /// Time limit for each SymPy derivation, seconds.
+    #[arg(long, default_value_t = 300.0)]
+    pub timeout: f64,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "markdown")]
+    pub format: TableFormat,
+    /// Write the result to this file instead of stdout.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+}
+
 /// The options of `hamel linearize`.
 #[derive(Args)]
 pub struct LinearizeArgs {

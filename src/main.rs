@@ -17,7 +17,7 @@ mod progress;
 mod search;
 
 use indexmap::IndexMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -25,7 +25,7 @@ use clap::Parser;
 use hamel_model::{Model, ModelError};
 
 use crate::cli::{
-    Cli, Command, FormArg, Format, ObjectArg, ReportFormat, SearchArgs, TableFormat,
+    BenchArgs, Cli, Command, FormArg, Format, ObjectArg, ReportFormat, SearchArgs, TableFormat,
     TrajectoryFormat,
 };
 use crate::output::Output;
@@ -196,28 +196,7 @@ fn run(command: Command) -> Result<(), ModelError> {
             let out = Output::new(args.output.clone())?;
             linearize::run(&args, out)
         }
-        Command::Bench {
-            models,
-            repeat,
-            min_time,
-            sympy,
-            timeout,
-            format,
-            output,
-        } => {
-            let repeats = bench::Repeats {
-                at_least: repeat,
-                min_seconds: min_time,
-            };
-            bench(
-                models,
-                repeats,
-                sympy,
-                timeout,
-                format,
-                Output::new(output)?,
-            )
-        }
+        Command::Bench(args) => bench(args),
     }
 }
 
@@ -492,21 +471,19 @@ fn eval(
     )?)
 }
 
-fn bench(
-    models: Vec<PathBuf>,
-    repeats: bench::Repeats,
-    sympy: bool,
-    timeout: f64,
-    format: TableFormat,
-    out: Output,
-) -> Result<(), ModelError> {
-    let models = if models.is_empty() {
+fn bench(args: BenchArgs) -> Result<(), ModelError> {
+    let out = Output::new(args.output)?;
+    let models = if args.models.is_empty() {
         bench::bundled_models()?
     } else {
-        models
+        args.models
     };
-    let rows = bench::run(&models, repeats, sympy, timeout)?;
-    out.write(&match format {
+    let repeats = bench::Repeats {
+        at_least: args.repeat,
+        min_seconds: args.min_time,
+    };
+    let rows = bench::run(&models, repeats, args.sympy, args.timeout)?;
+    out.write(&match args.format {
         TableFormat::Json => json(&rows),
         TableFormat::Markdown => bench::table(&rows),
     })

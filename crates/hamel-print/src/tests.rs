@@ -327,16 +327,21 @@ fn an_entry_shown_twice_counts_twice() {
     );
 }
 
+/// A mass `m` under gravity `g` at angle θ, with two quasi-velocities and their rates.
+fn pendulum_with_rates() -> Vocabulary {
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    Vocabulary {
+        parameters: names(&["m", "g"]),
+        coordinates: names(&["theta"]),
+        velocities: names(&["eta1", "eta1_dot", "eta2", "eta2_dot"]),
+    }
+}
+
 /// An equation of motion is written as a paper writes `A_Γ η̇ + …`: its rate terms first,
 /// collected by rate with their coefficients in parentheses, then the rest.
 #[test]
 fn equations_are_collected_by_the_rates_first() {
-    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
-    let v = Vocabulary {
-        parameters: names(&["m", "g"]),
-        coordinates: names(&["theta"]),
-        velocities: names(&["eta1", "eta1_dot", "eta2", "eta2_dot"]),
-    };
+    let v = pendulum_with_rates();
     let row = "g*m*sin(theta) + m*eta1^2 + m*cos(theta)*eta2_dot + m*eta1_dot \
                + 2*m*sin(theta)*eta1_dot";
     let p = printed(row, &v);
@@ -352,12 +357,7 @@ fn equations_are_collected_by_the_rates_first() {
 fn equations_share_their_rate_coefficients() {
     use crate::Sheet;
     use crate::form::{Factor, Form};
-    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
-    let v = Vocabulary {
-        parameters: names(&["m", "g"]),
-        coordinates: names(&["theta"]),
-        velocities: names(&["eta1", "eta1_dot", "eta2", "eta2_dot"]),
-    };
+    let v = pendulum_with_rates();
     let rows = [
         "(m + g*cos(theta))*eta1_dot + m*eta1^2",
         "(m + g*cos(theta))*eta1_dot + g*sin(theta)*eta2",
