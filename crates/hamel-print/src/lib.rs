@@ -37,6 +37,7 @@ mod factored;
 mod form;
 mod layout;
 mod modular;
+mod mono;
 mod naming;
 mod par;
 mod places;

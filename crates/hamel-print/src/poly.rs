@@ -7,193 +7,8 @@ use num_traits::{Signed, ToPrimitive};
 use smallvec::SmallVec;
 
 use crate::atoms::Atoms;
+pub use crate::mono::Mono;
 use crate::q::Q;
-
-/// A monomial: `(atom, exponent)` pairs, sorted by atom index, exponents ≥ 1; a few pairs
-/// held inline (most monomials of a derivation have four atoms or fewer), more on the heap.
-/// Each pair is packed in one word, the atom in the high half (`pack`): the words order as
-/// the pairs do, and compare, hash and test equal as one slice of machine integers.
-#[derive(Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Mono(Pairs);
-
-impl Clone for Mono {
-    /// The pairs copied whole (smallvec's own clone pushes them one at a time: a monomial
-    /// is cloned for every term that collection moves).
-    fn clone(&self) -> Mono {
-        Mono(Pairs::from_slice(&self.0))
-    }
-}
-
-/// A monomial's pairs, packed.
-type Pairs = SmallVec<[u64; 8]>;
-
-/// The pair `(i, e)` in one word: `i` high, `e` low, so that words order as pairs do.
-fn pack(i: u32, e: u32) -> u64 {
-    (u64::from(i) << 32) | u64::from(e)
-}
-
-/// A packed pair's atom.
-fn atom_of(p: u64) -> u32 {
-    (p >> 32) as u32
-}
-
-/// A packed pair's exponent.
-fn exponent_of(p: u64) -> u32 {
-    p as u32
-}
-
-/// A packed pair `(i, e)` as `(i, e)`.
-fn unpack(p: u64) -> (u32, u32) {
-    (atom_of(p), exponent_of(p))
-}
-
-/// An atom's index as a monomial stores it. A sheet's atoms are distinct subexpressions of
-/// what it prints, far fewer than 2³².
-fn stored(i: usize) -> u32 {
-    u32::try_from(i).expect("fewer than 2^32 atoms")
-}
-
-impl Mono {
-    /// The atom `i` to the first power.
-    pub fn atom(i: usize) -> Mono {
-        Mono::from_pairs([(i, 1)])
-    }
-
-    /// The monomial with these `(atom, exponent)` pairs, given sorted by atom, each atom
-    /// once, exponents ≥ 1.
-    pub fn from_pairs(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
-        Mono(pairs.into_iter().map(|(i, e)| pack(stored(i), e)).collect())
-    }
-
-    /// The monomial with these `(atom, exponent)` pairs, in any order, an atom possibly more
-    /// than once (its exponents added).
-    pub(crate) fn from_unsorted(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
-        let mut pairs: Pairs = pairs.into_iter().map(|(i, e)| pack(stored(i), e)).collect();
-        sort_pairs(&mut pairs);
-        Mono(pairs)
-    }
-
-    /// The `(atom, exponent)` pairs, sorted by atom.
-    pub fn pairs(&self) -> impl ExactSizeIterator<Item = (usize, u32)> + Clone + '_ {
-        self.0
-            .iter()
-            .map(|&p| (atom_of(p) as usize, exponent_of(p)))
-    }
-
-    /// The atoms, in order.
-    pub fn atoms(&self) -> impl ExactSizeIterator<Item = usize> + Clone + '_ {
-        self.0.iter().map(|&p| atom_of(p) as usize)
-    }
-
-    /// Whether this is the monomial 1 (no atom).
-    pub fn is_one(&self) -> bool {
-        self.0.is_empty()
-    }
-
-    /// The product of two monomials (a merge of the sorted pairs).
-    pub fn mul(&self, other: &Mono) -> Mono {
-        let (a, b) = (&self.0, &other.0);
-        let mut out = Pairs::with_capacity(a.len() + b.len());
-        let (mut i, mut j) = (0, 0);
-        while i < a.len() && j < b.len() {
-            match atom_of(a[i]).cmp(&atom_of(b[j])) {
-                std::cmp::Ordering::Less => {
-                    out.push(a[i]);
-                    i += 1;
-                }
-                std::cmp::Ordering::Greater => {
-                    out.push(b[j]);
-                    j += 1;
-                }
-                std::cmp::Ordering::Equal => {
-                    out.push(pack(atom_of(a[i]), exponent_of(a[i]) + exponent_of(b[j])));
-                    i += 1;
-                    j += 1;
-                }
-            }
-        }
-        out.extend_from_slice(&a[i..]);
-        out.extend_from_slice(&b[j..]);
-        Mono(out)
-    }
-
-    /// `self / other`, when `other` divides `self`.
-    pub fn div(&self, other: &Mono) -> Option<Mono> {
-        let mut out = Pairs::with_capacity(self.0.len());
-        let mut theirs = other.0.iter().map(|&p| unpack(p)).peekable();
-        for (i, e) in self.0.iter().map(|&p| unpack(p)) {
-            let f = match theirs.peek() {
-                Some(&(k, f)) if k == i => {
-                    theirs.next();
-                    f
-                }
-                Some(&(k, _)) if k < i => return None,
-                _ => 0,
-            };
-            let left = e.checked_sub(f)?;
-            if left > 0 {
-                out.push(pack(i, left));
-            }
-        }
-        theirs.next().is_none().then_some(Mono(out))
-    }
-
-    /// `self` made the greatest common divisor of itself and `other`, in place.
-    pub(crate) fn retain_common(&mut self, other: &Mono) {
-        let mut theirs = other.0.iter().map(|&p| unpack(p)).peekable();
-        let mut kept = 0;
-        for k in 0..self.0.len() {
-            let (i, e) = unpack(self.0[k]);
-            while theirs.next_if(|&(j, _)| j < i).is_some() {}
-            if let Some((_, f)) = theirs.next_if(|&(j, _)| j == i) {
-                self.0[kept] = pack(i, e.min(f));
-                kept += 1;
-            }
-        }
-        self.0.truncate(kept);
-    }
-
-    /// The exponent of atom `i`.
-    pub fn exponent(&self, i: usize) -> u32 {
-        self.pairs().find(|&(a, _)| a == i).map_or(0, |(_, e)| e)
-    }
-
-    /// [`Mono::split`] of `self / g` (`g` divides `self`), without making the quotient.
-    pub(crate) fn split_divided(&self, g: &Mono, keep: impl Fn(usize) -> bool) -> (Mono, Mono) {
-        if g.is_one() {
-            return self.split(keep);
-        }
-        let (mut kept, mut rest) = (Pairs::new(), Pairs::new());
-        let mut theirs = g.0.iter().map(|&p| unpack(p)).peekable();
-        for (i, e) in self.0.iter().map(|&p| unpack(p)) {
-            let f = theirs.next_if(|&(k, _)| k == i).map_or(0, |(_, f)| f);
-            let left = e - f;
-            if left == 0 {
-                continue;
-            }
-            if keep(i as usize) {
-                kept.push(pack(i, left));
-            } else {
-                rest.push(pack(i, left));
-            }
-        }
-        (Mono(kept), Mono(rest))
-    }
-
-    /// The part made of atoms for which `keep` holds, and the rest (their product is
-    /// `self`).
-    pub(crate) fn split(&self, keep: impl Fn(usize) -> bool) -> (Mono, Mono) {
-        let (mut kept, mut rest) = (Pairs::new(), Pairs::new());
-        for &p in &self.0 {
-            if keep(atom_of(p) as usize) {
-                kept.push(p);
-            } else {
-                rest.push(p);
-            }
-        }
-        (Mono(kept), Mono(rest))
-    }
-}
 
 /// A polynomial: its terms sorted by monomial, each monomial once, each coefficient nonzero
 /// (a flat vector: sums merge sorted runs, products sort once).
@@ -218,6 +33,12 @@ pub enum PolyError {
     /// An exponent that is not a small integer, on a base that is not an atom.
     #[error("the exponent of `{0}` is not an integer")]
     Exponent(String),
+    /// An exponent of 65,535 or more, or a sheet of 65,535 atoms or more
+    /// ([`Mono::is_exact`]).
+    #[error(
+        "an exponent or a number of distinct subexpressions too large to print (65,535 or more)"
+    )]
+    TooLarge,
 }
 
 impl Poly {
@@ -233,6 +54,11 @@ impl Poly {
             return Poly::default();
         }
         Poly(vec![(m, c)])
+    }
+
+    /// Whether every monomial is exact ([`Mono::is_exact`]: nothing saturated).
+    pub fn is_exact(&self) -> bool {
+        self.0.iter().all(|(m, _)| m.is_exact())
     }
 
     /// The polynomial with these terms, in any order, a monomial possibly repeated (the
@@ -443,7 +269,12 @@ impl Fraction {
     /// The canonical expression `e` over the atoms: sums, products, integer powers and
     /// quotients are expanded; anything else (functions, non-integer powers) is an atom.
     pub fn from_expr(e: &Expr, atoms: &mut Atoms) -> Result<Fraction, PolyError> {
-        Fraction::read(e, atoms)
+        let f = Fraction::read(e, atoms)?;
+        if f.num.is_exact() && f.den.is_exact() {
+            Ok(f)
+        } else {
+            Err(PolyError::TooLarge)
+        }
     }
 
     /// [`Fraction::from_expr`] with the atoms numbered by `atoms` (a sheet's, or an entry's
@@ -627,31 +458,20 @@ impl Fraction {
 /// building a polynomial per factor. The atoms are those [`Fraction::from_expr`] makes.
 fn monomial(e: &Expr, atoms: &mut Atoms) -> Option<(Q, Mono)> {
     let mut c = Q::one();
-    let mut pairs = Pairs::new();
+    let mut pairs = SmallVec::new();
     factors_of(e, 1, &mut c, &mut pairs, atoms)?;
-    sort_pairs(&mut pairs);
-    Some((c, Mono(pairs)))
-}
-
-/// Pairs sorted by atom, an atom's pairs merged into one (exponents added): a monomial's
-/// pairs from factors met in any order.
-fn sort_pairs(pairs: &mut Pairs) {
-    pairs.sort_unstable_by_key(|&p| atom_of(p));
-    pairs.dedup_by(|later, earlier| {
-        let same = atom_of(*later) == atom_of(*earlier);
-        if same {
-            *earlier = pack(
-                atom_of(*earlier),
-                exponent_of(*earlier) + exponent_of(*later),
-            );
-        }
-        same
-    });
+    Some((c, Mono::from_packed(pairs)))
 }
 
 /// The factors of the monomial `e^k`: its number multiplied into `c`, its atoms' pairs
 /// pushed (unsorted, an atom possibly twice); None if `e` is not a monomial.
-fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms) -> Option<()> {
+fn factors_of(
+    e: &Expr,
+    k: u32,
+    c: &mut Q,
+    pairs: &mut SmallVec<[u32; 8]>,
+    atoms: &mut Atoms,
+) -> Option<()> {
     match e {
         Expr::Num(r) => {
             let r = Q::from(r);
@@ -676,7 +496,7 @@ fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms)
             factors_of(base, k.checked_mul(n)?, c, pairs, atoms)?;
         }
         Expr::Add(_) | Expr::Div(..) => return None,
-        _ => pairs.push(pack(stored(atoms.intern(e)), k)),
+        _ => pairs.push(Mono::pack_pair(atoms.intern(e), k)),
     }
     Some(())
 }
@@ -684,30 +504,4 @@ fn factors_of(e: &Expr, k: u32, c: &mut Q, pairs: &mut Pairs, atoms: &mut Atoms)
 /// The sign of the first term in monomial order (for a deterministic sign convention).
 pub(crate) fn leading_negative(p: &Poly) -> bool {
     p.0.first().is_some_and(|(_, c)| c.is_negative())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{pack, unpack};
-
-    /// Packed pairs order as the pairs do (what keeps a polynomial's terms, and so the
-    /// printed forms, in the order they had), and unpack to themselves.
-    #[test]
-    fn packed_pairs_order_as_pairs() {
-        let values = [0, 1, 2, 7, 255, 65_536, u32::MAX - 1, u32::MAX];
-        let pairs: Vec<(u32, u32)> = values
-            .iter()
-            .flat_map(|&i| values.iter().map(move |&e| (i, e)))
-            .collect();
-        for &a in &pairs {
-            assert_eq!(unpack(pack(a.0, a.1)), a);
-            for &b in &pairs {
-                assert_eq!(
-                    pack(a.0, a.1).cmp(&pack(b.0, b.1)),
-                    a.cmp(&b),
-                    "{a:?} {b:?}"
-                );
-            }
-        }
-    }
 }

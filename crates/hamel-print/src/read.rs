@@ -29,7 +29,8 @@ pub(crate) enum Source<'e> {
 /// pool when `parallel`.
 ///
 /// # Errors
-/// An entry with no rational form over its atoms (the first in order).
+/// An entry with no rational form over its atoms, or one too large to print
+/// ([`PolyError::TooLarge`]): the first in order.
 pub(crate) fn entries(
     es: &[(Source<'_>, usize)],
     parallel: bool,
@@ -40,7 +41,7 @@ pub(crate) fn entries(
     let mut numbered = Vec::with_capacity(es.len());
     for (e, _) in es {
         numbered.push(match *e {
-            Source::Tree(t) => Numbered::Read(Fraction::read(t, atoms)?),
+            Source::Tree(t) => Numbered::Read(Fraction::from_expr(t, atoms)?),
             Source::Canonical(c) => {
                 let start = maps.len();
                 Fraction::numbering_into(c, atoms, &mut maps);
@@ -65,6 +66,9 @@ pub(crate) fn entries(
     );
     let mut out = Vec::with_capacity(read.len());
     for ((f, weights), (_, count)) in read.into_iter().zip(es) {
+        if !f.polys().all(crate::poly::Poly::is_exact) {
+            return Err(PolyError::TooLarge);
+        }
         for (i, w) in weights {
             atoms.weigh(i, w * count);
         }

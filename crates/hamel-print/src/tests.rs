@@ -892,3 +892,26 @@ fn strings(v: &serde_json::Value, out: &mut Vec<String>) {
         _ => {}
     }
 }
+
+/// An exponent too large to pack in a monomial (65,535 or more) is refused with an error,
+/// on every way in (a printed expression, a sheet's entry), not wrapped into another atom's
+/// bits; one just below is printed exactly.
+#[test]
+fn exponents_too_large_to_print_are_refused() {
+    let v = unicycle();
+    let huge = "((sin(theta)^64)^64)^16*m_r + rho";
+    let err = Printed::new(&parse(huge).unwrap().expr, &v).err();
+    assert_eq!(err, Some(crate::PolyError::TooLarge));
+    let mut sheet = crate::Sheet::new(&v);
+    assert_eq!(
+        sheet.add(&parse(huge).unwrap().expr).err(),
+        Some(crate::PolyError::TooLarge)
+    );
+    let near = Printed::new(
+        &parse("((sin(theta)^64)^64)^15*m_r + rho").unwrap().expr,
+        &v,
+    );
+    let near = near.unwrap();
+    assert!(near.check());
+    assert!(near.text().contains("sin(theta)^61440"), "{}", near.text());
+}
