@@ -26,13 +26,38 @@ use crate::q::Q;
 /// polynomial is factored once, whatever the number of groups it is the coefficient of).
 pub(crate) struct Cx<'a> {
     atoms: &'a Atoms,
-    memo: RefCell<HashMap<Poly, Shared>>,
+    memo: RefCell<HashMap<Key, Shared>>,
     /// The denominators' factors collected so far (a sheet's denominators are powers of a
     /// few: each is collected once).
     factors: RefCell<HashMap<Poly, Shared>>,
     /// The equations' rate coefficients collected so far, as products (a sum one group):
     /// the true equations and the paper's have the same, A_Γ's rows.
-    rates: RefCell<HashMap<Poly, (Q, Factors)>>,
+    rates: RefCell<HashMap<Key, (Q, Factors)>>,
+}
+
+/// A memo's polynomial with its hash, made once: a key is hashed when it is looked up, when
+/// it is inserted, and again each time the table grows, and a polynomial's hash reads every
+/// term (hashing the keys again for insertions and growth was 1.3 % of the unicycle's
+/// printing).
+#[derive(PartialEq, Eq)]
+struct Key {
+    /// The polynomial's hash (compared first: equal keys have equal hashes).
+    hash: u64,
+    poly: Poly,
+}
+
+impl Key {
+    fn new(poly: Poly) -> Key {
+        let hash =
+            std::hash::BuildHasher::hash_one(&foldhash::fast::FixedState::with_seed(0), &poly);
+        Key { hash, poly }
+    }
+}
+
+impl std::hash::Hash for Key {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        state.write_u64(self.hash);
+    }
 }
 
 /// A polynomial's form as collection keeps it to use again: a sum behind one `Arc`, so that
@@ -455,10 +480,11 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
 /// A rate's coefficient `p` collected, as `coef · factors` (a sum one group); each polynomial
 /// collected once for the sheet, its groups shared by every place it occurs.
 fn rate_coefficient(p: Poly, atoms: &Cx<'_>) -> (Q, Factors) {
+    let p = Key::new(p);
     if let Some(kept) = atoms.rates.borrow().get(&p) {
         return kept.clone();
     }
-    let product = match poly_in(&p, atoms) {
+    let product = match poly_in(&p.poly, atoms) {
         Form::Product { coef, factors } => (coef, factors),
         sum => (Q::one(), smallvec::smallvec![Factor::Group(Arc::new(sum))]),
     };
@@ -618,10 +644,11 @@ fn parameters(p: Poly, atoms: &Cx<'_>) -> Shared {
     if let (1, Some((m, c))) = (p.size(), p.terms().next()) {
         return monomial(m, c, atoms);
     }
+    let p = Key::new(p);
     if let Some(f) = atoms.memo.borrow().get(&p) {
         return f.clone();
     }
-    let f = Shared::of(factored(&p, atoms));
+    let f = Shared::of(factored(&p.poly, atoms));
     atoms.memo.borrow_mut().insert(p, f.clone());
     f
 }
