@@ -243,8 +243,9 @@ impl Derivation {
 
     /// The derivation as plain text, each entry written by `p`.
     pub fn to_text_with<'e>(&'e self, p: Printer<'_, 'e>) -> String {
-        // Room for a small model's whole text: growing from empty copies it at every doubling.
-        let mut o = String::with_capacity(4096);
+        // Room for a small model's whole text (the unicycle's is 10 kB): growing from empty
+        // copies it at every doubling.
+        let mut o = String::with_capacity(16 * 1024);
         let _ = writeln!(o, "model {}: {}", self.model, self.title);
         let _ = writeln!(
             o,

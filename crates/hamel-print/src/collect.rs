@@ -460,14 +460,13 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
         return None;
     }
     by_rate.sort_unstable_by(|a, b| a.0.cmp(&b.0));
-    let mut terms: Vec<Form> = by_rate
-        .into_iter()
-        .map(|(_, rate, coefficient)| {
-            let (coef, mut factors) = rate_coefficient(coefficient, atoms);
-            factors.extend(atom_factors(&rate));
-            sorted(coef, factors, atoms)
-        })
-        .collect();
+    // A term for each rate, and at most one for each term of the rest.
+    let mut terms: Vec<Form> = Vec::with_capacity(by_rate.len() + rest.size());
+    terms.extend(by_rate.into_iter().map(|(_, rate, coefficient)| {
+        let (coef, mut factors) = rate_coefficient(coefficient, atoms);
+        factors.extend(atom_factors(&rate));
+        sorted(coef, factors, atoms)
+    }));
     if !rest.is_zero() {
         match by_state(&Divided::whole(&rest), atoms) {
             Form::Sum(more) => terms.extend(more),
@@ -560,7 +559,8 @@ impl Groups {
 
     /// The collected sum of the groups.
     fn collected(&self, atoms: &Cx<'_>) -> Form {
-        let mut terms: Vec<Form> = Vec::with_capacity(self.runs.len());
+        // At most a term for each term collected (a coefficient's terms do not multiply).
+        let mut terms: Vec<Form> = Vec::with_capacity(self.split.len());
         for r in &self.runs {
             let coefficient = match &self.split[r.clone()] {
                 [(_, m, c)] => monomial(m, c, atoms),

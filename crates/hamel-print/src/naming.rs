@@ -271,9 +271,12 @@ impl Sheet {
         };
         if !self.parallel {
             // One walk over the entries: a group they share is walked at its first place.
+            // The seed models' sheets have two to four places an entry.
+            let room = 4 * self.entries.len();
             let mut found = Places::new(&velocity);
+            found.out.reserve(room);
             let mut starts = Vec::with_capacity(self.entries.len());
-            let mut shown = Vec::new();
+            let mut shown = Vec::with_capacity(room);
             for ((f, _), &n) in self.entries.iter().zip(&self.counts) {
                 starts.push(found.out.len());
                 found.entry(f);

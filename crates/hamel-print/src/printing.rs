@@ -135,7 +135,7 @@ impl Printing {
             Vec::new()
         };
         let kept: RefCell<Kept> = RefCell::new(Kept {
-            text: String::new(),
+            text: String::with_capacity(1024),
             at: vec![None; ids.len()],
         });
         let mut out = show(&|e, out| {

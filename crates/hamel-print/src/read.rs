@@ -37,7 +37,14 @@ pub(crate) fn entries(
     atoms: &mut Atoms,
 ) -> Result<Vec<Factored>, PolyError> {
     // The canonical forms' maps of atoms, one after another in one vector.
-    let mut maps = Vec::new();
+    let mut maps = Vec::with_capacity(
+        es.iter()
+            .map(|(e, _)| match e {
+                Source::Canonical(c) => c.atoms.len(),
+                Source::Tree(_) => 0,
+            })
+            .sum(),
+    );
     let mut numbered = Vec::with_capacity(es.len());
     for (e, _) in es {
         numbered.push(match *e {

@@ -175,6 +175,8 @@ impl Sheet {
                 (collect::factored_in(&canonical, cx), canonical, value)
             },
         );
+        self.entries.reserve(forms.len());
+        self.at_check.reserve(forms.len());
         for (form, canonical, value) in forms {
             self.entries.push((form, canonical));
             self.at_check.push(value);
