@@ -101,7 +101,7 @@ fn canonical(f: &FieldInner, num: &Poly, scale: BigInt, factors: &[(&Poly, u32)]
     let terms = |ts: Vec<(BigInt, Vec<u16>)>| -> Terms {
         ts.into_iter()
             .map(|(coef, exps)| Term {
-                coef,
+                coef: coef.into(),
                 powers: exps
                     .iter()
                     .enumerate()

@@ -6,17 +6,60 @@
 //! (printing collects terms over monomials) reads them here without taking the tree apart.
 
 use num_bigint::BigInt;
-use num_traits::{One, Signed};
+use num_traits::{One, Signed, ToPrimitive};
+use smallvec::SmallVec;
 
 use crate::ast::{Expr, Rational};
 
-/// A term: an integer coefficient times a product of atoms' powers.
+/// A term: an integer coefficient times a product of atoms' powers. A term is held whole in
+/// its polynomial's vector (its coefficient a machine integer where it fits, eight powers in
+/// place): a reader of a derivation's thousands of terms reads them in order, not by two
+/// pointers each.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Term {
     /// The coefficient (never zero).
-    pub coef: BigInt,
+    pub coef: Coef,
     /// `(atom, exponent)` pairs: indices into [`Canonical::atoms`], ascending, exponents ≥ 1.
-    pub powers: Vec<(u32, u32)>,
+    pub powers: Powers,
+}
+
+/// A term's `(atom, exponent)` pairs.
+pub type Powers = SmallVec<[(u32, u32); 8]>;
+
+/// An integer coefficient: a machine integer where it fits (a derivation's almost always
+/// do), else a big integer. Canonical: `Big` only for what does not fit in an `i64`, so the
+/// derived equality is that of the value.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Coef {
+    /// Fits in an `i64`.
+    Small(i64),
+    /// Does not.
+    Big(BigInt),
+}
+
+impl Coef {
+    /// The coefficient as a big integer.
+    pub fn to_bigint(&self) -> BigInt {
+        match self {
+            Coef::Small(n) => BigInt::from(*n),
+            Coef::Big(n) => n.clone(),
+        }
+    }
+}
+
+impl From<BigInt> for Coef {
+    fn from(n: BigInt) -> Coef {
+        match n.to_i64() {
+            Some(small) => Coef::Small(small),
+            None => Coef::Big(n),
+        }
+    }
+}
+
+impl From<i64> for Coef {
+    fn from(n: i64) -> Coef {
+        Coef::Small(n)
+    }
 }
 
 /// A polynomial: its terms, in the order the tree writes them.
@@ -97,8 +140,8 @@ impl Canonical {
     /// One term as a (negated) product.
     fn term(&self, t: &Term, scale: Option<&BigInt>) -> Expr {
         let coef = match scale {
-            Some(s) => Rational::new(t.coef.clone(), s.clone()),
-            None => Rational::from_integer(t.coef.clone()),
+            Some(s) => Rational::new(t.coef.to_bigint(), s.clone()),
+            None => Rational::from_integer(t.coef.to_bigint()),
         };
         let negative = coef.is_negative();
         let coef = coef.abs();
@@ -150,8 +193,8 @@ mod tests {
 
     fn term(coef: i64, powers: &[(u32, u32)]) -> Term {
         Term {
-            coef: BigInt::from(coef),
-            powers: powers.to_vec(),
+            coef: Coef::from(coef),
+            powers: Powers::from_slice(powers),
         }
     }
 

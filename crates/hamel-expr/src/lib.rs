@@ -31,7 +31,7 @@ mod tape;
 mod tape_data;
 
 pub use ast::{Expr, Func, Rational, SubstituteError};
-pub use canonical::{Canonical, Term, Terms};
+pub use canonical::{Canonical, Coef, Powers, Term, Terms};
 pub use diff::DiffError;
 pub use eval::{Env, EvalError, rational_parts};
 /// The numeric runtime's scalars and LU (`hamel-runtime`), re-exported: expressions evaluate

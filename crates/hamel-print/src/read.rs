@@ -168,8 +168,8 @@ mod tests {
         let terms = |ts: Hand<'_>| {
             ts.iter()
                 .map(|(c, p)| hamel_expr::Term {
-                    coef: BigInt::from(*c),
-                    powers: p.to_vec(),
+                    coef: (*c).into(),
+                    powers: hamel_expr::Powers::from_slice(p),
                 })
                 .collect()
         };

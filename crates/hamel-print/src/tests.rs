@@ -545,8 +545,8 @@ fn canonical_forms_read_as_their_trees() {
     use crate::{Atoms, Fraction};
 
     let term = |coef: i64, powers: &[(u32, u32)]| Term {
-        coef: BigInt::from(coef),
-        powers: powers.to_vec(),
+        coef: coef.into(),
+        powers: hamel_expr::Powers::from_slice(powers),
     };
     let cos = Expr::call(Func::Cos, Expr::sym("theta"));
     let atoms = vec![
@@ -769,8 +769,8 @@ fn a_denominator_stays_in_its_factors() {
     use crate::sheet::Sheet;
 
     let term = |coef: i64, powers: &[(u32, u32)]| Term {
-        coef: BigInt::from(coef),
-        powers: powers.to_vec(),
+        coef: coef.into(),
+        powers: hamel_expr::Powers::from_slice(powers),
     };
     let atoms = vec![
         Expr::sym("m_r"),
