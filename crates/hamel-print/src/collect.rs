@@ -19,6 +19,7 @@ use smallvec::SmallVec;
 use crate::atoms::{Atoms, Kind};
 use crate::factored::Factored;
 use crate::form::{Factor, Factors, Form, factor_rank, is_zero};
+use crate::memo::Memo;
 use crate::poly::{Fraction, Mono, Poly, leading_negative};
 use crate::q::Q;
 
@@ -26,38 +27,13 @@ use crate::q::Q;
 /// polynomial is factored once, whatever the number of groups it is the coefficient of).
 pub(crate) struct Cx<'a> {
     atoms: &'a Atoms,
-    memo: RefCell<HashMap<Key, Shared>>,
+    memo: RefCell<Memo<Shared>>,
     /// The denominators' factors collected so far (a sheet's denominators are powers of a
     /// few: each is collected once).
     factors: RefCell<HashMap<Poly, Shared>>,
     /// The equations' rate coefficients collected so far, as products (a sum one group):
     /// the true equations and the paper's have the same, A_Γ's rows.
-    rates: RefCell<HashMap<Key, (Q, Factors)>>,
-}
-
-/// A memo's polynomial with its hash, made once: a key is hashed when it is looked up, when
-/// it is inserted, and again each time the table grows, and a polynomial's hash reads every
-/// term (hashing the keys again for insertions and growth was 1.3 % of the unicycle's
-/// printing).
-#[derive(PartialEq, Eq)]
-struct Key {
-    /// The polynomial's hash (compared first: equal keys have equal hashes).
-    hash: u64,
-    poly: Poly,
-}
-
-impl Key {
-    fn new(poly: Poly) -> Key {
-        let hash =
-            std::hash::BuildHasher::hash_one(&foldhash::fast::FixedState::with_seed(0), &poly);
-        Key { hash, poly }
-    }
-}
-
-impl std::hash::Hash for Key {
-    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
-        state.write_u64(self.hash);
-    }
+    rates: RefCell<Memo<(Q, Factors)>>,
 }
 
 /// A polynomial's form as collection keeps it to use again: a sum behind one `Arc`, so that
@@ -326,6 +302,10 @@ fn product(mut c: Q, g: &Mono, mut inner: Option<Form>, atoms: &Cx<'_>) -> Form 
         terms.iter_mut().for_each(negate);
         c = c.neg();
     }
+    if c.is_one() && g.is_one() && matches!(inner, Some(Form::Sum(_))) {
+        // The sum itself (what `sorted` makes of a lone group), not put in a group first.
+        return inner.expect("a sum");
+    }
     let mut factors = atoms_of(g);
     match inner {
         None => {}
@@ -479,15 +459,15 @@ fn by_rates(p: &Divided<'_>, atoms: &Cx<'_>) -> Option<Form> {
 /// A rate's coefficient `p` collected, as `coef · factors` (a sum one group); each polynomial
 /// collected once for the sheet, its groups shared by every place it occurs.
 fn rate_coefficient(p: Poly, atoms: &Cx<'_>) -> (Q, Factors) {
-    let p = Key::new(p);
-    if let Some(kept) = atoms.rates.borrow().get(&p) {
-        return kept.clone();
+    let (hash, kept) = atoms.rates.borrow().get(p.terms());
+    if let Some(kept) = kept {
+        return kept;
     }
-    let product = match poly_in(&p.poly, atoms) {
+    let product = match poly_in(&p, atoms) {
         Form::Product { coef, factors } => (coef, factors),
         sum => (Q::one(), smallvec::smallvec![Factor::Group(Arc::new(sum))]),
     };
-    atoms.rates.borrow_mut().insert(p, product.clone());
+    atoms.rates.borrow_mut().insert(hash, p, product.clone());
     product
 }
 
@@ -562,10 +542,7 @@ impl Groups {
         // At most a term for each term collected (a coefficient's terms do not multiply).
         let mut terms: Vec<Form> = Vec::with_capacity(self.split.len());
         for r in &self.runs {
-            let coefficient = match &self.split[r.clone()] {
-                [(_, m, c)] => monomial(m, c, atoms),
-                _ => parameters(self.coefficient(r), atoms),
-            };
+            let coefficient = parameters_of_run(&self.split[r.clone()], atoms);
             let (coef, mut factors) = coefficient.factors();
             factors.extend(atom_factors(self.state(r)));
             match sorted(coef, factors, atoms) {
@@ -644,12 +621,29 @@ fn parameters(p: Poly, atoms: &Cx<'_>) -> Shared {
     if let (1, Some((m, c))) = (p.size(), p.terms().next()) {
         return monomial(m, c, atoms);
     }
-    let p = Key::new(p);
-    if let Some(f) = atoms.memo.borrow().get(&p) {
-        return f.clone();
+    let (hash, kept) = atoms.memo.borrow().get(p.terms());
+    if let Some(f) = kept {
+        return f;
     }
-    let f = Shared::of(factored(&p.poly, atoms));
-    atoms.memo.borrow_mut().insert(p, f.clone());
+    let f = Shared::of(factored(&p, atoms));
+    atoms.memo.borrow_mut().insert(hash, p, f.clone());
+    f
+}
+
+/// [`parameters`] of the coefficient of a group, the run `run` of its terms `(state,
+/// parameters, c)`: made a polynomial only when new to the memo.
+fn parameters_of_run(run: &[(Mono, Mono, Q)], atoms: &Cx<'_>) -> Shared {
+    let terms = run.iter().map(|(_, m, c)| (m, c));
+    if let [(_, m, c)] = run {
+        return monomial(m, c, atoms);
+    }
+    let (hash, kept) = atoms.memo.borrow().get(terms.clone());
+    if let Some(f) = kept {
+        return f;
+    }
+    let p = Poly::from_sorted(terms.map(|(m, c)| (m.clone(), c.clone())).collect());
+    let f = Shared::of(factored(&p, atoms));
+    atoms.memo.borrow_mut().insert(hash, p, f.clone());
     f
 }
 

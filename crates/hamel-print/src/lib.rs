@@ -36,6 +36,7 @@ mod document;
 mod factored;
 mod form;
 mod layout;
+mod memo;
 mod modular;
 mod mono;
 mod naming;
