@@ -622,12 +622,7 @@ fn parameters(p: Poly, atoms: &Cx<'_>) -> Shared {
         return monomial(m, c, atoms);
     }
     let (hash, kept) = atoms.memo.borrow().get(p.terms());
-    if let Some(f) = kept {
-        return f;
-    }
-    let f = Shared::of(factored(&p, atoms));
-    atoms.memo.borrow_mut().insert(hash, p, f.clone());
-    f
+    kept.unwrap_or_else(|| factored_new(hash, p, atoms))
 }
 
 /// [`parameters`] of the coefficient of a group, the run `run` of its terms `(state,
@@ -638,10 +633,14 @@ fn parameters_of_run(run: &[(Mono, Mono, Q)], atoms: &Cx<'_>) -> Shared {
         return monomial(m, c, atoms);
     }
     let (hash, kept) = atoms.memo.borrow().get(terms.clone());
-    if let Some(f) = kept {
-        return f;
-    }
-    let p = Poly::from_sorted(terms.map(|(m, c)| (m.clone(), c.clone())).collect());
+    kept.unwrap_or_else(|| {
+        let p = Poly::from_sorted(terms.map(|(m, c)| (m.clone(), c.clone())).collect());
+        factored_new(hash, p, atoms)
+    })
+}
+
+/// `p` (new to the memo, its terms hashing to `hash`) factored, and kept in the memo.
+fn factored_new(hash: u64, p: Poly, atoms: &Cx<'_>) -> Shared {
     let f = Shared::of(factored(&p, atoms));
     atoms.memo.borrow_mut().insert(hash, p, f.clone());
     f
