@@ -198,6 +198,28 @@ mod tests {
         }
     }
 
+    /// A coefficient is a machine integer exactly when it fits in one, so equal values are
+    /// equal coefficients; a big one is written whole.
+    #[test]
+    fn coefficients_are_small_exactly_when_they_fit() {
+        let fits = BigInt::from(i64::MIN);
+        assert_eq!(Coef::from(fits.clone()), Coef::Small(i64::MIN));
+        let big = BigInt::from(i64::MAX) + BigInt::one();
+        assert_eq!(Coef::from(big.clone()), Coef::Big(big.clone()));
+        assert_eq!(Coef::from(big.clone()).to_bigint(), big);
+        let c = Canonical {
+            atoms: vec![Expr::sym("x")],
+            ids: vec![],
+            num: vec![Term {
+                coef: Coef::from(big),
+                powers: Powers::from_slice(&[(0, 2)]),
+            }],
+            scale: BigInt::one(),
+            factors: vec![],
+        };
+        assert_eq!(c.to_expr().to_string(), "9223372036854775808*x^2");
+    }
+
     #[test]
     fn trees_are_written_as_the_export_writes_them() {
         let c = Canonical {

@@ -7,7 +7,7 @@
 //! once (`collect::factored_in`), the check values it at a point without expanding it
 //! (`modular.rs`); only the exact check at a pole expands it ([`Factored::expanded`]).
 
-use hamel_expr::{Canonical, Coef, Terms};
+use hamel_expr::{Canonical, Terms};
 
 use crate::atoms::Atoms;
 use crate::poly::{Fraction, Mono, Poly};
@@ -102,11 +102,7 @@ impl Fraction {
 fn read_terms(terms: &Terms, map: &[usize]) -> Poly {
     let terms = terms.iter().map(|t| {
         let m = Mono::from_unsorted(t.powers.iter().map(|&(a, e)| (map[a as usize], e)));
-        let c = match &t.coef {
-            Coef::Small(n) => Q::from(*n),
-            Coef::Big(n) => Q::integer(n),
-        };
-        (m, c)
+        (m, Q::from(&t.coef))
     });
     Poly::from_terms(terms.collect())
 }

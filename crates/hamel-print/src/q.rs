@@ -280,6 +280,16 @@ impl From<i64> for Q {
     }
 }
 
+impl From<&hamel_expr::Coef> for Q {
+    /// A canonical term's coefficient.
+    fn from(c: &hamel_expr::Coef) -> Q {
+        match c {
+            hamel_expr::Coef::Small(n) => Q::Small(*n, 1),
+            hamel_expr::Coef::Big(n) => Q::integer(n),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
