@@ -320,7 +320,6 @@ impl From<EngineArg> for hamel_scene::Engine {
     }
 }
 
-/// `hamel search`.
 /// The options of `hamel bench`.
 #[derive(Args)]
 pub struct BenchArgs {
@@ -385,6 +384,7 @@ pub struct LinearizeArgs {
     pub export: Option<PathBuf>,
 }
 
+/// `hamel search`.
 #[derive(Args)]
 pub struct SearchArgs {
     /// The model file (TOML).

@@ -13,7 +13,6 @@ use std::cell::RefCell;
 use std::ops::Range;
 use std::sync::{Arc, LazyLock};
 
-use foldhash::HashMap;
 use smallvec::SmallVec;
 
 use crate::atoms::{Atoms, Kind};
@@ -30,7 +29,7 @@ pub(crate) struct Cx<'a> {
     memo: RefCell<Memo<Shared>>,
     /// The denominators' factors collected so far (a sheet's denominators are powers of a
     /// few: each is collected once).
-    factors: RefCell<HashMap<Poly, Shared>>,
+    factors: RefCell<Memo<Shared>>,
     /// The equations' rate coefficients collected so far, as products (a sum one group):
     /// the true equations and the paper's have the same, A_Γ's rows.
     rates: RefCell<Memo<(Q, Factors)>>,
@@ -131,10 +130,12 @@ pub(crate) fn factored_in(f: &Factored, cx: &Cx<'_>) -> Form {
     let mut coef = f.scale.clone();
     let mut factors = Factors::new();
     for (p, e) in &f.factors {
-        let form = cx.factors.borrow().get(p).cloned();
-        let form = form.unwrap_or_else(|| {
+        let (hash, kept) = cx.factors.borrow().get(p.terms());
+        let form = kept.unwrap_or_else(|| {
             let form = Shared::of(poly_in(p, cx));
-            cx.factors.borrow_mut().insert(p.clone(), form.clone());
+            cx.factors
+                .borrow_mut()
+                .insert(hash, p.clone(), form.clone());
             form
         });
         raise(form, *e, &mut coef, &mut factors);

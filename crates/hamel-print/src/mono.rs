@@ -65,9 +65,12 @@ impl Mono {
     /// The monomial with these `(atom, exponent)` pairs, in any order, an atom possibly more
     /// than once (its exponents added).
     pub(crate) fn from_unsorted(pairs: impl IntoIterator<Item = (usize, u32)>) -> Mono {
-        let mut words: Words = pairs.into_iter().map(|(i, e)| pack(stored(i), e)).collect();
-        merge(&mut words);
-        Mono(words)
+        Mono::from_packed(
+            pairs
+                .into_iter()
+                .map(|(i, e)| Mono::pack_pair(i, e))
+                .collect(),
+        )
     }
 
     /// The monomial of the words of [`Mono::pack_pair`]s, in any order, an atom possibly more

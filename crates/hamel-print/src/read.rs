@@ -48,7 +48,7 @@ pub(crate) fn entries(
     let mut numbered = Vec::with_capacity(es.len());
     for (e, _) in es {
         numbered.push(match *e {
-            Source::Tree(t) => Numbered::Read(Fraction::from_expr(t, atoms)?),
+            Source::Tree(t) => Numbered::Read(Fraction::read(t, atoms)?),
             Source::Canonical(c) => {
                 let start = maps.len();
                 Fraction::numbering_into(c, atoms, &mut maps);
