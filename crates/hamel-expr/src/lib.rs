@@ -29,6 +29,7 @@ mod parse;
 mod specialise;
 mod tape;
 mod tape_data;
+mod trace;
 
 pub use ast::{Expr, Func, Rational, SubstituteError};
 pub use canonical::{Canonical, Coef, Powers, Term, Terms};
@@ -42,3 +43,4 @@ pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
 pub use specialise::rational_of_f64;
 pub use tape::{Op, Tape, TapeError};
 pub use tape_data::{OpData, TapeData};
+pub use trace::{TraceError, Traced, trace};

@@ -254,8 +254,9 @@ fn measure(
 /// The scene's planned system for a comparison with scipy (`bench/scipy_tradeoff.py`) and
 /// numbalsoda (`bench/numbalsoda_tradeoff.py`): the right-hand side as Python, `rhs(t, y)`
 /// returning a list and `rhs_into(t, y, dy)` writing `dy` (the code generator's solved form
-/// with the scene's parameters and the dropped coordinates' reference value as numbers), the
-/// initial time and state, the output times,
+/// with the scene's parameters and the dropped coordinates' reference value as numbers; for a
+/// structured derivation, [`traced_tape`]), the initial time and state, the dropped coordinates
+/// with their value (`held`), the output times,
 /// the reference solution on the requested state components, and hamel's DOP853, DOPRI5 and
 /// Vern9 runs
 /// measured on the same components; `state` names the components of `y0`.
@@ -269,32 +270,15 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
     let measured = measure(loaded, Range::WorkPrecision, engine, false);
     (loaded.request.energy, loaded.request.constraint_residual) = monitors;
     let (table, reference) = measured?;
-    let (ell, sigma) = loaded.dims();
-    // The general solved form (parameters as inputs, written below as the scene's numbers).
-    let generated = hamel_codegen::generate(&loaded.d, &[], "export")
-        .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
-    let solved = &generated.solved;
-    let state = loaded.state();
-    let exprs: Vec<&hamel_expr::Expr> = state
-        .iter()
-        .map(|&k| &solved.exprs[sigma + k])
-        .chain(&solved.exprs[..sigma])
-        .collect();
-    let tape = hamel_expr::Tape::compile(&exprs, &solved.inputs)
-        .map_err(|e| loaded.error("eta", format!("internal error: {e}")))?;
-    // Inputs of the solved form: the ℓ coordinates, the parameters, then η.
-    use hamel_codegen::python::Input;
-    let inputs: Vec<Input> = (0..ell)
-        .map(|k| match state.iter().position(|&s| s == k) {
-            Some(i) => Input::State(i),
-            None => Input::Number(loaded.reference_value()),
+    let (tape, inputs) = planned_tape(loaded)?;
+    let held: serde_json::Map<String, serde_json::Value> = (0..loaded.dims().0)
+        .filter(|k| !loaded.state().contains(k))
+        .map(|k| {
+            (
+                loaded.d.coordinates[k].clone(),
+                loaded.reference_value().into(),
+            )
         })
-        .chain(
-            solved.inputs[ell..solved.inputs.len() - sigma]
-                .iter()
-                .map(|name| Input::Number(loaded.parameter(name))),
-        )
-        .chain((0..sigma).map(|s| Input::State(state.len() + s)))
         .collect();
     let header = format!(
         "The planned right-hand side of a scene of model `{}` with quasi-velocities `{}`,\nwritten by hamel tradeoff --export-python.",
@@ -308,6 +292,7 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
         "t0": loaded.scene.t0,
         "y0": loaded.y0,
         "state": loaded.state_names(),
+        "held": held,
         "times": loaded.times,
         "requested": loaded.requested_components(),
         "reference": reference,
@@ -318,6 +303,76 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
             "error_span": r.error_span, "rhs_evals": r.rhs_evals, "complete": r.complete,
         })).collect::<Vec<_>>(),
     }))
+}
+
+/// The planned right-hand side as one tape and where its inputs come from: the code
+/// generator's solved form for a closed-form derivation (parameters as inputs, given the
+/// scene's numbers), else the structured evaluation traced at the scene's initial state.
+fn planned_tape(
+    loaded: &Loaded,
+) -> Result<(hamel_expr::Tape, Vec<hamel_codegen::python::Input>), ModelError> {
+    use hamel_codegen::python::Input;
+    let (ell, sigma) = loaded.dims();
+    let generated = hamel_codegen::generate(&loaded.d, &[], "export")
+        .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
+    let solved = &generated.solved;
+    if solved.exprs.is_empty() {
+        let tape = traced_tape(loaded)?;
+        let inputs = (0..tape.inputs().len()).map(Input::State).collect();
+        return Ok((tape, inputs));
+    }
+    let state = loaded.state();
+    let exprs: Vec<&hamel_expr::Expr> = state
+        .iter()
+        .map(|&k| &solved.exprs[sigma + k])
+        .chain(&solved.exprs[..sigma])
+        .collect();
+    let tape = hamel_expr::Tape::compile(&exprs, &solved.inputs)
+        .map_err(|e| loaded.error("eta", format!("internal error: {e}")))?;
+    // Inputs of the solved form: the ℓ coordinates, the parameters, then η.
+    let inputs: Vec<Input> = (0..ell)
+        .map(|k| match state.iter().position(|&s| s == k) {
+            Some(i) => Input::State(i),
+            None => Input::Number(loaded.reference_value()),
+        })
+        .chain(
+            solved.inputs[ell..solved.inputs.len() - sigma]
+                .iter()
+                .map(|name| Input::Number(loaded.parameter(name))),
+        )
+        .chain((0..sigma).map(|s| Input::State(state.len() + s)))
+        .collect();
+    Ok((tape, inputs))
+}
+
+/// The structured right-hand side of the planned state (the rates of the state's coordinates,
+/// then η̇), traced at the initial state into one straight-line tape whose inputs are the
+/// state's components: the ingredients, the LU of [Z; α] with the pivots chosen there, and the
+/// contractions of (11) ([`hamel_expr::trace`]). The scene's parameters and the dropped
+/// coordinates' reference value are folded in as constants.
+pub fn traced_tape(loaded: &Loaded) -> Result<hamel_expr::Tape, ModelError> {
+    use hamel_expr::{Scalar, Traced};
+    let n = loaded.state.len();
+    let traced = hamel_expr::trace(&loaded.state_names(), &loaded.y0, |y| {
+        let (qs, eta) = y.split_at(n);
+        let mut q = vec![Traced::constant(loaded.reference); loaded.d.ell];
+        for (i, &k) in loaded.state.iter().enumerate() {
+            q[k] = qs[i];
+        }
+        let r = loaded.compiled.rhs::<Traced>(&q, eta, &loaded.params)?;
+        Ok(loaded
+            .state
+            .iter()
+            .map(|&k| r.q_dot[k])
+            .chain(r.eta_dot.iter().copied())
+            .collect())
+    });
+    traced.map_err(|e: hamel_expr::TraceError<hamel_derive::NumericError>| {
+        loaded.error(
+            "initial",
+            format!("cannot trace the right-hand side at the initial state: {e}"),
+        )
+    })
 }
 
 impl Row {

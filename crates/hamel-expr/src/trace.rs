@@ -1,0 +1,458 @@
+//! Tracing: a computation generic over [`Scalar`] (a tape's evaluation, the structured
+//! right-hand side's LU and contractions) run once on [`Traced`] numbers, which record every
+//! operation into a new [`Tape`].
+//!
+//! A traced number carries its value at the tracing point, so that what the computation decides
+//! by value (a pivot, a branch) is decided there and the tape follows that path: the tape is the
+//! computation *along the path taken at the tracing point*, straight-line code that
+//! `hamel tradeoff --export-python` writes out. Operations whose operands are all constants are
+//! folded in f64, as the traced computation would compute them; multiplications by 0 and ±1,
+//! additions of 0 and divisions by 1 are not recorded (exact for finite values, up to the sign
+//! of a zero). Common subexpressions are shared, and operations no output needs are dropped.
+//!
+//! Tracing nests: each [`trace`] records into its own tape; a number of another trace (or of
+//! none) counts as the constant of its value.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+use crate::ast::Func;
+use crate::tape::{Op, Tape};
+use hamel_runtime::Scalar;
+
+/// A number recorded on the innermost running [`trace`]: its value at the tracing point and,
+/// unless it is a constant, the instruction that computes it.
+#[derive(Clone, Copy, Debug)]
+pub struct Traced {
+    value: f64,
+    /// The instruction and the trace it belongs to; `None` for a constant.
+    at: Option<(u32, u32)>,
+}
+
+struct Recorder {
+    id: u32,
+    ops: Vec<Op>,
+    index: HashMap<Op, usize>,
+    constants: HashMap<u64, usize>,
+    /// A constant that is not a finite number was needed (the tape cannot hold it).
+    non_finite: bool,
+}
+
+thread_local! {
+    static RECORDERS: RefCell<Vec<Recorder>> = const { RefCell::new(Vec::new()) };
+    static NEXT_ID: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Pops its recorder when the trace ends, even by unwinding.
+struct Running;
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        RECORDERS.with(|r| r.borrow_mut().pop());
+    }
+}
+
+impl Recorder {
+    fn push(&mut self, op: Op) -> usize {
+        if let Some(&i) = self.index.get(&op) {
+            return i;
+        }
+        self.ops.push(op.clone());
+        self.index.insert(op, self.ops.len() - 1);
+        self.ops.len() - 1
+    }
+
+    /// The instruction of `x` on this recorder (a constant, or a number of another trace,
+    /// becomes a constant instruction).
+    fn operand(&mut self, x: Traced) -> usize {
+        match x.at {
+            Some((op, id)) if id == self.id => op as usize,
+            _ => {
+                if let Some(&i) = self.constants.get(&x.value.to_bits()) {
+                    return i;
+                }
+                let r = crate::specialise::rational_of_f64(x.value).unwrap_or_else(|| {
+                    self.non_finite = true;
+                    crate::ast::Rational::from_integer(0.into())
+                });
+                let i = self.push(Op::Const(r));
+                self.constants.insert(x.value.to_bits(), i);
+                i
+            }
+        }
+    }
+}
+
+impl Traced {
+    /// The constant `v` (recorded only where it is used).
+    fn constant_of(value: f64) -> Traced {
+        Traced { value, at: None }
+    }
+
+    /// Whether this number is a constant of the innermost trace (or of none).
+    fn is_constant(self) -> bool {
+        RECORDERS.with(|r| match (self.at, r.borrow().last()) {
+            (Some((_, id)), Some(rec)) => id != rec.id,
+            _ => true,
+        })
+    }
+
+    /// Whether this number is the constant `v`.
+    fn is(self, v: f64) -> bool {
+        self.value == v && self.is_constant()
+    }
+
+    /// The result `value` of `make(operands)`, recorded unless every operand is a constant.
+    fn record(value: f64, operands: &[Traced], make: impl FnOnce(&[usize]) -> Op) -> Traced {
+        if operands.iter().all(|x| x.is_constant()) {
+            return Traced::constant_of(value);
+        }
+        RECORDERS.with(|r| {
+            let mut r = r.borrow_mut();
+            let rec = r
+                .last_mut()
+                .expect("a traced operand implies a running trace");
+            let ids: Vec<usize> = operands.iter().map(|&x| rec.operand(x)).collect();
+            let op = rec.push(make(&ids));
+            Traced {
+                value,
+                at: Some((op as u32, rec.id)),
+            }
+        })
+    }
+
+    fn binary(value: f64, a: Traced, b: Traced, make: fn(usize, usize) -> Op) -> Traced {
+        Traced::record(value, &[a, b], |i| make(i[0], i[1]))
+    }
+
+    fn call(self, f: Func, value: f64) -> Traced {
+        Traced::record(value, &[self], |i| Op::Call(f, i[0]))
+    }
+
+    /// Input `i` of the innermost trace, at `value`.
+    fn input(i: usize, value: f64) -> Traced {
+        RECORDERS.with(|r| {
+            let mut r = r.borrow_mut();
+            let rec = r.last_mut().expect("inputs are made by a running trace");
+            let op = rec.push(Op::Input(i));
+            Traced {
+                value,
+                at: Some((op as u32, rec.id)),
+            }
+        })
+    }
+
+    /// The value at the tracing point.
+    pub fn value_at_trace(self) -> f64 {
+        self.value
+    }
+}
+
+fn sorted(a: usize, b: usize) -> Vec<usize> {
+    vec![a.min(b), a.max(b)]
+}
+
+impl Add for Traced {
+    type Output = Traced;
+    fn add(self, b: Traced) -> Traced {
+        if b.is(0.0) {
+            return self;
+        }
+        if self.is(0.0) {
+            return b;
+        }
+        let value = self.value + b.value;
+        Traced::binary(value, self, b, |x, y| Op::Add(sorted(x, y)))
+    }
+}
+
+impl Sub for Traced {
+    type Output = Traced;
+    /// a − b as a + (−b): the same f64 value, exactly.
+    fn sub(self, b: Traced) -> Traced {
+        self + -b
+    }
+}
+
+impl Mul for Traced {
+    type Output = Traced;
+    fn mul(self, b: Traced) -> Traced {
+        let value = self.value * b.value;
+        if self.is(0.0) || b.is(0.0) {
+            return Traced::constant_of(value);
+        }
+        for (x, y) in [(self, b), (b, self)] {
+            if y.is(1.0) {
+                return x;
+            }
+            if y.is(-1.0) {
+                return -x;
+            }
+        }
+        Traced::binary(value, self, b, |x, y| Op::Mul(sorted(x, y)))
+    }
+}
+
+impl Div for Traced {
+    type Output = Traced;
+    fn div(self, b: Traced) -> Traced {
+        let value = self.value / b.value;
+        if b.is(1.0) {
+            return self;
+        }
+        if self.is(0.0) && value.is_finite() {
+            return Traced::constant_of(value);
+        }
+        Traced::binary(value, self, b, Op::Div)
+    }
+}
+
+impl Neg for Traced {
+    type Output = Traced;
+    fn neg(self) -> Traced {
+        Traced::record(-self.value, &[self], |i| Op::Neg(i[0]))
+    }
+}
+
+impl Scalar for Traced {
+    fn constant(v: f64) -> Self {
+        Traced::constant_of(v)
+    }
+    fn value(&self) -> f64 {
+        self.value
+    }
+    fn sin(self) -> Self {
+        self.call(Func::Sin, self.value.sin())
+    }
+    fn cos(self) -> Self {
+        self.call(Func::Cos, self.value.cos())
+    }
+    fn tan(self) -> Self {
+        self.call(Func::Tan, self.value.tan())
+    }
+    fn sqrt(self) -> Self {
+        self.call(Func::Sqrt, self.value.sqrt())
+    }
+    fn exp(self) -> Self {
+        self.call(Func::Exp, self.value.exp())
+    }
+    fn ln(self) -> Self {
+        self.call(Func::Log, self.value.ln())
+    }
+    fn powi(self, n: i32) -> Self {
+        match n {
+            0 => Traced::constant_of(1.0),
+            1 => self,
+            _ => Traced::record(self.value.powi(n), &[self], |i| Op::PowI(i[0], n)),
+        }
+    }
+    fn powf(self, e: Self) -> Self {
+        Traced::binary(self.value.powf(e.value), self, e, Op::PowF)
+    }
+}
+
+/// Why a computation could not be traced.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TraceError<E> {
+    /// The traced computation failed at the tracing point.
+    #[error("{0}")]
+    Computation(E),
+    /// It needed a constant that is not a finite number (a quotient by an exact zero of
+    /// constants, say), which a tape cannot hold.
+    #[error("the traced computation needs a constant that is not a finite number")]
+    NonFinite,
+}
+
+/// Run `f` on traced inputs (`names[i]` at `values[i]`) and record what it computes into a tape
+/// whose outputs are what `f` returns, in order.
+pub fn trace<E>(
+    names: &[String],
+    values: &[f64],
+    f: impl FnOnce(&[Traced]) -> Result<Vec<Traced>, E>,
+) -> Result<Tape, TraceError<E>> {
+    assert_eq!(names.len(), values.len(), "one value per traced input");
+    let id = NEXT_ID.with(|n| {
+        let id = n.get();
+        n.set(id.wrapping_add(1));
+        id
+    });
+    RECORDERS.with(|r| {
+        r.borrow_mut().push(Recorder {
+            id,
+            ops: Vec::new(),
+            index: HashMap::new(),
+            constants: HashMap::new(),
+            non_finite: false,
+        })
+    });
+    let running = Running;
+    let inputs: Vec<Traced> = values
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| Traced::input(i, v))
+        .collect();
+    let outputs = f(&inputs).map_err(TraceError::Computation)?;
+    let (ops, outputs, non_finite) = RECORDERS.with(|r| {
+        let mut r = r.borrow_mut();
+        let rec = r.last_mut().expect("this trace's recorder");
+        let outputs: Vec<usize> = outputs.iter().map(|&x| rec.operand(x)).collect();
+        (std::mem::take(&mut rec.ops), outputs, rec.non_finite)
+    });
+    drop(running);
+    if non_finite {
+        return Err(TraceError::NonFinite);
+    }
+    let (ops, outputs) = live(ops, &outputs);
+    Ok(Tape::from_parts(names.to_vec(), ops, outputs))
+}
+
+/// The instructions that the outputs need, renumbered in order.
+fn live(ops: Vec<Op>, outputs: &[usize]) -> (Vec<Op>, Vec<usize>) {
+    let mut needed = vec![false; ops.len()];
+    for &o in outputs {
+        needed[o] = true;
+    }
+    for k in (0..ops.len()).rev() {
+        if needed[k] {
+            operands(&ops[k], |a| needed[a] = true);
+        }
+    }
+    let mut new = vec![usize::MAX; ops.len()];
+    let mut kept = Vec::new();
+    for (k, mut op) in ops.into_iter().enumerate() {
+        if needed[k] {
+            renumber(&mut op, &new);
+            new[k] = kept.len();
+            kept.push(op);
+        }
+    }
+    (kept, outputs.iter().map(|&o| new[o]).collect())
+}
+
+fn operands(op: &Op, mut mark: impl FnMut(usize)) {
+    match op {
+        Op::Input(_) | Op::Const(_) => {}
+        Op::Add(v) | Op::Mul(v) => v.iter().for_each(|&a| mark(a)),
+        Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => mark(*a),
+        Op::Div(a, b) | Op::PowF(a, b) => {
+            mark(*a);
+            mark(*b);
+        }
+    }
+}
+
+fn renumber(op: &mut Op, new: &[usize]) {
+    match op {
+        Op::Input(_) | Op::Const(_) => {}
+        Op::Add(v) | Op::Mul(v) => v.iter_mut().for_each(|a| *a = new[*a]),
+        Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => *a = new[*a],
+        Op::Div(a, b) | Op::PowF(a, b) => {
+            *a = new[*a];
+            *b = new[*b];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(n: usize) -> Vec<String> {
+        (0..n).map(|i| format!("x{i}")).collect()
+    }
+
+    #[test]
+    fn a_traced_computation_replays_at_other_points() {
+        let f = |x: &[Traced]| -> Result<Vec<Traced>, ()> {
+            let s = x[0].sin() * x[1] + Traced::constant(2.0);
+            Ok(vec![
+                s / (x[1] * x[1] + Traced::constant(1.0)),
+                x[0].sqrt() - x[1],
+            ])
+        };
+        let tape = trace(&names(2), &[0.3, 0.7], f).unwrap();
+        for p in [[0.3, 0.7], [1.9, -2.5]] {
+            let got = tape.eval::<f64>(&p).unwrap();
+            let want = [
+                (p[0].sin() * p[1] + 2.0) / (p[1] * p[1] + 1.0),
+                p[0].sqrt() - p[1],
+            ];
+            assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn a_branch_is_taken_as_at_the_tracing_point() {
+        // |x| by its sign, as a pivot search decides by value: traced at x > 0, the tape is x.
+        let abs = |x: &[Traced]| -> Result<Vec<Traced>, ()> {
+            Ok(vec![if x[0].value() >= 0.0 { x[0] } else { -x[0] }])
+        };
+        let positive = trace(&names(1), &[2.0], abs).unwrap();
+        assert_eq!(positive.eval::<f64>(&[-3.0]).unwrap(), [-3.0]);
+        let negative = trace(&names(1), &[-2.0], abs).unwrap();
+        assert_eq!(negative.eval::<f64>(&[5.0]).unwrap(), [-5.0]);
+    }
+
+    #[test]
+    fn constants_fold_and_trivial_operations_are_not_recorded() {
+        let f = |x: &[Traced]| -> Result<Vec<Traced>, ()> {
+            let (zero, one, three) = (
+                Traced::constant(0.0),
+                Traced::constant(1.0),
+                Traced::constant(3.0),
+            );
+            let folded = three * three + one; // 10, no instruction
+            Ok(vec![
+                x[0] * one + zero * x[0] + x[0] / one - zero,
+                folded * x[0],
+            ])
+        };
+        let tape = trace(&names(1), &[0.5], f).unwrap();
+        // x0 + x0 and 10·x0: the input, one sum, the constant and one product.
+        assert_eq!(tape.ops().len(), 4, "{:?}", tape.ops());
+        assert_eq!(tape.eval::<f64>(&[4.0]).unwrap(), [8.0, 40.0]);
+    }
+
+    #[test]
+    fn shared_subexpressions_are_one_instruction_and_dead_ones_are_dropped() {
+        let f = |x: &[Traced]| -> Result<Vec<Traced>, ()> {
+            let _unused = x[0].exp() * x[1];
+            let a = x[0] * x[1];
+            let b = x[1] * x[0];
+            Ok(vec![a + b])
+        };
+        let tape = trace(&names(2), &[1.0, 2.0], f).unwrap();
+        assert_eq!(tape.ops().len(), 4, "{:?}", tape.ops());
+    }
+
+    #[test]
+    fn a_non_finite_constant_is_refused() {
+        let r = trace(&names(1), &[1.0], |x| -> Result<Vec<Traced>, ()> {
+            Ok(vec![x[0] + Traced::constant(1.0) / Traced::constant(0.0)])
+        });
+        assert_eq!(r.unwrap_err(), TraceError::NonFinite);
+    }
+
+    #[test]
+    fn traces_nest_and_an_outer_number_is_a_constant_inside() {
+        let outer = trace(&names(1), &[3.0], |x| -> Result<Vec<Traced>, ()> {
+            let y = x[0] * x[0];
+            let inner = trace(&names(1), &[1.0], |z| Ok::<_, ()>(vec![z[0] + y])).unwrap();
+            // Inside, y was the constant 9.
+            assert_eq!(inner.eval::<f64>(&[1.0]).unwrap(), [10.0]);
+            Ok(vec![y])
+        })
+        .unwrap();
+        assert_eq!(outer.eval::<f64>(&[5.0]).unwrap(), [25.0]);
+    }
+
+    #[test]
+    fn an_error_of_the_traced_computation_is_returned() {
+        let r = trace(&names(1), &[1.0], |_| Err::<Vec<Traced>, _>("singular"));
+        assert_eq!(r.unwrap_err(), TraceError::Computation("singular"));
+        // And the recorder was popped: a new trace starts clean.
+        let t = trace(&names(1), &[1.0], |x| Ok::<_, ()>(vec![x[0] + x[0]])).unwrap();
+        assert_eq!(t.ops().len(), 2);
+    }
+}
