@@ -11,15 +11,8 @@ use super::{hamel, scratch, stderr};
 /// Every `(model file, choice)` under models/.
 fn choices() -> Vec<(String, String)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files: Vec<_> = ["models", "models/bodies"]
-        .iter()
-        .flat_map(|d| std::fs::read_dir(root.join(d)).unwrap())
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    files.sort();
     let mut out = Vec::new();
-    for f in files {
+    for f in super::toml_files(&["models", "models/bodies"]) {
         let t: toml::Value = toml::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
         let rel = f.strip_prefix(root).unwrap().to_string_lossy().to_string();
         let table = t.get("quasi_velocities").and_then(|q| q.as_table());

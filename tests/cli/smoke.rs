@@ -4,7 +4,7 @@
 //! backtrace on stderr). Long commands get small budgets; scenes are run from copies with a
 //! short horizon (and a small ensemble), so the matrix stays within a few minutes.
 
-use super::{ELIMINATE, scratch, stderr};
+use super::{ELIMINATE, scratch, stderr, toml_files};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -88,19 +88,6 @@ fn join<'a>(parts: &[&[&'a str]]) -> Vec<&'a str> {
 fn tail(s: &str) -> String {
     let lines: Vec<&str> = s.lines().collect();
     lines[lines.len().saturating_sub(12)..].join("\n")
-}
-
-/// The bundled model files (models/ and models/bodies/), sorted.
-fn model_files() -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files: Vec<PathBuf> = ["models", "models/bodies"]
-        .iter()
-        .flat_map(|d| std::fs::read_dir(root.join(d)).unwrap())
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
-    files
 }
 
 /// The names of the tables under `key` (`quasi_velocities`, `steady`) of a model file.
@@ -196,7 +183,7 @@ fn one_choice(m: &mut Matrix, model: &str, eta: &[&str], eliminate: &str) {
 #[test]
 fn no_command_panics_on_a_bundled_model_or_choice() {
     let mut m = Matrix::new("smoke_models");
-    for path in model_files() {
+    for path in toml_files(&["models", "models/bodies"]) {
         let model = path.to_string_lossy().into_owned();
         let table: toml::Table = std::fs::read_to_string(&path).unwrap().parse().unwrap();
         let eliminate = eliminate(&path);
@@ -283,13 +270,7 @@ pub(crate) fn short_scene(path: &Path, dir: &Path, t_end: f64) -> PathBuf {
 fn no_command_panics_on_a_bundled_scene() {
     let mut m = Matrix::new("smoke_scenes");
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root.join("scenes"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    scenes.sort();
-    for path in scenes {
+    for path in toml_files(&["scenes"]) {
         let scene = short_scene(&path, &m.dir, 1.0);
         let scene = scene.to_string_lossy().into_owned();
         m.run(&[

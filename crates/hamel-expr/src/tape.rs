@@ -61,20 +61,34 @@ pub struct Tape {
     outputs: Vec<usize>,
 }
 
-struct Builder<'a> {
-    slots: HashMap<&'a str, usize>,
-    ops: Vec<Op>,
+/// Instructions with each one kept once: pushing an instruction already there returns its
+/// index (common subexpressions shared). Used by compilation and by [`crate::trace`].
+#[derive(Default)]
+pub(crate) struct Interned {
+    pub(crate) ops: Vec<Op>,
     index: HashMap<Op, usize>,
 }
 
-impl Builder<'_> {
-    fn push(&mut self, op: Op) -> usize {
+impl Interned {
+    /// The index of `op`, pushed if new.
+    pub(crate) fn push(&mut self, op: Op) -> usize {
         if let Some(&i) = self.index.get(&op) {
             return i;
         }
         self.ops.push(op.clone());
         self.index.insert(op, self.ops.len() - 1);
         self.ops.len() - 1
+    }
+}
+
+struct Builder<'a> {
+    slots: HashMap<&'a str, usize>,
+    ops: Interned,
+}
+
+impl Builder<'_> {
+    fn push(&mut self, op: Op) -> usize {
+        self.ops.push(op)
     }
 
     fn input(&mut self, name: &str) -> Result<usize, TapeError> {
@@ -154,8 +168,7 @@ impl Tape {
                 .enumerate()
                 .map(|(i, n)| (n.as_str(), i))
                 .collect(),
-            ops: Vec::new(),
-            index: HashMap::new(),
+            ops: Interned::default(),
         };
         let outputs = exprs
             .iter()
@@ -163,7 +176,7 @@ impl Tape {
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Tape {
             inputs: inputs.to_vec(),
-            ops: b.ops,
+            ops: b.ops.ops,
             outputs,
         })
     }

@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use crate::ast::Func;
-use crate::tape::{Op, Tape};
+use crate::tape::{Interned, Op, Tape};
 use hamel_runtime::Scalar;
 
 /// A number recorded on the innermost running [`trace`]: its value at the tracing point and,
@@ -32,8 +32,7 @@ pub struct Traced {
 
 struct Recorder {
     id: u32,
-    ops: Vec<Op>,
-    index: HashMap<Op, usize>,
+    ops: Interned,
     constants: HashMap<u64, usize>,
     /// A constant that is not a finite number was needed (the tape cannot hold it).
     non_finite: bool,
@@ -55,12 +54,7 @@ impl Drop for Running {
 
 impl Recorder {
     fn push(&mut self, op: Op) -> usize {
-        if let Some(&i) = self.index.get(&op) {
-            return i;
-        }
-        self.ops.push(op.clone());
-        self.index.insert(op, self.ops.len() - 1);
-        self.ops.len() - 1
+        self.ops.push(op)
     }
 
     /// The instruction of `x` on this recorder (a constant, or a number of another trace,
@@ -280,8 +274,7 @@ pub fn trace<E>(
     RECORDERS.with(|r| {
         r.borrow_mut().push(Recorder {
             id,
-            ops: Vec::new(),
-            index: HashMap::new(),
+            ops: Interned::default(),
             constants: HashMap::new(),
             non_finite: false,
         })
@@ -297,7 +290,7 @@ pub fn trace<E>(
         let mut r = r.borrow_mut();
         let rec = r.last_mut().expect("this trace's recorder");
         let outputs: Vec<usize> = outputs.iter().map(|&x| rec.operand(x)).collect();
-        (std::mem::take(&mut rec.ops), outputs, rec.non_finite)
+        (std::mem::take(&mut rec.ops.ops), outputs, rec.non_finite)
     });
     drop(running);
     if non_finite {

@@ -312,15 +312,15 @@ fn planned_tape(
     loaded: &Loaded,
 ) -> Result<(hamel_expr::Tape, Vec<hamel_codegen::python::Input>), ModelError> {
     use hamel_codegen::python::Input;
-    let (ell, sigma) = loaded.dims();
-    let generated = hamel_codegen::generate(&loaded.d, &[], "export")
-        .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
-    let solved = &generated.solved;
-    if solved.exprs.is_empty() {
+    if loaded.d.closed().is_none() {
         let tape = traced_tape(loaded)?;
         let inputs = (0..tape.inputs().len()).map(Input::State).collect();
         return Ok((tape, inputs));
     }
+    let (ell, sigma) = loaded.dims();
+    let generated = hamel_codegen::generate(&loaded.d, &[], "export")
+        .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
+    let solved = &generated.solved;
     let state = loaded.state();
     let exprs: Vec<&hamel_expr::Expr> = state
         .iter()
