@@ -4,14 +4,17 @@
 pub mod oracle;
 
 /// The coordinates each seed example eliminates in the paper (Remark 3.1 for the vertical knife:
-/// y is removed, θ is not; Remark 2.2: q1 is not).
+/// y is removed, θ is not; Remark 2.2: q1 is not), and those the robots' equations are free of
+/// (the position, the heading and the wheel angles).
 pub const ELIMINATE: &[(&str, &str)] = &[
     ("bar_blade", "x,y,theta"),
     ("bar_wheels", "x,y,theta,psi1"),
     ("chaplygin_sleigh", "x,y,theta"),
+    ("diff_drive", "x,y,psi,phiL,phiR,phiC"),
     ("knife", "x,y,theta"),
     ("remark22", "q1"),
     ("rolling_disk", "xC,yC,phi"),
+    ("segway", "x,y,psi,phiL,phiR"),
     ("snakeboard", "x,y,theta"),
     ("unicycle_rider", "xC,yC,phi,psi"),
     ("vertical_knife", "x,y,theta"),

@@ -305,6 +305,39 @@ impl Matrix {
         self.gauss_jordan(&mut Budget::new(&self.data[0].field(), ELIMINATION_WORK))
     }
 
+    /// Whether the row `row` (1×n) is a combination c·self of the rows of `self` (k×n),
+    /// decided exactly: Gauss–Jordan on selfᵀ c = rowᵀ, consistent when every equation left
+    /// after the k pivots has a remainder that is zero in normal form.
+    pub fn combination(&self, row: &Matrix) -> Result<Combination, CasError> {
+        assert_eq!(
+            (row.rows, row.cols),
+            (1, self.cols),
+            "a row of the same width"
+        );
+        if self.rows == 0 {
+            return Ok(if row.is_zero() {
+                Combination::Of(Vec::new())
+            } else {
+                Combination::Not
+            });
+        }
+        let field = self.data[0].field();
+        let (_, rhs, rank, _) = self.transpose().eliminate(
+            Some(&row.transpose()),
+            &mut Budget::new(&field, ELIMINATION_WORK),
+        )?;
+        if rank < self.rows {
+            return Ok(Combination::DependentRows(rank));
+        }
+        let rhs = rhs.expect("augmented");
+        if (self.rows..self.cols).any(|r| !rhs[(r, 0)].is_zero()) {
+            return Ok(Combination::Not);
+        }
+        Ok(Combination::Of(
+            (0..self.rows).map(|r| rhs[(r, 0)].clone()).collect(),
+        ))
+    }
+
     fn gauss_jordan(&self, budget: &mut Budget) -> Result<Option<(Matrix, Ex)>, CasError> {
         let field = self.data[0].field();
         let id = Matrix::identity(&field, self.rows);
@@ -314,6 +347,17 @@ impl Matrix {
         }
         Ok(Some((inv.expect("augmented"), det)))
     }
+}
+
+/// Whether a row is a combination of others ([`Matrix::combination`]).
+#[derive(Debug)]
+pub enum Combination {
+    /// row = Σ_j c_j row_j with these c_j, exactly.
+    Of(Vec<Ex>),
+    /// Not a combination: a remainder is not zero.
+    Not,
+    /// The rows it was to combine are not independent (their rank).
+    DependentRows(usize),
 }
 
 /// The default budget of exact elimination in the field, in units of [`Budget`]: far above

@@ -1150,9 +1150,10 @@ impl Code {
             .collect();
         let tape = Tape::compile(&exprs, &inputs)?;
         // Where α and U lie in the ingredients (the runtime's `Layout`: Z, α, A, U, …).
+        let rho = d.dims().rho();
         let alpha_at = d.sigma * d.ell;
-        let u_at = alpha_at + d.mu * d.ell + d.ell * d.ell;
-        let alpha_exprs = &exprs[alpha_at..alpha_at + d.mu * d.ell];
+        let u_at = alpha_at + rho * d.ell + d.ell * d.ell;
+        let alpha_exprs = &exprs[alpha_at..alpha_at + rho * d.ell];
         let alpha = Tape::compile(alpha_exprs, &inputs)?;
         let h: Vec<&Expr> = d.holonomic.iter().map(|c| &c.h.expr).collect();
         let holonomic = Tape::compile(&h, &inputs)?;
@@ -1284,6 +1285,7 @@ impl Code {
             ("sigma", d.sigma.to_string()),
             ("ell", d.ell.to_string()),
             ("mu", d.mu.to_string()),
+            ("dependent", d.dims().dependent.to_string()),
             ("reduced", reduced_state.join(", ")),
             (
                 "elim",
@@ -1425,16 +1427,16 @@ fn residual_part(
     use fold::*;
     let Some(c) = d.closed() else {
         let body = "    let r = structured_unchecked(q, eta, p, false)?;\n    \
-                    let mut a = [S::constant(0.0); DIMS.mu * DIMS.ell];\n    \
+                    let mut a = [S::constant(0.0); DIMS.rho() * DIMS.ell];\n    \
                     alpha(q, p, &mut a);\n    \
-                    for m in 0..DIMS.mu {\n        \
+                    for m in 0..DIMS.rho() {\n        \
                     out[m] = (0..DIMS.ell).fold(S::constant(0.0), |acc, j| acc + a[m * DIMS.ell + j] * r.q_dot[j]);\n    \
                     }\n    Ok(())\n";
         return Ok((body.into(), "α times the structured evaluation's q̇"));
     };
     let l = d.ell;
     let q_dot = gamma_eta(&c.gamma, &eta_syms(d.sigma), &|e| e.clone());
-    let r: Vec<Expr> = (0..d.mu)
+    let r: Vec<Expr> = (0..d.dims().rho())
         .map(|m| {
             (0..l).fold(Expr::int(0), |acc, j| {
                 add(acc, mul(alpha[m * l + j].clone(), q_dot[j].clone()))
@@ -1492,7 +1494,7 @@ fn many_body(lanes: bool, monitor: Monitor) -> String {
     let at = match monitor {
         Monitor::Energy => "energy_from(&x[..DIMS.ell], &x[DIMS.ell..], self.0)",
         Monitor::Residual => {
-            "let mut r = [runtime::Lanes::default(); DIMS.mu];\n            \
+            "let mut r = [runtime::Lanes::default(); DIMS.rho()];\n            \
              residual_from(&x[..DIMS.ell], &x[DIMS.ell..], self.0, &mut r)?;\n            \
              Ok(runtime::abs_max(&r))"
         }

@@ -115,6 +115,17 @@ pub struct Derivation {
     /// coordinate it determines: generated code projects onto them; empty for most models.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub holonomic: Vec<Holonomic>,
+    /// The names of α's rows (the kept ones, in order).
+    pub constraints: Vec<String>,
+    /// The rows of the model dropped from α as combinations of the kept ones (two wheels on
+    /// one axle), each with its exact dependence; empty for most models.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dependent_rows: Vec<Dependent>,
+    /// The factors of δ = det[Z; α] at which α's kept rows lose rank (the dependent rows'
+    /// denominators), each with its power in δ: δ over their product vanishes only where
+    /// [Z; α] with every row does (closed form only; empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub kept_rank_loss: Vec<Power>,
     /// The generalised forces F of the loads U does not give (`[forces]`, bodies' loads), one
     /// per coordinate; empty when the model has none. They enter as Γᵀ(∇U + F).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -278,6 +289,13 @@ pub struct Ingredients {
     pub dz: Vec<Mat>,
     /// ∂α/∂q_k.
     pub dalpha: Vec<Mat>,
+    /// The model's rows that depend on α's (dependent×ℓ; none for most models), evaluated
+    /// after α's rows so that the structured evaluation can use them where α's kept rows
+    /// lose rank (`hamel_runtime::structured::select`); canonical forms, or the model's trees
+    /// for a structured derivation.
+    pub dependent: Option<Mat>,
+    /// ∂/∂q_k of `dependent` (empty without dependent rows).
+    pub ddependent: Vec<Mat>,
     /// For code generation ([`Symbolic::to_derivation_for_code`](crate::Symbolic)), else empty:
     /// the right-hand sides b_i = (Γᵀ∇U)_i − Σ_rs Q⁽ⁱ⁾_rs η_r η_s of (11), A_Γ η̇ = b, each one
     /// normal form in q, the parameters and the symbols `eta1..`.
@@ -320,6 +338,39 @@ impl Trees {
             grad_u: self.grad_u.iter().map(|e| e.map_expr(f)).collect(),
         }
     }
+}
+
+/// A row of the model dropped from α: row = Σ_j c_j α_j exactly, over the kept rows α_j.
+#[derive(Clone, Debug, Serialize)]
+pub struct Dependent {
+    /// Its name.
+    pub name: String,
+    /// Its entries (the coefficients of der(q_1)..der(q_ℓ)).
+    pub row: Vec<Entry>,
+    /// The kept rows with a nonzero coefficient, in α's order.
+    pub combination: Vec<Term>,
+    /// The factors of the coefficients' denominators: where the kept rows lose rank (and
+    /// the dependence as written fails), sorted by text.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub singular: Vec<Entry>,
+}
+
+/// A factor and its power.
+#[derive(Clone, Debug, Serialize)]
+pub struct Power {
+    /// The factor.
+    pub factor: Entry,
+    /// Its power.
+    pub power: u32,
+}
+
+/// One term c_j α_j of a dependence.
+#[derive(Clone, Debug, Serialize)]
+pub struct Term {
+    /// The kept row's name.
+    pub row: String,
+    /// c_j.
+    pub coefficient: Entry,
 }
 
 /// A holonomic constraint h(q) = 0 of a derivation.
@@ -528,6 +579,8 @@ impl Derivation {
                 da: mats(&ing.da),
                 dz: mats(&ing.dz),
                 dalpha: mats(&ing.dalpha),
+                dependent: ing.dependent.as_ref().map(|m| m.map_expr(&f)),
+                ddependent: mats(&ing.ddependent),
                 eta_rhs: entries(&ing.eta_rhs),
                 eta_dot: ing.eta_dot.as_ref().map(|v| entries(v)),
                 blocks: ing.blocks.as_ref().map(|bs| {

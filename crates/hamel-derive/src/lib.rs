@@ -17,6 +17,7 @@
 
 pub mod certify;
 pub mod conditioning;
+pub mod dependence;
 mod derivation;
 mod numeric;
 pub mod progress;
@@ -26,8 +27,8 @@ pub mod states;
 pub mod symbolic;
 
 pub use derivation::{
-    Block, Checks, Closed, Derivation, DerivationJson, Entry, Form, Holonomic, Ingredients, Mat,
-    NotClosed, Size, SpecialiseError, StructuredForm, Trees, Why,
+    Block, Checks, Closed, Dependent, Derivation, DerivationJson, Entry, Form, Holonomic,
+    Ingredients, Mat, NotClosed, Power, Size, SpecialiseError, StructuredForm, Term, Trees, Why,
 };
 pub use hamel_eval::{
     Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,

@@ -40,9 +40,9 @@ fn free_inputs(exprs: &[&hamel_expr::Expr]) -> Vec<String> {
 }
 
 impl Derivation {
-    /// The ingredients of the structured evaluation, in order: Z (σ×ℓ, row-major), α (μ×ℓ),
-    /// A (ℓ×ℓ), U, ∇U + F (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks
-    /// μ×ℓ); the first five from the model's [`Trees`](crate::Trees) where there are.
+    /// The ingredients of the structured evaluation, in order: Z (σ×ℓ, row-major), α (μ×ℓ,
+    /// then the model's dependent rows), A (ℓ×ℓ), U, ∇U + F (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k
+    /// (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks: μ×ℓ, then the dependent rows'); the first five from the model's [`Trees`](crate::Trees) where there are.
     /// Compiled here and printed as Rust by the code generator (whose runtime `Layout` has the
     /// same offsets).
     pub fn ingredient_exprs(&self) -> Result<Vec<&hamel_expr::Expr>, NumericError> {
@@ -53,6 +53,9 @@ impl Derivation {
             Some(t) => {
                 add_mat(&mut exprs, &t.z);
                 add_mat(&mut exprs, &t.alpha);
+                if let Some(d) = &ing.dependent {
+                    add_mat(&mut exprs, d);
+                }
                 add_mat(&mut exprs, &t.a);
                 exprs.push(&t.u.expr);
                 add_list(&mut exprs, &t.grad_u);
@@ -60,15 +63,32 @@ impl Derivation {
             None => {
                 add_mat(&mut exprs, &self.z);
                 add_mat(&mut exprs, &self.alpha);
+                if let Some(d) = &ing.dependent {
+                    add_mat(&mut exprs, d);
+                }
                 add_mat(&mut exprs, &self.a);
                 exprs.push(&u.expr);
                 add_list(&mut exprs, ing.applied.as_deref().unwrap_or(&self.grad_u));
             }
         }
-        for m in ing.da.iter().chain(&ing.dz).chain(&ing.dalpha) {
+        for m in ing.da.iter().chain(&ing.dz) {
             add_mat(&mut exprs, m);
         }
+        for (k, m) in ing.dalpha.iter().enumerate() {
+            add_mat(&mut exprs, m);
+            if let Some(d) = ing.ddependent.get(k) {
+                add_mat(&mut exprs, d);
+            }
+        }
         Ok(exprs)
+    }
+
+    /// The sizes of the structured evaluation: ℓ, μ, σ and the dependent rows.
+    pub fn dims(&self) -> Dims {
+        Dims {
+            dependent: self.ingredients.dependent.as_ref().map_or(0, |m| m.rows),
+            ..Dims::new(self.ell, self.mu, self.sigma)
+        }
     }
 
     /// Compile for structured evaluation (inputs: coordinates and parameters). Free functions
@@ -86,18 +106,23 @@ impl Derivation {
             .chain(self.parameters.keys().cloned())
             .collect();
         let tape = Tape::compile(&exprs, &inputs)?;
-        let dims = Dims {
-            ell: self.ell,
-            mu: self.mu,
-            sigma: self.sigma,
-        };
-        Compiled::new(
+        let dims = self.dims();
+        let compiled = Compiled::new(
             tape,
             dims,
             self.coordinates.clone(),
             self.parameters.clone(),
             self.singular_set_text(),
-        )
+        )?;
+        if self.kept_rank_loss.is_empty() {
+            return Ok(compiled);
+        }
+        let factors: Vec<&hamel_expr::Expr> =
+            self.kept_rank_loss.iter().map(|p| &p.factor.expr).collect();
+        compiled.with_rank_loss(hamel_eval::RankLoss {
+            tape: Tape::compile(&factors, &inputs)?,
+            powers: self.kept_rank_loss.iter().map(|p| p.power as i32).collect(),
+        })
     }
 
     /// Compile the expanded symbolic equations (inputs: coordinates, parameters, η, and the

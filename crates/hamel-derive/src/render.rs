@@ -77,6 +77,47 @@ fn yes(b: bool) -> &'static str {
     if b { "verified" } else { "FAILS" }
 }
 
+/// The rows of α by name, and each dropped row as the combination of them it is (exact).
+fn dependent_text<'e>(o: &mut String, d: &'e Derivation, p: Printer<'_, 'e>) {
+    if d.dependent_rows.is_empty() {
+        return;
+    }
+    let names: Vec<String> = (d.constraints.iter().enumerate())
+        .map(|(i, n)| format!("({}) {n}", i + 1))
+        .collect();
+    let _ = writeln!(o, "rows of α: {}", names.join(", "));
+    let _ = writeln!(
+        o,
+        "dropped rows, each a combination of the rows of α (exact; rank α = {} of {} rows):",
+        d.mu,
+        d.mu + d.dependent_rows.len()
+    );
+    for r in &d.dependent_rows {
+        let _ = write!(o, "  {} =", r.name);
+        if r.combination.is_empty() {
+            o.push_str(" 0");
+        }
+        for (i, t) in r.combination.iter().enumerate() {
+            o.push_str(if i == 0 { " (" } else { " + (" });
+            p(&t.coefficient, o);
+            let _ = write!(o, ")*{}", t.row);
+        }
+        o.push('\n');
+        if !r.singular.is_empty() {
+            let at: Vec<String> = r
+                .singular
+                .iter()
+                .map(|e| format!("{} = 0", e.text))
+                .collect();
+            let _ = writeln!(
+                o,
+                "    (the rows it is combined from lose rank where {}: δ vanishes there too)",
+                at.join(" or ")
+            );
+        }
+    }
+}
+
 /// The closed form: Γ, Θ, δ, A_Γ, Q, the equations and the exact checks.
 fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_, 'e>) {
     entry_line(o, "δ = det[Z; α] = ", p, &c.delta);
@@ -208,9 +249,14 @@ impl Derivation {
         let rows = |m: &'e Mat, f: &mut dyn FnMut(&'e [Entry])| {
             m.entries.iter().for_each(|row| f(row));
         };
-        for m in [&self.a, &self.alpha, &self.z] {
-            rows(m, f);
+        rows(&self.a, f);
+        rows(&self.alpha, f);
+        for d in &self.dependent_rows {
+            for t in &d.combination {
+                f(std::slice::from_ref(&t.coefficient));
+            }
         }
+        rows(&self.z, f);
         match &self.form {
             Form::Closed(c) => {
                 f(std::slice::from_ref(&c.delta));
@@ -265,6 +311,7 @@ impl Derivation {
         o.push('\n');
         mat_text(&mut o, "A (T = ½ q̇ᵀAq̇)", &self.a, p);
         mat_text(&mut o, "α (constraints α q̇ = 0)", &self.alpha, p);
+        dependent_text(&mut o, self, p);
         mat_text(&mut o, "Z (η = Z q̇)", &self.z, p);
         match &self.form {
             Form::Closed(c) => closed_text(&mut o, self, c, p),

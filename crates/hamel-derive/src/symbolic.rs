@@ -22,6 +22,7 @@ use hamel_expr::Expr;
 use hamel_model::{Item, Kinetic, Model, ModelError, QuasiVelocityChoice, Site};
 
 use crate::certify::Certificate;
+use crate::dependence::Dependence;
 use crate::derivation::{
     Checks, Closed, Derivation, Entry, Form, Ingredients, Mat, StructuredForm, Trees, Why,
 };
@@ -263,6 +264,10 @@ pub struct Symbolic {
     pub energy: Over,
     /// Exact checks.
     pub checks: Checks,
+    /// The model's dropped rows, each a combination of α's rows.
+    pub dependence: Vec<Dependence>,
+    /// The factors of δ at which α's kept rows lose rank, with their powers in δ.
+    pub rank_loss: Vec<(Ex, u32)>,
     model: Model,
     choice: hamel_model::QuasiVelocityChoice,
 }
@@ -301,6 +306,8 @@ impl Symbolic {
             model,
             choice,
             Computed {
+                dependence: &self.dependence,
+                rank_loss: &self.rank_loss,
                 a: mat(&self.a),
                 alpha: mat(&self.alpha),
                 z: mat(&self.z),
@@ -333,6 +340,10 @@ impl Symbolic {
                     da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
                     dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
                     dalpha: (0..model.ell()).map(|k| mat(&self.alpha.diff(k))).collect(),
+                    dependent: dependent_rows(&self.dependence, model.ell()).map(|m| mat(&m)),
+                    ddependent: dependent_rows(&self.dependence, model.ell())
+                        .map(|m| (0..model.ell()).map(|k| mat(&m.diff(k))).collect())
+                        .unwrap_or_default(),
                     eta_rhs: Vec::new(),
                     eta_dot: None,
                     blocks: None,
@@ -527,6 +538,8 @@ pub struct StructuredSymbolic {
     pub why: Why,
     /// Where [Z; α] is certainly nonsingular.
     pub certificate: Certificate,
+    /// The model's dropped rows, each a combination of α's rows.
+    pub dependence: Vec<Dependence>,
     model: Model,
     choice: QuasiVelocityChoice,
 }
@@ -541,12 +554,18 @@ impl StructuredSymbolic {
         let ell = model.ell();
         let trees = model_trees(model, choice);
         let d = |m: &Mat, k: usize| m.map_entries(|e| tree_diff(e, &model.coordinates[k]));
+        let dependent = dependent_trees(model);
         let ingredients = Ingredients {
             potential: Some(entry(&self.u)),
             applied: None,
             da: (0..ell).map(|k| d(&trees.a, k)).collect(),
             dz: (0..ell).map(|k| d(&trees.z, k)).collect(),
             dalpha: (0..ell).map(|k| d(&trees.alpha, k)).collect(),
+            ddependent: match &dependent {
+                Some(m) => (0..ell).map(|k| d(m, k)).collect(),
+                None => Vec::new(),
+            },
+            dependent,
             trees: Some(trees),
             eta_rhs: Vec::new(),
             eta_dot: None,
@@ -557,6 +576,8 @@ impl StructuredSymbolic {
             model,
             choice,
             Computed {
+                dependence: &self.dependence,
+                rank_loss: &[],
                 grad_u: (0..ell)
                     .map(|k| tree_diff(&u, &model.coordinates[k]))
                     .collect(),
@@ -574,6 +595,40 @@ impl StructuredSymbolic {
     }
 }
 
+/// The dependent rows' entries as a matrix (None without them).
+fn dependent_rows(dependence: &[Dependence], ell: usize) -> Option<Matrix> {
+    (!dependence.is_empty())
+        .then(|| Matrix::from_fn(dependence.len(), ell, |i, j| dependence[i].row[j].clone()))
+}
+
+/// The model's dependent rows as trees: the coefficients of the velocities in the rows as
+/// written (None without them).
+fn dependent_trees(model: &Model) -> Option<Mat> {
+    (!model.dependent.is_empty()).then(|| {
+        velocity_rows(
+            &model.coordinates,
+            &mut model.dependent.iter().map(|d| &d.item.expr),
+        )
+    })
+}
+
+/// Rows linear in the velocities as the matrix of their coefficients (one column per
+/// coordinate), on the rows' trees.
+fn velocity_rows(coords: &[String], items: &mut dyn Iterator<Item = &Expr>) -> Mat {
+    let entries: Vec<Vec<Entry>> = items
+        .map(|e| {
+            (coords.iter())
+                .map(|q| Entry::of(e.velocity_coefficient(q)))
+                .collect()
+        })
+        .collect();
+    Mat {
+        rows: entries.len(),
+        cols: coords.len(),
+        entries,
+    }
+}
+
 /// The model's own trees of the ingredients ([`Trees`]): A as written (a model of bodies gives
 /// it entry by entry, built frame by frame) or the second velocity derivatives of T's tree; α
 /// and Z the velocity coefficients of the rows as written; U and ∇U on U's tree. The canonical
@@ -586,18 +641,7 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
         cols: coords.len(),
         entries,
     };
-    let rows = |items: &mut dyn Iterator<Item = &Expr>| {
-        matrix(
-            items
-                .map(|e| {
-                    coords
-                        .iter()
-                        .map(|q| Entry::of(e.velocity_coefficient(q)))
-                        .collect()
-                })
-                .collect(),
-        )
-    };
+    let rows = |items: &mut dyn Iterator<Item = &Expr>| velocity_rows(coords, items);
     let a = match &model.kinetic {
         Kinetic::MassMatrix(m) => m
             .iter()
@@ -632,7 +676,9 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
 }
 
 /// What a derivation adds to the model's and the choice's own data.
-struct Computed {
+struct Computed<'d> {
+    dependence: &'d [Dependence],
+    rank_loss: &'d [(Ex, u32)],
     a: Mat,
     alpha: Mat,
     z: Mat,
@@ -670,6 +716,21 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
         z: parts.z,
         grad_u: parts.grad_u,
         forces: parts.forces,
+        constraints: model.constraints.iter().map(|(n, _)| n.clone()).collect(),
+        dependent_rows: {
+            let kept: Vec<String> = model.constraints.iter().map(|(n, _)| n.clone()).collect();
+            parts
+                .dependence
+                .iter()
+                .map(|d| crate::dependence::plain(d, &kept))
+                .collect()
+        },
+        kept_rank_loss: (parts.rank_loss.iter())
+            .map(|(f, m)| crate::derivation::Power {
+                factor: entry(f),
+                power: *m,
+            })
+            .collect(),
         holonomic: model
             .holonomic
             .iter()
@@ -706,6 +767,7 @@ struct Begun {
     a: Matrix,
     alpha: Matrix,
     z: Matrix,
+    dependence: Vec<Dependence>,
     stage: Stage,
 }
 
@@ -715,12 +777,14 @@ fn begin(model: &Model, choice: &str) -> Result<Begun, ModelError> {
     let stage = Stage::start(&model.name, "A, α and Z in canonical form, rank of α");
     let f = field(&ctx, &choice)?;
     let (a, alpha, z) = ctx.matrices(&f, &choice)?;
+    let dependence = ctx.dependences(&f, &alpha)?;
     Ok(Begun {
         choice,
         f,
         a,
         alpha,
         z,
+        dependence,
         stage,
     })
 }
@@ -816,6 +880,7 @@ fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> 
         forces,
         why,
         certificate,
+        dependence: b.dependence,
         model: model.clone(),
         choice: b.choice,
     })))
@@ -846,6 +911,7 @@ fn closed(
         a,
         alpha,
         z,
+        dependence,
         mut stage,
     } = b;
     let (gamma, theta, delta) = inverse;
@@ -884,6 +950,7 @@ fn closed(
             a,
             alpha,
             z,
+            dependence,
             stage,
         };
         return Ok(Err((b, terms)));
@@ -913,6 +980,7 @@ fn closed(
     let energy = quadratic_form(&ev.dens, &ev.eta, &a_gamma)
         .mul(&o.half)
         .sub(&u_o);
+    let rank_loss = crate::dependence::rank_loss(&dependence, &delta);
     Ok(Ok(Symbolic {
         field: f.clone(),
         dens: o.dens.clone(),
@@ -939,6 +1007,8 @@ fn closed(
         q_eta_paper: ev.q_eta_paper,
         energy,
         checks,
+        rank_loss,
+        dependence,
         model: model.clone(),
         choice,
     }))
@@ -958,6 +1028,7 @@ fn field(ctx: &Ctx, choice: &QuasiVelocityChoice) -> Result<Field, ModelError> {
     }
     expressions.push(model.potential.expr.clone());
     expressions.extend(model.constraints.iter().map(|(_, c)| c.expr.clone()));
+    expressions.extend(model.dependent.iter().map(|d| d.item.expr.clone()));
     expressions.extend(choice.eta.iter().map(|e| e.expr.clone()));
     expressions.extend(
         model
@@ -1045,6 +1116,24 @@ impl Ctx<'_> {
         }
         let z = Matrix::from_fn(sigma, ell, |i, j| z_rows[i][j].clone());
         Ok((a, alpha, z))
+    }
+
+    /// The exact dependence of each of the model's dropped rows on the kept rows `alpha`
+    /// ([`crate::dependence`]).
+    fn dependences(&self, f: &Field, alpha: &Matrix) -> Result<Vec<Dependence>, ModelError> {
+        let model = self.model;
+        model
+            .dependent
+            .iter()
+            .map(|d| {
+                let c = f
+                    .convert(&d.item.expr)
+                    .map_err(|e| self.cas(Some(&d.item.site), e))?;
+                let what = format!("constraint `{}`", d.name);
+                let row = self.linear_row(f, &c, &d.item.site, &what)?;
+                crate::dependence::dependence(model, alpha, d, row, f)
+            })
+            .collect()
     }
 
     /// Whether α is certified of full rank at some point ([`crate::certify`]): a proof, so the

@@ -144,6 +144,10 @@ pub fn serialize_precision<Ser: serde::Serializer>(
     s.serialize_str(p.name())
 }
 
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
 /// [`Compiled`] as plain data, for files (`hamel linearize --export`).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct CompiledData {
@@ -151,12 +155,29 @@ pub struct CompiledData {
     pub tape: hamel_expr::TapeData,
     /// ℓ, μ, σ.
     pub sizes: [usize; 3],
+    /// The rows of α that depend on the others (`hamel_runtime::Dims::dependent`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub dependent: usize,
+    /// Where α's kept rows lose rank: the factors and their powers in δ ([`RankLoss`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rank_loss: Option<(hamel_expr::TapeData, Vec<i32>)>,
     /// Coordinate names.
     pub coordinates: Vec<String>,
     /// Parameters with their defaults.
     pub parameters: IndexMap<String, f64>,
     /// The singular set, as text.
     pub singular: String,
+}
+
+/// The factors f_i(q) of δ = det[Z; α] (α's kept rows) at which those rows lose rank, with
+/// their powers m_i in δ, as a tape of the coordinates and parameters: δ / Π f_i^m_i vanishes
+/// only on the singular set of [Z; α] with every row, so its sign is what a path watches.
+#[derive(Clone, Debug)]
+pub struct RankLoss {
+    /// The factors (outputs), of the coordinates and parameters (inputs, as the ingredients').
+    pub tape: Tape,
+    /// Their powers in δ.
+    pub powers: Vec<i32>,
 }
 
 /// A derivation's ingredients compiled for structured numeric evaluation.
@@ -167,6 +188,7 @@ pub struct Compiled {
     coordinates: Vec<String>,
     parameters: IndexMap<String, f64>,
     singular: String,
+    rank_loss: Option<RankLoss>,
 }
 
 impl Compiled {
@@ -193,15 +215,35 @@ impl Compiled {
             coordinates,
             parameters,
             singular,
+            rank_loss: None,
         })
+    }
+
+    /// With the factors at which α's kept rows lose rank ([`RankLoss`]); their tape must take
+    /// the ingredients' inputs.
+    pub fn with_rank_loss(mut self, rank_loss: RankLoss) -> Result<Compiled, NumericError> {
+        if rank_loss.tape.inputs() != self.tape.inputs()
+            || rank_loss.tape.outputs().len() != rank_loss.powers.len()
+        {
+            return Err(NumericError::Sizes);
+        }
+        self.rank_loss = Some(rank_loss);
+        Ok(self)
     }
 
     /// The compiled ingredients as data.
     pub fn to_data(&self) -> CompiledData {
-        let Dims { ell, mu, sigma } = self.dims;
+        let Dims {
+            ell,
+            mu,
+            sigma,
+            dependent,
+        } = self.dims;
         CompiledData {
             tape: self.tape.to_data(),
             sizes: [ell, mu, sigma],
+            dependent,
+            rank_loss: (self.rank_loss.as_ref()).map(|r| (r.tape.to_data(), r.powers.clone())),
             coordinates: self.coordinates.clone(),
             parameters: self.parameters.clone(),
             singular: self.singular.clone(),
@@ -213,13 +255,29 @@ impl Compiled {
     pub fn from_data(d: CompiledData) -> Result<Compiled, NumericError> {
         let [ell, mu, sigma] = d.sizes;
         let tape = Tape::from_data(d.tape)?;
-        Compiled::new(
+        let rank_loss = match d.rank_loss {
+            Some((t, powers)) => Some(RankLoss {
+                tape: Tape::from_data(t)?,
+                powers,
+            }),
+            None => None,
+        };
+        let compiled = Compiled::new(
             tape,
-            Dims { ell, mu, sigma },
+            Dims {
+                ell,
+                mu,
+                sigma,
+                dependent: d.dependent,
+            },
             d.coordinates,
             d.parameters,
             d.singular,
-        )
+        )?;
+        match rank_loss {
+            Some(r) => compiled.with_rank_loss(r),
+            None => Ok(compiled),
+        }
     }
 
     /// Number of arithmetic operations of the compiled ingredients.
@@ -274,9 +332,40 @@ impl Compiled {
         Ok(self.assemble(&out, eta)?.0)
     }
 
-    /// [Z; α] at q, row-major, from the ingredients.
-    fn m_values<S: Scalar>(&self, out: &[S]) -> Vec<S> {
-        out[Layout::new(self.dims).m(self.dims)].to_vec()
+    /// The rows of [Z; α] the structured evaluation uses at these ingredients
+    /// (`hamel_runtime::select_rows`), in their order: 0..ℓ without dependent rows, or where
+    /// the kept ones are well conditioned.
+    fn selected<S: Scalar>(&self, out: &[S]) -> Vec<usize> {
+        let d = self.dims;
+        let l = d.ell;
+        if d.dependent == 0 {
+            return (0..l).collect();
+        }
+        let all = &out[Layout::new(d).m(d)];
+        let mut factors = all.to_vec();
+        let mut perm = vec![0; d.m_rows()];
+        if !hamel_runtime::select_rows(d, all, &mut factors, &mut perm, Pivot::Exact) {
+            return (0..l).collect();
+        }
+        let mut rows = perm[..l].to_vec();
+        rows.sort_unstable();
+        rows
+    }
+
+    /// The rows `rows` of [Z; α] (ℓ×ℓ, row-major) from the ingredients.
+    fn m_values<S: Scalar>(&self, out: &[S], rows: &[usize]) -> Vec<S> {
+        let d = self.dims;
+        let l = d.ell;
+        let all = &out[Layout::new(d).m(d)];
+        rows.iter()
+            .flat_map(|&r| all[r * l..(r + 1) * l].iter().copied())
+            .collect()
+    }
+
+    /// [Z; α] with α's kept rows (ℓ×ℓ, row-major): Z's σ rows, then α's μ.
+    fn kept_values<S: Scalar>(&self, out: &[S]) -> Vec<S> {
+        let l = self.dims.ell;
+        out[Layout::new(self.dims).m(self.dims)][..l * l].to_vec()
     }
 
     /// The ingredients at q (the tape's outputs, in the order of [`Layout`]): they depend on q
@@ -299,25 +388,25 @@ impl Compiled {
         Ok(self.assemble(ingredients, eta)?.0)
     }
 
-    /// [Z; α] as rows (Z's σ rows, then α's μ) from ingredients of
+    /// [Z; α] as rows (Z's σ rows, then α's μ kept rows) from ingredients of
     /// [`Compiled::ingredients_at`].
     pub fn map_from<S: Scalar>(&self, ingredients: &[S]) -> Vec<Vec<S>> {
         let l = self.dims.ell;
-        self.m_values(ingredients)
+        self.kept_values(ingredients)
             .chunks(l)
             .map(<[S]>::to_vec)
             .collect()
     }
 
-    /// [Z; α] at q in any scalar type, as rows (Z's σ rows, then α's μ), from the compiled
-    /// ingredients (no expression trees are walked).
+    /// [Z; α] at q in any scalar type, as rows (Z's σ rows, then α's μ kept rows), from the
+    /// compiled ingredients (no expression trees are walked).
     pub fn quasi_velocity_map<S: Scalar>(
         &self,
         q: &[S],
         params: &IndexMap<String, f64>,
     ) -> Result<Vec<Vec<S>>, NumericError> {
         let l = self.dims.ell;
-        let m = self.m_values(&self.ingredients(q, params)?);
+        let m = self.kept_values(&self.ingredients(q, params)?);
         Ok(m.chunks(l).map(<[S]>::to_vec).collect())
     }
 
@@ -329,12 +418,18 @@ impl Compiled {
         params: &IndexMap<String, f64>,
     ) -> Result<Vec<Vec<S>>, NumericError> {
         let (l, g) = (self.dims.ell, self.dims.sigma);
-        let m = self.m_values(&self.ingredients(q, params)?);
+        let out = self.ingredients(q, params)?;
+        let rows = self.selected(&out);
+        let m = self.m_values(&out, &rows);
         let factors = hamel_runtime::Lu::from_row_major(l, m, Pivot::Exact)
             .ok_or_else(|| self.singular_error("det[Z; α] = 0"))?;
+        // [Z; α]Γ = [I; 0] on the rows used: η_s's row of Z gets e_s, α's rows 0.
         let columns: Vec<Vec<S>> = (0..g)
             .map(|s| {
-                let e: Vec<S> = (0..l).map(|i| S::constant(f64::from(i == s))).collect();
+                let e: Vec<S> = rows
+                    .iter()
+                    .map(|&r| S::constant(f64::from(r == s)))
+                    .collect();
                 factors.solve(&e)
             })
             .collect();
@@ -357,14 +452,57 @@ impl Compiled {
         params: &IndexMap<String, f64>,
     ) -> Result<DMatrix<f64>, NumericError> {
         let l = self.dims.ell;
-        let m = self.m_values(&self.ingredients(q, params)?);
-        Ok(DMatrix::from_row_slice(l, l, &m))
+        let out = self.ingredients(q, params)?;
+        Ok(DMatrix::from_row_slice(
+            l,
+            l,
+            &self.m_values(&out, &self.selected(&out)),
+        ))
     }
 
     /// δ = det[Z; α] at q, as [`Compiled::evaluate`] reports it, without the right-hand side
-    /// (what watching the singular set along a path needs).
+    /// (what watching the singular set along a path needs: it changes sign where a path
+    /// crosses it). With dependent rows, δ of the kept rows over the factors at which they lose
+    /// rank ([`RankLoss`]), which changes sign on the singular set of [Z; α] with every row
+    /// only; without those factors (a structured derivation), |det| of the rows used, which
+    /// never changes sign (the watch then rests on the condition number alone).
     pub fn delta(&self, q: &[f64], params: &IndexMap<String, f64>) -> Result<f64, NumericError> {
-        Ok(self.m_matrix(q, params)?.determinant())
+        let out = self.ingredients(q, params)?;
+        Ok(self.delta_from(&out, q, params))
+    }
+
+    fn delta_from(&self, out: &[f64], q: &[f64], params: &IndexMap<String, f64>) -> f64 {
+        let d = self.dims;
+        let l = d.ell;
+        if d.dependent == 0 {
+            return DMatrix::from_row_slice(l, l, &self.kept_values(out)).determinant();
+        }
+        let Some(r) = &self.rank_loss else {
+            return DMatrix::from_row_slice(l, l, &self.m_values(out, &self.selected(out)))
+                .determinant()
+                .abs();
+        };
+        let kept = &out[Layout::new(d).m(d)][..l * l];
+        let det = DMatrix::from_row_slice(l, l, kept).determinant();
+        let mut inputs: Vec<f64> = q.to_vec();
+        inputs.extend(
+            self.parameters
+                .iter()
+                .map(|(k, v)| params.get(k).copied().unwrap_or(*v)),
+        );
+        let Ok(factors) = r.tape.eval(&inputs) else {
+            return det;
+        };
+        let divisor: f64 = factors
+            .iter()
+            .zip(&r.powers)
+            .map(|(f, &m)| f.powi(m))
+            .product();
+        if divisor != 0.0 && divisor.is_finite() {
+            det / divisor
+        } else {
+            det
+        }
     }
 
     /// Condition number of [Z; α] at q (∞ when singular).
@@ -427,8 +565,10 @@ impl Compiled {
         params: &IndexMap<String, f64>,
     ) -> Result<Evaluation, NumericError> {
         self.check_state(q, eta)?;
-        let m = self.m_matrix(q, params)?;
-        let (condition, delta) = (condition_number(&m), m.determinant());
+        let out = self.ingredients(q, params)?;
+        let l = self.dims.ell;
+        let m = DMatrix::from_row_slice(l, l, &self.m_values(&out, &self.selected(&out)));
+        let (condition, delta) = (condition_number(&m), self.delta_from(&out, q, params));
         if condition > 1e12 {
             return Err(
                 self.singular_error(&format!("det[Z; α] ≈ 0 (condition number {condition:.3e})"))

@@ -21,7 +21,9 @@
 mod compiled;
 mod symbolic;
 
-pub use compiled::{Compiled, CompiledData, Evaluation, NumericError, serialize_precision};
+pub use compiled::{
+    Compiled, CompiledData, Evaluation, NumericError, RankLoss, serialize_precision,
+};
 pub use hamel_runtime::DOUBLE_DOUBLE_ABOVE;
 pub use hamel_runtime::{Precision, Rhs};
 pub use symbolic::{SymbolicCompiled, SymbolicLayout};

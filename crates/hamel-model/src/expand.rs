@@ -81,6 +81,28 @@ impl Model {
         for n in &self.notes {
             h += &format!("# note: {n}\n");
         }
+        if !self.dependent.is_empty() {
+            h += &format!(
+                "# note: the {} rows of α have rank {}; hamel keeps the others and drops the rows that depend on them:\n",
+                self.mu() + self.dependent.len(),
+                self.mu()
+            );
+        }
+        for d in &self.dependent {
+            let on: Vec<&str> =
+                d.on.iter()
+                    .map(|&j| self.constraints[j].0.as_str())
+                    .collect();
+            h += &format!(
+                "#   {} depends on {} (at sample configurations; `hamel derive` writes the exact dependence)\n",
+                d.name,
+                if on.is_empty() {
+                    "nothing: it is zero".to_string()
+                } else {
+                    on.join(", ")
+                }
+            );
+        }
         h
     }
 
@@ -118,12 +140,13 @@ impl Model {
         t
     }
 
-    /// The rows of α that are not the velocity rows of holonomic constraints.
+    /// The rows of α that are not the velocity rows of holonomic constraints, the dependent
+    /// ones among them in the model's order.
     fn row_table(&self) -> Table {
         let mut t = Table::new();
-        for (name, item) in &self.constraints {
-            if !self.holonomic.iter().any(|h| h.name == *name) {
-                t[name.as_str()] = value(item.expr.to_string());
+        for (name, item, _) in self.all_rows() {
+            if !self.holonomic.iter().any(|h| h.name == name) {
+                t[name] = value(item.expr.to_string());
             }
         }
         t

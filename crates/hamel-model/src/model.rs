@@ -79,7 +79,12 @@ pub struct Model {
     pub inputs: Vec<String>,
     /// Constraints, rows of α: from the bodies (wheels, blades), then `[constraints]` in file
     /// order, then dh/dt = 0 for each holonomic constraint.
+    /// The kept rows only: a maximal set independent at generic configurations, the first in
+    /// the model's order (`rank`); σ = ℓ − μ with μ their number.
     pub constraints: Vec<(String, Item)>,
+    /// The rows of α that depend on the kept ones (two wheels on one axle), dropped from
+    /// `constraints`; their exact dependence is decided by the derivation.
+    pub dependent: Vec<crate::DependentRow>,
     /// Holonomic constraints h(q) = 0 with their dependent coordinates (their velocity rows are
     /// among `constraints`).
     pub holonomic: Vec<HolonomicConstraint>,
@@ -177,17 +182,12 @@ impl Model {
         symmetries.extend(crate::symmetry::declared(&raw.symmetries, &mut loader)?);
         let mut constraints = dynamics.rows;
         constraints.extend(constraints_of(&raw, &mut loader)?);
-        check_count(&raw, coordinates.len(), constraints.len(), &err)?;
-        let mut choices = choices_of(&raw, &mut loader, constraints.len(), &err)?;
         let steady = crate::steady::steady_of(&raw.steady, &loader)?;
         let abbreviations = abbreviations_of(&raw, &mut loader)?;
         let positive = positive_of(&raw, &loader, &parameters)?;
-        if constraints.is_empty() && !choices.iter().any(|c| c.name == "identity") {
-            choices.push(identity_choice(&coordinates));
-        }
         let mut model = Model {
             file: file.to_string(),
-            source,
+            source: source.clone(),
             name: raw.name.get_ref().clone(),
             title: raw.title.get_ref().clone(),
             description: raw.description.clone(),
@@ -199,6 +199,7 @@ impl Model {
             forces,
             inputs: raw.inputs.keys().cloned().collect(),
             constraints,
+            dependent: Vec::new(),
             holonomic: dynamics.holonomic,
             completion: dynamics.completion,
             origin: dynamics.origin,
@@ -207,8 +208,14 @@ impl Model {
             notes: dynamics.notes,
             symmetries,
             steady,
-            choices,
+            choices: Vec::new(),
         };
+        model.split_dependent_rows()?;
+        check_count(&raw, &model, &err)?;
+        model.choices = choices_of(&raw, &mut loader, &model, &err)?;
+        if model.constraints.is_empty() && !model.choices.iter().any(|c| c.name == "identity") {
+            model.choices.push(identity_choice(&model.coordinates));
+        }
         model.check_mass_matrix_numerically()?;
         if model.choices.is_empty() {
             let default = model.independent_velocities()?;
@@ -617,8 +624,9 @@ fn constraints_of(raw: &RawModel, loader: &mut Loader) -> Result<Vec<(String, It
     Ok(constraints)
 }
 
-/// Fewer constraints than coordinates (ℓ > μ).
-fn check_count(raw: &RawModel, ell: usize, mu: usize, err: &ErrorAt) -> Result<(), ModelError> {
+/// Fewer independent constraints than coordinates (ℓ > μ = rank α).
+fn check_count(raw: &RawModel, model: &Model, err: &ErrorAt) -> Result<(), ModelError> {
+    let (ell, mu) = (model.ell(), model.mu());
     if mu < ell {
         return Ok(());
     }
@@ -631,7 +639,12 @@ fn check_count(raw: &RawModel, ell: usize, mu: usize, err: &ErrorAt) -> Result<(
         span,
         "constraints",
         format!(
-            "there are {mu} constraints for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)"
+            "there are {} for {ell} coordinates: need fewer constraints than coordinates (ℓ > μ)",
+            if model.dependent.is_empty() {
+                format!("{mu} constraints")
+            } else {
+                format!("{} constraints of rank {mu}", mu + model.dependent.len())
+            }
         ),
     ))
 }
@@ -640,11 +653,18 @@ fn check_count(raw: &RawModel, ell: usize, mu: usize, err: &ErrorAt) -> Result<(
 fn choices_of(
     raw: &RawModel,
     loader: &mut Loader,
-    mu: usize,
+    model: &Model,
     err: &ErrorAt,
 ) -> Result<Vec<QuasiVelocityChoice>, ModelError> {
-    let ell = loader.coordinates.len();
+    let (ell, mu) = (model.ell(), model.mu());
     let sigma = ell - mu;
+    let dropped = match model.dependent.len() {
+        0 => String::new(),
+        n => format!(
+            " (μ = rank α: {} rows, {n} of them dependent on the others)",
+            mu + n
+        ),
+    };
     let mut choices = Vec::new();
     for (name, choice) in &raw.quasi_velocities {
         let RawChoice { eta, description } = choice.get_ref();
@@ -661,7 +681,7 @@ fn choices_of(
                 eta.span(),
                 &format!("{key}.eta"),
                 format!(
-                    "wrong number of quasi-velocities: need ℓ − μ = {ell} − {mu} = {sigma}, found {}",
+                    "wrong number of quasi-velocities: need ℓ − μ = {ell} − {mu} = {sigma}{dropped}, found {}",
                     eta.get_ref().len()
                 ),
             ));

@@ -36,6 +36,11 @@ impl<'m> NumericModel<'m> {
         Ok(NumericModel { model, params })
     }
 
+    /// The model it evaluates.
+    pub fn model(&self) -> &'m Model {
+        self.model
+    }
+
     /// The parameter values in use.
     pub fn params(&self) -> &IndexMap<String, f64> {
         &self.params
@@ -111,14 +116,27 @@ impl<'m> NumericModel<'m> {
         })
     }
 
-    /// α(q): α_mj is the coefficient of der(q_j) in constraint m.
+    /// α(q): α_mj is the coefficient of der(q_j) in constraint m (the kept rows, μ of them).
     pub fn constraint_matrix<S: Scalar>(&self, q: &[S]) -> Result<Vec<Vec<S>>, EvalError> {
+        self.rows_at(self.model.constraints.iter().map(|(_, c)| c), q)
+    }
+
+    /// Every row of the model's constraints at q, the dependent ones among the kept ones in
+    /// the model's order ([`Model::all_rows`]): μ + (dropped rows) rows of rank μ.
+    pub fn all_constraint_rows<S: Scalar>(&self, q: &[S]) -> Result<Vec<Vec<S>>, EvalError> {
+        let rows = self.model.all_rows();
+        self.rows_at(rows.iter().map(|(_, c, _)| *c), q)
+    }
+
+    fn rows_at<'i, S: Scalar>(
+        &self,
+        items: impl Iterator<Item = &'i crate::loader::Item>,
+        q: &[S],
+    ) -> Result<Vec<Vec<S>>, EvalError> {
         let ell = self.model.ell();
         let zero = vec![S::constant(0.0); ell];
-        self.model
-            .constraints
-            .iter()
-            .map(|(_, c)| {
+        items
+            .map(|c| {
                 let at0 = self.eval(&c.expr, q, Some(&zero))?;
                 (0..ell)
                     .map(|j| {
@@ -176,16 +194,21 @@ impl<'m> NumericModel<'m> {
     }
 }
 
-/// `n` deterministic pseudo-random configurations in [−3, 3]^ℓ (a fixed-seed xorshift, so that
-/// checks are reproducible).
-pub fn sample_configurations(ell: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
+/// A fixed-seed xorshift: numbers uniform in [0, 1), the same sequence for the same seed.
+pub(crate) fn uniform(seed: u64) -> impl FnMut() -> f64 {
     let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    let mut next = move || {
+    move || {
         state ^= state << 13;
         state ^= state >> 7;
         state ^= state << 17;
         (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    }
+}
+
+/// `n` deterministic pseudo-random configurations in [−3, 3]^ℓ (a fixed-seed xorshift, so that
+/// checks are reproducible).
+pub fn sample_configurations(ell: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut next = uniform(seed);
     (0..n)
         .map(|_| (0..ell).map(|_| 6.0 * next() - 3.0).collect())
         .collect()

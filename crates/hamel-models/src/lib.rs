@@ -31,6 +31,12 @@ pub mod bar_wheels__search_ansatz;
 #[path = "../../../generated/chaplygin_sleigh__paper_style/src/model.rs"]
 pub mod chaplygin_sleigh__paper_style;
 #[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/diff_drive__wheels/src/model.rs"]
+pub mod diff_drive__wheels;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/diff_drive__body/src/model.rs"]
+pub mod diff_drive__body;
+#[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/knife__paper/src/model.rs"]
 pub mod knife__paper;
 #[rustfmt::skip] // generated text, compared with a fresh generation
@@ -42,6 +48,12 @@ pub mod rolling_disk__momenta;
 #[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/rolling_disk__velocities/src/model.rs"]
 pub mod rolling_disk__velocities;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/segway__wheels/src/model.rs"]
+pub mod segway__wheels;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/segway__body/src/model.rs"]
+pub mod segway__body;
 #[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/snakeboard__velocities/src/model.rs"]
 pub mod snakeboard__velocities;
@@ -159,10 +171,14 @@ pub const MODELS: &[Core] = &[
     core!(bar_wheels__a_orthogonal, "bar_wheels", "a_orthogonal"),
     core!(bar_wheels__search_ansatz, "bar_wheels", "search_ansatz"),
     core!(chaplygin_sleigh__paper_style, "chaplygin_sleigh", "paper_style"),
+    core!(diff_drive__wheels, "diff_drive", "wheels"),
+    core!(diff_drive__body, "diff_drive", "body"),
     core!(knife__paper, "knife", "paper"),
     core!(remark22__paper, "remark22", "paper"),
     core!(rolling_disk__momenta, "rolling_disk", "momenta"),
     core!(rolling_disk__velocities, "rolling_disk", "velocities"),
+    core!(segway__wheels, "segway", "wheels"),
+    core!(segway__body, "segway", "body"),
     core!(snakeboard__velocities, "snakeboard", "velocities"),
     core!(unicycle_rider__momenta, "unicycle_rider", "momenta"),
     core!(unicycle_rider__velocities, "unicycle_rider", "velocities"),

@@ -15,6 +15,11 @@
 //! [`Scalar`]: f64, or double-double ([`hamel_expr::DD`]) when the reference must be far more
 //! accurate than what it checks.
 //!
+//! Every row of the model's constraints enters, the rows hamel drops as dependent on the
+//! others included (two wheels on one axle): α is then rank-deficient, the multipliers are not
+//! unique, and the system is solved by complete pivoting to its known rank ℓ + rank α (the
+//! model's μ), the free multipliers set to zero; q̈ is unique all the same.
+//!
 //! **Inputs**: a [`hamel_model::NumericModel`] and a state (q, q̇) with α(q)q̇ = 0.
 //! **Outputs**: q̈ and the multipliers λ; projection of velocities onto the constraints
 //! (Euclidean, or in the kinetic metric for initial conditions given as q̇).
@@ -29,7 +34,8 @@ use nalgebra::{DMatrix, DVector};
 pub struct Accelerations<S = f64> {
     /// q̈.
     pub q_ddot: Vec<S>,
-    /// Constraint forces' multipliers λ (one per constraint).
+    /// Constraint forces' multipliers λ (one per row of the model, dependent rows included:
+    /// not unique when there are such rows).
     pub lambda: Vec<S>,
 }
 
@@ -72,11 +78,11 @@ pub fn accelerations<S: Scalar>(
     let ell = q.len();
     let zero = || S::constant(0.0);
     let a = nm.mass_matrix::<S>(q)?;
-    let alpha = nm.constraint_matrix::<S>(q)?;
+    let alpha = nm.all_constraint_rows::<S>(q)?;
     let mu = alpha.len();
     // Ȧ and α̇ along q̇.
     let a_dot = nm.mass_matrix::<Dual<S>>(&duals(q, qd))?;
-    let alpha_dot = nm.constraint_matrix::<Dual<S>>(&duals(q, qd))?;
+    let alpha_dot = nm.all_constraint_rows::<Dual<S>>(&duals(q, qd))?;
     // ∇_q T = ½ q̇ᵀ (∂A/∂q_j) q̇ and ∇U, one direction at a time.
     let mut grad_t = Vec::with_capacity(ell);
     let mut grad_u = Vec::with_capacity(ell);
@@ -113,11 +119,71 @@ pub fn accelerations<S: Scalar>(
         }
         rhs[ell + r] = -s;
     }
-    let sol = solve(m, rhs).ok_or(OracleError::Singular)?;
+    let sol = solve_kkt(nm, m, rhs).ok_or(OracleError::Singular)?;
     Ok(Accelerations {
         q_ddot: sol[..ell].to_vec(),
         lambda: sol[ell..].to_vec(),
     })
+}
+
+/// [A αᵀ; α 0] x = rhs with every row of the model's α: LU when the rows are independent, else
+/// [`solve_to_rank`] to the known rank ℓ + μ.
+fn solve_kkt<S: Scalar>(nm: &NumericModel<'_>, m: Vec<Vec<S>>, rhs: Vec<S>) -> Option<Vec<S>> {
+    let rank = nm.model().ell() + nm.model().mu();
+    if rank == rhs.len() {
+        solve(m, rhs)
+    } else {
+        solve_to_rank(m, rhs, rank)
+    }
+}
+
+/// A consistent n×n system of known rank `rank` < n by Gaussian elimination with complete
+/// pivoting: `rank` pivots, the unknowns of the columns left without one set to zero. `None`
+/// when a pivot is zero before `rank` (the rank is lower than known).
+fn solve_to_rank<S: Scalar>(mut m: Vec<Vec<S>>, mut b: Vec<S>, rank: usize) -> Option<Vec<S>> {
+    let n = b.len();
+    let mut cols: Vec<usize> = (0..n).collect();
+    for k in 0..rank {
+        let (mut pr, mut pc, mut best) = (k, k, 0.0_f64);
+        for (r, row) in m.iter().enumerate().skip(k) {
+            for (c, x) in row.iter().enumerate().skip(k) {
+                if x.value().abs() > best {
+                    (pr, pc, best) = (r, c, x.value().abs());
+                }
+            }
+        }
+        if best == 0.0 || !best.is_finite() {
+            return None;
+        }
+        m.swap(k, pr);
+        b.swap(k, pr);
+        for row in m.iter_mut() {
+            row.swap(k, pc);
+        }
+        cols.swap(k, pc);
+        for r in k + 1..n {
+            let f = m[r][k] / m[k][k];
+            for c in k..n {
+                let x = m[k][c];
+                m[r][c] = m[r][c] - f * x;
+            }
+            let x = b[k];
+            b[r] = b[r] - f * x;
+        }
+    }
+    let mut y = vec![S::constant(0.0); n];
+    for k in (0..rank).rev() {
+        let mut s = b[k];
+        for c in k + 1..rank {
+            s = s - m[k][c] * y[c];
+        }
+        y[k] = s / m[k][k];
+    }
+    let mut x = vec![S::constant(0.0); n];
+    for (k, &c) in cols.iter().enumerate() {
+        x[c] = y[k];
+    }
+    Some(x)
 }
 
 /// Project a velocity onto the constraint manifold: q̇ − QQᵀq̇, with the columns of Q an
@@ -127,7 +193,14 @@ pub fn accelerations<S: Scalar>(
 /// the constraints are. The normal equations (q̇ − αᵀ(ααᵀ)⁻¹αq̇), used until issue 19's
 /// thousand random models, square α's condition number and left ‖αq̇‖ at 2e-6 for two nearly
 /// parallel knife edges (tests/models/random/velocity_check_near_singular.toml).
+///
+/// The kept rows of α span the constraints wherever they have full rank; a model with
+/// dependent rows is projected on all its rows instead, by the SVD truncated to its rank μ,
+/// so that the projection holds where the kept rows lose rank too.
 pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, OracleError> {
+    if !nm.model().dependent.is_empty() {
+        return project_all_rows(nm, q, v);
+    }
     let alpha = nm.constraint_matrix::<f64>(q)?;
     if alpha.is_empty() {
         return Ok(v.to_vec());
@@ -146,6 +219,24 @@ pub fn project(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, 
     Ok(out.iter().copied().collect())
 }
 
+fn project_all_rows(nm: &NumericModel<'_>, q: &[f64], v: &[f64]) -> Result<Vec<f64>, OracleError> {
+    let alpha = nm.all_constraint_rows::<f64>(q)?;
+    let ell = q.len();
+    let m = DMatrix::from_fn(alpha.len(), ell, |i, j| alpha[i][j]);
+    let svd = m.svd(false, true);
+    let vt = svd.v_t.ok_or(OracleError::CannotProject)?;
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+    let mut out = v.to_vec();
+    for &i in order.iter().take(nm.model().mu()) {
+        let dot: f64 = (0..ell).map(|j| vt[(i, j)] * v[j]).sum();
+        for j in 0..ell {
+            out[j] -= dot * vt[(i, j)];
+        }
+    }
+    Ok(out)
+}
+
 /// Relative size of a diagonal entry of R (in αᵀ = QR) below which the constraints are taken
 /// as dependent.
 const DEPENDENT: f64 = 1e-14;
@@ -159,7 +250,7 @@ pub fn project_kinetic(
     q: &[f64],
     v: &[f64],
 ) -> Result<Vec<f64>, OracleError> {
-    let alpha = nm.constraint_matrix::<f64>(q)?;
+    let alpha = nm.all_constraint_rows::<f64>(q)?;
     let a = nm.mass_matrix::<f64>(q)?;
     let (ell, mu) = (q.len(), alpha.len());
     let n = ell + mu;
@@ -177,7 +268,7 @@ pub fn project_kinetic(
             m[j][ell + r] = row[j];
         }
     }
-    let sol = solve(m, rhs).ok_or(OracleError::CannotProject)?;
+    let sol = solve_kkt(nm, m, rhs).ok_or(OracleError::CannotProject)?;
     Ok(sol[..ell].to_vec())
 }
 
@@ -187,7 +278,7 @@ pub fn constraint_residual(
     q: &[f64],
     qd: &[f64],
 ) -> Result<f64, OracleError> {
-    let alpha = nm.constraint_matrix::<f64>(q)?;
+    let alpha = nm.all_constraint_rows::<f64>(q)?;
     Ok(alpha
         .iter()
         .map(|row| row.iter().zip(qd).map(|(a, v)| a * v).sum::<f64>().abs())

@@ -69,8 +69,13 @@ pub(crate) fn blocks(d: &Derivation, p: &Printing) -> Vec<(Object, Block)> {
     let mut out = vec![
         (Object::A, mat_block(p, "A", &d.a)),
         (Object::Alpha, mat_block(p, "\\alpha", &d.alpha)),
-        (Object::Z, mat_block(p, "Z", &d.z)),
     ];
+    out.extend(
+        dependent_blocks(d, p)
+            .into_iter()
+            .map(|b| (Object::Alpha, b)),
+    );
+    out.push((Object::Z, mat_block(p, "Z", &d.z)));
     let Some(c) = d.closed() else {
         return out;
     };
@@ -102,6 +107,35 @@ pub(crate) fn blocks(d: &Derivation, p: &Printing) -> Vec<(Object, Block)> {
         rhs_zero: true,
     }));
     out
+}
+
+/// Each row dropped from α as the combination c_j of α's rows α_j it is (exact).
+fn dependent_blocks(d: &Derivation, p: &Printing) -> Vec<Block> {
+    d.dependent_rows
+        .iter()
+        .map(|r| {
+            let rows = r
+                .combination
+                .iter()
+                .map(|t| {
+                    let j = d.constraints.iter().position(|n| *n == t.row).map_or(0, |j| j + 1);
+                    (format!("c_{{{j}}}"), p.id(&t.coefficient))
+                })
+                .collect();
+            let names: Vec<String> = (d.constraints.iter().enumerate())
+                .map(|(i, n)| format!("$\\alpha_{{{}}}$ = \\texttt{{{}}}", i + 1, latex_text(n)))
+                .collect();
+            Block::Equations {
+                heading: format!(
+                    "the row \\texttt{{{}}}, dropped from $\\alpha$ as dependent: it is $\\sum_j c_j \\alpha_j$ exactly, with the rows {} and",
+                    latex_text(&r.name),
+                    names.join(", ")
+                ),
+                rows,
+                rhs_zero: false,
+            }
+        })
+        .collect()
 }
 
 fn mat_block(p: &Printing, symbol: &str, m: &Mat) -> Block {

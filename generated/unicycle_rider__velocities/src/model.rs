@@ -43,7 +43,7 @@ pub const MODEL: &str = "unicycle_rider";
 /// Quasi-velocity choice.
 pub const ETA: &str = "velocities";
 /// ℓ, μ, σ.
-pub const DIMS: Dims = Dims { ell: 6, mu: 2, sigma: 4 };
+pub const DIMS: Dims = Dims { ell: 6, mu: 2, sigma: 4, dependent: 0 };
 /// Where each ingredient sits in the output of [`ingredients`].
 pub const LAYOUT: Layout = Layout::new(DIMS);
 /// Number of ingredients.
@@ -1447,7 +1447,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     Ok(t98)
 }
 
-/// α(q), μ×ℓ row-major.
+/// α(q), ρ×ℓ row-major: its μ independent rows, then the model's rows that depend on them.
 fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let _ = (q, p, &out);
     let t0 = S::constant(1.0);
@@ -1475,9 +1475,9 @@ fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    let mut a = [0.0; DIMS.rho() * DIMS.ell];
     alpha(q, p, &mut a);
-    (0..DIMS.mu)
+    (0..DIMS.rho())
         .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
 }
@@ -1508,7 +1508,7 @@ fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -
 /// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
 #[inline]
 pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    let mut r = [0.0; DIMS.mu];
+    let mut r = [0.0; DIMS.rho()];
     residual_from(q, eta, p, &mut r)?;
     Ok(r.iter().fold(0.0, |m, &x| runtime::max_abs(m, x)))
 }
@@ -1535,7 +1535,7 @@ pub fn residual_max_many(rows: &[f64], p: &Parameters, out: &mut [Option<f64>]) 
     impl runtime::LaneFn for Monitor<'_> {
         #[inline(always)]
         fn at(&self, x: &[runtime::Lanes]) -> Result<runtime::Lanes, EvalError> {
-            let mut r = [runtime::Lanes::default(); DIMS.mu];
+            let mut r = [runtime::Lanes::default(); DIMS.rho()];
             residual_from(&x[..DIMS.ell], &x[DIMS.ell..], self.0, &mut r)?;
             Ok(runtime::abs_max(&r))
         }

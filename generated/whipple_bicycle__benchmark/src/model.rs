@@ -42,7 +42,7 @@ pub const MODEL: &str = "whipple_bicycle";
 /// Quasi-velocity choice.
 pub const ETA: &str = "benchmark";
 /// ℓ, μ, σ.
-pub const DIMS: Dims = Dims { ell: 8, mu: 5, sigma: 3 };
+pub const DIMS: Dims = Dims { ell: 8, mu: 5, sigma: 3, dependent: 0 };
 /// Where each ingredient sits in the output of [`ingredients`].
 pub const LAYOUT: Layout = Layout::new(DIMS);
 /// Number of ingredients.
@@ -4294,7 +4294,7 @@ fn energy_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<S, EvalE
     Ok(structured_unchecked(q, eta, p, false)?.energy)
 }
 
-/// α(q), μ×ℓ row-major.
+/// α(q), ρ×ℓ row-major: its μ independent rows, then the model's rows that depend on them.
 fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let _ = (q, p, &out);
     let t0 = q[2];
@@ -4586,9 +4586,9 @@ fn alpha<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
 
 /// The constraint residual α(q)q̇.
 pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64> {
-    let mut a = [0.0; DIMS.mu * DIMS.ell];
+    let mut a = [0.0; DIMS.rho() * DIMS.ell];
     alpha(q, p, &mut a);
-    (0..DIMS.mu)
+    (0..DIMS.rho())
         .map(|m| (0..DIMS.ell).map(|j| a[m * DIMS.ell + j] * q_dot[j]).sum())
         .collect()
 }
@@ -4597,9 +4597,9 @@ pub fn constraint_residual(q: &[f64], q_dot: &[f64], p: &Parameters) -> Vec<f64>
 #[inline(always)]
 fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -> Result<(), EvalError> {
     let r = structured_unchecked(q, eta, p, false)?;
-    let mut a = [S::constant(0.0); DIMS.mu * DIMS.ell];
+    let mut a = [S::constant(0.0); DIMS.rho() * DIMS.ell];
     alpha(q, p, &mut a);
-    for m in 0..DIMS.mu {
+    for m in 0..DIMS.rho() {
         out[m] = (0..DIMS.ell).fold(S::constant(0.0), |acc, j| acc + a[m * DIMS.ell + j] * r.q_dot[j]);
     }
     Ok(())
@@ -4608,7 +4608,7 @@ fn residual_from<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, out: &mut [S]) -
 /// ‖α(q)Γ(q)η‖∞ at (q, η), without allocating: what a simulation monitors at every output.
 #[inline]
 pub fn residual_max(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
-    let mut r = [0.0; DIMS.mu];
+    let mut r = [0.0; DIMS.rho()];
     residual_from(q, eta, p, &mut r)?;
     Ok(r.iter().fold(0.0, |m, &x| runtime::max_abs(m, x)))
 }

@@ -36,4 +36,6 @@ pub use fixed::{Buffers, Fixed, Precision, Rhs, Storage};
 pub use lanes::{LANES, LaneFn, Lanes, abs_max, max_abs, over_rows};
 pub use lu::{Lu, solve_system};
 pub use scalar::{RationalParts, Scalar, widen};
-pub use structured::{DOUBLE_DOUBLE_ABOVE, Dims, Failure, Layout, Structured};
+pub use structured::{
+    DOUBLE_DOUBLE_ABOVE, Dims, Failure, KEPT_ROWS_PIVOT, Layout, Structured, select as select_rows,
+};

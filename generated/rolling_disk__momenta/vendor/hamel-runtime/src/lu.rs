@@ -23,7 +23,23 @@ pub const EVALUATOR_PIVOT: Pivot = Pivot::Relative(1e-14);
 /// (see [`Pivot`]) or an entry is not finite.
 #[inline(always)]
 pub fn factor<S: Scalar>(n: usize, a: &mut [S], perm: &mut [usize], pivot: Pivot) -> bool {
-    let (a, perm) = (&mut a[..n * n], &mut perm[..n]);
+    factor_rows(n, n, a, perm, pivot)
+}
+
+/// [`factor`] for a matrix of `rows` ≥ n rows and n columns (row-major, `perm` `rows` long):
+/// each pivot is chosen among all the rows left, so the first n rows of the result are the LU
+/// factors of the n rows the pivoting selected (`perm[..n]`), and [`solve`] with them solves
+/// the selected equations of a consistent system (a matrix whose extra rows depend on the
+/// others: constraints of rank below their number).
+#[inline(always)]
+pub fn factor_rows<S: Scalar>(
+    rows: usize,
+    n: usize,
+    a: &mut [S],
+    perm: &mut [usize],
+    pivot: Pivot,
+) -> bool {
+    let (a, perm) = (&mut a[..rows * n], &mut perm[..rows]);
     let mut scale = 0.0_f64;
     for x in a.iter() {
         let v = x.value().abs();
@@ -44,7 +60,7 @@ pub fn factor<S: Scalar>(n: usize, a: &mut [S], perm: &mut [usize], pivot: Pivot
     }
     for k in 0..n {
         let mut p = k;
-        for i in k + 1..n {
+        for i in k + 1..rows {
             if a[i * n + k].value().abs() > a[p * n + k].value().abs() {
                 p = i;
             }
@@ -79,7 +95,8 @@ fn eliminate<S: Scalar>(n: usize, a: &mut [S], k: usize) {
 }
 
 /// Solve with factors from [`factor`]: `b` (length n) is overwritten by x with M x = b.
-/// `tmp` holds n values.
+/// `tmp` holds n values. With factors from [`factor_rows`], `b` has `rows` entries (those of
+/// the rows not selected are not read) and x is written to its first n.
 #[inline(always)]
 pub fn solve<S: Scalar>(n: usize, lu: &[S], perm: &[usize], b: &mut [S], tmp: &mut [S]) {
     for i in 0..n {
@@ -189,6 +206,37 @@ mod tests {
         // det = 0·(1·1 − 0·0) − 2·(1·1 − 0·3) + 1·(1·0 − 1·3) = −5
         assert!((lu.determinant() + 5.0).abs() < 1e-14);
         assert!(solve_system(vec![vec![1.0, 2.0], vec![2.0, 4.0]], vec![1.0, 2.0]).is_none());
+    }
+
+    /// Four rows of rank 3 in three unknowns, the third the sum of the first two: the
+    /// pivoting selects independent rows among all four and solves the consistent system;
+    /// the first three alone are singular.
+    #[test]
+    fn factor_rows_selects_independent_rows_of_a_consistent_tall_system() {
+        let a = [
+            [1.0, 2.0, 0.0],
+            [0.0, 1.0, 1.0],
+            [1.0, 3.0, 1.0],
+            [2.0, 0.0, 1.0],
+        ];
+        let x = [0.5, -1.0, 2.0];
+        let mut b: Vec<f64> = a
+            .iter()
+            .map(|r| r.iter().zip(&x).map(|(p, q)| p * q).sum())
+            .collect();
+        let mut m: Vec<f64> = a.iter().flatten().copied().collect();
+        let mut square = m[..9].to_vec();
+        let mut perm = [0; 4];
+        assert!(!factor(3, &mut square, &mut perm, Pivot::Relative(1e-14)));
+        assert!(factor_rows(4, 3, &mut m, &mut perm, Pivot::Relative(1e-14)));
+        let mut sorted = perm[..3].to_vec();
+        sorted.sort_unstable();
+        assert!(sorted.contains(&3), "the fourth row is needed: {perm:?}");
+        let mut tmp = [0.0; 3];
+        solve(3, &m, &perm, &mut b, &mut tmp);
+        for (g, e) in b.iter().zip(&x) {
+            assert!((g - e).abs() < 1e-14, "{g} vs {e}");
+        }
     }
 
     #[test]

@@ -2,7 +2,10 @@
 //! exact derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k (laid out as [`Layout`] says), with small dense
 //! linear algebra in caller-owned storage ([`Structured`]):
 //!
-//! * M = [Z; α], [Γ Θ] = M⁻¹, q̇ = Γη (6);
+//! * M = [Z; α], [Γ Θ] = M⁻¹, q̇ = Γη (6); when α has rows that depend on its μ independent
+//!   ones ([`Dims::dependent`]), M has more rows than columns and is factored on ℓ rows
+//!   that are independent where it is evaluated (see [`select`]): Γ and the true equations do
+//!   not depend on which;
 //! * Γ̇η = −M⁻¹Ṁq̇ (from M[Γ Θ] = I), Ȧ = Σ_k ∂A/∂q_k q̇_k;
 //! * A_Γ η̇ = F with F = Γᵀ(∇U + ½∇_q(q̇ᵀAq̇) − Ȧq̇ − AΓ̇η): (11) with Q from (9), true form;
 //! * the paper's form adds Σ_m ν_m ΓᵀV_m q̇, ν = ΘᵀAq̇, (V_m q̇)_h = Σ_k (∂α_mh/∂q_k −
@@ -15,7 +18,8 @@
 use crate::lu::{self, EVALUATOR_PIVOT, Pivot};
 use crate::scalar::Scalar;
 
-/// Sizes: ℓ coordinates, μ constraints, σ = ℓ − μ quasi-velocities.
+/// Sizes: ℓ coordinates, μ constraints (the rank of α), σ = ℓ − μ quasi-velocities, and the
+/// rows of α beyond μ that depend on the others.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Dims {
     /// ℓ
@@ -24,11 +28,14 @@ pub struct Dims {
     pub mu: usize,
     /// σ
     pub sigma: usize,
+    /// Rows of α after its μ independent ones, each a combination of them (two wheels on one
+    /// axle): 0 for most models.
+    pub dependent: usize,
 }
 
 /// Where each ingredient starts in the flat output of an ingredients evaluation: Z (σ×ℓ,
-/// row-major), α (μ×ℓ), A (ℓ×ℓ), U, ∇U (ℓ), ∂A/∂q_k (ℓ blocks ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ),
-/// ∂α/∂q_k (ℓ blocks μ×ℓ).
+/// row-major), α (ρ×ℓ with ρ = μ + dependent rows), A (ℓ×ℓ), U, ∇U (ℓ), ∂A/∂q_k (ℓ blocks
+/// ℓ×ℓ), ∂Z/∂q_k (ℓ blocks σ×ℓ), ∂α/∂q_k (ℓ blocks ρ×ℓ).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     /// Z
@@ -54,7 +61,7 @@ pub struct Layout {
 impl Layout {
     /// The layout for the given sizes.
     pub const fn new(d: Dims) -> Layout {
-        let (l, m, s) = (d.ell, d.mu, d.sigma);
+        let (l, m, s) = (d.ell, d.rho(), d.sigma);
         let z = 0;
         let alpha = z + s * l;
         let a = alpha + m * l;
@@ -78,14 +85,14 @@ impl Layout {
     }
 
     /// Where M = [Z; α] lies in the ingredients, row-major: α's rows follow Z's, so M is
-    /// one contiguous ℓ×ℓ block.
+    /// one contiguous (ℓ + dependent)×ℓ block.
     pub const fn m(&self, d: Dims) -> std::ops::Range<usize> {
-        self.z..self.z + d.ell * d.ell
+        self.z..self.z + d.m_rows() * d.ell
     }
 
     /// Where row `i` of ∂M/∂q_k = [∂Z/∂q_k; ∂α/∂q_k] starts in the ingredients.
     pub const fn dm_row(&self, d: Dims, k: usize, i: usize) -> usize {
-        let (l, m, g) = (d.ell, d.mu, d.sigma);
+        let (l, m, g) = (d.ell, d.rho(), d.sigma);
         if i < g {
             self.dz + k * g * l + i * l
         } else {
@@ -95,6 +102,26 @@ impl Layout {
 }
 
 impl Dims {
+    /// Sizes without dependent rows.
+    pub const fn new(ell: usize, mu: usize, sigma: usize) -> Dims {
+        Dims {
+            ell,
+            mu,
+            sigma,
+            dependent: 0,
+        }
+    }
+
+    /// ρ = μ + dependent: the rows of α.
+    pub const fn rho(self) -> usize {
+        self.mu + self.dependent
+    }
+
+    /// The rows of M = [Z; α]: ℓ + dependent.
+    pub const fn m_rows(self) -> usize {
+        self.ell + self.dependent
+    }
+
     /// Scalars of storage a [`Structured`] needs: the results (η̇, the paper's η̇, q̇, A_Γ, F,
     /// the energy, Γ) and the scratch of the evaluation.
     pub const fn scalars(self) -> usize {
@@ -103,7 +130,7 @@ impl Dims {
 
     /// Indices of storage a [`Structured`] needs (the pivots of [Z; α] and of A_Γ).
     pub const fn indices(self) -> usize {
-        self.ell + self.sigma
+        self.m_rows() + self.sigma
     }
 
     /// f64 of storage a [`Structured`] needs (the term sizes of the forcing, and the
@@ -129,7 +156,7 @@ const PARTS: usize = 18;
 /// A_Γ's factors, Ṁq̇, Ȧq̇, ∇_qT, Γ̇η, Aq̇, the ℓ-terms of F, AΓ̇η, a column, a solve's
 /// temporary.
 const fn part_lengths(d: Dims) -> [usize; PARTS] {
-    let (l, g) = (d.ell, d.sigma);
+    let (l, g, r) = (d.ell, d.sigma, d.m_rows());
     [
         g,
         g,
@@ -138,16 +165,16 @@ const fn part_lengths(d: Dims) -> [usize; PARTS] {
         g,
         1,
         l * g,
-        l * l,
+        r * l,
         g * g,
+        r,
+        l,
+        l,
+        r,
         l,
         l,
         l,
-        l,
-        l,
-        l,
-        l,
-        l,
+        r,
         l,
     ]
 }
@@ -318,7 +345,7 @@ impl<'a, S: Scalar> Structured<'a, S> {
             return Err(Failure::Inputs);
         }
         let mut p = Parts::carve(d, self.s);
-        let (perm_m, perm_g) = self.idx.split_at_mut(d.ell);
+        let (perm_m, perm_g) = self.idx.split_at_mut(d.m_rows());
         let (terms, rest) = self.re.split_at_mut(d.ell);
         let forcing_scale = &mut rest[..d.sigma];
         gamma_and_velocities(d, lay, out, eta, &mut p, perm_m, self.pivot)?;
@@ -330,7 +357,7 @@ impl<'a, S: Scalar> Structured<'a, S> {
         }
         p.eta_dot.copy_from_slice(p.forcing);
         lu::solve(d.sigma, p.ag_lu, perm_g, p.eta_dot, p.tmp);
-        if paper && d.mu > 0 {
+        if paper && d.rho() > 0 {
             paper_form(d, lay, out, &mut p, perm_m, perm_g);
         } else {
             p.eta_dot_paper.copy_from_slice(p.eta_dot);
@@ -397,8 +424,7 @@ fn gamma_and_velocities<S: Scalar>(
     pivot: Pivot,
 ) -> Result<(), Failure> {
     let (l, g) = (d.ell, d.sigma);
-    p.m.copy_from_slice(&out[lay.m(d)]);
-    if !lu::factor(l, p.m, perm_m, pivot) {
+    if !select(d, &out[lay.m(d)], p.m, perm_m, pivot) {
         return Err(Failure::QuasiVelocityMap);
     }
     let zero = S::constant(0.0);
@@ -418,6 +444,54 @@ fn gamma_and_velocities<S: Scalar>(
         p.q_dot[i] = x;
     }
     Ok(())
+}
+
+/// A pivot of the first ℓ rows of M = [Z; α] below this fraction of M's largest entry sends the
+/// factorisation to all of M's rows ([`select`]).
+pub const KEPT_ROWS_PIVOT: f64 = 1e-8;
+
+/// Factor M = [Z; α] (`src`, [`Dims::m_rows`]×ℓ) into `m`, `perm` its rows' order. Without
+/// dependent rows, LU with partial pivoting (`pivot`). With them, the first ℓ rows (Z and α's
+/// μ independent rows) while every pivot stays above [`KEPT_ROWS_PIVOT`] of M's largest entry;
+/// else, where those rows lose rank (the heading at which two wheels' kept rows are parallel),
+/// with the pivots chosen among all the rows ([`lu::factor_rows`]), so that ℓ independent ones
+/// are used wherever [Z; α] has rank ℓ. The true equations do not depend on which rows are
+/// used; the paper's do (their multipliers are not unique). `false` when M has rank below ℓ
+/// (the quasi-velocity map is singular).
+#[inline(always)]
+pub fn select<S: Scalar>(
+    d: Dims,
+    src: &[S],
+    m: &mut [S],
+    perm: &mut [usize],
+    pivot: Pivot,
+) -> bool {
+    let l = d.ell;
+    m.copy_from_slice(src);
+    if d.dependent == 0 {
+        return lu::factor(l, m, perm, pivot);
+    }
+    let scale = src.iter().fold(0.0_f64, |a, x| a.max(x.value().abs()));
+    let kept_floor = match pivot {
+        Pivot::Relative(r) if r > KEPT_ROWS_PIVOT => r,
+        _ => KEPT_ROWS_PIVOT,
+    };
+    let kept_scale = m[..l * l]
+        .iter()
+        .fold(0.0_f64, |a, x| a.max(x.value().abs()));
+    let relative = if kept_scale > 0.0 {
+        kept_floor * scale / kept_scale
+    } else {
+        1.0
+    };
+    if lu::factor(l, m, perm, Pivot::Relative(relative)) {
+        for (i, p) in perm.iter_mut().enumerate().skip(l) {
+            *p = i;
+        }
+        return true;
+    }
+    m.copy_from_slice(src);
+    lu::factor_rows(d.m_rows(), l, m, perm, pivot)
 }
 
 /// Ṁq̇, Ȧq̇, ∇_qT, Γ̇η, Aq̇ and the forcing F = Γᵀ(∇U + ∇_qT − Ȧq̇ − AΓ̇η) of (11) with Q
@@ -452,6 +526,15 @@ fn forcing<S: Scalar>(
             gt = gt + qd[i] * daq;
         }
         p.grad_t[k] = gt * S::constant(0.5);
+        // the dependent rows of Ṁq̇, read by the solve where the pivoting selected them
+        for i in l..d.m_rows() {
+            let dm_row = lay.dm_row(d, k, i);
+            let mut dmq = zero;
+            for j in 0..l {
+                dmq = dmq + out[dm_row + j] * qd[j];
+            }
+            p.mdot_qd[i] = p.mdot_qd[i] + dmq * qd[k];
+        }
     }
     // M⁻¹Ṁq̇ = −Γ̇η
     p.gdot.copy_from_slice(p.mdot_qd);
@@ -511,7 +594,8 @@ fn a_gamma<S: Scalar>(d: Dims, lay: Layout, out: &[S], p: &mut Parts<'_, S>) {
 }
 
 /// The paper's η̇: A_Γ η̇ = F + Σ_m ν_m ΓᵀV_m q̇ with ν = ΘᵀAq̇ (Θ the last μ columns of
-/// M⁻¹) and (V_m q̇)_h = Σ_k (∂α_mh/∂q_k − ∂α_mk/∂q_h) q̇_k: the term (12)/(15) keeps.
+/// M⁻¹; with dependent rows, the columns of the rows [`select`] used, ν = 0 for the others)
+/// and (V_m q̇)_h = Σ_k (∂α_mh/∂q_k − ∂α_mk/∂q_h) q̇_k: the term (12)/(15) keeps.
 #[inline(always)]
 fn paper_form<S: Scalar>(
     d: Dims,
@@ -521,7 +605,7 @@ fn paper_form<S: Scalar>(
     perm_m: &[usize],
     perm_g: &[usize],
 ) {
-    let (l, m, g) = (d.ell, d.mu, d.sigma);
+    let (l, m, g) = (d.ell, d.rho(), d.sigma);
     let zero = S::constant(0.0);
     let dalpha = |k: usize, m_: usize, h: usize| out[lay.dalpha + k * m * l + m_ * l + h];
     let rhs = &mut *p.eta_dot_paper;
@@ -567,11 +651,17 @@ impl<S: Scalar> Structured<'_, S> {
         let ag = &self.s[part(d, A_GAMMA)];
         let (head, work) = self.re.split_at_mut(l + g);
         let forcing_scale = &head[l..];
-        let perm = &mut self.idx[..l];
+        let perm = &mut self.idx[..d.m_rows()];
         let (mat, rest) = work.split_at_mut(l * l);
-        for (x, m) in mat.iter_mut().zip(&out[lay.m(d)]) {
-            *x = m.value();
+        // the ℓ rows of M the evaluation used (all of them without dependent rows)
+        let m = &out[lay.m(d)];
+        for i in 0..l {
+            let row = if d.dependent == 0 { i } else { perm[i] };
+            for j in 0..l {
+                mat[i * l + j] = m[row * l + j].value();
+            }
         }
+        let perm = &mut perm[..l];
         let kappa_m = skeel(l, mat, None, perm, rest);
         let scale = |i: usize| ag[i * g + i].value().abs().sqrt().recip();
         for i in 0..g {
@@ -623,11 +713,7 @@ mod tests {
     use super::*;
     use crate::fixed::{Buffers, Fixed, Storage};
 
-    const D: Dims = Dims {
-        ell: 3,
-        mu: 1,
-        sigma: 2,
-    };
+    const D: Dims = Dims::new(3, 1, 2);
     const M: f64 = 2.0;
     const I: f64 = 0.3;
     const G_SIN: f64 = 9.81 * 0.25;
@@ -681,11 +767,7 @@ mod tests {
 
     #[test]
     fn the_accessors_read_the_parts_an_evaluation_writes() {
-        let d = Dims {
-            ell: 4,
-            mu: 1,
-            sigma: 3,
-        };
+        let d = Dims::new(4, 1, 3);
         let mut buffers = Buffers::<f64>::new(d);
         let r = buffers.structured();
         let p = Parts::carve(d, &mut *r.s);
