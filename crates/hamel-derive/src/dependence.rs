@@ -14,9 +14,6 @@ use hamel_cas::linalg::Combination;
 use hamel_cas::{Ex, Field, Matrix};
 use hamel_model::{DependentRow, Model, ModelError};
 
-use crate::derivation::{Dependent, Term};
-use crate::symbolic::entry;
-
 /// A dropped row's exact dependence on the kept rows of α.
 #[derive(Debug)]
 pub struct Dependence {
@@ -91,30 +88,20 @@ fn not_a_combination(model: &Model, dropped: &DependentRow) -> ModelError {
         .with_help("the rows may be nearly, not exactly, dependent: check the row's expression and the parameters' defaults")
 }
 
-/// The plain data of a dependence, with the kept rows' names.
-pub(crate) fn plain(d: &Dependence, kept: &[String]) -> Dependent {
-    let mut singular: Vec<Ex> = Vec::new();
-    for c in &d.coefficients {
-        for x in c.denominator_factors() {
-            if !singular.contains(&x) {
-                singular.push(x);
+impl Dependence {
+    /// The factors of its coefficients' denominators, sorted by text: where the kept rows it
+    /// is combined from lose rank.
+    pub fn rank_loss_factors(&self) -> Vec<Ex> {
+        let mut factors: Vec<Ex> = Vec::new();
+        for c in &self.coefficients {
+            for x in c.denominator_factors() {
+                if !factors.contains(&x) {
+                    factors.push(x);
+                }
             }
         }
-    }
-    singular.sort_by_cached_key(|e| e.to_string());
-    Dependent {
-        name: d.name.clone(),
-        row: d.row.iter().map(entry).collect(),
-        combination: kept
-            .iter()
-            .zip(&d.coefficients)
-            .filter(|(_, c)| !c.is_zero())
-            .map(|(name, c)| Term {
-                row: name.clone(),
-                coefficient: entry(c),
-            })
-            .collect(),
-        singular: singular.iter().map(entry).collect(),
+        factors.sort_by_cached_key(|e| e.to_string());
+        factors
     }
 }
 
@@ -123,13 +110,9 @@ pub(crate) fn plain(d: &Dependence, kept: &[String]) -> Dependent {
 /// the numerator (exact, in normal form).
 pub(crate) fn rank_loss(dependence: &[Dependence], delta: &Ex) -> Vec<(Ex, u32)> {
     let mut factors: Vec<Ex> = Vec::new();
-    for d in dependence {
-        for c in &d.coefficients {
-            for x in c.denominator_factors() {
-                if !factors.contains(&x) {
-                    factors.push(x);
-                }
-            }
+    for x in dependence.iter().flat_map(Dependence::rank_loss_factors) {
+        if !factors.contains(&x) {
+            factors.push(x);
         }
     }
     factors.sort_by_cached_key(|e| e.to_string());

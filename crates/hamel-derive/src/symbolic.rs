@@ -302,6 +302,7 @@ impl Symbolic {
         let (model, choice) = (&self.model, &self.choice);
         let to_list = |v: &[Over]| -> Vec<Entry> { v.iter().map(entry_over).collect() };
         let to_mats = |v: &[OMatrix]| -> Vec<Mat> { v.iter().map(mat_over).collect() };
+        let dependent = dependent_rows(&self.dependence, model.ell());
         derivation(
             model,
             choice,
@@ -340,10 +341,10 @@ impl Symbolic {
                     da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
                     dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
                     dalpha: (0..model.ell()).map(|k| mat(&self.alpha.diff(k))).collect(),
-                    dependent: dependent_rows(&self.dependence, model.ell()).map(|m| mat(&m)),
-                    ddependent: dependent_rows(&self.dependence, model.ell())
-                        .map(|m| (0..model.ell()).map(|k| mat(&m.diff(k))).collect())
-                        .unwrap_or_default(),
+                    dependent: dependent.as_ref().map(mat),
+                    ddependent: (dependent.iter())
+                        .flat_map(|m| (0..model.ell()).map(|k| mat(&m.diff(k))))
+                        .collect(),
                     eta_rhs: Vec::new(),
                     eta_dot: None,
                     blocks: None,
@@ -595,6 +596,22 @@ impl StructuredSymbolic {
     }
 }
 
+/// The plain data of a dependence, with the kept rows' names: the nonzero terms.
+fn plain_dependence(d: &Dependence, kept: &[String]) -> crate::derivation::Dependent {
+    crate::derivation::Dependent {
+        name: d.name.clone(),
+        row: d.row.iter().map(entry).collect(),
+        combination: (kept.iter().zip(&d.coefficients))
+            .filter(|(_, c)| !c.is_zero())
+            .map(|(name, c)| crate::derivation::Term {
+                row: name.clone(),
+                coefficient: entry(c),
+            })
+            .collect(),
+        singular: d.rank_loss_factors().iter().map(entry).collect(),
+    }
+}
+
 /// The dependent rows' entries as a matrix (None without them).
 fn dependent_rows(dependence: &[Dependence], ell: usize) -> Option<Matrix> {
     (!dependence.is_empty())
@@ -690,6 +707,7 @@ struct Computed<'d> {
 
 /// The plain-data derivation of `model` for `choice` with `parts`.
 fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> Derivation {
+    let kept: Vec<String> = model.constraints.iter().map(|(n, _)| n.clone()).collect();
     Derivation {
         model: model.name.clone(),
         title: model.title.clone(),
@@ -716,15 +734,10 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
         z: parts.z,
         grad_u: parts.grad_u,
         forces: parts.forces,
-        constraints: model.constraints.iter().map(|(n, _)| n.clone()).collect(),
-        dependent_rows: {
-            let kept: Vec<String> = model.constraints.iter().map(|(n, _)| n.clone()).collect();
-            parts
-                .dependence
-                .iter()
-                .map(|d| crate::dependence::plain(d, &kept))
-                .collect()
-        },
+        dependent_rows: (parts.dependence.iter())
+            .map(|d| plain_dependence(d, &kept))
+            .collect(),
+        constraints: kept,
         kept_rank_loss: (parts.rank_loss.iter())
             .map(|(f, m)| crate::derivation::Power {
                 factor: entry(f),

@@ -148,6 +148,15 @@ fn is_zero(n: &usize) -> bool {
     *n == 0
 }
 
+/// [`RankLoss`] as plain data.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct RankLossData {
+    /// The factors' tape.
+    pub tape: hamel_expr::TapeData,
+    /// Their powers in δ.
+    pub powers: Vec<i32>,
+}
+
 /// [`Compiled`] as plain data, for files (`hamel linearize --export`).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct CompiledData {
@@ -160,7 +169,7 @@ pub struct CompiledData {
     pub dependent: usize,
     /// Where α's kept rows lose rank: the factors and their powers in δ ([`RankLoss`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rank_loss: Option<(hamel_expr::TapeData, Vec<i32>)>,
+    pub rank_loss: Option<RankLossData>,
     /// Coordinate names.
     pub coordinates: Vec<String>,
     /// Parameters with their defaults.
@@ -243,7 +252,10 @@ impl Compiled {
             tape: self.tape.to_data(),
             sizes: [ell, mu, sigma],
             dependent,
-            rank_loss: (self.rank_loss.as_ref()).map(|r| (r.tape.to_data(), r.powers.clone())),
+            rank_loss: (self.rank_loss.as_ref()).map(|r| RankLossData {
+                tape: r.tape.to_data(),
+                powers: r.powers.clone(),
+            }),
             coordinates: self.coordinates.clone(),
             parameters: self.parameters.clone(),
             singular: self.singular.clone(),
@@ -256,9 +268,9 @@ impl Compiled {
         let [ell, mu, sigma] = d.sizes;
         let tape = Tape::from_data(d.tape)?;
         let rank_loss = match d.rank_loss {
-            Some((t, powers)) => Some(RankLoss {
-                tape: Tape::from_data(t)?,
-                powers,
+            Some(r) => Some(RankLoss {
+                tape: Tape::from_data(r.tape)?,
+                powers: r.powers,
             }),
             None => None,
         };
