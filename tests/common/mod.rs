@@ -16,6 +16,7 @@ pub const ELIMINATE: &[(&str, &str)] = &[
     ("rolling_disk", "xC,yC,phi"),
     ("segway", "x,y,psi,phiL,phiR"),
     ("snakeboard", "x,y,theta"),
+    ("sprung_sleigh", "x,y,psi"),
     ("unicycle_rider", "xC,yC,phi,psi"),
     ("vertical_knife", "x,y,theta"),
     ("whipple_bicycle", "x,y,yaw,rear_wheel,front_wheel"),

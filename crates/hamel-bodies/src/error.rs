@@ -19,6 +19,10 @@ pub enum Section {
     Holonomic,
     /// `[loads.NAME]`
     Loads,
+    /// `[springs.NAME]`
+    Springs,
+    /// `[dampers.NAME]`
+    Dampers,
 }
 
 impl Section {
@@ -32,6 +36,8 @@ impl Section {
             Section::Blades => "blades",
             Section::Holonomic => "holonomic",
             Section::Loads => "loads",
+            Section::Springs => "springs",
+            Section::Dampers => "dampers",
         }
     }
 }
@@ -97,6 +103,14 @@ pub enum Problem {
     /// An inertia that no rigid body has.
     #[error("the inertia is not positive definite at the default parameters ({0})")]
     Inertia(String),
+    /// A spring's stiffness or a damper's damping that is not positive.
+    #[error("the {what} is not positive at the default parameters ({value})")]
+    NotPositive {
+        /// `stiffness` or `damping`.
+        what: &'static str,
+        /// Its value there.
+        value: f64,
+    },
     /// A negative or zero mass.
     #[error("the mass is not positive at the default parameters ({0})")]
     Mass(f64),

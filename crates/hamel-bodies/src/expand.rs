@@ -4,7 +4,9 @@
 //!
 //! * A = Σ_bodies m V_kᵀV_j + W_kᵀ I W_j, with V_k, W_k the velocity of the centre of mass and
 //!   the angular velocity per unit q̇_k (T = ½ q̇ᵀAq̇);
-//! * U = −Σ_bodies m g height(centre of mass) (L = T + U, the applied force is +∇U);
+//! * U = −Σ_bodies m g height(centre of mass) − Σ_springs ½ k (d − d₀)² (L = T + U, the
+//!   applied force is +∇U);
+//! * F: the loads' and the dampers' generalised forces (`loads`, `elements`);
 //! * α: the rows of the wheels and blades, then one row dh/dt = Σ_k ∂h/∂q_k q̇_k per holonomic
 //!   constraint.
 
@@ -93,7 +95,21 @@ pub fn expand(
     let place = |c: &HolonomicConstraint, field| holonomic_place(m, c, field);
     let (rows, completion) = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
     rolling.rows.extend(rows);
-    let forces = crate::loads::generalised_forces(&tree, m)?;
+    let mut forces = crate::loads::generalised_forces(&tree, m)?;
+    for (f, d) in forces
+        .iter_mut()
+        .zip(crate::elements::damper_forces(&tree, m, &reference)?)
+    {
+        if !d.is_zero_literal() {
+            *f = add(std::mem::replace(f, Expr::int(0)), d);
+        }
+    }
+    if !m.springs.is_empty() {
+        potential = add(
+            potential,
+            crate::elements::spring_potential(&tree, m, &reference)?,
+        );
+    }
     Ok(Expansion {
         mass_matrix: a,
         potential,

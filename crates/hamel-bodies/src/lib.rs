@@ -4,8 +4,8 @@
 //! rotations and origins, rigid bodies with masses and inertias, rolling wheels, blades and
 //! holonomic constraints) into what the rest of hamel starts from: the kinetic energy's matrix A
 //! (T = ½ q̇ᵀAq̇), the potential U (L = T + U), the rows of α and the holonomic constraints
-//! h(q) = 0 with their dependent coordinates, and the generalised forces F of the loads
-//! ([`expand`] → [`Expansion`]).
+//! h(q) = 0 with their dependent coordinates, and the generalised forces F of the loads and
+//! dampers (springs enter U) ([`expand`] → [`Expansion`]).
 //!
 //! **Inputs**: a [`Mechanism`] whose expressions are [`hamel_expr::Expr`] trees in the
 //! coordinates and parameters (names resolved by the caller, `hamel-model`), and the default
@@ -25,6 +25,7 @@
 
 mod carry;
 mod contact;
+mod elements;
 mod error;
 mod expand;
 mod frames;
@@ -38,8 +39,8 @@ pub use contact::Row;
 pub use error::{BodiesError, Place, Problem, Section};
 pub use expand::{Expansion, HolonomicConstraint, expand, holonomic_rows};
 pub use mechanism::{
-    Axis, Blade, Body, Direction, Frame, Holonomic, Inertia, Load, LoadKind, Mechanism, Rotation,
-    WORLD, Wheel, World,
+    Anchor, Axis, Blade, Body, Damper, Direction, Frame, Holonomic, Inertia, Load, LoadKind,
+    Mechanism, Rotation, Spring, Stretch, WORLD, Wheel, World,
 };
 pub use numeric::{Completion, CompletionError, Point};
 pub use symmetry::{Symmetry, vertical_rotation};

@@ -191,6 +191,48 @@ pub enum LoadKind {
     },
 }
 
+/// A point of a frame (moving in it where its components depend on q).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Anchor {
+    /// The frame (`world`, or a frame).
+    pub frame: String,
+    /// The point, in the frame's axes.
+    pub point: V3,
+}
+
+/// What a spring or a damper stretches: the distance between two points, or a coordinate.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Stretch {
+    /// The distance between two points of two frames (a linear element).
+    Between(Box<[Anchor; 2]>),
+    /// A coordinate (a torsional element on a joint angle, or a linear one on a slider).
+    Coordinate(String),
+}
+
+/// A linear spring: U gains −½ k (d − d₀)², d the stretch (L = T + U).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spring {
+    /// Its name.
+    pub name: String,
+    /// What it stretches.
+    pub stretch: Stretch,
+    /// k, positive at the default parameters.
+    pub stiffness: Expr,
+    /// d₀: the rest length (or angle).
+    pub rest: Expr,
+}
+
+/// A linear damper: the force −c ḋ along the stretch d, which enters F (it does work).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Damper {
+    /// Its name.
+    pub name: String,
+    /// What it stretches.
+    pub stretch: Stretch,
+    /// c, positive at the default parameters.
+    pub damping: Expr,
+}
+
 /// A holonomic constraint h(q) = 0 and the coordinate it determines.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Holonomic {
@@ -221,6 +263,10 @@ pub struct Mechanism {
     pub holonomic: Vec<Holonomic>,
     /// Loads that U does not give.
     pub loads: Vec<Load>,
+    /// Springs (they enter U).
+    pub springs: Vec<Spring>,
+    /// Dampers (they enter F).
+    pub dampers: Vec<Damper>,
 }
 
 /// The name of the fixed frame.

@@ -27,8 +27,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use hamel_generated::{
-    COORDINATES, DIMS, ELIMINATED, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM, REDUCED_STATE,
-    energy, energy_many, project, reduced_into_with, reduced_jacobian_with, residual_max,
+    COORDINATES, DIMS, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM, REDUCED_STATE,
+    energy, energy_many, power, project, reduced_into_with, reduced_jacobian_with, residual_max,
     residual_max_many,
 };
 use hamel_sim::{
@@ -130,6 +130,13 @@ impl OdeSystem for Reduced {
             return None;
         }
         energy(&self.full_q(y), &y[KEPT.len()..], &self.prep.p).ok()
+    }
+    /// With the energy requested, forces that do work are integrated beside the state.
+    fn does_work(&self) -> bool {
+        self.energy && HAS_FORCES
+    }
+    fn power(&self, _t: f64, y: &[f64]) -> Result<f64, SystemError> {
+        power(&self.full_q(y), &y[KEPT.len()..], &self.prep.p).map_err(|e| SystemError::new(e.to_string()))
     }
     /// ‖α(q)q̇‖∞; requested, every coordinate is in the state (nothing eliminated).
     fn constraint_residual(&self, _t: f64, y: &[f64]) -> Option<f64> {
@@ -411,6 +418,9 @@ fn keep_last(s: &mut Solution) {
     s.t = vec![s.t[j]];
     s.energy = vec![s.energy[j]];
     s.constraint = vec![s.constraint[j]];
+    if let Some(&w) = s.work.get(j) {
+        s.work = vec![w];
+    }
 }
 
 /// Write `text` to `path` whole: a temporary file beside it, renamed.

@@ -605,7 +605,7 @@ fn solved_candidates(d: &Derivation) -> Vec<Candidate> {
 
     let b_trees: Vec<Expr> = (0..g)
         .map(|i| {
-            let mut x = c.forcing[i].expr.clone();
+            let mut x = rename(&c.forcing[i].expr);
             for r in 0..g {
                 let row = (0..g).fold(Expr::int(0), |acc, s| {
                     add(acc, mul(c.q[i].entries[r][s].expr.clone(), eta[s].clone()))
@@ -925,6 +925,7 @@ fn definiteness_check(tests: &[usize], place: &str) -> String {
 
 /// Where a tape's inputs come from in the generated function: slots are `n` coordinates
 /// (`coords[0..n]`), the parameters, then η (`eta[eta_at..]`).
+#[derive(Clone, Copy)]
 struct Slots<'a> {
     coords: &'a str,
     n: usize,
@@ -1122,6 +1123,9 @@ struct Code {
     monitors_in_lanes: bool,
     /// h(q) of the holonomic constraints.
     holonomic: Tape,
+    /// F(q, q̇) of the model's forces (zeros without): inputs the coordinates, the
+    /// parameters, then the velocities.
+    forces: Tape,
     ops_trees: usize,
     ops_shared: usize,
     params: Vec<String>,
@@ -1157,6 +1161,7 @@ impl Code {
         let alpha = Tape::compile(alpha_exprs, &inputs)?;
         let h: Vec<&Expr> = d.holonomic.iter().map(|c| &c.h.expr).collect();
         let holonomic = Tape::compile(&h, &inputs)?;
+        let forces = forces_tape(d, &inputs)?;
         let kept: Vec<usize> = (0..d.ell).filter(|k| !eliminated.contains(k)).collect();
         let solved_inputs: Vec<String> = inputs
             .iter()
@@ -1228,6 +1233,7 @@ impl Code {
             reduced_solved: reduced_tape.is_some(),
             tape,
             holonomic,
+            forces,
             params,
             kept,
             solved_inputs,
@@ -1327,6 +1333,18 @@ impl Code {
                 "holonomic_body",
                 straight_line(&self.holonomic, &full_slots),
             ),
+            (
+                "forces_body",
+                straight_line(
+                    &self.forces,
+                    &Slots {
+                        eta: "qd",
+                        ..full_slots
+                    },
+                ),
+            ),
+            ("velocity_forces", d.ingredients.velocity_forces.to_string()),
+            ("has_forces", d.ingredients.forces.is_some().to_string()),
             ("nh", d.holonomic.len().to_string()),
             (
                 "holonomic_uses",
@@ -1380,6 +1398,19 @@ impl Code {
         f.extend(parameter_fields(d));
         f
     }
+}
+
+/// The model's forces F(q, q̇) as written, on a tape of the ingredients' inputs and then the
+/// velocities `der(q)` (ℓ zeros without forces).
+fn forces_tape(d: &Derivation, inputs: &[String]) -> Result<Tape, CodegenError> {
+    let zeros = vec![Expr::int(0); d.ell];
+    let exprs: Vec<&Expr> = match &d.ingredients.forces {
+        Some(f) => f.iter().map(|e| &e.expr).collect(),
+        None => zeros.iter().collect(),
+    };
+    let mut with_velocities = inputs.to_vec();
+    with_velocities.extend(d.coordinates.iter().map(|q| format!("der({q})")));
+    Ok(Tape::compile(&exprs, &with_velocities)?)
 }
 
 /// The body of the generated `energy_from`: with a closed form, straight-line code of

@@ -57,10 +57,19 @@ impl Serialize for Mat {
 pub struct Checks {
     /// Q (true) = Q_paper + Q_correction, coefficient by coefficient.
     pub split_identity: bool,
-    /// dE/dt = 0 identically along the true equations (E = ½ηᵀA_Γη − U).
+    /// dE/dt = 0 identically along the true equations (E = ½ηᵀA_Γη − U), the forces F
+    /// included: false when some force does work.
     pub energy_conserved: bool,
     /// dE/dt = 0 identically along the paper's equations too (the correction is gyroscopic).
     pub energy_conserved_paper: bool,
+    /// With forces: dE/dt = (Γη)ᵀF identically along the true equations (Q does no work, the
+    /// forces do all of it). None without forces.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy_balance: Option<bool>,
+    /// The coordinates whose generalised force does work, (Γη)_k F_k ≢ 0 (motor torques,
+    /// dampers); empty without forces.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub working_forces: Vec<String>,
     /// Q_correction ≡ 0: the paper's equations (11)/(15) are the true ones for this Z.
     pub paper_is_exact: bool,
     /// For holonomic models with Z = I: the equations are the Euler–Lagrange equations
@@ -173,6 +182,10 @@ pub struct Closed {
     pub equations_paper: Vec<Entry>,
     /// Energy E = T − U = ½ηᵀA_Γη − U.
     pub energy: Entry,
+    /// With forces: their power (Γη)ᵀF(q, Γη), so that dE/dt = power along the true
+    /// equations.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub power: Option<Entry>,
     /// Exact checks.
     pub checks: Checks,
 }
@@ -210,6 +223,9 @@ pub enum Why {
     TooLarge(usize),
     /// The closed form's equations outgrew [`crate::CLOSED_FORM_TERMS`] (this many terms).
     ClosedTooLarge(usize),
+    /// The forces depend on the velocities in a way the closed form cannot hold after
+    /// q̇ = Γη is put in (inside a square root, an exponential…): the engine's reason.
+    VelocityForces(String),
 }
 
 impl std::fmt::Display for Why {
@@ -224,6 +240,10 @@ impl std::fmt::Display for Why {
                 f,
                 "the closed form's A_Γ, Γᵀ∇U and Q⁽ⁱ⁾ have {n} terms, above the budget of {}; the equations are evaluated from the ingredients",
                 crate::CLOSED_FORM_TERMS
+            ),
+            Why::VelocityForces(m) => write!(
+                f,
+                "the forces F(q, q̇) with q̇ = Γη put in leave the closed form's field ({m}); the equations are evaluated from the ingredients, F at q̇ = Γη"
             ),
         }
     }
@@ -278,8 +298,16 @@ impl Derivation {
 pub struct Ingredients {
     /// U.
     pub potential: Option<Entry>,
-    /// ∇U + F, evaluated in place of ∇U when the model has forces.
+    /// ∇U + F, evaluated in place of ∇U when the model has forces that do not depend on the
+    /// velocities.
     pub applied: Option<Vec<Entry>>,
+    /// The forces F(q, q̇) as the model writes them (with `der(q)`), when it has forces: for
+    /// their power, and added to ∇U at q̇ = Γη when they depend on the velocities
+    /// ([`Ingredients::velocity_forces`]).
+    pub forces: Option<Vec<Entry>>,
+    /// Whether F depends on the velocities: then ∇U stands alone among the ingredients and F
+    /// is evaluated after Γ, at q̇ = Γη.
+    pub velocity_forces: bool,
     /// The model's own trees of the ingredients, for structured derivations: evaluated in place
     /// of the canonical forms, with `da`, `dz`, `dalpha` their derivatives.
     pub trees: Option<Trees>,
@@ -324,7 +352,8 @@ pub struct Trees {
     pub z: Mat,
     /// U.
     pub u: Entry,
-    /// ∇U + F (ℓ): ∇U on U's tree, plus the forces as written.
+    /// ∇U + F (ℓ): ∇U on U's tree, plus the forces as written (∇U alone when they depend on
+    /// the velocities).
     pub grad_u: Vec<Entry>,
 }
 
@@ -575,6 +604,8 @@ impl Derivation {
             ingredients: Ingredients {
                 potential: ing.potential.as_ref().map(|e| e.map_expr(&f)),
                 applied: ing.applied.as_ref().map(|v| entries(v)),
+                forces: ing.forces.as_ref().map(|v| entries(v)),
+                velocity_forces: ing.velocity_forces,
                 trees: ing.trees.as_ref().map(|t| t.map_expr(&f)),
                 da: mats(&ing.da),
                 dz: mats(&ing.dz),
@@ -616,6 +647,7 @@ impl Closed {
             equations: entries(&self.equations),
             equations_paper: entries(&self.equations_paper),
             energy: self.energy.map_expr(f),
+            power: self.power.as_ref().map(|e| e.map_expr(f)),
             checks: self.checks.clone(),
         }
     }

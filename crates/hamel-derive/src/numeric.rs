@@ -114,6 +114,18 @@ impl Derivation {
             self.parameters.clone(),
             self.singular_set_text(),
         )?;
+        let compiled = match self.ingredients.forces.as_deref() {
+            Some(forces) => {
+                let exprs: Vec<&hamel_expr::Expr> = forces.iter().map(|e| &e.expr).collect();
+                let mut with_velocities = inputs.clone();
+                with_velocities.extend(self.coordinates.iter().map(|q| format!("der({q})")));
+                compiled.with_forces(hamel_eval::Forces {
+                    tape: Tape::compile(&exprs, &with_velocities)?,
+                    velocity: self.ingredients.velocity_forces,
+                })?
+            }
+            None => compiled,
+        };
         if self.kept_rank_loss.is_empty() {
             return Ok(compiled);
         }

@@ -125,7 +125,12 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
     mat_text(o, "Γ (q̇ = Γη)", &c.gamma, p);
     mat_text(o, "Θ", &c.theta, p);
     mat_text(o, "A_Γ = ΓᵀAΓ", &c.a_gamma, p);
-    list_text(o, "Γᵀ∇U", &c.forcing, p);
+    forces_text(o, d);
+    let forcing = match d.forces.is_empty() {
+        true => "Γᵀ∇U",
+        false => "Γᵀ(∇U + F), F at q̇ = Γη",
+    };
+    list_text(o, forcing, &c.forcing, p);
     mat_text(o, "ΘᵀAΓ (ν = ΘᵀAΓη)", &c.nu, p);
     for i in 0..d.sigma {
         mat_text(o, &format!("Q({}) (true, symmetric)", i + 1), &c.q[i], p);
@@ -160,6 +165,9 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
         entry_line(o, format_args!("  der({}) = ", d.coordinates[k]), p, e);
     }
     entry_line(o, "energy E = T − U = ", p, &c.energy);
+    if let Some(power) = &c.power {
+        entry_line(o, "power of the forces (Γη)ᵀF = ", p, power);
+    }
     o.push('\n');
     let checks = &c.checks;
     let _ = writeln!(o, "checks (exact):");
@@ -178,6 +186,18 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
         "  dE/dt = 0 along the paper's equations: {}",
         yes(checks.energy_conserved_paper)
     );
+    if let Some(balance) = checks.energy_balance {
+        let _ = writeln!(
+            o,
+            "  dE/dt = (Γη)ᵀF along the true equations (Q does no work): {}",
+            yes(balance)
+        );
+        let working = match checks.working_forces.is_empty() {
+            true => "none".to_string(),
+            false => checks.working_forces.join(", "),
+        };
+        let _ = writeln!(o, "  forces that do work (coordinates): {working}");
+    }
     let _ = writeln!(
         o,
         "  paper's equations exact for this Z: {}",
@@ -196,6 +216,17 @@ fn closed_text<'e>(o: &mut String, d: &Derivation, c: &'e Closed, p: Printer<'_,
     }
 }
 
+/// The generalised forces F(q, q̇), canonical (none without forces).
+fn forces_text(o: &mut String, d: &Derivation) {
+    if d.forces.is_empty() {
+        return;
+    }
+    let _ = writeln!(o, "F (generalised forces beside ∇U) =");
+    for (q, f) in d.coordinates.iter().zip(&d.forces) {
+        let _ = writeln!(o, "  F_{q} = {}", f.text);
+    }
+}
+
 /// The structured form: what the equations are made of, and the certificate.
 fn structured_text<'e>(o: &mut String, d: &'e Derivation, st: &StructuredForm, p: Printer<'_, 'e>) {
     o.push_str("U = ");
@@ -204,6 +235,7 @@ fn structured_text<'e>(o: &mut String, d: &'e Derivation, st: &StructuredForm, p
     }
     o.push('\n');
     list_text(o, "∇U", &d.grad_u, p);
+    forces_text(o, d);
     let _ = writeln!(o, "\nstructured form: {}", st.structured);
     let _ = writeln!(
         o,
@@ -213,9 +245,13 @@ fn structured_text<'e>(o: &mut String, d: &'e Derivation, st: &StructuredForm, p
         o,
         "  [Z; α] q̇ = [η; 0]                        q̇ = Γη (6), Γ from [Z; α] at each state"
     );
+    let applied = match d.forces.is_empty() {
+        true => "Γᵀ∇U",
+        false => "Γᵀ(∇U + F)",
+    };
     let _ = writeln!(
         o,
-        "  A_Γ η̇ = Γᵀ∇U − Γᵀ (d/dt(AΓ)) η + ½ Γᵀ∇_q(q̇ᵀAq̇)   (9), A_Γ = ΓᵀAΓ (8)"
+        "  A_Γ η̇ = {applied} − Γᵀ (d/dt(AΓ)) η + ½ Γᵀ∇_q(q̇ᵀAq̇)   (9), A_Γ = ΓᵀAΓ (8)"
     );
     let _ = writeln!(o, "singular set: {}", d.singular_set_text());
     let c = &st.certificate;
@@ -274,6 +310,7 @@ impl Derivation {
                     f(run);
                 }
                 f(std::slice::from_ref(&c.energy));
+                f(c.power.as_slice());
             }
             Form::Structured(_) => {
                 f(self.ingredients.potential.as_slice());

@@ -135,6 +135,50 @@ impl Ctx<'_> {
             .collect()
     }
 
+    /// F(q, Γη): the forces with the velocities q̇ = Γη put in, converted (empty without
+    /// forces; F itself when it has no velocities). `Ok(Err(reason))` when the result leaves
+    /// the field (a velocity inside a square root or an exponential).
+    fn forces_along(
+        &self,
+        f: &Field,
+        gamma: &Matrix,
+    ) -> Result<Result<Vec<Ex>, String>, ModelError> {
+        let written = self.forces(f)?;
+        if !self.model.has_velocity_forces() {
+            return Ok(Ok(written));
+        }
+        let eta: Vec<Expr> = eta_names(gamma.cols()).map(|n| Expr::sym(&n)).collect();
+        let rate = |k: usize| -> Expr {
+            let terms: Vec<Expr> = (0..gamma.cols())
+                .filter(|&s| !gamma[(k, s)].is_zero())
+                .map(|s| Expr::Mul(vec![entry(&gamma[(k, s)]).expr, eta[s].clone()]))
+                .collect();
+            if terms.is_empty() {
+                Expr::int(0)
+            } else {
+                Expr::Add(terms)
+            }
+        };
+        let rates: Vec<Expr> = (0..gamma.rows()).map(rate).collect();
+        let coords = &self.model.coordinates;
+        let mut out = Vec::with_capacity(written.len());
+        for item in &self.model.forces {
+            let put = item.expr.map(&mut |n| match n {
+                Expr::Der(q) => match coords.iter().position(|c| *c == q) {
+                    Some(k) => rates[k].clone(),
+                    None => Expr::Der(q),
+                },
+                other => other,
+            });
+            match f.convert(&put) {
+                Ok(e) => out.push(e),
+                Err(e @ CasError::Internal(_)) => return Err(ModelError::engine(e)),
+                Err(e) => return Ok(Err(e.to_string())),
+            }
+        }
+        Ok(Ok(out))
+    }
+
     fn mass_matrix(&self, f: &Field) -> Result<Matrix, ModelError> {
         let ell = f.ncoords();
         match &self.model.kinetic {
@@ -262,6 +306,8 @@ pub struct Symbolic {
     pub q_eta_paper: Vec<Over>,
     /// E = ½ηᵀA_Γη − U.
     pub energy: Over,
+    /// (Γη)ᵀF(q, Γη), the forces' power (None without forces).
+    pub power: Option<Over>,
     /// Exact checks.
     pub checks: Checks,
     /// The model's dropped rows, each a combination of α's rows.
@@ -329,14 +375,14 @@ impl Symbolic {
                     equations: to_list(&self.lhs(&self.q_eta)),
                     equations_paper: to_list(&self.lhs(&self.q_eta_paper)),
                     energy: entry_over(&self.energy),
+                    power: self.power.as_ref().map(entry_over),
                     checks: self.checks.clone(),
                 })),
                 ingredients: Ingredients {
                     potential: Some(entry(&self.u)),
-                    applied: (!self.forces.is_empty()).then(|| {
-                        let sum = self.grad_u.iter().zip(&self.forces);
-                        sum.map(|(g, x)| entry_over(&g.add(x))).collect()
-                    }),
+                    applied: Some(applied_trees(model)),
+                    forces: written_forces(model),
+                    velocity_forces: model.has_velocity_forces(),
                     trees: None,
                     da: (0..model.ell()).map(|k| mat(&self.a.diff(k))).collect(),
                     dz: (0..model.ell()).map(|k| mat(&self.z.diff(k))).collect(),
@@ -559,6 +605,8 @@ impl StructuredSymbolic {
         let ingredients = Ingredients {
             potential: Some(entry(&self.u)),
             applied: None,
+            forces: written_forces(model),
+            velocity_forces: model.has_velocity_forces(),
             da: (0..ell).map(|k| d(&trees.a, k)).collect(),
             dz: (0..ell).map(|k| d(&trees.z, k)).collect(),
             dalpha: (0..ell).map(|k| d(&trees.alpha, k)).collect(),
@@ -680,16 +728,39 @@ fn model_trees(model: &Model, choice: &QuasiVelocityChoice) -> Trees {
         a: matrix(a),
         alpha: rows(&mut model.constraints.iter().map(|(_, i)| &i.expr)),
         z: rows(&mut choice.eta.iter().map(|i| &i.expr)),
-        grad_u: coords
-            .iter()
-            .zip(&model.forces)
-            .map(|(q, force)| {
-                let g = tree_diff(&u, q).expr;
-                Entry::of(hamel_expr::build::add(g, force.expr.clone()))
-            })
-            .collect(),
+        grad_u: applied_trees(model),
         u,
     }
+}
+
+/// ∇U on U's tree, plus the forces as written when they do not depend on the velocities: what
+/// the numeric evaluation reads in ∇U's place. The tree's derivative is exact like the
+/// canonical gradient, and better conditioned where the canonical form expands a square
+/// (a spring of rest length d₀ near d = 0: k(d² − d₀√(d²))/d with d² expanded loses the digits
+/// of d², its tree keeps them).
+fn applied_trees(model: &Model) -> Vec<Entry> {
+    let u = Entry::of(model.potential.expr.clone());
+    let with_forces = !model.has_velocity_forces();
+    (model.coordinates.iter().zip(&model.forces))
+        .map(|(q, force)| {
+            let g = tree_diff(&u, q).expr;
+            match with_forces && force.expr != Expr::int(0) {
+                true => Entry::of(hamel_expr::build::add(g, force.expr.clone())),
+                false => Entry::of(g),
+            }
+        })
+        .collect()
+}
+
+/// The model's forces as written (None without forces), for numeric evaluation at (q, q̇).
+fn written_forces(model: &Model) -> Option<Vec<Entry>> {
+    model.has_forces().then(|| {
+        model
+            .forces
+            .iter()
+            .map(|f| Entry::of(f.expr.clone()))
+            .collect()
+    })
 }
 
 /// What a derivation adds to the model's and the choice's own data.
@@ -813,9 +884,9 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
     match ctx.inverse(&b.z, &b.alpha, &b.choice)? {
         Ok(inverse) => match closed(model, b, inverse, usize::MAX)? {
             Ok(s) => Ok(s),
-            Err((_, terms)) => Err(model.error(format!(
-                "the closed form has {terms} terms, more than can be counted"
-            ))),
+            Err((_, why)) => Err(model
+                .error(format!("the closed form is not available: {why}"))
+                .with_help("derive in structured form (`hamel derive --form structured`)")),
         },
         Err(terms) => Err(model
             .error(format!(
@@ -851,7 +922,7 @@ pub fn derive_form(
     match ctx.inverse(&b.z, &b.alpha, &b.choice)? {
         Ok(inverse) => match closed(model, b, inverse, limit)? {
             Ok(s) => Ok(Derived::Closed(Box::new(s))),
-            Err((b, terms)) => structured(&ctx, b, Why::ClosedTooLarge(terms)),
+            Err((b, why)) => structured(&ctx, b, why),
         },
         Err(terms) => structured(&ctx, b, Why::TooLarge(terms)),
     }
@@ -908,8 +979,8 @@ fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> 
 pub const CLOSED_FORM_TERMS: usize = 30_000;
 
 /// The closed form from A, α, Z and [Z; α]⁻¹, or (when its equations outgrow the limit, in
-/// terms) what it began from, and their size in terms.
-type ClosedOrBegun = Result<Symbolic, (Begun, usize)>;
+/// terms, or the forces leave its field) what it began from, and why.
+type ClosedOrBegun = Result<Symbolic, (Begun, Why)>;
 
 fn closed(
     model: &Model,
@@ -943,10 +1014,26 @@ fn closed(
     let u_o = o.dens.over(&u);
     let grad_u: Vec<Over> = (0..ell).map(|k| u_o.diff(k)).collect();
     let forces: Vec<Over> = ctx.forces(&f)?.iter().map(|e| o.dens.over(e)).collect();
+    // F(q, Γη): the forces along the motion
+    let along = match ctx.forces_along(&f, &gamma)? {
+        Ok(v) => v.iter().map(|e| o.dens.over(e)).collect::<Vec<Over>>(),
+        Err(why) => {
+            let b = Begun {
+                choice,
+                f,
+                a,
+                alpha,
+                z,
+                dependence,
+                stage,
+            };
+            return Ok(Err((b, Why::VelocityForces(why))));
+        }
+    };
     // Γᵀ(∇U + F)
-    let applied: Vec<Over> = match forces.is_empty() {
+    let applied: Vec<Over> = match along.is_empty() {
         true => grad_u.clone(),
-        false => grad_u.iter().zip(&forces).map(|(g, x)| g.add(x)).collect(),
+        false => grad_u.iter().zip(&along).map(|(g, x)| g.add(x)).collect(),
     };
     let forcing: Vec<Over> = (0..sigma)
         .map(|i| o.sum((0..ell).map(|h| o.gamma[(h, i)].mul(&applied[h])).collect()))
@@ -966,7 +1053,7 @@ fn closed(
             dependence,
             stage,
         };
-        return Ok(Err((b, terms)));
+        return Ok(Err((b, Why::ClosedTooLarge(terms))));
     }
     stage.next("the paper's Q⁽ⁱ⁾ (15) and the correction");
     let d_agamma: Vec<OMatrix> = (0..ell)
@@ -982,11 +1069,15 @@ fn closed(
     let (nu, q_correction) = o.q_correction();
     stage.next("the equations along η and the exact checks");
     let ev = o.along_eta(&f, &q_true, &q_paper, &d_agamma);
+    let work = Work::of(&ev, &along, &model.coordinates);
+    let rate = ev.energy_rate(&ev.q_eta);
     let checks = Checks {
         split_identity: (0..sigma)
             .all(|i| q_true[i].sub(&q_paper[i]).sub(&q_correction[i]).is_zero()),
-        energy_conserved: ev.energy_rate(&ev.q_eta).is_zero(),
-        energy_conserved_paper: ev.energy_rate(&ev.q_eta_paper).is_zero(),
+        energy_conserved: work.conserved(&rate),
+        energy_conserved_paper: work.conserved(&ev.energy_rate(&ev.q_eta_paper)),
+        energy_balance: work.power.as_ref().map(|_| rate.is_zero()),
+        working_forces: work.working.clone(),
         paper_is_exact: q_correction.iter().all(OMatrix::is_zero),
         euler_lagrange: o.euler_lagrange(&f, &z, &q_true),
     };
@@ -1019,12 +1110,50 @@ fn closed(
         q_eta: ev.q_eta,
         q_eta_paper: ev.q_eta_paper,
         energy,
+        power: work.power,
         checks,
         rank_loss,
         dependence,
         model: model.clone(),
         choice,
     }))
+}
+
+/// The work the forces do along the motion: their power (Γη)ᵀF(q, Γη) and the coordinates
+/// whose force does work.
+struct Work {
+    power: Option<Over>,
+    working: Vec<String>,
+}
+
+impl Work {
+    fn of(ev: &AlongEta, along: &[Over], coordinates: &[String]) -> Work {
+        if along.is_empty() {
+            return Work {
+                power: None,
+                working: Vec::new(),
+            };
+        }
+        let terms: Vec<Over> = (ev.gamma_eta.iter().zip(along))
+            .map(|(v, f)| v.mul(f))
+            .collect();
+        let working = (coordinates.iter().zip(&terms))
+            .filter(|(_, t)| !t.is_zero())
+            .map(|(q, _)| q.clone())
+            .collect();
+        Work {
+            power: Some(sum_over(&ev.dens, terms)),
+            working,
+        }
+    }
+
+    /// Whether dE/dt = rate + power vanishes identically (`rate`: what Q contributes).
+    fn conserved(&self, rate: &Over) -> bool {
+        match &self.power {
+            Some(p) => rate.add(p).is_zero(),
+            None => rate.is_zero(),
+        }
+    }
 }
 
 /// The field of the model's expressions: its coordinates, parameters, the choice's free
@@ -1040,6 +1169,7 @@ fn field(ctx: &Ctx, choice: &QuasiVelocityChoice) -> Result<Field, ModelError> {
         }
     }
     expressions.push(model.potential.expr.clone());
+    expressions.extend(model.forces.iter().map(|i| i.expr.clone()));
     expressions.extend(model.constraints.iter().map(|(_, c)| c.expr.clone()));
     expressions.extend(model.dependent.iter().map(|d| d.item.expr.clone()));
     expressions.extend(choice.eta.iter().map(|e| e.expr.clone()));

@@ -103,6 +103,9 @@ pub struct Evaluation {
     /// An estimate of the relative error of η̇ in f64 here
     /// ([`hamel_runtime::Structured::f64_error_estimate`]).
     pub f64_error_estimate: f64,
+    /// The power of the forces, q̇ᵀF(q, q̇) = dE/dt (None without forces).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub power: Option<f64>,
 }
 
 impl Evaluation {
@@ -123,6 +126,7 @@ impl Evaluation {
             delta,
             precision,
             f64_error_estimate: bound,
+            power: None,
         }
     }
 
@@ -157,6 +161,26 @@ pub struct RankLossData {
     pub powers: Vec<i32>,
 }
 
+/// The generalised forces F(q, q̇) on a tape of their own: inputs the ingredients'
+/// (coordinates, parameters), then the velocities `der(q_1)..der(q_ℓ)`; outputs F_1..F_ℓ.
+#[derive(Clone, Debug)]
+pub struct Forces {
+    /// The tape.
+    pub tape: Tape,
+    /// Whether F depends on the velocities: then the ingredients' ∇U leaves F out, and F is
+    /// added at q̇ = Γη in every evaluation ([`hamel_runtime::Structured::evaluate_with`]).
+    pub velocity: bool,
+}
+
+/// [`Forces`] as plain data.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct ForcesData {
+    /// The forces' tape.
+    pub tape: hamel_expr::TapeData,
+    /// Whether they depend on the velocities.
+    pub velocity: bool,
+}
+
 /// [`Compiled`] as plain data, for files (`hamel linearize --export`).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct CompiledData {
@@ -170,6 +194,9 @@ pub struct CompiledData {
     /// Where α's kept rows lose rank: the factors and their powers in δ ([`RankLoss`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rank_loss: Option<RankLossData>,
+    /// The generalised forces ([`Forces`]), when the model has any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forces: Option<ForcesData>,
     /// Coordinate names.
     pub coordinates: Vec<String>,
     /// Parameters with their defaults.
@@ -198,6 +225,7 @@ pub struct Compiled {
     parameters: IndexMap<String, f64>,
     singular: String,
     rank_loss: Option<RankLoss>,
+    forces: Option<Forces>,
 }
 
 impl Compiled {
@@ -225,7 +253,55 @@ impl Compiled {
             parameters,
             singular,
             rank_loss: None,
+            forces: None,
         })
+    }
+
+    /// With the generalised forces ([`Forces`]); their tape must take the ingredients' inputs
+    /// and then ℓ velocities, and give ℓ values.
+    pub fn with_forces(mut self, forces: Forces) -> Result<Compiled, NumericError> {
+        let l = self.dims.ell;
+        let inputs = forces.tape.inputs();
+        if inputs.len() != self.tape.inputs().len() + l
+            || inputs[..self.tape.inputs().len()] != *self.tape.inputs()
+            || forces.tape.outputs().len() != l
+        {
+            return Err(NumericError::Sizes);
+        }
+        self.forces = Some(forces);
+        Ok(self)
+    }
+
+    /// Whether the model has generalised forces beside ∇U ([`Forces`]).
+    pub fn has_forces(&self) -> bool {
+        self.forces.is_some()
+    }
+
+    /// F(q, q̇) at the velocities `q_dot` (None without forces).
+    pub fn forces_at(
+        &self,
+        q: &[f64],
+        q_dot: &[f64],
+        params: &IndexMap<String, f64>,
+    ) -> Result<Option<Vec<f64>>, NumericError> {
+        let Some(f) = &self.forces else {
+            return Ok(None);
+        };
+        let mut inputs = self.inputs(q, params);
+        inputs.extend_from_slice(q_dot);
+        Ok(Some(f.tape.eval(&inputs)?))
+    }
+
+    /// The ingredients' inputs: q, then the parameters' values (defaults where `params` has
+    /// none).
+    fn inputs<S: Scalar>(&self, q: &[S], params: &IndexMap<String, f64>) -> Vec<S> {
+        let mut inputs: Vec<S> = q.to_vec();
+        inputs.extend(
+            self.parameters
+                .iter()
+                .map(|(k, v)| S::constant(params.get(k).copied().unwrap_or(*v))),
+        );
+        inputs
     }
 
     /// With the factors at which α's kept rows lose rank ([`RankLoss`]); their tape must take
@@ -255,6 +331,10 @@ impl Compiled {
             rank_loss: (self.rank_loss.as_ref()).map(|r| RankLossData {
                 tape: r.tape.to_data(),
                 powers: r.powers.clone(),
+            }),
+            forces: (self.forces.as_ref()).map(|f| ForcesData {
+                tape: f.tape.to_data(),
+                velocity: f.velocity,
             }),
             coordinates: self.coordinates.clone(),
             parameters: self.parameters.clone(),
@@ -286,8 +366,15 @@ impl Compiled {
             d.parameters,
             d.singular,
         )?;
-        match rank_loss {
-            Some(r) => compiled.with_rank_loss(r),
+        let compiled = match rank_loss {
+            Some(r) => compiled.with_rank_loss(r)?,
+            None => compiled,
+        };
+        match d.forces {
+            Some(f) => compiled.with_forces(Forces {
+                tape: Tape::from_data(f.tape)?,
+                velocity: f.velocity,
+            }),
             None => Ok(compiled),
         }
     }
@@ -307,19 +394,24 @@ impl Compiled {
         self.dims
     }
 
-    /// The ingredients at q (see [`Layout`]).
+    /// The ingredients at q (see [`Layout`]); with velocity-dependent forces, followed by the
+    /// tape's inputs, which the forces take with q̇ ([`Compiled::assemble`]).
     fn ingredients<S: Scalar>(
         &self,
         q: &[S],
         params: &IndexMap<String, f64>,
     ) -> Result<Vec<S>, NumericError> {
-        let mut inputs: Vec<S> = q.to_vec();
-        inputs.extend(
-            self.parameters
-                .iter()
-                .map(|(k, v)| S::constant(params.get(k).copied().unwrap_or(*v))),
-        );
-        Ok(self.tape.eval(&inputs)?)
+        self.outputs(self.inputs(q, params))
+    }
+
+    /// The tape's outputs at `inputs`, followed by `inputs` when the forces depend on the
+    /// velocities.
+    fn outputs<S: Scalar>(&self, inputs: Vec<S>) -> Result<Vec<S>, NumericError> {
+        let mut out = self.tape.eval(&inputs)?;
+        if self.forces.as_ref().is_some_and(|f| f.velocity) {
+            out.extend(inputs);
+        }
+        Ok(out)
     }
 
     /// The parameters' names, in the order [`Compiled::rhs_in`] takes their values.
@@ -340,7 +432,7 @@ impl Compiled {
             return Err(NumericError::Sizes);
         }
         let inputs: Vec<S> = q.iter().chain(params).copied().collect();
-        let out = self.tape.eval(&inputs)?;
+        let out = self.outputs(inputs)?;
         Ok(self.assemble(&out, eta)?.0)
     }
 
@@ -553,10 +645,35 @@ impl Compiled {
         // Exact pivots: `evaluate` checks the conditioning and the definiteness itself, and the
         // unchecked `rhs` serves studies that approach the singular set on purpose.
         let mut r = buffers.structured().with_pivot(Pivot::Exact);
-        r.evaluate(out, eta, true).map_err(|e| match e {
+        let mut failed = None;
+        let velocity = self.forces.as_ref().filter(|f| f.velocity);
+        let len = Layout::new(self.dims).len;
+        let forces = |q_dot: &[S], f: &mut [S]| {
+            let Some(forces) = velocity else {
+                return true;
+            };
+            let mut inputs = out[len..].to_vec();
+            inputs.extend_from_slice(q_dot);
+            match forces.tape.eval(&inputs) {
+                Ok(v) => {
+                    f.copy_from_slice(&v);
+                    true
+                }
+                Err(e) => {
+                    failed = Some(e);
+                    false
+                }
+            }
+        };
+        let evaluated = r.evaluate_with(out, eta, true, forces);
+        evaluated.map_err(|e| match e {
             Failure::QuasiVelocityMap => self.singular_error("det[Z; α] = 0"),
             Failure::AGamma => NumericError::SingularAGamma,
             Failure::Inputs | Failure::Storage => NumericError::Sizes,
+            Failure::Forces => match failed.take() {
+                Some(e) => NumericError::Evaluation(e),
+                None => NumericError::NonFinite,
+            },
         })?;
         let estimate = if S::CHECKED {
             r.f64_error_estimate(out)
@@ -600,7 +717,11 @@ impl Compiled {
         } else {
             Evaluation::of(&r, Precision::F64, at)
         };
-        if !out.is_finite() {
+        let mut out = out;
+        if let Some(f) = self.forces_at(q, &out.q_dot, params)? {
+            out.power = Some(f.iter().zip(&out.q_dot).map(|(f, v)| f * v).sum());
+        }
+        if !out.is_finite() || out.power.is_some_and(|p| !p.is_finite()) {
             return Err(NumericError::NonFinite);
         }
         Ok(out)

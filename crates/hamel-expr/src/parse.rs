@@ -437,6 +437,14 @@ impl Parser<'_> {
         if name == "der" {
             let arg = match (args.len(), args.first()) {
                 (1, Some(Expr::Sym(q))) => q.clone(),
+                (1, Some(Expr::Der(q))) => {
+                    return Err(ParseError {
+                        span: whole,
+                        message: format!(
+                            "`der(der({q}))` is an acceleration: expressions depend on the coordinates and their velocities der(q) only"
+                        ),
+                    });
+                }
                 _ => {
                     return Err(ParseError {
                         span: whole,
@@ -582,6 +590,8 @@ mod tests {
         assert!(e.message.contains("unexpected character `#`"));
         let e = parse("der(2*x)").unwrap_err();
         assert!(e.message.contains("der"));
+        let e = parse("-c*der(der(x))").unwrap_err();
+        assert!(e.message.contains("acceleration"), "{}", e.message);
         let e = parse("sin(x, y)").unwrap_err();
         assert!(e.message.contains("one argument"));
         let e = parse("(a + b").unwrap_err();

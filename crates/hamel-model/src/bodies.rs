@@ -7,15 +7,16 @@ use std::collections::HashMap;
 use std::ops::Range;
 
 use hamel_bodies::{
-    Axis, Blade, BodiesError, Body, Completion, Direction, Frame, Holonomic, HolonomicConstraint,
-    Inertia, Load, LoadKind, Mechanism, Place, Rotation, Row, Section, WORLD, Wheel, World,
+    Anchor, Axis, Blade, BodiesError, Body, Completion, Damper, Direction, Frame, Holonomic,
+    HolonomicConstraint, Inertia, Load, LoadKind, Mechanism, Place, Rotation, Row, Section, Spring,
+    Stretch, WORLD, Wheel, World,
 };
 use hamel_expr::Expr;
 use toml::Spanned;
 
 use crate::error::ModelError;
 use crate::loader::{Dynamics, ErrorAt, FieldKind, Item, Kinetic, Loader, Origin};
-use crate::schema::{RawDirection, RawModel, RawScalar, RawVector};
+use crate::schema::{RawAnchor, RawDirection, RawModel, RawScalar, RawVector};
 
 /// The places of the description's fields: key path → span.
 #[derive(Default)]
@@ -238,6 +239,8 @@ fn mechanism(
         blades: Vec::new(),
         holonomic: Vec::new(),
         loads: Vec::new(),
+        springs: Vec::new(),
+        dampers: Vec::new(),
     };
     for (name, b) in &raw.bodies {
         m.bodies.push(body(loader, sites, name, b)?);
@@ -254,7 +257,80 @@ fn mechanism(
     for (name, l) in &raw.loads {
         m.loads.push(load(loader, sites, name, l, err)?);
     }
+    for (name, s) in &raw.springs {
+        let key = format!("springs.{name}");
+        sites.note(&key, s.span());
+        let raw = s.get_ref();
+        let ends = (raw.between.as_ref(), raw.coordinate.as_ref());
+        let stretch = stretch(loader, sites, &key, ends, err)?;
+        sites.note(&format!("{key}.stiffness"), raw.stiffness.span());
+        m.springs.push(Spring {
+            name: name.clone(),
+            stretch,
+            stiffness: scalar(loader, &raw.stiffness, &format!("{key}.stiffness"))?,
+            rest: match &raw.rest {
+                Some(r) => scalar(loader, r, &format!("{key}.rest"))?,
+                None => Expr::int(0),
+            },
+        });
+    }
+    for (name, d) in &raw.dampers {
+        let key = format!("dampers.{name}");
+        sites.note(&key, d.span());
+        let raw = d.get_ref();
+        let ends = (raw.between.as_ref(), raw.coordinate.as_ref());
+        let stretch = stretch(loader, sites, &key, ends, err)?;
+        sites.note(&format!("{key}.damping"), raw.damping.span());
+        m.dampers.push(Damper {
+            name: name.clone(),
+            stretch,
+            damping: scalar(loader, &raw.damping, &format!("{key}.damping"))?,
+        });
+    }
     Ok(m)
+}
+
+/// What a spring or damper stretches: exactly one of `between` (two points) and
+/// `coordinate`.
+fn stretch(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    key: &str,
+    (between, coordinate): (Option<&Spanned<Vec<RawAnchor>>>, Option<&Spanned<String>>),
+    err: &ErrorAt,
+) -> Result<Stretch, ModelError> {
+    match (between, coordinate) {
+        (Some(b), None) => {
+            let bkey = format!("{key}.between");
+            sites.note(&bkey, b.span());
+            if b.get_ref().len() != 2 {
+                let msg = format!(
+                    "`between` takes two points, as [{{ frame = \"a\" }}, {{ frame = \"b\", point = [0, 0, 1] }}]; found {}",
+                    b.get_ref().len()
+                );
+                return Err(err(b.span(), &bkey, msg));
+            }
+            let anchor = |i: usize, loader: &mut Loader| -> Result<Anchor, ModelError> {
+                let a = &b.get_ref()[i];
+                let pkey = format!("{bkey}[{}].point", i + 1);
+                Ok(Anchor {
+                    frame: a.frame.get_ref().clone(),
+                    point: vector(loader, a.point.as_ref(), &pkey)?,
+                })
+            };
+            let ends = [anchor(0, loader)?, anchor(1, loader)?];
+            Ok(Stretch::Between(Box::new(ends)))
+        }
+        (None, Some(c)) => {
+            let ckey = format!("{key}.coordinate");
+            sites.note(&ckey, c.span());
+            Ok(Stretch::Coordinate(coordinate_name(loader, c, &ckey, err)?))
+        }
+        _ => {
+            let msg = "give exactly one of `between` (two points of two frames) and `coordinate`";
+            Err(err(sites.span(key), key, msg.into()))
+        }
+    }
 }
 
 /// `[loads.NAME]`: exactly one of `force` (at `point`, default the frame's origin) and `torque`
@@ -284,7 +360,7 @@ fn load(
             }
             LoadKind::Force {
                 point: vector(loader, raw.point.as_ref(), &format!("{key}.point"))?,
-                force: vector(loader, Some(f), &format!("{key}.force"))?,
+                force: load_vector(loader, f, &format!("{key}.force"))?,
             }
         }
         (None, Some(t)) => {
@@ -293,7 +369,7 @@ fn load(
                 return Err(err(p.span(), &format!("{key}.point"), msg.into()));
             }
             LoadKind::Torque {
-                torque: vector(loader, Some(t), &format!("{key}.torque"))?,
+                torque: load_vector(loader, t, &format!("{key}.torque"))?,
                 reaction: raw.reaction.as_ref().map(|r| r.get_ref().clone()),
             }
         }
@@ -315,12 +391,36 @@ fn load(
 
 /// One scalar expression of the configuration.
 fn scalar(loader: &mut Loader, v: &Spanned<RawScalar>, key: &str) -> Result<Expr, ModelError> {
-    let text = Spanned::new(v.span(), v.get_ref().text());
-    Ok(loader.item(&text, key, FieldKind::Positional)?.expr)
+    scalar_of(loader, v, key, FieldKind::Positional)
 }
 
-/// Three scalars (zero when absent).
+fn scalar_of(
+    loader: &mut Loader,
+    v: &Spanned<RawScalar>,
+    key: &str,
+    kind: FieldKind,
+) -> Result<Expr, ModelError> {
+    let text = Spanned::new(v.span(), v.get_ref().text());
+    Ok(loader.item(&text, key, kind)?.expr)
+}
+
+/// Three scalars of the configuration (zero when absent).
 fn vector(loader: &mut Loader, v: Option<&RawVector>, key: &str) -> Result<[Expr; 3], ModelError> {
+    vector_of(loader, v, key, FieldKind::Positional)
+}
+
+/// A load's force or torque: three scalars that may also depend on the velocities der(q)
+/// (drag, viscous friction).
+fn load_vector(loader: &mut Loader, v: &RawVector, key: &str) -> Result<[Expr; 3], ModelError> {
+    vector_of(loader, Some(v), key, FieldKind::Force)
+}
+
+fn vector_of(
+    loader: &mut Loader,
+    v: Option<&RawVector>,
+    key: &str,
+    kind: FieldKind,
+) -> Result<[Expr; 3], ModelError> {
     let Some(v) = v else {
         return Ok(hamel_bodies::vector::zero());
     };
@@ -332,7 +432,7 @@ fn vector(loader: &mut Loader, v: Option<&RawVector>, key: &str) -> Result<[Expr
         ));
     }
     let c = |i: usize, loader: &mut Loader| {
-        scalar(loader, &v.get_ref()[i], &format!("{key}[{}]", i + 1))
+        scalar_of(loader, &v.get_ref()[i], &format!("{key}[{}]", i + 1), kind)
     };
     Ok([c(0, loader)?, c(1, loader)?, c(2, loader)?])
 }
@@ -450,7 +550,7 @@ fn inertia(
     Ok(Inertia { entries })
 }
 
-fn coordinate(
+fn coordinate_name(
     loader: &Loader,
     c: &Spanned<String>,
     key: &str,
@@ -480,7 +580,12 @@ fn wheel(
     let dependent = match &raw.dependent {
         Some(d) => {
             sites.note(&format!("{key}.dependent"), d.span());
-            Some(coordinate(loader, d, &format!("{key}.dependent"), err)?)
+            Some(coordinate_name(
+                loader,
+                d,
+                &format!("{key}.dependent"),
+                err,
+            )?)
         }
         None => None,
     };
@@ -529,7 +634,7 @@ fn holonomic(
         h: loader
             .item(&raw.h, &format!("{key}.h"), FieldKind::Positional)?
             .expr,
-        dependent: coordinate(loader, &raw.dependent, &format!("{key}.dependent"), err)?,
+        dependent: coordinate_name(loader, &raw.dependent, &format!("{key}.dependent"), err)?,
     })
 }
 
@@ -610,7 +715,9 @@ radius = "R"
         let nm =
             crate::NumericModel::new(&m, &IndexMap::from([("spin".to_string(), 0.3)])).unwrap();
         let (phi, theta) = (0.4_f64, 0.25_f64);
-        let f = nm.forces::<f64>(&[0.1, -0.2, phi, 0.9, theta]).unwrap();
+        let f = nm
+            .forces::<f64>(&[0.1, -0.2, phi, 0.9, theta], &[0.0; 5])
+            .unwrap();
         // The centre C + R(lean's z): pushed along the heading's x by `push`.
         let push = 0.5;
         let want = [
@@ -635,7 +742,7 @@ radius = "R"
             Model::from_source("expanded.toml", &expanded).unwrap_or_else(|e| panic!("{e}"));
         let g = crate::NumericModel::new(&again, &IndexMap::from([("spin".to_string(), 0.3)]))
             .unwrap()
-            .forces::<f64>(&[0.1, -0.2, phi, 0.9, theta])
+            .forces::<f64>(&[0.1, -0.2, phi, 0.9, theta], &[0.0; 5])
             .unwrap();
         assert_eq!(f, g);
     }
@@ -671,9 +778,103 @@ radius = "R"
         )));
         assert!(msg.contains("a torque acts on the whole frame"), "{msg}");
         let (msg, _) = at(&bad(&with(
-            "frame = \"disk\"\nforce = [\"der(x)\", 0, 0]\n",
+            "frame = \"disk\"\npoint = [\"der(x)\", 0, 0]\nforce = [1, 0, 0]\n",
         )));
         assert!(msg.contains("der(x)"), "{msg}");
+        let (msg, _) = at(&bad(&with(
+            "frame = \"disk\"\nforce = [\"-der(der(x))\", 0, 0]\n",
+        )));
+        assert!(msg.contains("acceleration"), "{msg}");
+    }
+
+    /// A spring and a damper from a point of the world to the disk's centre, and a torsional
+    /// damper on the spin: U and F against the centre's position written out by hand,
+    /// P = (x − R sin θ sin φ, y + R sin θ cos φ, R cos θ), the damper's F_k = −c ḋ ∂d/∂q_k by
+    /// central differences.
+    #[test]
+    fn springs_and_dampers_give_u_and_f() {
+        let text = DISK.replacen(
+            "[parameters]\n",
+            "[parameters]\nk = 3.0\nc = 0.7\nd0 = 0.4\ncs = 0.2\n",
+            1,
+        );
+        let ends = "between = [{ frame = \"world\", point = [1, 2, 0] }, { frame = \"lean\", point = [0, 0, \"R\"] }]";
+        let text = format!(
+            "{text}[springs.tether]\n{ends}\nstiffness = \"k\"\nrest = \"d0\"\n\
+             [dampers.tether]\n{ends}\ndamping = \"c\"\n\
+             [dampers.bearing]\ncoordinate = \"psi\"\ndamping = \"cs\"\n"
+        );
+        let m = Model::from_source("disk.toml", &text).unwrap_or_else(|e| panic!("{e}"));
+        assert!(m.has_velocity_forces());
+        let nm = crate::NumericModel::new(&m, &IndexMap::new()).unwrap();
+        let (r, mass, g, k, c, d0, cs) = (0.5, 2.0, 9.81, 3.0, 0.7, 0.4, 0.2);
+        let d = |q: &[f64]| {
+            let (x, y, phi, theta) = (q[0], q[1], q[2], q[4]);
+            let p = [
+                x - r * theta.sin() * phi.sin() - 1.0,
+                y + r * theta.sin() * phi.cos() - 2.0,
+                r * theta.cos(),
+            ];
+            p.iter().map(|v| v * v).sum::<f64>().sqrt()
+        };
+        let q = [0.1, -0.2, 0.4, 0.9, 0.25];
+        let qd = [0.3, -0.5, 0.2, 1.1, -0.4];
+        let u = nm.potential::<f64>(&q).unwrap();
+        let want = -mass * g * r * q[4].cos() - 0.5 * k * (d(&q) - d0).powi(2);
+        assert!((u - want).abs() < 1e-12, "U = {u}, want {want}");
+        let h = 1e-6;
+        let shifted = |dir: &[f64], s: f64| -> Vec<f64> {
+            q.iter().zip(dir).map(|(a, b)| a + s * b).collect()
+        };
+        let d_dot = (d(&shifted(&qd, h)) - d(&shifted(&qd, -h))) / (2.0 * h);
+        let f = nm.forces::<f64>(&q, &qd).unwrap();
+        for (j, got) in f.iter().enumerate() {
+            let mut e = [0.0; 5];
+            e[j] = 1.0;
+            let dd = (d(&shifted(&e, h)) - d(&shifted(&e, -h))) / (2.0 * h);
+            let bearing = if j == 3 { -cs * qd[3] } else { 0.0 };
+            let want = -c * d_dot * dd + bearing;
+            assert!((got - want).abs() < 1e-8, "F[{j}] = {got}, want {want}");
+        }
+        // `hamel expand` writes the springs into U and the dampers into [forces] with der(q),
+        // and the file it writes reads back to the same U and F.
+        let expanded = m.to_lagrangian_toml();
+        let again = Model::from_source("expanded.toml", &expanded)
+            .unwrap_or_else(|e| panic!("{e}\n{expanded}"));
+        let back = crate::NumericModel::new(&again, &IndexMap::new()).unwrap();
+        assert_eq!(back.forces::<f64>(&q, &qd).unwrap(), f);
+        assert_eq!(back.potential::<f64>(&q).unwrap(), u);
+    }
+
+    #[test]
+    fn springs_and_dampers_are_located() {
+        let with = |entry: &str| format!("{DISK}{entry}");
+        let (msg, _) = at(&bad(&with(
+            "[springs.s]\nbetween = [{ frame = \"world\" }, { frame = \"hub\" }]\nstiffness = 1\n",
+        )));
+        assert!(
+            msg.contains("springs.s.between: unknown frame `hub`"),
+            "{msg}"
+        );
+        let (msg, _) = at(&bad(&with(
+            "[dampers.d]\ncoordinate = \"psi\"\ndamping = \"-m\"\n",
+        )));
+        assert!(
+            msg.contains(
+                "dampers.d.damping: the damping is not positive at the default parameters (-2)"
+            ),
+            "{msg}"
+        );
+        let (msg, _) = at(&bad(&with(
+            "[springs.s]\ncoordinate = \"psy\"\nstiffness = 1\n",
+        )));
+        assert!(msg.contains("`psy` is not a coordinate"), "{msg}");
+        let (msg, _) = at(&bad(&with("[springs.s]\nstiffness = 1\n")));
+        assert!(msg.contains("give exactly one of `between`"), "{msg}");
+        let (msg, _) = at(&bad(&with(
+            "[springs.s]\nbetween = [{ frame = \"world\" }]\nstiffness = 1\n",
+        )));
+        assert!(msg.contains("`between` takes two points"), "{msg}");
     }
 
     #[test]

@@ -145,6 +145,8 @@ pub(crate) enum FieldKind {
     Positional,
     /// Constraints: velocities allowed.
     Constraint,
+    /// Generalised forces and loads: velocities allowed (viscous damping, drag), F(q, q̇).
+    Force,
     /// Quasi-velocities: velocities and free functions allowed.
     Eta,
 }

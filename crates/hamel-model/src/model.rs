@@ -72,7 +72,8 @@ pub struct Model {
     pub potential: Item,
     /// The generalised forces F_k of the applied loads that U does not give (non-conservative,
     /// or driven by inputs), one per coordinate (0 where none): the equations of motion are
-    /// d/dt ∂T/∂q̇ − ∂T/∂q = ∇U + F + αᵀλ. Functions of q, the parameters and the inputs.
+    /// d/dt ∂T/∂q̇ − ∂T/∂q = ∇U + F + αᵀλ. Functions of q, the velocities der(q) (viscous
+    /// damping, drag, rolling resistance), the parameters and the inputs.
     pub forces: Vec<Item>,
     /// The named inputs (`[inputs]`: steer torque, pedalling): parameters whose values drive
     /// the system, listed in `parameters` with their defaults.
@@ -227,6 +228,12 @@ impl Model {
     /// Whether some generalised force F_k is given (not identically the literal 0).
     pub fn has_forces(&self) -> bool {
         self.forces.iter().any(|f| f.expr != Expr::int(0))
+    }
+
+    /// Whether some generalised force depends on the velocities der(q): F(q, q̇), which the
+    /// equations take as Γᵀ F(q, Γη).
+    pub fn has_velocity_forces(&self) -> bool {
+        self.forces.iter().any(|f| f.expr.has_velocity())
     }
 
     /// Number of coordinates ℓ.
@@ -529,7 +536,7 @@ fn forces_of(
         .map(|c| {
             let key = format!("forces.{c}");
             match raw.forces.get(c) {
-                Some(v) => loader.item(v, &key, FieldKind::Positional),
+                Some(v) => loader.item(v, &key, FieldKind::Force),
                 None => Ok(Item::synthetic(&key, Expr::int(0))),
             }
         })

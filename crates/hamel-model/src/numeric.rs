@@ -154,12 +154,13 @@ impl<'m> NumericModel<'m> {
         self.eval(&self.model.potential.expr, q, None)
     }
 
-    /// The generalised forces F(q) of `[forces]` (the loads U does not give).
-    pub fn forces<S: Scalar>(&self, q: &[S]) -> Result<Vec<S>, EvalError> {
+    /// The generalised forces F(q, q̇) of `[forces]` (the loads U does not give), at the
+    /// velocities `q_dot`.
+    pub fn forces<S: Scalar>(&self, q: &[S], q_dot: &[S]) -> Result<Vec<S>, EvalError> {
         self.model
             .forces
             .iter()
-            .map(|f| self.eval(&f.expr, q, None))
+            .map(|f| self.eval(&f.expr, q, Some(q_dot)))
             .collect()
     }
 

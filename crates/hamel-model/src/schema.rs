@@ -40,6 +40,10 @@ pub(crate) struct RawModel {
     #[serde(default)]
     pub loads: IndexMap<String, Spanned<RawLoad>>,
     #[serde(default)]
+    pub springs: IndexMap<String, Spanned<RawSpring>>,
+    #[serde(default)]
+    pub dampers: IndexMap<String, Spanned<RawDamper>>,
+    #[serde(default)]
     pub quasi_velocities: IndexMap<String, Spanned<RawChoice>>,
     #[serde(default)]
     pub symmetries: IndexMap<String, Spanned<IndexMap<String, Spanned<String>>>>,
@@ -195,4 +199,32 @@ pub(crate) struct RawLoad {
     pub torque: Option<RawVector>,
     pub axes: Option<Spanned<String>>,
     pub reaction: Option<Spanned<String>>,
+}
+
+/// A point of a frame: `{ frame = "body", point = [x, y, z] }` (default the frame's origin).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawAnchor {
+    pub frame: Spanned<String>,
+    pub point: Option<RawVector>,
+}
+
+/// `[springs.NAME]`: between two points (`between`) or on a coordinate (`coordinate`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawSpring {
+    pub between: Option<Spanned<Vec<RawAnchor>>>,
+    pub coordinate: Option<Spanned<String>>,
+    pub stiffness: Spanned<RawScalar>,
+    /// The rest length (or angle); default 0.
+    pub rest: Option<Spanned<RawScalar>>,
+}
+
+/// `[dampers.NAME]`: between two points (`between`) or on a coordinate (`coordinate`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawDamper {
+    pub between: Option<Spanned<Vec<RawAnchor>>>,
+    pub coordinate: Option<Spanned<String>>,
+    pub damping: Spanned<RawScalar>,
 }

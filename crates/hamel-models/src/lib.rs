@@ -58,6 +58,9 @@ pub mod segway__body;
 #[path = "../../../generated/snakeboard__velocities/src/model.rs"]
 pub mod snakeboard__velocities;
 #[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/sprung_sleigh__forward/src/model.rs"]
+pub mod sprung_sleigh__forward;
+#[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/unicycle_rider__momenta/src/model.rs"]
 pub mod unicycle_rider__momenta;
 #[rustfmt::skip] // generated text, compared with a fresh generation
@@ -180,6 +183,7 @@ pub const MODELS: &[Core] = &[
     core!(segway__wheels, "segway", "wheels"),
     core!(segway__body, "segway", "body"),
     core!(snakeboard__velocities, "snakeboard", "velocities"),
+    core!(sprung_sleigh__forward, "sprung_sleigh", "forward"),
     core!(unicycle_rider__momenta, "unicycle_rider", "momenta"),
     core!(unicycle_rider__velocities, "unicycle_rider", "velocities"),
     core!(vertical_knife__paper, "vertical_knife", "paper"),

@@ -98,7 +98,7 @@ pub fn accelerations<S: Scalar>(
         grad_t.push(s * S::constant(0.5));
         grad_u.push(nm.potential::<Dual<S>>(&dq)?.d);
     }
-    let forces = nm.forces::<S>(q)?;
+    let forces = nm.forces::<S>(q, qd)?;
     let n = ell + mu;
     let mut m = vec![vec![zero(); n]; n];
     let mut rhs = vec![zero(); n];

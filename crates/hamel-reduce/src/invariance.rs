@@ -129,7 +129,7 @@ fn check(model: &Model, s: &StructuredSymbolic, sym: &Symmetry) -> Result<Invari
     if !lie.metric(&s.a) {
         return Err("L_ξA ≠ 0".into());
     }
-    if !s.forces.is_empty() && !lie.form(&s.forces).iter().all(Ex::is_zero) {
+    if !s.forces.is_empty() && !lie.force(&s.forces).iter().all(Ex::is_zero) {
         return Err("L_ξF ≠ 0 (the generalised forces are not invariant)".into());
     }
     let rows = |m: &Matrix| -> Vec<Vec<Ex>> {
@@ -180,6 +180,28 @@ impl Lie<'_> {
                     .fold(self.scalar(&w[a]), |acc, j| {
                         &acc + &(&w[j] * &self.dxi[j][a])
                     })
+            })
+            .collect()
+    }
+
+    /// L_ξF for forces F(q, q̇): the one-form's [`Lie::form`] plus the prolongation's part,
+    /// Σ_j ∂F_a/∂q̇_j ξ̇_j with ξ̇_j = Σ_b ∂ξ_j/∂q_b q̇_b (the flow moves the velocities too).
+    fn force(&self, w: &[Ex]) -> Vec<Ex> {
+        let f = self.f;
+        let xi_dot: Vec<Ex> = (self.dxi.iter())
+            .map(|row| {
+                (row.iter().enumerate())
+                    .filter(|(_, d)| !d.is_zero())
+                    .fold(f.zero(), |acc, (b, d)| &acc + &(d * &f.velocity(b)))
+            })
+            .collect();
+        self.form(w)
+            .into_iter()
+            .zip(w)
+            .map(|(l, wa)| {
+                (xi_dot.iter().enumerate())
+                    .filter(|(_, x)| !x.is_zero())
+                    .fold(l, |acc, (j, x)| &acc + &(&wa.diff_velocity(j) * x))
             })
             .collect()
     }

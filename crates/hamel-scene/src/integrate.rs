@@ -201,6 +201,7 @@ impl Loaded {
                 solution.t.truncate(j);
                 solution.y.truncate(j);
                 solution.energy.truncate(j);
+                solution.work.truncate(j);
                 solution.constraint.truncate(j);
                 solution.complete = false;
                 return (Some(message), max_condition);

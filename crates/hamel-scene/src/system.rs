@@ -72,6 +72,17 @@ impl OdeSystem for System<'_> {
         self.state.len() + self.sigma
     }
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+        self.rhs_and_power(t, y, dy).map(|_| ())
+    }
+    /// With the energy requested, a model whose forces do work is integrated with their work
+    /// beside the state (the energy balance E − W is then what is monitored).
+    fn does_work(&self) -> bool {
+        self.energy && self.compiled.has_forces()
+    }
+    fn power(&self, _t: f64, y: &[f64]) -> Result<f64, SystemError> {
+        Ok(self.at(y)?.power.unwrap_or(0.0))
+    }
+    fn rhs_and_power(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<f64, SystemError> {
         let e = self.at(y)?;
         if e.delta.abs() < 1e-3 * self.delta0.abs() {
             let q = self.full_q(&y[..self.state.len()], self.reference);
@@ -86,7 +97,7 @@ impl OdeSystem for System<'_> {
             dy[i] = e.q_dot[k];
         }
         dy[n..].copy_from_slice(&e.eta_dot);
-        Ok(())
+        Ok(e.power.unwrap_or(0.0))
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
         if !self.energy {

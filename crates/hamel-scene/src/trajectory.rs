@@ -24,6 +24,10 @@ pub struct Trajectory {
     /// The energy (absent when not requested).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub energy: Option<Vec<Option<f64>>>,
+    /// W(t), the work the forces have done since the start (with the energy, for a model whose
+    /// forces do work): E(t) − W(t) is conserved.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub work: Option<Vec<f64>>,
     /// ‖α(q)q̇‖∞ at the output times (absent when not requested; null where the state holds
     /// too few coordinates to evaluate it).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -49,7 +53,13 @@ pub struct StatsOut {
     pub steps: usize,
     pub rejected: usize,
     pub rhs_evals: usize,
+    /// max |E − E(t0)| / |E(t0)| over the outputs: for a model whose forces do no work (None
+    /// when they do: see `energy_balance_drift`).
     pub energy_drift: Option<f64>,
+    /// For a model whose forces do work: max |E − W − E(t0)| / |E(t0)|, W the work of the
+    /// forces integrated beside the state (the energy balance).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy_balance_drift: Option<f64>,
     pub constraint_drift: Option<f64>,
     /// The largest condition number of [Z; α] over the output states, and where.
     pub max_condition: Option<f64>,
@@ -113,6 +123,7 @@ impl Loaded {
                 Vec::new()
             },
             energy: self.request.energy.then(|| solution.energy.clone()),
+            work: (!solution.work.is_empty()).then(|| solution.work.clone()),
             constraint_residual: self
                 .request
                 .constraint_residual
@@ -122,7 +133,12 @@ impl Loaded {
                 steps: solution.stats.steps,
                 rejected: solution.stats.rejected,
                 rhs_evals: solution.stats.rhs_evals,
-                energy_drift: solution.stats.energy_drift,
+                energy_drift: (solution.work.is_empty())
+                    .then_some(solution.stats.energy_drift)
+                    .flatten(),
+                energy_balance_drift: (!solution.work.is_empty())
+                    .then_some(solution.stats.energy_drift)
+                    .flatten(),
                 constraint_drift: solution.stats.constraint_drift,
                 max_condition: run.max_condition.map(|c| c.0),
                 max_condition_t: run.max_condition.map(|c| c.1),
@@ -164,14 +180,22 @@ impl Trajectory {
     pub fn summary(&self) -> String {
         let s = &self.stats;
         format!(
-            "{} ({}), {}: {} steps ({} rejected), {} RHS evaluations, energy drift {}, constraint drift {}{}",
+            "{} ({}), {}: {} steps ({} rejected), {} RHS evaluations, {}, constraint drift {}{}",
             self.model,
             self.eta_name,
             self.method,
             s.steps,
             s.rejected,
             s.rhs_evals,
-            s.energy_drift.map_or("n/a".into(), |x| format!("{x:.2e}")),
+            match (s.energy_balance_drift, s.energy_drift) {
+                (Some(b), _) => format!(
+                    "energy balance drift {b:.2e} (E − W, W the work of the forces)"
+                ),
+                (None, d) => format!(
+                    "energy drift {}",
+                    d.map_or("n/a".into(), |x| format!("{x:.2e}"))
+                ),
+            },
             s.constraint_drift
                 .map_or("not requested".into(), |x| format!("{x:.2e}")),
             if self.complete { "" } else { "; INCOMPLETE" }
@@ -210,7 +234,7 @@ impl Trajectory {
                 .as_str()
     }
 
-    /// CSV: t, the coordinates, eta1…, energy, constraint_residual, the expressions (a
+    /// CSV: t, the coordinates, eta1…, energy, work, constraint_residual, the expressions (a
     /// `# incomplete` comment first when cut short).
     pub fn to_csv(&self) -> String {
         let mut o = String::new();
@@ -224,6 +248,9 @@ impl Trajectory {
         if self.energy.is_some() {
             header.push("energy".into());
         }
+        if self.work.is_some() {
+            header.push("work".into());
+        }
         if self.constraint_residual.is_some() {
             header.push("constraint_residual".into());
         }
@@ -236,11 +263,14 @@ impl Trajectory {
             if let Some(eta) = self.eta.get(j) {
                 row.extend(eta.iter().map(|v| format!("{v:e}")));
             }
-            for monitor in [&self.energy, &self.constraint_residual]
-                .into_iter()
-                .flatten()
-            {
-                row.push(monitor[j].map_or(String::new(), |e| format!("{e:e}")));
+            if let Some(e) = &self.energy {
+                row.push(e[j].map_or(String::new(), |e| format!("{e:e}")));
+            }
+            if let Some(w) = &self.work {
+                row.push(format!("{:e}", w[j]));
+            }
+            if let Some(r) = &self.constraint_residual {
+                row.push(r[j].map_or(String::new(), |e| format!("{e:e}")));
             }
             row.extend(
                 self.expressions

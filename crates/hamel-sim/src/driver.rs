@@ -160,6 +160,25 @@ pub fn integrate<S: OdeSystem + ?Sized>(
     output_times: &[f64],
     options: &Options,
 ) -> Result<Solution, IntegrationError> {
+    if system.does_work() {
+        let mut start = y0.to_vec();
+        start.push(0.0);
+        let wrapped = crate::work::with_work(system);
+        let result = integrate_state(&wrapped, method, t0, &start, output_times, options);
+        return crate::work::split_result(result, y0.len());
+    }
+    integrate_state(system, method, t0, y0, output_times, options)
+}
+
+/// [`integrate`] of the state as it is (the work of the forces, if any, already in it).
+fn integrate_state<S: OdeSystem + ?Sized>(
+    system: &S,
+    method: Method,
+    t0: f64,
+    y0: &[f64],
+    output_times: &[f64],
+    options: &Options,
+) -> Result<Solution, IntegrationError> {
     if let Err((kind, message)) = validate(system, method, t0, y0, output_times, options) {
         let failure = Failure {
             kind,

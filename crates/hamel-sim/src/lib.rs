@@ -63,6 +63,7 @@ mod system;
 #[cfg(test)]
 mod testing;
 mod vern9;
+mod work;
 
 pub use driver::{Method, MethodName, Options, integrate};
 pub use ensemble::{Ensemble, EnsembleError, Shard, integrate_many};

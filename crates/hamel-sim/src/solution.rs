@@ -17,6 +17,10 @@ pub struct Solution {
     /// [`OdeSystem::constraint_residual`](crate::OdeSystem::constraint_residual) at each output
     /// (None where the system gives no finite value).
     pub constraint: Vec<Option<f64>>,
+    /// For a system whose forces do work ([`OdeSystem::does_work`](crate::OdeSystem::does_work)):
+    /// W(t) = ∫ power dt at each output, so that E(t) − W(t) is conserved; empty otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub work: Vec<f64>,
     /// Counters and invariant drift.
     pub stats: Stats,
     /// Whether every requested output time was reached.
@@ -41,7 +45,8 @@ pub struct Stats {
     /// Newton solves that did not converge.
     pub newton_failures: usize,
     /// `max |E(t) − E(t0)| / max(|E(t0)|, f64::MIN_POSITIVE)` over the outputs, if the system
-    /// has an energy.
+    /// has an energy; for a system whose forces do work, the same of the balance E − W (W(t0)
+    /// = 0).
     pub energy_drift: Option<f64>,
     /// `max |residual|` over the outputs, if the system has a constraint residual.
     pub constraint_drift: Option<f64>,

@@ -37,6 +37,27 @@ pub trait OdeSystem {
         None
     }
 
+    /// Whether the system's forces do work that the energy balance should account for
+    /// (default false): then [`crate::integrate`] integrates W = ∫ [`power`](Self::power) dt
+    /// beside the state, monitors E − W instead of E, and reports W
+    /// ([`Solution::work`](crate::Solution::work)).
+    fn does_work(&self) -> bool {
+        false
+    }
+
+    /// The power of the forces at a state, dE/dt along the motion (default 0); read only when
+    /// [`does_work`](Self::does_work).
+    fn power(&self, _t: f64, _y: &[f64]) -> Result<f64, SystemError> {
+        Ok(0.0)
+    }
+
+    /// [`rhs`](Self::rhs) and [`power`](Self::power) at once (a system that computes both in
+    /// one evaluation overrides it).
+    fn rhs_and_power(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<f64, SystemError> {
+        self.rhs(t, y, dy)?;
+        self.power(t, y)
+    }
+
     /// Optional invariant to monitor: the constraint residual at a state (default None).
     fn constraint_residual(&self, _t: f64, _y: &[f64]) -> Option<f64> {
         None

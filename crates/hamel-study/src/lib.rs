@@ -34,6 +34,7 @@ mod exact;
 mod export;
 mod forms;
 mod linear;
+pub mod lqr;
 mod mat;
 #[cfg(feature = "cas")]
 pub mod plot;
@@ -47,6 +48,7 @@ pub use error::StudyError;
 pub use export::{Exported, Outcome, Progress};
 pub use forms::{Polynomial, SecondOrder, Symbolic};
 pub use linear::{Linearisation, Point, Stability, Structural, StructuralKind};
+pub use lqr::{Lqr, LqrError, lqr};
 pub use prepare::Study;
 pub use state::SteadyCheck;
 pub use sweep::{Crossing, CrossingKind, Map, Range, Sweep, SweepPoint};

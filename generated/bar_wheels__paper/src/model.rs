@@ -533,6 +533,45 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[305] = t3;
 }
 
+/// Whether the generalised forces depend on the velocities: then the ingredients' ∇U leaves
+/// them out and [`forces`] is evaluated at q̇ = Γη in every structured evaluation.
+pub const VELOCITY_FORCES: bool = false;
+/// Whether the model has generalised forces beside ∇U (inputs, dampers): their power
+/// ([`power`]) is what changes the energy.
+pub const HAS_FORCES: bool = false;
+
+/// The generalised forces F(q, q̇) the model gives beside ∇U (zeros without), straight-line
+/// code; `out` has [`COORDINATES`]`.len()` entries.
+pub fn forces<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(0.0);
+    out[0] = t0;
+    out[1] = t0;
+    out[2] = t0;
+    out[3] = t0;
+    out[4] = t0;
+}
+
+/// The structured evaluation into `s`, the velocity-dependent forces added at q̇ = Γη.
+#[inline(always)]
+fn evaluate_into<S: Scalar>(s: &mut runtime::Structured<'_, S>, out: &[S], q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<(), runtime::Failure> {
+    s.evaluate_with(out, eta, paper, |qd, f| {
+        if VELOCITY_FORCES {
+            forces(q, qd, p, f);
+        }
+        true
+    })
+}
+
+/// The forces' power q̇ᵀF(q, q̇) at (q, η): the rate of change of the energy.
+pub fn power(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let (_, qd) = fast(q, eta, p)?;
+    let mut f = [0.0; ELL];
+    forces(q, &qd, p, &mut f);
+    let w: f64 = f.iter().zip(&qd).map(|(f, v)| f * v).sum();
+    runtime::finite("the forces' power", &[w])?;
+    Ok(w)
+}
+
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
@@ -543,7 +582,7 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     let mut r = Fixed::read(&s);
     if !S::CHECKED {
         return Ok(r);
@@ -566,7 +605,7 @@ pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     Ok(Fixed::read(&s))
 }
 

@@ -10,11 +10,11 @@
 //! * eta2 = der(psi)
 //! * eta3 = der(theta)
 //!
-//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 206 arithmetic operations as
-//! separate trees, 58 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 208 arithmetic operations as
+//! separate trees, 60 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 58 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 58 operations, 43 of them at run time with fixed parameters, against the structured path's 408 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.4e-16 (structured path: 3.3e-11; reference: double-double). Candidates (operations at run time / in all): `normal form` 43/58, `Cramer's rule on blocks` 52/85, `Cramer's rule on block entries` 58/91, `elimination of normal forms` 59/77, `elimination` 75/102.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`normal form`): 58 operations, 43 of them at run time with fixed parameters, against the structured path's 410 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.4e-16 (structured path: 3.3e-11; reference: double-double). Candidates (operations at run time / in all): `normal form` 43/58, `Cramer's rule on blocks` 52/85, `Cramer's rule on block entries` 58/91, `elimination of normal forms` 59/77, `elimination` 75/102.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (psi, theta, eta1, eta2, eta3); eliminated: (xC, yC, phi), reconstructed from
@@ -29,7 +29,7 @@
 use hamel_runtime::{self as runtime, Dims, DualN, EvalError, Fixed, Layout, Rhs, Scalar};
 
 /// The double-double type of the repeat of an ill-conditioned f64 evaluation, and the dual
-/// numbers of the Jacobian: inlined, as the ingredients have 58 shared operations (the threshold is 1000).
+/// numbers of the Jacobian: inlined, as the ingredients have 60 shared operations (the threshold is 1000).
 type Wide = runtime::DD;
 /// See [`Wide`].
 type Jet = DualN<REDUCED_DIM>;
@@ -62,7 +62,7 @@ pub const REDUCED_DIM: usize = 5;
 /// Values tried in turn for the eliminated coordinates when evaluating the reduced system.
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
-pub const OPERATIONS: (usize, usize) = (206, 58);
+pub const OPERATIONS: (usize, usize) = (208, 60);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
 /// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
@@ -199,12 +199,14 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t34 = S::constant(p.g);
     let t35 = t4 * t10 * t34 * t15;
     let t36 = -t35;
-    let t37 = t4 * t10 * t34 * t12;
-    let t38 = -t20;
-    let t39 = S::constant(2.5);
-    let t40 = t10 * t23 * t39 * t12 * t15;
-    let t41 = t10 * t23 * t29 * t15;
-    let t42 = -t41;
+    let t37 = -t10;
+    let t38 = -t12;
+    let t39 = t4 * t34 * t37 * t38;
+    let t40 = -t20;
+    let t41 = S::constant(2.5);
+    let t42 = t10 * t23 * t41 * t12 * t15;
+    let t43 = t10 * t23 * t29 * t15;
+    let t44 = -t43;
     out[0] = t0;
     out[1] = t0;
     out[2] = t1;
@@ -260,7 +262,7 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[52] = t0;
     out[53] = t0;
     out[54] = t0;
-    out[55] = t37;
+    out[55] = t39;
     out[56] = t0;
     out[57] = t0;
     out[58] = t0;
@@ -315,7 +317,7 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[107] = t0;
     out[108] = t18;
     out[109] = t0;
-    out[110] = t38;
+    out[110] = t40;
     out[111] = t0;
     out[112] = t0;
     out[113] = t14;
@@ -331,7 +333,7 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[123] = t0;
     out[124] = t0;
     out[125] = t0;
-    out[126] = t38;
+    out[126] = t40;
     out[127] = t17;
     out[128] = t0;
     out[129] = t0;
@@ -363,7 +365,7 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[155] = t0;
     out[156] = t0;
     out[157] = t0;
-    out[158] = t38;
+    out[158] = t40;
     out[159] = t0;
     out[160] = t18;
     out[161] = t0;
@@ -371,14 +373,14 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[163] = t17;
     out[164] = t0;
     out[165] = t14;
-    out[166] = t38;
+    out[166] = t40;
     out[167] = t17;
-    out[168] = t40;
-    out[169] = t42;
+    out[168] = t42;
+    out[169] = t44;
     out[170] = t0;
     out[171] = t0;
     out[172] = t0;
-    out[173] = t42;
+    out[173] = t44;
     out[174] = t0;
     out[175] = t0;
     out[176] = t18;
@@ -513,6 +515,45 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[305] = t0;
 }
 
+/// Whether the generalised forces depend on the velocities: then the ingredients' ∇U leaves
+/// them out and [`forces`] is evaluated at q̇ = Γη in every structured evaluation.
+pub const VELOCITY_FORCES: bool = false;
+/// Whether the model has generalised forces beside ∇U (inputs, dampers): their power
+/// ([`power`]) is what changes the energy.
+pub const HAS_FORCES: bool = false;
+
+/// The generalised forces F(q, q̇) the model gives beside ∇U (zeros without), straight-line
+/// code; `out` has [`COORDINATES`]`.len()` entries.
+pub fn forces<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(0.0);
+    out[0] = t0;
+    out[1] = t0;
+    out[2] = t0;
+    out[3] = t0;
+    out[4] = t0;
+}
+
+/// The structured evaluation into `s`, the velocity-dependent forces added at q̇ = Γη.
+#[inline(always)]
+fn evaluate_into<S: Scalar>(s: &mut runtime::Structured<'_, S>, out: &[S], q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<(), runtime::Failure> {
+    s.evaluate_with(out, eta, paper, |qd, f| {
+        if VELOCITY_FORCES {
+            forces(q, qd, p, f);
+        }
+        true
+    })
+}
+
+/// The forces' power q̇ᵀF(q, q̇) at (q, η): the rate of change of the energy.
+pub fn power(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let (_, qd) = fast(q, eta, p)?;
+    let mut f = [0.0; ELL];
+    forces(q, &qd, p, &mut f);
+    let w: f64 = f.iter().zip(&qd).map(|(f, v)| f * v).sum();
+    runtime::finite("the forces' power", &[w])?;
+    Ok(w)
+}
+
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
@@ -523,7 +564,7 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     let mut r = Fixed::read(&s);
     if !S::CHECKED {
         return Ok(r);
@@ -546,7 +587,7 @@ pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     Ok(Fixed::read(&s))
 }
 

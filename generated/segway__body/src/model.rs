@@ -10,11 +10,11 @@
 //! * eta2 = r/2*(der(phiL) + der(phiR))
 //! * eta3 = der(psi)
 //!
-//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 260 arithmetic operations as
-//! separate trees, 89 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 355 arithmetic operations as
+//! separate trees, 139 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 108 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 108 operations, 55 of them at run time with fixed parameters, against the structured path's 629 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 4.7e-15 (structured path: 8.2e-15; reference: double-double); at 12 states approaching the singular set, at most 1.3e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `Cramer's rule on block entries` 55/108, `Cramer's rule on blocks` 57/108, `elimination of normal forms` 57/114, `normal form` 64/188, `elimination` 86/135.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 108 operations, 55 of them at run time with fixed parameters, against the structured path's 679 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 4.7e-15 (structured path: 8.2e-15; reference: double-double); at 12 states approaching the singular set, at most 1.3e-1 (κ + 1)·ε. Candidates (operations at run time / in all): `Cramer's rule on block entries` 55/108, `Cramer's rule on blocks` 57/108, `elimination of normal forms` 57/114, `normal form` 64/188, `elimination` 86/135.
 //!
 //! **States.** Full: q = (x, y, psi, theta, phiL, phiR) and η = (eta1..eta3).
 //! Reduced (state vector `x`): (theta, eta1, eta2, eta3); eliminated: (x, y, psi, phiL, phiR), reconstructed from
@@ -29,7 +29,7 @@
 use hamel_runtime::{self as runtime, Dims, DualN, EvalError, Fixed, Layout, Rhs, Scalar};
 
 /// The double-double type of the repeat of an ill-conditioned f64 evaluation, and the dual
-/// numbers of the Jacobian: inlined, as the ingredients have 89 shared operations (the threshold is 1000).
+/// numbers of the Jacobian: inlined, as the ingredients have 139 shared operations (the threshold is 1000).
 type Wide = runtime::DD;
 /// See [`Wide`].
 type Jet = DualN<REDUCED_DIM>;
@@ -62,7 +62,7 @@ pub const REDUCED_DIM: usize = 4;
 /// Values tried in turn for the eliminated coordinates when evaluating the reduced system.
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
-pub const OPERATIONS: (usize, usize) = (260, 89);
+pub const OPERATIONS: (usize, usize) = (355, 139);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
 /// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
@@ -250,19 +250,49 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t53 = t3 * t18 * t19 * t48;
     let t54 = -t53;
     let t55 = t52 + t54 + t50;
-    let t56 = t17 * t24 * t48 * t23;
+    let t56 = -t12;
     let t57 = S::constant(p.T_L);
-    let t58 = -t57;
-    let t59 = S::constant(p.T_R);
-    let t60 = -t59;
-    let t61 = t58 + t60 + t56;
-    let t62 = -t29;
-    let t63 = -t30;
-    let t64 = t17 * t18 * t32 * t23 * t27;
-    let t65 = t18 * t35 * t23 * t27;
-    let t66 = t18 * t38 * t23 * t27;
-    let t67 = -t66;
-    let t68 = t64 + t65 + t67;
+    let t58 = t57 * t6 * t27 * t56;
+    let t59 = t57 * t6 * t12 * t27;
+    let t60 = t58 + t59;
+    let t61 = -t23;
+    let t62 = t60 * t61;
+    let t63 = t57 * t6 * t23 * t56;
+    let t64 = t57 * t6 * t12 * t23;
+    let t65 = t63 + t64;
+    let t66 = t27 * t65;
+    let t67 = t62 + t66;
+    let t68 = -t67;
+    let t69 = S::constant(p.T_R);
+    let t70 = t69 * t6 * t27 * t56;
+    let t71 = t69 * t6 * t12 * t27;
+    let t72 = t70 + t71;
+    let t73 = t61 * t72;
+    let t74 = t69 * t6 * t23 * t56;
+    let t75 = t69 * t6 * t12 * t23;
+    let t76 = t74 + t75;
+    let t77 = t27 * t76;
+    let t78 = t73 + t77;
+    let t79 = -t78;
+    let t80 = t68 + t79;
+    let t81 = t17 * t24 * t48 * t61;
+    let t82 = -t81;
+    let t83 = t57 * t56 * t56;
+    let t84 = t57 * t6 * t6;
+    let t85 = t83 + t84;
+    let t86 = -t85;
+    let t87 = t69 * t56 * t56;
+    let t88 = t69 * t6 * t6;
+    let t89 = t87 + t88;
+    let t90 = -t89;
+    let t91 = t82 + t86 + t90;
+    let t92 = -t29;
+    let t93 = -t30;
+    let t94 = t17 * t18 * t32 * t23 * t27;
+    let t95 = t18 * t35 * t23 * t27;
+    let t96 = t18 * t38 * t23 * t27;
+    let t97 = -t96;
+    let t98 = t94 + t95 + t97;
     out[0] = t0;
     out[1] = t0;
     out[2] = t0;
@@ -344,10 +374,10 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[78] = t55;
     out[79] = t0;
     out[80] = t0;
-    out[81] = t0;
-    out[82] = t61;
+    out[81] = t80;
+    out[82] = t91;
     out[83] = t57;
-    out[84] = t59;
+    out[84] = t69;
     out[85] = t0;
     out[86] = t0;
     out[87] = t0;
@@ -422,8 +452,8 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[156] = t0;
     out[157] = t0;
     out[158] = t0;
-    out[159] = t62;
-    out[160] = t63;
+    out[159] = t92;
+    out[160] = t93;
     out[161] = t0;
     out[162] = t0;
     out[163] = t0;
@@ -432,13 +462,13 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[166] = t28;
     out[167] = t0;
     out[168] = t0;
-    out[169] = t62;
+    out[169] = t92;
     out[170] = t26;
     out[171] = t0;
     out[172] = t0;
     out[173] = t0;
     out[174] = t0;
-    out[175] = t63;
+    out[175] = t93;
     out[176] = t28;
     out[177] = t0;
     out[178] = t0;
@@ -458,8 +488,8 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[192] = t0;
     out[193] = t0;
     out[194] = t0;
-    out[195] = t63;
-    out[196] = t62;
+    out[195] = t93;
+    out[196] = t92;
     out[197] = t0;
     out[198] = t0;
     out[199] = t0;
@@ -468,13 +498,13 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[202] = t26;
     out[203] = t0;
     out[204] = t0;
-    out[205] = t63;
+    out[205] = t93;
     out[206] = t28;
-    out[207] = t68;
+    out[207] = t98;
     out[208] = t0;
     out[209] = t0;
     out[210] = t0;
-    out[211] = t62;
+    out[211] = t92;
     out[212] = t26;
     out[213] = t0;
     out[214] = t0;
@@ -818,6 +848,84 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[552] = t0;
 }
 
+/// Whether the generalised forces depend on the velocities: then the ingredients' ∇U leaves
+/// them out and [`forces`] is evaluated at q̇ = Γη in every structured evaluation.
+pub const VELOCITY_FORCES: bool = false;
+/// Whether the model has generalised forces beside ∇U (inputs, dampers): their power
+/// ([`power`]) is what changes the energy.
+pub const HAS_FORCES: bool = true;
+
+/// The generalised forces F(q, q̇) the model gives beside ∇U (zeros without), straight-line
+/// code; `out` has [`COORDINATES`]`.len()` entries.
+pub fn forces<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(0.0);
+    let t1 = q[3];
+    let (t11, t2) = t1.sin_cos();
+    let t3 = q[2];
+    let (t5, t4) = t3.sin_cos();
+    let t6 = -t5;
+    let t7 = S::constant(p.T_L);
+    let t8 = t7 * t2 * t4 * t6;
+    let t9 = t7 * t2 * t4 * t5;
+    let t10 = t8 + t9;
+    let t12 = -t11;
+    let t13 = t10 * t12;
+    let t14 = t7 * t4 * t6 * t11;
+    let t15 = t7 * t4 * t5 * t11;
+    let t16 = t14 + t15;
+    let t17 = t2 * t16;
+    let t18 = t13 + t17;
+    let t19 = -t18;
+    let t20 = S::constant(p.T_R);
+    let t21 = t20 * t2 * t4 * t6;
+    let t22 = t20 * t2 * t4 * t5;
+    let t23 = t21 + t22;
+    let t24 = t12 * t23;
+    let t25 = t20 * t4 * t6 * t11;
+    let t26 = t20 * t4 * t5 * t11;
+    let t27 = t25 + t26;
+    let t28 = t2 * t27;
+    let t29 = t24 + t28;
+    let t30 = -t29;
+    let t31 = t19 + t30;
+    let t32 = t7 * t6 * t6;
+    let t33 = t7 * t4 * t4;
+    let t34 = t32 + t33;
+    let t35 = -t34;
+    let t36 = t20 * t6 * t6;
+    let t37 = t20 * t4 * t4;
+    let t38 = t36 + t37;
+    let t39 = -t38;
+    let t40 = t35 + t39;
+    out[0] = t0;
+    out[1] = t0;
+    out[2] = t31;
+    out[3] = t40;
+    out[4] = t7;
+    out[5] = t20;
+}
+
+/// The structured evaluation into `s`, the velocity-dependent forces added at q̇ = Γη.
+#[inline(always)]
+fn evaluate_into<S: Scalar>(s: &mut runtime::Structured<'_, S>, out: &[S], q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<(), runtime::Failure> {
+    s.evaluate_with(out, eta, paper, |qd, f| {
+        if VELOCITY_FORCES {
+            forces(q, qd, p, f);
+        }
+        true
+    })
+}
+
+/// The forces' power q̇ᵀF(q, q̇) at (q, η): the rate of change of the energy.
+pub fn power(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let (_, qd) = fast(q, eta, p)?;
+    let mut f = [0.0; ELL];
+    forces(q, &qd, p, &mut f);
+    let w: f64 = f.iter().zip(&qd).map(|(f, v)| f * v).sum();
+    runtime::finite("the forces' power", &[w])?;
+    Ok(w)
+}
+
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
@@ -828,7 +936,7 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     let mut r = Fixed::read(&s);
     if !S::CHECKED {
         return Ok(r);
@@ -851,7 +959,7 @@ pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     Ok(Fixed::read(&s))
 }
 

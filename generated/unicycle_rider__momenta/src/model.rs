@@ -11,11 +11,11 @@
 //! * eta3 = der(theta)
 //! * eta4 = der(theta1)
 //!
-//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 1602 arithmetic operations as
-//! separate trees, 339 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 1596 arithmetic operations as
+//! separate trees, 335 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 7909 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured (estimate: 1131 operations = ingredients + ℓ³ + σ²ℓ²); not used: `Cramer's rule on block entries` (7909 operations) is more than that; `elimination of normal forms` (7912 operations) is more than that; `elimination` (21310 operations) is more than that. Candidates (operations at run time / in all): `Cramer's rule on block entries` 510/7909, `elimination of normal forms` 514/7912, `elimination` 9146/21310.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): structured (estimate: 1127 operations = ingredients + ℓ³ + σ²ℓ²); not used: `Cramer's rule on block entries` (7909 operations) is more than that; `elimination of normal forms` (7912 operations) is more than that; `elimination` (21310 operations) is more than that. Candidates (operations at run time / in all): `Cramer's rule on block entries` 510/7909, `elimination of normal forms` 514/7912, `elimination` 9146/21310.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta, theta1) and η = (eta1..eta4).
 //! Reduced (state vector `x`): (theta, theta1, eta1, eta2, eta3, eta4); eliminated: (xC, yC, phi, psi), reconstructed from
@@ -30,7 +30,7 @@
 use hamel_runtime::{self as runtime, Dims, DualN, EvalError, Fixed, Layout, Rhs, Scalar};
 
 /// The double-double type of the repeat of an ill-conditioned f64 evaluation, and the dual
-/// numbers of the Jacobian: inlined, as the ingredients have 339 shared operations (the threshold is 1000).
+/// numbers of the Jacobian: inlined, as the ingredients have 335 shared operations (the threshold is 1000).
 type Wide = runtime::DD;
 /// See [`Wide`].
 type Jet = DualN<REDUCED_DIM>;
@@ -63,7 +63,7 @@ pub const REDUCED_DIM: usize = 6;
 /// Values tried in turn for the eliminated coordinates when evaluating the reduced system.
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
-pub const OPERATIONS: (usize, usize) = (1602, 339);
+pub const OPERATIONS: (usize, usize) = (1596, 335);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = false;
 /// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
@@ -298,47 +298,52 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t113 = -t112;
     let t114 = t12 * t20 * t105 * t55;
     let t115 = t107 + t109 + t111 + t113 + t114;
-    let t116 = t4 * t5 * t105 * t3;
-    let t117 = t8 * t9 * t105 * t3;
-    let t118 = t9 * t12 * t105 * t3;
-    let t119 = t12 * t15 * t105 * t3;
-    let t120 = t116 + t117 + t118 + t119;
-    let t121 = t12 * t20 * t105 * t19;
-    let t122 = -t121;
-    let t123 = t25 + t27 + t29 + t31 + t33;
-    let t124 = -t90;
-    let t125 = -t91;
-    let t126 = -t92;
-    let t127 = -t93;
-    let t128 = t124 + t125 + t126 + t127;
-    let t129 = -t95;
-    let t130 = t25 + t27 + t29 + t31;
-    let t131 = t7 + t11 + t14 + t17;
-    let t132 = S::constant(2.5);
-    let t133 = t5 * t42 * t132 * t3 * t40;
-    let t134 = t8 * t36 * t45 * t3 * t40;
-    let t135 = t12 * t36 * t45 * t3 * t40;
-    let t136 = S::constant(4.0);
-    let t137 = t9 * t12 * t15 * t136 * t3 * t40;
-    let t138 = t12 * t36 * t52 * t3 * t40;
-    let t139 = t9 * t12 * t20 * t36 * t19 * t40;
-    let t140 = t12 * t15 * t20 * t36 * t19 * t40;
-    let t141 = t133 + t134 + t135 + t137 + t138 + t139 + t140;
-    let t142 = t5 * t42 * t68 * t40;
-    let t143 = -t142;
-    let t144 = t9 * t12 * t20 * t3 * t55;
-    let t145 = -t144;
-    let t146 = t12 * t15 * t20 * t3 * t55;
-    let t147 = -t146;
-    let t148 = t9 * t12 * t20 * t19 * t40;
-    let t149 = -t148;
-    let t150 = t12 * t15 * t20 * t19 * t40;
-    let t151 = -t150;
-    let t152 = t145 + t147 + t149 + t151;
-    let t153 = t9 * t12 * t20 * t36 * t3 * t55;
-    let t154 = t12 * t15 * t20 * t36 * t3 * t55;
-    let t155 = t12 * t36 * t57 * t19 * t55;
-    let t156 = t153 + t154 + t155;
+    let t116 = -t105;
+    let t117 = t4 * t5;
+    let t118 = t8 * t9;
+    let t119 = t9 + t15;
+    let t120 = t12 * t119;
+    let t121 = t117 + t118 + t120;
+    let t122 = -t3;
+    let t123 = t116 * t121 * t122;
+    let t124 = -t19;
+    let t125 = t12 * t20 * t124;
+    let t126 = -t125;
+    let t127 = t116 * t126;
+    let t128 = t25 + t27 + t29 + t31 + t33;
+    let t129 = -t90;
+    let t130 = -t91;
+    let t131 = -t92;
+    let t132 = -t93;
+    let t133 = t129 + t130 + t131 + t132;
+    let t134 = -t95;
+    let t135 = t25 + t27 + t29 + t31;
+    let t136 = t7 + t11 + t14 + t17;
+    let t137 = S::constant(2.5);
+    let t138 = t5 * t42 * t137 * t3 * t40;
+    let t139 = t8 * t36 * t45 * t3 * t40;
+    let t140 = t12 * t36 * t45 * t3 * t40;
+    let t141 = S::constant(4.0);
+    let t142 = t9 * t12 * t15 * t141 * t3 * t40;
+    let t143 = t12 * t36 * t52 * t3 * t40;
+    let t144 = t9 * t12 * t20 * t36 * t19 * t40;
+    let t145 = t12 * t15 * t20 * t36 * t19 * t40;
+    let t146 = t138 + t139 + t140 + t142 + t143 + t144 + t145;
+    let t147 = t5 * t42 * t68 * t40;
+    let t148 = -t147;
+    let t149 = t9 * t12 * t20 * t3 * t55;
+    let t150 = -t149;
+    let t151 = t12 * t15 * t20 * t3 * t55;
+    let t152 = -t151;
+    let t153 = t9 * t12 * t20 * t19 * t40;
+    let t154 = -t153;
+    let t155 = t12 * t15 * t20 * t19 * t40;
+    let t156 = -t155;
+    let t157 = t150 + t152 + t154 + t156;
+    let t158 = t9 * t12 * t20 * t36 * t3 * t55;
+    let t159 = t12 * t15 * t20 * t36 * t3 * t55;
+    let t160 = t12 * t36 * t57 * t19 * t55;
+    let t161 = t158 + t159 + t160;
     out[0] = t23;
     out[1] = t35;
     out[2] = t67;
@@ -416,8 +421,8 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[74] = t71;
     out[75] = t71;
     out[76] = t71;
-    out[77] = t120;
-    out[78] = t122;
+    out[77] = t123;
+    out[78] = t127;
     out[79] = t71;
     out[80] = t71;
     out[81] = t71;
@@ -492,17 +497,17 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[150] = t71;
     out[151] = t71;
     out[152] = t71;
-    out[153] = t123;
+    out[153] = t128;
     out[154] = t71;
-    out[155] = t128;
-    out[156] = t129;
+    out[155] = t133;
+    out[156] = t134;
     out[157] = t71;
     out[158] = t71;
     out[159] = t23;
     out[160] = t71;
     out[161] = t87;
     out[162] = t89;
-    out[163] = t123;
+    out[163] = t128;
     out[164] = t23;
     out[165] = t71;
     out[166] = t71;
@@ -514,13 +519,13 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[172] = t71;
     out[173] = t71;
     out[174] = t71;
-    out[175] = t128;
+    out[175] = t133;
     out[176] = t87;
     out[177] = t71;
     out[178] = t71;
     out[179] = t71;
     out[180] = t71;
-    out[181] = t129;
+    out[181] = t134;
     out[182] = t89;
     out[183] = t71;
     out[184] = t71;
@@ -564,43 +569,43 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[222] = t71;
     out[223] = t71;
     out[224] = t71;
-    out[225] = t128;
+    out[225] = t133;
     out[226] = t71;
-    out[227] = t130;
+    out[227] = t135;
     out[228] = t71;
     out[229] = t71;
     out[230] = t71;
     out[231] = t87;
     out[232] = t71;
-    out[233] = t131;
+    out[233] = t136;
     out[234] = t71;
-    out[235] = t128;
+    out[235] = t133;
     out[236] = t87;
-    out[237] = t141;
-    out[238] = t143;
+    out[237] = t146;
+    out[238] = t148;
     out[239] = t71;
     out[240] = t71;
     out[241] = t71;
     out[242] = t71;
-    out[243] = t143;
+    out[243] = t148;
     out[244] = t71;
     out[245] = t71;
     out[246] = t71;
-    out[247] = t130;
-    out[248] = t131;
+    out[247] = t135;
+    out[248] = t136;
     out[249] = t71;
     out[250] = t71;
     out[251] = t71;
-    out[252] = t152;
+    out[252] = t157;
     out[253] = t71;
     out[254] = t71;
     out[255] = t71;
     out[256] = t71;
-    out[257] = t152;
+    out[257] = t157;
     out[258] = t71;
     out[259] = t71;
     out[260] = t71;
-    out[261] = t129;
+    out[261] = t134;
     out[262] = t71;
     out[263] = t71;
     out[264] = t33;
@@ -610,9 +615,9 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[268] = t71;
     out[269] = t71;
     out[270] = t22;
-    out[271] = t129;
+    out[271] = t134;
     out[272] = t89;
-    out[273] = t156;
+    out[273] = t161;
     out[274] = t71;
     out[275] = t71;
     out[276] = t71;
@@ -627,12 +632,12 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[285] = t71;
     out[286] = t71;
     out[287] = t71;
-    out[288] = t152;
+    out[288] = t157;
     out[289] = t33;
     out[290] = t22;
     out[291] = t71;
     out[292] = t71;
-    out[293] = t152;
+    out[293] = t157;
     out[294] = t71;
     out[295] = t71;
     out[296] = t71;
@@ -682,7 +687,7 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[340] = t71;
     out[341] = t71;
     out[342] = t71;
-    out[343] = t123;
+    out[343] = t128;
     out[344] = t23;
     out[345] = t71;
     out[346] = t71;
@@ -730,15 +735,15 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[388] = t71;
     out[389] = t71;
     out[390] = t71;
-    out[391] = t128;
+    out[391] = t133;
     out[392] = t87;
-    out[393] = t141;
-    out[394] = t143;
+    out[393] = t146;
+    out[394] = t148;
     out[395] = t71;
     out[396] = t71;
     out[397] = t71;
     out[398] = t71;
-    out[399] = t143;
+    out[399] = t148;
     out[400] = t71;
     out[401] = t71;
     out[402] = t71;
@@ -754,9 +759,9 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[412] = t71;
     out[413] = t71;
     out[414] = t71;
-    out[415] = t129;
+    out[415] = t134;
     out[416] = t89;
-    out[417] = t156;
+    out[417] = t161;
     out[418] = t71;
     out[419] = t71;
     out[420] = t71;
@@ -852,6 +857,46 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[510] = t71;
 }
 
+/// Whether the generalised forces depend on the velocities: then the ingredients' ∇U leaves
+/// them out and [`forces`] is evaluated at q̇ = Γη in every structured evaluation.
+pub const VELOCITY_FORCES: bool = false;
+/// Whether the model has generalised forces beside ∇U (inputs, dampers): their power
+/// ([`power`]) is what changes the energy.
+pub const HAS_FORCES: bool = false;
+
+/// The generalised forces F(q, q̇) the model gives beside ∇U (zeros without), straight-line
+/// code; `out` has [`COORDINATES`]`.len()` entries.
+pub fn forces<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(0.0);
+    out[0] = t0;
+    out[1] = t0;
+    out[2] = t0;
+    out[3] = t0;
+    out[4] = t0;
+    out[5] = t0;
+}
+
+/// The structured evaluation into `s`, the velocity-dependent forces added at q̇ = Γη.
+#[inline(always)]
+fn evaluate_into<S: Scalar>(s: &mut runtime::Structured<'_, S>, out: &[S], q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<(), runtime::Failure> {
+    s.evaluate_with(out, eta, paper, |qd, f| {
+        if VELOCITY_FORCES {
+            forces(q, qd, p, f);
+        }
+        true
+    })
+}
+
+/// The forces' power q̇ᵀF(q, q̇) at (q, η): the rate of change of the energy.
+pub fn power(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let (_, qd) = fast(q, eta, p)?;
+    let mut f = [0.0; ELL];
+    forces(q, &qd, p, &mut f);
+    let w: f64 = f.iter().zip(&qd).map(|(f, v)| f * v).sum();
+    runtime::finite("the forces' power", &[w])?;
+    Ok(w)
+}
+
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
@@ -862,7 +907,7 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     let mut r = Fixed::read(&s);
     if !S::CHECKED {
         return Ok(r);
@@ -885,7 +930,7 @@ pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     Ok(Fixed::read(&s))
 }
 

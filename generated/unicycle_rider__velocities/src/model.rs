@@ -11,11 +11,11 @@
 //! * eta3 = der(theta)
 //! * eta4 = der(theta1)
 //!
-//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 1221 arithmetic operations as
-//! separate trees, 339 with common subexpressions shared. Solved form ((η̇, q̇) as
+//! Ingredients (Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q): 1215 arithmetic operations as
+//! separate trees, 335 with common subexpressions shared. Solved form ((η̇, q̇) as
 //! straight-line code of (q, η), exact zeros folded): 256 shared operations.
 //!
-//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 256 operations, 127 of them at run time with fixed parameters, against the structured path's 1131 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `Cramer's rule on block entries` 127/256, `elimination of normal forms` 132/259, `Cramer's rule on blocks` 134/368, `normal form` 222/664, `elimination` 247/369.
+//! **Path of [`fast`]** (used by [`full_into`], [`reduced`], the Jacobian): solved form (`Cramer's rule on block entries`): 256 operations, 127 of them at run time with fixed parameters, against the structured path's 1127 (ingredients + ℓ³ + σ²ℓ²); at 200 sample states its relative error in f64 is at most 3.0e-13 (structured path: 6.8e-13; reference: double-double). Candidates (operations at run time / in all): `Cramer's rule on block entries` 127/256, `elimination of normal forms` 132/259, `Cramer's rule on blocks` 134/368, `normal form` 222/664, `elimination` 247/369.
 //!
 //! **States.** Full: q = (xC, yC, phi, psi, theta, theta1) and η = (eta1..eta4).
 //! Reduced (state vector `x`): (theta, theta1, eta1, eta2, eta3, eta4); eliminated: (xC, yC, phi, psi), reconstructed from
@@ -30,7 +30,7 @@
 use hamel_runtime::{self as runtime, Dims, DualN, EvalError, Fixed, Layout, Rhs, Scalar};
 
 /// The double-double type of the repeat of an ill-conditioned f64 evaluation, and the dual
-/// numbers of the Jacobian: inlined, as the ingredients have 339 shared operations (the threshold is 1000).
+/// numbers of the Jacobian: inlined, as the ingredients have 335 shared operations (the threshold is 1000).
 type Wide = runtime::DD;
 /// See [`Wide`].
 type Jet = DualN<REDUCED_DIM>;
@@ -63,7 +63,7 @@ pub const REDUCED_DIM: usize = 6;
 /// Values tried in turn for the eliminated coordinates when evaluating the reduced system.
 pub const REFERENCE: [f64; 3] = [0.5, 1.25, 2.0];
 /// Operation counts of the ingredients: as trees, and shared.
-pub const OPERATIONS: (usize, usize) = (1221, 339);
+pub const OPERATIONS: (usize, usize) = (1215, 335);
 /// Whether [`fast`] uses the solved form (else the structured path).
 pub const SOLVED: bool = true;
 /// Whether [`reduced`] is solved-form code of the kept coordinates and η alone (else the full
@@ -298,47 +298,52 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     let t113 = -t112;
     let t114 = t12 * t28 * t105 * t42;
     let t115 = t107 + t109 + t111 + t113 + t114;
-    let t116 = t4 * t10 * t105 * t15;
-    let t117 = t11 * t18 * t105 * t15;
-    let t118 = t12 * t18 * t105 * t15;
-    let t119 = t12 * t23 * t105 * t15;
-    let t120 = t116 + t117 + t118 + t119;
-    let t121 = t12 * t28 * t105 * t27;
-    let t122 = -t121;
-    let t123 = t45 + t47 + t49 + t51 + t53;
-    let t124 = -t56;
-    let t125 = -t57;
-    let t126 = -t58;
-    let t127 = -t59;
-    let t128 = t124 + t125 + t126 + t127;
-    let t129 = -t61;
-    let t130 = t45 + t47 + t49 + t51;
-    let t131 = t17 + t20 + t22 + t25;
-    let t132 = S::constant(2.5);
-    let t133 = t10 * t67 * t132 * t15 * t32;
-    let t134 = t11 * t62 * t70 * t15 * t32;
-    let t135 = t12 * t62 * t70 * t15 * t32;
-    let t136 = S::constant(4.0);
-    let t137 = t12 * t18 * t23 * t136 * t15 * t32;
-    let t138 = t12 * t62 * t77 * t15 * t32;
-    let t139 = t12 * t18 * t28 * t62 * t27 * t32;
-    let t140 = t12 * t23 * t28 * t62 * t27 * t32;
-    let t141 = t133 + t134 + t135 + t137 + t138 + t139 + t140;
-    let t142 = t10 * t67 * t92 * t32;
-    let t143 = -t142;
-    let t144 = t12 * t18 * t28 * t15 * t42;
-    let t145 = -t144;
-    let t146 = t12 * t23 * t28 * t15 * t42;
-    let t147 = -t146;
-    let t148 = t12 * t18 * t28 * t27 * t32;
-    let t149 = -t148;
-    let t150 = t12 * t23 * t28 * t27 * t32;
-    let t151 = -t150;
-    let t152 = t145 + t147 + t149 + t151;
-    let t153 = t12 * t18 * t28 * t62 * t15 * t42;
-    let t154 = t12 * t23 * t28 * t62 * t15 * t42;
-    let t155 = t12 * t62 * t81 * t27 * t42;
-    let t156 = t153 + t154 + t155;
+    let t116 = -t105;
+    let t117 = t4 * t10;
+    let t118 = t11 * t18;
+    let t119 = t18 + t23;
+    let t120 = t12 * t119;
+    let t121 = t117 + t118 + t120;
+    let t122 = -t15;
+    let t123 = t116 * t121 * t122;
+    let t124 = -t27;
+    let t125 = t12 * t28 * t124;
+    let t126 = -t125;
+    let t127 = t116 * t126;
+    let t128 = t45 + t47 + t49 + t51 + t53;
+    let t129 = -t56;
+    let t130 = -t57;
+    let t131 = -t58;
+    let t132 = -t59;
+    let t133 = t129 + t130 + t131 + t132;
+    let t134 = -t61;
+    let t135 = t45 + t47 + t49 + t51;
+    let t136 = t17 + t20 + t22 + t25;
+    let t137 = S::constant(2.5);
+    let t138 = t10 * t67 * t137 * t15 * t32;
+    let t139 = t11 * t62 * t70 * t15 * t32;
+    let t140 = t12 * t62 * t70 * t15 * t32;
+    let t141 = S::constant(4.0);
+    let t142 = t12 * t18 * t23 * t141 * t15 * t32;
+    let t143 = t12 * t62 * t77 * t15 * t32;
+    let t144 = t12 * t18 * t28 * t62 * t27 * t32;
+    let t145 = t12 * t23 * t28 * t62 * t27 * t32;
+    let t146 = t138 + t139 + t140 + t142 + t143 + t144 + t145;
+    let t147 = t10 * t67 * t92 * t32;
+    let t148 = -t147;
+    let t149 = t12 * t18 * t28 * t15 * t42;
+    let t150 = -t149;
+    let t151 = t12 * t23 * t28 * t15 * t42;
+    let t152 = -t151;
+    let t153 = t12 * t18 * t28 * t27 * t32;
+    let t154 = -t153;
+    let t155 = t12 * t23 * t28 * t27 * t32;
+    let t156 = -t155;
+    let t157 = t150 + t152 + t154 + t156;
+    let t158 = t12 * t18 * t28 * t62 * t15 * t42;
+    let t159 = t12 * t23 * t28 * t62 * t15 * t42;
+    let t160 = t12 * t62 * t81 * t27 * t42;
+    let t161 = t158 + t159 + t160;
     out[0] = t0;
     out[1] = t0;
     out[2] = t1;
@@ -416,8 +421,8 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[74] = t0;
     out[75] = t0;
     out[76] = t0;
-    out[77] = t120;
-    out[78] = t122;
+    out[77] = t123;
+    out[78] = t127;
     out[79] = t0;
     out[80] = t0;
     out[81] = t0;
@@ -492,17 +497,17 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[150] = t0;
     out[151] = t0;
     out[152] = t0;
-    out[153] = t123;
+    out[153] = t128;
     out[154] = t0;
-    out[155] = t128;
-    out[156] = t129;
+    out[155] = t133;
+    out[156] = t134;
     out[157] = t0;
     out[158] = t0;
     out[159] = t31;
     out[160] = t0;
     out[161] = t41;
     out[162] = t44;
-    out[163] = t123;
+    out[163] = t128;
     out[164] = t31;
     out[165] = t0;
     out[166] = t0;
@@ -514,13 +519,13 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[172] = t0;
     out[173] = t0;
     out[174] = t0;
-    out[175] = t128;
+    out[175] = t133;
     out[176] = t41;
     out[177] = t0;
     out[178] = t0;
     out[179] = t0;
     out[180] = t0;
-    out[181] = t129;
+    out[181] = t134;
     out[182] = t44;
     out[183] = t0;
     out[184] = t0;
@@ -564,43 +569,43 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[222] = t0;
     out[223] = t0;
     out[224] = t0;
-    out[225] = t128;
+    out[225] = t133;
     out[226] = t0;
-    out[227] = t130;
+    out[227] = t135;
     out[228] = t0;
     out[229] = t0;
     out[230] = t0;
     out[231] = t41;
     out[232] = t0;
-    out[233] = t131;
+    out[233] = t136;
     out[234] = t0;
-    out[235] = t128;
+    out[235] = t133;
     out[236] = t41;
-    out[237] = t141;
-    out[238] = t143;
+    out[237] = t146;
+    out[238] = t148;
     out[239] = t0;
     out[240] = t0;
     out[241] = t0;
     out[242] = t0;
-    out[243] = t143;
+    out[243] = t148;
     out[244] = t0;
     out[245] = t0;
     out[246] = t0;
-    out[247] = t130;
-    out[248] = t131;
+    out[247] = t135;
+    out[248] = t136;
     out[249] = t0;
     out[250] = t0;
     out[251] = t0;
-    out[252] = t152;
+    out[252] = t157;
     out[253] = t0;
     out[254] = t0;
     out[255] = t0;
     out[256] = t0;
-    out[257] = t152;
+    out[257] = t157;
     out[258] = t0;
     out[259] = t0;
     out[260] = t0;
-    out[261] = t129;
+    out[261] = t134;
     out[262] = t0;
     out[263] = t0;
     out[264] = t53;
@@ -610,9 +615,9 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[268] = t0;
     out[269] = t0;
     out[270] = t30;
-    out[271] = t129;
+    out[271] = t134;
     out[272] = t44;
-    out[273] = t156;
+    out[273] = t161;
     out[274] = t0;
     out[275] = t0;
     out[276] = t0;
@@ -627,12 +632,12 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[285] = t0;
     out[286] = t0;
     out[287] = t0;
-    out[288] = t152;
+    out[288] = t157;
     out[289] = t53;
     out[290] = t30;
     out[291] = t0;
     out[292] = t0;
-    out[293] = t152;
+    out[293] = t157;
     out[294] = t0;
     out[295] = t0;
     out[296] = t0;
@@ -852,6 +857,46 @@ pub fn ingredients<S: Scalar>(q: &[S], p: &Parameters, out: &mut [S]) {
     out[510] = t0;
 }
 
+/// Whether the generalised forces depend on the velocities: then the ingredients' ∇U leaves
+/// them out and [`forces`] is evaluated at q̇ = Γη in every structured evaluation.
+pub const VELOCITY_FORCES: bool = false;
+/// Whether the model has generalised forces beside ∇U (inputs, dampers): their power
+/// ([`power`]) is what changes the energy.
+pub const HAS_FORCES: bool = false;
+
+/// The generalised forces F(q, q̇) the model gives beside ∇U (zeros without), straight-line
+/// code; `out` has [`COORDINATES`]`.len()` entries.
+pub fn forces<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(0.0);
+    out[0] = t0;
+    out[1] = t0;
+    out[2] = t0;
+    out[3] = t0;
+    out[4] = t0;
+    out[5] = t0;
+}
+
+/// The structured evaluation into `s`, the velocity-dependent forces added at q̇ = Γη.
+#[inline(always)]
+fn evaluate_into<S: Scalar>(s: &mut runtime::Structured<'_, S>, out: &[S], q: &[S], eta: &[S], p: &Parameters, paper: bool) -> Result<(), runtime::Failure> {
+    s.evaluate_with(out, eta, paper, |qd, f| {
+        if VELOCITY_FORCES {
+            forces(q, qd, p, f);
+        }
+        true
+    })
+}
+
+/// The forces' power q̇ᵀF(q, q̇) at (q, η): the rate of change of the energy.
+pub fn power(q: &[f64], eta: &[f64], p: &Parameters) -> Result<f64, EvalError> {
+    let (_, qd) = fast(q, eta, p)?;
+    let mut f = [0.0; ELL];
+    forces(q, &qd, p, &mut f);
+    let w: f64 = f.iter().zip(&qd).map(|(f, v)| f * v).sum();
+    runtime::finite("the forces' power", &[w])?;
+    Ok(w)
+}
+
 /// The right-hand side at (q, η) in fixed-size arrays, without allocation: η̇ (and the paper's
 /// η̇ when `paper`), q̇ = Γη, A_Γ, F, energy.
 ///
@@ -862,7 +907,7 @@ pub fn rhs_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper: bool) -> 
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     let mut r = Fixed::read(&s);
     if !S::CHECKED {
         return Ok(r);
@@ -885,7 +930,7 @@ pub fn structured_unchecked<S: Scalar>(q: &[S], eta: &[S], p: &Parameters, paper
     ingredients(q, p, &mut out);
     let mut storage = Storage::<S>::new();
     let mut s = storage.structured(DIMS)?;
-    s.evaluate(&out, eta, paper)?;
+    evaluate_into(&mut s, &out, q, eta, p, paper)?;
     Ok(Fixed::read(&s))
 }
 

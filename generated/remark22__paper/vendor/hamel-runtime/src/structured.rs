@@ -7,7 +7,9 @@
 //!   that are independent where it is evaluated (see [`select`]): Γ and the true equations do
 //!   not depend on which;
 //! * Γ̇η = −M⁻¹Ṁq̇ (from M[Γ Θ] = I), Ȧ = Σ_k ∂A/∂q_k q̇_k;
-//! * A_Γ η̇ = F with F = Γᵀ(∇U + ½∇_q(q̇ᵀAq̇) − Ȧq̇ − AΓ̇η): (11) with Q from (9), true form;
+//! * A_Γ η̇ = F with F = Γᵀ(∇U + F(q, q̇) + ½∇_q(q̇ᵀAq̇) − Ȧq̇ − AΓ̇η): (11) with Q from (9),
+//!   true form, the velocity-dependent forces F(q, q̇) evaluated by the caller at q̇ = Γη
+//!   ([`Structured::evaluate_with`]);
 //! * the paper's form adds Σ_m ν_m ΓᵀV_m q̇, ν = ΘᵀAq̇, (V_m q̇)_h = Σ_k (∂α_mh/∂q_k −
 //!   ∂α_mk/∂q_h) q̇_k.
 //!
@@ -208,6 +210,8 @@ pub enum Failure {
     Inputs,
     /// Storage smaller than the sizes need, or sizes with ℓ ≠ μ + σ.
     Storage,
+    /// The forces F(q, q̇) could not be evaluated at q̇ = Γη (a damper whose two points meet).
+    Forces,
 }
 
 impl std::fmt::Display for Failure {
@@ -217,6 +221,7 @@ impl std::fmt::Display for Failure {
             Failure::AGamma => "A_Γ is singular here",
             Failure::Inputs => "structured evaluation: too few inputs",
             Failure::Storage => "structured evaluation: storage too small for the sizes",
+            Failure::Forces => "the forces F(q, q̇) cannot be evaluated here",
         })
     }
 }
@@ -340,6 +345,20 @@ impl<'a, S: Scalar> Structured<'a, S> {
     /// (otherwise it equals η̇). Errors where [Z; α] or A_Γ is numerically singular.
     #[inline(always)]
     pub fn evaluate(&mut self, out: &[S], eta: &[S], paper: bool) -> Result<(), Failure> {
+        self.evaluate_with(out, eta, paper, |_, _| true)
+    }
+
+    /// [`Structured::evaluate`] for forces that depend on the velocities: `forces(q̇, f)`
+    /// writes F(q, q̇) into `f` (ℓ entries, zero on entry) at q̇ = Γη, and F is added to ∇U in
+    /// (11); `false` from it is [`Failure::Forces`]. The ingredients' ∇U must then not hold F.
+    #[inline(always)]
+    pub fn evaluate_with(
+        &mut self,
+        out: &[S],
+        eta: &[S],
+        paper: bool,
+        forces: impl FnOnce(&[S], &mut [S]) -> bool,
+    ) -> Result<(), Failure> {
         let (d, lay) = (self.d, self.layout);
         if out.len() < lay.len || eta.len() < d.sigma {
             return Err(Failure::Inputs);
@@ -349,6 +368,10 @@ impl<'a, S: Scalar> Structured<'a, S> {
         let (terms, rest) = self.re.split_at_mut(d.ell);
         let forcing_scale = &mut rest[..d.sigma];
         gamma_and_velocities(d, lay, out, eta, &mut p, perm_m, self.pivot)?;
+        p.force.fill(S::constant(0.0));
+        if !forces(p.q_dot, p.force) {
+            return Err(Failure::Forces);
+        }
         forcing(d, lay, out, &mut p, perm_m, terms, forcing_scale);
         a_gamma(d, lay, out, &mut p);
         p.ag_lu.copy_from_slice(p.a_gamma);
@@ -494,8 +517,8 @@ pub fn select<S: Scalar>(
     lu::factor_rows(d.m_rows(), l, m, perm, pivot)
 }
 
-/// Ṁq̇, Ȧq̇, ∇_qT, Γ̇η, Aq̇ and the forcing F = Γᵀ(∇U + ∇_qT − Ȧq̇ − AΓ̇η) of (11) with Q
-/// from (9); for f64, the sizes of its terms.
+/// Ṁq̇, Ȧq̇, ∇_qT, Γ̇η, Aq̇ and the forcing F = Γᵀ(∇U + F(q, q̇) + ∇_qT − Ȧq̇ − AΓ̇η) of
+/// (11) with Q from (9), `p.force` holding F(q, q̇) on entry; for f64, the sizes of its terms.
 #[inline(always)]
 fn forcing<S: Scalar>(
     d: Dims,
@@ -548,12 +571,19 @@ fn forcing<S: Scalar>(
         }
         p.a_gdot[i] = a_gdot;
         p.aq[i] = aq;
-        p.force[i] = out[lay.grad_u + i] + p.grad_t[i] - p.adot_qd[i] - a_gdot;
+        let applied = p.force[i];
+        p.force[i] = out[lay.grad_u + i] + applied + p.grad_t[i] - p.adot_qd[i] - a_gdot;
         if S::CHECKED {
-            terms[i] = [out[lay.grad_u + i], p.grad_t[i], p.adot_qd[i], a_gdot]
-                .iter()
-                .map(|x| x.value().abs())
-                .sum();
+            terms[i] = [
+                out[lay.grad_u + i],
+                applied,
+                p.grad_t[i],
+                p.adot_qd[i],
+                a_gdot,
+            ]
+            .iter()
+            .map(|x| x.value().abs())
+            .sum();
         }
     }
     for r in 0..g {

@@ -1,0 +1,311 @@
+//! The linear-quadratic regulator of a linearisation: the gain K minimising
+//! ∫ (xᵀQx + uᵀRu) dt for ẋ = Ax + Bu, from the stabilising solution X of the continuous
+//! algebraic Riccati equation (CARE)
+//!
+//! ```text
+//! AᵀX + XA − XBR⁻¹BᵀX + Q = 0,    K = R⁻¹BᵀX,    u = −Kx.
+//! ```
+//!
+//! X spans the stable invariant subspace [I; X] of the Hamiltonian H = [A −G; −Q −Aᵀ],
+//! G = BR⁻¹Bᵀ. It is computed by the matrix sign function of H (Newton's iteration
+//! Z ← (cZ + (cZ)⁻¹)/2 with determinantal scaling, Byers 1987): (sign H + I)[I; X] = 0 is solved
+//! for X by least squares, and then refined by Newton–Kleinman steps (a Lyapunov equation
+//! each, solved densely). The relative residual
+//! ‖AᵀX + XA − XGX + Q‖_F / (‖AᵀX‖_F + ‖XA‖_F + ‖XGX‖_F + ‖Q‖_F) is reported, and above
+//! [`RESIDUAL`] the result is an error: no gain is given that has not been checked.
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// The largest relative residual of the CARE accepted.
+pub const RESIDUAL: f64 = 1e-9;
+
+/// The sign iteration's cap (it converges quadratically; a Hamiltonian with eigenvalues on or
+/// near the imaginary axis, an unstabilisable pair, makes it stall).
+const SIGN_ITERATIONS: usize = 100;
+
+/// The regulator: its gain, the Riccati solution and how well it solves the CARE.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Lqr {
+    /// K (inputs × state): u = −K x.
+    pub k: Vec<Vec<f64>>,
+    /// X (state × state), symmetric positive semidefinite.
+    pub x: Vec<Vec<f64>>,
+    /// The CARE's relative residual at X (at most [`RESIDUAL`]).
+    pub residual: f64,
+    /// The eigenvalues of A − BK (re, im), sorted: all with negative real parts.
+    pub closed_loop: Vec<[f64; 2]>,
+}
+
+/// Why no regulator was computed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LqrError {
+    /// The matrices do not fit together.
+    #[error("the LQR's matrices do not fit: {0}")]
+    Sizes(String),
+    /// R is not symmetric positive definite.
+    #[error("the input weight R is not positive definite")]
+    InputWeight,
+    /// Q is not symmetric positive semidefinite.
+    #[error("the state weight Q is not symmetric positive semidefinite")]
+    StateWeight,
+    /// The Hamiltonian has eigenvalues on the imaginary axis: (A, B) is not stabilisable or
+    /// (A, Q) not detectable.
+    #[error(
+        "the Riccati equation has no stabilising solution: the Hamiltonian has eigenvalues on the imaginary axis (a mode that the inputs cannot move, or that Q does not weigh, is not stable)"
+    )]
+    NoStabilisingSolution,
+    /// The solution found does not solve the equation to [`RESIDUAL`].
+    #[error("the Riccati solution's relative residual is {0:.2e}, above {RESIDUAL:.0e}")]
+    Residual(f64),
+}
+
+/// The LQR gain of ẋ = Ax + Bu for the weights Q (state) and R (inputs).
+pub fn lqr(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+) -> Result<Lqr, LqrError> {
+    check(a, b, q, r)?;
+    let r_inv = r.clone().cholesky().ok_or(LqrError::InputWeight)?.inverse();
+    let g = b * &r_inv * b.transpose();
+    let mut x = sign_solution(a, &g, q)?;
+    for _ in 0..3 {
+        if residual(a, &g, q, &x) <= 1e-14 {
+            break;
+        }
+        match kleinman(a, &g, q, &x) {
+            Some(next) if residual(a, &g, q, &next) < residual(a, &g, q, &x) => x = next,
+            _ => break,
+        }
+    }
+    let res = residual(a, &g, q, &x);
+    if res.is_nan() || res > RESIDUAL {
+        return Err(LqrError::Residual(res));
+    }
+    let k = &r_inv * b.transpose() * &x;
+    let closed = a - b * &k;
+    let mut closed_loop: Vec<[f64; 2]> = closed
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| [z.re, z.im])
+        .collect();
+    closed_loop.sort_by(|p, q| p[0].total_cmp(&q[0]).then(p[1].total_cmp(&q[1])));
+    if closed_loop.iter().any(|z| z[0] >= 0.0) {
+        return Err(LqrError::NoStabilisingSolution);
+    }
+    Ok(Lqr {
+        k: rows(&k),
+        x: rows(&x),
+        residual: res,
+        closed_loop,
+    })
+}
+
+fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
+}
+
+fn check(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+) -> Result<(), LqrError> {
+    let n = a.nrows();
+    let m = b.ncols();
+    if a.ncols() != n || b.nrows() != n || q.shape() != (n, n) || r.shape() != (m, m) || m == 0 {
+        return Err(LqrError::Sizes(format!(
+            "A {:?}, B {:?}, Q {:?}, R {:?}",
+            a.shape(),
+            b.shape(),
+            q.shape(),
+            r.shape()
+        )));
+    }
+    let finite = |x: &DMatrix<f64>| x.iter().all(|v| v.is_finite());
+    if !(finite(a) && finite(b) && finite(q) && finite(r)) {
+        return Err(LqrError::Sizes("a value is not finite".into()));
+    }
+    if (r - r.transpose()).amax() > 1e-14 * r.amax() {
+        return Err(LqrError::InputWeight);
+    }
+    let symmetric = (q - q.transpose()).amax() <= 1e-14 * q.amax().max(f64::MIN_POSITIVE);
+    let semidefinite = q
+        .clone()
+        .symmetric_eigenvalues()
+        .iter()
+        .all(|&l| l >= -1e-12 * q.amax());
+    if !(symmetric && semidefinite) {
+        return Err(LqrError::StateWeight);
+    }
+    Ok(())
+}
+
+/// X from the sign of the Hamiltonian: [W₁₂; W₂₂ + I] X = −[W₁₁ + I; W₂₁], W = sign H.
+fn sign_solution(
+    a: &DMatrix<f64>,
+    g: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+) -> Result<DMatrix<f64>, LqrError> {
+    let n = a.nrows();
+    let mut h = DMatrix::zeros(2 * n, 2 * n);
+    h.view_mut((0, 0), (n, n)).copy_from(a);
+    h.view_mut((0, n), (n, n)).copy_from(&(-g));
+    h.view_mut((n, 0), (n, n)).copy_from(&(-q));
+    h.view_mut((n, n), (n, n)).copy_from(&(-a.transpose()));
+    let mut z = h;
+    let mut converged = false;
+    for _ in 0..SIGN_ITERATIONS {
+        let lu = z.clone().lu();
+        let det = lu.determinant();
+        let inv = lu.try_inverse().ok_or(LqrError::NoStabilisingSolution)?;
+        if det == 0.0 || !det.is_finite() {
+            return Err(LqrError::NoStabilisingSolution);
+        }
+        let c = det.abs().powf(-1.0 / (2 * n) as f64);
+        let next = (&z * c + inv / c) * 0.5;
+        let change = (&next - &z).norm() / next.norm();
+        z = next;
+        if change <= 1e-13 {
+            converged = true;
+            break;
+        }
+    }
+    if !converged || z.iter().any(|v| !v.is_finite()) {
+        return Err(LqrError::NoStabilisingSolution);
+    }
+    let id = DMatrix::<f64>::identity(n, n);
+    let mut lhs = DMatrix::zeros(2 * n, n);
+    lhs.view_mut((0, 0), (n, n))
+        .copy_from(&z.view((0, n), (n, n)));
+    lhs.view_mut((n, 0), (n, n))
+        .copy_from(&(z.view((n, n), (n, n)) + &id));
+    let mut rhs = DMatrix::zeros(2 * n, n);
+    rhs.view_mut((0, 0), (n, n))
+        .copy_from(&(-(z.view((0, 0), (n, n)) + &id)));
+    rhs.view_mut((n, 0), (n, n))
+        .copy_from(&(-z.view((n, 0), (n, n))));
+    let x = lhs
+        .svd(true, true)
+        .solve(&rhs, 1e-14)
+        .map_err(|_| LqrError::NoStabilisingSolution)?;
+    Ok((&x + x.transpose()) * 0.5)
+}
+
+/// One Newton–Kleinman step from X: with A_c = A − GX, the X' of A_cᵀX' + X'A_c = −(Q + XGX).
+fn kleinman(
+    a: &DMatrix<f64>,
+    g: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    x: &DMatrix<f64>,
+) -> Option<DMatrix<f64>> {
+    let ac = a - g * x;
+    let rhs = -(q + x * g * x);
+    let next = lyapunov(&ac, &rhs)?;
+    Some((&next + next.transpose()) * 0.5)
+}
+
+/// The X of AᵀX + XA = C, by the Kronecker form (I ⊗ Aᵀ + Aᵀ ⊗ I) vec X = vec C (dense; the
+/// states of a linearisation are a few dozen at most).
+fn lyapunov(a: &DMatrix<f64>, c: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let n = a.nrows();
+    let at = a.transpose();
+    let mut m = DMatrix::zeros(n * n, n * n);
+    // vec is column-major: X[(i, j)] at j*n + i; (AᵀX)[(i, j)] = Σ_k Aᵀ[(i, k)] X[(k, j)],
+    // (XA)[(i, j)] = Σ_k X[(i, k)] A[(k, j)].
+    for j in 0..n {
+        for i in 0..n {
+            let row = j * n + i;
+            for k in 0..n {
+                m[(row, j * n + k)] += at[(i, k)];
+                m[(row, k * n + i)] += a[(k, j)];
+            }
+        }
+    }
+    let vec_c = DMatrix::from_column_slice(n * n, 1, c.as_slice());
+    let v = m.lu().solve(&vec_c)?;
+    Some(DMatrix::from_column_slice(n, n, v.as_slice()))
+}
+
+/// ‖AᵀX + XA − XGX + Q‖_F over the sum of its terms' norms.
+pub fn residual(a: &DMatrix<f64>, g: &DMatrix<f64>, q: &DMatrix<f64>, x: &DMatrix<f64>) -> f64 {
+    let (t1, t2, t3) = (a.transpose() * x, x * a, x * g * x);
+    let r = &t1 + &t2 - &t3 + q;
+    let scale = t1.norm() + t2.norm() + t3.norm() + q.norm();
+    if scale == 0.0 { 0.0 } else { r.norm() / scale }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The double integrator ẍ = u with Q = I, R = 1: X = [[√3, 1], [1, √3]], K = [1, √3]
+    /// (the classical closed form).
+    #[test]
+    fn the_double_integrator_has_its_closed_form() {
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 0.0, 0.0]);
+        let b = DMatrix::from_row_slice(2, 1, &[0.0, 1.0]);
+        let q = DMatrix::identity(2, 2);
+        let r = DMatrix::identity(1, 1);
+        let l = lqr(&a, &b, &q, &r).unwrap();
+        let s3 = 3f64.sqrt();
+        assert!(
+            (l.k[0][0] - 1.0).abs() < 1e-12 && (l.k[0][1] - s3).abs() < 1e-12,
+            "{:?}",
+            l.k
+        );
+        assert!((l.x[0][0] - s3).abs() < 1e-12 && (l.x[0][1] - 1.0).abs() < 1e-12);
+        assert!(l.residual <= 1e-14, "{}", l.residual);
+        assert!(l.closed_loop.iter().all(|z| z[0] < 0.0));
+    }
+
+    /// An inverted pendulum on a cart (unstable open loop): the gain stabilises it, and X
+    /// solves the CARE to rounding.
+    #[test]
+    fn an_inverted_pendulum_is_stabilised() {
+        let a = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                0.0, 1.0, 0.0, 0.0, //
+                0.0, 0.0, -1.2, 0.0, //
+                0.0, 0.0, 0.0, 1.0, //
+                0.0, 0.0, 21.6, 0.0,
+            ],
+        );
+        let b = DMatrix::from_row_slice(4, 1, &[0.0, 1.0, 0.0, -2.0]);
+        let q = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![10.0, 1.0, 100.0, 1.0]));
+        let r = DMatrix::identity(1, 1) * 0.1;
+        let l = lqr(&a, &b, &q, &r).unwrap();
+        assert!(l.residual <= 1e-12, "{}", l.residual);
+        assert!(
+            l.closed_loop.iter().all(|z| z[0] < -1e-3),
+            "{:?}",
+            l.closed_loop
+        );
+    }
+
+    /// A mode no input moves and no weight sees, on the imaginary axis: an error, not a gain.
+    #[test]
+    fn an_unstabilisable_pair_is_an_error() {
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -1.0, 0.0]);
+        let b = DMatrix::zeros(2, 1);
+        let q = DMatrix::zeros(2, 2);
+        let r = DMatrix::identity(1, 1);
+        assert!(lqr(&a, &b, &q, &r).is_err());
+        let bad_r = -DMatrix::identity(1, 1);
+        assert_eq!(
+            lqr(
+                &a,
+                &DMatrix::from_row_slice(2, 1, &[0.0, 1.0]),
+                &DMatrix::identity(2, 2),
+                &bad_r
+            ),
+            Err(LqrError::InputWeight)
+        );
+    }
+}
