@@ -20,7 +20,8 @@ pub fn exercise(model: &Model) {
         let _ = numeric.mass_matrix::<f64>(&q);
         let _ = numeric.constraint_matrix::<f64>(&q);
         let _ = numeric.potential::<f64>(&q);
-        let _ = numeric.forces::<f64>(&q);
+        // at the configuration itself as velocities: any finite q̇ will do
+        let _ = numeric.forces::<f64>(&q, &q);
         for c in &names {
             let _ = numeric.quasi_velocity_matrix::<f64>(c, &q);
         }
