@@ -382,6 +382,14 @@ pub struct LinearizeArgs {
     /// `hamel-sweep` worker, which runs sweeps and maps without the computer algebra.
     #[arg(long)]
     pub export: Option<PathBuf>,
+    /// Also the LQR gain K (u = u* − K(x − x*)) from the continuous algebraic Riccati
+    /// equation for the reduced state and the inputs, weights from --weight (at a point only).
+    #[arg(long)]
+    pub lqr: bool,
+    /// A weight of the LQR: a component of the reduced state (diagonal of Q, default 1) or
+    /// an input (diagonal of R, default 1); repeatable.
+    #[arg(long = "weight", value_name = "NAME=VALUE", value_parser = parse_set, requires = "lqr")]
+    pub weight: Vec<(String, f64)>,
 }
 
 /// `hamel search`.

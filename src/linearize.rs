@@ -3,7 +3,7 @@
 //! exported for the `hamel-sweep` worker (`hamel_study::Study::run` does the work).
 
 use hamel_model::ModelError;
-use hamel_study::{Bar, Outcome, Point, Study};
+use hamel_study::{Bar, Outcome, Point, Regulator, Study};
 
 use crate::cli::{LinearizeArgs, ReportFormat};
 use crate::output::Output;
@@ -39,9 +39,35 @@ pub fn run(args: &LinearizeArgs, out: Output) -> Result<(), ModelError> {
         (Outcome::Map(m), Some(p)) => hamel_study::plot::map(m, p)?,
         _ => {}
     }
-    out.write(&if matches!(args.format, ReportFormat::Json) {
+    let json = matches!(args.format, ReportFormat::Json);
+    if args.lqr {
+        return out.write(&regulator(args, &study, &outcome, json)?);
+    }
+    out.write(&if json {
         outcome.json()
     } else {
         outcome.text(&study)
+    })
+}
+
+/// The linearisation at the point with its LQR (`--lqr`), as text or JSON.
+fn regulator(
+    args: &LinearizeArgs,
+    study: &Study,
+    outcome: &Outcome,
+    json: bool,
+) -> Result<String, ModelError> {
+    let model = study.model();
+    let Outcome::Point(l) = outcome else {
+        return Err(model.error("--lqr is computed at a point: give no --sweep"));
+    };
+    let r = Regulator::of(l, &args.weight, &model.parameters)
+        .map_err(|e| model.error(format!("--lqr: {e}")))?;
+    Ok(if json {
+        let mut v = serde_json::to_value(l.as_ref()).expect("serialisable");
+        v["lqr"] = serde_json::to_value(&r).expect("serialisable");
+        serde_json::to_string_pretty(&v).expect("serialisable") + "\n"
+    } else {
+        format!("{}\n{}", outcome.text(study), r.text())
     })
 }

@@ -123,3 +123,39 @@ fn the_gain_is_scipys() {
         );
     }
 }
+
+/// `hamel linearize --lqr` on the Segway standing upright: the regulator of the reduced
+/// (θ, θ̇, v, ψ̇) balances it (every closed-loop eigenvalue in the left half-plane), its
+/// residual is checked, and the two motors share the pitch gain while the yaw gain differs in
+/// sign (the left/right symmetry of the robot).
+#[test]
+fn the_segway_is_balanced_by_its_regulator() {
+    let path = format!("{}/models/segway.toml", env!("CARGO_MANIFEST_DIR"));
+    let model = hamel_model::Model::load(&path).unwrap();
+    let study = hamel_study::Study::prepare(&model, Some("body"), "upright").unwrap();
+    let outcome = study
+        .run(
+            &hamel_study::Point::default(),
+            &[],
+            &hamel_study::Bar::default(),
+        )
+        .unwrap();
+    let hamel_study::Outcome::Point(l) = outcome else {
+        panic!("a point")
+    };
+    assert!(
+        l.eigenvalues.iter().any(|z| z[0] > 1.0),
+        "upright is unstable open loop"
+    );
+    let weights = [("theta".to_string(), 100.0), ("T_L".to_string(), 0.1)];
+    let r = hamel_study::Regulator::of(&l, &weights, &model.parameters).unwrap();
+    assert_eq!(r.inputs, ["T_L", "T_R"]);
+    assert!(r.lqr.residual <= 1e-9);
+    assert!(
+        r.lqr.closed_loop.iter().all(|z| z[0] < 0.0),
+        "{:?}",
+        r.lqr.closed_loop
+    );
+    let bad = [("thta".to_string(), 1.0)];
+    assert!(hamel_study::Regulator::of(&l, &bad, &model.parameters).is_err());
+}

@@ -48,7 +48,7 @@ pub use error::StudyError;
 pub use export::{Exported, Outcome, Progress};
 pub use forms::{Polynomial, SecondOrder, Symbolic};
 pub use linear::{Linearisation, Point, Stability, Structural, StructuralKind};
-pub use lqr::{Lqr, LqrError, lqr};
+pub use lqr::{Lqr, LqrError, Regulator, RegulatorError, lqr};
 pub use prepare::Study;
 pub use state::SteadyCheck;
 pub use sweep::{Crossing, CrossingKind, Map, Range, Sweep, SweepPoint};

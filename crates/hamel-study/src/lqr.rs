@@ -309,3 +309,155 @@ mod tests {
         );
     }
 }
+
+/// The LQR of a linearisation ([`crate::Linearisation`]): diagonal weights by name on its
+/// reduced state and its inputs, the gain, and the steady values it regulates about.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Regulator {
+    /// The reduced state's components (the columns of K).
+    pub state: Vec<String>,
+    /// The inputs (the rows of K).
+    pub inputs: Vec<String>,
+    /// diag Q, in the order of `state`.
+    pub state_weights: Vec<f64>,
+    /// diag R, in the order of `inputs`.
+    pub input_weights: Vec<f64>,
+    /// The steady value x* of each state component.
+    pub steady_state: Vec<f64>,
+    /// The steady value u* of each input (the point's value).
+    pub steady_inputs: Vec<f64>,
+    /// The gain and its checks: u = u* − K (x − x*).
+    #[serde(flatten)]
+    pub lqr: Lqr,
+}
+
+/// Why a regulator could not be made.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RegulatorError {
+    /// The model has no inputs.
+    #[error("the model has no [inputs]: there is nothing for a regulator to drive")]
+    NoInputs,
+    /// A weight names neither a state component nor an input.
+    #[error(
+        "`{name}` is neither a component of the reduced state ({state}) nor an input ({inputs})"
+    )]
+    UnknownWeight {
+        /// The name given.
+        name: String,
+        /// The state's components.
+        state: String,
+        /// The inputs.
+        inputs: String,
+    },
+    /// A weight that is negative (a state's) or not positive (an input's).
+    #[error("the weight of `{0}` must be {1}")]
+    BadWeight(String, &'static str),
+    /// The Riccati equation.
+    #[error("{0}")]
+    Lqr(#[from] LqrError),
+}
+
+impl Regulator {
+    /// The LQR of `l` with the weights `weights` (name ↦ weight; 1 for every name not given);
+    /// `defaults`: the model's parameter values, for the inputs the point does not set.
+    pub fn of(
+        l: &crate::Linearisation,
+        weights: &[(String, f64)],
+        defaults: &indexmap::IndexMap<String, f64>,
+    ) -> Result<Regulator, RegulatorError> {
+        if l.inputs.is_empty() {
+            return Err(RegulatorError::NoInputs);
+        }
+        let (state, inputs) = (l.reduced_state.clone(), l.inputs.clone());
+        let mut state_weights = vec![1.0; state.len()];
+        let mut input_weights = vec![1.0; inputs.len()];
+        for (name, w) in weights {
+            if let Some(i) = state.iter().position(|s| s == name) {
+                if !(*w >= 0.0 && w.is_finite()) {
+                    return Err(RegulatorError::BadWeight(name.clone(), "zero or positive"));
+                }
+                state_weights[i] = *w;
+            } else if let Some(i) = inputs.iter().position(|s| s == name) {
+                if !(*w > 0.0 && w.is_finite()) {
+                    return Err(RegulatorError::BadWeight(name.clone(), "positive"));
+                }
+                input_weights[i] = *w;
+            } else {
+                return Err(RegulatorError::UnknownWeight {
+                    name: name.clone(),
+                    state: state.join(", "),
+                    inputs: inputs.join(", "),
+                });
+            }
+        }
+        let (n, m) = (state.len(), inputs.len());
+        let a = DMatrix::from_fn(n, n, |i, j| l.a[i][j]);
+        let b = DMatrix::from_fn(n, m, |i, j| l.b[i][j]);
+        let q = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(state_weights.clone()));
+        let r = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(input_weights.clone()));
+        let lqr = lqr(&a, &b, &q, &r)?;
+        let steady_state = state.iter().map(|s| steady_value(l, s)).collect();
+        let steady_inputs = inputs
+            .iter()
+            .map(|u| {
+                (l.point.0.get(u).or(defaults.get(u)))
+                    .copied()
+                    .unwrap_or(0.0)
+            })
+            .collect();
+        Ok(Regulator {
+            state,
+            inputs,
+            state_weights,
+            input_weights,
+            steady_state,
+            steady_inputs,
+            lqr,
+        })
+    }
+
+    /// As text: the weights, K by rows, the closed loop's eigenvalues and the residual.
+    pub fn text(&self) -> String {
+        use std::fmt::Write;
+        let mut o = String::new();
+        let diag = |names: &[String], w: &[f64]| {
+            (names.iter().zip(w))
+                .map(|(n, w)| format!("{n}: {w}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(
+            o,
+            "LQR (∫ xᵀQx + uᵀRu dt, u = u* − K(x − x*)), Q = diag({}), R = diag({}):",
+            diag(&self.state, &self.state_weights),
+            diag(&self.inputs, &self.input_weights)
+        );
+        let _ = writeln!(o, "  x = ({})", self.state.join(", "));
+        for (u, row) in self.inputs.iter().zip(&self.lqr.k) {
+            let entries: Vec<String> = row.iter().map(|k| format!("{k:.6e}")).collect();
+            let _ = writeln!(o, "  K[{u}] = [{}]", entries.join(", "));
+        }
+        let eig: Vec<String> = (self.lqr.closed_loop.iter())
+            .map(|z| format!("{:.6} {:+.6}i", z[0], z[1]))
+            .collect();
+        let _ = writeln!(o, "  closed-loop eigenvalues: {}", eig.join(", "));
+        let _ = writeln!(
+            o,
+            "  Riccati residual {:.1e} (relative; at most {RESIDUAL:.0e} accepted)",
+            self.lqr.residual
+        );
+        o
+    }
+}
+
+/// The steady value of a reduced state component: a coordinate's, or η_i's.
+fn steady_value(l: &crate::Linearisation, name: &str) -> f64 {
+    if let Some(v) = l.q.get(name) {
+        return *v;
+    }
+    name.strip_prefix("eta")
+        .and_then(|i| i.parse::<usize>().ok())
+        .and_then(|i| l.eta.get(i.wrapping_sub(1)))
+        .copied()
+        .unwrap_or(0.0)
+}
