@@ -1333,18 +1333,6 @@ impl Code {
                 "holonomic_body",
                 straight_line(&self.holonomic, &full_slots),
             ),
-            (
-                "forces_body",
-                straight_line(
-                    &self.forces,
-                    &Slots {
-                        eta: "qd",
-                        ..full_slots
-                    },
-                ),
-            ),
-            ("velocity_forces", d.ingredients.velocity_forces.to_string()),
-            ("has_forces", d.ingredients.forces.is_some().to_string()),
             ("nh", d.holonomic.len().to_string()),
             (
                 "holonomic_uses",
@@ -1396,21 +1384,35 @@ impl Code {
             ),
         ];
         f.extend(parameter_fields(d));
+        f.extend(self.force_fields(d, full_slots));
         f
+    }
+
+    /// The placeholders of the forces: `forces()`'s body (inputs q, the parameters, q̇) and the
+    /// flags of whether there are forces and whether they depend on the velocities.
+    fn force_fields(&self, d: &Derivation, slots: Slots) -> [(&'static str, String); 3] {
+        let velocities = Slots { eta: "qd", ..slots };
+        [
+            ("forces_body", straight_line(&self.forces, &velocities)),
+            ("velocity_forces", d.ingredients.velocity_forces.to_string()),
+            ("has_forces", d.ingredients.forces.is_some().to_string()),
+        ]
     }
 }
 
-/// The model's forces F(q, q̇) as written, on a tape of the ingredients' inputs and then the
-/// velocities `der(q)` (ℓ zeros without forces).
+/// The model's forces F(q, q̇) ([`Derivation::forces_tape`]); without forces, ℓ zeros on the
+/// same inputs.
 fn forces_tape(d: &Derivation, inputs: &[String]) -> Result<Tape, CodegenError> {
+    if let Some(tape) = d.forces_tape(inputs)? {
+        return Ok(tape);
+    }
     let zeros = vec![Expr::int(0); d.ell];
-    let exprs: Vec<&Expr> = match &d.ingredients.forces {
-        Some(f) => f.iter().map(|e| &e.expr).collect(),
-        None => zeros.iter().collect(),
-    };
     let mut with_velocities = inputs.to_vec();
     with_velocities.extend(d.coordinates.iter().map(|q| format!("der({q})")));
-    Ok(Tape::compile(&exprs, &with_velocities)?)
+    Ok(Tape::compile(
+        &zeros.iter().collect::<Vec<_>>(),
+        &with_velocities,
+    )?)
 }
 
 /// The body of the generated `energy_from`: with a closed form, straight-line code of

@@ -114,16 +114,11 @@ impl Derivation {
             self.parameters.clone(),
             self.singular_set_text(),
         )?;
-        let compiled = match self.ingredients.forces.as_deref() {
-            Some(forces) => {
-                let exprs: Vec<&hamel_expr::Expr> = forces.iter().map(|e| &e.expr).collect();
-                let mut with_velocities = inputs.clone();
-                with_velocities.extend(self.coordinates.iter().map(|q| format!("der({q})")));
-                compiled.with_forces(hamel_eval::Forces {
-                    tape: Tape::compile(&exprs, &with_velocities)?,
-                    velocity: self.ingredients.velocity_forces,
-                })?
-            }
+        let compiled = match self.forces_tape(&inputs)? {
+            Some(tape) => compiled.with_forces(hamel_eval::Forces {
+                tape,
+                velocity: self.ingredients.velocity_forces,
+            })?,
             None => compiled,
         };
         if self.kept_rank_loss.is_empty() {
@@ -135,6 +130,19 @@ impl Derivation {
             tape: Tape::compile(&factors, &inputs)?,
             powers: self.kept_rank_loss.iter().map(|p| p.power as i32).collect(),
         })
+    }
+
+    /// The model's forces F(q, q̇) as written, on a tape of `inputs` (the ingredients') and then
+    /// the velocities `der(q_1)..der(q_ℓ)` (None without forces): what the interpreter and the
+    /// generated cores evaluate F from.
+    pub fn forces_tape(&self, inputs: &[String]) -> Result<Option<Tape>, hamel_expr::TapeError> {
+        let Some(forces) = self.ingredients.forces.as_deref() else {
+            return Ok(None);
+        };
+        let exprs: Vec<&hamel_expr::Expr> = forces.iter().map(|e| &e.expr).collect();
+        let mut with_velocities = inputs.to_vec();
+        with_velocities.extend(self.coordinates.iter().map(|q| format!("der({q})")));
+        Tape::compile(&exprs, &with_velocities).map(Some)
     }
 
     /// Compile the expanded symbolic equations (inputs: coordinates, parameters, η, and the

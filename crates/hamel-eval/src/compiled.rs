@@ -588,13 +588,7 @@ impl Compiled {
         };
         let kept = &out[Layout::new(d).m(d)][..l * l];
         let det = DMatrix::from_row_slice(l, l, kept).determinant();
-        let mut inputs: Vec<f64> = q.to_vec();
-        inputs.extend(
-            self.parameters
-                .iter()
-                .map(|(k, v)| params.get(k).copied().unwrap_or(*v)),
-        );
-        let Ok(factors) = r.tape.eval(&inputs) else {
+        let Ok(factors) = r.tape.eval(&self.inputs(q, params)) else {
             return det;
         };
         let divisor: f64 = factors
