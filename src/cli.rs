@@ -390,6 +390,10 @@ pub struct LinearizeArgs {
     /// an input (diagonal of R, default 1); repeatable.
     #[arg(long = "weight", value_name = "NAME=VALUE", value_parser = parse_set, requires = "lqr")]
     pub weight: Vec<(String, f64)>,
+    /// An input the LQR drives (repeatable; default: every input of the model); the others
+    /// keep their values.
+    #[arg(long = "lqr-input", value_name = "NAME", requires = "lqr")]
+    pub lqr_input: Vec<String>,
 }
 
 /// `hamel search`.

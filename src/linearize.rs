@@ -61,13 +61,16 @@ fn regulator(
     let Outcome::Point(l) = outcome else {
         return Err(model.error("--lqr is computed at a point: give no --sweep"));
     };
-    let r = Regulator::of(l, &args.weight, &model.parameters)
+    let r = Regulator::of(l, &args.lqr_input, &args.weight, &model.parameters)
         .map_err(|e| model.error(format!("--lqr: {e}")))?;
+    let eta = args.eta.as_deref().unwrap_or(&model.choices[0].name);
+    let block = r.scene_block(eta, &args.steady);
     Ok(if json {
         let mut v = serde_json::to_value(l.as_ref()).expect("serialisable");
         v["lqr"] = serde_json::to_value(&r).expect("serialisable");
+        v["lqr"]["scene_block"] = serde_json::Value::String(block);
         serde_json::to_string_pretty(&v).expect("serialisable") + "\n"
     } else {
-        format!("{}\n{}", outcome.text(study), r.text())
+        format!("{}\n{}\n{block}", outcome.text(study), r.text())
     })
 }

@@ -148,7 +148,7 @@ fn the_segway_is_balanced_by_its_regulator() {
         "upright is unstable open loop"
     );
     let weights = [("theta".to_string(), 100.0), ("T_L".to_string(), 0.1)];
-    let r = hamel_study::Regulator::of(&l, &weights, &model.parameters).unwrap();
+    let r = hamel_study::Regulator::of(&l, &[], &weights, &model.parameters).unwrap();
     assert_eq!(r.inputs, ["T_L", "T_R"]);
     assert!(r.lqr.residual <= 1e-9);
     assert!(
@@ -157,5 +157,5 @@ fn the_segway_is_balanced_by_its_regulator() {
         r.lqr.closed_loop
     );
     let bad = [("thta".to_string(), 1.0)];
-    assert!(hamel_study::Regulator::of(&l, &bad, &model.parameters).is_err());
+    assert!(hamel_study::Regulator::of(&l, &[], &bad, &model.parameters).is_err());
 }

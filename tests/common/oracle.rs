@@ -306,8 +306,11 @@ pub fn compare_with(
         let condition = c.condition(&q, &params).unwrap();
         assert!(
             rel_error(&f64_rhs.q_dot, &qd) <= TOL,
-            "{}/{choice}: q̇ = Γη differs",
-            model.name
+            "{}/{choice}: q̇ = Γη differs: {:?} vs {:?} at q {:?}",
+            model.name,
+            f64_rhs.q_dot,
+            qd,
+            q
         );
         let in_dd = |eta_dot: &[f64]| q_ddot(&c, &qx, &etax, &dd(eta_dot), &r.q_dot, &params);
         let error = rel_error(&in_dd(&f64_rhs.eta_dot), &oracle.q_ddot);

@@ -10,6 +10,8 @@
 //! "seconds"}`: the solution of the last run (the part computed before a failure, if any), the
 //! failure, and the median wall time of one integration. The parameters are those the core
 //! was generated with (a scene's core is specialised for them) with `params` set on top.
+//! `live` says what sets each of the core's [`LIVE`] parameters at every evaluation, in
+//! their order: `"time"` (the time of a control law), or `{"table": {"name", "table"}}`.
 //!
 //! A job with `"members": [{"y0", "params", "reference"}, …]` is an **ensemble**: every member
 //! (or, with `--shard K/N`, the K-th of N contiguous blocks of them, K from 0) is integrated
@@ -27,12 +29,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use hamel_generated::{
-    COORDINATES, DIMS, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, Parameters, Prepared, REDUCED_DIM, REDUCED_STATE,
-    energy, energy_many, power, project, reduced_into_with, reduced_jacobian_with, residual_max,
+    COORDINATES, DIMS, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
+    REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_jacobian_live, residual_max,
     residual_max_many,
 };
 use hamel_sim::{
-    Ensemble, Method, OdeSystem, Options, Shard, Solution, States, SystemError, integrate_many,
+    Ensemble, Live, Method, OdeSystem, Options, Shard, Solution, States, SystemError, integrate_many, live_values,
 };
 use serde::Serialize;
 use serde::Deserialize;
@@ -54,6 +56,9 @@ struct Job {
     /// Parameter values other than the defaults the core was generated with.
     #[serde(default)]
     params: BTreeMap<String, f64>,
+    /// What sets each [`LIVE`] parameter at every evaluation, in their order.
+    #[serde(default)]
+    live: Vec<Live>,
     /// An ensemble: the members (each its initial state and parameters).
     members: Option<Vec<Member>>,
     /// What an ensemble keeps of each member.
@@ -87,12 +92,26 @@ fn one() -> usize {
 
 struct Reduced {
     prep: Prepared,
+    /// What sets the [`LIVE`] parameters (as many).
+    live: Vec<Live>,
     reference: f64,
     energy: bool,
     residual: bool,
 }
 
 impl Reduced {
+    /// The parameters at time `t`: the prepared ones with the [`LIVE`] ones set.
+    #[inline(always)]
+    fn at(&self, t: f64) -> Result<Parameters, SystemError> {
+        let mut p = self.prep.p;
+        if !LIVE.is_empty() {
+            let mut values = [0.0; LIVE.len()];
+            live_values(&self.live, t, &mut values)?;
+            p.set_live(&values);
+        }
+        Ok(p)
+    }
+
     /// The full configuration: the kept coordinates from the state, the eliminated ones at
     /// the reference value.
     fn full_q(&self, y: &[f64]) -> [f64; DIMS.ell] {
@@ -122,8 +141,8 @@ impl OdeSystem for Reduced {
     fn dim(&self) -> usize {
         REDUCED_DIM
     }
-    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
-        reduced_into_with(y, dy, &self.prep).map_err(|e| SystemError::new(e.to_string()))
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SystemError> {
+        reduced_into_live(y, dy, &self.at(t)?, &self.prep).map_err(|e| SystemError::new(e.to_string()))
     }
     fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
         if !self.energy {
@@ -135,8 +154,8 @@ impl OdeSystem for Reduced {
     fn does_work(&self) -> bool {
         self.energy && HAS_FORCES
     }
-    fn power(&self, _t: f64, y: &[f64]) -> Result<f64, SystemError> {
-        power(&self.full_q(y), &y[KEPT.len()..], &self.prep.p).map_err(|e| SystemError::new(e.to_string()))
+    fn power(&self, t: f64, y: &[f64]) -> Result<f64, SystemError> {
+        power(&self.full_q(y), &y[KEPT.len()..], &self.at(t)?).map_err(|e| SystemError::new(e.to_string()))
     }
     /// ‖α(q)q̇‖∞; requested, every coordinate is in the state (nothing eliminated).
     fn constraint_residual(&self, _t: f64, y: &[f64]) -> Option<f64> {
@@ -175,9 +194,13 @@ impl OdeSystem for Reduced {
                 .map_err(|e| SystemError::new(format!("projection onto the holonomic constraints: {e}"))),
         )
     }
-    fn jacobian(&self, _t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
+        let p = match self.at(t) {
+            Ok(p) => p,
+            Err(e) => return Some(Err(e)),
+        };
         Some(
-            reduced_jacobian_with(y, &self.prep)
+            reduced_jacobian_live(y, &p, &self.prep)
                 .map(|j| {
                     for (i, row) in j.iter().enumerate() {
                         jac[i * REDUCED_DIM..(i + 1) * REDUCED_DIM].copy_from_slice(row);
@@ -238,6 +261,14 @@ fn read_job(a: &Args) -> Result<(Job, String), String> {
         }
     }
     let job: Job = serde_json::from_str(&text).map_err(|e| format!("bad job: {e}"))?;
+    if job.live.len() != LIVE.len() {
+        return Err(format!(
+            "bad job: {} live values, the core sets {} ({:?}) at every evaluation",
+            job.live.len(),
+            LIVE.len(),
+            LIVE
+        ));
+    }
     if job.y0.len() != REDUCED_DIM {
         return Err(format!(
             "bad job: y0 has {} values, the state ({} kept of {:?}, then η) has {REDUCED_DIM}",
@@ -267,6 +298,7 @@ fn prepared(values: &BTreeMap<String, f64>) -> Result<Prepared, String> {
 fn single(job: &Job) -> Result<String, String> {
     let system = Reduced {
         prep: prepared(&job.params)?,
+        live: job.live.clone(),
         reference: job.reference,
         energy: job.energy,
         residual: job.residual,
@@ -304,6 +336,7 @@ fn split(r: Result<Solution, hamel_sim::IntegrationError>) -> (Solution, Option<
 fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), String> {
     let system = Reduced {
         prep: prepared(&m.params)?,
+        live: job.live.clone(),
         reference: m.reference.unwrap_or(job.reference),
         energy: job.energy,
         residual: job.residual,

@@ -930,6 +930,8 @@ struct Slots<'a> {
     coords: &'a str,
     n: usize,
     params: &'a [String],
+    /// The parameters set at every evaluation ([`Derivation::live`]): varying, like the state.
+    live: &'a [String],
     eta: &'a str,
     eta_at: usize,
 }
@@ -937,7 +939,9 @@ struct Slots<'a> {
 impl Slots<'_> {
     /// Whether input slot `i` is part of the state (not a parameter).
     fn varying(&self, i: usize) -> bool {
-        i < self.n || i >= self.n + self.params.len()
+        i < self.n
+            || i >= self.n + self.params.len()
+            || self.live.contains(&self.params[i - self.n])
     }
 
     /// The Rust text of input slot `i`.
@@ -1172,6 +1176,7 @@ impl Code {
             coords: "q",
             n: d.ell,
             params: &params,
+            live: &d.live,
             eta: "eta",
             eta_at: 0,
         };
@@ -1210,6 +1215,7 @@ impl Code {
                     coords: "x",
                     n: kept.len(),
                     params: &params,
+                    live: &d.live,
                     eta: "x",
                     eta_at: kept.len(),
                 },
@@ -1262,6 +1268,7 @@ impl Code {
             coords: "q",
             n: d.ell,
             params: &self.params,
+            live: &d.live,
             eta: "eta",
             eta_at: 0,
         };
@@ -1624,6 +1631,17 @@ fn parameter_fields(d: &Derivation) -> Vec<(&'static str, String)> {
                         ident(k)
                     )
                 })
+                .collect::<String>(),
+        ),
+        ("nlive", d.live.len().to_string()),
+        (
+            "live_list",
+            list(d.live.iter().map(|s| escape::rust_str(s))),
+        ),
+        (
+            "live_set",
+            (d.live.iter().enumerate())
+                .map(|(i, k)| format!("        self.{} = values[{i}];\n", ident(k)))
                 .collect::<String>(),
         ),
     ]

@@ -15,6 +15,8 @@ pub enum Input {
     State(usize),
     /// A number (a parameter's value, a dropped coordinate's reference value).
     Number(f64),
+    /// The time `t` of `rhs(t, y)` (a control law's time).
+    Time,
 }
 
 /// A Python float literal (non-finite values as `float("inf")` and the like).
@@ -62,6 +64,7 @@ fn function(tape: &Tape, inputs: &[Input], header: &str, signature: &str) -> Str
             Op::Input(i) => match inputs[*i] {
                 Input::State(j) => format!("y[{j}]"),
                 Input::Number(x) => float(x),
+                Input::Time => "t".to_string(),
             },
             Op::Const(r) => float(Expr::rational_to_f64(r)),
             Op::Add(v) => join(v, " + "),

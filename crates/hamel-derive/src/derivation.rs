@@ -106,6 +106,11 @@ pub struct Derivation {
     pub coordinates: Vec<String>,
     /// Parameters with their default values.
     pub parameters: IndexMap<String, f64>,
+    /// The parameters set at every evaluation instead of once ([`hamel_model::Model::live`]: the time of a
+    /// scene's control law, inputs read from tables); never specialised, never folded into
+    /// the prepared constants of generated code.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub live: Vec<String>,
     /// ℓ, μ, σ.
     pub ell: usize,
     /// Number of constraints.
@@ -568,6 +573,9 @@ impl Derivation {
             if !self.parameters.contains_key(name) {
                 return Err(SpecialiseError::UnknownParameter(name.clone()));
             }
+            if self.live.contains(name) {
+                return Err(SpecialiseError::Live(name.clone()));
+            }
             let r = hamel_expr::rational_of_f64(v)
                 .ok_or_else(|| SpecialiseError::NotFinite(name.clone(), v))?;
             exact.insert(name.clone(), r);
@@ -662,4 +670,9 @@ pub enum SpecialiseError {
     /// A value that is not a finite number.
     #[error("parameter `{0}` = {1} is not finite")]
     NotFinite(String, f64),
+    /// A parameter set at every evaluation ([`Derivation::live`]), which has no fixed value.
+    #[error(
+        "parameter `{0}` is set at every evaluation (the time of a control law, or a table): it cannot be fixed"
+    )]
+    Live(String),
 }

@@ -797,6 +797,7 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
         positive: model.positive.clone(),
         coordinates: model.coordinates.clone(),
         parameters: model.parameters.clone(),
+        live: model.live.clone(),
         ell: model.ell(),
         mu: model.mu(),
         sigma: model.sigma(),

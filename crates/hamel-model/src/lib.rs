@@ -17,6 +17,7 @@
 #![warn(missing_docs)]
 
 mod bodies;
+mod control;
 pub mod default_choice;
 mod error;
 mod expand;
@@ -31,6 +32,7 @@ pub mod states;
 mod steady;
 mod symmetry;
 
+pub use control::{Control, ControlError, Law, TIME};
 pub use default_choice::combinations;
 pub use error::{ErrorKind, ModelError};
 pub use hamel_bodies::{Completion, CompletionError, HolonomicConstraint};

@@ -58,6 +58,16 @@ impl Item {
         item
     }
 
+    /// This item with its expression replaced by `expr` (a law put in), at the same place.
+    pub fn replaced(&self, expr: Expr) -> Item {
+        Item {
+            text: expr.to_string(),
+            expr,
+            site: self.site.clone(),
+            text_offset: None,
+        }
+    }
+
     /// The file span of a byte range inside the expression text (the whole value if the text
     /// does not map exactly).
     pub fn span_of(&self, inner: Range<usize>) -> Range<usize> {

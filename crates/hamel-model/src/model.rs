@@ -110,6 +110,13 @@ pub struct Model {
     pub symmetries: Vec<crate::Symmetry>,
     /// Steady motions (`[steady.NAME]`), in file order.
     pub steady: Vec<crate::Steady>,
+    /// Parameters set at every evaluation instead of once (the time `t` of a scene's control
+    /// law, inputs read from tables): code never folds them into constants
+    /// ([`Model::controlled`]); empty for a model read from a file.
+    pub live: Vec<String>,
+    /// The scene's control this model closes the loop with, as text ([`crate::Control::text`];
+    /// part of the key of cached code); empty for a model read from a file.
+    pub control: String,
 }
 
 impl Model {
@@ -210,6 +217,8 @@ impl Model {
             symmetries,
             steady,
             choices: Vec::new(),
+            live: Vec::new(),
+            control: String::new(),
         };
         model.split_dependent_rows()?;
         check_count(&raw, &model, &err)?;

@@ -230,14 +230,9 @@ pub struct Key {
 }
 
 impl Key {
-    /// The key of the code for `model` with choice `eta`, `dropped` eliminated and `fixed`
-    /// parameters specialised.
-    pub fn new(
-        model_source: &str,
-        eta: &str,
-        dropped: &[String],
-        fixed: &IndexMap<String, f64>,
-    ) -> Key {
+    /// The key of the code for `model` (its text, and the scene's control closing its loop)
+    /// with choice `eta`, `dropped` eliminated and `fixed` parameters specialised.
+    pub fn new(model: &Model, eta: &str, dropped: &[String], fixed: &IndexMap<String, f64>) -> Key {
         let exe = std::env::current_exe()
             .and_then(std::fs::metadata)
             .map(|m| {
@@ -255,10 +250,12 @@ impl Key {
             .collect();
         Key {
             text: format!(
-                "hamel {}; executable {exe}\nchoice: {eta}\ndropped: {}\nparameters: {}\nmodel:\n{model_source}",
+                "hamel {}; executable {exe}\nchoice: {eta}\ndropped: {}\nparameters: {}\ncontrol:\n{}\nmodel:\n{}",
                 env!("CARGO_PKG_VERSION"),
                 dropped.join(", "),
-                params.join(", ")
+                params.join(", "),
+                model.control,
+                model.source
             ),
         }
     }
@@ -399,7 +396,7 @@ pub fn prepare(
     plan: &Plan,
     fixed: &IndexMap<String, f64>,
 ) -> Result<Entry, CacheError> {
-    let key = Key::new(&model.source, &d.eta_name, &plan.dropped, fixed);
+    let key = Key::new(model, &d.eta_name, &plan.dropped, fixed);
     cached(&key, || {
         let full = hamel_codegen::generate(d, &[], "plan")?;
         let ops_full = ops_of(&full, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
@@ -642,6 +639,9 @@ pub struct Job<'a> {
     pub repeat: usize,
     /// Parameter values other than the core's defaults (a core not specialised).
     pub params: IndexMap<String, f64>,
+    /// What sets each of the core's live parameters at every evaluation.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub live: Vec<hamel_sim::Live>,
     /// An ensemble's members (empty: one integration of `y0`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub members: Vec<Member>,

@@ -56,6 +56,7 @@ pub fn check(
         .extend(overrides.iter().map(|(k, v)| (k.clone(), *v)));
     let err = |key: &str, m: String| file.error(Some(key), m);
     let model = model_of(&scene.model)?;
+    let model = closed_loop(&mut scene, model, &file)?;
     let parsed = parse_expressions(&scene.expressions, &model).map_err(|(k, m)| err(&k, m))?;
     let request = request(&scene, &model, &parsed, &file)?;
     let integrator = integrator(&scene, &file)?;
@@ -82,6 +83,36 @@ pub fn check(
         completed,
         times,
     })
+}
+
+/// The model with the loop closed by the scene's `[inputs]` and `[gains]`
+/// ([`Model::controlled`]); constant inputs join `scene.parameters`.
+fn closed_loop(scene: &mut Scene, model: Model, file: &SceneFile) -> Result<Model, ModelError> {
+    let err = |(key, m): (String, String)| file.error(Some(&key), m);
+    let driven = crate::inputs::driven(scene).map_err(err)?;
+    for name in driven.constants.keys() {
+        if !model.inputs.contains(name) {
+            let inputs = model.inputs.join(", ");
+            return Err(err((
+                format!("inputs.{name}"),
+                format!("`{name}` is not an input of the model (its inputs: {inputs})"),
+            )));
+        }
+    }
+    scene.parameters.extend(driven.constants);
+    if driven.control.is_empty() {
+        return Ok(model);
+    }
+    if scene.eta.as_deref() == Some("auto") {
+        return Err(err((
+            "eta".into(),
+            "a scene with control laws or tables names its quasi-velocities (a law's eta1… are those of one choice): give `eta = \"NAME\"`".into(),
+        )));
+    }
+    let choice = model.choice(scene.eta.as_deref())?;
+    model
+        .controlled(&driven.control, choice)
+        .map_err(|e| err((e.key, e.message)))
 }
 
 /// The scene file's name and text, for located errors.

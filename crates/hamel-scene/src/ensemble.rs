@@ -256,9 +256,8 @@ impl Loaded {
         // The scene's integrator, or DOP853 at its [accuracy] tolerances: not the setting that
         // `hamel tradeoff` times fastest, which a merge on another day might not find again.
         let (method, options) = self.integrator;
-        let fixed: IndexMap<String, f64> = (self.params.iter())
+        let fixed: IndexMap<String, f64> = (self.fixed().into_iter())
             .filter(|(k, _)| !varying.contains(k))
-            .map(|(k, v)| (k.clone(), *v))
             .collect();
         let fail = |e: cache::CacheError| self.core_error(e, "the ensemble's compiled core");
         let entry = cache::prepare(&self.model, &self.d, &self.plan, &fixed).map_err(fail)?;
@@ -275,6 +274,7 @@ impl Loaded {
             residual: self.request.constraint_residual,
             repeat: 1,
             params: IndexMap::new(),
+            live: self.live.clone(),
             members: ok
                 .iter()
                 .map(|&i| self.core_member(starts[i].as_ref().expect("ok"), &varying))

@@ -34,6 +34,48 @@ pub struct Scene {
     pub integrator: Option<Integrator>,
     /// Many runs of the scene: members that change its initial state and parameters.
     pub ensemble: Option<Ensemble>,
+    /// What drives the model's inputs: a constant, a control law, or a table of time.
+    #[serde(default)]
+    pub inputs: IndexMap<String, InputSpec>,
+    /// Named numbers the control laws use (an ensemble may vary them).
+    #[serde(default)]
+    pub gains: IndexMap<String, f64>,
+}
+
+/// How a scene drives one input.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum InputSpec {
+    /// A constant value (as `[parameters]` would set it).
+    Constant(f64),
+    /// A control law: an expression of t, the coordinates, der(q), eta1…, the parameters and
+    /// the gains.
+    Law(String),
+    /// Samples in time.
+    Table(TableSpec),
+}
+
+/// `inputs.NAME = { ... }`: samples of an input in time, from a CSV file or written out.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableSpec {
+    /// A CSV file (relative to the scene) with a header line naming its columns.
+    pub file: Option<String>,
+    /// The file's column of times (default `t`).
+    pub time: Option<String>,
+    /// The file's column of values (default: the input's name).
+    pub column: Option<String>,
+    /// Or the samples themselves: the times…
+    pub times: Option<Vec<f64>>,
+    /// …and the values.
+    pub values: Option<Vec<f64>>,
+    /// Between samples (default linear).
+    #[serde(default)]
+    pub interpolation: hamel_sim::Interpolation,
+    /// Outside the samples (default: an error, found before the run when the scene's time
+    /// span leaves the table).
+    #[serde(default)]
+    pub outside: hamel_sim::Outside,
 }
 
 /// `[ensemble]`: the members, from a file or drawn from distributions with a seed, and what

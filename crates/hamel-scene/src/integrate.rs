@@ -67,6 +67,13 @@ impl Loaded {
         let system = System {
             compiled: &self.compiled,
             params: self.params.clone(),
+            live: self
+                .model
+                .live
+                .iter()
+                .cloned()
+                .zip(self.live.iter().cloned())
+                .collect(),
             names: &self.d.coordinates,
             ell: self.d.ell,
             sigma: self.d.sigma,
@@ -156,6 +163,7 @@ impl Loaded {
             residual: self.request.constraint_residual,
             repeat,
             params: IndexMap::new(),
+            live: self.live.clone(),
             members: Vec::new(),
             save: None,
         };

@@ -44,6 +44,7 @@ pub mod ensemble;
 pub mod expressions;
 pub mod file;
 pub mod initial;
+pub(crate) mod inputs;
 #[cfg(feature = "derive")]
 pub mod integrate;
 #[cfg(feature = "derive")]

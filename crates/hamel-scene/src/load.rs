@@ -31,6 +31,9 @@ pub struct Loaded {
     /// The accuracy target (rtol, atol), when the scene gives one instead of an integrator.
     pub accuracy: Option<(f64, f64)>,
     pub(crate) params: IndexMap<String, f64>,
+    /// What sets each live parameter of the closed loop at every evaluation (the time of a
+    /// control law, tabled inputs), in the model's order ([`Model::live`]).
+    pub(crate) live: Vec<hamel_sim::Live>,
     /// The scene's requested `[expressions]`, parameters substituted.
     pub(crate) expressions: Vec<OutputExpression>,
     /// The scene's `[expressions]` as parsed (for an ensemble whose members vary parameters).
@@ -82,6 +85,8 @@ pub fn load_with(
         times,
     } = checked;
     let err = |key: &str, m: String| file.error(Some(key), m);
+    let tables = crate::inputs::tables(&scene, dir).map_err(|(k, m)| err(&k, m))?;
+    let live = crate::inputs::live(&model, &tables);
     let (model, choice) = choose(model, &scene, &parsed, &file)?;
     let (mut plan, d) = crate::plan::plan(&model, &choice, &request)?;
     let compiled = d.compile().map_err(|e| err("eta", e.to_string()))?;
@@ -122,6 +127,7 @@ pub fn load_with(
         plan,
         integrator: (method, options),
         params,
+        live,
         expressions,
         parsed,
         state,
@@ -219,9 +225,17 @@ impl Loaded {
     /// call ([`cache::prepare`]); built by [`cache::binary`] when first run.
     pub fn core(&self) -> Result<&cache::Entry, cache::CacheError> {
         self.core
-            .get_or_init(|| cache::prepare(&self.model, &self.d, &self.plan, &self.params))
+            .get_or_init(|| cache::prepare(&self.model, &self.d, &self.plan, &self.fixed()))
             .as_ref()
             .map_err(Clone::clone)
+    }
+
+    /// The parameters a compiled core is specialised for: all but the live ones.
+    pub(crate) fn fixed(&self) -> IndexMap<String, f64> {
+        (self.params.iter())
+            .filter(|(k, _)| !self.model.live.contains(k))
+            .map(|(k, v)| (k.clone(), *v))
+            .collect()
     }
 
     /// The full configuration at state `y`: the state's coordinates, the dropped ones at the

@@ -72,7 +72,7 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let model = &loaded.model;
     let d = &loaded.d;
     let none = IndexMap::new();
-    let key = cache::Key::new(&model.source, &d.eta_name, &[], &none);
+    let key = cache::Key::new(model, &d.eta_name, &[], &none);
     let command = format!(
         "hamel plan --measure (full system of {}, {})",
         model.file, d.eta_name
@@ -97,7 +97,8 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
         energy: loaded.request.energy,
         residual: loaded.request.constraint_residual,
         repeat,
-        params: loaded.params.clone(),
+        params: loaded.fixed(),
+        live: loaded.live.clone(),
         members: Vec::new(),
         save: None,
     };

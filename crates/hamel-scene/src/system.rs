@@ -9,6 +9,8 @@ use indexmap::IndexMap;
 pub(crate) struct System<'a> {
     pub(crate) compiled: &'a Compiled,
     pub(crate) params: IndexMap<String, f64>,
+    /// The live parameters (the model's, in order) and what sets each at every evaluation.
+    pub(crate) live: Vec<(String, hamel_sim::Live)>,
     pub(crate) names: &'a [String],
     pub(crate) ell: usize,
     pub(crate) sigma: usize,
@@ -40,10 +42,26 @@ impl System<'_> {
         q
     }
 
-    pub(crate) fn at(&self, y: &[f64]) -> Result<hamel_derive::Evaluation, SystemError> {
+    /// The parameters at time `t`: the live ones set.
+    pub(crate) fn params_at(
+        &self,
+        t: f64,
+    ) -> Result<std::borrow::Cow<'_, IndexMap<String, f64>>, SystemError> {
+        if self.live.is_empty() {
+            return Ok(std::borrow::Cow::Borrowed(&self.params));
+        }
+        let mut p = self.params.clone();
+        for (name, source) in &self.live {
+            p[name] = source.at(t)?;
+        }
+        Ok(std::borrow::Cow::Owned(p))
+    }
+
+    pub(crate) fn at(&self, t: f64, y: &[f64]) -> Result<hamel_derive::Evaluation, SystemError> {
         let (qs, eta) = y.split_at(self.state.len());
         let q = self.full_q(qs, self.reference);
-        let result = self.compiled.evaluate(&q, eta, &self.params).and_then(|e| {
+        let params = self.params_at(t)?;
+        let result = self.compiled.evaluate(&q, eta, &params).and_then(|e| {
             if e.delta.signum() == self.delta0.signum() {
                 Ok(e)
             } else {
@@ -79,11 +97,11 @@ impl OdeSystem for System<'_> {
     fn does_work(&self) -> bool {
         self.energy && self.compiled.has_forces()
     }
-    fn power(&self, _t: f64, y: &[f64]) -> Result<f64, SystemError> {
-        Ok(self.at(y)?.power.unwrap_or(0.0))
+    fn power(&self, t: f64, y: &[f64]) -> Result<f64, SystemError> {
+        Ok(self.at(t, y)?.power.unwrap_or(0.0))
     }
     fn rhs_and_power(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<f64, SystemError> {
-        let e = self.at(y)?;
+        let e = self.at(t, y)?;
         if e.delta.abs() < 1e-3 * self.delta0.abs() {
             let q = self.full_q(&y[..self.state.len()], self.reference);
             if let Ok(cond) = self.compiled.condition(&q, &self.params)
@@ -99,19 +117,19 @@ impl OdeSystem for System<'_> {
         dy[n..].copy_from_slice(&e.eta_dot);
         Ok(e.power.unwrap_or(0.0))
     }
-    fn energy(&self, _t: f64, y: &[f64]) -> Option<f64> {
+    fn energy(&self, t: f64, y: &[f64]) -> Option<f64> {
         if !self.energy {
             return None;
         }
-        self.at(y).ok().map(|e| e.energy)
+        self.at(t, y).ok().map(|e| e.energy)
     }
     /// ‖α(q) q̇‖∞ with q̇ = Γη, from the model's own α (hamel-sim reports its maximum over the
     /// outputs as the constraint drift). Requested, it keeps every coordinate in the state.
-    fn constraint_residual(&self, _t: f64, y: &[f64]) -> Option<f64> {
+    fn constraint_residual(&self, t: f64, y: &[f64]) -> Option<f64> {
         if !self.residual {
             return None;
         }
-        let e = self.at(y).ok()?;
+        let e = self.at(t, y).ok()?;
         let q = self.full_q(&y[..self.state.len()], self.reference);
         hamel_oracle::constraint_residual(&self.numeric, &q, &e.q_dot).ok()
     }
@@ -146,6 +164,10 @@ impl OdeSystem for System<'_> {
         use hamel_expr::Dual;
         let n = y.len();
         let ns = self.state.len();
+        let params = match self.params_at(t) {
+            Ok(p) => p,
+            Err(e) => return Some(Err(e)),
+        };
         for j in 0..n {
             let yd: Vec<Dual> = y
                 .iter()
@@ -154,7 +176,7 @@ impl OdeSystem for System<'_> {
                 .collect();
             let (qs, eta) = yd.split_at(ns);
             let q = self.full_q(qs, Dual::new(self.reference, 0.0));
-            let r = match self.compiled.rhs::<Dual>(&q, eta, &self.params) {
+            let r = match self.compiled.rhs::<Dual>(&q, eta, &params) {
                 Ok(r) => r,
                 Err(e) => return Some(Err(SystemError::new(format!("at t = {t}: {e}")))),
             };

@@ -265,6 +265,7 @@ fn measure(
 /// the energy and the constraint residual, which a scene requests by default, are switched
 /// off for them (and restored after).
 pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::Value, ModelError> {
+    refuse_live(loaded)?;
     let monitors = (loaded.request.energy, loaded.request.constraint_residual);
     (loaded.request.energy, loaded.request.constraint_residual) = (false, false);
     let measured = measure(loaded, Range::WorkPrecision, engine, false);
@@ -305,6 +306,27 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
     }))
 }
 
+/// The Python export writes a law of the time with the `t` of `rhs(t, y)`; an input read from
+/// a table, or a law of the time in a structured derivation (whose tape folds the parameters
+/// in), cannot be written: refused at `inputs`.
+fn refuse_live(loaded: &Loaded) -> Result<(), ModelError> {
+    let live = &loaded.d.live;
+    let tabled: Vec<&String> = live.iter().filter(|n| *n != hamel_model::TIME).collect();
+    if let Some(name) = tabled.first() {
+        return Err(loaded.error(
+            &format!("inputs.{name}"),
+            format!("the Python export cannot read the table that drives {name}: give the input a law or a constant for the export"),
+        ));
+    }
+    if !live.is_empty() && loaded.d.closed().is_none() {
+        return Err(loaded.error(
+            "inputs",
+            "the Python export of a structured derivation folds the parameters in, so it cannot follow a law of the time t".into(),
+        ));
+    }
+    Ok(())
+}
+
 /// The planned right-hand side as one tape and where its inputs come from: the code
 /// generator's solved form for a closed-form derivation (parameters as inputs, given the
 /// scene's numbers), else the structured evaluation traced at the scene's initial state.
@@ -335,11 +357,12 @@ fn planned_tape(
             Some(i) => Input::State(i),
             None => Input::Number(loaded.reference_value()),
         })
-        .chain(
-            solved.inputs[ell..solved.inputs.len() - sigma]
-                .iter()
-                .map(|name| Input::Number(loaded.parameter(name))),
-        )
+        .chain(solved.inputs[ell..solved.inputs.len() - sigma].iter().map(
+            |name| match name.as_str() {
+                hamel_model::TIME => Input::Time,
+                _ => Input::Number(loaded.parameter(name)),
+            },
+        ))
         .chain((0..sigma).map(|s| Input::State(state.len() + s)))
         .collect();
     Ok((tape, inputs))

@@ -55,6 +55,7 @@ mod driver;
 mod ensemble;
 mod explicit;
 mod gauss;
+mod live;
 mod rk4;
 mod solution;
 mod states;
@@ -67,6 +68,7 @@ mod work;
 
 pub use driver::{Method, MethodName, Options, integrate};
 pub use ensemble::{Ensemble, EnsembleError, Shard, integrate_many};
+pub use live::{Interpolation, Live, Outside, Samples, Table, TableError, live_values};
 pub use solution::{ErrorKind, IntegrationError, Solution, Stats};
 pub use states::States;
 pub use system::{OdeSystem, SystemError};

@@ -349,6 +349,14 @@ pub enum RegulatorError {
         /// The inputs.
         inputs: String,
     },
+    /// An input to drive that the model does not have.
+    #[error("`{name}` is not an input of the model ({inputs})")]
+    UnknownInput {
+        /// The name given.
+        name: String,
+        /// The model's inputs.
+        inputs: String,
+    },
     /// A weight that is negative (a state's) or not positive (an input's).
     #[error("the weight of `{0}` must be {1}")]
     BadWeight(String, &'static str),
@@ -358,17 +366,29 @@ pub enum RegulatorError {
 }
 
 impl Regulator {
-    /// The LQR of `l` with the weights `weights` (name ↦ weight; 1 for every name not given);
-    /// `defaults`: the model's parameter values, for the inputs the point does not set.
+    /// The LQR of `l` driving the inputs `drive` (empty: all of them), with the weights
+    /// `weights` (name ↦ weight; 1 for every name not given); `defaults`: the model's
+    /// parameter values, for the inputs the point does not set.
     pub fn of(
         l: &crate::Linearisation,
+        drive: &[String],
         weights: &[(String, f64)],
         defaults: &indexmap::IndexMap<String, f64>,
     ) -> Result<Regulator, RegulatorError> {
         if l.inputs.is_empty() {
             return Err(RegulatorError::NoInputs);
         }
-        let (state, inputs) = (l.reduced_state.clone(), l.inputs.clone());
+        if let Some(u) = drive.iter().find(|u| !l.inputs.contains(u)) {
+            return Err(RegulatorError::UnknownInput {
+                name: u.clone(),
+                inputs: l.inputs.join(", "),
+            });
+        }
+        let columns: Vec<usize> = (0..l.inputs.len())
+            .filter(|&j| drive.is_empty() || drive.contains(&l.inputs[j]))
+            .collect();
+        let state = l.reduced_state.clone();
+        let inputs: Vec<String> = columns.iter().map(|&j| l.inputs[j].clone()).collect();
         let mut state_weights = vec![1.0; state.len()];
         let mut input_weights = vec![1.0; inputs.len()];
         for (name, w) in weights {
@@ -392,7 +412,7 @@ impl Regulator {
         }
         let (n, m) = (state.len(), inputs.len());
         let a = DMatrix::from_fn(n, n, |i, j| l.a[i][j]);
-        let b = DMatrix::from_fn(n, m, |i, j| l.b[i][j]);
+        let b = DMatrix::from_fn(n, m, |i, j| l.b[i][columns[j]]);
         let q = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(state_weights.clone()));
         let r = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(input_weights.clone()));
         let lqr = lqr(&a, &b, &q, &r)?;
@@ -446,6 +466,57 @@ impl Regulator {
             "  Riccati residual {:.1e} (relative; at most {RESIDUAL:.0e} accepted)",
             self.lqr.residual
         );
+        o
+    }
+}
+
+impl Regulator {
+    /// The gain's name for input `u` and state component `x` in a scene block: `K_u_x`.
+    pub fn gain_name(u: &str, x: &str) -> String {
+        format!("K_{u}_{x}")
+    }
+
+    /// The law u = u* − K(x − x*) as a scene's `[gains]` and `[inputs]`, ready to paste into a
+    /// scene of the same model with `eta = "{eta}"` (the law's eta1… are that choice's);
+    /// `about` names the steady motion. Numbers are written to round-trip exactly.
+    pub fn scene_block(&self, eta: &str, about: &str) -> String {
+        use std::fmt::Write;
+        let mut o = String::new();
+        let _ = writeln!(
+            o,
+            "# The LQR law about the steady motion `{about}`, u = u* − K(x − x*) with x = ({}):",
+            self.state.join(", ")
+        );
+        let _ = writeln!(
+            o,
+            "# paste into a scene of this model with eta = \"{eta}\" (an ensemble may vary the gains)."
+        );
+        let _ = writeln!(o, "[gains]");
+        for (u, row) in self.inputs.iter().zip(&self.lqr.k) {
+            for (x, k) in self.state.iter().zip(row) {
+                let _ = writeln!(o, "{} = {k:?}", Self::gain_name(u, x));
+            }
+        }
+        let _ = writeln!(o, "\n[inputs]");
+        for (i, u) in self.inputs.iter().enumerate() {
+            let terms: Vec<String> = (self.state.iter().zip(&self.steady_state))
+                .map(|(x, &xs)| {
+                    let dx = if xs == 0.0 {
+                        x.clone()
+                    } else {
+                        format!("({x} - {xs:?})")
+                    };
+                    format!("{}*{dx}", Self::gain_name(u, x))
+                })
+                .collect();
+            let us = self.steady_inputs[i];
+            let head = if us == 0.0 {
+                String::new()
+            } else {
+                format!("{us:?} ")
+            };
+            let _ = writeln!(o, "{u} = \"{head}-({})\"", terms.join(" + "));
+        }
         o
     }
 }

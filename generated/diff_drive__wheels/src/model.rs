@@ -150,6 +150,20 @@ impl Parameters {
     }
 }
 
+/// The parameters set at every evaluation rather than once: the time `t` of a scene's control
+/// law, inputs read from tables. [`Prepared`] never folds them into its constants: set them in
+/// a copy of `prep.p` ([`Parameters::set_live`]) and evaluate with the `_live` functions
+/// ([`reduced_into_live`], [`reduced_jacobian_live`]).
+pub const LIVE: [&str; 0] = [];
+
+impl Parameters {
+    /// Set the [`LIVE`] parameters to `values`, in [`LIVE`]'s order.
+    #[inline(always)]
+    pub fn set_live(&mut self, values: &[f64; 0]) {
+        let _ = values;
+    }
+}
+
 /// Number of holonomic constraints h(q) = 0 (their velocity rows are among α's).
 pub const HOLONOMIC: usize = 0;
 /// The coordinate each holonomic constraint determines (indices into [`COORDINATES`]).
@@ -2218,6 +2232,13 @@ pub fn reduced_with<S: Scalar>(x: &[S], prep: &Prepared) -> Result<[S; REDUCED_D
     reduced_from(x, &prep.p, &prep.reduced)
 }
 
+/// [`reduced_with`] at the parameters `p`: their [`LIVE`] ones (the others must be `prep.p`'s,
+/// whose values `prep` has folded in).
+#[inline]
+pub fn reduced_live<S: Scalar>(x: &[S], p: &Parameters, prep: &Prepared) -> Result<[S; REDUCED_DIM], EvalError> {
+    reduced_from(x, p, &prep.reduced)
+}
+
 /// [`reduced_with`], computing the parameter-only values first.
 pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], EvalError> {
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
@@ -2378,7 +2399,13 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 49]) -> Result<[S;
 
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
 pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
-    dx.copy_from_slice(&reduced_with(x, prep)?);
+    reduced_into_live(x, dx, &prep.p, prep)
+}
+
+/// [`reduced_into_with`] at the [`LIVE`] parameters of `p` (see [`reduced_live`]).
+#[inline]
+pub fn reduced_into_live(x: &[f64], dx: &mut [f64], p: &Parameters, prep: &Prepared) -> Result<(), EvalError> {
+    dx.copy_from_slice(&reduced_live(x, p, prep)?);
     runtime::finite("the reduced right-hand side", dx)
 }
 
@@ -2397,8 +2424,13 @@ pub fn reduced_rhs(x: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
 
 /// ∂(reduced right-hand side)/∂x, exact (forward-mode dual numbers), row i = ∂f_i/∂x.
 pub fn reduced_jacobian_with(x: &[f64], prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
+    reduced_jacobian_live(x, &prep.p, prep)
+}
+
+/// [`reduced_jacobian_with`] at the [`LIVE`] parameters of `p` (see [`reduced_live`]).
+pub fn reduced_jacobian_live(x: &[f64], p: &Parameters, prep: &Prepared) -> Result<Vec<Vec<f64>>, EvalError> {
     let xd: Vec<Jet> = x.iter().enumerate().map(|(i, &v)| Jet::from(DualN::variable(v, i))).collect();
-    let f = reduced_with(&xd, prep)?;
+    let f = reduced_live(&xd, p, prep)?;
     let jac: Vec<Vec<f64>> = f.iter().map(|fi| AsRef::<DualN<REDUCED_DIM>>::as_ref(fi).d.to_vec()).collect();
     runtime::finite("the Jacobian", &jac.concat())?;
     Ok(jac)
