@@ -54,8 +54,30 @@ fn generate_all() -> BTreeMap<PathBuf, String> {
                 dir,
                 model: model.name.clone(),
                 eta: choice.name.clone(),
+                scene: String::new(),
             });
         }
+    }
+    for &(scene, eta, dir) in common::CLOSED_LOOPS {
+        let model = common::closed_loop(scene);
+        let asked = common::eliminate(&model);
+        let (r, d) = hamel_reduce::reduce_with_derivation(&model, Some(eta), &asked).unwrap();
+        assert!(r.ground_truth.present.is_empty() && r.reduced_system.is_some());
+        let eliminated = hamel_reduce::coordinate_indices(&model, &asked).unwrap();
+        let command = format!(
+            "the closed loop of {scene} (tests/codegen.rs), --eta {eta} --eliminate {}",
+            asked.join(",")
+        );
+        let g = hamel_codegen::generate(&d, &eliminated, &command).unwrap();
+        for (path, text) in g.files {
+            files.insert(Path::new("generated").join(dir).join(path), text);
+        }
+        members.push(Member {
+            dir: dir.to_string(),
+            model: model.name.clone(),
+            eta: eta.to_string(),
+            scene: scene.to_string(),
+        });
     }
     files.insert(
         PathBuf::from("crates/hamel-models/src/lib.rs"),

@@ -31,7 +31,7 @@ fn generated_cores_match_the_structured_evaluator_and_the_oracle() {
     let models = common::models();
     let mut rng = ChaCha8Rng::seed_from_u64(44);
     for core in MODELS {
-        let model = models.iter().find(|m| m.name == core.model).unwrap();
+        let model = &*common::model_of_core(&models, core.model, core.scene);
         let d = hamel_derive::derive(model, Some(core.eta)).unwrap();
         let c = d.compile().unwrap();
         let params: IndexMap<String, f64> = d.parameters.clone();

@@ -658,7 +658,7 @@ fn every_evaluator_near_every_singular_configuration_is_within_a_multiple_of_the
             let params = d.parameters.clone();
             let core = hamel_models::MODELS
                 .iter()
-                .find(|k| k.model == model.name && k.eta == d.eta_name);
+                .find(|k| k.model == model.name && k.eta == d.eta_name && k.scene.is_empty());
             let sigma = d.eta.len();
             let mut targets: Vec<(String, Vec<f64>, usize)> = Vec::new();
             for p in singular_points(&d, &params, 14) {

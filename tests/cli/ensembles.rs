@@ -290,3 +290,63 @@ fn expressions_of_a_parameter_the_members_vary_use_each_members_value() {
     masses.dedup();
     assert_eq!(masses.len(), 50, "every member has its own mass");
 }
+
+/// An ensemble over the gains of a control law (the Segway balanced by a PD law on its pitch,
+/// pushed by a disturbance of the time): the gains the members draw are inputs of the core,
+/// the time is live in it, every member is balanced, and a member equals the single run of the
+/// interpreted evaluator with its gain `--set`.
+#[test]
+fn members_may_vary_the_gains_of_a_control_law() {
+    let dir = scratch("ensemble_gains");
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/segway.toml");
+    let text = format!(
+        "model = {model:?}\neta = \"body\"\nt_end = 6.0\noutputs = 7\nrequest = [\"theta\"]\n\n\
+         [gains]\nk_th = -53.4\nk_d = -11.0\nk_v = -7.1\nd = 0.05\n\n\
+         [inputs]\nT_L = \"-(k_th*theta + k_d*eta1 + k_v*eta2) + d*sin(3*t)\"\nT_R = \"-(k_th*theta + k_d*eta1 + k_v*eta2) + d*sin(3*t)\"\n\n\
+         [initial]\nq = {{ x = 0.0, y = 0.0, psi = 0.0, theta = 0.1, phiL = 0.0, phiR = 0.0 }}\neta = [0.0, 0.0, 0.0]\n\n\
+         [integrator]\nmethod = \"dop853\"\nrtol = 1e-10\natol = 1e-12\n"
+    );
+    let single = dir.join("single.toml");
+    std::fs::write(&single, &text).unwrap();
+    let scene = dir.join("scene.toml");
+    let vary = "[ensemble]\nmembers = 6\nseed = 3\nsave = \"outputs\"\n\n[ensemble.vary]\nk_th = { uniform = [-80.0, -40.0] }\n";
+    std::fs::write(&scene, format!("{text}\n{vary}")).unwrap();
+    let out = dir.join("result.jsonl");
+    let o = simulate_json(scene.to_str().unwrap(), &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = lines(&out);
+    assert_eq!(v[0]["varying"], serde_json::json!(["k_th"]));
+    assert_eq!(v[0]["failed"], 0);
+    let finals: Vec<f64> = v[1..]
+        .iter()
+        .map(|m| f(m["values"]["theta"].as_array().unwrap().last().unwrap()))
+        .collect();
+    assert!(finals.iter().all(|t| t.abs() < 2e-2), "{finals:?}");
+    assert!(finals.windows(2).any(|w| w[0] != w[1]), "the gains differ");
+    // The first member again, alone, on the interpreted evaluator.
+    let member = &v[1];
+    let k = f(&member["given"]["k_th"]);
+    let alone = dir.join("alone.json");
+    let set = format!("k_th={k:?}");
+    let o = simulate_json(
+        single.to_str().unwrap(),
+        &alone,
+        &["--engine", "interpreted", "--set", &set],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(alone).unwrap()).unwrap();
+    let (x, y) = (
+        a["q"]["theta"].as_array().unwrap(),
+        member["values"]["theta"].as_array().unwrap(),
+    );
+    assert_eq!(x.len(), y.len());
+    for (p, q) in x.iter().zip(y) {
+        assert!(
+            (f(p) - f(q)).abs() <= 1e-8,
+            "member {} vs alone {}",
+            f(q),
+            f(p)
+        );
+    }
+}

@@ -37,6 +37,35 @@ pub fn models() -> Vec<hamel_model::Model> {
         .collect()
 }
 
+/// The closed loops whose generated cores are checked in beside the models' own: the scene
+/// (relative to the repository), its choice of η and the core's directory under `generated/`.
+pub const CLOSED_LOOPS: &[(&str, &str, &str)] =
+    &[("scenes/segway_lqr.toml", "body", "segway_lqr__body")];
+
+/// The model of `scene` with the loop closed by its `[inputs]` laws (`Model::controlled`).
+pub fn closed_loop(scene: &str) -> hamel_model::Model {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(scene);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let dir = path.parent().unwrap().to_path_buf();
+    let load = |m: &str| hamel_model::Model::load(dir.join(m));
+    hamel_scene::check(scene, &text, &indexmap::IndexMap::new(), &load)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .model
+}
+
+/// The model a generated core was made from: the model file's, or a scene's closed loop.
+pub fn model_of_core<'m>(
+    models: &'m [hamel_model::Model],
+    model: &str,
+    scene: &str,
+) -> std::borrow::Cow<'m, hamel_model::Model> {
+    if scene.is_empty() {
+        std::borrow::Cow::Borrowed(models.iter().find(|m| m.name == model).unwrap())
+    } else {
+        std::borrow::Cow::Owned(closed_loop(scene))
+    }
+}
+
 /// The elimination asked for `model` in the paper.
 pub fn eliminate(model: &hamel_model::Model) -> Vec<String> {
     let (_, p) = ELIMINATE

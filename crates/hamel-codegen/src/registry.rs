@@ -4,7 +4,8 @@ use std::fmt::Write;
 
 use crate::escape::{rust_ident, rust_str};
 
-/// One generated core: module name, model, choice.
+/// One generated core: module name, model, choice, and the scene whose control laws close its
+/// loop (empty for a model file's own equations).
 pub struct Member {
     /// Directory under `generated/` (also the module name).
     pub dir: String,
@@ -12,6 +13,9 @@ pub struct Member {
     pub model: String,
     /// Quasi-velocity choice.
     pub eta: String,
+    /// The scene (a path relative to the repository) whose `[inputs]` laws are closed into the
+    /// forces, or empty.
+    pub scene: String,
 }
 
 /// The text of `crates/hamel-models/src/lib.rs` for the given members (sorted by the caller).
@@ -46,6 +50,8 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
          /// A Jacobian of the reduced state.\npub type MatrixFn = fn(&[f64]) -> Result<Vec<Vec<f64>>, EvalError>;\n\
          \n/// One generated core, at the model's default parameters.\npub struct Core {\n    \
          /// Model name.\n    pub model: &'static str,\n    /// Quasi-velocity choice.\n    pub eta: &'static str,\n    \
+         /// The scene whose control laws close the loop (relative to the repository), or empty\n    \
+         /// for the model file's own equations.\n    pub scene: &'static str,\n    \
          /// ℓ, μ, σ.\n    pub dims: Dims,\n    /// Eliminated coordinates.\n    pub eliminated: &'static [usize],\n    \
          /// Kept coordinates (reduced state: these, then η).\n    pub kept: &'static [usize],\n    \
          /// Full right-hand side at (q, η).\n    pub full: FullFn,\n    \
@@ -68,7 +74,7 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
          /// Operation counts (trees, shared).\n    pub operations: (usize, usize),\n}\n\n\
          /// The default parameters of module `$m`, prepared once (`Prepared::new`), or its error.\n\
          macro_rules! prepared {\n    ($m:ident) => {{\n        static PREPARED: std::sync::LazyLock<Result<$m::Prepared, EvalError>> =\n            std::sync::LazyLock::new(|| $m::Prepared::new(&$m::Parameters::default()));\n        PREPARED.as_ref().map_err(Clone::clone)?\n    }};\n}\n\n\
-         macro_rules! core {\n    ($m:ident, $model:expr, $eta:expr) => {\n        Core {\n            model: $model,\n            eta: $eta,\n            dims: $m::DIMS,\n            eliminated: &$m::ELIMINATED,\n            kept: &$m::KEPT,\n            full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),\n            full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),\n            full_unchecked: |q, e| {\n                $m::structured_unchecked(q, e, &$m::Parameters::default(), true).map(Rhs::from)\n            },\n            reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),\n            reduced_into: |x, dx| $m::reduced_into_with(x, dx, prepared!($m)),\n            full_into: |y, dy| $m::full_into_with(y, dy, prepared!($m)),\n            full_into_per_call: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),\n            jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),\n            reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),\n            constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),\n            energy: |q, e| $m::energy(q, e, &$m::Parameters::default()),\n            residual: |q, e| $m::residual_max(q, e, &$m::Parameters::default()),\n            \
+         macro_rules! core {\n    ($m:ident, $model:expr, $eta:expr, $scene:expr) => {\n        Core {\n            model: $model,\n            eta: $eta,\n            scene: $scene,\n            dims: $m::DIMS,\n            eliminated: &$m::ELIMINATED,\n            kept: &$m::KEPT,\n            full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),\n            full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),\n            full_unchecked: |q, e| {\n                $m::structured_unchecked(q, e, &$m::Parameters::default(), true).map(Rhs::from)\n            },\n            reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),\n            reduced_into: |x, dx| $m::reduced_into_with(x, dx, prepared!($m)),\n            full_into: |y, dy| $m::full_into_with(y, dy, prepared!($m)),\n            full_into_per_call: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),\n            jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),\n            reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),\n            constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),\n            energy: |q, e| $m::energy(q, e, &$m::Parameters::default()),\n            residual: |q, e| $m::residual_max(q, e, &$m::Parameters::default()),\n            \
          energies: |rows, out| $m::energy_many(rows, &$m::Parameters::default(), out),\n            \
          residuals: |rows, out| $m::residual_max_many(rows, &$m::Parameters::default(), out),\n            operations: $m::OPERATIONS,\n        }\n    };\n}\n\n\
          /// Every generated core.\n#[rustfmt::skip]\npub const MODELS: &[Core] = &[\n",
@@ -76,10 +82,11 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
     for m in members {
         let _ = writeln!(
             o,
-            "    core!({}, {}, {}),",
+            "    core!({}, {}, {}, {}),",
             m.dir,
             rust_str(&m.model),
-            rust_str(&m.eta)
+            rust_str(&m.eta),
+            rust_str(&m.scene)
         );
     }
     o.push_str("];\n");

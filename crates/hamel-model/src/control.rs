@@ -113,7 +113,11 @@ impl Model {
                 law.input, law.text
             ));
         }
+        // A driven input is no longer a parameter: setting it (`--set`) would change nothing.
         m.inputs.retain(|u| !driven.contains(&u.as_str()));
+        for u in &driven {
+            m.parameters.shift_remove(*u);
+        }
         if timed {
             m.parameters.insert(TIME.to_string(), 0.0);
             m.live.push(TIME.to_string());

@@ -72,6 +72,9 @@ pub mod vertical_knife__paper;
 #[rustfmt::skip] // generated text, compared with a fresh generation
 #[path = "../../../generated/whipple_bicycle__benchmark/src/model.rs"]
 pub mod whipple_bicycle__benchmark;
+#[rustfmt::skip] // generated text, compared with a fresh generation
+#[path = "../../../generated/segway_lqr__body/src/model.rs"]
+pub mod segway_lqr__body;
 
 /// A full right-hand side at (q, η) in f64.
 pub type FullFn = fn(&[f64], &[f64]) -> Result<Rhs<f64>, EvalError>;
@@ -88,6 +91,9 @@ pub struct Core {
     pub model: &'static str,
     /// Quasi-velocity choice.
     pub eta: &'static str,
+    /// The scene whose control laws close the loop (relative to the repository), or empty
+    /// for the model file's own equations.
+    pub scene: &'static str,
     /// ℓ, μ, σ.
     pub dims: Dims,
     /// Eliminated coordinates.
@@ -137,10 +143,11 @@ macro_rules! prepared {
 }
 
 macro_rules! core {
-    ($m:ident, $model:expr, $eta:expr) => {
+    ($m:ident, $model:expr, $eta:expr, $scene:expr) => {
         Core {
             model: $model,
             eta: $eta,
+            scene: $scene,
             dims: $m::DIMS,
             eliminated: &$m::ELIMINATED,
             kept: &$m::KEPT,
@@ -168,24 +175,25 @@ macro_rules! core {
 /// Every generated core.
 #[rustfmt::skip]
 pub const MODELS: &[Core] = &[
-    core!(bar_blade__paper, "bar_blade", "paper"),
-    core!(bar_blade__a_orthogonal, "bar_blade", "a_orthogonal"),
-    core!(bar_wheels__paper, "bar_wheels", "paper"),
-    core!(bar_wheels__a_orthogonal, "bar_wheels", "a_orthogonal"),
-    core!(bar_wheels__search_ansatz, "bar_wheels", "search_ansatz"),
-    core!(chaplygin_sleigh__paper_style, "chaplygin_sleigh", "paper_style"),
-    core!(diff_drive__wheels, "diff_drive", "wheels"),
-    core!(diff_drive__body, "diff_drive", "body"),
-    core!(knife__paper, "knife", "paper"),
-    core!(remark22__paper, "remark22", "paper"),
-    core!(rolling_disk__momenta, "rolling_disk", "momenta"),
-    core!(rolling_disk__velocities, "rolling_disk", "velocities"),
-    core!(segway__wheels, "segway", "wheels"),
-    core!(segway__body, "segway", "body"),
-    core!(snakeboard__velocities, "snakeboard", "velocities"),
-    core!(sprung_sleigh__forward, "sprung_sleigh", "forward"),
-    core!(unicycle_rider__momenta, "unicycle_rider", "momenta"),
-    core!(unicycle_rider__velocities, "unicycle_rider", "velocities"),
-    core!(vertical_knife__paper, "vertical_knife", "paper"),
-    core!(whipple_bicycle__benchmark, "whipple_bicycle", "benchmark"),
+    core!(bar_blade__paper, "bar_blade", "paper", ""),
+    core!(bar_blade__a_orthogonal, "bar_blade", "a_orthogonal", ""),
+    core!(bar_wheels__paper, "bar_wheels", "paper", ""),
+    core!(bar_wheels__a_orthogonal, "bar_wheels", "a_orthogonal", ""),
+    core!(bar_wheels__search_ansatz, "bar_wheels", "search_ansatz", ""),
+    core!(chaplygin_sleigh__paper_style, "chaplygin_sleigh", "paper_style", ""),
+    core!(diff_drive__wheels, "diff_drive", "wheels", ""),
+    core!(diff_drive__body, "diff_drive", "body", ""),
+    core!(knife__paper, "knife", "paper", ""),
+    core!(remark22__paper, "remark22", "paper", ""),
+    core!(rolling_disk__momenta, "rolling_disk", "momenta", ""),
+    core!(rolling_disk__velocities, "rolling_disk", "velocities", ""),
+    core!(segway__wheels, "segway", "wheels", ""),
+    core!(segway__body, "segway", "body", ""),
+    core!(snakeboard__velocities, "snakeboard", "velocities", ""),
+    core!(sprung_sleigh__forward, "sprung_sleigh", "forward", ""),
+    core!(unicycle_rider__momenta, "unicycle_rider", "momenta", ""),
+    core!(unicycle_rider__velocities, "unicycle_rider", "velocities", ""),
+    core!(vertical_knife__paper, "vertical_knife", "paper", ""),
+    core!(whipple_bicycle__benchmark, "whipple_bicycle", "benchmark", ""),
+    core!(segway_lqr__body, "segway", "body", "scenes/segway_lqr.toml"),
 ];
