@@ -145,3 +145,50 @@ fn the_robots_drop_their_position_heading_and_wheel_angles() {
         assert!(r.reduced_system.is_some(), "{name}");
     }
 }
+
+/// A car with Ackermann steering written from bodies (tests/models/ackermann_car.toml): the
+/// right front knuckle turns by atan(L sin δ/(L cos δ + 2b sin δ)), so that the four axles
+/// meet at one point. The eight no-slip rows have rank 6 identically: the exact algebra sees
+/// the atan's cosine and sine as 1/√(1 + u²) and u/√(1 + u²) and finds the front right wheel's
+/// lateral row a combination of the others. σ = 2; the dropped rows are the printed
+/// combinations; the equations agree with the oracle; the position, the heading and the
+/// wheel angles drop out (the steering angle does not).
+#[test]
+fn the_ackermann_car_has_rank_six_through_its_arctangent() {
+    let path = format!(
+        "{}/tests/models/ackermann_car.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(m.all_rows().len(), 8);
+    let d = derive(&m, Some("drive")).unwrap();
+    assert_eq!((d.mu, d.eta.len()), (6, 2));
+    let dropped: Vec<&str> = d.dependent_rows.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(dropped, ["rear_right_no_slip_y", "front_right_no_slip_y"]);
+    let mut rng = ChaCha8Rng::seed_from_u64(58);
+    for _ in 0..20 {
+        let q: Vec<f64> = (0..m.ell()).map(|_| rng.random_range(-1.2..1.2)).collect();
+        let r = remainder(&m, &d, &q);
+        assert!(r < 1e-12, "remainder {r:e} at {q:?}");
+    }
+    let w = common::oracle::compare(&m, "drive", 59, 30);
+    assert!(
+        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
+        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
+        w.structured_f64,
+        w.structured_dd,
+        w.symbolic_dd
+    );
+    let asked: Vec<String> = ["x", "y", "psi", "phiRL", "phiRR", "phiFL", "phiFR"]
+        .map(String::from)
+        .into();
+    let (r, _) = hamel_reduce::reduce_with_derivation(&m, Some("drive"), &asked).unwrap();
+    assert!(
+        r.ground_truth.present.is_empty(),
+        "{:?}",
+        r.ground_truth.present
+    );
+    let (r, _) =
+        hamel_reduce::reduce_with_derivation(&m, Some("drive"), &["delta".into()]).unwrap();
+    assert_eq!(r.ground_truth.present, ["delta"]);
+}

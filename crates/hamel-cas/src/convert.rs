@@ -137,7 +137,7 @@ impl Scan {
                 }
                 None => self.trig_kernels.push((**arg).clone()),
             },
-            Expr::Call(f @ (Func::Exp | Func::Log | Func::Sqrt), arg) => {
+            Expr::Call(f @ (Func::Exp | Func::Log | Func::Sqrt | Func::Atan), arg) => {
                 self.kernels.push((*f, (**arg).clone()))
             }
             Expr::Pow(b, x) if x.as_integer().is_none() && half_power(x).is_some() => {
@@ -315,7 +315,9 @@ impl Field {
     pub fn new(spec: &FieldSpec) -> Result<Field, CasError> {
         let mut scan = Scan::default();
         for e in &spec.expressions {
-            scan.expr(e);
+            // sin, cos, tan of arctangents are algebraic (hamel_expr's `atan`): scanned as
+            // `convert` converts them.
+            scan.expr(&e.unfold_trig_of_atan());
         }
         // Phase A: the field without kernels, to put kernel arguments in normal form.
         let base = build(spec, base_layout(spec, &scan));
@@ -479,6 +481,15 @@ impl Field {
                     )));
                 }
             }
+            Expr::Call(Func::Sin | Func::Cos | Func::Tan, arg) if arg.has_atan() => {
+                let unfolded = e.unfold_trig_of_atan();
+                if &unfolded == e {
+                    return Err(CasError::Unsupported(format!(
+                        "`{e}`: the sine, cosine or tangent of an angle with an arctangent is supported for angles a + k·atan(u) (k an integer) only"
+                    )));
+                }
+                self.convert(&unfolded)?
+            }
             Expr::Call(func, arg) => match func {
                 Func::Sin | Func::Cos | Func::Tan => {
                     let (c, s) = self.cos_sin(arg)?;
@@ -494,10 +505,13 @@ impl Field {
                     }
                 }
                 Func::Sqrt => self.sqrt(arg)?,
-                Func::Exp | Func::Log => {
+                Func::Exp | Func::Log | Func::Atan => {
                     let a = self.convert(arg)?;
                     if *func == Func::Exp && a.is_zero() {
                         return Ok(self.one());
+                    }
+                    if *func == Func::Atan && a.is_zero() {
+                        return Ok(self.zero());
                     }
                     if *func == Func::Log && a.is_one() {
                         return Ok(self.zero());

@@ -798,6 +798,10 @@ impl Field {
                     let r = match kernel.func {
                         Func::Exp => &me * &da,
                         Func::Log => da.div(&arg).expect("log of zero"),
+                        // d atan(u) = u'/(1 + u²)
+                        Func::Atan => da
+                            .div(&(&self.one() + &(&arg * &arg)))
+                            .expect("1 + u² is not zero"),
                         // r = √G: dr = G' r / (2 G)
                         Func::Sqrt => (&da * &me)
                             .div(&(&arg * &self.int(2)))

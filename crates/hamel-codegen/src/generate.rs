@@ -807,6 +807,7 @@ fn lets(tape: &Tape, slots: &Slots, part: Part) -> String {
                     Func::Sqrt => "sqrt",
                     Func::Exp => "exp",
                     Func::Log => "ln",
+                    Func::Atan => "atan",
                 };
                 format!("t{a}.{name}()")
             }

@@ -188,6 +188,14 @@ impl Scalar for Interval {
         let (lo, hi) = (self.lo.ln(), self.hi.ln());
         Interval::libm(lo.abs().max(hi.abs()), lo, hi)
     }
+    /// Increasing: the ends' arctangents, widened by libm's error.
+    fn atan(self) -> Self {
+        if self.lo.is_nan() || self.hi.is_nan() {
+            return Interval::whole();
+        }
+        let (lo, hi) = (self.lo.atan(), self.hi.atan());
+        Interval::libm(lo.abs().max(hi.abs()), lo, hi)
+    }
     /// By repeated squaring (each product encloses, so the result does).
     fn powi(self, n: i32) -> Self {
         let (mut acc, mut base, mut k) = (Interval::point(1.0), self, n.unsigned_abs());

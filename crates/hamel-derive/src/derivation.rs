@@ -600,6 +600,19 @@ impl Derivation {
             z: self.z.map_expr(&f),
             grad_u: entries(&self.grad_u),
             forces: entries(&self.forces),
+            dependent_rows: map_all(&self.dependent_rows, |r| Dependent {
+                name: r.name.clone(),
+                row: entries(&r.row),
+                combination: map_all(&r.combination, |t| Term {
+                    row: t.row.clone(),
+                    coefficient: t.coefficient.map_expr(&f),
+                }),
+                singular: entries(&r.singular),
+            }),
+            kept_rank_loss: map_all(&self.kept_rank_loss, |p| Power {
+                factor: p.factor.map_expr(&f),
+                power: p.power,
+            }),
             holonomic: map_all(&self.holonomic, |c| Holonomic {
                 name: c.name.clone(),
                 h: c.h.map_expr(&f),

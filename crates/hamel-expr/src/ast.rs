@@ -21,17 +21,20 @@ pub enum Func {
     Exp,
     /// natural logarithm
     Log,
+    /// arctangent (principal branch, in (−π/2, π/2))
+    Atan,
 }
 
 impl Func {
     /// All built-in functions.
-    pub const ALL: [Func; 6] = [
+    pub const ALL: [Func; 7] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
         Func::Sqrt,
         Func::Exp,
         Func::Log,
+        Func::Atan,
     ];
 
     /// The name used in expression text.
@@ -43,6 +46,7 @@ impl Func {
             Func::Sqrt => "sqrt",
             Func::Exp => "exp",
             Func::Log => "log",
+            Func::Atan => "atan",
         }
     }
 

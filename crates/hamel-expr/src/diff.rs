@@ -213,6 +213,7 @@ fn outer_derivative(f: Func, a: &Expr) -> Expr {
         Func::Sqrt => div(Expr::int(1), mul(Expr::int(2), call(Func::Sqrt, a))),
         Func::Exp => call(Func::Exp, a),
         Func::Log => div(Expr::int(1), a),
+        Func::Atan => div(Expr::int(1), Expr::Add(vec![Expr::int(1), powi(a, 2)])),
     }
 }
 

@@ -168,6 +168,7 @@ impl Expr {
                         }
                         x.ln()
                     }
+                    Func::Atan => x.atan(),
                 }
             }
         };

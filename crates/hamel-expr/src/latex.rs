@@ -182,6 +182,10 @@ impl Expr {
                     a.write_latex(out);
                     out.push('}');
                 }
+                Func::Atan => {
+                    out.push_str("\\arctan");
+                    func_arg(a, out);
+                }
                 _ => {
                     out.push('\\');
                     out.push_str(f.name());

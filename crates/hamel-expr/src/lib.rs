@@ -17,6 +17,7 @@
 #![warn(missing_docs)]
 
 mod ast;
+mod atan;
 pub mod build;
 mod canonical;
 mod diff;

@@ -330,6 +330,7 @@ impl Tape {
                             }
                             x.ln()
                         }
+                        Func::Atan => x.atan(),
                     }
                 }
             };

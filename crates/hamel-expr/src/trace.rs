@@ -234,6 +234,9 @@ impl Scalar for Traced {
     fn ln(self) -> Self {
         self.call(Func::Log, self.value.ln())
     }
+    fn atan(self) -> Self {
+        self.call(Func::Atan, self.value.atan())
+    }
     fn powi(self, n: i32) -> Self {
         match n {
             0 => Traced::constant_of(1.0),

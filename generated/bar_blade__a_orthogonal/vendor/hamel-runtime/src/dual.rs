@@ -83,6 +83,9 @@ impl<T: Scalar> Scalar for Dual<T> {
     fn ln(self) -> Self {
         Dual::new(self.v.ln(), self.d / self.v)
     }
+    fn atan(self) -> Self {
+        Dual::new(self.v.atan(), self.d / (T::constant(1.0) + self.v * self.v))
+    }
     fn powi(self, n: i32) -> Self {
         if n == 0 {
             return Dual::constant(1.0);
@@ -206,6 +209,9 @@ impl<const N: usize> Scalar for DualN<N> {
     }
     fn ln(self) -> Self {
         self.chain(self.v.ln(), 1.0 / self.v)
+    }
+    fn atan(self) -> Self {
+        self.chain(self.v.atan(), 1.0 / (1.0 + self.v * self.v))
     }
     fn powi(self, n: i32) -> Self {
         if n == 0 {

@@ -72,7 +72,7 @@ impl<T: Scalar> Scalar for Cold<T> {
     fn value(&self) -> f64 {
         self.0.value()
     }
-    unary!(sin, cos, tan, sqrt, exp, ln);
+    unary!(sin, cos, tan, sqrt, exp, ln, atan);
     #[inline(never)]
     fn sin_cos(self) -> (Self, Self) {
         let (s, c) = self.0.sin_cos();

@@ -99,6 +99,9 @@ impl Scalar for Lanes {
     fn ln(self) -> Self {
         self.map(f64::ln)
     }
+    fn atan(self) -> Self {
+        self.map(f64::atan)
+    }
     #[inline(always)]
     fn powi(self, n: i32) -> Self {
         self.map(|a| a.powi(n))
