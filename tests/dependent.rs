@@ -192,3 +192,24 @@ fn the_ackermann_car_has_rank_six_through_its_arctangent() {
         hamel_reduce::reduce_with_derivation(&m, Some("drive"), &["delta".into()]).unwrap();
     assert_eq!(r.ground_truth.present, ["delta"]);
 }
+
+/// Bare arctangents (tests/models/atan_knife.toml: atan(θ) in the inertia, atan(xy − 1) in U)
+/// are kernels of the exact algebra with the derivative u'/(1 + u²): the closed form agrees
+/// with the oracle.
+#[test]
+fn bare_arctangents_derive_exactly() {
+    let path = format!(
+        "{}/tests/models/atan_knife.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let w = common::oracle::compare(&m, "paper", 60, 30);
+    assert!(!w.structured_form);
+    assert!(
+        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
+        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
+        w.structured_f64,
+        w.structured_dd,
+        w.symbolic_dd
+    );
+}

@@ -630,7 +630,7 @@ impl Field {
 fn nested(e: CasError) -> CasError {
     match e {
         CasError::Unsupported(m) if m.contains("not declared") => CasError::Unsupported(
-            "nested transcendental functions (sqrt, exp, log or sin/cos of a non-linear argument inside another one) are not supported".into(),
+            "nested transcendental functions (sqrt, exp, log, atan or sin/cos of a non-linear argument inside another one) are not supported".into(),
         ),
         other => other,
     }
