@@ -44,7 +44,9 @@ pub(crate) fn driven(scene: &Scene) -> Result<Driven, Keyed> {
         if scene.parameters.contains_key(name) {
             return Err((
                 key,
-                format!("{name} is set in [parameters] too: give it in one place"),
+                format!(
+                    "{name} is given in [inputs] and also in [parameters] or by --set: give it in one place"
+                ),
             ));
         }
         match spec {
