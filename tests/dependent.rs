@@ -213,3 +213,28 @@ fn bare_arctangents_derive_exactly() {
         w.symbolic_dd
     );
 }
+
+/// A holonomic constraint implied by the ones before it (tests/filetests/holonomic_implied.toml:
+/// c − a − x = (b − a − x) + (c − b)): it is not solved for its coordinate (Newton would meet a
+/// singular Jacobian), its row is dropped as the exact sum of the other two, σ = 4 − 2 = 2,
+/// and the equations agree with the oracle.
+#[test]
+fn an_implied_holonomic_constraint_is_dropped() {
+    let path = format!(
+        "{}/tests/filetests/holonomic_implied.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = m.holonomic.iter().map(|h| h.name.as_str()).collect();
+    assert_eq!(names, ["ab", "bc"]);
+    let d = derive(&m, Some("free")).unwrap();
+    assert_eq!((d.mu, d.sigma), (2, 2));
+    let dep = &d.dependent_rows[0];
+    assert_eq!(dep.name, "ca");
+    let rows: Vec<(&str, &str)> = (dep.combination.iter())
+        .map(|t| (t.row.as_str(), t.coefficient.text.as_str()))
+        .collect();
+    assert_eq!(rows, [("ab", "1"), ("bc", "1")]);
+    let w = common::oracle::compare(&m, "free", 61, 20);
+    assert!(w.structured_f64 <= 1e-12, "{:.1e}", w.structured_f64);
+}

@@ -18,7 +18,7 @@ use crate::contact::{self, Row};
 use crate::error::{BodiesError, Place, Problem, Section};
 use crate::frames::{self, Tree};
 use crate::mechanism::{Body, Direction, Mechanism};
-use crate::numeric::{Completion, Point};
+use crate::numeric::{Completion, CompletionError, Point};
 use crate::vector::{Rate, dot};
 
 /// A holonomic constraint of the expansion.
@@ -93,8 +93,17 @@ pub fn expand(
             dependent: c.dependent.clone(),
         }));
     let place = |c: &HolonomicConstraint, field| holonomic_place(m, c, field);
-    let (rows, completion) = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
+    let HolonomicRows {
+        rows,
+        completion,
+        implied,
+    } = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
     rolling.rows.extend(rows);
+    let mut index = 0;
+    rolling.holonomic.retain(|_| {
+        index += 1;
+        !implied.contains(&(index - 1))
+    });
     let mut forces = crate::loads::generalised_forces(&tree, m)?;
     for (f, d) in forces
         .iter_mut()
@@ -336,17 +345,30 @@ fn on_the_ground(
     Ok(())
 }
 
-/// The holonomic constraints' velocity rows dh/dt = Σ_k ∂h/∂q_k q̇_k, in order, and the
-/// completion that solves them for their dependent coordinates, which must succeed at the
-/// reference configuration q = 0. `place` says where each constraint was declared.
+/// The holonomic constraints' velocity rows dh/dt = Σ_k ∂h/∂q_k q̇_k, in order (every
+/// constraint's, the implied ones' too: the rank of α drops theirs as dependent rows, with the
+/// exact combination), and the completion that solves the others for their dependent
+/// coordinates, which must succeed at the reference configuration q = 0.
+pub struct HolonomicRows {
+    /// dh/dt of every constraint, in order.
+    pub rows: Vec<Row>,
+    /// Newton's method on the constraints that are not implied.
+    pub completion: Completion,
+    /// The indices of the constraints implied by those before them: their Jacobian by the
+    /// dependent coordinates is singular with the others, and they hold wherever the others
+    /// do (at the reference configuration and at samples). Their dependent coordinate is free.
+    pub implied: Vec<usize>,
+}
+
+/// [`HolonomicRows`] of `constraints`; `place` says where each was declared.
 pub fn holonomic_rows(
     coordinates: &[String],
     constraints: &[HolonomicConstraint],
     values: &IndexMap<String, f64>,
     place: &dyn Fn(&HolonomicConstraint, &'static str) -> Place,
-) -> Result<(Vec<Row>, Completion), BodiesError> {
+) -> Result<HolonomicRows, BodiesError> {
     let mut rows = Vec::new();
-    let mut dependent = Vec::new();
+    let (mut kept, mut dependent, mut implied) = (Vec::new(), Vec::new(), Vec::new());
     for (i, c) in constraints.iter().enumerate() {
         let coefficients = coordinates
             .iter()
@@ -364,32 +386,113 @@ pub fn holonomic_rows(
             .ok_or_else(|| {
                 BodiesError::new(at.clone(), Problem::UnknownCoordinate(c.dependent.clone()))
             })?;
-        if dependent[..i].contains(&j) {
+        let twice = dependent.contains(&j);
+        let mut failure = None;
+        if !twice {
+            let with = completion_of(coordinates, constraints, &kept, Some(i), &dependent, j)
+                .map_err(|p| BodiesError::new(at.clone(), p))?;
+            let mut q = vec![0.0; coordinates.len()];
+            match with.complete(&mut q, values) {
+                Ok(()) => {
+                    kept.push(i);
+                    dependent.push(j);
+                    continue;
+                }
+                Err(e @ CompletionError::Singular(_)) => failure = Some(e),
+                Err(e) => return Err(undetermined(constraints, &kept, i, at, &e)),
+            }
+        }
+        if is_implied(coordinates, constraints, &kept, &dependent, i, values) {
+            implied.push(i);
+        } else if let Some(e) = failure {
+            return Err(undetermined(constraints, &kept, i, at, &e));
+        } else {
             return Err(BodiesError::new(
                 at,
                 Problem::DependentTwice(c.dependent.clone()),
             ));
         }
-        dependent.push(j);
     }
-    let h = constraints.iter().map(|c| c.h.clone()).collect();
-    let first = constraints.first().map(|c| place(c, "dependent"));
-    let err = |p: Problem| {
-        BodiesError::new(
-            first.clone().expect("a failing completion has constraints"),
-            p,
-        )
-    };
-    let completion = Completion::new(coordinates, h, dependent).map_err(err)?;
-    let mut q = vec![0.0; coordinates.len()];
-    completion.complete(&mut q, values).map_err(|e| {
-        let names: Vec<&str> = constraints.iter().map(|c| c.dependent.as_str()).collect();
-        err(Problem::Undetermined {
+    let completion = completion_of(coordinates, constraints, &kept, None, &dependent, 0)
+        .map_err(|p| BodiesError::new(place(&constraints[0], "h"), p))?;
+    Ok(HolonomicRows {
+        rows,
+        completion,
+        implied,
+    })
+}
+
+/// Constraint `i` does not determine its coordinate with the constraints `kept` before it.
+fn undetermined(
+    constraints: &[HolonomicConstraint],
+    kept: &[usize],
+    i: usize,
+    at: Place,
+    e: &CompletionError,
+) -> BodiesError {
+    let names: Vec<&str> = (kept.iter().chain([&i]))
+        .map(|&k| constraints[k].dependent.as_str())
+        .collect();
+    BodiesError::new(
+        at,
+        Problem::Undetermined {
             coordinate: names.join(", "),
             reason: e.to_string(),
-        })
-    })?;
-    Ok((rows, completion))
+        },
+    )
+}
+
+/// The completion of the constraints `kept` (for the coordinates `dependent`), with `extra`
+/// (for the coordinate `j`) after them.
+fn completion_of(
+    coordinates: &[String],
+    constraints: &[HolonomicConstraint],
+    kept: &[usize],
+    extra: Option<usize>,
+    dependent: &[usize],
+    j: usize,
+) -> Result<Completion, Problem> {
+    let h = (kept.iter().chain(extra.as_ref()))
+        .map(|&k| constraints[k].h.clone())
+        .collect();
+    let mut d = dependent.to_vec();
+    d.extend(extra.map(|_| j));
+    Completion::new(coordinates, h, d)
+}
+
+/// Whether constraint `i` holds wherever the constraints `kept` do: at their completion from
+/// q = 0 and from three other starting configurations (a numeric test; the exact dependence
+/// of its row is decided with the other rows of α).
+fn is_implied(
+    coordinates: &[String],
+    constraints: &[HolonomicConstraint],
+    kept: &[usize],
+    dependent: &[usize],
+    i: usize,
+    values: &IndexMap<String, f64>,
+) -> bool {
+    let Ok(base) = completion_of(coordinates, constraints, kept, None, dependent, 0) else {
+        return false;
+    };
+    let Ok(this) = completion_of(coordinates, &constraints[i..=i], &[0], None, &[0], 0) else {
+        return false;
+    };
+    let ell = coordinates.len();
+    (0..4).all(|s| {
+        let mut q: Vec<f64> = (0..ell)
+            .map(|k| {
+                if s == 0 {
+                    0.0
+                } else {
+                    ((k * 7 + s * 3) % 11) as f64 / 11.0 - 0.45
+                }
+            })
+            .collect();
+        base.complete(&mut q, values).is_ok()
+            && this
+                .residual(&q, values)
+                .is_ok_and(|r| r <= 1e-10 * (1.0 + q.iter().fold(0.0_f64, |m, x| m.max(x.abs()))))
+    })
 }
 
 /// Where a holonomic constraint of a mechanism was declared: a wheel's `dependent`, or
