@@ -93,17 +93,12 @@ pub fn expand(
             dependent: c.dependent.clone(),
         }));
     let place = |c: &HolonomicConstraint, field| holonomic_place(m, c, field);
+    let holonomic = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
+    rolling.holonomic = holonomic.kept(std::mem::take(&mut rolling.holonomic));
     let HolonomicRows {
-        rows,
-        completion,
-        implied,
-    } = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
+        rows, completion, ..
+    } = holonomic;
     rolling.rows.extend(rows);
-    let mut index = 0;
-    rolling.holonomic.retain(|_| {
-        index += 1;
-        !implied.contains(&(index - 1))
-    });
     let mut forces = crate::loads::generalised_forces(&tree, m)?;
     for (f, d) in forces
         .iter_mut()
@@ -358,6 +353,17 @@ pub struct HolonomicRows {
     /// dependent coordinates is singular with the others, and they hold wherever the others
     /// do (at the reference configuration and at samples). Their dependent coordinate is free.
     pub implied: Vec<usize>,
+}
+
+impl HolonomicRows {
+    /// The items of `all` (one per constraint, in order) of the constraints not implied: those
+    /// the completion solves, which the model keeps as its holonomic constraints.
+    pub fn kept<T>(&self, all: Vec<T>) -> Vec<T> {
+        (all.into_iter().enumerate())
+            .filter(|(i, _)| !self.implied.contains(i))
+            .map(|(_, c)| c)
+            .collect()
+    }
 }
 
 /// [`HolonomicRows`] of `constraints`; `place` says where each was declared.

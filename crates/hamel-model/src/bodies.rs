@@ -169,11 +169,7 @@ pub(crate) fn holonomic_of(
         });
     }
     let place = |c: &HolonomicConstraint, field| Place::new(Section::Holonomic, &c.name, field);
-    let hamel_bodies::HolonomicRows {
-        rows,
-        completion,
-        implied,
-    } = hamel_bodies::holonomic_rows(
+    let holonomic = hamel_bodies::holonomic_rows(
         &loader.coordinates,
         &constraints,
         &loader.parameters,
@@ -182,10 +178,10 @@ pub(crate) fn holonomic_of(
     .map_err(|e| located(&sites, err, e))?;
     // An implied constraint is not solved for its coordinate; its row is dropped with the
     // other dependent rows of α.
-    let constraints = (constraints.into_iter().enumerate())
-        .filter(|(i, _)| !implied.contains(i))
-        .map(|(_, c)| c)
-        .collect();
+    let constraints = holonomic.kept(constraints);
+    let hamel_bodies::HolonomicRows {
+        rows, completion, ..
+    } = holonomic;
     let coordinates = loader.coordinates.clone();
     let items = rows
         .iter()
