@@ -238,3 +238,51 @@ fn an_implied_holonomic_constraint_is_dropped() {
     let w = common::oracle::compare(&m, "free", 61, 20);
     assert!(w.structured_f64 <= 1e-12, "{:.1e}", w.structured_f64);
 }
+
+/// The Ackermann car written with two steer angles tied by the holonomic constraint
+/// L sin(dL − dR) = 2b sin dL sin dR (tests/models/ackermann_two_angles.toml): its nine rows
+/// have rank 8 at configurations off h = 0 and 7 on it. The front right wheel's lateral row is
+/// dropped as a combination of the kept rows that holds on h = 0 only (decided exactly on the
+/// manifold: the remainders vanish modulo the constraint's prime, δ does not), so σ = 9 − 7 = 2,
+/// not the 1 that counting rows or sampling off h = 0 would give. The combination holds at
+/// completed configurations and fails off them; the equations agree with the oracle there.
+#[test]
+fn the_two_angle_ackermann_car_has_rank_seven_on_its_constraint_manifold() {
+    let path = format!(
+        "{}/tests/models/ackermann_two_angles.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((m.ell(), m.all_rows().len()), (9, 9));
+    let d = derive(&m, Some("drive")).unwrap();
+    assert_eq!((d.mu, d.sigma), (7, 2));
+    let on: Vec<(&str, Option<&str>)> = (d.dependent_rows.iter())
+        .map(|r| (r.name.as_str(), r.on_manifold.as_deref()))
+        .collect();
+    assert_eq!(
+        on,
+        [
+            ("rear_right_no_slip_y", None),
+            ("front_right_no_slip_y", Some("ackermann"))
+        ]
+    );
+    let params = d.parameters.clone();
+    let mut rng = ChaCha8Rng::seed_from_u64(62);
+    let (mut on_worst, mut off_least) = (0.0_f64, f64::INFINITY);
+    for _ in 0..20 {
+        let mut q: Vec<f64> = (0..m.ell()).map(|_| rng.random_range(-0.6..0.6)).collect();
+        off_least = off_least.min(remainder(&m, &d, &q));
+        m.completion.complete(&mut q, &params).unwrap();
+        on_worst = on_worst.max(remainder(&m, &d, &q));
+    }
+    assert!(on_worst < 1e-12, "remainder on h = 0: {on_worst:e}");
+    assert!(off_least > 1e-6, "remainder off h = 0: {off_least:e}");
+    let w = common::oracle::compare(&m, "drive", 63, 30);
+    assert!(
+        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
+        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
+        w.structured_f64,
+        w.structured_dd,
+        w.symbolic_dd
+    );
+}

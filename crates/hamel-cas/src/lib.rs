@@ -21,6 +21,7 @@ mod export;
 pub mod field;
 mod half;
 pub mod linalg;
+pub mod manifold;
 pub mod over;
 mod print;
 mod screen;
@@ -31,6 +32,7 @@ mod worker;
 
 pub use field::{Ex, Field, FieldSpec};
 pub use linalg::Matrix;
+pub use manifold::Manifold;
 pub use over::{Denominators, OMatrix, Over, sum_over};
 pub use worker::{on_worker, run};
 

@@ -2,6 +2,7 @@
 
 use crate::CasError;
 use crate::field::{Ex, Field, Poly};
+use crate::manifold::Manifold;
 
 /// A dense matrix of expressions, row-major.
 #[derive(Clone, PartialEq)]
@@ -172,12 +173,14 @@ impl Matrix {
 
     /// Gaussian elimination on a copy: returns (row echelon form, rank, determinant for square
     /// matrices). Pivots are chosen among the exactly-nonzero entries of the column, smallest
-    /// first (the fewest terms), to keep intermediate expressions small. Stops with
+    /// first (the fewest terms), to keep intermediate expressions small; `pivotable` may refuse
+    /// more (the entries that vanish on a constraint manifold). Stops with
     /// [`CasError::TooLarge`] when its work outgrows `budget` ([`Budget`]).
     fn eliminate(
         &self,
         augment: Option<&Matrix>,
         budget: &mut Budget,
+        pivotable: &dyn Fn(&Ex) -> bool,
     ) -> Result<(Matrix, Option<Matrix>, usize, Ex), CasError> {
         let field = self.data[0].field();
         let mut a = self.clone();
@@ -192,7 +195,7 @@ impl Matrix {
                 break;
             }
             let pivot = (row..a.rows)
-                .filter(|&r| !a[(r, col)].is_zero())
+                .filter(|&r| !a[(r, col)].is_zero() && pivotable(&a[(r, col)]))
                 .min_by_key(|&r| a[(r, col)].size());
             let Some(p) = pivot else {
                 det = field.zero();
@@ -260,7 +263,7 @@ impl Matrix {
             return Ok(0);
         }
         let mut budget = Budget::new(&self.data[0].field(), ELIMINATION_WORK);
-        Ok(self.eliminate(None, &mut budget)?.2)
+        Ok(self.eliminate(None, &mut budget, &|_| true)?.2)
     }
 
     /// The determinant of a square matrix (exact), or [`CasError::TooLarge`] past
@@ -271,6 +274,7 @@ impl Matrix {
             .eliminate(
                 None,
                 &mut Budget::new(&self.data[0].field(), ELIMINATION_WORK),
+                &|_| true,
             )?
             .3)
     }
@@ -309,13 +313,29 @@ impl Matrix {
     /// decided exactly: Gauss–Jordan on selfᵀ c = rowᵀ, consistent when every equation left
     /// after the k pivots has a remainder that is zero in normal form.
     pub fn combination(&self, row: &Matrix) -> Result<Combination, CasError> {
+        self.combination_where(row, &|e: &Ex| e.is_zero())
+    }
+
+    /// [`Matrix::combination`] on the constraint manifold `m`: row = Σ_j c_j(q) self_j where
+    /// m's constraint holds. Pivots are entries that do not vanish on m, so the c_j are
+    /// defined on it; the remainders must vanish on m ([`Manifold::vanishes`]). `DependentRows`
+    /// when the rows of `self` are dependent on m.
+    pub fn combination_on(&self, row: &Matrix, m: &Manifold) -> Result<Combination, CasError> {
+        self.combination_where(row, &|e: &Ex| m.vanishes(e))
+    }
+
+    fn combination_where(
+        &self,
+        row: &Matrix,
+        zero: &dyn Fn(&Ex) -> bool,
+    ) -> Result<Combination, CasError> {
         assert_eq!(
             (row.rows, row.cols),
             (1, self.cols),
             "a row of the same width"
         );
         if self.rows == 0 {
-            return Ok(if row.is_zero() {
+            return Ok(if row.data.iter().all(zero) {
                 Combination::Of(Vec::new())
             } else {
                 Combination::Not
@@ -325,12 +345,13 @@ impl Matrix {
         let (_, rhs, rank, _) = self.transpose().eliminate(
             Some(&row.transpose()),
             &mut Budget::new(&field, ELIMINATION_WORK),
+            &|e| !zero(e),
         )?;
         if rank < self.rows {
             return Ok(Combination::DependentRows(rank));
         }
         let rhs = rhs.expect("augmented");
-        if (self.rows..self.cols).any(|r| !rhs[(r, 0)].is_zero()) {
+        if (self.rows..self.cols).any(|r| !zero(&rhs[(r, 0)])) {
             return Ok(Combination::Not);
         }
         Ok(Combination::Of(
@@ -341,7 +362,7 @@ impl Matrix {
     fn gauss_jordan(&self, budget: &mut Budget) -> Result<Option<(Matrix, Ex)>, CasError> {
         let field = self.data[0].field();
         let id = Matrix::identity(&field, self.rows);
-        let (_, inv, rank, det) = self.eliminate(Some(&id), budget)?;
+        let (_, inv, rank, det) = self.eliminate(Some(&id), budget, &|_| true)?;
         if rank < self.rows {
             return Ok(None);
         }

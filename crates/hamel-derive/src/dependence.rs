@@ -9,9 +9,14 @@
 //! the coefficients' denominators are where the kept rows lose rank: δ = det[Z; α] vanishes
 //! there too (the singular set holds them), though Γ may not have a pole there (another row
 //! takes over).
+//!
+//! A row that is a combination of the kept rows only where the model's holonomic constraint
+//! h = 0 holds (the Ackermann car steered by two tied angles) is decided on that manifold
+//! ([`hamel_cas::Manifold`]): the remainders vanish on it, exactly, and the coefficients are
+//! defined there; δ must then not vanish on it either ([`check_delta`]).
 
 use hamel_cas::linalg::Combination;
-use hamel_cas::{Ex, Field, Matrix};
+use hamel_cas::{Ex, Field, Manifold, Matrix};
 use hamel_model::{DependentRow, Model, ModelError};
 
 /// A dropped row's exact dependence on the kept rows of α.
@@ -23,6 +28,29 @@ pub struct Dependence {
     pub row: Vec<Ex>,
     /// c_j, one per kept row: row = Σ_j c_j α_j.
     pub coefficients: Vec<Ex>,
+    /// The holonomic constraint h on whose manifold h = 0 the combination holds (and only
+    /// there); `None` when it holds everywhere.
+    pub on: Option<String>,
+}
+
+/// The manifold of the model's holonomic constraint, where a row may depend on the kept rows
+/// that does not elsewhere: the constraint's name and its zero set, or why hamel cannot decide
+/// there.
+pub(crate) type OnManifold = Result<(String, Manifold), String>;
+
+/// The manifold of `model`'s one holonomic constraint (converted in `f`), or why not.
+pub(crate) fn on_manifold(model: &Model, f: &Field) -> OnManifold {
+    let [h] = model.holonomic.as_slice() else {
+        return Err(format!(
+            "hamel decides a dependence on the manifold of one holonomic constraint, and this model has {}",
+            model.holonomic.len()
+        ));
+    };
+    let e = f.convert(&h.h).map_err(|e| e.to_string())?;
+    let m = f
+        .manifold(&e)
+        .map_err(|e| format!("on `{} = 0`: {e}", h.name))?;
+    Ok((h.name.clone(), m))
 }
 
 /// The dependence of `dropped` (converted: its row of α) on the kept rows `alpha`: tried on
@@ -33,12 +61,14 @@ pub(crate) fn dependence(
     dropped: &DependentRow,
     row: Vec<Ex>,
     f: &Field,
+    manifold: Option<&OnManifold>,
 ) -> Result<Dependence, ModelError> {
     let (mu, ell) = (alpha.rows(), alpha.cols());
     let r = Matrix::from_fn(1, ell, |_, j| row[j].clone());
     let on = &dropped.on;
     let support = Matrix::from_fn(on.len(), ell, |i, j| alpha[(on[i], j)].clone());
     let mut coefficients = vec![f.zero(); mu];
+    let mut holds_on = None;
     let cas = |e| {
         model.error_at(
             &dropped.item.site,
@@ -56,7 +86,25 @@ pub(crate) fn dependence(
         }
         _ => match alpha.combination(&r).map_err(cas)? {
             Combination::Of(c) => coefficients = c,
-            Combination::Not => return Err(not_a_combination(model, dropped)),
+            Combination::Not => match manifold {
+                None => return Err(not_a_combination(model, dropped, None)),
+                Some(Err(why)) => return Err(not_a_combination(model, dropped, Some(why))),
+                Some(Ok((name, m))) => match alpha.combination_on(&r, m).map_err(cas)? {
+                    Combination::Of(c) => {
+                        coefficients = c;
+                        holds_on = Some(name.clone());
+                    }
+                    Combination::Not => {
+                        let why = format!("not on `{name} = 0` either");
+                        return Err(not_a_combination(model, dropped, Some(&why)));
+                    }
+                    Combination::DependentRows(rank) => {
+                        return Err(model.error(format!(
+                            "the kept rows of α have rank {rank} < {mu} where `{name} = 0` holds: the numeric pre-screen kept a row dependent there"
+                        )));
+                    }
+                },
+            },
             Combination::DependentRows(rank) => {
                 return Err(model.error(format!(
                     "the kept rows of α have rank {rank} < {mu}: the numeric pre-screen kept a dependent row"
@@ -68,14 +116,20 @@ pub(crate) fn dependence(
         name: dropped.name.clone(),
         row,
         coefficients,
+        on: holds_on,
     })
 }
 
-fn not_a_combination(model: &Model, dropped: &DependentRow) -> ModelError {
-    let manifold = if model.holonomic.is_empty() {
-        String::new()
-    } else {
-        " (it may depend on them only where the holonomic constraints hold; hamel does not decide that yet)".into()
+/// The error for a row the pre-screen found dependent that is not exactly a combination;
+/// `manifold`: what was found (or not decided) on the holonomic constraint's manifold.
+fn not_a_combination(
+    model: &Model,
+    dropped: &DependentRow,
+    manifold: Option<&String>,
+) -> ModelError {
+    let manifold = match manifold {
+        Some(why) => format!(" ({why})"),
+        None => String::new(),
     };
     model
         .error_at(
@@ -86,6 +140,35 @@ fn not_a_combination(model: &Model, dropped: &DependentRow) -> ModelError {
             ),
         )
         .with_help("the rows may be nearly, not exactly, dependent: check the row's expression and the parameters' defaults")
+}
+
+/// δ = det[Z; α] must not vanish on the manifold where a dependence holds: there the kept
+/// rows (and Z) must still be independent.
+pub(crate) fn check_delta(
+    model: &Model,
+    dependence: &[Dependence],
+    manifold: Option<&OnManifold>,
+    delta: &Ex,
+) -> Result<(), ModelError> {
+    let Some(d) = dependence.iter().find(|d| d.on.is_some()) else {
+        return Ok(());
+    };
+    let Some(Ok((name, m))) = manifold else {
+        return Err(model.error("internal error: a dependence on a manifold without it"));
+    };
+    if m.vanishes(delta) {
+        let row = model.dependent.iter().find(|r| r.name == d.name);
+        let msg = format!(
+            "δ = det[Z; α] vanishes wherever `{name} = 0` holds, where the row `{}` depends on the kept rows: the kept rows and the quasi-velocities are not independent on the constraint manifold",
+            d.name
+        );
+        let e = match row {
+            Some(r) => model.error_at(&r.item.site, msg),
+            None => model.error(msg),
+        };
+        return Err(e.with_help("choose quasi-velocities that stay independent of the constraints where the holonomic constraint holds"));
+    }
+    Ok(())
 }
 
 impl Dependence {

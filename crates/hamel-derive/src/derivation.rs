@@ -387,6 +387,10 @@ pub struct Dependent {
     /// the dependence as written fails), sorted by text.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub singular: Vec<Entry>,
+    /// The holonomic constraint on whose manifold (h = 0) the combination holds, and only
+    /// there (the rank of α is lower on it than off it); absent when it holds everywhere.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub on_manifold: Option<String>,
 }
 
 /// A factor and its power.
@@ -608,6 +612,7 @@ impl Derivation {
                     coefficient: t.coefficient.map_expr(&f),
                 }),
                 singular: entries(&r.singular),
+                on_manifold: r.on_manifold.clone(),
             }),
             kept_rank_loss: map_all(&self.kept_rank_loss, |p| Power {
                 factor: p.factor.map_expr(&f),

@@ -88,9 +88,13 @@ fn dependent_text<'e>(o: &mut String, d: &'e Derivation, p: Printer<'_, 'e>) {
     let _ = writeln!(o, "rows of α: {}", names.join(", "));
     let _ = writeln!(
         o,
-        "dropped rows, each a combination of the rows of α (exact; rank α = {} of {} rows):",
+        "dropped rows, each a combination of the rows of α (exact; rank α = {} of {} rows{}):",
         d.mu,
-        d.mu + d.dependent_rows.len()
+        d.mu + d.dependent_rows.len(),
+        match d.dependent_rows.iter().find_map(|r| r.on_manifold.as_ref()) {
+            Some(h) => format!(" where {h} = 0"),
+            None => String::new(),
+        }
     );
     for r in &d.dependent_rows {
         let _ = write!(o, "  {} =", r.name);
@@ -101,6 +105,12 @@ fn dependent_text<'e>(o: &mut String, d: &'e Derivation, p: Printer<'_, 'e>) {
             o.push_str(if i == 0 { " (" } else { " + (" });
             p(&t.coefficient, o);
             let _ = write!(o, ")*{}", t.row);
+        }
+        if let Some(h) = &r.on_manifold {
+            let _ = write!(
+                o,
+                "   where {h} = 0 (only there: on the constraint manifold)"
+            );
         }
         o.push('\n');
         if !r.singular.is_empty() {

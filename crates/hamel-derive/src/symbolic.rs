@@ -22,7 +22,7 @@ use hamel_expr::Expr;
 use hamel_model::{Item, Kinetic, Model, ModelError, QuasiVelocityChoice, Site};
 
 use crate::certify::Certificate;
-use crate::dependence::Dependence;
+use crate::dependence::{Dependence, OnManifold};
 use crate::derivation::{
     Checks, Closed, Derivation, Entry, Form, Ingredients, Mat, StructuredForm, Trees, Why,
 };
@@ -657,6 +657,7 @@ fn plain_dependence(d: &Dependence, kept: &[String]) -> crate::derivation::Depen
             })
             .collect(),
         singular: d.rank_loss_factors().iter().map(entry).collect(),
+        on_manifold: d.on.clone(),
     }
 }
 
@@ -853,6 +854,8 @@ struct Begun {
     alpha: Matrix,
     z: Matrix,
     dependence: Vec<Dependence>,
+    /// The holonomic constraint's manifold, where dependences were looked for off it.
+    manifold: Option<OnManifold>,
     stage: Stage,
 }
 
@@ -862,7 +865,9 @@ fn begin(model: &Model, choice: &str) -> Result<Begun, ModelError> {
     let stage = Stage::start(&model.name, "A, α and Z in canonical form, rank of α");
     let f = field(&ctx, &choice)?;
     let (a, alpha, z) = ctx.matrices(&f, &choice)?;
-    let dependence = ctx.dependences(&f, &alpha)?;
+    let manifold = (!model.dependent.is_empty() && !model.holonomic.is_empty())
+        .then(|| crate::dependence::on_manifold(model, &f));
+    let dependence = ctx.dependences(&f, &alpha, manifold.as_ref())?;
     Ok(Begun {
         choice,
         f,
@@ -870,6 +875,7 @@ fn begin(model: &Model, choice: &str) -> Result<Begun, ModelError> {
         alpha,
         z,
         dependence,
+        manifold,
         stage,
     })
 }
@@ -932,6 +938,12 @@ pub fn derive_form(
 /// The structured form: U converted, and [Z; α] certified nonsingular at a point.
 fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> {
     let model = ctx.model;
+    if let Some(d) = b.dependence.iter().find(|d| d.on.is_some()) {
+        return Err(model.error(format!(
+            "the row `{}` depends on the kept rows only on a constraint manifold, where hamel certifies δ ≠ 0 in closed form only, and this derivation is structured ({why})",
+            d.name
+        )));
+    }
     b.stage
         .next("[Z; α] certified nonsingular at a point (interval arithmetic)");
     let rows: Vec<Vec<Expr>> = (0..b.z.rows())
@@ -997,9 +1009,11 @@ fn closed(
         alpha,
         z,
         dependence,
+        manifold,
         mut stage,
     } = b;
     let (gamma, theta, delta) = inverse;
+    crate::dependence::check_delta(model, &dependence, manifold.as_ref(), &delta)?;
     let singular = singular_set(&delta, &gamma);
     stage.next("common denominators, ∂A/∂q");
     // Everything below is computed over the common denominator factors (see hamel_cas::over):
@@ -1026,6 +1040,7 @@ fn closed(
                 alpha,
                 z,
                 dependence,
+                manifold,
                 stage,
             };
             return Ok(Err((b, Why::VelocityForces(why))));
@@ -1052,6 +1067,7 @@ fn closed(
             alpha,
             z,
             dependence,
+            manifold,
             stage,
         };
         return Ok(Err((b, Why::ClosedTooLarge(terms))));
@@ -1173,6 +1189,10 @@ fn field(ctx: &Ctx, choice: &QuasiVelocityChoice) -> Result<Field, ModelError> {
     expressions.extend(model.forces.iter().map(|i| i.expr.clone()));
     expressions.extend(model.constraints.iter().map(|(_, c)| c.expr.clone()));
     expressions.extend(model.dependent.iter().map(|d| d.item.expr.clone()));
+    if !model.dependent.is_empty() {
+        // Where a dropped row may depend on the kept ones on h = 0 only (dependence.rs).
+        expressions.extend(model.holonomic.iter().map(|h| h.h.clone()));
+    }
     expressions.extend(choice.eta.iter().map(|e| e.expr.clone()));
     expressions.extend(
         model
@@ -1264,7 +1284,12 @@ impl Ctx<'_> {
 
     /// The exact dependence of each of the model's dropped rows on the kept rows `alpha`
     /// ([`crate::dependence`]).
-    fn dependences(&self, f: &Field, alpha: &Matrix) -> Result<Vec<Dependence>, ModelError> {
+    fn dependences(
+        &self,
+        f: &Field,
+        alpha: &Matrix,
+        manifold: Option<&OnManifold>,
+    ) -> Result<Vec<Dependence>, ModelError> {
         let model = self.model;
         model
             .dependent
@@ -1275,7 +1300,7 @@ impl Ctx<'_> {
                     .map_err(|e| self.cas(Some(&d.item.site), e))?;
                 let what = format!("constraint `{}`", d.name);
                 let row = self.linear_row(f, &c, &d.item.site, &what)?;
-                crate::dependence::dependence(model, alpha, d, row, f)
+                crate::dependence::dependence(model, alpha, d, row, f, manifold)
             })
             .collect()
     }

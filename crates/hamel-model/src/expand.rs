@@ -82,10 +82,18 @@ impl Model {
             h += &format!("# note: {n}\n");
         }
         if !self.dependent.is_empty() {
+            let manifold = self.dependent.iter().filter(|d| d.only_on_manifold).count();
             h += &format!(
-                "# note: the {} rows of α have rank {}; hamel keeps the others and drops the rows that depend on them:\n",
+                "# note: the {} rows of α have rank {}{}; hamel keeps the others and drops the rows that depend on them:\n",
                 self.mu() + self.dependent.len(),
-                self.mu()
+                self.mu(),
+                match manifold {
+                    0 => String::new(),
+                    n => format!(
+                        " where the holonomic constraints hold (up to {} off them)",
+                        self.mu() + n
+                    ),
+                }
             );
         }
         for d in &self.dependent {
@@ -94,12 +102,17 @@ impl Model {
                     .map(|&j| self.constraints[j].0.as_str())
                     .collect();
             h += &format!(
-                "#   {} depends on {} (at sample configurations; `hamel derive` writes the exact dependence)\n",
+                "#   {} depends on {}{} (at sample configurations; `hamel derive` writes the exact dependence)\n",
                 d.name,
                 if on.is_empty() {
                     "nothing: it is zero".to_string()
                 } else {
                     on.join(", ")
+                },
+                if d.only_on_manifold {
+                    " only where the holonomic constraints hold"
+                } else {
+                    ""
                 }
             );
         }

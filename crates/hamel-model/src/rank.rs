@@ -45,17 +45,32 @@ pub struct DependentRow {
     /// The kept rows (indices into the model's `constraints`) with a nonzero coefficient in
     /// the dependence at the sample configurations.
     pub on: Vec<usize>,
+    /// Whether it depends on them only where the holonomic constraints hold: at samples not
+    /// completed onto h = 0 it raises the rank (the pre-screen's finding; the derivation
+    /// decides it exactly on the manifold).
+    pub only_on_manifold: bool,
 }
 
 /// The rows evaluated at sample configurations for one set of parameter values.
 struct Samples(Vec<DMatrix<f64>>);
 
 impl Samples {
+    /// At sample configurations completed onto the holonomic constraints.
     fn of(model: &Model, params: &IndexMap<String, f64>, seed: u64) -> Result<Samples, ModelError> {
+        Samples::at(model, params, seed, true)
+    }
+
+    /// At sample configurations, completed onto h = 0 or (`complete: false`) not.
+    fn at(
+        model: &Model,
+        params: &IndexMap<String, f64>,
+        seed: u64,
+        complete: bool,
+    ) -> Result<Samples, ModelError> {
         let nm = NumericModel::new(model, params)?;
         let mut out = Vec::new();
         for mut q in sample_configurations(model.ell(), SAMPLES, seed) {
-            if model.completion.complete(&mut q, params).is_err() {
+            if complete && model.completion.complete(&mut q, params).is_err() {
                 continue;
             }
             match nm.constraint_matrix::<f64>(&q) {
@@ -164,6 +179,12 @@ impl Model {
         if kept.len() == all.len() {
             return Ok(());
         }
+        // Off h = 0 (where there are holonomic constraints), to tell which rows depend on the
+        // kept ones only on it.
+        let off = match self.holonomic.is_empty() {
+            true => None,
+            false => Some(Samples::at(self, &generic_parameters(self), 37, false)?),
+        };
         let rows = std::mem::take(&mut self.constraints);
         let mut dependent = Vec::new();
         for (position, (name, item)) in rows.iter().enumerate() {
@@ -175,6 +196,10 @@ impl Model {
                     item: item.clone(),
                     position,
                     on: generic.support(&kept, position),
+                    only_on_manifold: off.as_ref().is_some_and(|off| {
+                        let with: Vec<usize> = kept.iter().copied().chain([position]).collect();
+                        off.rank(&with) > kept.len()
+                    }),
                 });
             }
         }

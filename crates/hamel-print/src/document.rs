@@ -127,8 +127,15 @@ fn dependent_blocks(d: &Derivation, p: &Printing) -> Vec<Block> {
                 .collect();
             Block::Equations {
                 heading: format!(
-                    "the row \\texttt{{{}}}, dropped from $\\alpha$ as dependent: it is $\\sum_j c_j \\alpha_j$ exactly, with the rows {} and",
+                    "the row \\texttt{{{}}}, dropped from $\\alpha$ as dependent: it is $\\sum_j c_j \\alpha_j$ exactly{}, with the rows {} and",
                     latex_text(&r.name),
+                    match &r.on_manifold {
+                        Some(h) => format!(
+                            " where \\texttt{{{}}} $= 0$ holds (only there)",
+                            latex_text(h)
+                        ),
+                        None => String::new(),
+                    },
                     names.join(", ")
                 ),
                 rows,
