@@ -2762,13 +2762,20 @@ fn simulate_drives_inputs_by_laws_and_tables_on_both_engines() {
 }
 
 /// The Ackermann car (tests/models/ackermann_car.toml: the right front knuckle turned by an
-/// arctangent of the left's angle), driven and steered by a law: its compiled core, with atan
-/// as straight-line code, integrates what the interpreted evaluator does, and the work of the
-/// torques balances the energy.
+/// arctangent of the left's angle; ackermann_atan2.toml: by atan2), driven and steered by a
+/// law: its compiled core, with the arctangent's sine and cosine as straight-line code,
+/// integrates what the interpreted evaluator does, and the work of the torques balances the
+/// energy.
 #[test]
 fn the_ackermann_car_runs_compiled_with_its_arctangent() {
-    let dir = scratch("ackermann");
-    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/ackermann_car.toml");
+    for name in ["ackermann_car", "ackermann_atan2"] {
+        ackermann_runs_compiled(name);
+    }
+}
+
+fn ackermann_runs_compiled(name: &str) {
+    let dir = scratch(name);
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/models/{name}.toml"));
     let scene = dir.join("car.toml");
     std::fs::write(
         &scene,
@@ -2812,6 +2819,61 @@ fn the_ackermann_car_runs_compiled_with_its_arctangent() {
         .unwrap()
         .as_f64()
         .unwrap();
-    assert!(turned.abs() > 0.05, "the car turns: ψ = {turned}");
+    assert!(turned.abs() > 0.05, "{name}: the car turns: ψ = {turned}");
     assert!(c["stats"]["energy_balance_drift"].as_f64().unwrap() <= 1e-9);
+}
+
+/// A bare atan2 in U (tests/models/atan2_knife.toml) becomes `atan2` in the compiled core: the
+/// trajectory and the energy it reports are the interpreted evaluator's, and the energy is
+/// conserved.
+#[test]
+fn a_bare_atan2_runs_compiled() {
+    let dir = scratch("atan2");
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/atan2_knife.toml");
+    let scene = dir.join("knife.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "model = {model:?}\neta = \"paper\"\nt_end = 6.0\noutputs = 61\nrequest = [\"x\", \"y\", \"energy\"]\n\
+             [initial]\nq = {{ x = 0.5, y = 0.8, theta = 0.3 }}\neta = [1.5, 1.0]\n\
+             [integrator]\nmethod = \"dop853\"\nrtol = 1e-11\natol = 1e-13\n"
+        ),
+    )
+    .unwrap();
+    let run = |engine: &str| -> serde_json::Value {
+        let out = dir.join(format!("{engine}.json"));
+        let args = [
+            "simulate",
+            scene.to_str().unwrap(),
+            "--format",
+            "json",
+            "--engine",
+            engine,
+            "--output",
+            out.to_str().unwrap(),
+        ];
+        let o = hamel(&args, None);
+        assert!(o.status.success(), "{engine}: {}", stderr(&o));
+        serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
+    };
+    let (c, i) = (run("compiled"), run("interpreted"));
+    assert_eq!(c["engine"], "compiled");
+    let series = |v: &serde_json::Value, k: &str| -> Vec<f64> {
+        let a = v["q"][k].as_array().or(v["outputs"][k].as_array());
+        a.unwrap_or_else(|| panic!("{k}: {v}"))
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    for k in ["x", "y"] {
+        let worst = (series(&c, k).iter().zip(series(&i, k)))
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max);
+        assert!(worst <= 1e-9, "{k}: compiled vs interpreted {worst:.1e}");
+    }
+    assert!(
+        c["stats"]["energy_drift"].as_f64().unwrap() <= 1e-9,
+        "{}",
+        c["stats"]
+    );
 }

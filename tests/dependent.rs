@@ -286,3 +286,56 @@ fn the_two_angle_ackermann_car_has_rank_seven_on_its_constraint_manifold() {
         w.symbolic_dd
     );
 }
+
+/// Two-argument arctangents (tests/models/atan2_knife.toml: bare atan2 kernels in U, a blade
+/// turned by θ + atan2(x, 3)) derive exactly (the kernel's derivative (x dy − y dx)/(x² + y²),
+/// the blade's sine and cosine algebraic) and agree with the oracle at states in every
+/// quadrant of each atan2.
+#[test]
+fn two_argument_arctangents_derive_exactly() {
+    let path = format!(
+        "{}/tests/models/atan2_knife.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let w = common::oracle::compare(&m, "paper", 64, 40);
+    assert!(!w.structured_form);
+    assert!(
+        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
+        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
+        w.structured_f64,
+        w.structured_dd,
+        w.symbolic_dd
+    );
+}
+
+/// The Ackermann car with its right knuckle turned by atan2(L sin δ, L cos δ + 2b sin δ)
+/// (tests/models/ackermann_atan2.toml): rank 6 of 8 as with atan, and the equations agree with
+/// the oracle at steer angles on both sides of L cos δ + 2b sin δ = 0 (δ ≈ 2.11), where atan
+/// of the quotient would take the other branch.
+#[test]
+fn the_ackermann_car_written_with_atan2_has_rank_six() {
+    let path = format!(
+        "{}/tests/models/ackermann_atan2.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let d = derive(&m, Some("drive")).unwrap();
+    assert_eq!((d.mu, d.eta.len()), (6, 2));
+    let mut rng = ChaCha8Rng::seed_from_u64(65);
+    let delta = m.coordinates.iter().position(|c| c == "delta").unwrap();
+    for k in 0..20 {
+        let mut q: Vec<f64> = (0..m.ell()).map(|_| rng.random_range(-1.2..1.2)).collect();
+        q[delta] = if k % 2 == 0 { 2.6 } else { -2.6 } + 0.1 * q[delta];
+        let r = remainder(&m, &d, &q);
+        assert!(r < 1e-12, "remainder {r:e} at {q:?}");
+    }
+    let w = common::oracle::compare(&m, "drive", 66, 30);
+    assert!(
+        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
+        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
+        w.structured_f64,
+        w.structured_dd,
+        w.symbolic_dd
+    );
+}

@@ -20,7 +20,7 @@ use symbolica::prelude::*;
 
 use crate::CasError;
 use crate::field::{
-    Angle, AngleVars, Ex, Field, FieldInner, FieldSpec, Kernel, Poly, Sym, VarKind,
+    Angle, AngleVars, Ex, Field, FieldInner, FieldSpec, Kernel, KernelFunc, Poly, Sym, VarKind,
 };
 use crate::vars::HalfRing;
 
@@ -123,6 +123,8 @@ struct Scan {
     trig_kernels: Vec<Expr>,
     /// (func, argument) of exp/log/sqrt kernels, in order of appearance
     kernels: Vec<(Func, Expr)>,
+    /// (y, x) of atan2 kernels, in order of appearance
+    atan2s: Vec<(Expr, Expr)>,
 }
 
 impl Scan {
@@ -143,6 +145,7 @@ impl Scan {
             Expr::Pow(b, x) if x.as_integer().is_none() && half_power(x).is_some() => {
                 self.kernels.push((Func::Sqrt, (**b).clone()))
             }
+            Expr::Atan2(y, x) => self.atan2s.push(((**y).clone(), (**x).clone())),
             _ => {}
         });
     }
@@ -322,7 +325,7 @@ impl Field {
         // Phase A: the field without kernels, to put kernel arguments in normal form.
         let base = build(spec, base_layout(spec, &scan));
         let mut angle_args: Vec<(Poly, Poly)> = Vec::new();
-        let mut kernel_args: Vec<(Func, Poly, Poly)> = Vec::new();
+        let mut kernel_args: Vec<(KernelFunc, Poly, Poly)> = Vec::new();
         for arg in &scan.trig_kernels {
             let a = base.convert(arg).map_err(nested)?;
             let seen = angle_args
@@ -344,11 +347,25 @@ impl Field {
                 (a.num, a.den)
             };
             let this = base.ex(n.clone(), d.clone())?;
+            let f = KernelFunc::Of(*f);
             let seen = kernel_args.iter().any(|(g, kn, kd)| {
-                g == f && (&base.ex(kn.clone(), kd.clone()).expect("argument") - &this).is_zero()
+                *g == f && (&base.ex(kn.clone(), kd.clone()).expect("argument") - &this).is_zero()
             });
             if !seen {
-                kernel_args.push((*f, n, d));
+                kernel_args.push((f, n, d));
+            }
+        }
+        for (y, x) in &scan.atan2s {
+            let (y, x) = (
+                base.convert(y).map_err(nested)?,
+                base.convert(x).map_err(nested)?,
+            );
+            let (yn, xn) = base.atan2_arguments(&y, &x);
+            let seen = kernel_args
+                .iter()
+                .any(|(g, ky, kx)| *g == KernelFunc::Atan2 && *ky == yn && *kx == xn);
+            if !seen {
+                kernel_args.push((KernelFunc::Atan2, yn, xn));
             }
         }
         if angle_args.is_empty() && kernel_args.is_empty() {
@@ -393,7 +410,7 @@ impl Field {
         let mut relations = Vec::new();
         for (k, (f, n, d)) in kernels.into_iter().enumerate() {
             let arg = (embed(&n), embed(&d));
-            if f == Func::Sqrt {
+            if f == KernelFunc::Of(Func::Sqrt) {
                 relations.push((kernel_vars[k], arg.0.clone()));
             }
             kernel_list.push(Kernel { func: f, arg });
@@ -519,7 +536,43 @@ impl Field {
                     self.kernel(*func, &a.num, &a.den)?
                 }
             },
+            Expr::Atan2(y, x) => {
+                let (y, x) = (self.convert(y)?, self.convert(x)?);
+                if y.is_zero() && x.is_zero() {
+                    return Err(CasError::Unsupported(format!(
+                        "`{e}`: atan2 of the origin (0, 0) has no angle"
+                    )));
+                }
+                let (yn, xn) = self.atan2_arguments(&y, &x);
+                let f = self.inner();
+                let kernels = f.kernels.borrow();
+                let k = (kernels.iter())
+                    .position(|k| k.func == KernelFunc::Atan2 && k.arg == (yn.clone(), xn.clone()))
+                    .ok_or_else(|| {
+                        CasError::Unsupported("atan2(...) was not declared to the field".into())
+                    })?;
+                self.ex_poly(f.var_poly(f.kernel_var[k]))
+            }
         })
+    }
+
+    /// atan2(y, x)'s kernel argument: (Y, X) = (Ny·Dy·Dx², Nx·Dx·Dy²) reduced, each divided
+    /// by the positive integer gcd of their contents (the same angle: both are scaled by a
+    /// positive factor), so that atan2 of proportional arguments with a positive rational
+    /// ratio is one kernel.
+    pub(crate) fn atan2_arguments(&self, y: &Ex, x: &Ex) -> (Poly, Poly) {
+        let f = self.inner();
+        let (dx2, dy2) = (&x.den * &x.den, &y.den * &y.den);
+        let yn = f.reduce(&(&y.num * &y.den) * &dx2);
+        let xn = f.reduce(&(&x.num * &x.den) * &dy2);
+        let content = match (yn.is_zero(), xn.is_zero()) {
+            (true, true) => return (yn, xn),
+            (true, _) => xn.content(),
+            (_, true) => yn.content(),
+            _ => yn.content().gcd(&xn.content()),
+        };
+        let c = f.constant(content.abs());
+        (yn.quot_rem(&c, false).0, xn.quot_rem(&c, false).0)
     }
 
     fn kernel(&self, func: Func, n: &Poly, d: &Poly) -> Result<Ex, CasError> {
@@ -529,7 +582,7 @@ impl Field {
         let k = kernels
             .iter()
             .position(|k| {
-                k.func == func
+                k.func == KernelFunc::Of(func)
                     && (&self.ex(k.arg.0.clone(), k.arg.1.clone()).expect("argument") - &this)
                         .is_zero()
             })

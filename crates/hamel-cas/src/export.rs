@@ -9,7 +9,7 @@ use num_traits::{One, Signed};
 use symbolica::prelude::Factorize;
 
 use crate::field::Ex;
-use crate::vars::{Angle, FieldInner, Poly, Sym, VarKind, integer_to_big};
+use crate::vars::{Angle, FieldInner, KernelFunc, Poly, Sym, VarKind, integer_to_big};
 
 fn sym_name(f: &FieldInner, s: Sym) -> String {
     match s {
@@ -54,7 +54,15 @@ pub(crate) fn var_expr(f: &FieldInner, v: usize) -> Expr {
         }
         VarKind::Kernel(k) => {
             let kernel = f.kernels.borrow()[*k].clone();
-            Expr::call(kernel.func, quotient_expr(f, &kernel.arg.0, &kernel.arg.1))
+            match kernel.func {
+                KernelFunc::Of(func) => {
+                    Expr::call(func, quotient_expr(f, &kernel.arg.0, &kernel.arg.1))
+                }
+                KernelFunc::Atan2 => Expr::atan2(
+                    quotient_expr(f, &kernel.arg.0, &f.one()),
+                    quotient_expr(f, &kernel.arg.1, &f.one()),
+                ),
+            }
         }
     }
 }

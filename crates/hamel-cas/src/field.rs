@@ -36,7 +36,8 @@ use symbolica::prelude::*;
 use crate::CasError;
 use crate::vars::int;
 pub(crate) use crate::vars::{
-    Angle, AngleVars, FieldInner, Kernel, Poly, Sym, VarKind, big_to_integer, integer_to_big,
+    Angle, AngleVars, FieldInner, Kernel, KernelFunc, Poly, Sym, VarKind, big_to_integer,
+    integer_to_big,
 };
 
 /// What an expression depends on: the input to [`Field::new`].
@@ -787,6 +788,27 @@ impl Field {
             }
             VarKind::Kernel(k) => {
                 let kernel = f.kernels.borrow()[*k].clone();
+                match kernel.func {
+                    KernelFunc::Atan2 => self.atan2_derivative(&kernel, i),
+                    KernelFunc::Of(func) => self.unary_kernel_derivative(v, func, &kernel, i),
+                }
+            }
+            VarKind::Param(_) | VarKind::Velocity(_) | VarKind::Unknown(_) => None,
+        };
+        self.0.dvar.borrow_mut().insert((v, i), result.clone());
+        result
+    }
+
+    /// d f(u)/dq_i for the kernel `v` = f(u), f = exp, log, atan or sqrt.
+    fn unary_kernel_derivative(
+        &self,
+        v: usize,
+        func: Func,
+        kernel: &Kernel,
+        i: usize,
+    ) -> Option<(Poly, Poly)> {
+        {
+            {
                 let arg = self
                     .ex(kernel.arg.0.clone(), kernel.arg.1.clone())
                     .expect("kernel argument");
@@ -795,7 +817,7 @@ impl Field {
                     None
                 } else {
                     let me = self.var(v);
-                    let r = match kernel.func {
+                    let r = match func {
                         Func::Exp => &me * &da,
                         Func::Log => da.div(&arg).expect("log of zero"),
                         // d atan(u) = u'/(1 + u²)
@@ -811,10 +833,23 @@ impl Field {
                     Some((r.num, r.den))
                 }
             }
-            VarKind::Param(_) | VarKind::Velocity(_) | VarKind::Unknown(_) => None,
-        };
-        self.0.dvar.borrow_mut().insert((v, i), result.clone());
-        result
+        }
+    }
+
+    /// d atan2(Y, X)/dq_i = (X·Y' − Y·X')/(X² + Y²).
+    fn atan2_derivative(&self, kernel: &Kernel, i: usize) -> Option<(Poly, Poly)> {
+        let (y, x) = (
+            self.ex_poly(kernel.arg.0.clone()),
+            self.ex_poly(kernel.arg.1.clone()),
+        );
+        let top = &(&x * &y.diff(i)) - &(&y * &x.diff(i));
+        if top.is_zero() {
+            return None;
+        }
+        let r = top
+            .div(&(&(&x * &x) + &(&y * &y)))
+            .expect("X² + Y² is not zero");
+        Some((r.num, r.den))
     }
 
     /// Total derivative of a polynomial with respect to q_i.

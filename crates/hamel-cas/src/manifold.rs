@@ -14,8 +14,9 @@
 //! M), and it is a unit on M (a safe pivot) iff p divides neither. Both are exact divisions
 //! on canonical forms, never samples.
 //!
-//! **Invariants**: the field has no square-root kernels (in the half-angle ring their relation
-//! r² = G is not imposed, so a non-divisibility would not prove a non-zero); otherwise, and
+//! **Invariants**: the field has no kernels (square roots, exp, log, atan, atan2: in the
+//! half-angle ring a relation they satisfy on the manifold, r² = G or exp(x) = 1 where x = 0,
+//! is not imposed, so a non-divisibility would not prove a non-zero); otherwise, and
 //! for an h that splits into several components, [`Field::manifold`] refuses with
 //! [`CasError::Unsupported`].
 
@@ -37,14 +38,12 @@ impl Field {
     /// kernels, when h involves no coordinate, or when it splits into several components.
     pub fn manifold(&self, h: &Ex) -> Result<Manifold, CasError> {
         let f = self.inner();
-        let kernels = f
-            .relations
-            .borrow()
-            .iter()
-            .any(|(v, _)| matches!(f.kinds[*v], VarKind::Kernel(_)));
-        if kernels {
+        // A kernel (a square root, exp, log, atan, atan2 of the coordinates) is a variable of
+        // the half-angle ring, but on the manifold it may satisfy relations the ring does not
+        // know (r² = G; exp(x) = 1 where x = 0): a non-divisibility would prove nothing.
+        if f.kinds.iter().any(|k| matches!(k, VarKind::Kernel(_))) {
             return Err(CasError::Unsupported(
-                "a rank on a constraint manifold is decided only for expressions without square roots".into(),
+                "a rank on a constraint manifold is decided only for expressions without square roots, exponentials, logarithms or arctangents".into(),
             ));
         }
         let mut components = half_factors(f, &h.num)

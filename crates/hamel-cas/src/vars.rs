@@ -57,11 +57,22 @@ pub(crate) struct AngleVars {
     pub cos: usize,
 }
 
+/// The function of a kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum KernelFunc {
+    /// exp, log, sqrt or atan of one argument.
+    Of(Func),
+    /// atan2(y, x).
+    Atan2,
+}
+
 /// A transcendental or algebraic kernel.
 #[derive(Clone, Debug)]
 pub(crate) struct Kernel {
-    pub func: Func,
-    /// The argument (for sqrt, the polynomial radicand G, with denominator 1).
+    pub func: KernelFunc,
+    /// The argument N/D (for sqrt, the polynomial radicand G, with denominator 1). For atan2,
+    /// the two polynomials (Y, X) of atan2(Y, X): atan2(Ny/Dy, Nx/Dx) is kept as
+    /// atan2(Ny·Dy·Dx², Nx·Dx·Dy²), the same angle (both scaled by (Dx·Dy)² > 0).
     pub arg: (Poly, Poly),
 }
 

@@ -811,6 +811,7 @@ fn lets(tape: &Tape, slots: &Slots, part: Part) -> String {
                 };
                 format!("t{a}.{name}()")
             }
+            Op::Atan2(y, x) => format!("t{y}.atan2(t{x})"),
         };
         let _ = writeln!(o, "    let t{k} = {rhs};");
     }
@@ -884,7 +885,7 @@ impl Hoist {
                     }
                 }
                 Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => use_fixed(&mut h, *a),
-                Op::Div(a, b) | Op::PowF(a, b) => {
+                Op::Div(a, b) | Op::PowF(a, b) | Op::Atan2(a, b) => {
                     use_fixed(&mut h, *a);
                     use_fixed(&mut h, *b);
                 }

@@ -74,6 +74,7 @@ fn function(tape: &Tape, inputs: &[Input], header: &str, signature: &str) -> Str
             Op::PowI(a, n) => format!("t{a} ** {n}"),
             Op::PowF(a, b) => format!("t{a} ** t{b}"),
             Op::Call(f, a) => format!("{}(t{a})", f.name()),
+            Op::Atan2(y, x) => format!("atan2(t{y}, t{x})"),
         };
         o += &format!("    t{k} = {text}\n");
     }

@@ -80,6 +80,9 @@ pub enum Expr {
     Pow(Box<Expr>, Box<Expr>),
     /// A built-in function applied to one argument.
     Call(Func, Box<Expr>),
+    /// `atan2(y, x)`: the angle of the point (x, y), in (−π, π] (the two-argument
+    /// arctangent; y first, as in C and NumPy).
+    Atan2(Box<Expr>, Box<Expr>),
     /// An unknown (free) function of coordinates, such as `z13(phi)`, or one of its partial
     /// derivatives: `orders[j]` is the order of differentiation in the `j`-th argument.
     Free {
@@ -106,6 +109,11 @@ impl Expr {
     /// `f(arg)` for a built-in `f`.
     pub fn call(f: Func, arg: Expr) -> Expr {
         Expr::Call(f, Box::new(arg))
+    }
+
+    /// `atan2(y, x)`.
+    pub fn atan2(y: Expr, x: Expr) -> Expr {
+        Expr::Atan2(Box::new(y), Box::new(x))
     }
 
     /// `base ^ n` for an integer `n`.
@@ -149,7 +157,7 @@ impl Expr {
             Expr::Num(_) | Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. } => {}
             Expr::Add(v) | Expr::Mul(v) => v.iter().for_each(|e| e.visit(f)),
             Expr::Neg(e) | Expr::Call(_, e) => e.visit(f),
-            Expr::Div(a, b) | Expr::Pow(a, b) => {
+            Expr::Div(a, b) | Expr::Pow(a, b) | Expr::Atan2(a, b) => {
                 a.visit(f);
                 b.visit(f);
             }
@@ -166,6 +174,7 @@ impl Expr {
             Expr::Call(g, e) => Expr::Call(*g, Box::new(e.map(f))),
             Expr::Div(a, b) => Expr::Div(Box::new(a.map(f)), Box::new(b.map(f))),
             Expr::Pow(a, b) => Expr::Pow(Box::new(a.map(f)), Box::new(b.map(f))),
+            Expr::Atan2(a, b) => Expr::Atan2(Box::new(a.map(f)), Box::new(b.map(f))),
         };
         f(rebuilt)
     }
@@ -186,7 +195,9 @@ impl Expr {
                 v.len().saturating_sub(1) + v.iter().map(Expr::tree_operations).sum::<usize>()
             }
             Expr::Neg(a) | Expr::Call(_, a) => 1 + a.tree_operations(),
-            Expr::Div(a, b) | Expr::Pow(a, b) => 1 + a.tree_operations() + b.tree_operations(),
+            Expr::Div(a, b) | Expr::Pow(a, b) | Expr::Atan2(a, b) => {
+                1 + a.tree_operations() + b.tree_operations()
+            }
         }
     }
 

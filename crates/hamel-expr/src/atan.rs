@@ -6,18 +6,20 @@
 //! cos is positive), and an angle a + k·atan(u) is unfolded by the addition formulas. The
 //! exact algebra (hamel-cas) then sees square roots, which it handles, instead of an angle it
 //! could not relate to u. A bare atan(u) is a kernel of its own (its derivative is
-//! u'/(1 + u²)).
+//! u'/(1 + u²)). The same for atan2(y, x), the angle of the point (x, y) in (−π, π]:
+//! cos = x/√(x² + y²), sin = y/√(x² + y²) in every quadrant.
 
 use crate::ast::{Expr, Func};
 use crate::build::{add, div, mul, sub};
 
 impl Expr {
-    /// Whether an arctangent occurs in the tree.
+    /// Whether an arctangent (atan or atan2) occurs in the tree.
     pub fn has_atan(&self) -> bool {
-        self.any(&mut |e| matches!(e, Expr::Call(Func::Atan, _)))
+        self.any(&mut |e| matches!(e, Expr::Call(Func::Atan, _) | Expr::Atan2(..)))
     }
 
-    /// The tree with every sin, cos and tan of an argument a + Σ kᵢ·atan(uᵢ) (kᵢ integers)
+    /// The tree with every sin, cos and tan of an argument a + Σ kᵢ·θᵢ, each θᵢ an atan(uᵢ)
+    /// or an atan2(yᵢ, xᵢ) (kᵢ integers)
     /// written without the arctangents' sines and cosines (see the module doc); everything
     /// else as it was. Equal to the tree wherever both are defined.
     pub fn unfold_trig_of_atan(&self) -> Expr {
@@ -42,10 +44,32 @@ impl Expr {
     }
 }
 
-/// An arctangent term ±atan(u) of an angle.
+/// An arctangent term ±θ of an angle, θ = atan(u) or atan2(y, x): cos θ = x/r and
+/// sin θ = y/r with r = √(x² + y²) (for atan, x = 1 and y = u).
 struct AtanTerm {
     negative: bool,
-    u: Expr,
+    x: Expr,
+    y: Expr,
+}
+
+impl AtanTerm {
+    fn of(negative: bool, angle: &Expr) -> AtanTerm {
+        let (x, y) = match angle {
+            Expr::Atan2(y, x) => ((**x).clone(), (**y).clone()),
+            Expr::Call(Func::Atan, u) => (Expr::int(1), (**u).clone()),
+            _ => unreachable!("an arctangent"),
+        };
+        AtanTerm { negative, x, y }
+    }
+
+    /// r = √(x² + y²).
+    fn radius(&self) -> Expr {
+        let square = |e: &Expr| match e.as_integer() {
+            Some(1) => Expr::int(1),
+            _ => Expr::powi(e.clone(), 2),
+        };
+        Expr::call(Func::Sqrt, add(square(&self.x), square(&self.y)))
+    }
 }
 
 /// The angle's arctangent terms (k·atan(u) as |k| terms) and the sum of the others.
@@ -57,21 +81,21 @@ fn atan_terms(arg: &Expr) -> (Vec<AtanTerm>, Vec<Expr>) {
     let (mut atans, mut rest) = (Vec::new(), Vec::new());
     for t in terms {
         match multiple_of_atan(t) {
-            Some((k, u)) => atans.extend((0..k.unsigned_abs()).map(|_| AtanTerm {
-                negative: k < 0,
-                u: u.clone(),
-            })),
+            Some((k, angle)) => {
+                atans.extend((0..k.unsigned_abs()).map(|_| AtanTerm::of(k < 0, angle)))
+            }
             None => rest.push(t.clone()),
         }
     }
     (atans, rest)
 }
 
-/// `t` as k·atan(u) with k a small nonzero integer, if it is one.
+/// `t` as k·θ with θ an atan(u) or atan2(y, x) (returned whole) and k a small nonzero
+/// integer, if it is one.
 fn multiple_of_atan(t: &Expr) -> Option<(i64, &Expr)> {
     const MOST: i64 = 8;
     match t {
-        Expr::Call(Func::Atan, u) => Some((1, u)),
+        Expr::Call(Func::Atan, _) | Expr::Atan2(..) => Some((1, t)),
         Expr::Neg(x) => multiple_of_atan(x).map(|(k, u)| (-k, u)),
         Expr::Mul(v) if v.len() == 2 => {
             let (k, a) = match (v[0].as_rational(), v[1].as_rational()) {
@@ -100,21 +124,18 @@ fn cos_sin(atans: &[AtanTerm], rest: Vec<Expr>) -> (Expr, Expr) {
         return (Expr::call(Func::Cos, a.clone()), Expr::call(Func::Sin, a));
     };
     let (c0, s0) = cos_sin(others, rest);
-    // cos(atan u) = 1/r, sin(atan u) = u/r, r = √(1 + u²).
-    let r = Expr::call(
-        Func::Sqrt,
-        add(Expr::int(1), Expr::powi(first.u.clone(), 2)),
-    );
-    let su = first.u.clone();
+    // cos θ = x/r, sin θ = y/r.
+    let r = first.radius();
+    let (x, y) = (first.x.clone(), first.y.clone());
     let (cos, sin) = if first.negative {
         (
-            add(c0.clone(), mul(s0.clone(), su.clone())),
-            sub(s0, mul(c0, su)),
+            add(mul(c0.clone(), x.clone()), mul(s0.clone(), y.clone())),
+            sub(mul(s0, x), mul(c0, y)),
         )
     } else {
         (
-            sub(c0.clone(), mul(s0.clone(), su.clone())),
-            add(s0, mul(c0, su)),
+            sub(mul(c0.clone(), x.clone()), mul(s0.clone(), y.clone())),
+            add(mul(s0, x), mul(c0, y)),
         )
     };
     (div(cos, r.clone()), div(sin, r))
@@ -144,6 +165,9 @@ mod tests {
             "cos(y - atan(x) + 2*atan(y^2))",
             "sin(-3*atan(x/2) + y)*cos(atan(y))",
             "atan(sin(x)) + sin(y)",
+            "cos(atan2(y, x))",
+            "sin(atan2(y - 3, x*y) - 2*atan2(-x, y))",
+            "tan(x + atan2(-y, -x))*cos(atan(y) + atan2(x, 2))",
         ] {
             let e = parse(text).unwrap().expr;
             let u = e.unfold_trig_of_atan();
@@ -160,5 +184,36 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// atan2 parses with two arguments only, evaluates in every quadrant (and refuses the
+    /// origin), and differentiates to (x dy − y dx)/(x² + y²).
+    #[test]
+    fn atan2_parses_evaluates_and_differentiates() {
+        assert!(
+            parse("atan2(x)")
+                .unwrap_err()
+                .message
+                .contains("two arguments")
+        );
+        let e = parse("atan2(y, x*y - 1)").unwrap().expr;
+        for (x, y) in [(0.3, -1.2), (-2.5, 0.7), (4.0, 2.0), (0.5, -3.0)] {
+            assert_eq!(at(&e, x, y), f64::atan2(y, x * y - 1.0));
+            let dx = e.diff("x").unwrap();
+            let h = 1e-6;
+            let numeric = (at(&e, x + h, y) - at(&e, x - h, y)) / (2.0 * h);
+            assert!((at(&dx, x, y) - numeric).abs() <= 1e-8, "({x}, {y})");
+        }
+        let origin = parse("atan2(y, x)").unwrap().expr;
+        assert!(at_checked(&origin, 0.0, 0.0).is_err());
+    }
+
+    fn at_checked(e: &crate::Expr, x: f64, y: f64) -> Result<f64, crate::EvalError> {
+        let env = move |name: &str| match name {
+            "x" => Some(x),
+            "y" => Some(y),
+            _ => None,
+        };
+        e.eval::<f64>(&env)
     }
 }

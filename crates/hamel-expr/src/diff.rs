@@ -123,6 +123,16 @@ impl Expr {
                 budget.charge(a.nodes())?;
                 mul(outer_derivative(*f, a), a.d_by(x, budget)?)
             }
+            // d atan2(y, x) = (x dy − y dx)/(x² + y²)
+            Expr::Atan2(y, w) => {
+                let (y, w) = (&**y, &**w);
+                budget.charge(3 * (y.nodes() + w.nodes()))?;
+                let top = sub(
+                    mul(w.clone(), y.d_by(x, budget)?),
+                    mul(y.clone(), w.d_by(x, budget)?),
+                );
+                div(top, sum([powi(w.clone(), 2), powi(y.clone(), 2)]))
+            }
             Expr::Free { name, args, orders } => sum(args.iter().enumerate().map(|(j, arg)| {
                 if !x.is_symbol(arg) {
                     return Expr::int(0);

@@ -119,6 +119,7 @@ impl fmt::Display for Expr {
                 write_with(f, e, 4)
             }
             Expr::Call(func, a) => write!(f, "{}({a})", func.name()),
+            Expr::Atan2(y, x) => write!(f, "atan2({y}, {x})"),
         }
     }
 }

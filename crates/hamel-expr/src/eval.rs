@@ -171,6 +171,16 @@ impl Expr {
                     Func::Atan => x.atan(),
                 }
             }
+            Expr::Atan2(y, x) => {
+                let (y, x) = (y.eval(env)?, x.eval(env)?);
+                if y.value() == 0.0 && x.value() == 0.0 {
+                    return Err(EvalError::Domain(format!(
+                        "atan2 of the origin (0, 0) in `{}`",
+                        brief(self)
+                    )));
+                }
+                y.atan2(x)
+            }
         };
         if !out.value().is_finite() {
             return Err(EvalError::Domain(format!(

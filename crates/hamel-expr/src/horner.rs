@@ -153,6 +153,7 @@ impl Expr {
             Expr::Div(a, b) => Expr::Div(Box::new(a.horner_by(late)), Box::new(b.horner_by(late))),
             Expr::Pow(a, b) => Expr::Pow(Box::new(a.horner_by(late)), b.clone()),
             Expr::Call(f, a) => Expr::Call(*f, Box::new(a.horner_by(late))),
+            Expr::Atan2(y, x) => Expr::atan2(y.horner_by(late), x.horner_by(late)),
             Expr::Num(_) | Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. } => self.clone(),
         }
     }

@@ -192,6 +192,13 @@ impl Expr {
                     func_arg(a, out);
                 }
             },
+            Expr::Atan2(y, x) => {
+                out.push_str("\\operatorname{atan2}\\left(");
+                y.write_latex(out);
+                out.push_str(", ");
+                x.write_latex(out);
+                out.push_str("\\right)");
+            }
         }
     }
 }

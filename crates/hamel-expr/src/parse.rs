@@ -459,6 +459,16 @@ impl Parser<'_> {
             }
             return Ok(Expr::Der(arg));
         }
+        if name == "atan2" {
+            let [y, x]: [Expr; 2] = args.try_into().map_err(|a: Vec<Expr>| ParseError {
+                span: whole.clone(),
+                message: format!(
+                    "`atan2` takes two arguments, y and x (the angle of the point (x, y)), found {}",
+                    a.len()
+                ),
+            })?;
+            return Ok(Expr::atan2(y, x));
+        }
         if let Some(f) = Func::from_name(&name) {
             if args.len() != 1 {
                 return Err(ParseError {
@@ -477,7 +487,7 @@ impl Parser<'_> {
                     return Err(ParseError {
                         span: whole,
                         message: format!(
-                            "`{name}` is not a built-in function (sin cos tan sqrt exp log der); \
+                            "`{name}` is not a built-in function (sin cos tan sqrt exp log atan atan2 der); \
                              a free function takes coordinate names as arguments, as in `z13(phi)`"
                         ),
                     });

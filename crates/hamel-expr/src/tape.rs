@@ -31,6 +31,8 @@ pub enum Op {
     PowF(usize, usize),
     /// Built-in function.
     Call(Func, usize),
+    /// atan2(y, x), operands (y, x).
+    Atan2(usize, usize),
 }
 
 impl Op {
@@ -143,6 +145,10 @@ impl Builder<'_> {
                 let a = self.expr(a)?;
                 self.push(Op::Call(*f, a))
             }
+            Expr::Atan2(y, x) => {
+                let (y, x) = (self.expr(y)?, self.expr(x)?);
+                self.push(Op::Atan2(y, x))
+            }
         })
     }
 }
@@ -220,7 +226,7 @@ impl Tape {
                 Op::Const(_) => false,
                 Op::Add(a) | Op::Mul(a) => a.iter().any(|&k| v[k]),
                 Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => v[*a],
-                Op::Div(a, b) | Op::PowF(a, b) => v[*a] || v[*b],
+                Op::Div(a, b) | Op::PowF(a, b) | Op::Atan2(a, b) => v[*a] || v[*b],
             };
             v.push(x);
         }
@@ -332,6 +338,12 @@ impl Tape {
                         }
                         Func::Atan => x.atan(),
                     }
+                }
+                Op::Atan2(y, x) => {
+                    if v[*y].value() == 0.0 && v[*x].value() == 0.0 {
+                        return Err(EvalError::Domain("atan2 of the origin (0, 0)".into()));
+                    }
+                    v[*y].atan2(v[*x])
                 }
             };
             if !x.value().is_finite() {

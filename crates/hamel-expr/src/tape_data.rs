@@ -30,6 +30,8 @@ pub enum OpData {
     PowF(usize, usize),
     /// Built-in function, by name.
     Call(String, usize),
+    /// atan2(y, x).
+    Atan2(usize, usize),
 }
 
 /// A tape as data.
@@ -56,6 +58,7 @@ impl Tape {
             Op::PowI(a, n) => OpData::PowI(*a, *n),
             Op::PowF(a, b) => OpData::PowF(*a, *b),
             Op::Call(f, a) => OpData::Call(f.name().to_string(), *a),
+            Op::Atan2(y, x) => OpData::Atan2(*y, *x),
         };
         TapeData {
             inputs: self.inputs().to_vec(),
@@ -95,6 +98,7 @@ impl Tape {
                 OpData::Div(a, b) => Op::Div(earlier(a)?, earlier(b)?),
                 OpData::PowI(a, n) => Op::PowI(earlier(a)?, n),
                 OpData::PowF(a, b) => Op::PowF(earlier(a)?, earlier(b)?),
+                OpData::Atan2(y, x) => Op::Atan2(earlier(y)?, earlier(x)?),
                 OpData::Call(f, a) => Op::Call(
                     Func::from_name(&f)
                         .ok_or_else(|| bad(k, &format!("`{f}` is not a function")))?,

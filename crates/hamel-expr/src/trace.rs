@@ -237,6 +237,9 @@ impl Scalar for Traced {
     fn atan(self) -> Self {
         self.call(Func::Atan, self.value.atan())
     }
+    fn atan2(self, x: Self) -> Self {
+        Traced::binary(self.value.atan2(x.value), self, x, Op::Atan2)
+    }
     fn powi(self, n: i32) -> Self {
         match n {
             0 => Traced::constant_of(1.0),
@@ -331,7 +334,7 @@ fn operands(op: &Op, mut mark: impl FnMut(usize)) {
         Op::Input(_) | Op::Const(_) => {}
         Op::Add(v) | Op::Mul(v) => v.iter().for_each(|&a| mark(a)),
         Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => mark(*a),
-        Op::Div(a, b) | Op::PowF(a, b) => {
+        Op::Div(a, b) | Op::PowF(a, b) | Op::Atan2(a, b) => {
             mark(*a);
             mark(*b);
         }
@@ -343,7 +346,7 @@ fn renumber(op: &mut Op, new: &[usize]) {
         Op::Input(_) | Op::Const(_) => {}
         Op::Add(v) | Op::Mul(v) => v.iter_mut().for_each(|a| *a = new[*a]),
         Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => *a = new[*a],
-        Op::Div(a, b) | Op::PowF(a, b) => {
+        Op::Div(a, b) | Op::PowF(a, b) | Op::Atan2(a, b) => {
             *a = new[*a];
             *b = new[*b];
         }

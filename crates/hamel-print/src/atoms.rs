@@ -257,7 +257,7 @@ impl Atoms {
 pub(crate) fn simple(e: &Expr) -> bool {
     matches!(
         e,
-        Expr::Sym(_) | Expr::Der(_) | Expr::Call(..) | Expr::Free { .. }
+        Expr::Sym(_) | Expr::Der(_) | Expr::Call(..) | Expr::Atan2(..) | Expr::Free { .. }
     )
 }
 

@@ -372,7 +372,10 @@ impl Fraction {
         atoms: &mut Atoms,
     ) -> Result<Fraction, PolyError> {
         let Some(n) = exp.as_integer().filter(|n| n.abs() <= 64) else {
-            if matches!(base, Expr::Sym(_) | Expr::Call(..) | Expr::Der(_)) {
+            if matches!(
+                base,
+                Expr::Sym(_) | Expr::Call(..) | Expr::Atan2(..) | Expr::Der(_)
+            ) {
                 let atom = atoms.intern(whole);
                 return Ok(Fraction::poly(Poly::term(Mono::atom(atom), Q::one())));
             }

@@ -102,6 +102,9 @@ impl Scalar for Lanes {
     fn atan(self) -> Self {
         self.map(f64::atan)
     }
+    fn atan2(self, x: Self) -> Self {
+        self.zip(x, f64::atan2)
+    }
     #[inline(always)]
     fn powi(self, n: i32) -> Self {
         self.map(|a| a.powi(n))

@@ -61,6 +61,15 @@ pub trait Scalar:
         let (s, c) = a.sin_cos();
         a + (self * c - s) / (c + self * s)
     }
+    /// The angle of the point (x, self) in (−π, π]: atan2(self, x), the two-argument
+    /// arctangent. The default, as [`Scalar::atan`]: f64's atan2 as a first value a, corrected
+    /// by one Newton step, a + (y cos a − x sin a)/(x cos a + y sin a) (the denominator is
+    /// √(x² + y²) > 0 near a); over dual numbers it carries (x dy − y dx)/(x² + y²).
+    fn atan2(self, x: Self) -> Self {
+        let a = Self::constant(self.value().atan2(x.value()));
+        let (s, c) = a.sin_cos();
+        a + (self * c - x * s) / (x * c + self * s)
+    }
     /// integer power
     fn powi(self, n: i32) -> Self;
     /// real power of a positive base
@@ -111,6 +120,9 @@ impl Scalar for f64 {
     }
     fn atan(self) -> Self {
         f64::atan(self)
+    }
+    fn atan2(self, x: Self) -> Self {
+        f64::atan2(self, x)
     }
 }
 
@@ -210,6 +222,42 @@ mod tests {
             assert!((d.d - 1.0 / (1.0 + x * x)).abs() <= 1e-15 / (1.0 + x * x));
             let dd = crate::Dual::new(xd, DD::from_f64(1.0)).atan();
             assert!((dd.v - Scalar::atan(xd)).to_f64().abs() <= 1e-31 * (1.0 + x.abs()));
+        }
+    }
+
+    /// atan2 in double-double in all four quadrants (its sine and cosine are y/r and x/r; the
+    /// angle of (−1, 0) is π), over dual numbers with the derivative (x dy − y dx)/(x² + y²).
+    #[test]
+    fn atan2_carries_double_double_and_derivatives_in_every_quadrant() {
+        let pi = DD {
+            hi: std::f64::consts::PI,
+            lo: 1.2246467991473532e-16,
+        };
+        assert!(close(
+            Scalar::atan2(DD::from_f64(0.0), DD::from_f64(-1.0)),
+            pi,
+            1e-31
+        ));
+        for (y, x) in [
+            (0.3, 2.0),
+            (1.0, -1e-9),
+            (-2.0, -0.5),
+            (-1e-7, 3.0),
+            (5.0, 0.0),
+        ] {
+            let (yd, xd) = (DD::from_f64(y), DD::from_f64(x));
+            let a = Scalar::atan2(yd, xd);
+            assert!((a.to_f64() - f64::atan2(y, x)).abs() <= 4.0 * f64::EPSILON);
+            let r = (yd * yd + xd * xd).sqrt();
+            let (s, c) = a.sin_cos();
+            let off = ((s - yd / r).to_f64().abs()).max((c - xd / r).to_f64().abs());
+            assert!(off <= 1e-30, "({y}, {x}): {off:e}");
+            let d = crate::Dual::new(y, 1.0).atan2(crate::Dual::new(x, 2.0));
+            let exact = (x - 2.0 * y) / (x * x + y * y);
+            assert!(
+                (d.d - exact).abs() <= 1e-14 * exact.abs().max(1.0),
+                "({y}, {x})"
+            );
         }
     }
 
