@@ -54,7 +54,8 @@ pub(crate) fn on_manifold(model: &Model, f: &Field) -> OnManifold {
 }
 
 /// The dependence of `dropped` (converted: its row of α) on the kept rows `alpha`: tried on
-/// the kept rows the pre-screen found it to use, then on all of them.
+/// the kept rows the pre-screen found it to use, then on all of them, then (when `manifold`
+/// is given) on all of them where the holonomic constraint holds.
 pub(crate) fn dependence(
     model: &Model,
     alpha: &Matrix,
@@ -67,8 +68,6 @@ pub(crate) fn dependence(
     let r = Matrix::from_fn(1, ell, |_, j| row[j].clone());
     let on = &dropped.on;
     let support = Matrix::from_fn(on.len(), ell, |i, j| alpha[(on[i], j)].clone());
-    let mut coefficients = vec![f.zero(); mu];
-    let mut holds_on = None;
     let cas = |e| {
         model.error_at(
             &dropped.item.site,
@@ -78,46 +77,52 @@ pub(crate) fn dependence(
             ),
         )
     };
-    match support.combination(&r).map_err(cas)? {
-        Combination::Of(c) => {
-            for (&j, c) in on.iter().zip(c) {
-                coefficients[j] = c;
-            }
+    let dependence = |coefficients, on| Dependence {
+        name: dropped.name.clone(),
+        row: row.clone(),
+        coefficients,
+        on,
+    };
+    if let Combination::Of(c) = support.combination(&r).map_err(cas)? {
+        let mut coefficients = vec![f.zero(); mu];
+        for (&j, c) in on.iter().zip(c) {
+            coefficients[j] = c;
         }
-        _ => match alpha.combination(&r).map_err(cas)? {
-            Combination::Of(c) => coefficients = c,
-            Combination::Not => match manifold {
+        return Ok(dependence(coefficients, None));
+    }
+    match alpha.combination(&r).map_err(cas)? {
+        Combination::Of(c) => Ok(dependence(c, None)),
+        Combination::DependentRows(rank) => Err(kept_rows_dependent(model, rank, mu, None)),
+        Combination::Not => {
+            let (name, m) = match manifold {
                 None => return Err(not_a_combination(model, dropped, None)),
                 Some(Err(why)) => return Err(not_a_combination(model, dropped, Some(why))),
-                Some(Ok((name, m))) => match alpha.combination_on(&r, m).map_err(cas)? {
-                    Combination::Of(c) => {
-                        coefficients = c;
-                        holds_on = Some(name.clone());
-                    }
-                    Combination::Not => {
-                        let why = format!("not on `{name} = 0` either");
-                        return Err(not_a_combination(model, dropped, Some(&why)));
-                    }
-                    Combination::DependentRows(rank) => {
-                        return Err(model.error(format!(
-                            "the kept rows of α have rank {rank} < {mu} where `{name} = 0` holds: the numeric pre-screen kept a row dependent there"
-                        )));
-                    }
-                },
-            },
-            Combination::DependentRows(rank) => {
-                return Err(model.error(format!(
-                    "the kept rows of α have rank {rank} < {mu}: the numeric pre-screen kept a dependent row"
-                )));
+                Some(Ok(on)) => on,
+            };
+            match alpha.combination_on(&r, m).map_err(cas)? {
+                Combination::Of(c) => Ok(dependence(c, Some(name.clone()))),
+                Combination::Not => {
+                    let why = format!("not on `{name} = 0` either");
+                    Err(not_a_combination(model, dropped, Some(&why)))
+                }
+                Combination::DependentRows(rank) => {
+                    Err(kept_rows_dependent(model, rank, mu, Some(name)))
+                }
             }
-        },
+        }
     }
-    Ok(Dependence {
-        name: dropped.name.clone(),
-        row,
-        coefficients,
-        on: holds_on,
-    })
+}
+
+/// The kept rows were found dependent by the exact elimination (everywhere, or where the
+/// holonomic constraint `on` holds): the pre-screen kept one too many.
+fn kept_rows_dependent(model: &Model, rank: usize, mu: usize, on: Option<&String>) -> ModelError {
+    let (place, there) = match on {
+        Some(h) => (format!(" where `{h} = 0` holds"), " there"),
+        None => (String::new(), ""),
+    };
+    model.error(format!(
+        "the kept rows of α have rank {rank} < {mu}{place}: the numeric pre-screen kept a row dependent{there}"
+    ))
 }
 
 /// The error for a row the pre-screen found dependent that is not exactly a combination;
