@@ -31,7 +31,8 @@ pub use derivation::{
     Ingredients, Mat, NotClosed, Power, Size, SpecialiseError, StructuredForm, Term, Trees, Why,
 };
 pub use hamel_eval::{
-    Compiled, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs, SymbolicCompiled,
+    Compiled, ConstraintForce, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs,
+    SymbolicCompiled,
 };
 pub use hamel_model::{Model, ModelError};
 pub use symbolic::{

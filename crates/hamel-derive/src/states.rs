@@ -26,6 +26,10 @@ struct Out {
     precision: crate::Precision,
     /// The estimate that decided it: the relative error an f64 evaluation may have here.
     f64_error_estimate: f64,
+    /// λ by row of α (kept, then dropped), R = αᵀλ the constraints' generalised force: for a
+    /// wheel's `NAME_no_slip_x` row, the contact force's x component (`hamel_eval::ConstraintForce`).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    constraint_multipliers: IndexMap<String, f64>,
 }
 
 /// Evaluate every state of `text` (the JSON of the file named `file`) with the quasi-velocities
@@ -121,5 +125,10 @@ fn evaluate_state(
         eta_dot_paper: ev.eta_dot_paper,
         precision: ev.precision,
         f64_error_estimate: ev.f64_error_estimate,
+        constraint_multipliers: (d.constraints.iter())
+            .chain(d.dependent_rows.iter().map(|r| &r.name))
+            .cloned()
+            .zip(ev.multipliers)
+            .collect(),
     })
 }

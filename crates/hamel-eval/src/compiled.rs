@@ -106,6 +106,31 @@ pub struct Evaluation {
     /// The power of the forces, q̇ᵀF(q, q̇) = dE/dt (None without forces).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub power: Option<f64>,
+    /// The constraints' multipliers λ, one per row of α (the kept rows, then the dependent
+    /// ones): R = αᵀλ is the generalised force that holds the system on its constraints
+    /// ([`ConstraintForce`]).
+    pub multipliers: Vec<f64>,
+}
+
+/// What the constraints push with, at a state: the generalised force R (ℓ entries; A q̈ +
+/// Ȧq̇ − ∇_qT = ∇U + F + R) and multipliers λ with R = αᵀλ, one per row of α (the kept rows,
+/// then the dependent ones; with dependent rows λ is one choice among many, R is unique).
+/// For a row written as a point's velocity along a direction (a wheel's `NAME_no_slip_x`),
+/// its λ is the force the constraint applies there along that direction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConstraintForce<S = f64> {
+    /// R, by coordinate.
+    pub generalised: Vec<S>,
+    /// λ, by row of α.
+    pub multipliers: Vec<S>,
+}
+
+/// A structured evaluation: the right-hand side, the f64 error estimate, and (when asked)
+/// the constraint force.
+struct Assembled<S> {
+    rhs: Rhs<S>,
+    estimate: f64,
+    constraint: Option<ConstraintForce<S>>,
 }
 
 impl Evaluation {
@@ -113,11 +138,13 @@ impl Evaluation {
     /// (condition number of [Z; α], δ, the f64 error estimate).
     fn of<S: Scalar>(
         r: &Rhs<S>,
+        constraint: Option<&ConstraintForce<S>>,
         precision: Precision,
         (condition, delta, bound): (f64, f64, f64),
     ) -> Evaluation {
         let values = |v: &[S]| v.iter().map(Scalar::value).collect::<Vec<_>>();
         Evaluation {
+            multipliers: constraint.map_or_else(Vec::new, |c| values(&c.multipliers)),
             eta_dot: values(&r.eta_dot),
             q_dot: values(&r.q_dot),
             energy: r.energy.value(),
@@ -433,7 +460,7 @@ impl Compiled {
         }
         let inputs: Vec<S> = q.iter().chain(params).copied().collect();
         let out = self.outputs(inputs)?;
-        Ok(self.assemble(&out, eta)?.0)
+        Ok(self.assemble(&out, eta, false)?.rhs)
     }
 
     /// The rows of [Z; α] the structured evaluation uses at these ingredients
@@ -489,7 +516,7 @@ impl Compiled {
         ingredients: &[S],
         eta: &[S],
     ) -> Result<Rhs<S>, NumericError> {
-        Ok(self.assemble(ingredients, eta)?.0)
+        Ok(self.assemble(ingredients, eta, false)?.rhs)
     }
 
     /// [Z; α] as rows (Z's σ rows, then α's μ kept rows) from ingredients of
@@ -619,22 +646,42 @@ impl Compiled {
         eta: &[S],
         params: &IndexMap<String, f64>,
     ) -> Result<Rhs<S>, NumericError> {
-        Ok(self.structured(q, eta, params)?.0)
+        Ok(self.structured(q, eta, params, false)?.rhs)
     }
 
-    /// [`Compiled::rhs`] with the f64 error estimate (for types other than f64, 0).
+    /// The constraints' generalised force R and multipliers λ at (q, η), unchecked
+    /// ([`hamel_runtime::Structured::constraint_force`]), in any scalar type.
+    pub fn constraint_force<S: Scalar>(
+        &self,
+        q: &[S],
+        eta: &[S],
+        params: &IndexMap<String, f64>,
+    ) -> Result<ConstraintForce<S>, NumericError> {
+        let a = self.structured(q, eta, params, true)?;
+        Ok(a.constraint.expect("asked for"))
+    }
+
+    /// [`Compiled::rhs`] with the f64 error estimate (for types other than f64, 0), and the
+    /// constraint force when `constraint`.
     fn structured<S: Scalar>(
         &self,
         q: &[S],
         eta: &[S],
         params: &IndexMap<String, f64>,
-    ) -> Result<(Rhs<S>, f64), NumericError> {
+        constraint: bool,
+    ) -> Result<Assembled<S>, NumericError> {
         let out = self.ingredients(q, params)?;
-        self.assemble(&out, eta)
+        self.assemble(&out, eta, constraint)
     }
 
-    /// The structured right-hand side from the ingredients `out` (the tape's outputs).
-    fn assemble<S: Scalar>(&self, out: &[S], eta: &[S]) -> Result<(Rhs<S>, f64), NumericError> {
+    /// The structured right-hand side from the ingredients `out` (the tape's outputs), and
+    /// the constraint force when `constraint`.
+    fn assemble<S: Scalar>(
+        &self,
+        out: &[S],
+        eta: &[S],
+        constraint: bool,
+    ) -> Result<Assembled<S>, NumericError> {
         let mut buffers = Buffers::<S>::new(self.dims);
         // Exact pivots: `evaluate` checks the conditioning and the definiteness itself, and the
         // unchecked `rhs` serves studies that approach the singular set on purpose.
@@ -669,12 +716,28 @@ impl Compiled {
                 None => NumericError::NonFinite,
             },
         })?;
+        let rhs = Rhs::read(&r);
+        let constraint = constraint.then(|| {
+            let d = self.dims;
+            let zero = S::constant(0.0);
+            let (mut generalised, mut y) = (vec![zero; d.ell], vec![zero; d.m_rows()]);
+            r.constraint_force(out, &mut generalised, &mut y, &mut vec![zero; d.ell]);
+            ConstraintForce {
+                generalised,
+                multipliers: y.split_off(d.sigma),
+            }
+        });
+        // after the constraint force: the estimate reuses the evaluation's scratch storage
         let estimate = if S::CHECKED {
             r.f64_error_estimate(out)
         } else {
             0.0
         };
-        Ok((Rhs::read(&r), estimate))
+        Ok(Assembled {
+            rhs,
+            estimate,
+            constraint,
+        })
     }
 
     /// η̇, q̇, energy and the paper's η̇ at the state (q, η) for the given parameter values.
@@ -697,7 +760,11 @@ impl Compiled {
                 self.singular_error(&format!("det[Z; α] ≈ 0 (condition number {condition:.3e})"))
             );
         }
-        let (r, bound) = self.structured(q, eta, params)?;
+        let Assembled {
+            rhs: r,
+            estimate: bound,
+            constraint,
+        } = self.structured(q, eta, params, true)?;
         let sigma = self.dims.sigma;
         let ag = DMatrix::from_fn(sigma, sigma, |i, j| r.a_gamma[i][j]);
         if ag.cholesky().is_none() {
@@ -706,10 +773,10 @@ impl Compiled {
         let at = (condition, delta, bound);
         let out = if bound > hamel_runtime::DOUBLE_DOUBLE_ABOVE {
             let to_dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
-            let r = self.rhs::<DD>(&to_dd(q), &to_dd(eta), params)?;
-            Evaluation::of(&r, Precision::DoubleDouble, at)
+            let a = self.structured::<DD>(&to_dd(q), &to_dd(eta), params, true)?;
+            Evaluation::of(&a.rhs, a.constraint.as_ref(), Precision::DoubleDouble, at)
         } else {
-            Evaluation::of(&r, Precision::F64, at)
+            Evaluation::of(&r, constraint.as_ref(), Precision::F64, at)
         };
         let mut out = out;
         if let Some(f) = self.forces_at(q, &out.q_dot, params)? {

@@ -22,8 +22,8 @@ mod compiled;
 mod symbolic;
 
 pub use compiled::{
-    Compiled, CompiledData, Evaluation, Forces, ForcesData, NumericError, RankLoss, RankLossData,
-    serialize_precision,
+    Compiled, CompiledData, ConstraintForce, Evaluation, Forces, ForcesData, NumericError,
+    RankLoss, RankLossData, serialize_precision,
 };
 pub use hamel_runtime::DOUBLE_DOUBLE_ABOVE;
 pub use hamel_runtime::{Precision, Rhs};

@@ -119,6 +119,39 @@ pub fn solve<S: Scalar>(n: usize, lu: &[S], perm: &[usize], b: &mut [S], tmp: &m
     b[..n].copy_from_slice(&tmp[..n]);
 }
 
+/// Solve the transposed system with factors from [`factor`] or [`factor_rows`]: y with
+/// Mᵀ y = b for the n rows of M the pivoting selected, written to `y` by M's row (`rows`
+/// entries; those of the rows not selected 0). With P M = L U (`perm`), Uᵀ z = b forward,
+/// Lᵀ w = z backward, y[perm[i]] = wᵢ. `tmp` holds n values.
+#[inline(always)]
+pub fn solve_transposed<S: Scalar>(
+    n: usize,
+    lu: &[S],
+    perm: &[usize],
+    b: &[S],
+    y: &mut [S],
+    tmp: &mut [S],
+) {
+    for i in 0..n {
+        let mut x = b[i];
+        for j in 0..i {
+            x = x - lu[j * n + i] * tmp[j];
+        }
+        tmp[i] = x / lu[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut x = tmp[i];
+        for j in i + 1..n {
+            x = x - lu[j * n + i] * tmp[j];
+        }
+        tmp[i] = x;
+    }
+    y.fill(S::constant(0.0));
+    for i in 0..n {
+        y[perm[i]] = tmp[i];
+    }
+}
+
 /// The determinant from factors of [`factor`] (the product of the pivots, signed by the
 /// permutation's parity).
 pub fn determinant<S: Scalar>(n: usize, lu: &[S], perm: &[usize]) -> S {

@@ -428,6 +428,34 @@ impl<'a, S: Scalar> Structured<'a, S> {
         &self.s[part(self.d, GAMMA)]
     }
 
+    /// The generalised force of the constraints at the state last evaluated and their
+    /// multipliers. R = AΓη̇ + AΓ̇η − (∇U + F + ∇_qT − Ȧq̇) into `r` (ℓ entries), so that the
+    /// Lagrange form reads A q̈ + Ȧq̇ − ∇_qT = ∇U + F + R with q̈ = Γη̇ + Γ̇η; and y with
+    /// [Z; α]ᵀ y = R on the ℓ rows the factorisation selected into `y` ([`Dims::m_rows`]
+    /// entries, by row of [Z; α]; the rows not selected 0). Γᵀ R = 0 is (11), so the Z entries
+    /// of y vanish (to rounding) and λ = y[σ..] are the multipliers, R = αᵀλ: for a row
+    /// written as the velocity of a point along a direction, the force there along it. With
+    /// dependent rows λ is one choice among many (only R is unique). `tmp`: ℓ entries. Call it
+    /// right after the evaluation ([`Structured::f64_error_estimate`] reuses its storage).
+    pub fn constraint_force(&mut self, out: &[S], r: &mut [S], y: &mut [S], tmp: &mut [S]) {
+        let (d, lay) = (self.d, self.layout);
+        let (l, g) = (d.ell, d.sigma);
+        let p = Parts::carve(d, self.s);
+        for i in 0..l {
+            // p.force holds ∇U + F + ∇_qT − Ȧq̇ − AΓ̇η ([`forcing`])
+            let mut x = -p.force[i];
+            for j in 0..l {
+                let mut qdd = S::constant(0.0);
+                for s in 0..g {
+                    qdd = qdd + p.gamma[j * g + s] * p.eta_dot[s];
+                }
+                x = x + out[lay.a + i * l + j] * qdd;
+            }
+            r[i] = x;
+        }
+        lu::solve_transposed(l, p.m, &self.idx[..d.m_rows()], r, y, tmp);
+    }
+
     /// |Γ|ᵀ(|∇U| + |∇_q T| + |Ȧq̇| + |AΓ̇η|), values only: the size of the terms F is summed
     /// from (zero for types that are not [`Scalar::CHECKED`]).
     pub fn forcing_scale(&self) -> &[f64] {
