@@ -115,6 +115,47 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// `scene` simulated by the compiled engine and by the interpreted one (JSON reports written
+/// into `dir`); the compiled one must really have run compiled.
+fn compiled_and_interpreted(scene: &Path, dir: &Path) -> (serde_json::Value, serde_json::Value) {
+    let run = |engine: &str| -> serde_json::Value {
+        let out = dir.join(format!("{engine}.json"));
+        let args = [
+            "simulate",
+            scene.to_str().unwrap(),
+            "--format",
+            "json",
+            "--engine",
+            engine,
+            "--output",
+            out.to_str().unwrap(),
+        ];
+        let o = hamel(&args, None);
+        assert!(o.status.success(), "{engine}: {}", stderr(&o));
+        serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
+    };
+    let (c, i) = (run("compiled"), run("interpreted"));
+    assert_eq!(c["engine"], "compiled", "{}", scene.display());
+    (c, i)
+}
+
+/// The coordinate `k`'s values in a simulation report.
+fn series(report: &serde_json::Value, k: &str) -> Vec<f64> {
+    let values = report["q"][k].as_array();
+    (values
+        .unwrap_or_else(|| panic!("no q.{k} in {report}"))
+        .iter())
+    .map(|x| x.as_f64().unwrap())
+    .collect()
+}
+
+/// max_t |a(t) − b(t)| of coordinate `k` in two reports of one scene.
+fn largest_difference(a: &serde_json::Value, b: &serde_json::Value, k: &str) -> f64 {
+    (series(a, k).iter().zip(series(b, k)))
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -2700,39 +2741,11 @@ fn simulate_drives_inputs_by_laws_and_tables_on_both_engines() {
     };
     let good = dir.join("good.toml");
     std::fs::write(&good, scene("[0.0, 0.7, 1.4, 2.0]")).unwrap();
-    let run = |engine: &str| -> serde_json::Value {
-        let out = dir.join(format!("{engine}.json"));
-        let o = hamel(
-            &[
-                "simulate",
-                good.to_str().unwrap(),
-                "--format",
-                "json",
-                "--engine",
-                engine,
-                "--output",
-                out.to_str().unwrap(),
-            ],
-            None,
-        );
-        assert!(o.status.success(), "{engine}: {}", stderr(&o));
-        serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
-    };
-    let (c, i) = (run("compiled"), run("interpreted"));
-    assert_eq!(c["engine"], "compiled");
-    let series = |v: &serde_json::Value, k: &str| -> Vec<f64> {
-        let s = v["q"][k].as_array().unwrap();
-        s.iter().map(|x| x.as_f64().unwrap()).collect()
-    };
+    let (c, i) = compiled_and_interpreted(&good, &dir);
     for k in ["theta", "x", "psi"] {
-        let (a, b) = (series(&c, k), series(&i, k));
-        let scale = b.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let scale = series(&i, k).iter().fold(0.0_f64, |m, x| m.max(x.abs()));
         assert!(scale > 1e-3, "{k} moves: {scale}");
-        let worst = a
-            .iter()
-            .zip(&b)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max);
+        let worst = largest_difference(&c, &i, k);
         assert!(
             worst <= 1e-8 * scale,
             "{k}: compiled vs interpreted {worst:.1e}"
@@ -2795,29 +2808,9 @@ fn ackermann_runs_compiled(name: &str) {
         ),
     )
     .unwrap();
-    let run = |engine: &str| -> serde_json::Value {
-        let out = dir.join(format!("{engine}.json"));
-        let args = [
-            "simulate",
-            scene.to_str().unwrap(),
-            "--format",
-            "json",
-            "--engine",
-            engine,
-            "--output",
-            out.to_str().unwrap(),
-        ];
-        let o = hamel(&args, None);
-        assert!(o.status.success(), "{engine}: {}", stderr(&o));
-        serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
-    };
-    let (c, i) = (run("compiled"), run("interpreted"));
-    assert_eq!(c["engine"], "compiled");
+    let (c, i) = compiled_and_interpreted(&scene, &dir);
     for k in ["x", "y", "psi", "delta"] {
-        let (a, b) = (c["q"][k].as_array().unwrap(), i["q"][k].as_array().unwrap());
-        let worst = (a.iter().zip(b))
-            .map(|(p, q)| (p.as_f64().unwrap() - q.as_f64().unwrap()).abs())
-            .fold(0.0, f64::max);
+        let worst = largest_difference(&c, &i, k);
         assert!(worst <= 1e-9, "{k}: compiled vs interpreted {worst:.1e}");
     }
     let turned = c["q"]["psi"]
@@ -2848,35 +2841,9 @@ fn a_bare_atan2_runs_compiled() {
         ),
     )
     .unwrap();
-    let run = |engine: &str| -> serde_json::Value {
-        let out = dir.join(format!("{engine}.json"));
-        let args = [
-            "simulate",
-            scene.to_str().unwrap(),
-            "--format",
-            "json",
-            "--engine",
-            engine,
-            "--output",
-            out.to_str().unwrap(),
-        ];
-        let o = hamel(&args, None);
-        assert!(o.status.success(), "{engine}: {}", stderr(&o));
-        serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
-    };
-    let (c, i) = (run("compiled"), run("interpreted"));
-    assert_eq!(c["engine"], "compiled");
-    let series = |v: &serde_json::Value, k: &str| -> Vec<f64> {
-        let a = v["q"][k].as_array().or(v["outputs"][k].as_array());
-        a.unwrap_or_else(|| panic!("{k}: {v}"))
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
+    let (c, i) = compiled_and_interpreted(&scene, &dir);
     for k in ["x", "y"] {
-        let worst = (series(&c, k).iter().zip(series(&i, k)))
-            .map(|(p, q)| (p - q).abs())
-            .fold(0.0, f64::max);
+        let worst = largest_difference(&c, &i, k);
         assert!(worst <= 1e-9, "{k}: compiled vs interpreted {worst:.1e}");
     }
     assert!(

@@ -21,6 +21,31 @@ use indexmap::IndexMap;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+/// A model of the test suite, by its path in the repository.
+fn test_model(path: &str) -> Model {
+    Model::load(format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The oracle comparison (tests/common/oracle.rs) at `states` random states: f64 to 1e-12,
+/// double-double and the symbolic equations to 1e-20.
+fn agrees_with_the_oracle(
+    m: &Model,
+    choice: &str,
+    seed: u64,
+    states: usize,
+) -> common::oracle::Worst {
+    let w = common::oracle::compare(m, choice, seed, states);
+    assert!(
+        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
+        "{}/{choice}: f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
+        m.name,
+        w.structured_f64,
+        w.structured_dd,
+        w.symbolic_dd
+    );
+    w
+}
+
 fn bundled(name: &str) -> Model {
     Model::load(format!("{}/models/{name}.toml", env!("CARGO_MANIFEST_DIR")))
         .unwrap_or_else(|e| panic!("{e}"))
@@ -155,11 +180,7 @@ fn the_robots_drop_their_position_heading_and_wheel_angles() {
 /// wheel angles drop out (the steering angle does not).
 #[test]
 fn the_ackermann_car_has_rank_six_through_its_arctangent() {
-    let path = format!(
-        "{}/tests/models/ackermann_car.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let m = test_model("tests/models/ackermann_car.toml");
     assert_eq!(m.all_rows().len(), 8);
     let d = derive(&m, Some("drive")).unwrap();
     assert_eq!((d.mu, d.eta.len()), (6, 2));
@@ -171,14 +192,7 @@ fn the_ackermann_car_has_rank_six_through_its_arctangent() {
         let r = remainder(&m, &d, &q);
         assert!(r < 1e-12, "remainder {r:e} at {q:?}");
     }
-    let w = common::oracle::compare(&m, "drive", 59, 30);
-    assert!(
-        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
-        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
-        w.structured_f64,
-        w.structured_dd,
-        w.symbolic_dd
-    );
+    agrees_with_the_oracle(&m, "drive", 59, 30);
     let asked: Vec<String> = ["x", "y", "psi", "phiRL", "phiRR", "phiFL", "phiFR"]
         .map(String::from)
         .into();
@@ -198,20 +212,9 @@ fn the_ackermann_car_has_rank_six_through_its_arctangent() {
 /// with the oracle.
 #[test]
 fn bare_arctangents_derive_exactly() {
-    let path = format!(
-        "{}/tests/models/atan_knife.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
-    let w = common::oracle::compare(&m, "paper", 60, 30);
+    let m = test_model("tests/models/atan_knife.toml");
+    let w = agrees_with_the_oracle(&m, "paper", 60, 30);
     assert!(!w.structured_form);
-    assert!(
-        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
-        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
-        w.structured_f64,
-        w.structured_dd,
-        w.symbolic_dd
-    );
 }
 
 /// A holonomic constraint implied by the ones before it (tests/filetests/holonomic_implied.toml:
@@ -220,11 +223,7 @@ fn bare_arctangents_derive_exactly() {
 /// and the equations agree with the oracle.
 #[test]
 fn an_implied_holonomic_constraint_is_dropped() {
-    let path = format!(
-        "{}/tests/filetests/holonomic_implied.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let m = test_model("tests/filetests/holonomic_implied.toml");
     let names: Vec<&str> = m.holonomic.iter().map(|h| h.name.as_str()).collect();
     assert_eq!(names, ["ab", "bc"]);
     let d = derive(&m, Some("free")).unwrap();
@@ -248,11 +247,7 @@ fn an_implied_holonomic_constraint_is_dropped() {
 /// completed configurations and fails off them; the equations agree with the oracle there.
 #[test]
 fn the_two_angle_ackermann_car_has_rank_seven_on_its_constraint_manifold() {
-    let path = format!(
-        "{}/tests/models/ackermann_two_angles.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let m = test_model("tests/models/ackermann_two_angles.toml");
     assert_eq!((m.ell(), m.all_rows().len()), (9, 9));
     let d = derive(&m, Some("drive")).unwrap();
     assert_eq!((d.mu, d.sigma), (7, 2));
@@ -277,14 +272,7 @@ fn the_two_angle_ackermann_car_has_rank_seven_on_its_constraint_manifold() {
     }
     assert!(on_worst < 1e-12, "remainder on h = 0: {on_worst:e}");
     assert!(off_least > 1e-6, "remainder off h = 0: {off_least:e}");
-    let w = common::oracle::compare(&m, "drive", 63, 30);
-    assert!(
-        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
-        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
-        w.structured_f64,
-        w.structured_dd,
-        w.symbolic_dd
-    );
+    agrees_with_the_oracle(&m, "drive", 63, 30);
 }
 
 /// Two-argument arctangents (tests/models/atan2_knife.toml: bare atan2 kernels in U, a blade
@@ -293,20 +281,9 @@ fn the_two_angle_ackermann_car_has_rank_seven_on_its_constraint_manifold() {
 /// quadrant of each atan2.
 #[test]
 fn two_argument_arctangents_derive_exactly() {
-    let path = format!(
-        "{}/tests/models/atan2_knife.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
-    let w = common::oracle::compare(&m, "paper", 64, 40);
+    let m = test_model("tests/models/atan2_knife.toml");
+    let w = agrees_with_the_oracle(&m, "paper", 64, 40);
     assert!(!w.structured_form);
-    assert!(
-        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
-        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
-        w.structured_f64,
-        w.structured_dd,
-        w.symbolic_dd
-    );
 }
 
 /// The Ackermann car with its right knuckle turned by atan2(L sin δ, L cos δ + 2b sin δ)
@@ -315,11 +292,7 @@ fn two_argument_arctangents_derive_exactly() {
 /// of the quotient would take the other branch.
 #[test]
 fn the_ackermann_car_written_with_atan2_has_rank_six() {
-    let path = format!(
-        "{}/tests/models/ackermann_atan2.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let m = Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+    let m = test_model("tests/models/ackermann_atan2.toml");
     let d = derive(&m, Some("drive")).unwrap();
     assert_eq!((d.mu, d.eta.len()), (6, 2));
     let mut rng = ChaCha8Rng::seed_from_u64(65);
@@ -330,12 +303,5 @@ fn the_ackermann_car_written_with_atan2_has_rank_six() {
         let r = remainder(&m, &d, &q);
         assert!(r < 1e-12, "remainder {r:e} at {q:?}");
     }
-    let w = common::oracle::compare(&m, "drive", 66, 30);
-    assert!(
-        w.structured_f64 <= 1e-12 && w.structured_dd <= 1e-20 && w.symbolic_dd <= 1e-20,
-        "f64 {:.1e}, dd {:.1e}, symbolic {:.1e}",
-        w.structured_f64,
-        w.structured_dd,
-        w.symbolic_dd
-    );
+    agrees_with_the_oracle(&m, "drive", 66, 30);
 }
