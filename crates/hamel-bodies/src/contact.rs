@@ -14,7 +14,7 @@
 //! component, signed as it is at the reference configuration (the wheel above the ground), k/|k|
 //! is a signed axis, and neither a square root nor a division enters the equations.
 
-use hamel_expr::build::{mul, neg, sub};
+use hamel_expr::build::{div, mul, neg, sub};
 use hamel_expr::{Expr, Func};
 
 use crate::carry::carry;
@@ -41,6 +41,12 @@ pub(crate) struct Rolling {
     pub height: Expr,
     /// How |k| was taken, when it was simplified.
     pub note: Option<String>,
+    /// What the rows were multiplied by (1, or |k| when it is a square root): the force's
+    /// components along the world's horizontal axes are the rows' multipliers times it.
+    pub scale: Expr,
+    /// The rolling direction ±a × k/|k| in the world's axes (horizontal), oriented forwards
+    /// ([`forwards`]).
+    pub rolling: V3,
 }
 
 /// The rows and contact height of a wheel. `reference`: the reference configuration, where the
@@ -71,10 +77,16 @@ pub(crate) fn wheel(
     // v = v_centre + ω × (−r k/|k|). When |k| is a square root, the rows are those of |k|·v
     // = |k| v_centre + ω × (−r k) instead: the same constraints (|k| > 0 unless the wheel lies
     // flat), with no square root in a denominator.
-    let (v, note) = match unit {
+    let a = w.axis.vector();
+    let row_scale = match unit {
+        Some(_) => Expr::int(1),
+        None => norm.value.clone(),
+    };
+    let (v, note, rolling) = match unit {
         Some(unit) => {
             let offset = scale(&neg(w.radius.clone()), &unit);
-            (v_centre.plus(&c.omega().cross(&offset)), norm.note)
+            let rolling = cross(&a, &unit);
+            (v_centre.plus(&c.omega().cross(&offset)), norm.note, rolling)
         }
         None => {
             let offset = scale(&neg(w.radius.clone()), &k);
@@ -83,9 +95,12 @@ pub(crate) fn wheel(
                 "its no-slip rows are multiplied by |k| = {} (positive unless the wheel lies flat), so that no square root divides them",
                 norm.value
             );
-            (v, Some(note))
+            let rolling = cross(&a, &k).map(|e| div(e, norm.value.clone()));
+            (v, Some(note), rolling)
         }
     };
+    let rolling: V3 = std::array::from_fn(|j| dot(&k_c.world_axes[j], &rolling));
+    let rolling = forwards(rolling, reference).map_err(|e| BodiesError::new(at("axis"), e))?;
     let mut rows = Vec::new();
     for (j, axis) in k_c.world_axes.iter().enumerate() {
         if j != tree.up.index {
@@ -96,7 +111,31 @@ pub(crate) fn wheel(
         }
     }
     let height = sub(c.height(), mul(w.radius.clone(), norm.value));
-    Ok(Rolling { rows, height, note })
+    Ok(Rolling {
+        rows,
+        height,
+        note,
+        scale: row_scale,
+        rolling,
+    })
+}
+
+/// The rolling direction (world axes) oriented as vehicles are described: towards the world's
+/// +x at the reference configuration (+y where it is across x, +z after that), whichever way
+/// the wheel's axis points, so that a wheel's longitudinal force is positive forwards.
+fn forwards(rolling: V3, reference: &Point) -> Result<V3, Problem> {
+    let mut towards = 0.0;
+    for e in &rolling {
+        towards = reference.value(e)?;
+        if towards.abs() > 1e-9 {
+            break;
+        }
+    }
+    Ok(if towards < 0.0 {
+        rolling.map(neg)
+    } else {
+        rolling
+    })
 }
 
 /// k = up − (up·a)a; about a coordinate axis, exactly `up` without that component (the
@@ -159,8 +198,9 @@ fn length(k: &V3, reference: &Point) -> Result<(Length, Option<V3>), Problem> {
     ))
 }
 
-/// The row of a blade: the contact point's velocity across the blade, in the ground plane.
-pub(crate) fn blade(tree: &Tree, b: &Blade, reference: &Point) -> Result<Row, BodiesError> {
+/// The row of a blade: the contact point's velocity across the blade, in the ground plane, and
+/// the direction across it (up × direction, in the blade frame's axes).
+pub(crate) fn blade(tree: &Tree, b: &Blade, reference: &Point) -> Result<(Row, V3), BodiesError> {
     let k = tree.get(&b.frame);
     let v = k.velocity.plus(&k.omega.cross(&b.point));
     let across = cross(&k.up, &b.direction.vector());
@@ -171,8 +211,9 @@ pub(crate) fn blade(tree: &Tree, b: &Blade, reference: &Point) -> Result<Row, Bo
     if size <= 1e-24 {
         return Err(BodiesError::new(place, Problem::VerticalBlade));
     }
-    Ok(Row {
+    let row = Row {
         name: format!("{}_no_sideslip", b.name),
         coefficients: v.dot(&across),
-    })
+    };
+    Ok((row, across))
 }

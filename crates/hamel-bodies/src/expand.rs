@@ -19,6 +19,7 @@ use crate::error::{BodiesError, Place, Problem, Section};
 use crate::frames::{self, Tree};
 use crate::mechanism::{Body, Direction, Mechanism};
 use crate::numeric::{Completion, CompletionError, Point};
+use crate::reactions;
 use crate::vector::{Rate, dot};
 
 /// A holonomic constraint of the expansion.
@@ -52,6 +53,8 @@ pub struct Expansion {
     /// Symmetries the construction suggests ([`crate::vertical_rotation`]): candidates, to be
     /// checked exactly by whoever uses them.
     pub symmetries: Vec<crate::Symmetry>,
+    /// How the contacts' forces are read off the multipliers of their rows (issue 58).
+    pub contact_forces: reactions::ContactForces,
 }
 
 /// Expand `m` at the default parameter values `values`. `samples`: configurations where a
@@ -67,23 +70,17 @@ pub fn expand(
     check_world(m, &reference)?;
     check_rotations(m, &reference)?;
     let tree = frames::build(m)?;
-    let mut a = vec![vec![Expr::int(0); ell]; ell];
-    let mut potential = Expr::int(0);
-    for b in &m.bodies {
-        let (va, u) = body(&tree, m, b, &reference)?;
-        for (row, add_row) in a.iter_mut().zip(va) {
-            for (x, y) in row.iter_mut().zip(add_row) {
-                *x = add(std::mem::replace(x, Expr::int(0)), y);
-            }
-        }
-        potential = add(potential, u);
-    }
+    let (a, potential) = inertia_and_potential(&tree, m, &reference)?;
     let mut rolling = wheels(m, &tree, values, samples, &reference)?;
     for b in &m.blades {
         check_frame(&tree, Section::Blades, &b.name, &b.frame)?;
         check_direction(&b.direction, &reference)
             .map_err(|e| BodiesError::new(Place::new(Section::Blades, &b.name, "direction"), e))?;
-        rolling.rows.push(contact::blade(&tree, b, &reference)?);
+        let (row, across) = contact::blade(&tree, b, &reference)?;
+        rolling
+            .forces
+            .push(reactions::blade_contact(&b.name, &row, &across));
+        rolling.rows.push(row);
     }
     rolling
         .holonomic
@@ -99,21 +96,15 @@ pub fn expand(
         rows, completion, ..
     } = holonomic;
     rolling.rows.extend(rows);
-    let mut forces = crate::loads::generalised_forces(&tree, m)?;
-    for (f, d) in forces
-        .iter_mut()
-        .zip(crate::elements::damper_forces(&tree, m, &reference)?)
-    {
-        if !d.is_zero_literal() {
-            *f = add(std::mem::replace(f, Expr::int(0)), d);
-        }
-    }
-    if !m.springs.is_empty() {
-        potential = add(
-            potential,
-            crate::elements::spring_potential(&tree, m, &reference)?,
-        );
-    }
+    let forces = applied_forces(&tree, m, &reference)?;
+    let kept: Vec<&str> = (m.wheels.iter())
+        .filter(|w| w.dependent.is_none())
+        .map(|w| w.name.as_str())
+        .collect();
+    let contact_forces = reactions::ContactForces {
+        supports: reactions::supports(m, &kept, values, &released)?,
+        contacts: rolling.forces,
+    };
     Ok(Expansion {
         mass_matrix: a,
         potential,
@@ -123,15 +114,79 @@ pub fn expand(
         notes: rolling.notes,
         completion,
         symmetries: crate::vertical_rotation(m).into_iter().collect(),
+        contact_forces,
     })
 }
 
-/// What the contacts give: rows of α, holonomic constraints, notes.
+/// A (Σ_bodies) and U (the bodies' weights, then the springs).
+fn inertia_and_potential(
+    tree: &Tree,
+    m: &Mechanism,
+    reference: &Point,
+) -> Result<(Vec<Vec<Expr>>, Expr), BodiesError> {
+    let ell = m.coordinates.len();
+    let mut a = vec![vec![Expr::int(0); ell]; ell];
+    let mut potential = Expr::int(0);
+    for b in &m.bodies {
+        let (va, u) = body(tree, m, b, reference)?;
+        for (row, add_row) in a.iter_mut().zip(va) {
+            for (x, y) in row.iter_mut().zip(add_row) {
+                *x = add(std::mem::replace(x, Expr::int(0)), y);
+            }
+        }
+        potential = add(potential, u);
+    }
+    if !m.springs.is_empty() {
+        potential = add(
+            potential,
+            crate::elements::spring_potential(tree, m, reference)?,
+        );
+    }
+    Ok((a, potential))
+}
+
+/// F: the loads', then the dampers' generalised forces.
+fn applied_forces(tree: &Tree, m: &Mechanism, reference: &Point) -> Result<Vec<Expr>, BodiesError> {
+    let mut forces = crate::loads::generalised_forces(tree, m)?;
+    for (f, d) in forces
+        .iter_mut()
+        .zip(crate::elements::damper_forces(tree, m, reference)?)
+    {
+        if !d.is_zero_literal() {
+            *f = add(std::mem::replace(f, Expr::int(0)), d);
+        }
+    }
+    Ok(forces)
+}
+
+/// The expansion of a mechanism released at its supports ([`reactions::supports`]): A, U, F
+/// and every contact's rows, without the checks (the mechanism passed them unreleased).
+fn released(m: &Mechanism, reference: &Point) -> Result<reactions::Released, BodiesError> {
+    let tree = frames::build(m)?;
+    let (a, potential) = inertia_and_potential(&tree, m, reference)?;
+    let wheels = (m.wheels.iter())
+        .map(|w| contact::wheel(&tree, &m.frames, w, &m.coordinates, reference))
+        .collect::<Result<Vec<_>, _>>()?;
+    let blades = (m.blades.iter())
+        .map(|b| contact::blade(&tree, b, reference).map(|(row, _)| row))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(reactions::Released {
+        a,
+        potential,
+        forces: applied_forces(&tree, m, reference)?,
+        wheels,
+        blades,
+    })
+}
+
+/// What the contacts give: rows of α, holonomic constraints, notes, and how their forces are
+/// read off the rows' multipliers.
 #[derive(Default)]
 struct Contacts {
     rows: Vec<Row>,
     holonomic: Vec<HolonomicConstraint>,
     notes: Vec<String>,
+    forces: Vec<reactions::Contact>,
 }
 
 fn world_error(p: Problem) -> BodiesError {
@@ -283,6 +338,7 @@ fn wheels(
     reference: &Point,
 ) -> Result<Contacts, BodiesError> {
     let mut out = Contacts::default();
+    let mut supports = Supports::default();
     for w in &m.wheels {
         let place = |field| Place::new(Section::Wheels, &w.name, field);
         check_frame(tree, Section::Wheels, &w.name, &w.frame)?;
@@ -294,19 +350,51 @@ fn wheels(
             return Err(BodiesError::new(place("radius"), Problem::Radius(r)));
         }
         let rolling = contact::wheel(tree, &m.frames, w, &m.coordinates, reference)?;
+        let normal = match &w.dependent {
+            Some(q) => {
+                let name = format!("{}_contact", w.name);
+                out.holonomic.push(HolonomicConstraint {
+                    name: name.clone(),
+                    h: rolling.height.clone(),
+                    dependent: q.clone(),
+                });
+                reactions::Normal::Row(name)
+            }
+            None => {
+                on_the_ground(m, w, &rolling.height, values, samples)?;
+                supports.next(reactions::root_of(&m.frames, &w.frame))
+            }
+        };
+        out.forces
+            .push(reactions::wheel_contact(&w.name, &rolling, tree.up, normal));
         out.rows.extend(rolling.rows);
         out.notes
             .extend(rolling.note.map(|n| format!("wheel {}: {n}", w.name)));
-        match &w.dependent {
-            Some(q) => out.holonomic.push(HolonomicConstraint {
-                name: format!("{}_contact", w.name),
-                h: rolling.height,
-                dependent: q.clone(),
-            }),
-            None => on_the_ground(m, w, &rolling.height, values, samples)?,
-        }
     }
     Ok(out)
+}
+
+/// Numbers the supports as [`reactions::supports`] does: roots in the order of their first
+/// wheel kept on the ground by the frames, each root's such wheels in order.
+#[derive(Default)]
+struct Supports {
+    roots: Vec<(String, usize)>,
+}
+
+impl Supports {
+    /// The normal force of the next wheel kept by the frames, on `root`.
+    fn next(&mut self, root: String) -> reactions::Normal {
+        let support = match self.roots.iter().position(|(r, _)| *r == root) {
+            Some(s) => s,
+            None => {
+                self.roots.push((root, 0));
+                self.roots.len() - 1
+            }
+        };
+        let index = self.roots[support].1;
+        self.roots[support].1 += 1;
+        reactions::Normal::Support { support, index }
+    }
 }
 
 /// A wheel without a dependent coordinate must touch the ground at every sample (its frames

@@ -32,6 +32,7 @@ mod frames;
 mod loads;
 mod mechanism;
 mod numeric;
+mod reactions;
 mod symmetry;
 pub mod vector;
 
@@ -43,4 +44,5 @@ pub use mechanism::{
     Mechanism, Rotation, Spring, Stretch, WORLD, Wheel, World,
 };
 pub use numeric::{Completion, CompletionError, Point};
+pub use reactions::{Contact, ContactForces, ContactKind, Normal, Support, WheelForce};
 pub use symmetry::{Symmetry, vertical_rotation};

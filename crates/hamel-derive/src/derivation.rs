@@ -153,6 +153,14 @@ pub struct Derivation {
     /// partial derivatives ∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k, k = 1..ℓ.
     #[serde(skip)]
     pub ingredients: Ingredients,
+    /// How the wheels' and blades' forces are read off the multipliers (the model's; not
+    /// serialised): compiled beside the ingredients ([`Derivation::compile`]).
+    #[serde(skip)]
+    pub contact_forces: hamel_bodies::ContactForces,
+    /// Which of those forces the motion determines where α has dependent rows (decided
+    /// exactly, [`crate::uniqueness`]; not serialised).
+    #[serde(skip)]
+    pub force_uniqueness: crate::uniqueness::Uniqueness,
 }
 
 /// The equations in closed form: every derived object as one canonical expression.
@@ -649,6 +657,7 @@ impl Derivation {
                     })
                 }),
             },
+            contact_forces: self.contact_forces.map_exprs(&mut |e| f(e)),
             ..self.clone()
         })
     }

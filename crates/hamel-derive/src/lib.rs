@@ -25,6 +25,7 @@ mod render;
 pub use render::{Printer, canonical, entry_line, is_whole_equation};
 pub mod states;
 pub mod symbolic;
+pub mod uniqueness;
 
 pub use derivation::{
     Block, Checks, Closed, Dependent, Derivation, DerivationJson, Entry, Form, Holonomic,

@@ -132,6 +132,106 @@ impl Derivation {
         })
     }
 
+    /// [`Derivation::compile`] with the map of the constraint forces' components
+    /// ([`Compiled::constraint_forces`]): what `hamel eval` reports; the simulations, which do
+    /// not ask for them, compile without it.
+    pub fn compile_with_constraint_forces(&self) -> Result<Compiled, NumericError> {
+        let compiled = self.compile()?;
+        let inputs: Vec<String> = (self.coordinates.iter())
+            .chain(self.parameters.keys())
+            .cloned()
+            .collect();
+        compiled.with_contacts(self.contacts(&inputs)?)
+    }
+
+    /// The names of α's rows as λ numbers them: the kept rows, then the dependent ones.
+    pub fn row_names(&self) -> Vec<&str> {
+        (self.constraints.iter().map(String::as_str))
+            .chain(self.dependent_rows.iter().map(|r| r.name.as_str()))
+            .collect()
+    }
+
+    /// The map of the constraint forces' components ([`hamel_eval::Contacts`]): each value
+    /// of the model's contacts (`hamel_bodies::ContactForces`) that the motion determines
+    /// ([`crate::uniqueness`]), the determined sums of those that are not, every other row's
+    /// multiplier; their coefficients and the supports' equations on a tape of `inputs` and
+    /// the velocities.
+    pub fn contacts(&self, inputs: &[String]) -> Result<hamel_eval::Contacts, NumericError> {
+        use hamel_eval::{Report, SupportSlots};
+        let cf = &self.contact_forces;
+        let u = &self.force_uniqueness;
+        let mut map = Map {
+            names: self.row_names(),
+            exprs: Vec::new(),
+        };
+        let mut supports = Vec::new();
+        for s in &cf.supports {
+            let rows = (s.rows.iter())
+                .map(|(n, _)| map.number(n))
+                .collect::<Result<Vec<_>, _>>()?;
+            supports.push(SupportSlots {
+                at: map.exprs.len(),
+                rows,
+                wheels: s.wheels.len(),
+            });
+            map.exprs.extend(s.mass.iter().flatten().cloned());
+            map.exprs.extend(s.bias.iter().cloned());
+            map.exprs
+                .extend(s.rows.iter().flat_map(|(_, r)| r).cloned());
+            map.exprs.extend(s.heights.iter().flatten().cloned());
+        }
+        let (mut reports, mut undetermined) = (Vec::new(), Vec::new());
+        for c in &cf.contacts {
+            for (component, phi) in crate::uniqueness::functionals(c) {
+                let report = match u.determined(&c.name, component) {
+                    true => map.report(c, component, &phi, cf)?,
+                    false => None,
+                };
+                match report {
+                    Some(r) => reports.push(r),
+                    None => undetermined.push(format!("{}.{}", c.name, component.name())),
+                }
+            }
+        }
+        for r in &u.resultants {
+            let phi: Vec<(String, hamel_expr::Expr)> = (cf.contacts.iter())
+                .filter(|c| r.contacts.contains(&c.name))
+                .flat_map(crate::uniqueness::functionals)
+                .filter(|(k, _)| *k == r.component)
+                .flat_map(|(_, phi)| phi)
+                .collect();
+            let name = format!("{}.{}", r.contacts.join("+"), r.component.name());
+            reports.push(map.combination(name, &phi)?);
+        }
+        for (k, s) in cf.supports.iter().enumerate() {
+            if s.wheels.len() > 3 && !u.supports.contains(&k) {
+                let name = format!("{}.normal", s.wheels.join("+"));
+                reports.push(Report::TotalNormal { name, support: k });
+            }
+        }
+        let used: Vec<&str> = cf.contacts.iter().flat_map(|c| c.rows()).collect();
+        for name in map.names.clone() {
+            if used.contains(&name) {
+                continue;
+            }
+            if u.rows.iter().any(|r| r == name) {
+                undetermined.push(name.to_string());
+            } else {
+                let one = vec![(name.to_string(), hamel_expr::Expr::int(1))];
+                reports.push(map.combination(name.to_string(), &one)?);
+            }
+        }
+        let mut with_velocities = inputs.to_vec();
+        with_velocities.extend(self.coordinates.iter().map(|q| format!("der({q})")));
+        let refs: Vec<&hamel_expr::Expr> = map.exprs.iter().collect();
+        Ok(hamel_eval::Contacts {
+            tape: Tape::compile(&refs, &with_velocities)?,
+            reports,
+            supports,
+            undetermined,
+        })
+    }
+
     /// The model's forces F(q, q̇) as written, on a tape of `inputs` (the ingredients') and then
     /// the velocities `der(q_1)..der(q_ℓ)` (None without forces): what the interpreter and the
     /// generated cores evaluate F from.
@@ -224,5 +324,60 @@ impl Derivation {
             }
         }
         Ok(p)
+    }
+}
+
+/// The constraint forces' map being built: α's rows as λ numbers them, and the tape's
+/// expressions so far.
+struct Map<'d> {
+    names: Vec<&'d str>,
+    exprs: Vec<hamel_expr::Expr>,
+}
+
+impl Map<'_> {
+    fn number(&self, name: &str) -> Result<usize, NumericError> {
+        (self.names.iter().position(|r| *r == name)).ok_or(NumericError::Sizes)
+    }
+
+    /// Σ λ_row c over `phi`'s (row, c), named `name`.
+    fn combination(
+        &mut self,
+        name: String,
+        phi: &[(String, hamel_expr::Expr)],
+    ) -> Result<hamel_eval::Report, NumericError> {
+        let mut terms = Vec::new();
+        for (row, c) in phi {
+            terms.push((self.number(row)?, self.exprs.len()));
+            self.exprs.push(c.clone());
+        }
+        Ok(hamel_eval::Report::Combination { name, terms })
+    }
+
+    /// How `component` of contact `c` (its functional `phi`) is reported: a wheel's normal
+    /// force from its row or its support (none from a support of more than three wheels,
+    /// which reports their sum), any other as its combination of multipliers.
+    fn report(
+        &mut self,
+        c: &hamel_bodies::Contact,
+        component: crate::uniqueness::Component,
+        phi: &[(String, hamel_expr::Expr)],
+        cf: &hamel_bodies::ContactForces,
+    ) -> Result<Option<hamel_eval::Report>, NumericError> {
+        use hamel_bodies::{ContactKind, Normal};
+        use hamel_eval::{NormalSlot, Report};
+        let name = format!("{}.{}", c.name, component.name());
+        let slot = match (&c.kind, component) {
+            (ContactKind::Wheel(w), crate::uniqueness::Component::Normal) => match &w.normal {
+                Normal::Row(r) => NormalSlot::Row(self.number(r)?),
+                &Normal::Support { support, index } => {
+                    if cf.supports[support].wheels.len() > 3 {
+                        return Ok(None);
+                    }
+                    NormalSlot::Support { support, index }
+                }
+            },
+            _ => return self.combination(name, phi).map(Some),
+        };
+        Ok(Some(Report::Normal { name, slot }))
     }
 }

@@ -30,6 +30,15 @@ struct Out {
     /// wheel's `NAME_no_slip_x` row, the contact force's x component (`hamel_eval::ConstraintForce`).
     #[serde(skip_serializing_if = "IndexMap::is_empty")]
     constraint_multipliers: IndexMap<String, f64>,
+    /// The constraints' forces in physical components: each wheel's `NAME.longitudinal`,
+    /// `NAME.lateral`, `NAME.normal`, each blade's `NAME.lateral`, every other row's multiplier
+    /// (`hamel_eval::Contacts`).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    constraint_forces: IndexMap<String, f64>,
+    /// The components the motion does not determine (dependent rows: the split of a shared
+    /// force; more wheels on one frame than three), not reported above.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    undetermined_forces: Vec<String>,
 }
 
 /// Evaluate every state of `text` (the JSON of the file named `file`) with the quasi-velocities
@@ -94,7 +103,7 @@ fn derive_with(
         )));
     }
     let d = crate::derive(&m, Some(choice))?;
-    let c = d.compile().map_err(|e| tag(e.to_string()))?;
+    let c = (d.compile_with_constraint_forces()).map_err(|e| tag(e.to_string()))?;
     Ok((d, c))
 }
 
@@ -109,7 +118,7 @@ fn evaluate_state(
     let params = d
         .parameters_with(&s.params)
         .map_err(|e| tag(e.to_string()))?;
-    let ev = compiled.evaluate(q, &s.eta, &params).map_err(|e| {
+    let at = |e: crate::NumericError| {
         let at: Vec<String> = d
             .coordinates
             .iter()
@@ -117,7 +126,9 @@ fn evaluate_state(
             .map(|(c, v)| format!("{c} = {v}"))
             .collect();
         tag(format!("{e} (at {})", at.join(", ")))
-    })?;
+    };
+    let ev = compiled.evaluate(q, &s.eta, &params).map_err(&at)?;
+    let pushed = (compiled.constraint_forces_checked(q, &s.eta, &params)).map_err(&at)?;
     Ok(Out {
         eta_dot: ev.eta_dot,
         q_dot: d.coordinates.iter().cloned().zip(ev.q_dot).collect(),
@@ -125,10 +136,12 @@ fn evaluate_state(
         eta_dot_paper: ev.eta_dot_paper,
         precision: ev.precision,
         f64_error_estimate: ev.f64_error_estimate,
-        constraint_multipliers: (d.constraints.iter())
-            .chain(d.dependent_rows.iter().map(|r| &r.name))
-            .cloned()
-            .zip(ev.multipliers)
+        constraint_multipliers: (d.row_names().into_iter().map(str::to_string))
+            .zip(pushed.multipliers)
             .collect(),
+        constraint_forces: (pushed.forces.into_iter())
+            .map(|f| (f.name, f.value))
+            .collect(),
+        undetermined_forces: compiled.undetermined_constraint_forces().to_vec(),
     })
 }

@@ -353,6 +353,7 @@ impl Symbolic {
             model,
             choice,
             Computed {
+                field: &self.field,
                 dependence: &self.dependence,
                 rank_loss: &self.rank_loss,
                 a: mat(&self.a),
@@ -625,6 +626,7 @@ impl StructuredSymbolic {
             model,
             choice,
             Computed {
+                field: &self.field,
                 dependence: &self.dependence,
                 rank_loss: &[],
                 grad_u: (0..ell)
@@ -766,6 +768,7 @@ fn written_forces(model: &Model) -> Option<Vec<Entry>> {
 
 /// What a derivation adds to the model's and the choice's own data.
 struct Computed<'d> {
+    field: &'d Field,
     dependence: &'d [Dependence],
     rank_loss: &'d [(Ex, u32)],
     a: Mat,
@@ -780,6 +783,8 @@ struct Computed<'d> {
 /// The plain-data derivation of `model` for `choice` with `parts`.
 fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> Derivation {
     let kept: Vec<String> = model.constraints.iter().map(|(n, _)| n.clone()).collect();
+    let force_uniqueness =
+        crate::uniqueness::decide(parts.field, &model.contact_forces, &kept, parts.dependence);
     Derivation {
         model: model.name.clone(),
         title: model.title.clone(),
@@ -832,6 +837,8 @@ fn derivation(model: &Model, choice: &QuasiVelocityChoice, parts: Computed) -> D
             .collect(),
         form: parts.form,
         ingredients: parts.ingredients,
+        force_uniqueness,
+        contact_forces: model.contact_forces.clone(),
     }
 }
 

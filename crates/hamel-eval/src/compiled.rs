@@ -41,6 +41,12 @@ pub enum NumericError {
     /// A result is not finite.
     #[error("the equations give a non-finite value at this state")]
     NonFinite,
+    /// The wheels a support holds have contacts on one line here (or the support's wheels
+    /// outnumber its three equations): their normal forces are not determined one by one.
+    #[error(
+        "the normal forces of the wheels on one frame are not determined here (their contacts are on one line)"
+    )]
+    SupportRank,
     /// The state has the wrong number of components.
     #[error("a state needs {ell} coordinates and {sigma} quasi-velocities, got {q} and {eta}")]
     StateSize {
@@ -106,10 +112,6 @@ pub struct Evaluation {
     /// The power of the forces, q̇ᵀF(q, q̇) = dE/dt (None without forces).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub power: Option<f64>,
-    /// The constraints' multipliers λ, one per row of α (the kept rows, then the dependent
-    /// ones): R = αᵀλ is the generalised force that holds the system on its constraints
-    /// ([`ConstraintForce`]).
-    pub multipliers: Vec<f64>,
 }
 
 /// What the constraints push with, at a state: the generalised force R (ℓ entries; A q̈ +
@@ -123,6 +125,10 @@ pub struct ConstraintForce<S = f64> {
     pub generalised: Vec<S>,
     /// λ, by row of α.
     pub multipliers: Vec<S>,
+    /// q̇ = Γη at the state.
+    pub q_dot: Vec<S>,
+    /// q̈ = Γη̇ + Γ̇η at the state.
+    pub q_ddot: Vec<S>,
 }
 
 /// A structured evaluation: the right-hand side, the f64 error estimate, and (when asked)
@@ -138,13 +144,11 @@ impl Evaluation {
     /// (condition number of [Z; α], δ, the f64 error estimate).
     fn of<S: Scalar>(
         r: &Rhs<S>,
-        constraint: Option<&ConstraintForce<S>>,
         precision: Precision,
         (condition, delta, bound): (f64, f64, f64),
     ) -> Evaluation {
         let values = |v: &[S]| v.iter().map(Scalar::value).collect::<Vec<_>>();
         Evaluation {
-            multipliers: constraint.map_or_else(Vec::new, |c| values(&c.multipliers)),
             eta_dot: values(&r.eta_dot),
             q_dot: values(&r.q_dot),
             energy: r.energy.value(),
@@ -246,13 +250,14 @@ pub struct RankLoss {
 /// A derivation's ingredients compiled for structured numeric evaluation.
 #[derive(Clone, Debug)]
 pub struct Compiled {
-    tape: Tape,
-    dims: Dims,
+    pub(crate) tape: Tape,
+    pub(crate) dims: Dims,
     coordinates: Vec<String>,
     parameters: IndexMap<String, f64>,
     singular: String,
     rank_loss: Option<RankLoss>,
     forces: Option<Forces>,
+    pub(crate) contacts: Option<crate::contact::Contacts>,
 }
 
 impl Compiled {
@@ -281,6 +286,7 @@ impl Compiled {
             singular,
             rank_loss: None,
             forces: None,
+            contacts: None,
         })
     }
 
@@ -321,7 +327,7 @@ impl Compiled {
 
     /// The ingredients' inputs: q, then the parameters' values (defaults where `params` has
     /// none).
-    fn inputs<S: Scalar>(&self, q: &[S], params: &IndexMap<String, f64>) -> Vec<S> {
+    pub(crate) fn inputs<S: Scalar>(&self, q: &[S], params: &IndexMap<String, f64>) -> Vec<S> {
         let mut inputs: Vec<S> = q.to_vec();
         inputs.extend(
             self.parameters
@@ -650,7 +656,9 @@ impl Compiled {
     }
 
     /// The constraints' generalised force R and multipliers λ at (q, η), unchecked
-    /// ([`hamel_runtime::Structured::constraint_force`]), in any scalar type.
+    /// ([`hamel_runtime::Structured::constraint_force`]), in any scalar type: after
+    /// [`Compiled::evaluate`], in the precision it chose (what `hamel eval` prints; simulations
+    /// do not pay for it).
     pub fn constraint_force<S: Scalar>(
         &self,
         q: &[S],
@@ -721,10 +729,14 @@ impl Compiled {
             let d = self.dims;
             let zero = S::constant(0.0);
             let (mut generalised, mut y) = (vec![zero; d.ell], vec![zero; d.m_rows()]);
-            r.constraint_force(out, &mut generalised, &mut y, &mut vec![zero; d.ell]);
+            let mut q_ddot = vec![zero; d.ell];
+            let tmp = &mut vec![zero; d.ell];
+            r.constraint_force(out, &mut generalised, &mut y, &mut q_ddot, tmp);
             ConstraintForce {
                 generalised,
                 multipliers: y.split_off(d.sigma),
+                q_dot: rhs.q_dot.clone(),
+                q_ddot,
             }
         });
         // after the constraint force: the estimate reuses the evaluation's scratch storage
@@ -763,8 +775,8 @@ impl Compiled {
         let Assembled {
             rhs: r,
             estimate: bound,
-            constraint,
-        } = self.structured(q, eta, params, true)?;
+            ..
+        } = self.structured(q, eta, params, false)?;
         let sigma = self.dims.sigma;
         let ag = DMatrix::from_fn(sigma, sigma, |i, j| r.a_gamma[i][j]);
         if ag.cholesky().is_none() {
@@ -773,10 +785,10 @@ impl Compiled {
         let at = (condition, delta, bound);
         let out = if bound > hamel_runtime::DOUBLE_DOUBLE_ABOVE {
             let to_dd = |v: &[f64]| v.iter().map(|&x| DD::from_f64(x)).collect::<Vec<_>>();
-            let a = self.structured::<DD>(&to_dd(q), &to_dd(eta), params, true)?;
-            Evaluation::of(&a.rhs, a.constraint.as_ref(), Precision::DoubleDouble, at)
+            let r = self.rhs::<DD>(&to_dd(q), &to_dd(eta), params)?;
+            Evaluation::of(&r, Precision::DoubleDouble, at)
         } else {
-            Evaluation::of(&r, constraint.as_ref(), Precision::F64, at)
+            Evaluation::of(&r, Precision::F64, at)
         };
         let mut out = out;
         if let Some(f) = self.forces_at(q, &out.q_dot, params)? {

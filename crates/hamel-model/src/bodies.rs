@@ -108,6 +108,7 @@ pub(crate) fn dynamics(
             .collect(),
         notes: e.notes,
         symmetries: crate::symmetry::from_bodies(&e.symmetries, span("frames")),
+        contact_forces: e.contact_forces,
     })
 }
 

@@ -101,13 +101,16 @@ impl Model {
         for law in &control.laws {
             let expr = self.law_expr(law, control, &driven, choice)?;
             timed |= expr.any(&mut |e| matches!(e, Expr::Sym(s) if s == TIME));
-            for f in &mut m.forces {
-                let put = f.expr.map(&mut |e| match e {
+            let mut put = |f: &Expr| {
+                f.map(&mut |e| match e {
                     Expr::Sym(s) if s == law.input => expr.clone(),
                     other => other,
-                });
-                *f = f.replaced(put);
+                })
+            };
+            for f in &mut m.forces {
+                *f = f.replaced(put(&f.expr));
             }
+            m.contact_forces = m.contact_forces.map_exprs(&mut put);
             m.notes.push(format!(
                 "the input {} follows the scene's law `{}`",
                 law.input, law.text

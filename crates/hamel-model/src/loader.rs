@@ -100,6 +100,8 @@ pub(crate) struct Dynamics {
     pub forces: Vec<Item>,
     pub notes: Vec<String>,
     pub symmetries: Vec<crate::Symmetry>,
+    /// How the contacts' forces are read off the rows' multipliers (bodies only).
+    pub contact_forces: hamel_bodies::ContactForces,
 }
 
 /// The kinetic energy as given in the file.

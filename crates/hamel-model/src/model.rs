@@ -117,6 +117,9 @@ pub struct Model {
     /// The scene's control this model closes the loop with, as text ([`crate::Control::text`];
     /// part of the key of cached code); empty for a model read from a file.
     pub control: String,
+    /// How the forces of the wheels and blades are read off the multipliers of their rows of α
+    /// (issue 58; empty for a model typed by hand, whose rows' multipliers are its forces).
+    pub contact_forces: hamel_bodies::ContactForces,
 }
 
 impl Model {
@@ -219,6 +222,7 @@ impl Model {
             choices: Vec::new(),
             live: Vec::new(),
             control: String::new(),
+            contact_forces: dynamics.contact_forces,
         };
         model.split_dependent_rows()?;
         check_count(&raw, &model, &err)?;
@@ -523,6 +527,7 @@ fn lagrangian_dynamics(
         forces: Vec::new(),
         notes: Vec::new(),
         symmetries: Vec::new(),
+        contact_forces: hamel_bodies::ContactForces::default(),
     })
 }
 

@@ -108,6 +108,11 @@ pub struct Linearisation {
     /// M q̈ + C q̇ + K q = B u, when the state allows it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub second_order: Option<SecondOrder>,
+    /// The loads at the steady motion: the constraints' forces by component (each wheel's
+    /// longitudinal, lateral and normal force, …; `hamel_eval::Contacts`), for the point a
+    /// linearisation is printed at (not for a sweep's points).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    pub loads: IndexMap<String, f64>,
     /// The coefficient of λ^s in det(λI − A), s the persistent zeros: it changes sign where
     /// a real eigenvalue passes through zero.
     #[serde(skip)]
@@ -216,7 +221,18 @@ impl Study {
     ) -> Result<Linearisation, StudyError> {
         let (params, s) = self.values(&point.0)?;
         let at_q = self.at_q(params, &s)?;
-        self.linearise_at(point, persistent, inputs, &at_q, &s)
+        let mut l = self.linearise_at(point, persistent, inputs, &at_q, &s)?;
+        if inputs && !self.compiled.constraint_force_names().is_empty() {
+            let q: Vec<f64> = l.q.values().copied().collect();
+            let pushes = (self
+                .compiled
+                .constraint_forces_checked(&q, &l.eta, &at_q.params))
+            .map_err(|e| StudyError::Numeric(e.to_string()))?;
+            l.loads = (pushes.forces.into_iter())
+                .map(|f| (f.name, f.value))
+                .collect();
+        }
+        Ok(l)
     }
 
     /// What every linearisation at the steady configuration of `s` needs, whatever the steady
@@ -330,6 +346,7 @@ impl Study {
             stability: Stability::Marginal,
             eigenvalues: Vec::new(),
             second_order,
+            loads: IndexMap::new(),
             zero_function: 0.0,
             zeros_here: eigen::zero_multiplicity(&a, &lambda),
             all_eigenvalues: lambda,

@@ -42,7 +42,7 @@ impl Study {
         let steady = model.steady(steady)?.clone();
         let (d, reduction) = hamel_reduce::derive_and_drop(model, eta)?;
         let compiled = d
-            .compile()
+            .compile_with_constraint_forces()
             .map_err(|e| model.error(format!("the equations cannot be compiled: {e}")))?;
         let index = |n: &String| model.coordinates.iter().position(|c| c == n);
         let (dropped, dropped_because) = match &reduction {

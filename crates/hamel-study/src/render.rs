@@ -124,6 +124,9 @@ impl Study {
                 dependent.join(", ")
             );
         }
+        if !l.loads.is_empty() {
+            let _ = writeln!(out, "  loads (constraint forces): {}", values(&l.loads));
+        }
         let _ = writeln!(
             out,
             "State: {}\nReduced state (the steady family's directions taken out): {}",

@@ -5,7 +5,9 @@
 //! partial pivoting over any scalar ([`lu`]), [`Lanes`] (four f64 evaluated together, for
 //! monitors over many states: [`over_rows`]), and the structured Boltzmann–Hamel right-hand
 //! side (6), (9), (11) assembled from the ingredients Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q
-//! ([`Structured`]), with its f64 error estimate.
+//! ([`Structured`]), with its f64 error estimate; after an evaluation, the constraints'
+//! multipliers and q̈ ([`Structured::constraint_force`]) and the normal forces of the wheels a
+//! frame carries ([`support_normals`], issue 58).
 //!
 //! **Inputs**: the ingredients at a configuration (from generated straight-line code, or from
 //! an interpreted tape) and η. **Outputs**: η̇ (true and the paper's), q̇ = Γη, A_Γ, F, the
@@ -27,6 +29,7 @@ mod lanes;
 pub mod lu;
 mod scalar;
 mod structured;
+mod support;
 
 pub use cold::Cold;
 pub use dd::DD;
@@ -39,3 +42,4 @@ pub use scalar::{RationalParts, Scalar, widen};
 pub use structured::{
     DOUBLE_DOUBLE_ABOVE, Dims, Failure, KEPT_ROWS_PIVOT, Layout, Structured, select as select_rows,
 };
+pub use support::{SupportLayout, support_equations, support_normals};

@@ -437,19 +437,32 @@ impl<'a, S: Scalar> Structured<'a, S> {
     /// written as the velocity of a point along a direction, the force there along it. With
     /// dependent rows λ is one choice among many (only R is unique). `tmp`: ℓ entries. Call it
     /// right after the evaluation ([`Structured::f64_error_estimate`] reuses its storage).
-    pub fn constraint_force(&mut self, out: &[S], r: &mut [S], y: &mut [S], tmp: &mut [S]) {
+    /// The accelerations q̈ = Γη̇ + Γ̇η go into `q_ddot` (ℓ entries).
+    pub fn constraint_force(
+        &mut self,
+        out: &[S],
+        r: &mut [S],
+        y: &mut [S],
+        q_ddot: &mut [S],
+        tmp: &mut [S],
+    ) {
         let (d, lay) = (self.d, self.layout);
         let (l, g) = (d.ell, d.sigma);
         let p = Parts::carve(d, self.s);
+        // Γη̇ into y (overwritten by the solve below); p.gdot holds M⁻¹Ṁq̇ = −Γ̇η
+        for j in 0..l {
+            let mut x = S::constant(0.0);
+            for s in 0..g {
+                x = x + p.gamma[j * g + s] * p.eta_dot[s];
+            }
+            y[j] = x;
+            q_ddot[j] = x - p.gdot[j];
+        }
         for i in 0..l {
             // p.force holds ∇U + F + ∇_qT − Ȧq̇ − AΓ̇η ([`forcing`])
             let mut x = -p.force[i];
             for j in 0..l {
-                let mut qdd = S::constant(0.0);
-                for s in 0..g {
-                    qdd = qdd + p.gamma[j * g + s] * p.eta_dot[s];
-                }
-                x = x + out[lay.a + i * l + j] * qdd;
+                x = x + out[lay.a + i * l + j] * y[j];
             }
             r[i] = x;
         }
