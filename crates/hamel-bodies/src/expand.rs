@@ -11,7 +11,7 @@
 //!   constraint.
 
 use hamel_expr::Expr;
-use hamel_expr::build::{add, mul, neg, product};
+use hamel_expr::build::{add, mul, neg, product, sum};
 use indexmap::IndexMap;
 
 use crate::contact::{self, Row};
@@ -163,7 +163,20 @@ fn applied_forces(tree: &Tree, m: &Mechanism, reference: &Point) -> Result<Vec<E
 /// and every contact's rows, without the checks (the mechanism passed them unreleased).
 fn released(m: &Mechanism, reference: &Point) -> Result<reactions::Released, BodiesError> {
     let tree = frames::build(m)?;
-    let (a, potential) = inertia_and_potential(&tree, m, reference)?;
+    let bodies = (m.bodies.iter())
+        .map(|b| motion(&tree, m, b, reference))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut potential = sum(bodies.iter().map(|b| {
+        neg(product([
+            b.mass.clone(),
+            m.world.gravity.clone(),
+            b.height.clone(),
+        ]))
+    }));
+    if !m.springs.is_empty() {
+        let springs = crate::elements::spring_potential(&tree, m, reference)?;
+        potential = add(potential, springs);
+    }
     let wheels = (m.wheels.iter())
         .map(|w| contact::wheel(&tree, &m.frames, w, &m.coordinates, reference))
         .collect::<Result<Vec<_>, _>>()?;
@@ -171,7 +184,7 @@ fn released(m: &Mechanism, reference: &Point) -> Result<reactions::Released, Bod
         .map(|b| contact::blade(&tree, b, reference).map(|(row, _)| row))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(reactions::Released {
-        a,
+        bodies,
         potential,
         forces: applied_forces(&tree, m, reference)?,
         wheels,
@@ -227,13 +240,47 @@ fn check_frame(tree: &Tree, section: Section, name: &str, frame: &str) -> Result
     }
 }
 
-/// A body's share of A and of U.
-fn body(
+/// A body's motion: its mass, the velocity of its centre of mass and its angular velocity per
+/// unit q̇_k (in the axes it is carried to), its inertia there, and its height.
+pub(crate) struct Motion {
+    pub mass: Expr,
+    pub v: Rate,
+    pub omega: Rate,
+    pub inertia: Option<crate::vector::M3>,
+    pub height: Expr,
+}
+
+impl Motion {
+    /// I·W_k, per coordinate (none for a point mass).
+    fn inertia_times(&self, w: &[crate::vector::V3]) -> Option<Vec<crate::vector::V3>> {
+        (self.inertia.as_ref()).map(|i| w.iter().map(|c| crate::vector::apply(i, c)).collect())
+    }
+
+    /// Its share of A: m V_iᵀV_j + W_iᵀ I W_j.
+    fn mass_matrix(&self) -> Vec<Vec<Expr>> {
+        let (v, w) = (&self.v.columns, &self.omega.columns);
+        let iw = self.inertia_times(w);
+        let entry = |i: usize, j: usize| {
+            let translation = mul(self.mass.clone(), dot(&v[i], &v[j]));
+            match &iw {
+                Some(iw) => add(translation, dot(&w[i], &iw[j])),
+                None => translation,
+            }
+        };
+        let n = v.len();
+        (0..n)
+            .map(|i| (0..n).map(|j| entry(i, j)).collect())
+            .collect()
+    }
+}
+
+/// A body's motion ([`Motion`]), checked.
+pub(crate) fn motion(
     tree: &Tree,
     m: &Mechanism,
     b: &Body,
     at: &Point,
-) -> Result<(Vec<Vec<Expr>>, Expr), BodiesError> {
+) -> Result<Motion, BodiesError> {
     check_frame(tree, Section::Bodies, &b.name, &b.frame)?;
     check_body(b, at)?;
     let symmetric = |i: usize| {
@@ -254,31 +301,29 @@ fn body(
     let v: Rate = carried
         .velocity(&m.coordinates)
         .map_err(|e| BodiesError::new(place, e))?;
-    let omega = carried.omega();
-    let w = &omega.columns;
-    let iw: Option<Vec<_>> = b.inertia.as_ref().map(|i| {
-        let inertia = i.matrix();
-        w.iter()
-            .map(|col| crate::vector::apply(&inertia, col))
-            .collect()
-    });
-    let ell = m.coordinates.len();
-    let entry = |i: usize, j: usize| {
-        let translation = mul(b.mass.clone(), dot(&v.columns[i], &v.columns[j]));
-        match &iw {
-            Some(iw) => add(translation, dot(&w[i], &iw[j])),
-            None => translation,
-        }
-    };
-    let a = (0..ell)
-        .map(|i| (0..ell).map(|j| entry(i, j)).collect())
-        .collect();
+    Ok(Motion {
+        mass: b.mass.clone(),
+        omega: carried.omega(),
+        v,
+        inertia: b.inertia.as_ref().map(|i| i.matrix()),
+        height: carried.height(),
+    })
+}
+
+/// A body's share of A and of U.
+fn body(
+    tree: &Tree,
+    m: &Mechanism,
+    b: &Body,
+    at: &Point,
+) -> Result<(Vec<Vec<Expr>>, Expr), BodiesError> {
+    let motion = motion(tree, m, b, at)?;
     let u = neg(product([
         b.mass.clone(),
         m.world.gravity.clone(),
-        carried.height(),
+        motion.height.clone(),
     ]));
-    Ok((a, u))
+    Ok((motion.mass_matrix(), u))
 }
 
 /// Mass positive and inertia positive definite at the defaults.

@@ -24,7 +24,7 @@
 //!
 //! Everything here is exact trees; numbers are the evaluator's (`hamel-eval`).
 
-use hamel_expr::build::{add, mul, sub, sum};
+use hamel_expr::build::{add, mul, neg, sub, sum};
 use hamel_expr::{Expr, Func};
 use indexmap::IndexMap;
 
@@ -271,10 +271,10 @@ fn at_rest(e: &Expr, p: &[String]) -> Expr {
     })
 }
 
-/// What the released mechanism gives: its A, U, F, and each wheel's expansion and each blade's
-/// row (in order).
+/// What the released mechanism gives: its bodies' motions, U, F, and each wheel's expansion
+/// and each blade's row (in order).
 pub(crate) struct Released {
-    pub a: Vec<Vec<Expr>>,
+    pub bodies: Vec<crate::expand::Motion>,
     pub potential: Expr,
     pub forces: Vec<Expr>,
     pub wheels: Vec<Rolling>,
@@ -351,10 +351,10 @@ impl Releasing<'_> {
             .collect();
         let place = m.wheels[wheels[0]].name.as_str();
         let mass: Vec<Vec<Expr>> = (p.iter())
-            .map(|&pi| (0..ell).map(|j| self.rest(&r.a[pi][j])).collect())
+            .map(|&pi| (0..ell).map(|j| self.rest(&self.inertia(pi, j))).collect())
             .collect();
-        let bias = (p.iter().zip(&mass))
-            .map(|(&pi, row)| self.bias(pi, row, place))
+        let bias = (p.iter())
+            .map(|&pi| self.bias(pi, place))
             .collect::<Result<Vec<_>, _>>()?;
         let heights = (p.iter())
             .map(|&pi| {
@@ -373,31 +373,70 @@ impl Releasing<'_> {
         })
     }
 
+    /// A_pj = Σ_bodies m V_pᵀV_j + W_pᵀ I W_j of the released mechanism.
+    fn inertia(&self, p: usize, j: usize) -> Expr {
+        sum(self.released.bodies.iter().map(|b| {
+            let (v, w) = (&b.v.columns, &b.omega.columns);
+            let translation = mul(b.mass.clone(), dot(&v[p], &v[j]));
+            match &b.inertia {
+                Some(i) => add(translation, dot(&w[p], &crate::vector::apply(i, &w[j]))),
+                None => translation,
+            }
+        }))
+    }
+
     /// ∂e/∂p at rest, p the released coordinate number `p`.
     fn rate(&self, e: &Expr, p: usize, place: &str) -> Result<Expr, BodiesError> {
         Ok(self.rest(&self.diff(e, &self.coordinates[p], place)?))
     }
 
-    /// Σ_jk (∂A_pj/∂q_k − ½ ∂A_jk/∂p) der(q_j) der(q_k) − ∂U/∂p − F_p at rest; `mass_row`:
-    /// A_pq at rest.
-    fn bias(&self, p: usize, mass_row: &[Expr], place: &str) -> Result<Expr, BodiesError> {
+    /// Σ_jk (∂A_pj/∂q_k − ½ ∂A_jk/∂p) der(q_j) der(q_k) − ∂U/∂p − F_p at rest, as
+    /// Σ_k ∂(∂T/∂ṗ)/∂q_k der(q_k) − ∂T/∂p with T and the momentum ∂T/∂ṗ = A_p·q̇ written as
+    /// single trees in q and der(q) (ṗ = 0): a few derivatives of them, not ℓ² of A's entries.
+    fn bias(&self, p: usize, place: &str) -> Result<Expr, BodiesError> {
         let (q, r) = (&self.m.coordinates, &self.released);
-        let half = Expr::Num(hamel_expr::Rational::new(1.into(), 2.into()));
+        // q̇ as symbols while differentiating (derivatives are of configuration expressions),
+        // der(q) again after
+        let rate_of = |qk: &str| format!("__rate_{qk}");
+        let rates = |rate: &crate::vector::Rate| -> V3 {
+            std::array::from_fn(|i| {
+                sum((rate.columns.iter().zip(q))
+                    .filter(|(c, _)| !c[i].is_zero_literal())
+                    .map(|(c, qk)| mul(c[i].clone(), Expr::sym(&rate_of(qk)))))
+            })
+        };
+        let (mut momentum, mut twice_t) = (Vec::new(), Vec::new());
+        for b in &r.bodies {
+            let (v, w) = (rates(&b.v), rates(&b.omega));
+            let iw = match &b.inertia {
+                Some(i) => crate::vector::apply(i, &w),
+                None => crate::vector::zero(),
+            };
+            momentum.push(mul(b.mass.clone(), dot(&b.v.columns[p], &v)));
+            momentum.push(dot(&b.omega.columns[p], &iw));
+            twice_t.push(mul(b.mass.clone(), dot(&v, &v)));
+            twice_t.push(dot(&w, &iw));
+        }
+        // at rest before differentiating by q (the two commute), once
+        let (momentum, twice_t) = (self.rest(&sum(momentum)), sum(twice_t));
         let mut terms = Vec::new();
-        for (j, qj) in q.iter().enumerate() {
-            for (k, qk) in q.iter().enumerate() {
-                let coriolis = sub(
-                    self.diff(&mass_row[j], qk, place)?,
-                    mul(half.clone(), self.rate(&r.a[j][k], p, place)?),
-                );
-                if !coriolis.is_zero_literal() {
-                    let rates = mul(Expr::Der(qj.clone()), Expr::Der(qk.clone()));
-                    terms.push(mul(coriolis, rates));
-                }
+        for qk in q {
+            let d = self.diff(&momentum, qk, place)?;
+            if !d.is_zero_literal() {
+                terms.push(mul(d, Expr::sym(&rate_of(qk))));
             }
         }
+        let half = Expr::Num(hamel_expr::Rational::new(1.into(), 2.into()));
+        terms.push(neg(mul(half, self.rate(&twice_t, p, place)?)));
+        let inertial = sum(terms).map(&mut |e| match e {
+            Expr::Sym(s) => match s.strip_prefix("__rate_") {
+                Some(qk) => Expr::Der(qk.to_string()),
+                None => Expr::Sym(s),
+            },
+            other => other,
+        });
         let applied = add(self.rate(&r.potential, p, place)?, self.rest(&r.forces[p]));
-        Ok(sub(sum(terms), applied))
+        Ok(sub(inertial, applied))
     }
 
     /// α_ip at rest for the released coordinates `p`, for every row with a nonzero entry: the
