@@ -35,7 +35,7 @@ fn allowed_eta(nm: &NumericModel, choice: &str, q: &[f64], v: &[f64]) -> Vec<f64
 /// The largest relative differences (λ, R in double-double; λ in f64) over `states` states.
 fn worst(name: &str, choice: &str, seed: u64, states: usize) -> (f64, f64, f64) {
     let m = bundled(name);
-    let d = derive(&m, Some(choice)).unwrap();
+    let d = derive(&m.with_supports().unwrap(), Some(choice)).unwrap();
     let c = d.compile_with_constraint_forces().unwrap();
     let nm = NumericModel::new(&m, &IndexMap::new()).unwrap();
     let params = d.parameters.clone();
@@ -120,7 +120,7 @@ fn forces_dd(
 #[test]
 fn the_benchmark_bicycle_stands_on_its_wheels() {
     let m = bundled("whipple_bicycle");
-    let d = derive(&m, Some("benchmark")).unwrap();
+    let d = derive(&m.with_supports().unwrap(), Some("benchmark")).unwrap();
     let c = d.compile_with_constraint_forces().unwrap();
     let params = d.parameters.clone();
     let mut q = vec![0.0; d.ell];
@@ -180,7 +180,7 @@ const DISK_CENTRE_OF_MASS: [&str; 3] = [
 /// up) is m(a_G + g up), with a_G = J_G q̈ + q̇ᵀ∇²G q̇ from the evaluation's own q̈.
 fn newton_along_a_trajectory(path: &str) -> f64 {
     let m = Model::load(format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))).unwrap();
-    let d = derive(&m, Some("velocities")).unwrap();
+    let d = derive(&m.with_supports().unwrap(), Some("velocities")).unwrap();
     let c = d.compile_with_constraint_forces().unwrap();
     let mut params = d.parameters.clone();
     params.entry("e".into()).or_insert(0.0);
@@ -308,7 +308,7 @@ fn the_rolling_disc_agrees_with_sympys_auxiliary_equations() {
         "/models/bodies/rolling_disk_bodies.toml"
     ))
     .unwrap();
-    let d = derive(&m, Some("velocities")).unwrap();
+    let d = derive(&m.with_supports().unwrap(), Some("velocities")).unwrap();
     let c = d.compile_with_constraint_forces().unwrap();
     let mut worst = 0.0_f64;
     let lines = String::from_utf8(out.stdout).unwrap();
@@ -345,7 +345,7 @@ fn the_rolling_disc_agrees_with_sympys_auxiliary_equations() {
 /// be reported.
 fn reported_as_the_oracle_would(path: &str, choice: &str, expect: &[&str]) -> f64 {
     let m = Model::load(format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))).unwrap();
-    let d = derive(&m, Some(choice)).unwrap();
+    let d = derive(&m.with_supports().unwrap(), Some(choice)).unwrap();
     let c = d.compile_with_constraint_forces().unwrap();
     let names = c.constraint_force_names();
     for e in expect {

@@ -97,12 +97,9 @@ pub fn expand(
     } = holonomic;
     rolling.rows.extend(rows);
     let forces = applied_forces(&tree, m, &reference)?;
-    let kept: Vec<&str> = (m.wheels.iter())
-        .filter(|w| w.dependent.is_none())
-        .map(|w| w.name.as_str())
-        .collect();
     let contact_forces = reactions::ContactForces {
-        supports: reactions::supports(m, &kept, values, &released)?,
+        supports: Vec::new(),
+        released: !m.wheels.iter().any(|w| w.dependent.is_none()),
         contacts: rolling.forces,
     };
     Ok(Expansion {
@@ -116,6 +113,21 @@ pub fn expand(
         symmetries: crate::vertical_rotation(m).into_iter().collect(),
         contact_forces,
     })
+}
+
+/// The supports of `m`'s wheels that the frames keep on the ground ([`reactions::Support`]):
+/// what their normal forces need, which [`expand`] leaves out (it costs a second expansion and
+/// a few derivatives of large trees: a command that reports no constraint forces does not pay
+/// for it). `values`: the default parameters.
+pub fn supports(
+    m: &Mechanism,
+    values: &IndexMap<String, f64>,
+) -> Result<Vec<reactions::Support>, BodiesError> {
+    let kept: Vec<&str> = (m.wheels.iter())
+        .filter(|w| w.dependent.is_none())
+        .map(|w| w.name.as_str())
+        .collect();
+    reactions::supports(m, &kept, values, &released)
 }
 
 /// A (Σ_bodies) and U (the bodies' weights, then the springs).

@@ -38,7 +38,7 @@ pub mod vector;
 
 pub use contact::Row;
 pub use error::{BodiesError, Place, Problem, Section};
-pub use expand::{Expansion, HolonomicConstraint, HolonomicRows, expand, holonomic_rows};
+pub use expand::{Expansion, HolonomicConstraint, HolonomicRows, expand, holonomic_rows, supports};
 pub use mechanism::{
     Anchor, Axis, Blade, Body, Damper, Direction, Frame, Holonomic, Inertia, Load, LoadKind,
     Mechanism, Rotation, Spring, Stretch, WORLD, Wheel, World,

@@ -39,8 +39,11 @@ use crate::vector::{V3, cross, dot};
 pub struct ContactForces {
     /// The wheels and blades, in the description's order (wheels first).
     pub contacts: Vec<Contact>,
-    /// One per root frame that carries wheels the frames keep on the ground.
+    /// One per root frame that carries wheels the frames keep on the ground, once computed
+    /// ([`crate::supports`]; [`ContactForces::released`]).
     pub supports: Vec<Support>,
+    /// Whether `supports` holds them (true also when no wheel needs one).
+    pub released: bool,
 }
 
 /// One contact with the ground.
@@ -164,7 +167,11 @@ impl ContactForces {
                 heights: s.heights.iter().map(|r| all(r)).collect(),
             })
             .collect();
-        ContactForces { contacts, supports }
+        ContactForces {
+            contacts,
+            supports,
+            released: self.released,
+        }
     }
 
     /// Whether there is nothing to report.

@@ -159,6 +159,9 @@ impl Derivation {
     pub fn contacts(&self, inputs: &[String]) -> Result<hamel_eval::Contacts, NumericError> {
         use hamel_eval::{Report, SupportSlots};
         let cf = &self.contact_forces;
+        if !cf.released {
+            return Err(NumericError::NoSupports);
+        }
         let u = &self.force_uniqueness;
         let mut map = Map {
             names: self.row_names(),

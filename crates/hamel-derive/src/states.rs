@@ -102,7 +102,7 @@ fn derive_with(
             c.free_functions[0].1[0]
         )));
     }
-    let d = crate::derive(&m, Some(choice))?;
+    let d = crate::derive(&m.with_supports()?, Some(choice))?;
     let c = (d.compile_with_constraint_forces()).map_err(|e| tag(e.to_string()))?;
     Ok((d, c))
 }

@@ -47,6 +47,12 @@ pub enum NumericError {
         "the normal forces of the wheels on one frame are not determined here (their contacts are on one line)"
     )]
     SupportRank,
+    /// The map of the constraint forces was asked of a derivation whose model's supports were
+    /// not computed (`hamel_model::Model::with_supports`).
+    #[error(
+        "the normal forces of wheels kept on the ground by the frames need the model's supports (Model::with_supports before deriving)"
+    )]
+    NoSupports,
     /// The state has the wrong number of components.
     #[error("a state needs {ell} coordinates and {sigma} quasi-velocities, got {q} and {eta}")]
     StateSize {

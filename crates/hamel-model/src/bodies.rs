@@ -109,6 +109,7 @@ pub(crate) fn dynamics(
         notes: e.notes,
         symmetries: crate::symmetry::from_bodies(&e.symmetries, span("frames")),
         contact_forces: e.contact_forces,
+        mechanism: Some(std::sync::Arc::new(mechanism)),
     })
 }
 

@@ -102,6 +102,8 @@ pub(crate) struct Dynamics {
     pub symmetries: Vec<crate::Symmetry>,
     /// How the contacts' forces are read off the rows' multipliers (bodies only).
     pub contact_forces: hamel_bodies::ContactForces,
+    /// The mechanism the bodies describe (bodies only), for what is derived from it on demand.
+    pub mechanism: Option<std::sync::Arc<hamel_bodies::Mechanism>>,
 }
 
 /// The kinetic energy as given in the file.

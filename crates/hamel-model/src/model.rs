@@ -118,8 +118,12 @@ pub struct Model {
     /// part of the key of cached code); empty for a model read from a file.
     pub control: String,
     /// How the forces of the wheels and blades are read off the multipliers of their rows of α
-    /// (issue 58; empty for a model typed by hand, whose rows' multipliers are its forces).
+    /// (issue 58; empty for a model typed by hand, whose rows' multipliers are its forces). The
+    /// supports of the wheels the frames keep on the ground are computed on demand
+    /// ([`Model::with_supports`]).
     pub contact_forces: hamel_bodies::ContactForces,
+    /// The mechanism a model of bodies describes (None for a model typed by hand).
+    pub mechanism: Option<Arc<hamel_bodies::Mechanism>>,
 }
 
 impl Model {
@@ -223,6 +227,7 @@ impl Model {
             live: Vec::new(),
             control: String::new(),
             contact_forces: dynamics.contact_forces,
+            mechanism: dynamics.mechanism,
         };
         model.split_dependent_rows()?;
         check_count(&raw, &model, &err)?;
@@ -236,6 +241,30 @@ impl Model {
             model.choices.push(default);
         }
         Ok(model)
+    }
+
+    /// This model with the supports its constraint forces need ([`hamel_bodies::supports`]):
+    /// what `hamel eval` and `hamel linearize` report the normal forces of wheels kept on the
+    /// ground by the frames from. A model whose supports are there (or needs none) comes back
+    /// as it is. Not for a closed loop (its laws are in F, not in the mechanism's loads).
+    pub fn with_supports(&self) -> Result<Model, ModelError> {
+        let mut m = self.clone();
+        if m.contact_forces.released {
+            return Ok(m);
+        }
+        let Some(mechanism) = &self.mechanism else {
+            return Ok(m);
+        };
+        if !self.control.is_empty() {
+            return Err(self.error(
+                "the constraint forces of a closed loop are not computed yet (its laws are in the forces, not in the mechanism's loads)",
+            ));
+        }
+        let supports = hamel_bodies::supports(mechanism, &self.parameters)
+            .map_err(|e| self.error(format!("the wheels' supports: {e}")))?;
+        m.contact_forces.supports = supports;
+        m.contact_forces.released = true;
+        Ok(m)
     }
 
     /// Whether some generalised force F_k is given (not identically the literal 0).
@@ -527,7 +556,11 @@ fn lagrangian_dynamics(
         forces: Vec::new(),
         notes: Vec::new(),
         symmetries: Vec::new(),
-        contact_forces: hamel_bodies::ContactForces::default(),
+        contact_forces: hamel_bodies::ContactForces {
+            released: true,
+            ..hamel_bodies::ContactForces::default()
+        },
+        mechanism: None,
     })
 }
 

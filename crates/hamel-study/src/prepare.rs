@@ -40,10 +40,17 @@ impl Study {
     /// This is the only step that uses the computer algebra.
     pub fn prepare(model: &Model, eta: Option<&str>, steady: &str) -> Result<Study, ModelError> {
         let steady = model.steady(steady)?.clone();
-        let (d, reduction) = hamel_reduce::derive_and_drop(model, eta)?;
-        let compiled = d
-            .compile_with_constraint_forces()
-            .map_err(|e| model.error(format!("the equations cannot be compiled: {e}")))?;
+        // the loads at the steady motion need the wheels' supports (not for a closed loop)
+        let with_supports = match model.control.is_empty() {
+            true => model.with_supports()?,
+            false => model.clone(),
+        };
+        let (d, reduction) = hamel_reduce::derive_and_drop(&with_supports, eta)?;
+        let compiled = match d.contact_forces.released {
+            true => d.compile_with_constraint_forces(),
+            false => d.compile(),
+        }
+        .map_err(|e| model.error(format!("the equations cannot be compiled: {e}")))?;
         let index = |n: &String| model.coordinates.iter().position(|c| c == n);
         let (dropped, dropped_because) = match &reduction {
             Some(r) => (
