@@ -11,13 +11,14 @@
 //!   constraint.
 
 use hamel_expr::Expr;
-use hamel_expr::build::{add, mul, neg, product, sum};
+use hamel_expr::build::{add, neg, product, sum};
 use indexmap::IndexMap;
 
 use crate::contact::{self, Row};
 use crate::error::{BodiesError, Place, Problem, Section};
 use crate::frames::{self, Tree};
 use crate::mechanism::{Body, Direction, Mechanism};
+use crate::motion::Motion;
 use crate::numeric::{Completion, CompletionError, Point};
 use crate::reactions;
 use crate::vector::{Rate, dot};
@@ -249,40 +250,6 @@ fn check_frame(tree: &Tree, section: Section, name: &str, frame: &str) -> Result
             place,
             Problem::UnknownFrame(frame.to_string()),
         ))
-    }
-}
-
-/// A body's motion: its mass, the velocity of its centre of mass and its angular velocity per
-/// unit q̇_k (in the axes it is carried to), its inertia there, and its height.
-pub(crate) struct Motion {
-    pub mass: Expr,
-    pub v: Rate,
-    pub omega: Rate,
-    pub inertia: Option<crate::vector::M3>,
-    pub height: Expr,
-}
-
-impl Motion {
-    /// I·W_k, per coordinate (none for a point mass).
-    fn inertia_times(&self, w: &[crate::vector::V3]) -> Option<Vec<crate::vector::V3>> {
-        (self.inertia.as_ref()).map(|i| w.iter().map(|c| crate::vector::apply(i, c)).collect())
-    }
-
-    /// Its share of A: m V_iᵀV_j + W_iᵀ I W_j.
-    fn mass_matrix(&self) -> Vec<Vec<Expr>> {
-        let (v, w) = (&self.v.columns, &self.omega.columns);
-        let iw = self.inertia_times(w);
-        let entry = |i: usize, j: usize| {
-            let translation = mul(self.mass.clone(), dot(&v[i], &v[j]));
-            match &iw {
-                Some(iw) => add(translation, dot(&w[i], &iw[j])),
-                None => translation,
-            }
-        };
-        let n = v.len();
-        (0..n)
-            .map(|i| (0..n).map(|j| entry(i, j)).collect())
-            .collect()
     }
 }
 

@@ -31,6 +31,7 @@ mod expand;
 mod frames;
 mod loads;
 mod mechanism;
+mod motion;
 mod numeric;
 mod reactions;
 mod symmetry;

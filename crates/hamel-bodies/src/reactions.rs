@@ -281,7 +281,7 @@ fn at_rest(e: &Expr, p: &[String]) -> Expr {
 /// What the released mechanism gives: its bodies' motions, U, F, and each wheel's expansion
 /// and each blade's row (in order).
 pub(crate) struct Released {
-    pub bodies: Vec<crate::expand::Motion>,
+    pub bodies: Vec<crate::motion::Motion>,
     pub potential: Expr,
     pub forces: Vec<Expr>,
     pub wheels: Vec<Rolling>,

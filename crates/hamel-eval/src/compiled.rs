@@ -263,7 +263,7 @@ pub struct Compiled {
     singular: String,
     rank_loss: Option<RankLoss>,
     forces: Option<Forces>,
-    pub(crate) contacts: Option<crate::contact::Contacts>,
+    pub(crate) contacts: Option<crate::contact_map::Contacts>,
 }
 
 impl Compiled {

@@ -20,13 +20,14 @@
 
 mod compiled;
 mod contact;
+mod contact_map;
 mod symbolic;
 
 pub use compiled::{
     Compiled, CompiledData, ConstraintForce, Evaluation, Forces, ForcesData, NumericError,
     RankLoss, RankLossData, serialize_precision,
 };
-pub use contact::{Contacts, ForceComponent, NormalSlot, Pushes, Report, SupportSlots};
+pub use contact_map::{Contacts, ForceComponent, NormalSlot, Pushes, Report, SupportSlots};
 pub use hamel_runtime::DOUBLE_DOUBLE_ABOVE;
 pub use hamel_runtime::{Precision, Rhs};
 pub use symbolic::{SymbolicCompiled, SymbolicLayout};
