@@ -105,8 +105,10 @@ impl Compiled {
             eta: &[S],
             params: &IndexMap<String, f64>,
         ) -> Result<Pushes, NumericError> {
-            let multipliers = c.constraint_force(q, eta, params)?.multipliers;
-            let forces = c.constraint_forces(q, eta, params)?;
+            // one constraint force for both: λ, and the components read off it
+            let pushed = c.constraint_force(q, eta, params)?;
+            let forces = c.constraint_forces_from(q, params, &pushed)?;
+            let multipliers = pushed.multipliers;
             Ok(Pushes {
                 multipliers: multipliers.iter().map(Scalar::value).collect(),
                 forces: (forces.into_iter())
