@@ -783,14 +783,13 @@ fn codegen_writes_a_crate_that_builds_offline_and_evaluates_like_hamel_eval() {
         None,
     );
     let (g, mut r) = (json_on_stdout(&generated), json_on_stdout(&reference));
-    // The constraint multipliers and forces (issue 58) are not yet printed by a generated
-    // core's `eval`; the knife's one row is its own force.
+    // A generated core's `eval` prints the constraint forces (issue 58), not λ by row (the
+    // knife's one row is its own force: the same number, under `constraint_forces`).
     for state in r.as_array_mut().unwrap() {
         let state = state.as_object_mut().unwrap();
-        for key in ["constraint_multipliers", "constraint_forces"] {
-            let pushes = state.remove(key);
-            assert!(pushes.is_some_and(|m| m.as_object().unwrap().len() == 1));
-        }
+        let pushes = state.remove("constraint_multipliers");
+        assert!(pushes.is_some_and(|m| m.as_object().unwrap().len() == 1));
+        assert!(state["constraint_forces"]["no_slip"].is_number());
     }
     // Same shape and keys in the same order; values to 1e-12.
     fn close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
@@ -2852,4 +2851,81 @@ fn a_bare_atan2_runs_compiled() {
         "{}",
         c["stats"]
     );
+}
+
+/// The skidding disk (issue 58): the friction monitor stops the compiled run at μ = 0.2 between
+/// the output times where the friction ratio the disk needs crosses μ, with the violation in
+/// the report and a non-zero exit; the compiled core's forces are the interpreted
+/// evaluator's; at μ = 1 the same scene runs through, keeping the largest ratio and the
+/// smallest normal force.
+#[test]
+fn the_friction_monitor_stops_a_skidding_disk() {
+    let dir = scratch("skid");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rolling_disk_skid.toml");
+    let run = |scene: &Path, engine: &str| -> (Output, serde_json::Value) {
+        let out = dir.join(format!("{engine}.json"));
+        let args = [
+            "simulate",
+            scene.to_str().unwrap(),
+            "--format",
+            "json",
+            "--engine",
+            engine,
+            "--output",
+            out.to_str().unwrap(),
+        ];
+        let o = hamel(&args, None);
+        let report = serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+        (o, report)
+    };
+    let (o, c) = run(&scene, "compiled");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("wheel `disk` would slip"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(c["engine"], "compiled");
+    let v = &c["friction"]["violation"];
+    assert_eq!(
+        (v["kind"].as_str(), v["t_before"].as_f64(), v["t"].as_f64()),
+        (Some("slip"), Some(0.16), Some(0.17))
+    );
+    assert!(v["ratio"].as_f64().unwrap() > 0.2);
+    assert_eq!(
+        c["t"].as_array().unwrap().len(),
+        18,
+        "the outputs up to the violation"
+    );
+    let (_, i) = run(&scene, "interpreted");
+    for k in ["longitudinal", "lateral", "normal"] {
+        let key = format!("force.disk.{k}");
+        let (a, b) = (
+            c["forces"][&key].as_array().unwrap(),
+            i["forces"][&key].as_array().unwrap(),
+        );
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(b) {
+            let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+            assert!(
+                (x - y).abs() <= 1e-10 * y.abs().max(1.0),
+                "{key}: compiled {x}, interpreted {y}"
+            );
+        }
+    }
+    let grippy = dir.join("grippy.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let text = text.replace("mu = 0.2", "mu = 1.0").replace(
+        "\"../models",
+        &format!("\"{}/models", env!("CARGO_MANIFEST_DIR")),
+    );
+    std::fs::write(&grippy, text).unwrap();
+    let (o, g) = run(&grippy, "compiled");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(g["t"].as_array().unwrap().len(), 201);
+    let disk = &g["friction"]["contacts"]["disk"];
+    let ratio = disk["largest_friction_ratio"].as_f64().unwrap();
+    assert!((0.2..1.0).contains(&ratio), "{disk}");
+    assert!(disk["smallest_normal"].as_f64().unwrap() > 0.0, "{disk}");
+    assert!(g["friction"]["violation"].is_null());
 }

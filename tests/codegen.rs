@@ -23,6 +23,8 @@ fn generate_all() -> BTreeMap<PathBuf, String> {
     let mut files = BTreeMap::new();
     let mut members = Vec::new();
     for model in common::models() {
+        // as `hamel codegen` derives it: with the wheels' supports, for the constraint forces
+        let model = model.with_supports().unwrap();
         let file = Path::new(&model.file)
             .file_name()
             .unwrap()

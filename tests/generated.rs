@@ -360,3 +360,60 @@ fn the_bicycles_core_projects_onto_its_front_contact() {
         assert!(core::project(&mut mine.clone(), &p).unwrap() <= 1e-15);
     }
 }
+
+/// The generated cores' constraint forces (issue 58: `constraint_forces`, straight-line code
+/// of the map and the supports' equations over the runtime's structured evaluation) against
+/// the interpreted evaluator's (`Compiled::constraint_forces_checked`) at random admissible
+/// states: the same names in the same order, the same values to 1e-10 of the largest force.
+#[test]
+fn generated_cores_report_the_interpreted_constraint_forces() {
+    let models = common::models();
+    let mut rng = ChaCha8Rng::seed_from_u64(58);
+    let mut checked = 0;
+    for core in MODELS.iter().filter(|c| c.scene.is_empty()) {
+        let model = common::model_of_core(&models, core.model, core.scene);
+        let model = model.with_supports().unwrap();
+        let d = hamel_derive::derive(&model, Some(core.eta)).unwrap();
+        let c = d.compile_with_constraint_forces().unwrap();
+        assert_eq!(
+            c.constraint_force_names(),
+            core.constraint_force_names,
+            "{}",
+            core.model
+        );
+        let params: IndexMap<String, f64> = d.parameters.clone();
+        let nm = NumericModel::new(&model, &IndexMap::new()).unwrap();
+        let ell = core.dims.ell;
+        let mut states = 0;
+        while states < 10 {
+            let q: Vec<f64> = (0..ell).map(|_| rng.random_range(-3.0..3.0)).collect();
+            let v: Vec<f64> = (0..ell).map(|_| rng.random_range(-2.0..2.0)).collect();
+            if c.condition(&q, &params).unwrap() > MAX_CONDITION {
+                continue;
+            }
+            let qd = hamel_oracle::project(&nm, &q, &v).unwrap();
+            let z = nm.quasi_velocity_matrix::<f64>(core.eta, &q).unwrap();
+            let eta: Vec<f64> = (z.iter())
+                .map(|row| row.iter().zip(&qd).map(|(a, b)| a * b).sum())
+                .collect();
+            let Ok(expected) = c.constraint_forces_checked(&q, &eta, &params) else {
+                continue;
+            };
+            states += 1;
+            let got = (core.constraint_forces)(&q, &eta).unwrap();
+            let scale = (expected.forces.iter()).fold(1.0_f64, |m, f| m.max(f.value.abs()));
+            for (f, g) in expected.forces.iter().zip(&got) {
+                assert!(
+                    (f.value - g).abs() <= 1e-10 * scale,
+                    "{} {}: {} generated, {} interpreted",
+                    core.model,
+                    f.name,
+                    g,
+                    f.value
+                );
+            }
+        }
+        checked += usize::from(!core.constraint_force_names.is_empty());
+    }
+    assert!(checked >= 15, "{checked} cores with constraint forces");
+}

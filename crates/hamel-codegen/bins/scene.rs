@@ -8,7 +8,9 @@
 //! coordinates are held when the energy needs a full configuration (the equations are free of
 //! them), and `repeat` how many times to integrate for timing. Writes `{"solution", "error",
 //! "seconds"}`: the solution of the last run (the part computed before a failure, if any), the
-//! failure, and the median wall time of one integration. The parameters are those the core
+//! failure, and the median wall time of one integration; with `"forces": true`, also
+//! `"constraint_forces"`: every [`CONSTRAINT_FORCES`] component at each output time (null where
+//! they cannot be computed; `"constraint_forces_error"` says why at the first such time). The parameters are those the core
 //! was generated with (a scene's core is specialised for them) with `params` set on top.
 //! `live` says what sets each of the core's [`LIVE`] parameters at every evaluation, in
 //! their order: `"time"` (the time of a control law), or `{"table": {"name", "table"}}`.
@@ -29,7 +31,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use hamel_generated::{
-    COORDINATES, DIMS, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
+    CONSTRAINT_FORCES, COORDINATES, DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
     REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_jacobian_live, residual_max,
     residual_max_many,
 };
@@ -51,6 +53,9 @@ struct Job {
     reference: f64,
     energy: bool,
     residual: bool,
+    /// Compute the constraint forces at the output times ([`CONSTRAINT_FORCES`]).
+    #[serde(default)]
+    forces: bool,
     #[serde(default = "one")]
     repeat: usize,
     /// Parameter values other than the defaults the core was generated with.
@@ -314,12 +319,35 @@ fn single(job: &Job) -> Result<String, String> {
     }
     seconds.sort_by(f64::total_cmp);
     let (solution, error) = split(last.expect("at least one run"));
+    let (forces, forces_error) = if job.forces { constraint_forces_at(&system, &solution) } else { (Vec::new(), None) };
     serde_json::to_string(&json!({
         "solution": solution,
         "error": error,
         "seconds": seconds[seconds.len() / 2],
+        "constraint_forces": forces,
+        "constraint_forces_error": forces_error,
     }))
     .map_err(|e| e.to_string())
+}
+
+/// Every constraint force ([`CONSTRAINT_FORCES`]) at the output states, at the parameters of
+/// their times; None where they cannot be computed, and why at the first such time.
+fn constraint_forces_at(system: &Reduced, solution: &Solution) -> (Vec<Option<Vec<f64>>>, Option<String>) {
+    let mut first = None;
+    let at = |t: f64, y: &[f64]| -> Result<Vec<f64>, String> {
+        let p = system.at(t).map_err(|e| e.to_string())?;
+        constraint_forces(&system.full_q(y), &y[KEPT.len()..], &p).map_err(|e| e.to_string())
+    };
+    let forces = (solution.t.iter().zip(solution.y.iter()))
+        .map(|(&t, y)| match at(t, y) {
+            Ok(v) => Some(v),
+            Err(e) => {
+                first.get_or_insert_with(|| format!("at t = {t}: {e}"));
+                None
+            }
+        })
+        .collect();
+    (forces, first)
 }
 
 fn split(r: Result<Solution, hamel_sim::IntegrationError>) -> (Solution, Option<String>) {

@@ -8,6 +8,8 @@ use hamel_expr::{Expr, Func, Op, Tape};
 
 use crate::{CodegenError, RUNTIME_SOURCES, escape, manifest};
 
+mod contact;
+
 /// A generated crate.
 #[derive(Clone, Debug)]
 pub struct Generated {
@@ -1144,6 +1146,8 @@ struct Code {
     /// (prepare, body, number of parameter-only values) of `solved_from` and `reduced_from`.
     solved_part: (String, String, usize),
     reduced_part: (String, String, usize),
+    /// The placeholders of the constraint forces ([`contact::fields`]).
+    contact_fields: [(&'static str, String); 5],
 }
 
 impl Code {
@@ -1230,7 +1234,9 @@ impl Code {
         };
         let energy_part = energy_part(d, exprs[u_at], &solved_inputs, &full_slots)?;
         let residual_part = residual_part(d, alpha_exprs, &solved_inputs, &full_slots)?;
+        let contact_fields = contact::fields(d, full_slots)?;
         Ok(Code {
+            contact_fields,
             alpha,
             energy_part,
             residual_part,
@@ -1394,6 +1400,7 @@ impl Code {
         ];
         f.extend(parameter_fields(d));
         f.extend(self.force_fields(d, full_slots));
+        f.extend(self.contact_fields.clone());
         f
     }
 

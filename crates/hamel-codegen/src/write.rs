@@ -59,6 +59,16 @@ pub fn write_crate(
         }
     }
     let choice = model.choice(eta)?.name.clone();
+    // The crate exports the constraint forces (`constraint_forces`): the supports of the wheels
+    // the frames keep on the ground are released for them, but for a closed loop, whose laws
+    // are in the forces, not in the mechanism's loads.
+    let supported;
+    let model = if model.control.is_empty() {
+        supported = model.with_supports()?;
+        &supported
+    } else {
+        model
+    };
     let (eliminated, d) = if eliminate.is_empty() {
         (
             Vec::new(),

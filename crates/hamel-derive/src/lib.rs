@@ -32,8 +32,8 @@ pub use derivation::{
     Ingredients, Mat, NotClosed, Power, Size, SpecialiseError, StructuredForm, Term, Trees, Why,
 };
 pub use hamel_eval::{
-    Compiled, ConstraintForce, DOUBLE_DOUBLE_ABOVE, Evaluation, NumericError, Precision, Rhs,
-    SymbolicCompiled,
+    Compiled, ConstraintForce, Contacts, DOUBLE_DOUBLE_ABOVE, Evaluation, NormalSlot, NumericError,
+    Precision, Report, Rhs, SupportSlots, SymbolicCompiled,
 };
 pub use hamel_model::{Model, ModelError};
 pub use symbolic::{

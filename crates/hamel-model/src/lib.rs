@@ -35,7 +35,9 @@ mod symmetry;
 pub use control::{Control, ControlError, Law, TIME};
 pub use default_choice::combinations;
 pub use error::{ErrorKind, ModelError};
-pub use hamel_bodies::{Completion, CompletionError, HolonomicConstraint};
+pub use hamel_bodies::{
+    Completion, CompletionError, ContactForces, ContactKind, HolonomicConstraint,
+};
 pub use loader::{Item, Kinetic, Origin, Site};
 pub use model::{ChoiceOrigin, MAX_COORDINATES, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};

@@ -129,6 +129,10 @@ pub struct Core {
     pub energies: fn(&[f64], &mut [Option<f64>]),
     /// [`Core::residual`] at full states, as [`Core::energies`].
     pub residuals: fn(&[f64], &mut [Option<f64>]),
+    /// The constraint forces' components ([`Core::constraint_forces`]), in order.
+    pub constraint_force_names: &'static [&'static str],
+    /// The constraint forces at (q, η) (issue 58).
+    pub constraint_forces: VectorFn,
     /// Operation counts (trees, shared).
     pub operations: (usize, usize),
 }
@@ -167,6 +171,8 @@ macro_rules! core {
             residual: |q, e| $m::residual_max(q, e, &$m::Parameters::default()),
             energies: |rows, out| $m::energy_many(rows, &$m::Parameters::default(), out),
             residuals: |rows, out| $m::residual_max_many(rows, &$m::Parameters::default(), out),
+            constraint_force_names: &$m::CONSTRAINT_FORCES,
+            constraint_forces: |q, e| $m::constraint_forces(q, e, &$m::Parameters::default()),
             operations: $m::OPERATIONS,
         }
     };

@@ -636,6 +636,9 @@ pub struct Job<'a> {
     pub reference: f64,
     pub energy: bool,
     pub residual: bool,
+    /// Compute the constraint forces at the output times (`Answer::constraint_forces`).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub forces: bool,
     pub repeat: usize,
     /// Parameter values other than the core's defaults (a core not specialised).
     pub params: IndexMap<String, f64>,
@@ -659,11 +662,22 @@ pub struct Member {
     pub reference: f64,
 }
 
+/// What the core answers to one integration job.
 #[derive(Deserialize)]
-struct Answer {
-    solution: Solution,
-    error: Option<String>,
-    seconds: f64,
+pub struct Answer {
+    /// The solution (up to the failure, if any).
+    pub solution: Solution,
+    /// Why it stopped early.
+    pub error: Option<String>,
+    /// The median wall time of one integration.
+    pub seconds: f64,
+    /// With `forces` asked: every reported constraint force at each output time (None where
+    /// they could not be computed).
+    #[serde(default)]
+    pub constraint_forces: Vec<Option<Vec<f64>>>,
+    /// Why they could not be computed at the first output where they could not.
+    #[serde(default)]
+    pub constraint_forces_error: Option<String>,
 }
 
 /// Run the ensemble `job` on the binary with `threads` threads (0: one per core): what it
@@ -728,7 +742,7 @@ fn progress_line(line: &str) -> Option<(usize, usize)> {
 
 /// Run `job` on the binary: the solution (partial on failure), the failure, the median time
 /// of one integration measured inside the binary.
-pub fn run(binary: &Path, job: &Job) -> Result<(Solution, Option<String>, f64), CacheError> {
+pub fn run(binary: &Path, job: &Job) -> Result<Answer, CacheError> {
     let core = |why: String| CacheError::Core {
         binary: binary.to_path_buf(),
         why,
@@ -752,7 +766,5 @@ pub fn run(binary: &Path, job: &Job) -> Result<(Solution, Option<String>, f64), 
             String::from_utf8_lossy(&out.stderr).trim()
         )));
     }
-    let a: Answer =
-        serde_json::from_slice(&out.stdout).map_err(|e| core(format!("unreadable answer: {e}")))?;
-    Ok((a.solution, a.error, a.seconds))
+    serde_json::from_slice(&out.stdout).map_err(|e| core(format!("unreadable answer: {e}")))
 }

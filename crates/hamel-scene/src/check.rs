@@ -70,6 +70,12 @@ pub fn check(
     let times = output_times(&scene, &file)?;
     if let Some(spec) = &scene.ensemble {
         crate::members::check_spec(spec, &model).map_err(|(k, m)| err(&k, m))?;
+        if request.computes_forces() {
+            return Err(err(
+                "ensemble",
+                "the constraint forces (`force.…` outputs, `[friction]`) are not computed for ensembles yet: run the member of interest as a scene of its own".into(),
+            ));
+        }
     }
     Ok(Checked {
         scene,
@@ -160,6 +166,13 @@ fn request(
             .map_err(|m| file.error(Some("request"), m))?,
         None => Request::default_outputs(model.coordinates.len(), parsed.len()),
     };
+    for f in &request.forces {
+        f.check(model).map_err(|m| file.error(Some("request"), m))?;
+    }
+    if let Some(friction) = &scene.friction {
+        crate::forces::check_friction(friction, model).map_err(|(k, m)| file.error(Some(&k), m))?;
+        request.friction = true;
+    }
     for &i in &request.expressions {
         for &k in &parsed[i].coordinates {
             if !request.needed.contains(&k) {

@@ -272,6 +272,7 @@ impl Loaded {
             reference: self.reference,
             energy: self.request.energy,
             residual: self.request.constraint_residual,
+            forces: false,
             repeat: 1,
             params: IndexMap::new(),
             live: self.live.clone(),
@@ -729,7 +730,7 @@ impl EnsembleRun {
 }
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break.
-fn csv_quote(s: &str) -> String {
+pub(crate) fn csv_quote(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {

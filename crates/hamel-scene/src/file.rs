@@ -40,6 +40,9 @@ pub struct Scene {
     /// Named numbers the control laws use (an ensemble may vary them).
     #[serde(default)]
     pub gains: IndexMap<String, f64>,
+    /// The wheels' friction coefficient: the run watches the friction each needs and its
+    /// normal force (`crate::forces`).
+    pub friction: Option<crate::forces::Friction>,
 }
 
 /// How a scene drives one input.

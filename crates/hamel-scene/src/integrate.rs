@@ -29,6 +29,21 @@ pub struct Run {
     /// The largest condition number of [Z; α] met near the singular set, and when (computed
     /// once |δ| has fallen below 1e-3 of its start).
     pub max_condition: Option<(f64, f64)>,
+    /// Every reported constraint force at each output time, when the scene computes them
+    /// (None where they could not be computed); empty otherwise.
+    pub constraint_forces: Vec<Option<Vec<f64>>>,
+    /// What the friction monitor found (`[friction]`).
+    pub monitored: Option<crate::forces::Monitored>,
+}
+
+impl Run {
+    /// Whether the friction monitor ended the run (its `failure` is the violation, not the
+    /// integrator's).
+    pub fn stopped_by_friction(&self) -> bool {
+        self.failure
+            .as_ref()
+            .is_some_and(|e| e.key() == Some("friction"))
+    }
 }
 
 impl Loaded {
@@ -100,11 +115,18 @@ impl Loaded {
                 (*e.partial, Some(m))
             }
         };
-        Ok(Run {
+        let forces = if self.forces.is_empty() {
+            Vec::new()
+        } else {
+            self.interpreted_forces(&solution)
+        };
+        Ok(self.watched(Run {
             solution,
             failure,
             max_condition: system.watch.get(),
-        })
+            constraint_forces: forces,
+            monitored: None,
+        }))
     }
 
     /// A state in the plan's order (integrated, then reconstructed coordinates, then η) in the
@@ -161,26 +183,36 @@ impl Loaded {
             reference: self.reference,
             energy: self.request.energy,
             residual: self.request.constraint_residual,
+            forces: !self.forces.is_empty(),
             repeat,
             params: IndexMap::new(),
             live: self.live.clone(),
             members: Vec::new(),
             save: None,
         };
-        let (mut solution, error, seconds) = cache::run(&exe, &job)?;
+        let cache::Answer {
+            mut solution,
+            error,
+            seconds,
+            mut constraint_forces,
+            constraint_forces_error,
+        } = cache::run(&exe, &job)?;
+        if let Some(e) = constraint_forces_error {
+            log::warn!("the constraint forces cannot be computed {e} (written as null)");
+        }
         self.back_from_core(&mut solution);
         let (crossing, max_condition) =
             self.watch_singular(&mut solution, &self.params, self.delta0);
+        constraint_forces.truncate(solution.t.len());
         let failure = crossing.or(error).map(|m| self.error("integrator", m));
-        Ok((
-            Run {
-                solution,
-                failure,
-                max_condition,
-            },
-            seconds,
-            built,
-        ))
+        let run = Run {
+            solution,
+            failure,
+            max_condition,
+            constraint_forces,
+            monitored: None,
+        };
+        Ok((self.watched(run), seconds, built))
     }
 
     /// Watch the singular set at the output states of a compiled run started with
@@ -206,12 +238,7 @@ impl Loaded {
                     solution.t[j.saturating_sub(1)],
                     solution.t[j]
                 );
-                solution.t.truncate(j);
-                solution.y.truncate(j);
-                solution.energy.truncate(j);
-                solution.work.truncate(j);
-                solution.constraint.truncate(j);
-                solution.complete = false;
+                solution.truncate(j);
                 return (Some(message), max_condition);
             }
             if delta.is_ok_and(|d| d.abs() < 1e-3 * delta0.abs())
@@ -222,5 +249,65 @@ impl Loaded {
             }
         }
         (None, max_condition)
+    }
+}
+
+impl Loaded {
+    /// The constraint forces at the output states of an interpreted run
+    /// ([`hamel_derive::Compiled::constraint_forces_checked`]: double-double where f64 would
+    /// lose digits); None where they cannot be computed, with a warning naming the first time.
+    fn interpreted_forces(&self, solution: &Solution) -> Vec<Option<Vec<f64>>> {
+        let n = self.state.len();
+        let mut warned = false;
+        let at = |t: f64, y: &[f64]| -> Result<Vec<f64>, String> {
+            let mut params = self.params.clone();
+            for (name, live) in self.model.live.iter().zip(&self.live) {
+                params[name] = live.at(t).map_err(|e| e.to_string())?;
+            }
+            let pushed = (self.compiled)
+                .constraint_forces_checked(&self.full_q(y), &y[n..], &params)
+                .map_err(|e| e.to_string())?;
+            Ok(pushed.forces.iter().map(|f| f.value).collect())
+        };
+        (solution.t.iter().zip(solution.y.iter()))
+            .map(|(&t, y)| match at(t, y) {
+                Ok(v) => Some(v),
+                Err(e) => {
+                    if !std::mem::replace(&mut warned, true) {
+                        log::warn!("the constraint forces cannot be computed at t = {t}: {e} (written as null)");
+                    }
+                    None
+                }
+            })
+            .collect()
+    }
+
+    /// `run` with its forces watched by `[friction]`: the largest friction ratio and smallest
+    /// normal force of each wheel, and the first slip or lift-off, which ends the outputs
+    /// there as an error (the violating output kept) or only warns, as the scene says.
+    fn watched(&self, mut run: Run) -> Run {
+        if self.forces.watched.is_empty() {
+            return run;
+        }
+        let mut monitored = self.forces.monitor(&run.solution.t, &run.constraint_forces);
+        if let Some(v) = &monitored.violation {
+            let state: Vec<String> = (self.state_names().iter())
+                .zip(&run.solution.y[v.output])
+                .map(|(name, x)| format!("{name} = {x:.6}"))
+                .collect();
+            let message = format!("{} (state {})", v.message(), state.join(", "));
+            match self.forces.on_violation {
+                crate::forces::OnViolation::Warn => log::warn!("friction: {message}"),
+                crate::forces::OnViolation::Stop => {
+                    run.solution.truncate(v.output + 1);
+                    run.constraint_forces.truncate(v.output + 1);
+                    run.failure = Some(self.error("friction", message));
+                    // the extremes over the outputs kept
+                    monitored = self.forces.monitor(&run.solution.t, &run.constraint_forces);
+                }
+            }
+        }
+        run.monitored = Some(monitored);
+        run
     }
 }

@@ -43,6 +43,7 @@ pub mod compare;
 pub mod ensemble;
 pub mod expressions;
 pub mod file;
+pub mod forces;
 pub mod initial;
 pub(crate) mod inputs;
 #[cfg(feature = "derive")]

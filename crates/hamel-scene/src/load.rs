@@ -13,6 +13,7 @@ use crate::cache;
 use crate::check::{Checked, SceneFile, check};
 use crate::expressions::{OutputExpression, ParsedExpression};
 use crate::file::Scene;
+use crate::forces::Forces;
 use crate::initial::{Completed, Projection, initial_eta};
 use crate::plan::{Plan, Request};
 
@@ -52,6 +53,8 @@ pub struct Loaded {
     /// The dependent coordinates completed from the holonomic constraints at the start.
     pub(crate) completed: Vec<Completed>,
     pub(crate) file: SceneFile,
+    /// The constraint forces the scene computes (requested, or watched by `[friction]`).
+    pub(crate) forces: Forces,
     /// The scene's compiled core, prepared on first use ([`Loaded::core`]).
     pub(crate) core: OnceCell<Result<cache::Entry, cache::CacheError>>,
 }
@@ -88,8 +91,34 @@ pub fn load_with(
     let tables = crate::inputs::tables(&scene, dir).map_err(|(k, m)| err(&k, m))?;
     let live = crate::inputs::live(&model, &tables);
     let (model, choice) = choose(model, &scene, &parsed, &file)?;
+    let forces_key = if request.forces.is_empty() {
+        "friction"
+    } else {
+        "request"
+    };
+    let model = if request.computes_forces() {
+        // the supports of the wheels the frames keep on the ground, for their normal forces
+        model
+            .with_supports()
+            .map_err(|e| err(forces_key, e.message().to_string()))?
+    } else {
+        model
+    };
     let (mut plan, d) = crate::plan::plan(&model, &choice, &request)?;
-    let compiled = d.compile().map_err(|e| err("eta", e.to_string()))?;
+    let compiled = if request.computes_forces() {
+        d.compile_with_constraint_forces()
+    } else {
+        d.compile()
+    };
+    let compiled = compiled.map_err(|e| err("eta", e.to_string()))?;
+    let forces = Forces::resolve(
+        &request.forces,
+        scene.friction.as_ref(),
+        &model,
+        &compiled.constraint_force_names(),
+        compiled.undetermined_constraint_forces(),
+    )
+    .map_err(|(k, m)| err(&k, m))?;
     let expressions = request
         .expressions
         .iter()
@@ -106,6 +135,10 @@ pub fn load_with(
         .iter()
         .map(|&i| (parsed[i].name.clone(), parsed[i].coordinate_names(&d)))
         .collect();
+    plan.forces = forces.columns.iter().map(|c| c.name.clone()).collect();
+    plan.friction = (forces.watched.iter())
+        .map(|w| (w.wheel.clone(), w.mu))
+        .collect();
     let state = plan.state();
     let (reference, delta0) =
         start(&compiled, &plan, &q0, &eta0, &params).map_err(|m| err("initial", m))?;
@@ -115,6 +148,7 @@ pub fn load_with(
         .chain(eta0.iter().copied())
         .collect();
     Ok(Loaded {
+        forces,
         accuracy: match (&scene.integrator, &scene.accuracy) {
             (None, Some(a)) => Some((a.rtol, a.atol)),
             _ => None,

@@ -96,15 +96,20 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
         reference: 0.0,
         energy: loaded.request.energy,
         residual: loaded.request.constraint_residual,
+        forces: false,
         repeat,
         params: loaded.fixed(),
         live: loaded.live.clone(),
         members: Vec::new(),
         save: None,
     };
-    let (_, _, first_full) = cache::run(&exe, &full_job(1)).map_err(fail)?;
-    let (full, error, full_seconds) =
-        cache::run(&exe, &full_job(repeats(first_full))).map_err(fail)?;
+    let first_full = cache::run(&exe, &full_job(1)).map_err(fail)?.seconds;
+    let cache::Answer {
+        solution: full,
+        error,
+        seconds: full_seconds,
+        ..
+    } = cache::run(&exe, &full_job(repeats(first_full))).map_err(fail)?;
     if let Some(e) = error {
         return Err(loaded.error("integrator", format!("the full system's run failed: {e}")));
     }

@@ -10,7 +10,8 @@
 //!   kinematic equations q̇_k = (Γη)_k of the coordinates already integrated, then η;
 //! * reconstructed: the requested coordinates not integrated, those the energy needs when it
 //!   is requested (U may depend on a coordinate absent from Γᵀ∇U), all of them when the
-//!   constraint residual is requested, closed under their own kinematic equations;
+//!   constraint residual or a constraint force is requested, closed under their own
+//!   kinematic equations;
 //! * dropped: the rest — not integrated, not computed.
 
 use hamel_derive::{Derivation, Entry};
@@ -36,6 +37,12 @@ pub struct Plan {
     /// (evaluated at the output times only, from the integrated and reconstructed state).
     #[serde(skip_serializing_if = "IndexMap::is_empty")]
     pub expressions: IndexMap<String, Vec<String>>,
+    /// The requested constraint forces (`force.NAME.COMPONENT`), computed at the output times.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub forces: Vec<String>,
+    /// The wheels the friction monitor watches, with their μ.
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    pub friction: IndexMap<String, f64>,
     /// Indices of the integrated coordinates (model order).
     #[serde(skip)]
     pub integrated_ix: Vec<usize>,
@@ -114,6 +121,8 @@ pub fn plan(model: &Model, eta: &str, request: &Request) -> Result<(Plan, Deriva
         dropped: names(&dropped),
         eta: d.eta_name.clone(),
         expressions: IndexMap::new(),
+        forces: Vec::new(),
+        friction: IndexMap::new(),
         integrated_ix: integrated,
         reconstructed_ix: reconstructed,
         dropped_ix: dropped,
@@ -168,7 +177,7 @@ pub fn decide(d: &Derivation, request: &Request) -> (Vec<usize>, Vec<usize>, Vec
             }
         }
     }
-    if request.constraint_residual {
+    if request.constraint_residual || request.computes_forces() {
         wanted.extend(0..d.ell);
     }
     let mut reconstructed: Vec<usize> = Vec::new();
@@ -209,8 +218,21 @@ impl Plan {
             .iter()
             .map(|(name, needs)| format!("expression {name}: needs {}\n", list(needs)))
             .collect::<String>();
+        let forces = if self.forces.is_empty() {
+            String::new()
+        } else {
+            format!("constraint forces: {}\n", self.forces.join(", "))
+        };
+        let watched: Vec<String> = (self.friction.iter())
+            .map(|(wheel, mu)| format!("{wheel} (μ = {mu})"))
+            .collect();
+        let friction = if watched.is_empty() {
+            String::new()
+        } else {
+            format!("friction watched: {}\n", watched.join(", "))
+        };
         format!(
-            "quasi-velocities: {}\nintegrated: {}\nreconstructed: {}\ndropped: {}\n{expressions}",
+            "quasi-velocities: {}\nintegrated: {}\nreconstructed: {}\ndropped: {}\n{expressions}{forces}{friction}",
             self.eta,
             list(&self.integrated),
             list(&self.reconstructed),

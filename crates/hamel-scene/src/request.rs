@@ -6,6 +6,12 @@
 //! derivation), so evaluated along a run it shows only the rounding of α and Γ, at the price
 //! of both at every output: on the knife, whose right-hand side is four operations, that
 //! price is a fifth of the run (docs/performance.md).
+//!
+//! The constraint forces (`force.NAME.COMPONENT`, `force.NAME`) are computed only when named,
+//! at the output times; they keep every coordinate in the state, as the constraint residual
+//! does: their components are evaluated at the full configuration.
+
+use crate::forces::ForceOutput;
 
 /// What a scene asks for (`request = [...]`; see the module doc for the default).
 #[derive(Clone, Debug)]
@@ -22,9 +28,19 @@ pub struct Request {
     pub expressions: Vec<usize>,
     /// Coordinates the requested expressions need (kept in the state, not written).
     pub needed: Vec<usize>,
+    /// The constraint forces requested (`force.NAME.COMPONENT`, `force.NAME`), as written;
+    /// checked against the model by [`crate::check`], resolved by [`crate::forces::Forces`].
+    pub forces: Vec<ForceOutput>,
+    /// The scene's `[friction]` monitor is on (the forces are computed for it).
+    pub friction: bool,
 }
 
 impl Request {
+    /// Whether the constraint forces are computed: requested, or watched by `[friction]`.
+    pub fn computes_forces(&self) -> bool {
+        !self.forces.is_empty() || self.friction
+    }
+
     /// The default: every coordinate, η, the energy and every expression; not the constraint
     /// residual (module doc).
     pub fn default_outputs(ell: usize, expressions: usize) -> Request {
@@ -35,11 +51,14 @@ impl Request {
             constraint_residual: false,
             expressions: (0..expressions).collect(),
             needed: Vec::new(),
+            forces: Vec::new(),
+            friction: false,
         }
     }
 
     /// Parse the names of `request`: coordinates, `eta` (or `eta1`…, which all mean η: it is
-    /// integrated whole), `energy`, `constraint_residual`, the names of the scene's
+    /// integrated whole), `energy`, `constraint_residual`, `force.NAME.COMPONENT` and
+    /// `force.NAME` (checked against the model later), the names of the scene's
     /// `expressions`. Errors name the unknown entry and list the valid ones.
     pub fn parse(
         names: &[String],
@@ -54,6 +73,8 @@ impl Request {
             constraint_residual: false,
             expressions: Vec::new(),
             needed: Vec::new(),
+            forces: Vec::new(),
+            friction: false,
         };
         for n in names {
             if let Some(k) = coordinates.iter().position(|c| c == n) {
@@ -70,13 +91,17 @@ impl Request {
                 r.energy = true;
             } else if n == "constraint_residual" {
                 r.constraint_residual = true;
+            } else if let Some(f) = ForceOutput::parse(n) {
+                if !r.forces.contains(&f) {
+                    r.forces.push(f);
+                }
             } else if let Some(i) = expressions.iter().position(|e| e == n) {
                 if !r.expressions.contains(&i) {
                     r.expressions.push(i);
                 }
             } else {
                 return Err(format!(
-                    "`{n}` is not an output of this scene: use coordinates ({}), eta (or eta1..eta{}), energy, constraint_residual{}",
+                    "`{n}` is not an output of this scene: use coordinates ({}), eta (or eta1..eta{}), energy, constraint_residual, force.NAME.COMPONENT{}",
                     coordinates.join(", "),
                     sigma,
                     if expressions.is_empty() {

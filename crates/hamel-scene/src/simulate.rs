@@ -133,7 +133,7 @@ fn integrate_on(
             // The compiled core sees a singularity only as a failed step or a value that is
             // not finite; the interpreted evaluator checks δ and A_Γ at every evaluation and
             // names the cause, so a failed run is repeated with it for the diagnosis.
-            Ok((run, _, _)) if run.failure.is_some() => {
+            Ok((run, _, _)) if run.failure.is_some() && !run.stopped_by_friction() => {
                 log::info!(
                     "note: the compiled core stopped ({}); integrating again with the interpreted evaluator, which watches the singular set at every evaluation",
                     run.failure.as_ref().map_or("", |e| e.message())

@@ -36,6 +36,14 @@ pub struct Trajectory {
     /// evaluated, e.g. outside its domain; stderr says where).
     #[serde(skip_serializing_if = "IndexMap::is_empty")]
     pub expressions: IndexMap<String, Vec<Option<f64>>>,
+    /// The requested constraint forces (`force.NAME.COMPONENT`) at the output times (null
+    /// where they cannot be computed).
+    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    pub forces: IndexMap<String, Vec<Option<f64>>>,
+    /// What the friction monitor found (`[friction]`): by wheel, the largest friction ratio
+    /// and the smallest normal force, and the first violation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub friction: Option<crate::forces::Monitored>,
     pub stats: StatsOut,
     pub complete: bool,
     /// When the initial velocities were given as q̇: their projection onto the constraints.
@@ -129,6 +137,16 @@ impl Loaded {
                 .constraint_residual
                 .then(|| solution.constraint.clone()),
             expressions: self.expression_values(solution),
+            forces: (self.forces.columns.iter())
+                .map(|c| {
+                    let at = |v: &Option<Vec<f64>>| v.as_ref().map(|v| v[c.index]);
+                    (
+                        c.name.clone(),
+                        run.constraint_forces.iter().map(at).collect(),
+                    )
+                })
+                .collect(),
+            friction: run.monitored.clone(),
             stats: StatsOut {
                 steps: solution.stats.steps,
                 rejected: solution.stats.rejected,
@@ -219,6 +237,7 @@ impl Trajectory {
                     )
                 })
                 .as_str()
+            + self.friction.as_ref().map_or(String::new(), friction_summary).as_str()
             + self
                 .initial_completion
                 .iter()
@@ -234,8 +253,8 @@ impl Trajectory {
                 .as_str()
     }
 
-    /// CSV: t, the coordinates, eta1…, energy, work, constraint_residual, the expressions (a
-    /// `# incomplete` comment first when cut short).
+    /// CSV: t, the coordinates, eta1…, energy, work, constraint_residual, the expressions, the
+    /// constraint forces (a `# incomplete` comment first when cut short).
     pub fn to_csv(&self) -> String {
         let mut o = String::new();
         if let Some(e) = &self.error {
@@ -255,6 +274,7 @@ impl Trajectory {
             header.push("constraint_residual".into());
         }
         header.extend(self.expressions.keys().cloned());
+        header.extend(self.forces.keys().map(|k| crate::ensemble::csv_quote(k)));
         o.push_str(&header.join(","));
         o.push('\n');
         for (j, t) in self.t.iter().enumerate() {
@@ -273,8 +293,7 @@ impl Trajectory {
                 row.push(r[j].map_or(String::new(), |e| format!("{e:e}")));
             }
             row.extend(
-                self.expressions
-                    .values()
+                (self.expressions.values().chain(self.forces.values()))
                     .map(|v| v[j].map_or(String::new(), |x| format!("{x:e}"))),
             );
             o.push_str(&row.join(","));
@@ -282,4 +301,22 @@ impl Trajectory {
         }
         o
     }
+}
+
+/// The friction monitor's findings, one line per wheel.
+fn friction_summary(m: &crate::forces::Monitored) -> String {
+    let num = |x: Option<f64>, t: Option<f64>| match (x, t) {
+        (Some(x), Some(t)) => format!("{x:.4} (t = {t})"),
+        _ => "n/a".into(),
+    };
+    (m.contacts.iter())
+        .map(|(wheel, l)| {
+            format!(
+                "\nfriction: wheel {wheel}: largest friction ratio {} against μ = {}, smallest normal force {} N",
+                num(l.largest_friction_ratio, l.largest_friction_ratio_t),
+                l.mu,
+                num(l.smallest_normal, l.smallest_normal_t)
+            )
+        })
+        .collect()
 }

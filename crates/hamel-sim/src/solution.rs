@@ -27,6 +27,18 @@ pub struct Solution {
     pub complete: bool,
 }
 
+impl Solution {
+    /// Keep the first `n` outputs only (a monitor ended the run there): incomplete.
+    pub fn truncate(&mut self, n: usize) {
+        self.t.truncate(n);
+        self.y.truncate(n);
+        self.energy.truncate(n);
+        self.work.truncate(n);
+        self.constraint.truncate(n);
+        self.complete = false;
+    }
+}
+
 /// Work counters and invariant drift of one integration.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Stats {

@@ -2446,3 +2446,382 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
     let r = full_rhs(q, eta, p)?;
     Ok(ELIMINATED.iter().map(|&k| r.q_dot[k]).collect())
 }
+
+/// The constraint forces' components, in order (issue 58): each wheel's `NAME.longitudinal`
+/// (forwards, in the ground plane), `NAME.lateral` (up × forwards) and `NAME.normal` (up),
+/// each blade's `NAME.lateral`, every other row's multiplier (a holonomic constraint's
+/// generalised force along its gradient, a typed row as written), in newtons where a force.
+/// A component the motion does not determine is not among them ([`UNDETERMINED_FORCES`]); a
+/// resultant of several contacts that it does determine is named `A+B.COMPONENT`.
+pub const CONSTRAINT_FORCES: [&str; 8] = ["left.longitudinal", "left.normal", "right.longitudinal", "right.normal", "castor.longitudinal", "castor.lateral", "castor.normal", "left+right.lateral"];
+/// The components the motion does not determine (dependent rows, more wheels on one frame
+/// than its three equations): named, never computed.
+pub const UNDETERMINED_FORCES: [&str; 2] = ["left.lateral", "right.lateral"];
+/// The number of [`CONSTRAINT_FORCES`].
+pub const NF: usize = 8;
+
+/// The coefficients of the constraint forces' map at (q, q̇) (63 values: directions, scales, the supports' equations), straight-line code.
+fn contact_values<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(0.0);
+    let t1 = S::constant(p.m_k);
+    let t2 = q[5];
+    let (t3, t8) = t2.sin_cos();
+    let t4 = -t3;
+    let t5 = q[2];
+    let (t9, t6) = t5.sin_cos();
+    let t7 = t4 * t6;
+    let t10 = -t9;
+    let t11 = t8 * t10;
+    let t12 = t7 + t11;
+    let t13 = S::constant(p.rc);
+    let t14 = S::constant(p.r);
+    let t15 = -t14;
+    let t16 = t13 + t15;
+    let t17 = t6 * t8;
+    let t18 = t3 * t10;
+    let t19 = t17 + t18;
+    let t20 = t16 * t12 * t19;
+    let t21 = t16 * t19;
+    let t22 = -t21;
+    let t23 = t12 * t22;
+    let t24 = t20 + t23;
+    let t25 = t1 * t24;
+    let t26 = t8 * t9;
+    let t27 = t3 * t6;
+    let t28 = t26 + t27;
+    let t29 = t16 * t12 * t28;
+    let t30 = t4 * t9;
+    let t31 = t17 + t30;
+    let t32 = t22 * t31;
+    let t33 = t29 + t32;
+    let t34 = t1 * t33;
+    let t35 = S::constant(p.d);
+    let t36 = -t35;
+    let t37 = t16 * t36 * t3 * t12;
+    let t38 = t36 * t8;
+    let t39 = S::constant(p.e);
+    let t40 = -t39;
+    let t41 = t40 + t38;
+    let t42 = t22 * t41;
+    let t43 = t37 + t42;
+    let t44 = t1 * t43;
+    let t45 = S::constant(p.m_w);
+    let t46 = t14.powi(2);
+    let t47 = t45 * t46;
+    let t48 = S::constant(2.0);
+    let t49 = t47 * S::constant(0.5);
+    let t50 = t49 * t10;
+    let t51 = t1 * t40 * t22;
+    let t52 = t13.powi(2);
+    let t53 = t1 * t52;
+    let t54 = t53 * S::constant(0.5);
+    let t55 = t54 * t12;
+    let t56 = t16 * t19 * t31;
+    let t57 = t16 * t28;
+    let t58 = -t57;
+    let t59 = t12 * t58;
+    let t60 = t56 + t59;
+    let t61 = t1 * t60;
+    let t62 = t16 * t28 * t31;
+    let t63 = t31 * t58;
+    let t64 = t62 + t63;
+    let t65 = t1 * t64;
+    let t66 = t16 * t36 * t3 * t31;
+    let t67 = t41 * t58;
+    let t68 = t66 + t67;
+    let t69 = t1 * t68;
+    let t70 = t49 * t6;
+    let t71 = t1 * t40 * t58;
+    let t72 = t54 * t31;
+    let t73 = S::constant(p.m_c);
+    let t74 = S::constant(p.g);
+    let t75 = t73 * t74;
+    let t76 = -t75;
+    let t77 = t45 * t74;
+    let t78 = -t77;
+    let t79 = t1 * t74;
+    let t80 = -t79;
+    let t81 = t76 + t78 + t78 + t80;
+    let t82 = -t81;
+    let t83 = qd[3];
+    let t84 = -t6;
+    let t85 = t49 * t83 * t84;
+    let t86 = qd[4];
+    let t87 = t49 * t84 * t86;
+    let t88 = qd[0];
+    let t89 = t19 * t88;
+    let t90 = qd[1];
+    let t91 = t28 * t90;
+    let t92 = qd[2];
+    let t93 = t36 * t3 * t92;
+    let t94 = t89 + t91 + t93;
+    let t95 = t4 * t10;
+    let t96 = t8 * t84;
+    let t97 = t95 + t96;
+    let t98 = t16 * t94 * t97;
+    let t99 = t3 * t84;
+    let t100 = t11 + t99;
+    let t101 = t88 * t100;
+    let t102 = t19 * t90;
+    let t103 = t101 + t102;
+    let t104 = t16 * t12 * t103;
+    let t105 = t12 * t88;
+    let t106 = t31 * t90;
+    let t107 = t41 * t92;
+    let t108 = qd[5];
+    let t109 = t40 * t108;
+    let t110 = t105 + t106 + t107 + t109;
+    let t111 = t16 * t100;
+    let t112 = -t111;
+    let t113 = t110 * t112;
+    let t114 = t88 * t97;
+    let t115 = t12 * t90;
+    let t116 = t114 + t115;
+    let t117 = t22 * t116;
+    let t118 = t98 + t104 + t113 + t117;
+    let t119 = t1 * t118;
+    let t120 = qd[6];
+    let t121 = t54 * t97 * t120;
+    let t122 = t85 + t87 + t119 + t121;
+    let t123 = t92 * t122;
+    let t124 = -t8;
+    let t125 = t6 * t124;
+    let t126 = t95 + t125;
+    let t127 = t16 * t94 * t126;
+    let t128 = t36 * t8 * t92;
+    let t129 = t105 + t106 + t128;
+    let t130 = t16 * t12 * t129;
+    let t131 = t16 * t12;
+    let t132 = -t131;
+    let t133 = t110 * t132;
+    let t134 = t88 * t126;
+    let t135 = t9 * t124;
+    let t136 = t7 + t135;
+    let t137 = t90 * t136;
+    let t138 = t36 * t4 * t92;
+    let t139 = t134 + t137 + t138;
+    let t140 = t22 * t139;
+    let t141 = t127 + t130 + t133 + t140;
+    let t142 = t1 * t141;
+    let t143 = t54 * t120 * t126;
+    let t144 = t142 + t143;
+    let t145 = t108 * t144;
+    let t146 = S::constant(p.b);
+    let t147 = t45 * t74 * t146 * t6;
+    let t148 = -t147;
+    let t149 = -t146;
+    let t150 = t45 * t74 * t149 * t6;
+    let t151 = -t150;
+    let t152 = t36 * t9;
+    let t153 = t40 * t28;
+    let t154 = t152 + t153;
+    let t155 = t1 * t74 * t154;
+    let t156 = -t155;
+    let t157 = t148 + t151 + t156;
+    let t158 = -t157;
+    let t159 = t123 + t145 + t158;
+    let t160 = t49 * t10 * t83;
+    let t161 = t49 * t10 * t86;
+    let t162 = t16 * t12 * t94;
+    let t163 = t16 * t31 * t103;
+    let t164 = t22 * t110;
+    let t165 = t58 * t116;
+    let t166 = t162 + t163 + t164 + t165;
+    let t167 = t1 * t166;
+    let t168 = t54 * t12 * t120;
+    let t169 = t160 + t161 + t167 + t168;
+    let t170 = t92 * t169;
+    let t171 = t16 * t94 * t136;
+    let t172 = t16 * t31 * t129;
+    let t173 = t16 * t31;
+    let t174 = -t173;
+    let t175 = t110 * t174;
+    let t176 = t58 * t139;
+    let t177 = t171 + t172 + t175 + t176;
+    let t178 = t1 * t177;
+    let t179 = t54 * t120 * t136;
+    let t180 = t178 + t179;
+    let t181 = t108 * t180;
+    let t182 = S::constant(-1.0);
+    let t183 = t45 * t74 * t146 * t182 * t10;
+    let t184 = -t183;
+    let t185 = t45 * t74 * t149 * t182 * t10;
+    let t186 = -t185;
+    let t187 = t36 * t182 * t6;
+    let t188 = t182 * t6 * t8;
+    let t189 = t182 * t3 * t10;
+    let t190 = t188 + t189;
+    let t191 = t40 * t190;
+    let t192 = t187 + t191;
+    let t193 = t1 * t74 * t192;
+    let t194 = -t193;
+    let t195 = t184 + t186 + t194;
+    let t196 = -t195;
+    let t197 = t170 + t181 + t196;
+    let t198 = t15 * t6 * t10;
+    let t199 = t15 * t6;
+    let t200 = -t199;
+    let t201 = t10 * t200;
+    let t202 = t198 + t201;
+    let t203 = t15 * t6 * t6;
+    let t204 = t15 * t9;
+    let t205 = -t204;
+    let t206 = t10 * t205;
+    let t207 = t203 + t206;
+    let t208 = t15 * t9 * t10;
+    let t209 = t6 * t200;
+    let t210 = t208 + t209;
+    let t211 = t15 * t6 * t9;
+    let t212 = t6 * t205;
+    let t213 = t211 + t212;
+    let t214 = S::constant(1.0);
+    let t215 = t214.sqrt();
+    let t216 = t16 * t215 * t12;
+    let t217 = -t13;
+    let t218 = t217 * t12;
+    let t219 = t216 + t218;
+    let t220 = t19 * t219;
+    let t221 = t215 * t22;
+    let t222 = t217 * t19;
+    let t223 = -t222;
+    let t224 = t221 + t223;
+    let t225 = t12 * t224;
+    let t226 = t220 + t225;
+    let t227 = t16 * t215 * t31;
+    let t228 = t217 * t31;
+    let t229 = t227 + t228;
+    let t230 = t19 * t229;
+    let t231 = t215 * t58;
+    let t232 = t217 * t28;
+    let t233 = -t232;
+    let t234 = t231 + t233;
+    let t235 = t12 * t234;
+    let t236 = t230 + t235;
+    let t237 = t28 * t219;
+    let t238 = t31 * t224;
+    let t239 = t237 + t238;
+    let t240 = t28 * t229;
+    let t241 = t31 * t234;
+    let t242 = t240 + t241;
+    let t243 = t146 * t6;
+    let t244 = t149 * t6;
+    let t245 = t146 * t182 * t10;
+    let t246 = t149 * t182 * t10;
+    let t247 = -t28;
+    out[0] = t0;
+    out[1] = t0;
+    out[2] = t0;
+    out[3] = t0;
+    out[4] = t0;
+    out[5] = t0;
+    out[6] = t0;
+    out[7] = t25;
+    out[8] = t34;
+    out[9] = t44;
+    out[10] = t50;
+    out[11] = t50;
+    out[12] = t51;
+    out[13] = t55;
+    out[14] = t61;
+    out[15] = t65;
+    out[16] = t69;
+    out[17] = t70;
+    out[18] = t70;
+    out[19] = t71;
+    out[20] = t72;
+    out[21] = t82;
+    out[22] = t159;
+    out[23] = t197;
+    out[24] = t0;
+    out[25] = t202;
+    out[26] = t207;
+    out[27] = t0;
+    out[28] = t210;
+    out[29] = t213;
+    out[30] = t0;
+    out[31] = t202;
+    out[32] = t207;
+    out[33] = t0;
+    out[34] = t210;
+    out[35] = t213;
+    out[36] = t0;
+    out[37] = t226;
+    out[38] = t236;
+    out[39] = t0;
+    out[40] = t239;
+    out[41] = t242;
+    out[42] = t214;
+    out[43] = t214;
+    out[44] = t214;
+    out[45] = t243;
+    out[46] = t244;
+    out[47] = t154;
+    out[48] = t245;
+    out[49] = t246;
+    out[50] = t192;
+    out[51] = t6;
+    out[52] = t9;
+    out[53] = t6;
+    out[54] = t9;
+    out[55] = t19;
+    out[56] = t28;
+    out[57] = t247;
+    out[58] = t19;
+    out[59] = t10;
+    out[60] = t6;
+    out[61] = t10;
+    out[62] = t6;
+}
+
+/// The reported components from the map's values `v`, the multipliers λ (α's rows) and q̈.
+fn contact_reports<S: Scalar>(v: &[S], lambda: &[S], qdd: &[S], out: &mut [S]) -> Result<(), EvalError> {
+    let (layout0, rows0) = (runtime::SupportLayout { at: 0, ell: ELL, rows: 6, wheels: 3 }, [0, 1, 2, 5, 3, 4]);
+    let mut n0 = [S::constant(0.0); 3];
+    if !runtime::support_normals(layout0, &rows0, v, lambda, qdd, &mut n0) {
+        return Err(EvalError::Check("the normal forces of a support: its contacts are on one line (G is rank deficient)"));
+    }
+    out[0] = lambda[0] * v[51] + lambda[1] * v[52];
+    out[1] = n0[0];
+    out[2] = lambda[2] * v[53] + lambda[5] * v[54];
+    out[3] = n0[1];
+    out[4] = lambda[3] * v[55] + lambda[4] * v[56];
+    out[5] = lambda[3] * v[57] + lambda[4] * v[58];
+    out[6] = n0[2];
+    out[7] = lambda[0] * v[59] + lambda[1] * v[60] + lambda[2] * v[61] + lambda[5] * v[62];
+    Ok(())
+}
+
+/// The constraint forces at (q, η), in the order of [`CONSTRAINT_FORCES`], and the precision
+/// they were computed in: λ and q̈ from the structured evaluation ([`runtime::Structured::constraint_force`]),
+/// repeated in double-double where its f64 error estimate is above
+/// [`runtime::DOUBLE_DOUBLE_ABOVE`], as [`rhs_fixed`] is. Nothing is differentiated numerically.
+pub fn constraint_forces_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; NF], runtime::Precision), EvalError> {
+    let mut out = [S::constant(0.0); LEN];
+    ingredients(q, p, &mut out);
+    let mut storage = Storage::<S>::new();
+    let mut s = storage.structured(DIMS)?;
+    evaluate_into(&mut s, &out, q, eta, p, false)?;
+    let zero = S::constant(0.0);
+    let (mut r, mut y) = ([zero; ELL], [zero; { DIMS.m_rows() }]);
+    let (mut qdd, mut tmp, mut qd) = ([zero; ELL], [zero; ELL], [zero; ELL]);
+    s.constraint_force(&out, &mut r, &mut y, &mut qdd, &mut tmp);
+    qd.copy_from_slice(s.q_dot());
+    if S::CHECKED && s.f64_error_estimate(&out) > runtime::DOUBLE_DOUBLE_ABOVE {
+        let (q, eta) = (runtime::widen::<S, Wide, ELL>(q), runtime::widen::<S, Wide, SIGMA>(eta));
+        let (wide, _) = constraint_forces_fixed::<Wide>(&q, &eta, p)?;
+        return Ok((wide.map(|x| S::constant(x.value())), runtime::Precision::DoubleDouble));
+    }
+    let mut v = [zero; 63];
+    contact_values(q, &qd, p, &mut v);
+    let mut f = [zero; NF];
+    contact_reports(&v, &y[SIGMA..], &qdd, &mut f)?;
+    if f.iter().any(|x| !x.value().is_finite()) {
+        return Err(EvalError::NotFinite("the constraint forces"));
+    }
+    Ok((f, runtime::Precision::F64))
+}
+
+/// [`constraint_forces_fixed`] in f64 (double-double inside where needed), in a vector.
+pub fn constraint_forces(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
+    constraint_forces_fixed::<f64>(q, eta, p).map(|(f, _)| f.to_vec())
+}

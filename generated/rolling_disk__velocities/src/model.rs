@@ -1065,3 +1065,65 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
     let r = full_rhs(q, eta, p)?;
     Ok(ELIMINATED.iter().map(|&k| r.q_dot[k]).collect())
 }
+
+/// The constraint forces' components, in order (issue 58): each wheel's `NAME.longitudinal`
+/// (forwards, in the ground plane), `NAME.lateral` (up × forwards) and `NAME.normal` (up),
+/// each blade's `NAME.lateral`, every other row's multiplier (a holonomic constraint's
+/// generalised force along its gradient, a typed row as written), in newtons where a force.
+/// A component the motion does not determine is not among them ([`UNDETERMINED_FORCES`]); a
+/// resultant of several contacts that it does determine is named `A+B.COMPONENT`.
+pub const CONSTRAINT_FORCES: [&str; 2] = ["roll_x", "roll_y"];
+/// The components the motion does not determine (dependent rows, more wheels on one frame
+/// than its three equations): named, never computed.
+pub const UNDETERMINED_FORCES: [&str; 0] = [];
+/// The number of [`CONSTRAINT_FORCES`].
+pub const NF: usize = 2;
+
+/// The coefficients of the constraint forces' map at (q, q̇) (2 values: directions, scales, the supports' equations), straight-line code.
+fn contact_values<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(1.0);
+    out[0] = t0;
+    out[1] = t0;
+}
+
+/// The reported components from the map's values `v`, the multipliers λ (α's rows) and q̈.
+fn contact_reports<S: Scalar>(v: &[S], lambda: &[S], qdd: &[S], out: &mut [S]) -> Result<(), EvalError> {
+    out[0] = lambda[0] * v[0];
+    out[1] = lambda[1] * v[1];
+    Ok(())
+}
+
+/// The constraint forces at (q, η), in the order of [`CONSTRAINT_FORCES`], and the precision
+/// they were computed in: λ and q̈ from the structured evaluation ([`runtime::Structured::constraint_force`]),
+/// repeated in double-double where its f64 error estimate is above
+/// [`runtime::DOUBLE_DOUBLE_ABOVE`], as [`rhs_fixed`] is. Nothing is differentiated numerically.
+pub fn constraint_forces_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; NF], runtime::Precision), EvalError> {
+    let mut out = [S::constant(0.0); LEN];
+    ingredients(q, p, &mut out);
+    let mut storage = Storage::<S>::new();
+    let mut s = storage.structured(DIMS)?;
+    evaluate_into(&mut s, &out, q, eta, p, false)?;
+    let zero = S::constant(0.0);
+    let (mut r, mut y) = ([zero; ELL], [zero; { DIMS.m_rows() }]);
+    let (mut qdd, mut tmp, mut qd) = ([zero; ELL], [zero; ELL], [zero; ELL]);
+    s.constraint_force(&out, &mut r, &mut y, &mut qdd, &mut tmp);
+    qd.copy_from_slice(s.q_dot());
+    if S::CHECKED && s.f64_error_estimate(&out) > runtime::DOUBLE_DOUBLE_ABOVE {
+        let (q, eta) = (runtime::widen::<S, Wide, ELL>(q), runtime::widen::<S, Wide, SIGMA>(eta));
+        let (wide, _) = constraint_forces_fixed::<Wide>(&q, &eta, p)?;
+        return Ok((wide.map(|x| S::constant(x.value())), runtime::Precision::DoubleDouble));
+    }
+    let mut v = [zero; 2];
+    contact_values(q, &qd, p, &mut v);
+    let mut f = [zero; NF];
+    contact_reports(&v, &y[SIGMA..], &qdd, &mut f)?;
+    if f.iter().any(|x| !x.value().is_finite()) {
+        return Err(EvalError::NotFinite("the constraint forces"));
+    }
+    Ok((f, runtime::Precision::F64))
+}
+
+/// [`constraint_forces_fixed`] in f64 (double-double inside where needed), in a vector.
+pub fn constraint_forces(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
+    constraint_forces_fixed::<f64>(q, eta, p).map(|(f, _)| f.to_vec())
+}

@@ -1942,3 +1942,386 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
     let r = full_rhs(q, eta, p)?;
     Ok(ELIMINATED.iter().map(|&k| r.q_dot[k]).collect())
 }
+
+/// The constraint forces' components, in order (issue 58): each wheel's `NAME.longitudinal`
+/// (forwards, in the ground plane), `NAME.lateral` (up × forwards) and `NAME.normal` (up),
+/// each blade's `NAME.lateral`, every other row's multiplier (a holonomic constraint's
+/// generalised force along its gradient, a typed row as written), in newtons where a force.
+/// A component the motion does not determine is not among them ([`UNDETERMINED_FORCES`]); a
+/// resultant of several contacts that it does determine is named `A+B.COMPONENT`.
+pub const CONSTRAINT_FORCES: [&str; 5] = ["left.longitudinal", "left.normal", "right.longitudinal", "right.normal", "left+right.lateral"];
+/// The components the motion does not determine (dependent rows, more wheels on one frame
+/// than its three equations): named, never computed.
+pub const UNDETERMINED_FORCES: [&str; 2] = ["left.lateral", "right.lateral"];
+/// The number of [`CONSTRAINT_FORCES`].
+pub const NF: usize = 5;
+
+/// The coefficients of the constraint forces' map at (q, q̇) (47 values: directions, scales, the supports' equations), straight-line code.
+fn contact_values<S: Scalar>(q: &[S], qd: &[S], p: &Parameters, out: &mut [S]) {
+    let t0 = S::constant(p.m_b);
+    let t1 = q[3];
+    let (t2, t4) = t1.sin_cos();
+    let t3 = -t2;
+    let t5 = q[2];
+    let (t11, t6) = t5.sin_cos();
+    let t7 = t3 * t4 * t6;
+    let t8 = t2 * t4 * t6;
+    let t9 = t7 + t8;
+    let t10 = t0 * t9;
+    let t12 = t3 * t4 * t11;
+    let t13 = t2 * t4 * t11;
+    let t14 = t12 + t13;
+    let t15 = t0 * t14;
+    let t16 = S::constant(0.0);
+    let t17 = S::constant(p.l);
+    let t18 = t0 * t17 * t3;
+    let t19 = -t11;
+    let t20 = t17 * t4 * t6 * t19;
+    let t21 = t17 * t4 * t6;
+    let t22 = -t21;
+    let t23 = t19 * t22;
+    let t24 = t20 + t23;
+    let t25 = t0 * t24;
+    let t26 = t17 * t4 * t11 * t19;
+    let t27 = t6 * t22;
+    let t28 = t26 + t27;
+    let t29 = t0 * t28;
+    let t30 = t17 * t3;
+    let t31 = -t30;
+    let t32 = t0 * t22 * t31;
+    let t33 = S::constant(p.I_bx);
+    let t34 = t33 * t3 * t4 * t6;
+    let t35 = S::constant(p.I_bz);
+    let t36 = t35 * t2 * t4 * t6;
+    let t37 = t32 + t34 + t36;
+    let t38 = t0 * t17 * t17 * t19;
+    let t39 = S::constant(p.I_by);
+    let t40 = t39 * t19;
+    let t41 = t38 + t40;
+    let t42 = S::constant(p.m_w);
+    let t43 = S::constant(p.r);
+    let t44 = t43.powi(2);
+    let t45 = t42 * t44;
+    let t46 = S::constant(2.0);
+    let t47 = t45 * S::constant(0.5);
+    let t48 = t47 * t19;
+    let t49 = t17 * t4 * t6 * t6;
+    let t50 = t17 * t4 * t11;
+    let t51 = -t50;
+    let t52 = t19 * t51;
+    let t53 = t49 + t52;
+    let t54 = t0 * t53;
+    let t55 = t17 * t4 * t6 * t11;
+    let t56 = t6 * t51;
+    let t57 = t55 + t56;
+    let t58 = t0 * t57;
+    let t59 = t0 * t31 * t51;
+    let t60 = t33 * t3 * t4 * t11;
+    let t61 = t35 * t2 * t4 * t11;
+    let t62 = t59 + t60 + t61;
+    let t63 = t0 * t17 * t17 * t6;
+    let t64 = t39 * t6;
+    let t65 = t63 + t64;
+    let t66 = t47 * t6;
+    let t67 = qd[0];
+    let t68 = t4 * t19 * t67;
+    let t69 = qd[1];
+    let t70 = t4 * t6 * t69;
+    let t71 = t68 + t70;
+    let t72 = t3 * t71;
+    let t73 = t2 * t19 * t67;
+    let t74 = t2 * t6 * t69;
+    let t75 = t73 + t74;
+    let t76 = t4 * t75;
+    let t77 = t72 + t76;
+    let t78 = qd[2];
+    let t79 = t0 * t77 * t78;
+    let t80 = t4 * t6 * t67;
+    let t81 = t4 * t11 * t69;
+    let t82 = qd[3];
+    let t83 = t17 * t82;
+    let t84 = t80 + t81 + t83;
+    let t85 = -t4;
+    let t86 = t84 * t85;
+    let t87 = t3 * t6 * t67;
+    let t88 = t3 * t11 * t69;
+    let t89 = t87 + t88;
+    let t90 = t3 * t89;
+    let t91 = t2 * t6 * t67;
+    let t92 = t2 * t11 * t69;
+    let t93 = t91 + t92;
+    let t94 = t3 * t93;
+    let t95 = t80 + t81;
+    let t96 = t4 * t95;
+    let t97 = t86 + t90 + t94 + t96;
+    let t98 = t0 * t82 * t97;
+    let t99 = S::constant(p.g);
+    let t100 = t0 * t99;
+    let t101 = -t100;
+    let t102 = t42 * t99;
+    let t103 = -t102;
+    let t104 = t101 + t103 + t103;
+    let t105 = -t104;
+    let t106 = t105 + t79 + t98;
+    let t107 = -t6;
+    let t108 = t17 * t84 * t107;
+    let t109 = t17 * t19 * t71;
+    let t110 = t19 * t67;
+    let t111 = t6 * t69;
+    let t112 = t31 * t78;
+    let t113 = t110 + t111 + t112;
+    let t114 = t17 * t4 * t19;
+    let t115 = -t114;
+    let t116 = t113 * t115;
+    let t117 = t67 * t107;
+    let t118 = t19 * t69;
+    let t119 = t117 + t118;
+    let t120 = t22 * t119;
+    let t121 = t108 + t109 + t116 + t120;
+    let t122 = t0 * t121;
+    let t123 = t33 * t3 * t4 * t19 * t78;
+    let t124 = t39 * t82 * t107;
+    let t125 = t35 * t2 * t4 * t19 * t78;
+    let t126 = qd[4];
+    let t127 = t47 * t107 * t126;
+    let t128 = qd[5];
+    let t129 = t47 * t107 * t128;
+    let t130 = t122 + t123 + t124 + t125 + t127 + t129;
+    let t131 = t78 * t130;
+    let t132 = t17 * t19 * t89;
+    let t133 = t17 * t3 * t6;
+    let t134 = -t133;
+    let t135 = t113 * t134;
+    let t136 = t17 * t85;
+    let t137 = -t136;
+    let t138 = t22 * t78 * t137;
+    let t139 = t132 + t135 + t138;
+    let t140 = t0 * t139;
+    let t141 = t33 * t3 * t3 * t6 * t78;
+    let t142 = t33 * t4 * t6 * t78 * t85;
+    let t143 = t35 * t4 * t4 * t6 * t78;
+    let t144 = t35 * t2 * t3 * t6 * t78;
+    let t145 = t140 + t141 + t142 + t143 + t144;
+    let t146 = t82 * t145;
+    let t147 = S::constant(0.5);
+    let t148 = S::constant(-1.0);
+    let t149 = t148 * t3 * t69 * t84;
+    let t150 = t148 * t4 * t69 * t93;
+    let t151 = t149 + t149 + t150 + t150;
+    let t152 = t0 * t147 * t151;
+    let t153 = -t152;
+    let t154 = t0 * t17 * t99 * t2 * t11;
+    let t155 = -t154;
+    let t156 = S::constant(p.b);
+    let t157 = t42 * t99 * t156 * t6;
+    let t158 = -t157;
+    let t159 = -t156;
+    let t160 = t42 * t99 * t159 * t6;
+    let t161 = -t160;
+    let t162 = S::constant(p.T_L);
+    let t163 = t162 * t19;
+    let t164 = t162 * t4 * t6 * t19;
+    let t165 = t162 * t4 * t6 * t11;
+    let t166 = t164 + t165;
+    let t167 = t4 * t6 * t166;
+    let t168 = t162 * t19 * t19;
+    let t169 = t162 * t6 * t6;
+    let t170 = t168 + t169;
+    let t171 = t19 * t170;
+    let t172 = t162 * t2 * t6 * t19;
+    let t173 = t162 * t2 * t6 * t11;
+    let t174 = t172 + t173;
+    let t175 = t2 * t6 * t174;
+    let t176 = t167 + t171 + t175;
+    let t177 = -t176;
+    let t178 = S::constant(p.T_R);
+    let t179 = t178 * t19;
+    let t180 = t178 * t4 * t6 * t19;
+    let t181 = t178 * t4 * t6 * t11;
+    let t182 = t180 + t181;
+    let t183 = t4 * t6 * t182;
+    let t184 = t178 * t19 * t19;
+    let t185 = t178 * t6 * t6;
+    let t186 = t184 + t185;
+    let t187 = t19 * t186;
+    let t188 = t178 * t2 * t6 * t19;
+    let t189 = t178 * t2 * t6 * t11;
+    let t190 = t188 + t189;
+    let t191 = t2 * t6 * t190;
+    let t192 = t183 + t187 + t191;
+    let t193 = -t192;
+    let t194 = t155 + t158 + t161 + t163 + t177 + t179 + t193;
+    let t195 = -t194;
+    let t196 = t131 + t146 + t153 + t195;
+    let t197 = t17 * t19 * t84;
+    let t198 = t17 * t6 * t71;
+    let t199 = t22 * t113;
+    let t200 = t51 * t119;
+    let t201 = t197 + t198 + t199 + t200;
+    let t202 = t0 * t201;
+    let t203 = t33 * t3 * t4 * t6 * t78;
+    let t204 = t39 * t19 * t82;
+    let t205 = t35 * t2 * t4 * t6 * t78;
+    let t206 = t47 * t19 * t126;
+    let t207 = t47 * t19 * t128;
+    let t208 = t202 + t203 + t204 + t205 + t206 + t207;
+    let t209 = t78 * t208;
+    let t210 = t17 * t6 * t89;
+    let t211 = t17 * t3 * t11;
+    let t212 = -t211;
+    let t213 = t113 * t212;
+    let t214 = t51 * t78 * t137;
+    let t215 = t210 + t213 + t214;
+    let t216 = t0 * t215;
+    let t217 = t33 * t3 * t3 * t11 * t78;
+    let t218 = t33 * t4 * t11 * t78 * t85;
+    let t219 = t35 * t4 * t4 * t11 * t78;
+    let t220 = t35 * t2 * t3 * t11 * t78;
+    let t221 = t216 + t217 + t218 + t219 + t220;
+    let t222 = t82 * t221;
+    let t223 = t3 * t67 * t84;
+    let t224 = t4 * t67 * t93;
+    let t225 = t223 + t223 + t224 + t224;
+    let t226 = t0 * t147 * t225;
+    let t227 = -t226;
+    let t228 = t0 * t17 * t99 * t148 * t2 * t6;
+    let t229 = -t228;
+    let t230 = t42 * t99 * t148 * t156 * t19;
+    let t231 = -t230;
+    let t232 = t42 * t99 * t148 * t159 * t19;
+    let t233 = -t232;
+    let t234 = t162 * t6;
+    let t235 = t4 * t11 * t166;
+    let t236 = t6 * t170;
+    let t237 = t2 * t11 * t174;
+    let t238 = t235 + t236 + t237;
+    let t239 = -t238;
+    let t240 = t178 * t6;
+    let t241 = t4 * t11 * t182;
+    let t242 = t6 * t186;
+    let t243 = t2 * t11 * t190;
+    let t244 = t241 + t242 + t243;
+    let t245 = -t244;
+    let t246 = t229 + t231 + t233 + t234 + t239 + t240 + t245;
+    let t247 = -t246;
+    let t248 = t209 + t222 + t227 + t247;
+    let t249 = -t43;
+    let t250 = t249 * t6 * t19;
+    let t251 = t249 * t6;
+    let t252 = -t251;
+    let t253 = t19 * t252;
+    let t254 = t250 + t253;
+    let t255 = t249 * t6 * t6;
+    let t256 = t249 * t11;
+    let t257 = -t256;
+    let t258 = t19 * t257;
+    let t259 = t255 + t258;
+    let t260 = t249 * t11 * t19;
+    let t261 = t6 * t252;
+    let t262 = t260 + t261;
+    let t263 = t249 * t6 * t11;
+    let t264 = t6 * t257;
+    let t265 = t263 + t264;
+    let t266 = S::constant(1.0);
+    let t267 = t156 * t6;
+    let t268 = t159 * t6;
+    let t269 = t148 * t156 * t19;
+    let t270 = t148 * t159 * t19;
+    out[0] = t10;
+    out[1] = t15;
+    out[2] = t16;
+    out[3] = t18;
+    out[4] = t16;
+    out[5] = t16;
+    out[6] = t25;
+    out[7] = t29;
+    out[8] = t37;
+    out[9] = t41;
+    out[10] = t48;
+    out[11] = t48;
+    out[12] = t54;
+    out[13] = t58;
+    out[14] = t62;
+    out[15] = t65;
+    out[16] = t66;
+    out[17] = t66;
+    out[18] = t106;
+    out[19] = t196;
+    out[20] = t248;
+    out[21] = t16;
+    out[22] = t254;
+    out[23] = t259;
+    out[24] = t16;
+    out[25] = t262;
+    out[26] = t265;
+    out[27] = t16;
+    out[28] = t254;
+    out[29] = t259;
+    out[30] = t16;
+    out[31] = t262;
+    out[32] = t265;
+    out[33] = t266;
+    out[34] = t266;
+    out[35] = t267;
+    out[36] = t268;
+    out[37] = t269;
+    out[38] = t270;
+    out[39] = t6;
+    out[40] = t11;
+    out[41] = t6;
+    out[42] = t11;
+    out[43] = t19;
+    out[44] = t6;
+    out[45] = t19;
+    out[46] = t6;
+}
+
+/// The reported components from the map's values `v`, the multipliers λ (α's rows) and q̈.
+fn contact_reports<S: Scalar>(v: &[S], lambda: &[S], qdd: &[S], out: &mut [S]) -> Result<(), EvalError> {
+    let (layout0, rows0) = (runtime::SupportLayout { at: 0, ell: ELL, rows: 4, wheels: 2 }, [0, 1, 2, 3]);
+    let mut n0 = [S::constant(0.0); 2];
+    if !runtime::support_normals(layout0, &rows0, v, lambda, qdd, &mut n0) {
+        return Err(EvalError::Check("the normal forces of a support: its contacts are on one line (G is rank deficient)"));
+    }
+    out[0] = lambda[0] * v[39] + lambda[1] * v[40];
+    out[1] = n0[0];
+    out[2] = lambda[2] * v[41] + lambda[3] * v[42];
+    out[3] = n0[1];
+    out[4] = lambda[0] * v[43] + lambda[1] * v[44] + lambda[2] * v[45] + lambda[3] * v[46];
+    Ok(())
+}
+
+/// The constraint forces at (q, η), in the order of [`CONSTRAINT_FORCES`], and the precision
+/// they were computed in: λ and q̈ from the structured evaluation ([`runtime::Structured::constraint_force`]),
+/// repeated in double-double where its f64 error estimate is above
+/// [`runtime::DOUBLE_DOUBLE_ABOVE`], as [`rhs_fixed`] is. Nothing is differentiated numerically.
+pub fn constraint_forces_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; NF], runtime::Precision), EvalError> {
+    let mut out = [S::constant(0.0); LEN];
+    ingredients(q, p, &mut out);
+    let mut storage = Storage::<S>::new();
+    let mut s = storage.structured(DIMS)?;
+    evaluate_into(&mut s, &out, q, eta, p, false)?;
+    let zero = S::constant(0.0);
+    let (mut r, mut y) = ([zero; ELL], [zero; { DIMS.m_rows() }]);
+    let (mut qdd, mut tmp, mut qd) = ([zero; ELL], [zero; ELL], [zero; ELL]);
+    s.constraint_force(&out, &mut r, &mut y, &mut qdd, &mut tmp);
+    qd.copy_from_slice(s.q_dot());
+    if S::CHECKED && s.f64_error_estimate(&out) > runtime::DOUBLE_DOUBLE_ABOVE {
+        let (q, eta) = (runtime::widen::<S, Wide, ELL>(q), runtime::widen::<S, Wide, SIGMA>(eta));
+        let (wide, _) = constraint_forces_fixed::<Wide>(&q, &eta, p)?;
+        return Ok((wide.map(|x| S::constant(x.value())), runtime::Precision::DoubleDouble));
+    }
+    let mut v = [zero; 47];
+    contact_values(q, &qd, p, &mut v);
+    let mut f = [zero; NF];
+    contact_reports(&v, &y[SIGMA..], &qdd, &mut f)?;
+    if f.iter().any(|x| !x.value().is_finite()) {
+        return Err(EvalError::NotFinite("the constraint forces"));
+    }
+    Ok((f, runtime::Precision::F64))
+}
+
+/// [`constraint_forces_fixed`] in f64 (double-double inside where needed), in a vector.
+pub fn constraint_forces(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
+    constraint_forces_fixed::<f64>(q, eta, p).map(|(f, _)| f.to_vec())
+}

@@ -1700,3 +1700,28 @@ pub fn reconstruction(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>
     let r = full_rhs(q, eta, p)?;
     Ok(ELIMINATED.iter().map(|&k| r.q_dot[k]).collect())
 }
+
+/// The constraint forces' components, in order (issue 58): each wheel's `NAME.longitudinal`
+/// (forwards, in the ground plane), `NAME.lateral` (up × forwards) and `NAME.normal` (up),
+/// each blade's `NAME.lateral`, every other row's multiplier (a holonomic constraint's
+/// generalised force along its gradient, a typed row as written), in newtons where a force.
+/// A component the motion does not determine is not among them ([`UNDETERMINED_FORCES`]); a
+/// resultant of several contacts that it does determine is named `A+B.COMPONENT`.
+pub const CONSTRAINT_FORCES: [&str; 0] = [];
+/// The components the motion does not determine (dependent rows, more wheels on one frame
+/// than its three equations): named, never computed.
+pub const UNDETERMINED_FORCES: [&str; 0] = [];
+/// The number of [`CONSTRAINT_FORCES`].
+pub const NF: usize = 0;
+
+/// The constraint forces at (q, η): none, as this core was generated without their map (the
+/// derivation did not release the supports of the wheels the frames keep on the ground: only
+/// `hamel codegen` and the scenes that request a force do).
+pub fn constraint_forces_fixed<S: Scalar>(q: &[S], eta: &[S], p: &Parameters) -> Result<([S; 0], runtime::Precision), EvalError> {
+    Ok(([], runtime::Precision::F64))
+}
+
+/// [`constraint_forces_fixed`] in f64 (double-double inside where needed), in a vector.
+pub fn constraint_forces(q: &[f64], eta: &[f64], p: &Parameters) -> Result<Vec<f64>, EvalError> {
+    constraint_forces_fixed::<f64>(q, eta, p).map(|(f, _)| f.to_vec())
+}

@@ -1,12 +1,15 @@
 //! `eval --state FILE|-`: the right-hand side at the given states, as `hamel eval` prints it.
 //! Input: a state object `{"q": {name: value, …}, "eta": [..], "params": {name: value}}` or a
 //! list of them. Output (stdout): `{"eta_dot", "q_dot", "energy", "eta_dot_paper",
-//! "precision", "f64_error_estimate"}` per state.
+//! "precision", "f64_error_estimate", "constraint_forces", "undetermined_forces"}` per state
+//! (the last two when the core has the constraint forces' map, as `hamel eval` prints them).
 //! A bad state is an error on stderr naming the state and the reason; nothing is printed.
 
 use std::io::Read;
 
-use hamel_generated::{COORDINATES, DIMS, Parameters, full_rhs};
+use hamel_generated::{
+    CONSTRAINT_FORCES, COORDINATES, DIMS, Parameters, UNDETERMINED_FORCES, constraint_forces, full_rhs,
+};
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
@@ -27,6 +30,14 @@ struct Out {
     eta_dot_paper: Vec<f64>,
     precision: &'static str,
     f64_error_estimate: f64,
+    #[serde(skip_serializing_if = "is_empty")]
+    constraint_forces: InOrder,
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    undetermined_forces: &'static [&'static str],
+}
+
+fn is_empty(v: &InOrder) -> bool {
+    v.0.is_empty()
 }
 
 /// q̇ by coordinate name, in the model's coordinate order (as `hamel eval` prints it).
@@ -75,14 +86,16 @@ fn one(i: usize, v: Value) -> Result<Out, String> {
         p.set(k, number(v, &format!("params.{k}")).map_err(tag)?)
             .map_err(|e| tag(e.to_string()))?;
     }
-    let r = full_rhs(&q, &s.eta, &p).map_err(|e| {
+    let at = |e: hamel_generated::runtime::EvalError| {
         let at: Vec<String> = COORDINATES
             .iter()
             .zip(&q)
             .map(|(c, v)| format!("{c} = {v}"))
             .collect();
         tag(format!("{e} (at {})", at.join(", ")))
-    })?;
+    };
+    let r = full_rhs(&q, &s.eta, &p).map_err(at)?;
+    let forces = constraint_forces(&q, &s.eta, &p).map_err(at)?;
     Ok(Out {
         eta_dot: r.eta_dot,
         q_dot: InOrder(COORDINATES.iter().copied().zip(r.q_dot).collect()),
@@ -90,6 +103,8 @@ fn one(i: usize, v: Value) -> Result<Out, String> {
         eta_dot_paper: r.eta_dot_paper,
         precision: r.precision.name(),
         f64_error_estimate: r.f64_error_estimate,
+        constraint_forces: InOrder(CONSTRAINT_FORCES.iter().copied().zip(forces).collect()),
+        undetermined_forces: &UNDETERMINED_FORCES,
     })
 }
 
