@@ -91,34 +91,13 @@ pub fn load_with(
     let tables = crate::inputs::tables(&scene, dir).map_err(|(k, m)| err(&k, m))?;
     let live = crate::inputs::live(&model, &tables);
     let (model, choice) = choose(model, &scene, &parsed, &file)?;
-    let forces_key = if request.forces.is_empty() {
-        "friction"
-    } else {
-        "request"
-    };
-    let model = if request.computes_forces() {
-        // the supports of the wheels the frames keep on the ground, for their normal forces
-        model
-            .with_supports()
-            .map_err(|e| err(forces_key, e.message().to_string()))?
-    } else {
-        model
-    };
-    let (mut plan, d) = crate::plan::plan(&model, &choice, &request)?;
-    let compiled = if request.computes_forces() {
-        d.compile_with_constraint_forces()
-    } else {
-        d.compile()
-    };
-    let compiled = compiled.map_err(|e| err("eta", e.to_string()))?;
-    let forces = Forces::resolve(
-        &request.forces,
-        scene.friction.as_ref(),
-        &model,
-        &compiled.constraint_force_names(),
-        compiled.undetermined_constraint_forces(),
-    )
-    .map_err(|(k, m)| err(&k, m))?;
+    let Derived {
+        model,
+        mut plan,
+        d,
+        compiled,
+        forces,
+    } = derive(model, &choice, &scene, &request, &file)?;
     let expressions = request
         .expressions
         .iter()
@@ -174,6 +153,63 @@ pub fn load_with(
         completed,
         file,
         core: OnceCell::new(),
+    })
+}
+
+/// What the scene derives: its model (with the wheels' supports when it computes forces), plan,
+/// derivation, evaluator and forces.
+struct Derived {
+    model: Model,
+    plan: Plan,
+    d: hamel_derive::Derivation,
+    compiled: Compiled,
+    forces: Forces,
+}
+
+/// Plan and derive the scene with the quasi-velocities `choice`; when it computes constraint
+/// forces (requested, or watched by `[friction]`), with the supports of the wheels the frames
+/// keep on the ground released and the forces' map compiled, and the forces resolved.
+fn derive(
+    model: Model,
+    choice: &str,
+    scene: &Scene,
+    request: &Request,
+    file: &SceneFile,
+) -> Result<Derived, ModelError> {
+    let err = |key: &str, m: String| file.error(Some(key), m);
+    let forces_key = if request.forces.is_empty() {
+        "friction"
+    } else {
+        "request"
+    };
+    let model = if request.computes_forces() {
+        model
+            .with_supports()
+            .map_err(|e| err(forces_key, e.message().to_string()))?
+    } else {
+        model
+    };
+    let (plan, d) = crate::plan::plan(&model, choice, request)?;
+    let compiled = if request.computes_forces() {
+        d.compile_with_constraint_forces()
+    } else {
+        d.compile()
+    };
+    let compiled = compiled.map_err(|e| err("eta", e.to_string()))?;
+    let forces = Forces::resolve(
+        &request.forces,
+        scene.friction.as_ref(),
+        &model,
+        &compiled.constraint_force_names(),
+        compiled.undetermined_constraint_forces(),
+    )
+    .map_err(|(k, m)| err(&k, m))?;
+    Ok(Derived {
+        model,
+        plan,
+        d,
+        compiled,
+        forces,
     })
 }
 
