@@ -230,7 +230,8 @@ pub struct Key {
 }
 
 impl Key {
-    /// The key of the code for `model` (its text, and the scene's control closing its loop)
+    /// The key of the code for `model` (its text, the scene's control closing its loop, and
+    /// whether its supports are released: a core with the constraint forces' map or without)
     /// with choice `eta`, `dropped` eliminated and `fixed` parameters specialised.
     pub fn new(model: &Model, eta: &str, dropped: &[String], fixed: &IndexMap<String, f64>) -> Key {
         let exe = std::env::current_exe()
@@ -250,10 +251,11 @@ impl Key {
             .collect();
         Key {
             text: format!(
-                "hamel {}; executable {exe}\nchoice: {eta}\ndropped: {}\nparameters: {}\ncontrol:\n{}\nmodel:\n{}",
+                "hamel {}; executable {exe}\nchoice: {eta}\ndropped: {}\nparameters: {}\nsupports released (the constraint forces' map): {}\ncontrol:\n{}\nmodel:\n{}",
                 env!("CARGO_PKG_VERSION"),
                 dropped.join(", "),
                 params.join(", "),
+                model.contact_forces.released,
                 model.control,
                 model.source
             ),
@@ -767,4 +769,24 @@ pub fn run(binary: &Path, job: &Job) -> Result<Answer, CacheError> {
         )));
     }
     serde_json::from_slice(&out.stdout).map_err(|e| core(format!("unreadable answer: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scene that requests constraint forces derives with the supports released and gets a
+    /// core with the forces' map: never the core of the same model without them.
+    #[test]
+    fn a_core_with_the_forces_map_has_a_key_of_its_own() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/whipple_bicycle.toml"
+        );
+        let model = Model::load(path).unwrap();
+        let fixed = IndexMap::new();
+        let plain = Key::new(&model, "benchmark", &[], &fixed);
+        let supported = Key::new(&model.with_supports().unwrap(), "benchmark", &[], &fixed);
+        assert_ne!(plain.text, supported.text);
+    }
 }

@@ -197,6 +197,20 @@ impl Loaded {
             mut constraint_forces,
             constraint_forces_error,
         } = cache::run(&exe, &job)?;
+        let expected = self.compiled.constraint_force_names().len();
+        if let Some(v) = constraint_forces
+            .iter()
+            .flatten()
+            .find(|v| v.len() != expected)
+        {
+            return Err(cache::CacheError::Core {
+                binary: exe.clone(),
+                why: format!(
+                    "its constraint forces have {} components, the scene's derivation {expected}",
+                    v.len()
+                ),
+            });
+        }
         if let Some(e) = constraint_forces_error {
             log::warn!("the constraint forces cannot be computed {e} (written as null)");
         }
