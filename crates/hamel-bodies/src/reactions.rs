@@ -35,7 +35,7 @@ use crate::numeric::Point;
 use crate::vector::{V3, cross, dot};
 
 /// How the forces of a mechanism's contacts are read off the multipliers of its rows.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ContactForces {
     /// The wheels and blades, in the description's order (wheels first).
     pub contacts: Vec<Contact>,
@@ -47,7 +47,7 @@ pub struct ContactForces {
 }
 
 /// One contact with the ground.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
     /// The wheel's or blade's name.
     pub name: String,
@@ -56,7 +56,7 @@ pub struct Contact {
 }
 
 /// A wheel or a blade.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ContactKind {
     /// A rolling wheel: three components.
     Wheel(WheelForce),
@@ -70,7 +70,7 @@ pub enum ContactKind {
 }
 
 /// Where a wheel's force comes from.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WheelForce {
     /// Its no-slip rows, one per horizontal world axis (in the axes' order).
     pub rows: Vec<String>,
@@ -87,7 +87,7 @@ pub struct WheelForce {
 }
 
 /// Where a wheel's normal force comes from.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Normal {
     /// The multiplier of its contact's holonomic row (named).
     Row(String),
@@ -103,7 +103,7 @@ pub enum Normal {
 /// The virtual rigid motion p of one root frame (heave, two tilts) and its Lagrange equations
 /// at p = ṗ = p̈ = 0 (see the module doc): row r of
 /// `mass`·q̈ + `bias` − Σ_i `rows[i]`·λ_i = Σ_w `heights[r][w]` N_w.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Support {
     /// The root frame.
     pub root: String,

@@ -225,7 +225,7 @@ impl Interval {
 
 /// A point at which a matrix was certified nonsingular: the values used and the smallest
 /// magnitude a pivot could have there.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Certificate {
     /// The value of every coordinate and parameter at the point.
     pub point: IndexMap<String, f64>,
@@ -237,7 +237,11 @@ pub struct Certificate {
 }
 
 fn three_digits<S: serde::Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(&format!("{v:.2e}"))
+    if s.is_human_readable() {
+        s.serialize_str(&format!("{v:.2e}"))
+    } else {
+        s.serialize_f64(*v)
+    }
 }
 
 /// Rank μ of a μ×n (μ ≤ n) interval matrix, certified: Gaussian elimination with complete

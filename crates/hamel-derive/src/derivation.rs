@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use hamel_expr::{Canonical, Expr};
 use indexmap::IndexMap;
-use serde::{Serialize, Serializer};
+use serde::{Deserialize, Serialize, Serializer};
 
 use crate::certify::Certificate;
 
@@ -22,10 +22,40 @@ pub struct Entry {
     pub canonical: Option<Arc<Canonical>>,
 }
 
+/// An entry is written as its text for a reader (JSON); a stored derivation
+/// ([`crate::store`], a binary format) keeps the text, the tree and the canonical form.
 impl Serialize for Entry {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(&self.text)
+        if s.is_human_readable() {
+            return s.serialize_str(&self.text);
+        }
+        EntryData {
+            text: std::borrow::Cow::Borrowed(&self.text),
+            expr: std::borrow::Cow::Borrowed(&self.expr),
+            canonical: self.canonical.clone(),
+        }
+        .serialize(s)
     }
+}
+
+/// An entry as stored: read back whole (never from its text alone).
+impl<'de> Deserialize<'de> for Entry {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Entry, D::Error> {
+        let e = EntryData::deserialize(d)?;
+        Ok(Entry {
+            text: e.text.into_owned(),
+            expr: e.expr.into_owned(),
+            canonical: e.canonical,
+        })
+    }
+}
+
+/// The stored fields of an [`Entry`].
+#[derive(Serialize, Deserialize)]
+struct EntryData<'a> {
+    text: std::borrow::Cow<'a, str>,
+    expr: std::borrow::Cow<'a, Expr>,
+    canonical: Option<Arc<Canonical>>,
 }
 
 /// A matrix of derived expressions (row-major; serialised as a list of rows of strings).
@@ -46,14 +76,29 @@ impl Mat {
     }
 }
 
+/// For a reader, the rows of entries; stored, with its shape.
 impl Serialize for Mat {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.entries.serialize(s)
+        if s.is_human_readable() {
+            return self.entries.serialize(s);
+        }
+        (self.rows, self.cols, &self.entries).serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Mat {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Mat, D::Error> {
+        let (rows, cols, entries) = <(usize, usize, Vec<Vec<Entry>>)>::deserialize(d)?;
+        Ok(Mat {
+            rows,
+            cols,
+            entries,
+        })
     }
 }
 
 /// Exact checks made on the derived equations.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Checks {
     /// Q (true) = Q_paper + Q_correction, coefficient by coefficient.
     pub split_identity: bool,
@@ -64,11 +109,11 @@ pub struct Checks {
     pub energy_conserved_paper: bool,
     /// With forces: dE/dt = (Γη)ᵀF identically along the true equations (Q does no work, the
     /// forces do all of it). None without forces.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub energy_balance: Option<bool>,
     /// The coordinates whose generalised force does work, (Γη)_k F_k ≢ 0 (motor torques,
     /// dampers); empty without forces.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub working_forces: Vec<String>,
     /// Q_correction ≡ 0: the paper's equations (11)/(15) are the true ones for this Z.
     pub paper_is_exact: bool,
@@ -82,7 +127,7 @@ pub struct Checks {
 /// The equations are A_Γ η̇ + Q(q, η) − Γᵀ∇U = 0 (11) with Q_i = Σ_rs Q⁽ⁱ⁾_rs η_r η_s, joined
 /// to the kinematic equations q̇ = Γη (6). The coefficient matrices Q⁽ⁱ⁾ are given symmetrised
 /// (a quadratic form determines only its symmetric part).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Derivation {
     /// Model identifier.
     pub model: String,
@@ -96,11 +141,11 @@ pub struct Derivation {
     pub free_functions: Vec<String>,
     /// The model's `[abbreviations]`: names for expressions in the parameters, which printing
     /// uses (the derivation does not).
-    #[serde(skip_serializing_if = "IndexMap::is_empty")]
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
     pub abbreviations: IndexMap<String, Entry>,
     /// The parameters the model declares positive (`positive = [...]`), which printing uses
     /// to multiply an equation through by its denominator.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub positive: Vec<String>,
     /// Coordinates q₁..q_ℓ.
     pub coordinates: Vec<String>,
@@ -164,7 +209,7 @@ pub struct Derivation {
 }
 
 /// The equations in closed form: every derived object as one canonical expression.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Closed {
     /// Γ (ℓ×σ): q̇ = Γη (5)–(6).
     pub gamma: Mat,
@@ -197,14 +242,14 @@ pub struct Closed {
     pub energy: Entry,
     /// With forces: their power (Γη)ᵀF(q, Γη), so that dE/dt = power along the true
     /// equations.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub power: Option<Entry>,
     /// Exact checks.
     pub checks: Checks,
 }
 
 /// How a derivation gives its equations.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum Form {
     /// Γ, Θ, δ, A_Γ, Q, the equations and the exact checks, each a canonical expression.
@@ -216,7 +261,7 @@ pub enum Form {
 }
 
 /// Why a derivation is in structured form, and the proof that its quasi-velocities are valid.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StructuredForm {
     /// Why the closed form was not computed.
     #[serde(serialize_with = "crate::derivation::as_text")]
@@ -227,7 +272,7 @@ pub struct StructuredForm {
 }
 
 /// Why the closed form of a derivation was not computed.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Why {
     /// The user asked for the structured form.
     Requested,
@@ -262,8 +307,15 @@ impl std::fmt::Display for Why {
     }
 }
 
-pub(crate) fn as_text<T: std::fmt::Display, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(&v.to_string())
+pub(crate) fn as_text<T: std::fmt::Display + Serialize, S: Serializer>(
+    v: &T,
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    if s.is_human_readable() {
+        s.serialize_str(&v.to_string())
+    } else {
+        v.serialize(s)
+    }
 }
 
 /// The closed form was needed and the derivation is structured.
@@ -307,7 +359,7 @@ impl Derivation {
 
 /// Small exact expressions from which the equations are evaluated numerically without
 /// expanding them (see `numeric`).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Ingredients {
     /// U.
     pub potential: Option<Entry>,
@@ -355,7 +407,7 @@ pub struct Ingredients {
 /// on U's tree. Each converts to the canonical form of the derivation (which is computed from
 /// them), so they are equal by construction; they are for evaluation, the canonical forms for
 /// deciding. The bicycle's A is 860 operations shared as a tree, 14,000 expanded.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Trees {
     /// A (ℓ×ℓ).
     pub a: Mat,
@@ -383,7 +435,7 @@ impl Trees {
 }
 
 /// A row of the model dropped from α: row = Σ_j c_j α_j exactly, over the kept rows α_j.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Dependent {
     /// Its name.
     pub name: String,
@@ -393,16 +445,16 @@ pub struct Dependent {
     pub combination: Vec<Term>,
     /// The factors of the coefficients' denominators: where the kept rows lose rank (and
     /// the dependence as written fails), sorted by text.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub singular: Vec<Entry>,
     /// The holonomic constraint on whose manifold (h = 0) the combination holds, and only
     /// there (the rank of α is lower on it than off it); absent when it holds everywhere.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub on_manifold: Option<String>,
 }
 
 /// A factor and its power.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Power {
     /// The factor.
     pub factor: Entry,
@@ -411,7 +463,7 @@ pub struct Power {
 }
 
 /// One term c_j α_j of a dependence.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Term {
     /// The kept row's name.
     pub row: String,
@@ -420,7 +472,7 @@ pub struct Term {
 }
 
 /// A holonomic constraint h(q) = 0 of a derivation.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Holonomic {
     /// Its name.
     pub name: String,
@@ -431,7 +483,7 @@ pub struct Holonomic {
 }
 
 /// A diagonal block of A_Γ (the rows `rows`, coupled to no other row), for Cramer's rule.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Block {
     /// Indices of η in the block.
     pub rows: Vec<usize>,

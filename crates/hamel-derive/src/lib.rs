@@ -24,6 +24,7 @@ pub mod progress;
 mod render;
 pub use render::{Printer, canonical, entry_line, is_whole_equation};
 pub mod states;
+pub mod store;
 pub mod symbolic;
 pub mod uniqueness;
 

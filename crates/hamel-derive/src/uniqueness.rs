@@ -21,7 +21,7 @@ use hamel_expr::Expr;
 use crate::dependence::Dependence;
 
 /// A force component of a contact.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Component {
     /// Along the rolling direction.
     Longitudinal,
@@ -43,7 +43,7 @@ impl Component {
 }
 
 /// A sum of one component over contacts, determined where its terms are not.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Resultant {
     /// The contacts, in the model's order.
     pub contacts: Vec<String>,
@@ -52,7 +52,7 @@ pub struct Resultant {
 }
 
 /// What the dependent rows leave undetermined, decided exactly (empty without them).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Uniqueness {
     /// The components not determined one by one: (contact, component).
     pub undetermined: Vec<(String, Component)>,

@@ -7,7 +7,9 @@ use num_traits::{One, Signed, ToPrimitive, Zero};
 pub type Rational = num_rational::BigRational;
 
 /// Built-in functions of one argument.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
 pub enum Func {
     /// sine
     Sin,
@@ -60,7 +62,9 @@ impl Func {
 ///
 /// Sums and products are n-ary; subtraction is a sum with a negated term and division is
 /// [`Expr::Div`]. Symbols are resolved by name by whoever evaluates or converts the tree.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+/// Serialised structurally (a stored derivation, `hamel_derive::store`); the text a user reads
+/// is the printer's.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Expr {
     /// An exact rational literal.
     Num(Rational),

@@ -15,7 +15,7 @@ use crate::ast::{Expr, Rational};
 /// its polynomial's vector (its coefficient a machine integer where it fits, eight powers in
 /// place): a reader of a derivation's thousands of terms reads them in order, not by two
 /// pointers each.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Term {
     /// The coefficient (never zero).
     pub coef: Coef,
@@ -29,7 +29,7 @@ pub type Powers = SmallVec<[(u32, u32); 8]>;
 /// An integer coefficient: a machine integer where it fits (a derivation's almost always
 /// do), else a big integer. Canonical: `Big` only for what does not fit in an `i64`, so the
 /// derived equality is that of the value.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Coef {
     /// Fits in an `i64`.
     Small(i64),
@@ -70,7 +70,7 @@ pub type Terms = Vec<Term>;
 ///
 /// **Invariant**: the atoms are distinct, and a term's atoms ascend in the order the tree
 /// writes a product's factors; the factors are in the order the tree writes them.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Canonical {
     /// The atoms: symbols, velocities, sines and cosines, free functions, other functions.
     pub atoms: Vec<Expr>,
