@@ -2929,3 +2929,62 @@ fn the_friction_monitor_stops_a_skidding_disk() {
     assert!(disk["smallest_normal"].as_f64().unwrap() > 0.0, "{disk}");
     assert!(g["friction"]["violation"].is_null());
 }
+
+/// The derivation store (issue 59): the second `hamel eval` of a model reads its derivation
+/// from the store and starts no computer algebra (stdout is JSON from its first byte, no
+/// notice), with the same numbers; the store is private; an entry tampered with is not
+/// trusted (a warning, derived anew, the same numbers).
+#[test]
+fn a_stored_derivation_is_evaluated_without_the_computer_algebra() {
+    let dir = scratch("store");
+    let cache = dir.join("cache");
+    let states = dir.join("states.json");
+    std::fs::write(
+        &states,
+        r#"[{"q": {"x": 0.1, "y": 0.2, "theta": 0.3}, "eta": [1.0, 0.5]}]"#,
+    )
+    .unwrap();
+    let eval = || {
+        let args = [
+            "eval",
+            "models/knife.toml",
+            "--state",
+            states.to_str().unwrap(),
+        ];
+        let o = hamel_with_cache(&args, None, &cache);
+        assert!(o.status.success(), "{}", stderr(&o));
+        o
+    };
+    let first = eval();
+    let second = eval();
+    let text = String::from_utf8(second.stdout.clone()).unwrap();
+    assert!(
+        text.starts_with('['),
+        "stdout is JSON from its first byte: {text}"
+    );
+    assert!(!text.contains("Symbolica") && !stderr(&second).contains("Symbolica"));
+    assert_eq!(json_on_stdout(&first), json_on_stdout(&second));
+    let store = cache.join("derivations");
+    use std::os::unix::fs::PermissionsExt;
+    assert_eq!(
+        std::fs::metadata(&store).unwrap().permissions().mode() & 0o777,
+        0o700
+    );
+    let entry = std::fs::read_dir(&store)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let mut bytes = std::fs::read(&entry).unwrap();
+    let at = bytes.len() / 2;
+    bytes[at] ^= 0x55;
+    std::fs::write(&entry, bytes).unwrap();
+    let third = eval();
+    assert!(
+        stderr(&third).contains("corrupt or not this model's"),
+        "{}",
+        stderr(&third)
+    );
+    assert_eq!(json_on_stdout(&first), json_on_stdout(&third));
+}

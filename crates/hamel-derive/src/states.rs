@@ -102,7 +102,12 @@ fn derive_with(
             c.free_functions[0].1[0]
         )));
     }
-    let d = crate::derive(&m.with_supports()?, Some(choice))?;
+    // from the derivation store when it holds this derivation: no computer algebra then
+    let options = crate::store::Options {
+        supports: true,
+        fresh: false,
+    };
+    let d = crate::store::derive_stored(&m, choice, options)?;
     let c = (d.compile_with_constraint_forces()).map_err(|e| tag(e.to_string()))?;
     Ok((d, c))
 }

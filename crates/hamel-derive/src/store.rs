@@ -99,3 +99,177 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Derivation, StoreError> {
     d.force_uniqueness = read.force_uniqueness;
     Ok(d)
 }
+
+/// What determines a derivation, the key of its entry in the store: hamel's build, the layout,
+/// the model's text, the parameters' values (`--set`), the control laws closing its loop, the
+/// choice's quasi-velocities as used (free functions defined), whether the supports are
+/// released. The entry is named by its SHA-256 and holds the key itself, compared on reading.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Key {
+    text: String,
+}
+
+impl Key {
+    /// The key of `model`'s derivation for the choice `choice`, with the supports of its
+    /// wheels released when `supports` (or already).
+    pub fn new(
+        model: &hamel_model::Model,
+        choice: &str,
+        supports: bool,
+    ) -> Result<Key, hamel_model::ModelError> {
+        let exe = std::env::current_exe()
+            .and_then(std::fs::metadata)
+            .map(|m| {
+                let modified = (m.modified().ok())
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                    .map_or(0, |d| d.as_nanos());
+                format!("{} bytes, modified {modified}", m.len())
+            })
+            .unwrap_or_else(|_| "unknown".into());
+        let chosen = model.choice(Some(choice))?;
+        let eta: Vec<String> = chosen.eta.iter().map(|i| i.expr.to_string()).collect();
+        let params: Vec<String> = (model.parameters.iter())
+            .map(|(k, v)| format!("{k} = {:#018x}", v.to_bits()))
+            .collect();
+        Ok(Key {
+            text: format!(
+                "hamel {}; executable {exe}; store format {FORMAT}\nchoice {choice}: {}\nparameters: {}\nsupports released: {}\ncontrol:\n{}\nmodel {}:\n{}",
+                env!("CARGO_PKG_VERSION"),
+                eta.join(", "),
+                params.join(", "),
+                supports || model.contact_forces.released,
+                model.control,
+                model.file,
+                model.source
+            ),
+        })
+    }
+
+    /// The entry's file name.
+    fn file(&self) -> String {
+        format!(
+            "{}.derivation",
+            &hamel_cache::sha256_hex(self.text.as_bytes())[..32]
+        )
+    }
+}
+
+/// The store's directory inside the cache (private, checked: [`hamel_cache::private`]).
+fn directory() -> Result<std::path::PathBuf, hamel_cache::RootError> {
+    let root = hamel_cache::root()?;
+    hamel_cache::private(&root.join("derivations"))
+}
+
+/// An entry: the key's text, the SHA-256 of the derivation's bytes, the bytes.
+#[derive(Serialize, Deserialize)]
+struct Entry {
+    key: String,
+    sha256: String,
+    #[serde(with = "serde_bytes_vec")]
+    bytes: Vec<u8>,
+}
+
+/// Bytes as one CBOR byte string (not a list of numbers).
+mod serde_bytes_vec {
+    pub fn serialize<S: serde::Serializer>(v: &[u8], s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bytes(v)
+    }
+    pub fn deserialize<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<u8>, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Vec<u8>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("bytes")
+            }
+            fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Vec<u8>, E> {
+                Ok(v.to_vec())
+            }
+            fn visit_byte_buf<E: serde::de::Error>(self, v: Vec<u8>) -> Result<Vec<u8>, E> {
+                Ok(v)
+            }
+        }
+        d.deserialize_byte_buf(V)
+    }
+}
+
+/// The stored derivation of `key`, if the store holds a sound one. An entry that does not
+/// read, whose key differs or whose bytes do not match their hash is not trusted: a warning
+/// says so, and the caller derives anew (and replaces it).
+pub fn lookup(key: &Key) -> Option<Derivation> {
+    let dir = match directory() {
+        Ok(d) => d,
+        Err(e) => {
+            log::warn!("the derivation store is not used: {e}");
+            return None;
+        }
+    };
+    let path = dir.join(key.file());
+    let raw = std::fs::read(&path).ok()?;
+    let sound = ciborium::from_reader::<Entry, _>(raw.as_slice())
+        .ok()
+        .filter(|e| e.key == key.text && hamel_cache::sha256_hex(&e.bytes) == e.sha256)
+        .map(|e| from_bytes(&e.bytes));
+    match sound {
+        Some(Ok(d)) => Some(d),
+        _ => {
+            log::warn!(
+                "the stored derivation {} is corrupt or not this model's: deriving anew",
+                path.display()
+            );
+            None
+        }
+    }
+}
+
+/// Store `d` under `key` (whole, or not at all); a failure is a warning, never an error: the
+/// store only saves work.
+pub fn put(key: &Key, d: &Derivation) {
+    let write = || -> Result<(), String> {
+        let dir = directory().map_err(|e| e.to_string())?;
+        let bytes = to_bytes(d).map_err(|e| e.to_string())?;
+        let entry = Entry {
+            key: key.text.clone(),
+            sha256: hamel_cache::sha256_hex(&bytes),
+            bytes,
+        };
+        let mut out = Vec::new();
+        ciborium::into_writer(&entry, &mut out).map_err(|e| e.to_string())?;
+        hamel_cache::write_atomic(&dir, &key.file(), &out).map_err(|e| e.to_string())
+    };
+    if let Err(e) = write() {
+        log::warn!("the derivation is not stored: {e}");
+    }
+}
+
+/// How [`derive_stored`] derives.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Options {
+    /// With the supports of the wheels the frames keep on the ground released
+    /// (`Model::with_supports`: for the constraint forces); a stored derivation has them, so
+    /// they are computed only when it must derive.
+    pub supports: bool,
+    /// Derive (and store) whatever the store holds (`--no-store`).
+    pub fresh: bool,
+}
+
+/// The derivation of `model` for `choice` from the store, else derived ([`crate::derive`]) and
+/// stored.
+pub fn derive_stored(
+    model: &hamel_model::Model,
+    choice: &str,
+    options: Options,
+) -> Result<Derivation, hamel_model::ModelError> {
+    let key = Key::new(model, choice, options.supports)?;
+    if !options.fresh
+        && let Some(d) = lookup(&key)
+    {
+        return Ok(d);
+    }
+    let d = if options.supports {
+        crate::derive(&model.with_supports()?, Some(choice))?
+    } else {
+        crate::derive(model, Some(choice))?
+    };
+    put(&key, &d);
+    Ok(d)
+}

@@ -122,105 +122,25 @@ impl CacheError {
     }
 }
 
-/// Where the cache lives: `$HAMEL_CACHE`, else `$XDG_CACHE_HOME/hamel`, else
-/// `~/.cache/hamel`, else `hamel-cache` in the temporary directory. Not checked: see [`root`].
+/// Where the cache lives ([`hamel_cache::location`]). Not checked: see [`root`].
 pub fn location() -> PathBuf {
-    if let Some(d) = std::env::var_os("HAMEL_CACHE").filter(|d| !d.is_empty()) {
-        return PathBuf::from(d);
-    }
-    if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
-        return PathBuf::from(d).join("hamel");
-    }
-    if let Some(d) = std::env::var_os("HOME").filter(|d| !d.is_empty()) {
-        return PathBuf::from(d).join(".cache").join("hamel");
-    }
-    std::env::temp_dir().join("hamel-cache")
+    hamel_cache::location()
 }
 
 /// The cache directory, created private (mode 0700) when missing. hamel builds and runs
-/// code from it, so it refuses a directory that another user could write to: one not owned
-/// by the user running hamel, or writable by its group or by others.
+/// code from it, so it refuses a directory that another user could write to
+/// ([`hamel_cache::root`]).
 pub fn root() -> Result<PathBuf, CacheError> {
-    let dir = location();
-    if !dir.exists() {
-        create_private(&dir).map_err(|e| {
-            let what = format!(
-                "cannot create the code cache {} (set HAMEL_CACHE to a directory of your own)",
+    hamel_cache::root().map_err(|e| match e {
+        hamel_cache::RootError::Refused { dir, why } => CacheError::Refused { dir, why },
+        hamel_cache::RootError::Io { dir, source } => CacheError::Io {
+            what: format!(
+                "the code cache {} (set HAMEL_CACHE to a directory of your own)",
                 dir.display()
-            );
-            CacheError::io(what, e)
-        })?;
-    }
-    check_private(&dir)?;
-    Ok(dir)
-}
-
-#[cfg(unix)]
-fn create_private(dir: &Path) -> std::io::Result<()> {
-    use std::os::unix::fs::DirBuilderExt;
-    std::fs::DirBuilder::new()
-        .recursive(true)
-        .mode(0o700)
-        .create(dir)
-}
-
-#[cfg(not(unix))]
-fn create_private(dir: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)
-}
-
-/// Refuse a cache directory (followed through symbolic links) that is not a directory, not
-/// owned by the effective user, or writable by group or others, and a symbolic link to it that
-/// another user owns.
-#[cfg(unix)]
-fn check_private(dir: &Path) -> Result<(), CacheError> {
-    use std::os::unix::fs::MetadataExt;
-    let refuse = |why: String| {
-        Err(CacheError::Refused {
-            dir: dir.to_path_buf(),
-            why,
-        })
-    };
-    let m = std::fs::metadata(dir)
-        .map_err(|e| CacheError::io(format!("code cache {}", dir.display()), e))?;
-    // SAFETY: geteuid has no preconditions and cannot fail.
-    let me = unsafe { libc::geteuid() };
-    if !m.is_dir() {
-        return refuse("it is not a directory".into());
-    }
-    if m.uid() != me {
-        return refuse(format!(
-            "it is owned by user {}, not by you ({me})",
-            m.uid()
-        ));
-    }
-    // A link that someone else owns could be pointed elsewhere later.
-    if let Ok(link) = std::fs::symlink_metadata(dir)
-        && link.file_type().is_symlink()
-        && link.uid() != me
-    {
-        return refuse(format!(
-            "it is a symbolic link owned by user {}, not by you ({me})",
-            link.uid()
-        ));
-    }
-    if m.mode() & 0o022 != 0 {
-        return refuse(format!(
-            "it is writable by {} (mode {:04o})",
-            if m.mode() & 0o002 != 0 {
-                "all users"
-            } else {
-                "its group"
-            },
-            m.mode() & 0o7777
-        ));
-    }
-    Ok(())
-}
-
-#[cfg(not(unix))]
-fn check_private(_dir: &Path) -> Result<(), CacheError> {
-    Ok(())
+            ),
+            source,
+        },
+    })
 }
 
 /// What identifies a scene's code.
@@ -618,12 +538,8 @@ fn record_hash(dir: &Path, hash: &str) -> std::io::Result<()> {
     let mut meta: Meta = serde_json::from_str(&std::fs::read_to_string(&path)?)
         .map_err(|e| std::io::Error::other(format!("{}: {e}", path.display())))?;
     meta.binary_sha256 = Some(hash.to_string());
-    let tmp = dir.join(format!("meta.json.tmp{}", std::process::id()));
-    std::fs::write(
-        &tmp,
-        serde_json::to_string_pretty(&meta).expect("serialisable"),
-    )?;
-    std::fs::rename(&tmp, &path)
+    let text = serde_json::to_string_pretty(&meta).expect("serialisable");
+    hamel_cache::write_atomic(dir, "meta.json", text.as_bytes())
 }
 
 /// One integration job for a core's `scene` binary (see `crates/hamel-codegen/bins/scene.rs`).
