@@ -291,6 +291,10 @@ pub enum Command {
         /// derived parameters are evaluated again from it.
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
         set: Vec<(String, f64)>,
+        /// Derive anew instead of reading the derivation store (the new derivation replaces
+        /// the stored one; docs/design/derivation-store.md).
+        #[arg(long)]
+        no_store: bool,
     },
     /// Linearise the reduced equations about a steady motion (`[steady.NAME]` of the model):
     /// the linear equations (M q'' + C q' + K q = B u where the state allows it), the

@@ -185,11 +185,13 @@ fn run(command: Command) -> Result<(), ModelError> {
             state,
             output,
             set,
+            no_store,
         } => eval(
             &model,
             eta.as_deref(),
             &state,
             &set.into_iter().collect(),
+            no_store,
             Output::new(output)?,
         ),
         Command::Linearize(args) => {
@@ -459,6 +461,7 @@ fn eval(
     eta: Option<&str>,
     state: &str,
     set: &IndexMap<String, f64>,
+    no_store: bool,
     out: Output,
 ) -> Result<(), ModelError> {
     let mut model = load_for(path, eta)?;
@@ -467,7 +470,7 @@ fn eval(
         .map_err(|e| model.error(format!("--set: {e}")))?;
     let (file, text) = output::read_input(state)?;
     out.write(&hamel_derive::states::evaluate_json(
-        &model, eta, &file, &text,
+        &model, eta, &file, &text, no_store,
     )?)
 }
 

@@ -2987,4 +2987,16 @@ fn a_stored_derivation_is_evaluated_without_the_computer_algebra() {
         stderr(&third)
     );
     assert_eq!(json_on_stdout(&first), json_on_stdout(&third));
+    // --no-store derives anew (the computer algebra runs: its notice is printed)
+    let args = [
+        "eval",
+        "models/knife.toml",
+        "--state",
+        states.to_str().unwrap(),
+        "--no-store",
+    ];
+    let fresh = hamel_with_cache(&args, None, &cache);
+    assert!(fresh.status.success(), "{}", stderr(&fresh));
+    assert!(String::from_utf8_lossy(&fresh.stdout).contains("Symbolica"));
+    assert_eq!(json_on_stdout(&first), json_on_stdout(&fresh));
 }

@@ -42,12 +42,15 @@ struct Out {
 }
 
 /// Evaluate every state of `text` (the JSON of the file named `file`) with the quasi-velocities
-/// `eta` of `model`, and return the result as pretty JSON.
+/// `eta` of `model`, and return the result as pretty JSON. The derivation comes from the
+/// derivation store ([`crate::store`]) unless `fresh` (`--no-store`): then it is made anew and
+/// replaces the stored one.
 pub fn evaluate_json(
     model: &Model,
     eta: Option<&str>,
     file: &str,
     text: &str,
+    fresh: bool,
 ) -> Result<String, ModelError> {
     let read = hamel_model::states::read(model, eta, file, text)?;
     let choice = model.choice(eta)?.name.clone();
@@ -60,7 +63,7 @@ pub fn evaluate_json(
     for (i, s) in states.iter().enumerate() {
         let tag = |m: String| err(format!("state {}: {m}", i + 1));
         if !derivations.contains_key(&s.functions) {
-            let derived = derive_with(model, &choice, &s.functions, &tag)?;
+            let derived = derive_with(model, &choice, &s.functions, fresh, &tag)?;
             derivations.insert(s.functions.clone(), derived);
         }
         let (d, compiled) = &derivations[&s.functions];
@@ -82,6 +85,7 @@ fn derive_with(
     model: &Model,
     choice: &str,
     functions: &BTreeMap<String, String>,
+    fresh: bool,
     tag: &dyn Fn(String) -> ModelError,
 ) -> Result<(crate::Derivation, crate::Compiled), ModelError> {
     let defs = hamel_model::states::functions(functions).map_err(&tag)?;
@@ -105,7 +109,7 @@ fn derive_with(
     // from the derivation store when it holds this derivation: no computer algebra then
     let options = crate::store::Options {
         supports: true,
-        fresh: false,
+        fresh,
     };
     let d = crate::store::derive_stored(&m, choice, options)?;
     let c = (d.compile_with_constraint_forces()).map_err(|e| tag(e.to_string()))?;
