@@ -117,15 +117,7 @@ impl Key {
         choice: &str,
         supports: bool,
     ) -> Result<Key, hamel_model::ModelError> {
-        let exe = std::env::current_exe()
-            .and_then(std::fs::metadata)
-            .map(|m| {
-                let modified = (m.modified().ok())
-                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-                    .map_or(0, |d| d.as_nanos());
-                format!("{} bytes, modified {modified}", m.len())
-            })
-            .unwrap_or_else(|_| "unknown".into());
+        let exe = hamel_cache::executable_identity();
         let chosen = model.choice(Some(choice))?;
         let eta: Vec<String> = chosen.eta.iter().map(|i| i.expr.to_string()).collect();
         let params: Vec<String> = (model.parameters.iter())

@@ -154,17 +154,7 @@ impl Key {
     /// whether its supports are released: a core with the constraint forces' map or without)
     /// with choice `eta`, `dropped` eliminated and `fixed` parameters specialised.
     pub fn new(model: &Model, eta: &str, dropped: &[String], fixed: &IndexMap<String, f64>) -> Key {
-        let exe = std::env::current_exe()
-            .and_then(std::fs::metadata)
-            .map(|m| {
-                let modified = m
-                    .modified()
-                    .ok()
-                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-                    .map_or(0, |d| d.as_nanos());
-                format!("{} bytes, modified {modified}", m.len())
-            })
-            .unwrap_or_else(|_| "unknown".into());
+        let exe = hamel_cache::executable_identity();
         let params: Vec<String> = fixed
             .iter()
             .map(|(k, v)| format!("{k} = {v:?} ({:#018x})", v.to_bits()))
