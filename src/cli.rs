@@ -14,6 +14,10 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// Derive anew instead of reading the derivation store; the new derivation replaces the
+    /// stored one (docs/design/derivation-store.md).
+    #[arg(long, global = true)]
+    pub no_store: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -273,6 +277,15 @@ pub enum Command {
         #[arg(long)]
         max: usize,
     },
+    /// The worker process that derives for the other commands (internal: the job on stdin,
+    /// the result written to RESULT; its exit gives the computer algebra's thread back).
+    #[command(hide = true)]
+    DeriveWorker { result: PathBuf },
+    /// The derivation store: list its entries, or clear it.
+    Store {
+        #[command(subcommand)]
+        action: StoreAction,
+    },
     /// Evaluate the derived equations at states given as JSON: η̇ (true and paper's), q̇, energy.
     Eval {
         /// The model file (TOML).
@@ -291,10 +304,6 @@ pub enum Command {
         /// derived parameters are evaluated again from it.
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
         set: Vec<(String, f64)>,
-        /// Derive anew instead of reading the derivation store (the new derivation replaces
-        /// the stored one; docs/design/derivation-store.md).
-        #[arg(long)]
-        no_store: bool,
     },
     /// Linearise the reduced equations about a steady motion (`[steady.NAME]` of the model):
     /// the linear equations (M q'' + C q' + K q = B u where the state allows it), the
@@ -304,6 +313,15 @@ pub enum Command {
     /// Time the derivation of every model and choice; with --sympy, SymPy does the same
     /// derivation in the same run as the baseline (bench/sympy_derive.py).
     Bench(BenchArgs),
+}
+
+/// What `hamel store` does.
+#[derive(Clone, Copy, Subcommand)]
+pub enum StoreAction {
+    /// List the stored derivations: the model, the choice, the purpose, the size, the age.
+    Ls,
+    /// Remove every stored derivation.
+    Clear,
 }
 
 /// What evaluates the right-hand side (`hamel_scene::Engine`).

@@ -8,7 +8,7 @@ use hamel_study::{Bar, Outcome, Point, Regulator, Study};
 use crate::cli::{LinearizeArgs, ReportFormat};
 use crate::output::Output;
 
-pub fn run(args: &LinearizeArgs, out: Output) -> Result<(), ModelError> {
+pub fn run(args: &LinearizeArgs, no_store: bool, out: Output) -> Result<(), ModelError> {
     let model = crate::load_for(&args.model, args.eta.as_deref())?;
     if args.sweep.len() > 2 {
         return Err(model.error("at most two --sweep: one gives a sweep, two a stability map"));
@@ -20,7 +20,7 @@ pub fn run(args: &LinearizeArgs, out: Output) -> Result<(), ModelError> {
         .map(|p| Output::new(Some(p.clone())))
         .transpose()?;
     let study = crate::progress::while_deriving("deriving", || {
-        Study::prepare(&model, args.eta.as_deref(), &args.steady)
+        Study::prepare_with(&model, args.eta.as_deref(), &args.steady, no_store)
     })?;
     let study = match args.threads {
         Some(n) => study.with_threads(n),

@@ -23,6 +23,7 @@ use std::time::Instant;
 
 use clap::Parser;
 use hamel_model::{Model, ModelError};
+use hamel_reduce::pass::Analysis;
 
 use crate::cli::{
     BenchArgs, Cli, Command, FormArg, Format, ObjectArg, ReportFormat, SearchArgs, TableFormat,
@@ -38,7 +39,13 @@ fn main() -> ExitCode {
     messages::init();
     on_interrupt();
     let cli = Cli::parse();
-    match run(cli.command) {
+    if !matches!(
+        cli.command,
+        Command::DeriveWorker { .. } | Command::SearchWorker { .. }
+    ) {
+        derive_in_worker();
+    }
+    match run(cli.command, cli.no_store) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("{:?}", miette::Report::new(e));
@@ -60,7 +67,16 @@ fn on_interrupt() {
     }
 }
 
-fn run(command: Command) -> Result<(), ModelError> {
+/// The computer algebra in a worker process that exits (`hamel derive-worker`): a command
+/// holds the licence's one thread only while it derives, none while it computes numbers.
+fn derive_in_worker() {
+    match std::env::current_exe() {
+        Ok(exe) => hamel_reduce::pass::derive_in_worker(exe, vec!["derive-worker".into()]),
+        Err(e) => log::warn!("deriving in this process (the program's path is unknown: {e})"),
+    }
+}
+
+fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
     match command {
         Command::Derive {
             model,
@@ -103,8 +119,9 @@ fn run(command: Command) -> Result<(), ModelError> {
         } => {
             let out = Output::new(output)?;
             let set: IndexMap<String, f64> = set.into_iter().collect();
-            let loaded =
-                progress::while_deriving("deriving", || hamel_scene::load_with(&scene, &set))?;
+            let loaded = progress::while_deriving("deriving", || {
+                hamel_scene::load_with_options(&scene, &set, no_store)
+            })?;
             if let Some(members) = loaded.members()? {
                 let interpreted = matches!(engine, cli::EngineArg::Interpreted);
                 ensemble::refuse_single(&scene, plot.is_some(), estimate_error, interpreted)?;
@@ -128,7 +145,8 @@ fn run(command: Command) -> Result<(), ModelError> {
             measure,
             set,
         } => {
-            let loaded = hamel_scene::load_with(&scene, &set.into_iter().collect())?;
+            let set = set.into_iter().collect();
+            let loaded = hamel_scene::load_with_options(&scene, &set, no_store)?;
             plan(&loaded, format, Output::new(output)?, measure)
         }
         Command::Tradeoff {
@@ -140,7 +158,8 @@ fn run(command: Command) -> Result<(), ModelError> {
             engine,
             set,
         } => {
-            let mut loaded = hamel_scene::load_with(&scene, &set.into_iter().collect())?;
+            let set = set.into_iter().collect();
+            let mut loaded = hamel_scene::load_with_options(&scene, &set, no_store)?;
             match export_python {
                 Some(file) => export_tradeoff(&mut loaded, Output::new(Some(file))?, engine.into()),
                 None => {
@@ -161,6 +180,7 @@ fn run(command: Command) -> Result<(), ModelError> {
             let options = hamel_codegen::write::WriteOptions {
                 force,
                 with_simulator,
+                fresh: no_store,
             };
             codegen(&model, eta.as_deref(), &eliminate, &out, options)
         }
@@ -185,7 +205,6 @@ fn run(command: Command) -> Result<(), ModelError> {
             state,
             output,
             set,
-            no_store,
         } => eval(
             &model,
             eta.as_deref(),
@@ -196,9 +215,11 @@ fn run(command: Command) -> Result<(), ModelError> {
         ),
         Command::Linearize(args) => {
             let out = Output::new(args.output.clone())?;
-            linearize::run(&args, out)
+            linearize::run(&args, no_store, out)
         }
         Command::Bench(args) => bench(args),
+        Command::DeriveWorker { result } => hamel_reduce::pass::work(&result),
+        Command::Store { action } => store(action),
     }
 }
 
@@ -469,9 +490,44 @@ fn eval(
         .parameter_values(set)
         .map_err(|e| model.error(format!("--set: {e}")))?;
     let (file, text) = output::read_input(state)?;
+    // the derivation store's artefact: no computer algebra when it is stored
+    let derive = move |m: &Model, choice: &str| {
+        let job = hamel_reduce::pass::Job::new(m, Some(choice), Analysis::Equations)?
+            .with_supports(true)
+            .with_evaluator();
+        let mut artefact = hamel_reduce::pass::obtain(&job, no_store)?;
+        match artefact.evaluator.take() {
+            Some(e) => Ok(e),
+            None => hamel_derive::states::Evaluator::of(&artefact.into_derivation()?)
+                .map_err(|e| m.error(format!("the equations cannot be compiled: {e}"))),
+        }
+    };
     out.write(&hamel_derive::states::evaluate_json(
-        &model, eta, &file, &text, no_store,
+        &model, eta, &file, &text, &derive,
     )?)
+}
+
+/// `hamel store ls|clear`.
+fn store(action: cli::StoreAction) -> Result<(), ModelError> {
+    match action {
+        cli::StoreAction::Ls => {
+            let entries = hamel_derive::store::list().map_err(ModelError::environment)?;
+            let mut text = String::new();
+            for e in &entries {
+                text += &format!(
+                    "{}  {}  choice {}  {}  {} bytes\n",
+                    e.name, e.model, e.choice, e.purpose, e.bytes
+                );
+            }
+            text += &format!("{} stored derivations\n", entries.len());
+            Output::new(None)?.write(&text)
+        }
+        cli::StoreAction::Clear => {
+            let n = hamel_derive::store::clear().map_err(ModelError::environment)?;
+            eprintln!("hamel: removed {n} stored derivations");
+            Ok(())
+        }
+    }
 }
 
 fn bench(args: BenchArgs) -> Result<(), ModelError> {

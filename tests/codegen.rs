@@ -33,7 +33,7 @@ fn generate_all() -> BTreeMap<PathBuf, String> {
         let asked = common::eliminate(&model);
         for choice in model.choices.iter().filter(|c| c.free_functions.is_empty()) {
             let (r, d) =
-                hamel_reduce::reduce_with_derivation(&model, Some(&choice.name), &asked).unwrap();
+                common::reduce_with_derivation(&model, Some(&choice.name), &asked).unwrap();
             let proven = r.ground_truth.present.is_empty() && r.reduced_system.is_some();
             let (eliminated, flag) = if proven {
                 (
@@ -63,7 +63,7 @@ fn generate_all() -> BTreeMap<PathBuf, String> {
     for &(scene, eta, dir) in common::CLOSED_LOOPS {
         let model = common::closed_loop(scene);
         let asked = common::eliminate(&model);
-        let (r, d) = hamel_reduce::reduce_with_derivation(&model, Some(eta), &asked).unwrap();
+        let (r, d) = common::reduce_with_derivation(&model, Some(eta), &asked).unwrap();
         assert!(r.ground_truth.present.is_empty() && r.reduced_system.is_some());
         let eliminated = hamel_reduce::coordinate_indices(&model, &asked).unwrap();
         let command = format!(

@@ -70,7 +70,7 @@ fn check(text: &str, family: &str, seed: u64, states: usize) -> Measured {
     let model = Model::from_source("random.toml", text).unwrap_or_else(|e| panic!("{e}"));
     let choice = model.choices[0].name.clone();
     let all = model.coordinates.clone();
-    let (reduction, d) = hamel_reduce::reduce_with_derivation(&model, Some(&choice), &all)
+    let (reduction, d) = common::reduce_with_derivation(&model, Some(&choice), &all)
         .unwrap_or_else(|e| panic!("{e}"));
     let w = compare_with(&model, &choice, &d, seed, states);
     assert_oracle(&w);

@@ -84,3 +84,18 @@ pub fn rel_error<S: hamel_expr::Scalar + Copy>(a: &[S], b: &[S]) -> f64 {
         .fold(0.0, f64::max)
         / scale
 }
+
+/// The reduction of `asked` under `eta` and the derivation it analysed (with the ingredients
+/// code uses), from one pass made here ([`hamel_reduce::pass::make`]; the store untouched).
+#[allow(dead_code)]
+pub fn reduce_with_derivation(
+    model: &hamel_model::Model,
+    eta: Option<&str>,
+    asked: &[String],
+) -> Result<(hamel_reduce::Reduction, hamel_derive::Derivation), hamel_model::ModelError> {
+    use hamel_reduce::pass::{Analysis, Job, make};
+    let p = hamel_reduce::coordinate_indices(model, asked)?;
+    let mut artefact = make(&Job::new(model, eta, Analysis::Eliminate(p))?.for_code())?;
+    let reduction = artefact.reduction.take().expect("analysed");
+    Ok((reduction, artefact.into_derivation()?))
+}

@@ -24,7 +24,7 @@ use crate::reactions;
 use crate::vector::{Rate, dot};
 
 /// A holonomic constraint of the expansion.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct HolonomicConstraint {
     /// Its name (a wheel's `NAME_contact`, or the key under `[holonomic]`).
     pub name: String,

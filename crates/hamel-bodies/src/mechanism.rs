@@ -7,7 +7,7 @@ use hamel_expr::Expr;
 use crate::vector::{V3, unit};
 
 /// A coordinate axis with a sign: `x`, `-z`, …
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Axis {
     /// 0, 1, 2 for x, y, z.
     pub index: usize,
@@ -35,7 +35,7 @@ impl Axis {
 
 /// A direction in a frame's axes: a signed coordinate axis, or a vector of expressions (of
 /// unit length).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub enum Direction {
     /// A coordinate axis.
     Axis(Axis),
@@ -54,7 +54,7 @@ impl Direction {
 }
 
 /// The world: which way is up, and gravity's strength.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct World {
     /// The up direction, a world axis; the ground is the plane through the origin normal to it.
     pub up: Axis,
@@ -64,7 +64,7 @@ pub struct World {
 
 /// One rotation of a frame relative to its parent: about `axis` (in the axes reached by the
 /// rotations before it) by `angle`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Rotation {
     /// The axis.
     pub axis: Direction,
@@ -74,7 +74,7 @@ pub struct Rotation {
 
 /// A frame: its parent (`world` or another frame), the position of its origin in the parent's
 /// axes, and the successive rotations that take the parent's axes to its own.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Frame {
     /// Its name.
     pub name: String,
@@ -87,7 +87,7 @@ pub struct Frame {
 }
 
 /// An inertia tensor about the centre of mass, in the body's axes.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Inertia {
     /// I_xx, I_yy, I_zz, I_xy, I_xz, I_yz (the matrix entries: I_xy = −∫xy dm).
     pub entries: [Expr; 6],
@@ -115,7 +115,7 @@ impl Inertia {
 }
 
 /// A rigid body attached to a frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Body {
     /// Its name.
     pub name: String,
@@ -130,7 +130,7 @@ pub struct Body {
 }
 
 /// A wheel (a thin disk) rolling without slipping on the ground.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Wheel {
     /// Its name.
     pub name: String,
@@ -147,7 +147,7 @@ pub struct Wheel {
 
 /// A blade (knife edge, sleigh runner, skate): the point may not move across the blade, in the
 /// ground plane.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Blade {
     /// Its name.
     pub name: String,
@@ -160,7 +160,7 @@ pub struct Blade {
 }
 
 /// A load: a force at a point of a frame, or a torque on a frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Load {
     /// Its name.
     pub name: String,
@@ -173,7 +173,7 @@ pub struct Load {
 }
 
 /// A force or a torque.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub enum LoadKind {
     /// A force applied at a point.
     Force {
@@ -192,7 +192,7 @@ pub enum LoadKind {
 }
 
 /// A point of a frame (moving in it where its components depend on q).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Anchor {
     /// The frame (`world`, or a frame).
     pub frame: String,
@@ -201,7 +201,7 @@ pub struct Anchor {
 }
 
 /// What a spring or a damper stretches: the distance between two points, or a coordinate.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub enum Stretch {
     /// The distance between two points of two frames (a linear element).
     Between(Box<[Anchor; 2]>),
@@ -210,7 +210,7 @@ pub enum Stretch {
 }
 
 /// A linear spring: U gains −½ k (d − d₀)², d the stretch (L = T + U).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Spring {
     /// Its name.
     pub name: String,
@@ -223,7 +223,7 @@ pub struct Spring {
 }
 
 /// A linear damper: the force −c ḋ along the stretch d, which enters F (it does work).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Damper {
     /// Its name.
     pub name: String,
@@ -234,7 +234,7 @@ pub struct Damper {
 }
 
 /// A holonomic constraint h(q) = 0 and the coordinate it determines.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Holonomic {
     /// Its name.
     pub name: String,
@@ -245,7 +245,7 @@ pub struct Holonomic {
 }
 
 /// A whole mechanism.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Mechanism {
     /// The coordinates q₁..q_ℓ, in order.
     pub coordinates: Vec<String>,

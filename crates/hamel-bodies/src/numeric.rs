@@ -62,7 +62,7 @@ impl Point<'_> {
 
 /// Holonomic constraints h_i(q) = 0 with the exact partial derivatives by their dependent
 /// coordinates, ready for Newton's method.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Completion {
     coordinates: Vec<String>,
     h: Vec<Expr>,

@@ -80,7 +80,7 @@ pub fn compose(a: &M3, b: &M3) -> M3 {
 }
 
 /// A vector linear in the velocities, Σ_k v_k q̇_k: one column v_k per coordinate.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Rate {
     /// v_k, for k = 1..ℓ.
     pub columns: Vec<V3>,

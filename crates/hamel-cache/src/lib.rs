@@ -137,14 +137,80 @@ fn check_private(_dir: &Path) -> Result<(), RootError> {
     Ok(())
 }
 
-/// Write `bytes` to `dir/name` whole or not at all: into a temporary file of this process in
-/// the same directory, then renamed over the entry.
+/// Write `bytes` to `dir/name` whole or not at all: into a temporary file of this process (and
+/// of this call: threads may write the same entry) in the same directory, then renamed over the
+/// entry.
 pub fn write_atomic(dir: &Path, name: &str, bytes: &[u8]) -> std::io::Result<()> {
-    let tmp = dir.join(format!("{name}.tmp{}", std::process::id()));
+    static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!("{name}.tmp{}-{call}", std::process::id()));
     std::fs::write(&tmp, bytes)?;
     std::fs::rename(&tmp, dir.join(name)).inspect_err(|_| {
         let _ = std::fs::remove_file(&tmp);
     })
+}
+
+/// Why an entry of the cache is not read.
+#[derive(Debug, thiserror::Error)]
+pub enum EntryError {
+    /// It cannot be read (missing, or the system refused).
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The entry.
+        path: PathBuf,
+        /// The system's error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Another user could have written it.
+    #[error("{}: {why}", path.display())]
+    Refused {
+        /// The entry.
+        path: PathBuf,
+        /// What is wrong with it.
+        why: String,
+    },
+}
+
+/// The bytes of the entry `path`, refused unless it is a regular file (not a link) owned by
+/// the effective user and writable by nobody else: only what this user wrote is read.
+pub fn read_own(path: &Path) -> Result<Vec<u8>, EntryError> {
+    let io = |source| EntryError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let m = std::fs::symlink_metadata(path).map_err(io)?;
+    if let Some(why) = not_own(&m) {
+        return Err(EntryError::Refused {
+            path: path.to_path_buf(),
+            why,
+        });
+    }
+    std::fs::read(path).map_err(io)
+}
+
+/// Why the file of metadata `m` is not one this user alone wrote, if it is not.
+#[cfg(unix)]
+fn not_own(m: &std::fs::Metadata) -> Option<String> {
+    use std::os::unix::fs::MetadataExt;
+    // SAFETY: geteuid has no preconditions and cannot fail.
+    let me = unsafe { libc::geteuid() };
+    if !m.file_type().is_file() {
+        return Some("it is not a regular file".into());
+    }
+    if m.uid() != me {
+        return Some(format!(
+            "it is owned by user {}, not by you ({me})",
+            m.uid()
+        ));
+    }
+    (m.mode() & 0o022 != 0)
+        .then(|| format!("it is writable by others (mode {:04o})", m.mode() & 0o7777))
+}
+
+#[cfg(not(unix))]
+fn not_own(_m: &std::fs::Metadata) -> Option<String> {
+    None
 }
 
 /// The running executable's identity for a cache key: its size and modification time (a

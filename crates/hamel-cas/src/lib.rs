@@ -34,7 +34,7 @@ pub use field::{Ex, Field, FieldSpec};
 pub use linalg::Matrix;
 pub use manifold::Manifold;
 pub use over::{Denominators, OMatrix, Over, sum_over};
-pub use worker::{on_worker, run};
+pub use worker::{on_worker, run, started};
 
 /// What can go wrong in symbolic work.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]

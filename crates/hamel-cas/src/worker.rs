@@ -40,6 +40,12 @@ fn sender() -> Result<Sender<Job>, CasError> {
     Ok(guard.clone())
 }
 
+/// True once this process has started its computer-algebra thread (it then holds the
+/// licence's one thread until it exits: a worker process started now could not run).
+pub fn started() -> bool {
+    WORKER.get().is_some()
+}
+
 /// True on the computer-algebra thread.
 pub fn on_worker() -> bool {
     ON_WORKER.with(Cell::get)

@@ -22,6 +22,8 @@ pub struct WriteOptions {
     pub force: bool,
     /// Also write a `simulate` binary (vendors the integrators into the crate).
     pub with_simulator: bool,
+    /// Derive anew (and store) whatever the derivation store holds (`--no-store`).
+    pub fresh: bool,
 }
 
 /// Derive `model` with the choice `eta`, check exactly that `eliminate` drops out, generate,
@@ -36,6 +38,7 @@ pub fn write_crate(
     let WriteOptions {
         force,
         with_simulator,
+        fresh,
     } = options;
     let io_err = |what: String| {
         ModelError::new(
@@ -59,46 +62,11 @@ pub fn write_crate(
         }
     }
     let choice = model.choice(eta)?.name.clone();
-    // The crate exports the constraint forces (`constraint_forces`): the supports of the wheels
-    // the frames keep on the ground are released for them, but for a closed loop, whose laws
-    // are in the forces, not in the mechanism's loads.
-    let supported;
-    let model = if model.control.is_empty() {
-        supported = model.with_supports()?;
-        &supported
-    } else {
-        model
+    let eliminated = match eliminate.is_empty() {
+        true => Vec::new(),
+        false => hamel_reduce::coordinate_indices(model, eliminate)?,
     };
-    let (eliminated, d) = if eliminate.is_empty() {
-        (
-            Vec::new(),
-            hamel_derive::derive_for_code(model, Some(&choice))?,
-        )
-    } else {
-        let (r, d) = hamel_reduce::reduce_with_derivation(model, Some(&choice), eliminate)?;
-        if !r.ground_truth.present.is_empty() || r.reduced_system.is_none() {
-            let why = if let Some(w) = r.ground_truth.occurrences.first() {
-                format!(
-                    "the true equations contain `{}` ({} {:?})",
-                    w.coordinate.clone().unwrap_or_default(),
-                    w.object,
-                    w.index
-                )
-            } else if !r.ground_truth.undecided.is_empty() {
-                format!(
-                    "the structured form cannot decide whether the equations contain {}",
-                    r.ground_truth.undecided.join(", ")
-                )
-            } else {
-                "the kinematic equations still needed contain an eliminated coordinate".into()
-            };
-            return Err(model.error(format!(
-                "quasi-velocities `{choice}` do not eliminate {}: {why} (see `hamel reduce`)",
-                eliminate.join(", ")
-            )));
-        }
-        (hamel_reduce::coordinate_indices(model, eliminate)?, d)
-    };
+    let d = derive(model, &choice, &eliminated, eliminate, fresh)?;
     let command = format!(
         "hamel codegen {} --eta {choice}{} --out DIR",
         model.file,
@@ -119,6 +87,54 @@ pub fn write_crate(
         ops_trees: g.ops_trees,
         ops_shared: g.ops_shared,
     })
+}
+
+/// The one pass for the crate (from the derivation store when it holds it, made anew when
+/// `fresh`), and the exact proof that `eliminated` drops out. The crate exports the constraint
+/// forces (`constraint_forces`): the supports of the wheels the frames keep on the ground are
+/// released for them, but for a closed loop, whose laws are in the forces, not in the
+/// mechanism's loads.
+fn derive(
+    model: &Model,
+    choice: &str,
+    eliminated: &[usize],
+    eliminate: &[String],
+    fresh: bool,
+) -> Result<hamel_derive::Derivation, ModelError> {
+    use hamel_reduce::pass::{Analysis, Job, obtain};
+    let analysis = match eliminated.is_empty() {
+        true => Analysis::Equations,
+        false => Analysis::Eliminate(eliminated.to_vec()),
+    };
+    let job = Job::new(model, Some(choice), analysis)?
+        .with_supports(model.control.is_empty())
+        .for_code();
+    let mut artefact = obtain(&job, fresh)?;
+    let Some(r) = artefact.reduction.take() else {
+        return artefact.into_derivation();
+    };
+    if !r.ground_truth.present.is_empty() || r.reduced_system.is_none() {
+        let why = if let Some(w) = r.ground_truth.occurrences.first() {
+            format!(
+                "the true equations contain `{}` ({} {:?})",
+                w.coordinate.clone().unwrap_or_default(),
+                w.object,
+                w.index
+            )
+        } else if !r.ground_truth.undecided.is_empty() {
+            format!(
+                "the structured form cannot decide whether the equations contain {}",
+                r.ground_truth.undecided.join(", ")
+            )
+        } else {
+            "the kinematic equations still needed contain an eliminated coordinate".into()
+        };
+        return Err(model.error(format!(
+            "quasi-velocities `{choice}` do not eliminate {}: {why} (see `hamel reduce`)",
+            eliminate.join(", ")
+        )));
+    }
+    artefact.into_derivation()
 }
 
 /// Write the crate's files into a temporary directory beside `out` (hamel_model::files), then

@@ -13,7 +13,26 @@ use std::collections::BTreeMap;
 use hamel_model::states::State;
 use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+
+/// What `hamel eval` evaluates at states: the equations compiled with their constraint forces'
+/// map, and the names of α's rows (kept, then dependent), as plain data: the derivation store
+/// keeps it beside the derivation, so that a stored evaluation decodes no expression tree.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Evaluator {
+    compiled: hamel_eval::CompiledData,
+    row_names: Vec<String>,
+}
+
+impl Evaluator {
+    /// The evaluator of `d` (its constraint forces' map where its supports are released).
+    pub fn of(d: &crate::Derivation) -> Result<Evaluator, crate::NumericError> {
+        Ok(Evaluator {
+            compiled: d.compile_with_constraint_forces()?.to_data_with_contacts(),
+            row_names: d.row_names().into_iter().map(str::to_string).collect(),
+        })
+    }
+}
 
 #[derive(Serialize)]
 struct Out {
@@ -42,15 +61,15 @@ struct Out {
 }
 
 /// Evaluate every state of `text` (the JSON of the file named `file`) with the quasi-velocities
-/// `eta` of `model`, and return the result as pretty JSON. The derivation comes from the
-/// derivation store ([`crate::store`]) unless `fresh` (`--no-store`): then it is made anew and
-/// replaces the stored one.
+/// `eta` of `model`, and return the result as pretty JSON. `derive` makes the [`Evaluator`] of
+/// a model (its free functions defined) for a choice, with the supports of its wheels released
+/// (`hamel eval` takes it from the derivation store: `hamel_reduce::pass::obtain`).
 pub fn evaluate_json(
     model: &Model,
     eta: Option<&str>,
     file: &str,
     text: &str,
-    fresh: bool,
+    derive: &Derive,
 ) -> Result<String, ModelError> {
     let read = hamel_model::states::read(model, eta, file, text)?;
     let choice = model.choice(eta)?.name.clone();
@@ -63,11 +82,10 @@ pub fn evaluate_json(
     for (i, s) in states.iter().enumerate() {
         let tag = |m: String| err(format!("state {}: {m}", i + 1));
         if !derivations.contains_key(&s.functions) {
-            let derived = derive_with(model, &choice, &s.functions, fresh, &tag)?;
+            let derived = derive_with(model, &choice, &s.functions, derive, &tag)?;
             derivations.insert(s.functions.clone(), derived);
         }
-        let (d, compiled) = &derivations[&s.functions];
-        results.push(evaluate_state(d, compiled, s, &tag)?);
+        results.push(evaluate_state(&derivations[&s.functions], s, &tag)?);
     }
     let json = if read.list {
         serde_json::to_string_pretty(&results)
@@ -78,16 +96,25 @@ pub fn evaluate_json(
 }
 
 /// The derivations made so far, by their free functions' definitions.
-type Derivations = BTreeMap<BTreeMap<String, String>, (crate::Derivation, crate::Compiled)>;
+/// How [`evaluate_json`] gets an evaluator: of the model, for the choice, supports released.
+pub type Derive = dyn Fn(&Model, &str) -> Result<Evaluator, ModelError>;
+
+/// A compiled evaluator and its rows' names.
+struct Ready {
+    compiled: crate::Compiled,
+    row_names: Vec<String>,
+}
+
+type Derivations = BTreeMap<BTreeMap<String, String>, Ready>;
 
 /// Derive and compile the choice with its free functions defined by `functions`.
 fn derive_with(
     model: &Model,
     choice: &str,
     functions: &BTreeMap<String, String>,
-    fresh: bool,
+    derive: &Derive,
     tag: &dyn Fn(String) -> ModelError,
-) -> Result<(crate::Derivation, crate::Compiled), ModelError> {
+) -> Result<Ready, ModelError> {
     let defs = hamel_model::states::functions(functions).map_err(&tag)?;
     let m = model
         .with_free_functions(choice, &defs)
@@ -106,32 +133,38 @@ fn derive_with(
             c.free_functions[0].1[0]
         )));
     }
-    // from the derivation store when it holds this derivation: no computer algebra then
-    let options = crate::store::Options {
-        supports: true,
-        fresh,
-    };
-    let d = crate::store::derive_stored(&m, choice, options)?;
-    let c = (d.compile_with_constraint_forces()).map_err(|e| tag(e.to_string()))?;
-    Ok((d, c))
+    let Evaluator {
+        compiled,
+        row_names,
+    } = derive(&m, choice)?;
+    let compiled = crate::Compiled::from_data(compiled).map_err(|e| tag(e.to_string()))?;
+    Ok(Ready {
+        compiled,
+        row_names,
+    })
 }
 
 /// Evaluate one state.
 fn evaluate_state(
-    d: &crate::Derivation,
-    compiled: &crate::Compiled,
+    ready: &Ready,
     s: &State,
     tag: &dyn Fn(String) -> ModelError,
 ) -> Result<Out, ModelError> {
-    let q = &s.q;
-    let params = d
-        .parameters_with(&s.params)
-        .map_err(|e| tag(e.to_string()))?;
+    let (compiled, q) = (&ready.compiled, &s.q);
+    let mut params = compiled.parameters().clone();
+    for (k, v) in &s.params {
+        match params.get_mut(k) {
+            Some(slot) => *slot = *v,
+            None => {
+                return Err(tag(
+                    crate::NumericError::UnknownParameter(k.clone()).to_string()
+                ));
+            }
+        }
+    }
+    let coordinates = compiled.coordinates();
     let at = |e: crate::NumericError| {
-        let at: Vec<String> = d
-            .coordinates
-            .iter()
-            .zip(q)
+        let at: Vec<String> = (coordinates.iter().zip(q))
             .map(|(c, v)| format!("{c} = {v}"))
             .collect();
         tag(format!("{e} (at {})", at.join(", ")))
@@ -140,12 +173,12 @@ fn evaluate_state(
     let pushed = (compiled.constraint_forces_checked(q, &s.eta, &params)).map_err(&at)?;
     Ok(Out {
         eta_dot: ev.eta_dot,
-        q_dot: d.coordinates.iter().cloned().zip(ev.q_dot).collect(),
+        q_dot: coordinates.iter().cloned().zip(ev.q_dot).collect(),
         energy: ev.energy,
         eta_dot_paper: ev.eta_dot_paper,
         precision: ev.precision,
         f64_error_estimate: ev.f64_error_estimate,
-        constraint_multipliers: (d.row_names().into_iter().map(str::to_string))
+        constraint_multipliers: (ready.row_names.iter().cloned())
             .zip(pushed.multipliers)
             .collect(),
         constraint_forces: (pushed.forces.into_iter())

@@ -61,6 +61,9 @@ struct Header {
     format: u32,
 }
 
+/// Expression trees nest deeper than ciborium's default limit of 256.
+const LIMIT: usize = 1 << 16;
+
 /// The derivation as bytes.
 pub fn to_bytes(d: &Derivation) -> Result<Vec<u8>, StoreError> {
     let mut out = Vec::new();
@@ -77,16 +80,14 @@ pub fn to_bytes(d: &Derivation) -> Result<Vec<u8>, StoreError> {
 
 /// The derivation the bytes hold.
 pub fn from_bytes(bytes: &[u8]) -> Result<Derivation, StoreError> {
-    // Expression trees nest deeper than ciborium's default limit of 256.
-    let limit = 1 << 16;
-    let read: Result<Read, _> = ciborium::de::from_reader_with_recursion_limit(bytes, limit);
+    let read: Result<Read, _> = ciborium::de::from_reader_with_recursion_limit(bytes, LIMIT);
     let read = match read {
         Ok(r) if r.format == FORMAT => r,
         Ok(r) => return Err(StoreError::Format { found: r.format }),
         Err(e) => {
             // another layout may not read as this one: say so when its number says so
             let header: Result<Header, _> =
-                ciborium::de::from_reader_with_recursion_limit(bytes, limit);
+                ciborium::de::from_reader_with_recursion_limit(bytes, LIMIT);
             return Err(match header {
                 Ok(h) if h.format != FORMAT => StoreError::Format { found: h.format },
                 _ => StoreError::Unreadable(e.to_string()),
@@ -137,6 +138,13 @@ impl Key {
         })
     }
 
+    /// The key of what is made from the derivation for `purpose` (the analysis, the
+    /// ingredients: `hamel_reduce::pass::Job`), which is stored under its own key.
+    pub fn with(mut self, purpose: &str) -> Key {
+        self.text = format!("{}\npurpose: {purpose}", self.text);
+        self
+    }
+
     /// The entry's file name.
     fn file(&self) -> String {
         format!(
@@ -184,10 +192,11 @@ mod serde_bytes_vec {
     }
 }
 
-/// The stored derivation of `key`, if the store holds a sound one. An entry that does not
-/// read, whose key differs or whose bytes do not match their hash is not trusted: a warning
-/// says so, and the caller derives anew (and replaces it).
-pub fn lookup(key: &Key) -> Option<Derivation> {
+/// The stored value of `key` (an artefact of the one pass: `hamel_reduce::pass`), if the store
+/// holds a sound one. An entry that does not read, whose key differs or whose bytes do not
+/// match their hash is not trusted: a warning says so, and the caller derives anew (and
+/// replaces it).
+pub fn lookup<T: serde::de::DeserializeOwned>(key: &Key) -> Option<T> {
     let dir = match directory() {
         Ok(d) => d,
         Err(e) => {
@@ -196,11 +205,18 @@ pub fn lookup(key: &Key) -> Option<Derivation> {
         }
     };
     let path = dir.join(key.file());
-    let raw = std::fs::read(&path).ok()?;
+    let raw = match hamel_cache::read_own(&path) {
+        Ok(raw) => raw,
+        Err(hamel_cache::EntryError::Io { .. }) => return None,
+        Err(e) => {
+            log::warn!("the stored derivation is refused ({e}): deriving anew");
+            return None;
+        }
+    };
     let sound = ciborium::from_reader::<Entry, _>(raw.as_slice())
         .ok()
         .filter(|e| e.key == key.text && hamel_cache::sha256_hex(&e.bytes) == e.sha256)
-        .map(|e| from_bytes(&e.bytes));
+        .map(|e| ciborium::de::from_reader_with_recursion_limit::<T, _>(e.bytes.as_slice(), LIMIT));
     match sound {
         Some(Ok(d)) => Some(d),
         _ => {
@@ -213,12 +229,13 @@ pub fn lookup(key: &Key) -> Option<Derivation> {
     }
 }
 
-/// Store `d` under `key` (whole, or not at all); a failure is a warning, never an error: the
-/// store only saves work.
-pub fn put(key: &Key, d: &Derivation) {
+/// Store `value` under `key` (whole, or not at all); a failure is a warning, never an error:
+/// the store only saves work.
+pub fn put<T: Serialize>(key: &Key, value: &T) {
     let write = || -> Result<(), String> {
         let dir = directory().map_err(|e| e.to_string())?;
-        let bytes = to_bytes(d).map_err(|e| e.to_string())?;
+        let mut bytes = Vec::new();
+        ciborium::into_writer(value, &mut bytes).map_err(|e| e.to_string())?;
         let entry = Entry {
             key: key.text.clone(),
             sha256: hamel_cache::sha256_hex(&bytes),
@@ -233,35 +250,112 @@ pub fn put(key: &Key, d: &Derivation) {
     }
 }
 
-/// How [`derive_stored`] derives.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Options {
-    /// With the supports of the wheels the frames keep on the ground released
-    /// (`Model::with_supports`: for the constraint forces); a stored derivation has them, so
-    /// they are computed only when it must derive.
-    pub supports: bool,
-    /// Derive (and store) whatever the store holds (`--no-store`).
-    pub fresh: bool,
+/// A [`Derivation`] inside a stored value: the derivation itself where it was made, its bytes
+/// ([`to_bytes`]) where it was read from the store, decoded only when asked for (a command that
+/// needs only what else was stored, `hamel eval`'s evaluator, never decodes its trees).
+#[derive(Debug)]
+pub enum Held {
+    /// Made here.
+    Decoded(Box<Derivation>),
+    /// Read: the bytes of [`to_bytes`].
+    Bytes(Vec<u8>),
 }
 
-/// The derivation of `model` for `choice` from the store, else derived ([`crate::derive`]) and
-/// stored.
-pub fn derive_stored(
-    model: &hamel_model::Model,
-    choice: &str,
-    options: Options,
-) -> Result<Derivation, hamel_model::ModelError> {
-    let key = Key::new(model, choice, options.supports)?;
-    if !options.fresh
-        && let Some(d) = lookup(&key)
-    {
-        return Ok(d);
+impl Held {
+    /// The derivation (decoded now when it was read).
+    pub fn into_derivation(self) -> Result<Derivation, StoreError> {
+        match self {
+            Held::Decoded(d) => Ok(*d),
+            Held::Bytes(b) => from_bytes(&b),
+        }
     }
-    let d = if options.supports {
-        crate::derive(&model.with_supports()?, Some(choice))?
-    } else {
-        crate::derive(model, Some(choice))?
+}
+
+impl Serialize for Held {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Held::Decoded(d) => {
+                let bytes = to_bytes(d).map_err(serde::ser::Error::custom)?;
+                s.serialize_bytes(&bytes)
+            }
+            Held::Bytes(b) => s.serialize_bytes(b),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Held {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Held, D::Error> {
+        serde_bytes_vec::deserialize(d).map(Held::Bytes)
+    }
+}
+
+/// An entry of the store as `hamel store ls` shows it (from its key; not checked).
+#[derive(Clone, Debug)]
+pub struct Listed {
+    /// The entry's file name.
+    pub name: String,
+    /// The model's file.
+    pub model: String,
+    /// The choice's name.
+    pub choice: String,
+    /// What was made (the analysis, the ingredients).
+    pub purpose: String,
+    /// The entry's size.
+    pub bytes: u64,
+}
+
+/// The store's entries, by file name; an entry that does not read is listed as unreadable.
+pub fn list() -> Result<Vec<Listed>, String> {
+    let dir = directory().map_err(|e| e.to_string())?;
+    let read = std::fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut entries: Vec<Listed> = read
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".derivation"))
+        .map(|e| listed(&e.path()))
+        .collect();
+    entries.sort_by(|a, b| a.name.cmp(&b.name));
+    Ok(entries)
+}
+
+/// One entry, from the lines of its key.
+fn listed(path: &std::path::Path) -> Listed {
+    let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    let raw = std::fs::read(path).unwrap_or_default();
+    let key = ciborium::from_reader::<Entry, _>(raw.as_slice()).map_or(String::new(), |e| e.key);
+    let line = |prefix: &str| {
+        key.lines()
+            .find_map(|l| l.strip_prefix(prefix))
+            .map_or("?".to_string(), |rest| {
+                rest.trim_end_matches(':').to_string()
+            })
     };
-    put(&key, &d);
-    Ok(d)
+    let choice = line("choice ");
+    Listed {
+        name: path
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into()),
+        model: if key.is_empty() {
+            "(unreadable)".into()
+        } else {
+            line("model ")
+        },
+        choice: choice.split(':').next().unwrap_or("?").to_string(),
+        purpose: line("purpose: "),
+        bytes,
+    }
+}
+
+/// Remove every entry of the store; how many were removed.
+pub fn clear() -> Result<usize, String> {
+    let dir = directory().map_err(|e| e.to_string())?;
+    let read = std::fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut n = 0;
+    for e in read.filter_map(Result::ok) {
+        if e.file_name().to_string_lossy().ends_with(".derivation") {
+            std::fs::remove_file(e.path())
+                .map_err(|err| format!("{}: {err}", e.path().display()))?;
+            n += 1;
+        }
+    }
+    Ok(n)
 }

@@ -240,6 +240,9 @@ pub struct CompiledData {
     pub parameters: IndexMap<String, f64>,
     /// The singular set, as text.
     pub singular: String,
+    /// The constraint forces' map, when compiled with it ([`Compiled::to_data_with_contacts`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contacts: Option<crate::contact_map::ContactsData>,
 }
 
 /// The factors f_i(q) of δ = det[Z; α] (α's kept rows) at which those rows lose rank, with
@@ -378,6 +381,16 @@ impl Compiled {
             coordinates: self.coordinates.clone(),
             parameters: self.parameters.clone(),
             singular: self.singular.clone(),
+            contacts: None,
+        }
+    }
+
+    /// [`Compiled::to_data`] with the constraint forces' map, when it has one (the derivation
+    /// store keeps `hamel eval`'s evaluator whole).
+    pub fn to_data_with_contacts(&self) -> CompiledData {
+        CompiledData {
+            contacts: self.contacts.as_ref().map(|c| c.to_data()),
+            ..self.to_data()
         }
     }
 
@@ -409,11 +422,15 @@ impl Compiled {
             Some(r) => compiled.with_rank_loss(r)?,
             None => compiled,
         };
-        match d.forces {
+        let compiled = match d.forces {
             Some(f) => compiled.with_forces(Forces {
                 tape: Tape::from_data(f.tape)?,
                 velocity: f.velocity,
-            }),
+            })?,
+            None => compiled,
+        };
+        match d.contacts {
+            Some(c) => compiled.with_contacts(crate::contact_map::Contacts::from_data(c)?),
             None => Ok(compiled),
         }
     }
@@ -421,6 +438,11 @@ impl Compiled {
     /// Number of arithmetic operations of the compiled ingredients.
     pub fn operation_count(&self) -> usize {
         self.tape.operation_count()
+    }
+
+    /// The parameters with their defaults.
+    pub fn parameters(&self) -> &IndexMap<String, f64> {
+        &self.parameters
     }
 
     /// Coordinate names, in order.

@@ -21,9 +21,44 @@ pub struct Contacts {
     pub undetermined: Vec<String>,
 }
 
+/// [`Contacts`] as plain data (the tape as [`hamel_expr::TapeData`]), for the derivation store.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ContactsData {
+    /// The tape.
+    pub tape: hamel_expr::TapeData,
+    /// What is reported, in order.
+    pub reports: Vec<Report>,
+    /// The supports, by number.
+    pub supports: Vec<SupportSlots>,
+    /// The components the motion does not determine.
+    pub undetermined: Vec<String>,
+}
+
+impl Contacts {
+    /// As plain data.
+    pub fn to_data(&self) -> ContactsData {
+        ContactsData {
+            tape: self.tape.to_data(),
+            reports: self.reports.clone(),
+            supports: self.supports.clone(),
+            undetermined: self.undetermined.clone(),
+        }
+    }
+
+    /// From plain data, the tape checked.
+    pub fn from_data(d: ContactsData) -> Result<Contacts, hamel_expr::TapeError> {
+        Ok(Contacts {
+            tape: hamel_expr::Tape::from_data(d.tape)?,
+            reports: d.reports,
+            supports: d.supports,
+            undetermined: d.undetermined,
+        })
+    }
+}
+
 /// One reported value. Row numbers index λ (α's kept rows, then its dependent ones); tape
 /// outputs are the map's.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub enum Report {
     /// Σ_k λ_row_k · c_k with the coefficients c_k on the tape: a wheel's longitudinal or
     /// lateral force (its rows' scale times the direction along their axes), a blade's lateral
@@ -53,7 +88,7 @@ pub enum Report {
 }
 
 /// Where a wheel's normal force comes from.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub enum NormalSlot {
     /// The multiplier of this row.
     Row(usize),
@@ -68,7 +103,7 @@ pub enum NormalSlot {
 
 /// One support on the tape: from `at`, A_pq (3×ℓ), the bias (3), the rows' α_ip (3 per row of
 /// `rows`), G (3 × `wheels`), all row-major.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct SupportSlots {
     /// Where its outputs start.
     pub at: usize,

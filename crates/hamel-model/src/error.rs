@@ -15,11 +15,11 @@ use miette::{Diagnostic, LabeledSpan, SourceCode};
 /// renders the offending line with a label.
 ///
 /// The details are boxed: a `Result<_, ModelError>` stays one pointer wide on the error side.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct ModelError(Box<Located>);
 
 /// What kind of failure a [`ModelError`] is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ErrorKind {
     /// The input: a file, located in it.
     Input,
@@ -31,7 +31,7 @@ pub enum ErrorKind {
     Environment,
 }
 
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 struct Located {
     kind: ErrorKind,
     file: String,

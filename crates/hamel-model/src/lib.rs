@@ -43,5 +43,5 @@ pub use model::{ChoiceOrigin, MAX_COORDINATES, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};
 pub use parameters::{SetError, parse_assignment};
 pub use rank::DependentRow;
-pub use steady::Steady;
+pub use steady::{Steady, SteadyCheck};
 pub use symmetry::Symmetry;

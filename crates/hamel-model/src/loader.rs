@@ -14,7 +14,7 @@ use toml::Spanned;
 use crate::error::ModelError;
 
 /// Where an expression (or a value) sits in the model file.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq, Eq)]
 pub struct Site {
     /// Key path, such as `constraints.no_slip` or `quasi_velocities.paper.eta[1]`.
     pub key: String,
@@ -23,7 +23,7 @@ pub struct Site {
 }
 
 /// One expression of the model with its origin.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Item {
     /// The expression text as written.
     pub text: String,
@@ -79,7 +79,7 @@ impl Item {
 }
 
 /// Where a model's L and α come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Origin {
     /// Typed in by hand: `[lagrangian]` and `[constraints]`.
     Lagrangian,
@@ -107,7 +107,7 @@ pub(crate) struct Dynamics {
 }
 
 /// The kinetic energy as given in the file.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub enum Kinetic {
     /// T as an expression in the velocities.
     Energy(Item),

@@ -18,7 +18,7 @@ use crate::loader::{
 use crate::schema::{RawChoice, RawLagrangian, RawModel};
 
 /// A named choice of quasi-velocities η = Z(q) q̇.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct QuasiVelocityChoice {
     /// Its name (the key under `[quasi_velocities]`).
     pub name: String,
@@ -33,7 +33,7 @@ pub struct QuasiVelocityChoice {
 }
 
 /// Where a quasi-velocity choice comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ChoiceOrigin {
     /// A `[quasi_velocities.NAME]` table of the file.
     File,
@@ -47,7 +47,7 @@ pub enum ChoiceOrigin {
 }
 
 /// A model read from a file, with names resolved and counts checked.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Model {
     /// The file name as given (used in messages).
     pub file: String,

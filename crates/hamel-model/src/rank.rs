@@ -34,7 +34,7 @@ const ZERO: f64 = 1e-10;
 
 /// A row of α that depends on the kept rows (found numerically; its exact dependence is the
 /// derivation's).
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct DependentRow {
     /// Its name (`right_no_slip_y`).
     pub name: String,

@@ -12,7 +12,7 @@ use crate::error::ModelError;
 use crate::loader::{FieldKind, Item, Loader};
 
 /// A vector field on the coordinates.
-#[derive(Clone, Debug)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 pub struct Symmetry {
     /// Its name (`[symmetries.NAME]`, or `vertical_rotation` from bodies).
     pub name: String,

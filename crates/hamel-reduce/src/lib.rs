@@ -19,9 +19,11 @@
 mod analysis;
 pub mod hypotheses;
 mod invariance;
+pub mod pass;
 mod render;
 mod report;
 mod search;
+pub mod steady;
 mod structured;
 pub mod supervised;
 
@@ -35,24 +37,21 @@ pub use search::{
     sort_candidates,
 };
 
-use hamel_derive::{Derived, FormRequest};
+use hamel_derive::Derived;
 use hamel_model::{Model, ModelError};
 
 /// Analyse the elimination of `eliminate` from the equations of `model` under the choice
-/// `eta` (the model's first choice when `None`).
+/// `eta` (the model's first choice when `None`): [`pass::make`] here, the store untouched.
 pub fn reduce(
     model: &Model,
     eta: Option<&str>,
     eliminate: &[String],
 ) -> Result<Reduction, ModelError> {
-    let name = model.choice(eta)?.name.clone();
     let p = coordinate_indices(model, eliminate)?;
-    let model = model.clone();
-    hamel_cas::run(move || {
-        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
-        analyse(&model, &derived, &p, None)
-    })
-    .map_err(ModelError::engine)?
+    let job = pass::Job::new(model, eta, pass::Analysis::Eliminate(p))?;
+    Ok(pass::make(&job)?
+        .reduction
+        .expect("an elimination is analysed"))
 }
 
 /// The analysis of a derivation in either form: the whole one ([`analysis`]) for the closed
@@ -71,83 +70,6 @@ fn analyse(
             None => structured::analyse(model, s, &s.to_derivation(), p),
         },
     }
-}
-
-/// [`reduce`] and the derivation it analysed, from one symbolic pass (for code generation,
-/// which needs the proof of the elimination and the equations).
-pub fn reduce_with_derivation(
-    model: &Model,
-    eta: Option<&str>,
-    eliminate: &[String],
-) -> Result<(Reduction, hamel_derive::Derivation), ModelError> {
-    let name = model.choice(eta)?.name.clone();
-    let p = coordinate_indices(model, eliminate)?;
-    let model = model.clone();
-    hamel_cas::run(move || {
-        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
-        let d = derived.to_derivation(true);
-        Ok((analyse(&model, &derived, &p, Some(&d))?, d))
-    })
-    .map_err(ModelError::engine)?
-}
-
-/// One symbolic pass for a computation that decides from the equations what it drops: derive
-/// the equations of `eta` (with the ingredients code generation uses,
-/// [`hamel_derive::derive_for_code`]), let `decide` make its decision from them — a value and
-/// the coordinates (indices) it leaves out — and analyse their elimination exactly
-/// ([`reduce`]; `None` when it leaves none out).
-pub fn derive_and_reduce<T: Send + 'static>(
-    model: &Model,
-    eta: Option<&str>,
-    decide: impl FnOnce(&hamel_derive::Derivation) -> (T, Vec<usize>) + Send + 'static,
-) -> Result<(hamel_derive::Derivation, T, Option<Reduction>), ModelError> {
-    let name = model.choice(eta)?.name.clone();
-    let model = model.clone();
-    hamel_cas::run(move || {
-        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
-        let d = derived.to_derivation(true);
-        let (decision, p) = decide(&d);
-        let r = if p.is_empty() {
-            None
-        } else {
-            Some(analyse(&model, &derived, &p, Some(&d))?)
-        };
-        Ok((d, decision, r))
-    })
-    .map_err(ModelError::engine)?
-}
-
-/// One symbolic pass for a study of the motions (`hamel linearize`): derive the equations of
-/// `eta` (with the ingredients numeric evaluation uses), decide exactly which coordinates the
-/// true equations (11) are free of, and drop as many of them as leave the reduced system
-/// closed (a kept coordinate's kinematic equation may need one back: it is then kept). The
-/// derivation, and the reduction that proves the elimination of the dropped coordinates
-/// (`None` when none drop out).
-pub fn derive_and_drop(
-    model: &Model,
-    eta: Option<&str>,
-) -> Result<(hamel_derive::Derivation, Option<Reduction>), ModelError> {
-    let name = model.choice(eta)?.name.clone();
-    let model = model.clone();
-    hamel_cas::run(move || {
-        let derived = hamel_derive::derive_form(&model, &name, FormRequest::Auto)?;
-        let d = derived.to_derivation(true);
-        let all: Vec<usize> = (0..d.ell).collect();
-        let truth = analyse(&model, &derived, &all, Some(&d))?.ground_truth;
-        let index = |n: &String| d.coordinates.iter().position(|c| c == n);
-        let mut p: Vec<usize> = truth.absent.iter().filter_map(index).collect();
-        while !p.is_empty() {
-            let r = analyse(&model, &derived, &p, Some(&d))?;
-            let back = r.ground_truth.kinematics_witness.as_ref();
-            match back.and_then(|w| w.coordinate.as_ref()).and_then(index) {
-                Some(k) if !r.ground_truth.kinematics_closed => p.retain(|&c| c != k),
-                _ if r.ground_truth.kinematics_closed => return Ok((d, Some(r))),
-                _ => break,
-            }
-        }
-        Ok((d, None))
-    })
-    .map_err(ModelError::engine)?
 }
 
 /// Search for quasi-velocity choices that eliminate `eliminate` from the true equations

@@ -2,11 +2,11 @@
 
 use hamel_derive::{Entry, Mat};
 use indexmap::IndexMap;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// An entry of a named object that shows why something fails: the object, its (1-based)
 /// indices, the coordinate it contains (when the failure is about a coordinate) and the entry.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Witness {
     /// The object, named as in the paper: `Gamma`, `A_Gamma`, `Q(2)`, `b`, `(35)`, …
     pub object: String,
@@ -21,7 +21,7 @@ pub struct Witness {
 }
 
 /// Type (A) or (B) of (31).
-#[derive(Clone, Copy, Debug, Serialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
 pub enum CoordinateKind {
     /// Absent from L (A and U) and from α: absent from (11) whenever Z avoids it.
     A,
@@ -30,7 +30,7 @@ pub enum CoordinateKind {
 }
 
 /// The classification (31) of one coordinate.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Classification {
     /// Coordinate name.
     pub coordinate: String,
@@ -45,7 +45,7 @@ pub struct Classification {
 }
 
 /// The block structure (17)/(18) found in Z.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BlockStructure {
     /// v: the number of quasi-velocities that are not plain velocities.
     pub v: usize,
@@ -72,7 +72,7 @@ pub struct BlockStructure {
 }
 
 /// A property (2.1 or 2.2) with the reason when it fails.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Property {
     /// What the property says.
     pub statement: String,
@@ -83,7 +83,7 @@ pub struct Property {
 }
 
 /// One hypothesis of Proposition 2.1 (or H6).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Hypothesis {
     /// What the hypothesis requires.
     pub statement: String,
@@ -94,7 +94,7 @@ pub struct Hypothesis {
 }
 
 /// Which of the coordinates asked about occur in the equations (11), decided exactly.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct GroundTruth {
     /// Asked-about coordinates absent from the true equations (11).
     pub absent: Vec<String>,
@@ -113,12 +113,12 @@ pub struct GroundTruth {
     pub kinematics_witness: Option<Witness>,
     /// Asked-about coordinates neither proved absent nor proved present (structured form
     /// only: see `hamel_reduce::structured`).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undecided: Vec<String>,
 }
 
 /// q̇_k = (Γη)_k.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct KinematicEquation {
     /// q_k.
     pub coordinate: String,
@@ -127,7 +127,7 @@ pub struct KinematicEquation {
 }
 
 /// The reduced system: unknowns η and the needed coordinates.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ReducedSystem {
     /// The state of the reduced system: η₁..η_σ and the coordinates still needed.
     pub state: Vec<String>,
@@ -140,7 +140,7 @@ pub struct ReducedSystem {
 }
 
 /// A hypothesis: H0–H5 of Proposition 2.1, and H6 for the term the paper drops.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum HypothesisId {
     /// (H0) Γ splits as (32)–(33) and Γᵀ∇U is free of q₁..q_p ([`crate::hypotheses::h0`]).
     H0,
@@ -178,7 +178,7 @@ impl std::fmt::Display for HypothesisId {
 }
 
 /// Property 2.1 or 2.2 of the paper.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum PropertyId {
     /// Γ₂ = 0 (26).
     #[serde(rename = "2.1")]
@@ -198,7 +198,7 @@ impl std::fmt::Display for PropertyId {
 }
 
 /// The full report of `hamel reduce`.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Reduction {
     /// Model identifier.
     pub model: String,
@@ -213,7 +213,7 @@ pub struct Reduction {
     /// (31) for every coordinate.
     pub classification: Vec<Classification>,
     /// (17)/(18); `None` for a structured derivation (it needs Γ in closed form).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub structure: Option<BlockStructure>,
     /// Property 2.1 (Γ₂ = 0) and Property 2.2 (Γ₁ᵀA⁽¹'²⁾ = 0) (empty for a structured
     /// derivation).
@@ -222,11 +222,11 @@ pub struct Reduction {
     pub hypotheses: IndexMap<HypothesisId, Hypothesis>,
     /// H0–H5 all hold (the paper's sufficient condition); `None` when not evaluated
     /// (structured derivation).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub proposition_2_1: Option<bool>,
     /// Whether the paper's equations are the true ones for this Z (correction ≡ 0); `None` for
     /// a structured derivation.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper_is_exact: Option<bool>,
     /// What the equations actually contain.
     pub ground_truth: GroundTruth,

@@ -71,7 +71,7 @@ pub use check::{Checked, check};
 #[cfg(feature = "derive")]
 pub use integrate::{Engine, Run};
 #[cfg(feature = "derive")]
-pub use load::{Loaded, load, load_with};
+pub use load::{Loaded, load, load_with, load_with_options};
 #[cfg(feature = "derive")]
 pub use plan::Plan;
 pub use request::Request;

@@ -71,6 +71,16 @@ pub fn load_with(
     scene_path: &Path,
     overrides: &IndexMap<String, f64>,
 ) -> Result<Loaded, ModelError> {
+    load_with_options(scene_path, overrides, false)
+}
+
+/// [`load_with`], the derivation made anew (and stored) whatever the derivation store holds
+/// when `fresh` (`--no-store`).
+pub fn load_with_options(
+    scene_path: &Path,
+    overrides: &IndexMap<String, f64>,
+    fresh: bool,
+) -> Result<Loaded, ModelError> {
     let (name, text) = read(scene_path)?;
     let dir = scene_path.parent().unwrap_or(Path::new("."));
     let model_of = |m: &str| Model::load(dir.join(m));
@@ -97,7 +107,7 @@ pub fn load_with(
         d,
         compiled,
         forces,
-    } = derive(model, &choice, &scene, &request, &file)?;
+    } = derive(model, &choice, &scene, &request, &file, fresh)?;
     let expressions = request
         .expressions
         .iter()
@@ -175,6 +185,7 @@ fn derive(
     scene: &Scene,
     request: &Request,
     file: &SceneFile,
+    fresh: bool,
 ) -> Result<Derived, ModelError> {
     let err = |key: &str, m: String| file.error(Some(key), m);
     let forces_key = if request.forces.is_empty() {
@@ -189,7 +200,7 @@ fn derive(
     } else {
         model
     };
-    let (plan, d) = crate::plan::plan(&model, choice, request)?;
+    let (plan, d) = crate::plan::plan(&model, choice, request, fresh)?;
     let compiled = if request.computes_forces() {
         d.compile_with_constraint_forces()
     } else {

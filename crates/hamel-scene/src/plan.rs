@@ -84,32 +84,40 @@ fn close(set: &mut Vec<usize>, kinematics: &[Entry], coordinates: &[String]) {
     set.sort_unstable();
 }
 
-/// Plan the scene: one symbolic pass derives the equations of the choice `eta` (with the
-/// ingredients code generation uses), [`decide`]s from them what is integrated, reconstructed
-/// and dropped, and confirms exactly, as `hamel reduce` does, that the integrated system is
-/// closed without the other coordinates. Pure: no file is read or written (the scene's core is
+/// Plan the scene: the one pass ([`hamel_reduce::pass`], from the derivation store when it
+/// holds it, made anew when `fresh`) derives the equations of the choice `eta` (with the
+/// ingredients code generation uses) and decides exactly which coordinates they are free of;
+/// [`decide`] chooses from them what is integrated, reconstructed and dropped, checked against
+/// that ground truth. Pure: no file is read or written (the scene's core is
 /// prepared separately, [`crate::cache::prepare`]). The plan and the derivation.
-pub fn plan(model: &Model, eta: &str, request: &Request) -> Result<(Plan, Derivation), ModelError> {
-    let wanted = request.clone();
-    let (d, (integrated, reconstructed, dropped), reduction) =
-        hamel_reduce::derive_and_reduce(model, Some(eta), move |d| {
-            let decision = decide(d, &wanted);
-            let absent = (0..d.ell).filter(|c| !decision.0.contains(c)).collect();
-            (decision, absent)
-        })?;
+pub fn plan(
+    model: &Model,
+    eta: &str,
+    request: &Request,
+    fresh: bool,
+) -> Result<(Plan, Derivation), ModelError> {
+    use hamel_reduce::pass::{Analysis, Job, obtain};
+    let job = Job::new(model, Some(eta), Analysis::Survey)?.for_code();
+    let mut artefact = obtain(&job, fresh)?;
+    let survey = artefact.reduction.take();
+    let d = artefact.into_derivation()?;
+    let (integrated, reconstructed, dropped) = decide(&d, request);
     let coords = &d.coordinates;
     let names = |ix: &[usize]| -> Vec<String> { ix.iter().map(|&k| coords[k].clone()).collect() };
-    if let Some(r) = reduction
-        && (!r.ground_truth.present.is_empty()
-            || !r.ground_truth.undecided.is_empty()
-            || !r.ground_truth.kinematics_closed)
-    {
+    // The decision (on the printed canonical forms) checked against the pass's survey (the
+    // ground truth for every coordinate): whatever is not integrated must be proved absent.
+    let survey = survey.as_ref().map(|r| &r.ground_truth);
+    let proved = |k: &usize| survey.is_some_and(|t| t.absent.contains(&coords[*k]));
+    let unproved: Vec<usize> = (0..d.ell)
+        .filter(|k| !integrated.contains(k) && !proved(k))
+        .collect();
+    if !unproved.is_empty() {
         let absent: Vec<usize> = (0..d.ell).filter(|c| !integrated.contains(c)).collect();
         return Err(model.error(format!(
-            "internal error: the plan integrates ({}) without ({}), but `hamel reduce` finds {} in the equations",
+            "internal error: the plan integrates ({}) without ({}), but `hamel reduce` does not prove {} absent from the equations",
             names(&integrated).join(", "),
             names(&absent).join(", "),
-            r.ground_truth.present.join(", ")
+            names(&unproved).join(", ")
         )));
     }
     let plan = Plan {

@@ -30,7 +30,6 @@ mod bar;
 pub mod eigen;
 mod error;
 #[cfg(feature = "cas")]
-mod exact;
 mod export;
 mod forms;
 mod linear;
@@ -47,8 +46,8 @@ pub use bar::Bar;
 pub use error::StudyError;
 pub use export::{Exported, Outcome, Progress};
 pub use forms::{Polynomial, SecondOrder, Symbolic};
+pub use hamel_model::SteadyCheck;
 pub use linear::{Linearisation, Point, Stability, Structural, StructuralKind};
 pub use lqr::{Lqr, LqrError, Regulator, RegulatorError, lqr};
 pub use prepare::Study;
-pub use state::SteadyCheck;
 pub use sweep::{Crossing, CrossingKind, Map, Range, Sweep, SweepPoint};

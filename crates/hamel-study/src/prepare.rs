@@ -36,64 +36,56 @@ pub struct Study {
 impl Study {
     #[cfg(feature = "cas")]
     /// Derive the equations of the choice `eta` (the model's first when `None`), decide exactly
-    /// which coordinates they are free of, and compile them for the steady motion `steady`.
-    /// This is the only step that uses the computer algebra.
+    /// which coordinates they are free of, check the steady motion exactly, and compile them
+    /// for the steady motion `steady`: the one pass ([`hamel_reduce::pass`], from the
+    /// derivation store when it holds it) is the only step that uses the computer algebra.
     pub fn prepare(model: &Model, eta: Option<&str>, steady: &str) -> Result<Study, ModelError> {
+        Study::prepare_with(model, eta, steady, false)
+    }
+
+    #[cfg(feature = "cas")]
+    /// [`Study::prepare`], the pass made anew (and stored) whatever the store holds when
+    /// `fresh` (`--no-store`).
+    pub fn prepare_with(
+        model: &Model,
+        eta: Option<&str>,
+        steady: &str,
+        fresh: bool,
+    ) -> Result<Study, ModelError> {
+        use hamel_reduce::pass::{Analysis, Job, obtain};
+        let gravity = gravity(model);
         let steady = model.steady(steady)?.clone();
-        // the loads at the steady motion need the wheels' supports (not for a closed loop)
-        let with_supports = match model.control.is_empty() {
-            true => model.with_supports()?,
-            false => model.clone(),
+        let analysis = Analysis::Drop {
+            steady: Some(steady.name.clone()),
         };
-        let (d, reduction) = hamel_reduce::derive_and_drop(&with_supports, eta)?;
+        // the loads at the steady motion need the wheels' supports (not for a closed loop)
+        let job = Job::new(model, eta, analysis)?
+            .with_supports(model.control.is_empty())
+            .for_code();
+        let mut artefact = obtain(&job, fresh)?;
+        let (reduction, steady_check) = (artefact.reduction.take(), artefact.steady_check.take());
+        let d = artefact.into_derivation()?;
         let compiled = match d.contact_forces.released {
             true => d.compile_with_constraint_forces(),
             false => d.compile(),
         }
         .map_err(|e| model.error(format!("the equations cannot be compiled: {e}")))?;
-        let index = |n: &String| model.coordinates.iter().position(|c| c == n);
-        let (dropped, dropped_because) = match &reduction {
-            Some(r) => (
-                r.ground_truth.absent.iter().filter_map(index).collect(),
-                r.findings.clone(),
-            ),
-            None => (Vec::new(), Vec::new()),
-        };
-        let completion = &model.completion;
-        let dependent: Vec<usize> = completion
-            .dependent()
-            .iter()
-            .copied()
-            .filter(|k| !dropped.contains(k))
-            .collect();
-        if let Some(&k) = dropped.iter().find(|&&k| completion.mentions(k)) {
-            return Err(model.error(format!(
-                "the holonomic constraints mention `{}`, which the equations are free of: hamel cannot drop it and complete the dependent coordinates without it",
-                model.coordinates[k]
-            )));
-        }
-        let state_q: Vec<usize> = (0..model.coordinates.len())
-            .filter(|k| !dropped.contains(k) && !completion.dependent().contains(k))
-            .collect();
-        let steady_check = crate::exact::check(&crate::exact::Inputs {
-            model,
-            steady: &steady,
-            derivation: &d,
-            state_q: &state_q,
-            dependent: &dependent,
-        });
+        let reduction = reduction.as_ref();
+        let partition = hamel_reduce::steady::partition(model, reduction)?;
         Ok(Study {
-            gravity: gravity(model),
+            gravity,
             model: model.clone(),
             steady,
             compiled,
             eta_name: d.eta_name.clone(),
             eta: d.eta.clone(),
-            state_q,
-            dependent,
-            dropped,
-            dropped_because,
-            steady_check,
+            state_q: partition.state_q,
+            dependent: partition.dependent,
+            dropped: partition.dropped,
+            dropped_because: reduction.map_or(Vec::new(), |r| r.findings.clone()),
+            steady_check: steady_check.unwrap_or(crate::SteadyCheck::Numeric {
+                why: "the pass made no check".into(),
+            }),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
         })
     }

@@ -6,49 +6,6 @@ use indexmap::IndexMap;
 
 use crate::{Study, StudyError};
 
-/// How the steady motion is known to be one (η̇ = 0 and the state's coordinates at rest).
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum SteadyCheck {
-    /// Exactly: with the steady values substituted into the closed form of (11) and into
-    /// α(q)q̇ = 0, every residual is zero on its canonical form, identically in the model's and
-    /// the steady parameters (inputs at zero). Each point's numeric residual is still reported.
-    Exact,
-    /// Exactly refuted: these residuals are not identically zero, so the motion is steady at
-    /// most for special parameter values; each point is checked numerically.
-    NotIdentically {
-        /// (the rate, its canonical form).
-        residuals: Vec<(String, String)>,
-    },
-    /// Numerically at each point (1e-9 relative), because the exact check cannot be made.
-    Numeric {
-        /// Why not.
-        why: String,
-    },
-}
-
-impl SteadyCheck {
-    /// One line for reports.
-    pub fn text(&self) -> String {
-        match self {
-            SteadyCheck::Exact => {
-                "proved exactly (canonical forms, identically in the parameters)".into()
-            }
-            SteadyCheck::NotIdentically { residuals } => {
-                let r: Vec<String> = residuals
-                    .iter()
-                    .map(|(n, e)| format!("{n} = {e}"))
-                    .collect();
-                format!(
-                    "not identically in the parameters ({}); checked numerically at each point",
-                    r.join("; ")
-                )
-            }
-            SteadyCheck::Numeric { why } => format!("checked numerically at each point ({why})"),
-        }
-    }
-}
-
 /// The steady parameters (in the scalar type) and the model's parameters (constants).
 struct SteadyEnv<'a, S> {
     names: Vec<&'a str>,

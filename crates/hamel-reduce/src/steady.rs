@@ -9,7 +9,68 @@ use hamel_derive::Derivation;
 use hamel_expr::Expr;
 use hamel_model::{Model, Steady};
 
-use crate::SteadyCheck;
+use hamel_model::SteadyCheck;
+
+/// The coordinates of a study: dropped (the equations are free of them), completed from the
+/// holonomic constraints, and in the state.
+#[derive(Clone, Debug)]
+pub struct Partition {
+    /// Dropped, by index (their proof is the reduction's).
+    pub dropped: Vec<usize>,
+    /// Kept and completed from the holonomic constraints, by index.
+    pub dependent: Vec<usize>,
+    /// In the state (kept, not dependent), by index.
+    pub state_q: Vec<usize>,
+}
+
+/// The partition of `model`'s coordinates when those `reduction` proves absent are dropped.
+/// Error: a holonomic constraint mentions a dropped coordinate.
+pub fn partition(
+    model: &Model,
+    reduction: Option<&crate::Reduction>,
+) -> Result<Partition, hamel_model::ModelError> {
+    let index = |n: &String| model.coordinates.iter().position(|c| c == n);
+    let dropped: Vec<usize> = reduction.map_or(Vec::new(), |r| {
+        r.ground_truth.absent.iter().filter_map(index).collect()
+    });
+    let completion = &model.completion;
+    let dependent: Vec<usize> = (completion.dependent().iter().copied())
+        .filter(|k| !dropped.contains(k))
+        .collect();
+    if let Some(&k) = dropped.iter().find(|&&k| completion.mentions(k)) {
+        return Err(model.error(format!(
+            "the holonomic constraints mention `{}`, which the equations are free of: hamel cannot drop it and complete the dependent coordinates without it",
+            model.coordinates[k]
+        )));
+    }
+    let state_q: Vec<usize> = (0..model.coordinates.len())
+        .filter(|k| !dropped.contains(k) && !completion.dependent().contains(k))
+        .collect();
+    Ok(Partition {
+        dropped,
+        dependent,
+        state_q,
+    })
+}
+
+/// The exact check of the steady motion `name` of `model` on the derivation `d`, with the
+/// coordinates `reduction` proves absent dropped (in the pass: `crate::pass`).
+pub(crate) fn check_dropped(
+    model: &Model,
+    name: &str,
+    d: &Derivation,
+    reduction: Option<&crate::Reduction>,
+) -> Result<SteadyCheck, hamel_model::ModelError> {
+    let steady = model.steady(name)?;
+    let p = partition(model, reduction)?;
+    Ok(check(&Inputs {
+        model,
+        steady,
+        derivation: d,
+        state_q: &p.state_q,
+        dependent: &p.dependent,
+    }))
+}
 
 /// Trees larger than this (operations) are not checked exactly: the numeric check stands in.
 const LARGEST: usize = 200_000;
