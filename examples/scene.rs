@@ -34,8 +34,10 @@ fn main() -> Result<(), ModelError> {
     );
 
     // Simulate with the scene's integrator.
-    let (trajectory, failure) =
-        hamel_scene::simulate::run_loaded(&loaded, Engine::Interpreted, false)?;
+    let hamel_scene::simulate::Simulated {
+        trajectory,
+        failure,
+    } = hamel_scene::simulate::run_loaded(&loaded, Engine::Interpreted, false)?;
     if let Some(e) = failure {
         return Err(e);
     }

@@ -350,7 +350,10 @@ fn simulate(
     engine: hamel_scene::Engine,
     estimate_error: bool,
 ) -> Result<(), ModelError> {
-    let (traj, failure) = hamel_scene::simulate::run_loaded(&loaded, engine, estimate_error)?;
+    let hamel_scene::simulate::Simulated {
+        trajectory: traj,
+        failure,
+    } = hamel_scene::simulate::run_loaded(&loaded, engine, estimate_error)?;
     // A failure during the integration keeps what was computed, marked incomplete.
     out.write(&match format {
         TrajectoryFormat::Csv => traj.to_csv(),

@@ -319,7 +319,10 @@ fn scene(name: &str, roll: f64, steer: f64, rates: (f64, f64), t_end: f64) -> st
 }
 
 fn run(path: &std::path::Path) -> hamel_scene::Trajectory {
-    let (t, failure) = hamel_scene::simulate::run(path, hamel_scene::Engine::Interpreted, false)
+    let hamel_scene::simulate::Simulated {
+        trajectory: t,
+        failure,
+    } = hamel_scene::simulate::run(path, hamel_scene::Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none() && t.complete, "{failure:?}");
     t

@@ -548,9 +548,7 @@ impl Field {
                 let kernels = f.kernels.borrow();
                 let k = (kernels.iter())
                     .position(|k| k.func == KernelFunc::Atan2 && k.arg == (yn.clone(), xn.clone()))
-                    .ok_or_else(|| {
-                        CasError::Unsupported("atan2(...) was not declared to the field".into())
-                    })?;
+                    .ok_or_else(|| CasError::Undeclared("atan2(...)".into()))?;
                 self.ex_poly(f.var_poly(f.kernel_var[k]))
             }
         })
@@ -586,12 +584,7 @@ impl Field {
                     && (&self.ex(k.arg.0.clone(), k.arg.1.clone()).expect("argument") - &this)
                         .is_zero()
             })
-            .ok_or_else(|| {
-                CasError::Unsupported(format!(
-                    "{}(...) was not declared to the field",
-                    func.name()
-                ))
-            })?;
+            .ok_or_else(|| CasError::Undeclared(format!("{}(...)", func.name())))?;
         Ok(self.ex_poly(f.var_poly(f.kernel_var[k])))
     }
 
@@ -638,11 +631,7 @@ impl Field {
                         .angles
                         .iter()
                         .find(|a| matches!(a.angle, Angle::Symbol { sym: s2, .. } if s2 == sym))
-                        .ok_or_else(|| {
-                            CasError::Unsupported(format!(
-                                "sin/cos of `{name}` was not declared to the field"
-                            ))
-                        })?;
+                        .ok_or_else(|| CasError::Undeclared(format!("sin/cos of `{name}`")))?;
                     let Angle::Symbol { denom, .. } = av.angle else {
                         unreachable!()
                     };
@@ -670,7 +659,7 @@ impl Field {
                     .angles
                     .iter()
                     .find(|av| matches!(&av.angle, Angle::Kernel { arg } if (&self.ex(arg.0.clone(), arg.1.clone()).expect("argument") - &a).is_zero()))
-                    .ok_or_else(|| CasError::Unsupported(format!("sin/cos({arg}) was not declared to the field")))?;
+                    .ok_or_else(|| CasError::Undeclared(format!("sin/cos({arg})")))?;
                 Ok((
                     self.ex_poly(f.var_poly(av.cos)),
                     self.ex_poly(f.var_poly(av.sin)),
@@ -682,7 +671,7 @@ impl Field {
 
 fn nested(e: CasError) -> CasError {
     match e {
-        CasError::Unsupported(m) if m.contains("not declared") => CasError::Unsupported(
+        CasError::Undeclared(_) => CasError::Unsupported(
             "nested transcendental functions (sqrt, exp, log, atan or sin/cos of a non-linear argument inside another one) are not supported".into(),
         ),
         other => other,

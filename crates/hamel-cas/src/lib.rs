@@ -45,6 +45,10 @@ pub enum CasError {
     /// A construct the engine does not handle (with the reason).
     #[error("{0}")]
     Unsupported(String),
+    /// A transcendental function whose argument was not declared to the field (the function
+    /// as written): inside another one, a nested function.
+    #[error("{0} was not declared to the field")]
+    Undeclared(String),
     /// An exact elimination that outgrew its budget of work ([`linalg::Budget`]): the caller
     /// decides another way (a certified evaluation, a structured form) instead of waiting.
     #[error(

@@ -26,7 +26,7 @@
 //! ```no_run
 //! let loaded = hamel_scene::load(std::path::Path::new("scenes/knife_spin.toml"))?;
 //! println!("{}", loaded.plan.to_text());
-//! let (trajectory, failure) = hamel_scene::simulate::run_loaded(&loaded, hamel_scene::Engine::Interpreted, false)?;
+//! let hamel_scene::simulate::Simulated { trajectory, failure } = hamel_scene::simulate::run_loaded(&loaded, hamel_scene::Engine::Interpreted, false)?;
 //! assert!(failure.is_none());
 //! print!("{}", trajectory.to_csv());
 //! # Ok::<(), hamel_model::ModelError>(())

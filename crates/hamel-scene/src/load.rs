@@ -200,7 +200,10 @@ fn derive(
     } else {
         model
     };
-    let (plan, d) = crate::plan::plan(&model, choice, request, fresh)?;
+    let crate::plan::Planned {
+        plan,
+        derivation: d,
+    } = crate::plan::plan(&model, choice, request, fresh)?;
     let compiled = if request.computes_forces() {
         d.compile_with_constraint_forces()
     } else {

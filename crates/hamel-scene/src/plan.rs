@@ -95,13 +95,17 @@ pub fn plan(
     eta: &str,
     request: &Request,
     fresh: bool,
-) -> Result<(Plan, Derivation), ModelError> {
+) -> Result<Planned, ModelError> {
     use hamel_reduce::pass::{Analysis, Job, obtain};
     let job = Job::new(model, Some(eta), Analysis::Survey)?.for_code();
     let mut artefact = obtain(&job, fresh)?;
     let survey = artefact.reduction.take();
     let d = artefact.into_derivation()?;
-    let (integrated, reconstructed, dropped) = decide(&d, request);
+    let Decision {
+        integrated,
+        reconstructed,
+        dropped,
+    } = decide(&d, request);
     let coords = &d.coordinates;
     let names = |ix: &[usize]| -> Vec<String> { ix.iter().map(|&k| coords[k].clone()).collect() };
     // The decision (on the printed canonical forms) checked against the pass's survey (the
@@ -135,14 +139,36 @@ pub fn plan(
         reconstructed_ix: reconstructed,
         dropped_ix: dropped,
     };
-    Ok((plan, d))
+    Ok(Planned {
+        plan,
+        derivation: d,
+    })
+}
+
+/// A scene planned: the plan and the derivation it was decided on.
+pub struct Planned {
+    /// What is integrated, reconstructed and dropped.
+    pub plan: Plan,
+    /// The derivation.
+    pub derivation: Derivation,
+}
+
+/// What a scene integrates, reconstructs and drops, by coordinate index ([`decide`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Decision {
+    /// The coordinates integrated.
+    pub integrated: Vec<usize>,
+    /// The requested ones the equations are free of, reconstructed by their kinematics.
+    pub reconstructed: Vec<usize>,
+    /// The others.
+    pub dropped: Vec<usize>,
 }
 
 /// What is integrated, reconstructed and dropped (coordinate indices), decided on the printed
 /// canonical forms of `d`: the coordinates occurring in the true equations (11), closed under
 /// the kinematic equations; the requested rest (and what the energy or the constraint residual
 /// needs, when requested), closed under theirs; the others.
-pub fn decide(d: &Derivation, request: &Request) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+pub fn decide(d: &Derivation, request: &Request) -> Decision {
     let coords = &d.coordinates;
     let no_kinematics: &[Entry] = &[];
     // A structured derivation has no expanded equations: the coordinates A, α, Z and U mention
@@ -199,7 +225,11 @@ pub fn decide(d: &Derivation, request: &Request) -> (Vec<usize>, Vec<usize>, Vec
     let dropped: Vec<usize> = (0..d.ell)
         .filter(|c| !integrated.contains(c) && !reconstructed.contains(c))
         .collect();
-    (integrated, reconstructed, dropped)
+    Decision {
+        integrated,
+        reconstructed,
+        dropped,
+    }
 }
 
 impl Plan {

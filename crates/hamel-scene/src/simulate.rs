@@ -20,12 +20,20 @@ pub const LOOSE_TOLERANCE: f64 = 1e-3;
 /// set of the quasi-velocities is near and accuracy degrades like cond·ε (docs/stability.md).
 pub const CONDITION_WARNING: f64 = 1e6;
 
+/// A scene's run: its trajectory, complete or as far as it got, and why it stopped early.
+pub struct Simulated {
+    /// The trajectory (up to the failure, when there is one).
+    pub trajectory: Trajectory,
+    /// Why the run ended before its last output time.
+    pub failure: Option<ModelError>,
+}
+
 /// Load the scene at `scene_path` and [`run_loaded`] it.
 pub fn run(
     scene_path: &Path,
     engine: Engine,
     estimate_error: bool,
-) -> Result<(Trajectory, Option<ModelError>), ModelError> {
+) -> Result<Simulated, ModelError> {
     run_loaded(&load(scene_path)?, engine, estimate_error)
 }
 
@@ -35,7 +43,7 @@ pub fn run_with(
     overrides: &indexmap::IndexMap<String, f64>,
     engine: Engine,
     estimate_error: bool,
-) -> Result<(Trajectory, Option<ModelError>), ModelError> {
+) -> Result<Simulated, ModelError> {
     run_loaded(
         &crate::load_with(scene_path, overrides)?,
         engine,
@@ -51,7 +59,7 @@ pub fn run_loaded(
     loaded: &Loaded,
     engine: Engine,
     estimate_error: bool,
-) -> Result<(Trajectory, Option<ModelError>), ModelError> {
+) -> Result<Simulated, ModelError> {
     // The compiled core is built (or found) first: the accuracy measurement below runs on it too.
     let (engine, built) = loaded.usable(engine);
     let (method, options) = integrator_for(loaded, engine)?;
@@ -87,7 +95,10 @@ pub fn run_loaded(
             Err(e) => log::warn!("no error estimate: {}", e.message()),
         }
     }
-    Ok((traj, run.failure))
+    Ok(Simulated {
+        trajectory: traj,
+        failure: run.failure,
+    })
 }
 
 /// The integrator to run: the scene's, or for an `[accuracy]` target the fastest adaptive

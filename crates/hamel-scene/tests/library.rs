@@ -23,7 +23,10 @@ fn knife() -> Loaded {
 #[test]
 fn the_knife_follows_its_circle() {
     let loaded = knife();
-    let (traj, failure) = hamel_scene::simulate::run_loaded(&loaded, Engine::Interpreted, false)
+    let hamel_scene::simulate::Simulated {
+        trajectory: traj,
+        failure,
+    } = hamel_scene::simulate::run_loaded(&loaded, Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none(), "{failure:?}");
     assert!(traj.complete);
