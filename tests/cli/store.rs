@@ -221,6 +221,22 @@ fn stored_commands_run_beside_a_search() {
         );
         assert_eq!(json_on_stdout(&o), json_on_stdout(before), "{args:?}");
     }
+    // what is not stored must be derived, which the licence does not allow now: a clear
+    // error (Symbolica's own notice untouched on stdout), exit 1, nothing written
+    let out = dir.join("unstored.json");
+    let state = states.to_str().unwrap();
+    let unstored = ["eval", "models/vertical_knife.toml", "--state", state];
+    let o = output(
+        &[&unstored[..], &["--output", out.to_str().unwrap()]].concat(),
+        &cache,
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("another process holds"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
     assert!(
         searching.try_wait().unwrap().is_none(),
         "the search ended before the other commands ran"

@@ -275,8 +275,20 @@ fn in_worker(w: &Worker, job: &Job) -> Result<Artefact, ModelError> {
     match (bytes, written) {
         (Ok(bytes), _) => read_result(&bytes).map_err(|e| failed(e.to_string()))?,
         (Err(_), Some(Err(e))) => Err(failed(format!("cannot give it the job: {e}"))),
-        (Err(_), _) => Err(failed(format!("it ended ({status}) without a result"))),
+        (Err(_), _) => Err(failed(ended_without_result(status))),
     }
+}
+
+/// Why a worker left no result: its status, and for an abort the likely cause.
+fn ended_without_result(status: std::process::ExitStatus) -> String {
+    use std::os::unix::process::ExitStatusExt;
+    let mut why = format!("it ended ({status}) without a result");
+    if status.signal() == Some(libc::SIGABRT) {
+        why.push_str(
+            "; the computer algebra stops so when another process holds the one thread its licence allows (a `hamel search`, another derivation; see its notice above): run this again when that has finished",
+        );
+    }
+    why
 }
 
 /// The worker's result as written by [`work`].
