@@ -131,6 +131,13 @@ fn toml_files(dirs: &[&str]) -> Vec<PathBuf> {
     files
 }
 
+/// Make `dir` with `mode`.
+fn dir_with_mode(dir: &Path, mode: u32) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::set_permissions(dir, std::fs::Permissions::from_mode(mode)).unwrap();
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join("cli")

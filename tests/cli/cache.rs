@@ -104,13 +104,6 @@ fn simulate_builds_a_specialised_core_once_and_reuses_it() {
     );
 }
 
-/// Make `dir` with `mode`.
-fn dir_with_mode(dir: &Path, mode: u32) {
-    use std::os::unix::fs::PermissionsExt;
-    std::fs::create_dir_all(dir).unwrap();
-    std::fs::set_permissions(dir, std::fs::Permissions::from_mode(mode)).unwrap();
-}
-
 #[test]
 fn a_code_cache_others_could_write_is_refused_and_a_new_one_is_private() {
     use std::os::unix::fs::{MetadataExt, PermissionsExt};

@@ -127,10 +127,8 @@ fn wait_until(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
 
 /// A private cache directory of its own in `dir`.
 fn own_cache(dir: &Path) -> PathBuf {
-    use std::os::unix::fs::PermissionsExt;
     let cache = dir.join("cache");
-    std::fs::create_dir_all(&cache).unwrap();
-    std::fs::set_permissions(&cache, std::fs::Permissions::from_mode(0o700)).unwrap();
+    super::dir_with_mode(&cache, 0o700);
     cache
 }
 

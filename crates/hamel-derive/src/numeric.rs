@@ -6,7 +6,6 @@
 use hamel_eval::{Compiled, NumericError, SymbolicCompiled, SymbolicLayout};
 use hamel_expr::Tape;
 use hamel_runtime::Dims;
-use indexmap::IndexMap;
 
 use crate::derivation::{Derivation, Entry, Mat};
 
@@ -312,21 +311,6 @@ impl Derivation {
                 .collect::<Vec<_>>()
                 .join(" or ")
         }
-    }
-
-    /// Parameter values: the model's defaults with `overrides` (unknown names are errors).
-    pub fn parameters_with(
-        &self,
-        overrides: &IndexMap<String, f64>,
-    ) -> Result<IndexMap<String, f64>, NumericError> {
-        let mut p = self.parameters.clone();
-        for (k, v) in overrides {
-            match p.get_mut(k) {
-                Some(slot) => *slot = *v,
-                None => return Err(NumericError::UnknownParameter(k.clone())),
-            }
-        }
-        Ok(p)
     }
 }
 

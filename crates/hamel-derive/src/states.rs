@@ -151,17 +151,7 @@ fn evaluate_state(
     tag: &dyn Fn(String) -> ModelError,
 ) -> Result<Out, ModelError> {
     let (compiled, q) = (&ready.compiled, &s.q);
-    let mut params = compiled.parameters().clone();
-    for (k, v) in &s.params {
-        match params.get_mut(k) {
-            Some(slot) => *slot = *v,
-            None => {
-                return Err(tag(
-                    crate::NumericError::UnknownParameter(k.clone()).to_string()
-                ));
-            }
-        }
-    }
+    let params = (compiled.parameters_with(&s.params)).map_err(|e| tag(e.to_string()))?;
     let coordinates = compiled.coordinates();
     let at = |e: crate::NumericError| {
         let at: Vec<String> = (coordinates.iter().zip(q))

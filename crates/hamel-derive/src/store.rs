@@ -64,6 +64,13 @@ struct Header {
 /// Expression trees nest deeper than ciborium's default limit of 256.
 const LIMIT: usize = 1 << 16;
 
+/// A value read from CBOR (`reader`), with the recursion limit expression trees need.
+pub fn from_cbor<T: serde::de::DeserializeOwned>(
+    reader: impl std::io::Read,
+) -> Result<T, ciborium::de::Error<std::io::Error>> {
+    ciborium::de::from_reader_with_recursion_limit(reader, LIMIT)
+}
+
 /// The derivation as bytes.
 pub fn to_bytes(d: &Derivation) -> Result<Vec<u8>, StoreError> {
     let mut out = Vec::new();
@@ -80,14 +87,13 @@ pub fn to_bytes(d: &Derivation) -> Result<Vec<u8>, StoreError> {
 
 /// The derivation the bytes hold.
 pub fn from_bytes(bytes: &[u8]) -> Result<Derivation, StoreError> {
-    let read: Result<Read, _> = ciborium::de::from_reader_with_recursion_limit(bytes, LIMIT);
+    let read: Result<Read, _> = from_cbor(bytes);
     let read = match read {
         Ok(r) if r.format == FORMAT => r,
         Ok(r) => return Err(StoreError::Format { found: r.format }),
         Err(e) => {
             // another layout may not read as this one: say so when its number says so
-            let header: Result<Header, _> =
-                ciborium::de::from_reader_with_recursion_limit(bytes, LIMIT);
+            let header: Result<Header, _> = from_cbor(bytes);
             return Err(match header {
                 Ok(h) if h.format != FORMAT => StoreError::Format { found: h.format },
                 _ => StoreError::Unreadable(e.to_string()),
@@ -216,7 +222,7 @@ pub fn lookup<T: serde::de::DeserializeOwned>(key: &Key) -> Option<T> {
     let sound = ciborium::from_reader::<Entry, _>(raw.as_slice())
         .ok()
         .filter(|e| e.key == key.text && hamel_cache::sha256_hex(&e.bytes) == e.sha256)
-        .map(|e| ciborium::de::from_reader_with_recursion_limit::<T, _>(e.bytes.as_slice(), LIMIT));
+        .map(|e| from_cbor::<T>(e.bytes.as_slice()));
     match sound {
         Some(Ok(d)) => Some(d),
         _ => {

@@ -445,6 +445,21 @@ impl Compiled {
         &self.parameters
     }
 
+    /// Parameter values: the model's defaults with `overrides` (unknown names are errors).
+    pub fn parameters_with(
+        &self,
+        overrides: &IndexMap<String, f64>,
+    ) -> Result<IndexMap<String, f64>, NumericError> {
+        let mut p = self.parameters.clone();
+        for (k, v) in overrides {
+            match p.get_mut(k) {
+                Some(slot) => *slot = *v,
+                None => return Err(NumericError::UnknownParameter(k.clone())),
+            }
+        }
+        Ok(p)
+    }
+
     /// Coordinate names, in order.
     pub fn coordinates(&self) -> &[String] {
         &self.coordinates

@@ -295,7 +295,7 @@ fn ended_without_result(status: std::process::ExitStatus) -> String {
 fn read_result(
     bytes: &[u8],
 ) -> Result<Result<Artefact, ModelError>, ciborium::de::Error<std::io::Error>> {
-    ciborium::de::from_reader_with_recursion_limit(bytes, 1 << 16)
+    store::from_cbor(bytes)
 }
 
 /// The worker's side (`hamel derive-worker RESULT`): read a [`Job`] (CBOR) from stdin, make its
@@ -303,7 +303,7 @@ fn read_result(
 /// `result` (whole or not at all). An error is the caller's to report: `Err` only when the job
 /// cannot be read or the result written.
 pub fn work(result: &Path) -> Result<(), ModelError> {
-    let job: Job = ciborium::de::from_reader_with_recursion_limit(std::io::stdin().lock(), 1 << 16)
+    let job: Job = store::from_cbor(std::io::stdin().lock())
         .map_err(|e| ModelError::environment(format!("derive-worker: no job on stdin: {e}")))?;
     let outcome = make(&job);
     let mut bytes = Vec::new();
