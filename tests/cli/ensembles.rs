@@ -258,6 +258,65 @@ fn an_exported_ensemble_runs_in_shards_without_hamel_and_merges_to_the_same_resu
         stderr(&o)
     );
     assert!(!partial.exists());
+    core_refusals(&job, scene, &parts, &partial);
+}
+
+/// The exported core refuses a job it cannot run with its typed error (a line for a person,
+/// one of JSON for hamel), exit 2 and no part written; a part in an older format is refused
+/// by hamel by name.
+fn core_refusals(job: &Path, scene: &str, parts: &[String], partial: &Path) {
+    let text = std::fs::read_to_string(job.join("job.json")).unwrap();
+    let mut broken: serde_json::Value = serde_json::from_str(&text).unwrap();
+    broken["members"][1]["y0"] = serde_json::json!([1.0]);
+    let bad = job.join("bad.json");
+    std::fs::write(&bad, broken.to_string()).unwrap();
+    let out = job.join("bad-part.jsonl");
+    let o = Command::new(job.join("core"))
+        .args([
+            "--job",
+            bad.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.contains("error: bad job: member 1's y0 has 1 values"),
+        "{err}"
+    );
+    let json = (err.lines())
+        .find_map(|l| l.strip_prefix("hamel-core-error: "))
+        .expect("the typed line");
+    let typed: serde_json::Value = serde_json::from_str(json).unwrap();
+    assert_eq!(typed["State"]["member"], 1, "{typed}");
+    assert!(!out.exists());
+    // A part written by an older core (format 1) is named and refused, not misread.
+    let old = std::fs::read_to_string(&parts[0]).unwrap().replacen(
+        "\"hamel_ensemble_part\":2",
+        "\"hamel_ensemble_part\":1",
+        1,
+    );
+    let old_part = job.join("old-part.jsonl");
+    std::fs::write(&old_part, old).unwrap();
+    let args = [
+        "simulate",
+        scene,
+        "--output",
+        partial.to_str().unwrap(),
+        "--merge",
+    ];
+    let mut args = args.to_vec();
+    args.extend([old_part.to_str().unwrap(), &parts[1], &parts[2]]);
+    let o = hamel(&args, None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("old-part.jsonl") && stderr(&o).contains("format 1 of ensemble parts"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!partial.exists());
 }
 
 #[test]

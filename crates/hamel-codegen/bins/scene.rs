@@ -2,27 +2,28 @@
 //!
 //! `scene [--job FILE] [--threads N] [--shard K/N] [--output FILE] [--progress]`
 //!
-//! Reads one job (JSON, from FILE or stdin): `{"t0", "times", "y0", "method", "options",
-//! "reference", "energy", "residual", "repeat", "params"}` where `y0` is the reduced state (the
-//! kept coordinates in model order, then η), `reference` the value at which the eliminated
+//! Reads one [`Job`] (JSON, from FILE or stdin; the protocol's types are
+//! `vendor/hamel-sim/src/job.rs`, shared with hamel): `y0` is the reduced state (the kept
+//! coordinates in model order, then η), `reference` the value at which the eliminated
 //! coordinates are held when the energy needs a full configuration (the equations are free of
-//! them), and `repeat` how many times to integrate for timing. Writes `{"solution", "error",
-//! "seconds"}`: the solution of the last run (the part computed before a failure, if any), the
-//! failure, and the median wall time of one integration; with `"forces": true`, also
-//! `"constraint_forces"`: every [`CONSTRAINT_FORCES`] component at each output time (null where
-//! they cannot be computed; `"constraint_forces_error"` says why at the first such time). The parameters are those the core
-//! was generated with (a scene's core is specialised for them) with `params` set on top.
-//! `live` says what sets each of the core's [`LIVE`] parameters at every evaluation, in
-//! their order: `"time"` (the time of a control law), or `{"table": {"name", "table"}}`.
+//! them), and `repeat` how many times to integrate for timing. Writes an [`Answer`]: the
+//! solution of the last run (the part computed before a failure, if any), why it stopped, and
+//! the median wall time of one integration; with `"forces": true`, also every
+//! [`CONSTRAINT_FORCES`](hamel_generated::CONSTRAINT_FORCES) component at each output time (null where they cannot be computed,
+//! and why at the first such time). The parameters are those the core was generated with (a
+//! scene's core is specialised for them) with `params` set on top. `live` says what sets each
+//! of the core's [`LIVE`] parameters at every evaluation, in their order.
 //!
-//! A job with `"members": [{"y0", "params", "reference"}, …]` is an **ensemble**: every member
-//! (or, with `--shard K/N`, the K-th of N contiguous blocks of them, K from 0) is integrated
-//! on a pool of `--threads` threads (default: one per core), and one JSON line is written per
-//! member in member order, `{"member", "solution", "error"}` (with `"save": "final"`, the
-//! solution holds the last output only), after a first line that describes the part:
-//! `{"hamel_ensemble_part": 1, "job", "members", "first", "end", "state", "save", "threads",
-//! "seconds"}` (`job`: the FNV-1a hash of the job's text). `--progress` prints `progress DONE TOTAL` on stderr as members finish. The
-//! result is written whole (to a temporary file renamed to `--output`), or not at all.
+//! A job with `members` is an **ensemble**: every member (or, with `--shard K/N`, the K-th of
+//! N contiguous blocks of them, K from 0) is integrated on a pool of `--threads` threads
+//! (default: one per core), and one [`MemberAnswer`] line is written per member in member
+//! order (with `"save": "final"`, the solution holds the last output only), after a
+//! [`PartHeader`] line that describes the part (`job`: the fingerprint of the job's text).
+//! `--progress` prints `progress DONE TOTAL SECONDS` on stderr as members finish. The result
+//! is written whole (to a temporary file renamed to `--output`), or not at all.
+//!
+//! A job refused or not finished exits with status 2 and writes the [`JobError`] on stderr,
+//! for a person and (on its `hamel-core-error:` line) as JSON for hamel.
 
 use std::collections::BTreeMap;
 use std::io::{Read, Write};
@@ -31,69 +32,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use hamel_generated::{
-    CONSTRAINT_FORCES, COORDINATES, DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
+    DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
     REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_jacobian_live, residual_max,
     residual_max_many,
 };
-use hamel_sim::{
-    Ensemble, Live, Method, OdeSystem, Options, Shard, Solution, States, SystemError, integrate_many, live_values,
-};
-use serde::Serialize;
-use serde::Deserialize;
-use serde_json::json;
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Job {
-    t0: f64,
-    times: Vec<f64>,
-    y0: Vec<f64>,
-    method: Method,
-    options: Options,
-    reference: f64,
-    energy: bool,
-    residual: bool,
-    /// Compute the constraint forces at the output times ([`CONSTRAINT_FORCES`]).
-    #[serde(default)]
-    forces: bool,
-    #[serde(default = "one")]
-    repeat: usize,
-    /// Parameter values other than the defaults the core was generated with.
-    #[serde(default)]
-    params: BTreeMap<String, f64>,
-    /// What sets each [`LIVE`] parameter at every evaluation, in their order.
-    #[serde(default)]
-    live: Vec<Live>,
-    /// An ensemble: the members (each its initial state and parameters).
-    members: Option<Vec<Member>>,
-    /// What an ensemble keeps of each member.
-    #[serde(default)]
-    save: Save,
-}
-
-/// A member of an ensemble: its reduced state, its parameters (on top of the core's and the
-/// job's), and its reference value for the eliminated coordinates (else the job's).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Member {
-    y0: Vec<f64>,
-    #[serde(default)]
-    params: BTreeMap<String, f64>,
-    reference: Option<f64>,
-}
-
-/// Every output time of each member, or the last one only.
-#[derive(Clone, Copy, Default, PartialEq, Deserialize, Serialize)]
-#[serde(rename_all = "lowercase")]
-enum Save {
-    Outputs,
-    #[default]
-    Final,
-}
-
-fn one() -> usize {
-    1
-}
+use hamel_sim::job::{Answer, ForcesFailure, Job, JobError, Member, MemberAnswer, PART_FORMAT, PartHeader, Progress, Save, Stopped};
+use hamel_sim::{Ensemble, Live, OdeSystem, Shard, Solution, States, SystemError, integrate_many, live_values};
 
 struct Reduced {
     prep: Prepared,
@@ -226,81 +170,78 @@ struct Args {
     progress: bool,
 }
 
-fn args() -> Result<Args, String> {
+fn args() -> Result<Args, JobError> {
     let mut a = Args {
         shard: Shard::ALL,
         ..Args::default()
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
-        let mut value = || it.next().ok_or(format!("{flag} needs a value"));
+        let mut value = || it.next().ok_or(JobError::Arguments(format!("{flag} needs a value")));
         match flag.as_str() {
             "--job" => a.job = Some(value()?.into()),
             "--output" => a.output = Some(value()?.into()),
             "--threads" => {
                 a.threads = value()?
                     .parse()
-                    .map_err(|e| format!("--threads: {e}"))?
+                    .map_err(|e| JobError::Arguments(format!("--threads: {e}")))?
             }
-            "--shard" => a.shard = value()?.parse().map_err(|e| format!("--shard: {e}"))?,
+            "--shard" => a.shard = value()?.parse().map_err(|e| JobError::Arguments(format!("--shard: {e}")))?,
             "--progress" => a.progress = true,
-            _ => return Err(format!("unknown option {flag} (see the module doc of src/scene_main.rs)")),
+            _ => return Err(JobError::Arguments(format!("unknown option {flag} (see the module doc of src/bin/scene.rs)"))),
         }
     }
     Ok(a)
 }
 
-/// The job and its fingerprint (FNV-1a, 64 bits, of its text: a part of an ensemble names the
-/// job it was computed for, so that parts of another job cannot be merged with it).
-fn read_job(a: &Args) -> Result<(Job, String), String> {
+/// The job and its fingerprint ([`hamel_sim::job::fingerprint`] of its text: a part of an
+/// ensemble names the job it was computed for, so that parts of another job cannot be merged
+/// with it).
+fn read_job(a: &Args) -> Result<(Job, String), JobError> {
     let mut text = String::new();
-    match &a.job {
-        Some(path) => {
-            text = std::fs::read_to_string(path)
-                .map_err(|e| format!("cannot read the job {}: {e}", path.display()))?
-        }
-        None => {
-            std::io::stdin()
-                .read_to_string(&mut text)
-                .map_err(|e| format!("cannot read the job: {e}"))?;
-        }
-    }
-    let job: Job = serde_json::from_str(&text).map_err(|e| format!("bad job: {e}"))?;
+    let read = match &a.job {
+        Some(path) => std::fs::read_to_string(path).map(|t| text = t),
+        None => std::io::stdin().read_to_string(&mut text).map(|_| ()),
+    };
+    read.map_err(|e| JobError::Read {
+        path: a.job.as_ref().map(|p| p.display().to_string()),
+        why: e.to_string(),
+    })?;
+    let job: Job = serde_json::from_str(&text).map_err(|e| JobError::Unreadable(e.to_string()))?;
     if job.live.len() != LIVE.len() {
-        return Err(format!(
-            "bad job: {} live values, the core sets {} ({:?}) at every evaluation",
-            job.live.len(),
-            LIVE.len(),
-            LIVE
-        ));
+        return Err(JobError::Live {
+            got: job.live.len(),
+            expected: LIVE.len(),
+            names: LIVE.iter().map(|s| s.to_string()).collect(),
+        });
     }
-    if job.y0.len() != REDUCED_DIM {
-        return Err(format!(
-            "bad job: y0 has {} values, the state ({} kept of {:?}, then η) has {REDUCED_DIM}",
-            job.y0.len(),
-            KEPT.len(),
-            COORDINATES
-        ));
+    check_state(None, &job.y0)?;
+    Ok((job, hamel_sim::job::fingerprint(&text)))
+}
+
+/// A state must be a reduced state.
+fn check_state(member: Option<usize>, y0: &[f64]) -> Result<(), JobError> {
+    if y0.len() == REDUCED_DIM {
+        return Ok(());
     }
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in text.bytes() {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    Ok((job, format!("{h:016x}")))
+    Err(JobError::State {
+        member,
+        got: y0.len(),
+        state: REDUCED_STATE.iter().map(|s| s.to_string()).collect(),
+    })
 }
 
 /// The core's parameters with `values` set on top, prepared.
-fn prepared(values: &BTreeMap<String, f64>) -> Result<Prepared, String> {
+fn prepared(values: &BTreeMap<String, f64>) -> Result<Prepared, JobError> {
     let mut p = Parameters::default();
     for (k, &v) in values {
-        p.set(k, v).map_err(|e| format!("bad job: {e}"))?;
+        p.set(k, v).map_err(|e| JobError::Parameter(e.to_string()))?;
     }
-    Prepared::new(&p).map_err(|e| e.to_string())
+    Prepared::new(&p).map_err(|e| JobError::Prepare(e.to_string()))
 }
 
 /// One integration, repeated `job.repeat` times for timing.
-fn single(job: &Job) -> Result<String, String> {
+fn single(job: &Job) -> Result<String, JobError> {
     let system = Reduced {
         prep: prepared(&job.params)?,
         live: job.live.clone(),
@@ -318,21 +259,15 @@ fn single(job: &Job) -> Result<String, String> {
         last = Some(result);
     }
     seconds.sort_by(f64::total_cmp);
-    let (solution, error) = split(last.expect("at least one run"));
-    let (forces, forces_error) = if job.forces { constraint_forces_at(&system, &solution) } else { (Vec::new(), None) };
-    serde_json::to_string(&json!({
-        "solution": solution,
-        "error": error,
-        "seconds": seconds[seconds.len() / 2],
-        "constraint_forces": forces,
-        "constraint_forces_error": forces_error,
-    }))
-    .map_err(|e| e.to_string())
+    let (solution, stopped) = Stopped::split(last.expect("at least one run"));
+    let (constraint_forces, forces_failure) = if job.forces { constraint_forces_at(&system, &solution) } else { (Vec::new(), None) };
+    let answer = Answer { solution, stopped, seconds: seconds[seconds.len() / 2], constraint_forces, forces_failure };
+    Ok(serde_json::to_string(&answer).expect("an answer is serialisable"))
 }
 
-/// Every constraint force ([`CONSTRAINT_FORCES`]) at the output states, at the parameters of
+/// Every constraint force ([`CONSTRAINT_FORCES`](hamel_generated::CONSTRAINT_FORCES)) at the output states, at the parameters of
 /// their times; None where they cannot be computed, and why at the first such time.
-fn constraint_forces_at(system: &Reduced, solution: &Solution) -> (Vec<Option<Vec<f64>>>, Option<String>) {
+fn constraint_forces_at(system: &Reduced, solution: &Solution) -> (Vec<Option<Vec<f64>>>, Option<ForcesFailure>) {
     let mut first = None;
     let at = |t: f64, y: &[f64]| -> Result<Vec<f64>, String> {
         let p = system.at(t).map_err(|e| e.to_string())?;
@@ -342,7 +277,7 @@ fn constraint_forces_at(system: &Reduced, solution: &Solution) -> (Vec<Option<Ve
         .map(|(&t, y)| match at(t, y) {
             Ok(v) => Some(v),
             Err(e) => {
-                first.get_or_insert_with(|| format!("at t = {t}: {e}"));
+                first.get_or_insert(ForcesFailure { time: t, message: e });
                 None
             }
         })
@@ -350,18 +285,8 @@ fn constraint_forces_at(system: &Reduced, solution: &Solution) -> (Vec<Option<Ve
     (forces, first)
 }
 
-fn split(r: Result<Solution, hamel_sim::IntegrationError>) -> (Solution, Option<String>) {
-    match r {
-        Ok(s) => (s, None),
-        Err(e) => {
-            let message = e.to_string();
-            (*e.partial, Some(message))
-        }
-    }
-}
-
 /// A member's system (the core with its parameters) and initial state.
-fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), String> {
+fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), JobError> {
     let system = Reduced {
         prep: prepared(&m.params)?,
         live: job.live.clone(),
@@ -373,19 +298,13 @@ fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), String> {
 }
 
 /// The ensemble's part of this shard: its header line, then one line per member.
-fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Result<String, String> {
+fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Result<String, JobError> {
     let range = a.shard.range(members.len());
     let mine = &members[range.clone()];
     for (i, m) in mine.iter().enumerate() {
-        if m.y0.len() != REDUCED_DIM {
-            return Err(format!(
-                "bad job: member {} has {} values in y0, the state has {REDUCED_DIM}",
-                range.start + i,
-                m.y0.len()
-            ));
-        }
+        check_state(Some(range.start + i), &m.y0)?;
     }
-    let setup = |i: usize| member_system(job, &mine[i]);
+    let setup = |i: usize| member_system(job, &mine[i]).map_err(|e| e.to_string());
     let settings = Ensemble {
         method: job.method,
         t0: job.t0,
@@ -399,11 +318,11 @@ fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Resul
         let reporter = a.progress.then(|| scope.spawn(|| report(&done, mine.len(), &start)));
         // What is kept of a member is made on the worker, so the solutions do not pile up.
         let keep = |_: usize, r: Result<Solution, hamel_sim::IntegrationError>| {
-            let (mut solution, error) = split(r);
+            let (mut solution, stopped) = Stopped::split(r);
             if job.save == Save::Final {
                 keep_last(&mut solution);
             }
-            (solution, error)
+            (solution, stopped)
         };
         let outcomes = integrate_many(&settings, mine.len(), setup, keep, &done);
         // The loop's time, not the reporter's wait.
@@ -415,36 +334,27 @@ fn ensemble(job: &Job, fingerprint: &str, members: &[Member], a: &Args) -> Resul
         }
         (outcomes, seconds)
     });
-    let outcomes = outcomes.map_err(|e| e.to_string())?;
+    let outcomes = outcomes.map_err(|e| JobError::Ensemble(e.to_string()))?;
     let threads = if a.threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { a.threads };
-    let mut text = serde_json::to_string(&json!({
-        "hamel_ensemble_part": 1,
-        "job": fingerprint,
-        "members": members.len(),
-        "first": range.start,
-        "end": range.end,
-        "state": REDUCED_STATE,
-        "save": job.save,
-        "threads": threads,
-        "seconds": seconds,
-    }))
-    .map_err(|e| e.to_string())?;
-    for (i, outcome) in outcomes.into_iter().enumerate() {
+    let header = PartHeader {
+        hamel_ensemble_part: PART_FORMAT,
+        job: fingerprint.to_string(),
+        members: members.len(),
+        first: range.start,
+        end: range.end,
+        state: REDUCED_STATE.iter().map(|s| s.to_string()).collect(),
+        save: job.save,
+        threads,
+        seconds,
+    };
+    let mut text = serde_json::to_string(&header).expect("a header is serialisable");
+    for (i, (solution, stopped)) in outcomes.into_iter().enumerate() {
+        let line = MemberAnswer { member: range.start + i, solution, stopped };
         text.push('\n');
-        text.push_str(&member_line(range.start + i, outcome)?);
+        text.push_str(&serde_json::to_string(&line).expect("an answer is serialisable"));
     }
     text.push('\n');
     Ok(text)
-}
-
-/// One member's line of a part.
-fn member_line(member: usize, (solution, error): (Solution, Option<String>)) -> Result<String, String> {
-    serde_json::to_string(&json!({
-        "member": member,
-        "solution": solution,
-        "error": error,
-    }))
-    .map_err(|e| e.to_string())
 }
 
 /// `progress DONE TOTAL SECONDS` on stderr every 100 ms until `done` is set to `usize::MAX`
@@ -456,7 +366,7 @@ fn report(done: &AtomicUsize, total: usize, start: &Instant) {
         let finished = now == usize::MAX;
         let now = if finished { total } else { now };
         if now != last {
-            eprintln!("progress {now} {total} {:.3}", start.elapsed().as_secs_f64());
+            eprintln!("{}", Progress { done: now, total, seconds: start.elapsed().as_secs_f64() });
             last = now;
         }
         if finished {
@@ -485,34 +395,34 @@ fn keep_last(s: &mut Solution) {
 }
 
 /// Write `text` to `path` whole: a temporary file beside it, renamed.
-fn write_whole(path: &std::path::Path, text: &str) -> Result<(), String> {
+fn write_whole(path: &std::path::Path, text: &str) -> Result<(), JobError> {
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
     std::fs::write(&tmp, text)
         .and_then(|()| std::fs::rename(&tmp, path))
         .map_err(|e| {
             let _ = std::fs::remove_file(&tmp);
-            format!("cannot write {}: {e}", path.display())
+            JobError::Write { what: path.display().to_string(), why: e.to_string() }
         })
 }
 
-fn run() -> Result<(), String> {
+fn run() -> Result<(), JobError> {
     let a = args()?;
     let (job, fingerprint) = read_job(&a)?;
-    let text = match &job.members {
-        Some(members) => ensemble(&job, &fingerprint, members, &a)?,
-        None => single(&job)? + "\n",
+    let text = match job.members.as_slice() {
+        [] => single(&job)? + "\n",
+        members => ensemble(&job, &fingerprint, members, &a)?,
     };
     match &a.output {
         Some(path) => write_whole(path, &text),
         None => std::io::stdout()
             .write_all(text.as_bytes())
-            .map_err(|e| format!("cannot write the answer: {e}")),
+            .map_err(|e| JobError::Write { what: "the answer".into(), why: e.to_string() }),
     }
 }
 
 fn main() {
     if let Err(e) = run() {
-        eprintln!("error: {e}");
+        eprintln!("{}", e.report());
         std::process::exit(2);
     }
 }

@@ -48,6 +48,7 @@ pub fn simulator() -> String {
     deps["nalgebra"] = value("0.34");
     deps["rayon"] = value("1");
     deps["serde"] = value(with_features("1", &["derive"]));
+    deps["serde_json"] = value("1");
     deps["thiserror"] = value("2");
     doc["dependencies"] = Item::Table(deps);
     doc.to_string()

@@ -27,7 +27,8 @@ use hamel_codegen::Generated;
 use hamel_derive::Derivation;
 use hamel_expr::{Expr, Tape};
 use hamel_model::{Model, ModelError};
-use hamel_sim::Solution;
+use hamel_sim::job::Progress;
+pub use hamel_sim::job::{Answer, Job, JobError, Member};
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
@@ -81,6 +82,14 @@ pub enum CacheError {
         /// The end of cargo's error output.
         log: String,
     },
+    /// The built core refused the job or could not finish it.
+    #[error("{}: {error}", binary.display())]
+    Job {
+        /// The core's binary.
+        binary: PathBuf,
+        /// Why, as the core reports it.
+        error: JobError,
+    },
     /// The built core could not run the job, or answered with something unreadable.
     #[error("{}: {why}", binary.display())]
     Core {
@@ -107,9 +116,10 @@ impl CacheError {
             | CacheError::Io { .. }
             | CacheError::NoCargo { .. }
             | CacheError::Cargo { .. } => ModelError::environment(message),
-            CacheError::Codegen(_) | CacheError::Specialise(_) | CacheError::Core { .. } => {
-                ModelError::engine(message)
-            }
+            CacheError::Codegen(_)
+            | CacheError::Specialise(_)
+            | CacheError::Job { .. }
+            | CacheError::Core { .. } => ModelError::engine(message),
         }
     }
 
@@ -174,19 +184,8 @@ impl Key {
 
     /// FNV-1a, 64 bits: the entry's directory name.
     fn hash(&self) -> String {
-        fnv1a(&self.text)
+        hamel_sim::job::fingerprint(&self.text)
     }
-}
-
-/// FNV-1a, 64 bits, in hexadecimal: a cache entry's directory name, an ensemble job's
-/// fingerprint (the `scene` binary computes the same over the job it reads).
-pub(crate) fn fnv1a(text: &str) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in text.bytes() {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    format!("{h:016x}")
 }
 
 /// `meta.json` of an entry.
@@ -532,62 +531,6 @@ fn record_hash(dir: &Path, hash: &str) -> std::io::Result<()> {
     hamel_cache::write_atomic(dir, "meta.json", text.as_bytes())
 }
 
-/// One integration job for a core's `scene` binary (see `crates/hamel-codegen/bins/scene.rs`).
-#[derive(Serialize)]
-pub struct Job<'a> {
-    pub t0: f64,
-    pub times: &'a [f64],
-    /// The kept coordinates in model order, then η.
-    pub y0: Vec<f64>,
-    pub method: hamel_sim::Method,
-    pub options: hamel_sim::Options,
-    pub reference: f64,
-    pub energy: bool,
-    pub residual: bool,
-    /// Compute the constraint forces at the output times (`Answer::constraint_forces`).
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
-    pub forces: bool,
-    pub repeat: usize,
-    /// Parameter values other than the core's defaults (a core not specialised).
-    pub params: IndexMap<String, f64>,
-    /// What sets each of the core's live parameters at every evaluation.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub live: Vec<hamel_sim::Live>,
-    /// An ensemble's members (empty: one integration of `y0`).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub members: Vec<Member>,
-    /// What an ensemble keeps of each member.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub save: Option<crate::file::Save>,
-}
-
-/// A member of an ensemble job: its state in the core's order, the values of the parameters
-/// the core was not specialised for, and the reference value of the eliminated coordinates.
-#[derive(Serialize)]
-pub struct Member {
-    pub y0: Vec<f64>,
-    pub params: IndexMap<String, f64>,
-    pub reference: f64,
-}
-
-/// What the core answers to one integration job.
-#[derive(Deserialize)]
-pub struct Answer {
-    /// The solution (up to the failure, if any).
-    pub solution: Solution,
-    /// Why it stopped early.
-    pub error: Option<String>,
-    /// The median wall time of one integration.
-    pub seconds: f64,
-    /// With `forces` asked: every reported constraint force at each output time (None where
-    /// they could not be computed).
-    #[serde(default)]
-    pub constraint_forces: Vec<Option<Vec<f64>>>,
-    /// Why they could not be computed at the first output where they could not.
-    #[serde(default)]
-    pub constraint_forces_error: Option<String>,
-}
-
 /// Run the ensemble `job` on the binary with `threads` threads (0: one per core): what it
 /// writes (its JSON lines), with `progress(done, total)` called as members finish.
 pub fn run_ensemble(
@@ -597,17 +540,7 @@ pub fn run_ensemble(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<String, CacheError> {
     use std::io::{BufRead, Read};
-    let core = |why: String| CacheError::Core {
-        binary: binary.to_path_buf(),
-        why,
-    };
-    let mut child = Command::new(binary)
-        .args(["--progress", "--threads", &threads.to_string()])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| core(format!("cannot run it: {e}")))?;
+    let mut child = spawn(binary, &["--progress", "--threads", &threads.to_string()])?;
     let stderr = child.stderr.take().expect("piped");
     let mut stdout = child.stdout.take().expect("piped");
     let (out, errors) = std::thread::scope(|scope| {
@@ -618,9 +551,9 @@ pub fn run_ensemble(
                 .lines()
                 .map_while(Result::ok)
             {
-                match progress_line(&line) {
-                    Some((done, total)) => progress(done, total),
-                    None => other.push_str(&line),
+                match Progress::parse(&line) {
+                    Some(p) => progress(p.done, p.total),
+                    None => other.push_str(&(line + "\n")),
                 }
             }
             other
@@ -629,52 +562,66 @@ pub fn run_ensemble(
             .stdin
             .take()
             .expect("piped")
-            .write_all(serde_json::to_string(job).expect("serialisable").as_bytes());
+            .write_all(job.to_text().0.as_bytes());
         let mut out = String::new();
         let read = stdout.read_to_string(&mut out);
         let other = reader.join().unwrap_or_default();
         (sent.and(read).map(|_| out), other)
     });
-    let status = child.wait().map_err(|e| core(e.to_string()))?;
+    let status = child.wait().map_err(|e| core(binary, e.to_string()))?;
     if !status.success() {
-        return Err(core(format!("failed: {}", errors.trim())));
+        return Err(refused(binary, &errors));
     }
-    out.map_err(|e| core(format!("cannot exchange the job with it: {e}")))
+    out.map_err(|e| core(binary, format!("cannot exchange the job with it: {e}")))
 }
 
-/// `progress DONE TOTAL SECONDS` as the core writes it.
-fn progress_line(line: &str) -> Option<(usize, usize)> {
-    let mut words = line.strip_prefix("progress ")?.split(' ');
-    Some((words.next()?.parse().ok()?, words.next()?.parse().ok()?))
-}
-
-/// Run `job` on the binary: the solution (partial on failure), the failure, the median time
-/// of one integration measured inside the binary.
-pub fn run(binary: &Path, job: &Job) -> Result<Answer, CacheError> {
-    let core = |why: String| CacheError::Core {
-        binary: binary.to_path_buf(),
-        why,
-    };
-    let mut child = Command::new(binary)
+/// The core `binary` started with `args`, its standard streams piped.
+fn spawn(binary: &Path, args: &[&str]) -> Result<std::process::Child, CacheError> {
+    Command::new(binary)
+        .args(args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .map_err(|e| core(format!("cannot run it: {e}")))?;
+        .map_err(|e| core(binary, format!("cannot run it: {e}")))
+}
+
+/// The core could not run or answered with something unreadable.
+fn core(binary: &Path, why: String) -> CacheError {
+    CacheError::Core {
+        binary: binary.to_path_buf(),
+        why,
+    }
+}
+
+/// The core failed: its typed [`JobError`] when it wrote one, else what it wrote.
+fn refused(binary: &Path, stderr: &str) -> CacheError {
+    match JobError::from_report(stderr) {
+        Some(error) => CacheError::Job {
+            binary: binary.to_path_buf(),
+            error,
+        },
+        None => core(binary, format!("failed: {}", stderr.trim())),
+    }
+}
+
+/// Run `job` on the binary: the solution (partial on failure), why it stopped, the median
+/// time of one integration measured inside the binary.
+pub fn run(binary: &Path, job: &Job) -> Result<Answer, CacheError> {
+    let mut child = spawn(binary, &[])?;
     child
         .stdin
         .take()
         .expect("piped")
-        .write_all(serde_json::to_string(job).expect("serialisable").as_bytes())
-        .map_err(|e| core(format!("cannot send it the job: {e}")))?;
-    let out = child.wait_with_output().map_err(|e| core(e.to_string()))?;
+        .write_all(job.to_text().0.as_bytes())
+        .map_err(|e| core(binary, format!("cannot send it the job: {e}")))?;
+    let out = child
+        .wait_with_output()
+        .map_err(|e| core(binary, e.to_string()))?;
     if !out.status.success() {
-        return Err(core(format!(
-            "failed: {}",
-            String::from_utf8_lossy(&out.stderr).trim()
-        )));
+        return Err(refused(binary, &String::from_utf8_lossy(&out.stderr)));
     }
-    serde_json::from_slice(&out.stdout).map_err(|e| core(format!("unreadable answer: {e}")))
+    serde_json::from_slice(&out.stdout).map_err(|e| core(binary, format!("unreadable answer: {e}")))
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@
 use std::path::Path;
 
 use hamel_model::ModelError;
-use hamel_sim::{MethodName, Shard, Solution};
+use hamel_sim::{MethodName, Shard};
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
@@ -30,6 +30,7 @@ use crate::file::Save;
 use crate::initial::initial_eta;
 use crate::load::Loaded;
 use crate::members::{Members, Source, Target};
+use hamel_sim::job::{MemberAnswer, PART_FORMAT, PartHeader};
 
 /// How an ensemble runs: the core's threads (0: one per core) and the shard of the members.
 #[derive(Clone, Copy, Debug)]
@@ -122,38 +123,14 @@ struct Start {
 }
 
 /// The members of a shard made ready for the core.
-struct PreparedEnsemble<'a> {
+struct PreparedEnsemble {
     range: std::ops::Range<usize>,
     starts: Vec<Result<Start, String>>,
     /// The members (of the shard) that can start: those sent to the core, in order.
     ok: Vec<usize>,
     varying: Vec<String>,
     exe: std::path::PathBuf,
-    job: cache::Job<'a>,
-}
-
-/// A member's answer from the core.
-#[derive(Deserialize)]
-struct CoreAnswer {
-    member: usize,
-    solution: Solution,
-    error: Option<String>,
-}
-
-/// The core's first line (of a part: the members it holds).
-#[derive(Deserialize)]
-struct CoreHeader {
-    threads: usize,
-    seconds: f64,
-    #[serde(default)]
-    members: usize,
-    /// The fingerprint of the job the part was computed for.
-    #[serde(default)]
-    job: String,
-    #[serde(default)]
-    first: usize,
-    #[serde(default)]
-    end: usize,
+    job: cache::Job,
 }
 
 impl Loaded {
@@ -191,13 +168,14 @@ impl Loaded {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<EnsembleRun, ModelError> {
         let prepared = self.prepare_ensemble(members, settings.shard)?;
-        let text = if prepared.job.members.is_empty() {
-            String::from("{\"threads\": 0, \"seconds\": 0.0}\n")
+        let (core, answers) = if prepared.job.members.is_empty() {
+            (empty_part(&prepared.job), Vec::new())
         } else {
-            cache::run_ensemble(&prepared.exe, &prepared.job, settings.threads, progress)
-                .map_err(|e| self.core_error(e, "the ensemble's compiled core"))?
+            let text =
+                cache::run_ensemble(&prepared.exe, &prepared.job, settings.threads, progress)
+                    .map_err(|e| self.core_error(e, "the ensemble's compiled core"))?;
+            parse_core(&text).map_err(|why| self.core_answer(&prepared, why))?
         };
-        let (core, answers) = parse_core(&text).map_err(|why| self.core_answer(&prepared, why))?;
         self.gather(members, prepared, core, answers)
     }
 
@@ -213,7 +191,7 @@ impl Loaded {
         std::fs::create_dir_all(dir).map_err(|e| io("the directory", e))?;
         // Both files appear whole, or neither does.
         let tmp = |name: &str| dir.join(format!("{name}.tmp{}", std::process::id()));
-        let job = serde_json::to_string(&prepared.job).expect("serialisable");
+        let (job, _) = prepared.job.to_text();
         let written = std::fs::write(tmp("job.json"), job)
             .and_then(|()| std::fs::copy(&prepared.exe, tmp("core")).map(|_| ()))
             .and_then(|()| std::fs::rename(tmp("core"), dir.join("core")))
@@ -235,8 +213,8 @@ impl Loaded {
         parts: &[(String, String)],
     ) -> Result<EnsembleRun, ModelError> {
         let prepared = self.prepare_ensemble(members, Shard::ALL)?;
-        let text = serde_json::to_string(&prepared.job).expect("serialisable");
-        let (core, answers) = merge_parts(parts, prepared.job.members.len(), &cache::fnv1a(&text))?;
+        let (_, fingerprint) = prepared.job.to_text();
+        let (core, answers) = merge_parts(parts, prepared.job.members.len(), &fingerprint)?;
         self.gather(members, prepared, core, answers)
     }
 
@@ -246,7 +224,7 @@ impl Loaded {
         &self,
         members: &Members,
         shard: Shard,
-    ) -> Result<PreparedEnsemble<'_>, ModelError> {
+    ) -> Result<PreparedEnsemble, ModelError> {
         let range = shard.range(members.rows.len());
         let starts: Vec<Result<Start, String>> = members.rows[range.clone()]
             .iter()
@@ -265,7 +243,7 @@ impl Loaded {
         let ok: Vec<usize> = (0..starts.len()).filter(|&i| starts[i].is_ok()).collect();
         let job = cache::Job {
             t0: self.scene.t0,
-            times: &self.times,
+            times: self.times.clone(),
             y0: self.to_core(&self.y0),
             method,
             options,
@@ -274,13 +252,13 @@ impl Loaded {
             residual: self.request.constraint_residual,
             forces: false,
             repeat: 1,
-            params: IndexMap::new(),
+            params: Default::default(),
             live: self.live.clone(),
             members: ok
                 .iter()
                 .map(|&i| self.core_member(starts[i].as_ref().expect("ok"), &varying))
                 .collect(),
-            save: Some(members.save),
+            save: members.save,
         };
         Ok(PreparedEnsemble {
             range,
@@ -293,7 +271,7 @@ impl Loaded {
     }
 
     /// An unreadable answer of the core as an error.
-    fn core_answer(&self, prepared: &PreparedEnsemble<'_>, why: String) -> ModelError {
+    fn core_answer(&self, prepared: &PreparedEnsemble, why: String) -> ModelError {
         let e = cache::CacheError::Core {
             binary: prepared.exe.clone(),
             why,
@@ -305,9 +283,9 @@ impl Loaded {
     fn gather(
         &self,
         members: &Members,
-        prepared: PreparedEnsemble<'_>,
-        core: CoreHeader,
-        answers: Vec<CoreAnswer>,
+        prepared: PreparedEnsemble,
+        core: PartHeader,
+        answers: Vec<MemberAnswer>,
     ) -> Result<EnsembleRun, ModelError> {
         if answers.len() != prepared.ok.len()
             || answers.iter().enumerate().any(|(i, a)| a.member != i)
@@ -412,7 +390,7 @@ impl Loaded {
                 .iter()
                 .map(|k| (k.clone(), start.params[k]))
                 .collect(),
-            reference: start.reference,
+            reference: Some(start.reference),
         }
     }
 
@@ -450,7 +428,7 @@ impl Loaded {
         &self,
         member: usize,
         start: &Start,
-        mut a: CoreAnswer,
+        mut a: MemberAnswer,
         varying: &[String],
         expressions: &[OutputExpression],
         save: Save,
@@ -499,7 +477,7 @@ impl Loaded {
             });
             values.insert(e.name.clone(), v.collect());
         }
-        let error = crossing.or(a.error);
+        let error = crossing.or(a.stopped.map(|s| s.to_string()));
         MemberResult {
             member,
             given: IndexMap::new(),
@@ -557,15 +535,40 @@ fn failed_to_start(member: usize, why: &str) -> MemberResult {
     }
 }
 
+/// The header of a part of no member (every member failed to start).
+fn empty_part(job: &cache::Job) -> PartHeader {
+    PartHeader {
+        hamel_ensemble_part: PART_FORMAT,
+        job: job.to_text().1,
+        members: 0,
+        first: 0,
+        end: 0,
+        state: Vec::new(),
+        save: job.save,
+        threads: 0,
+        seconds: 0.0,
+    }
+}
+
 /// The core's JSON lines: its header, then one answer per member sent.
-fn parse_core(text: &str) -> Result<(CoreHeader, Vec<CoreAnswer>), String> {
+fn parse_core(text: &str) -> Result<(PartHeader, Vec<MemberAnswer>), String> {
     let mut lines = text.lines();
-    let header: CoreHeader = serde_json::from_str(lines.next().unwrap_or(""))
-        .map_err(|e| format!("unreadable answer: {e}"))?;
+    let first = lines.next().unwrap_or("");
+    let format = serde_json::from_str::<serde_json::Value>(first)
+        .ok()
+        .and_then(|v| v.get("hamel_ensemble_part")?.as_u64());
+    if format.is_some_and(|f| f != u64::from(PART_FORMAT)) {
+        return Err(format!(
+            "written in format {} of ensemble parts, this hamel reads format {PART_FORMAT}: run the part again with this hamel's core (export the ensemble again)",
+            format.unwrap_or_default()
+        ));
+    }
+    let header: PartHeader =
+        serde_json::from_str(first).map_err(|e| format!("unreadable answer: {e}"))?;
     let answers = lines
         .filter(|l| !l.is_empty())
         .map(|l| serde_json::from_str(l).map_err(|e| format!("unreadable answer: {e}")))
-        .collect::<Result<Vec<CoreAnswer>, String>>()?;
+        .collect::<Result<Vec<MemberAnswer>, String>>()?;
     Ok((header, answers))
 }
 
@@ -577,7 +580,7 @@ fn merge_parts(
     parts: &[(String, String)],
     total: usize,
     job: &str,
-) -> Result<(CoreHeader, Vec<CoreAnswer>), ModelError> {
+) -> Result<(PartHeader, Vec<MemberAnswer>), ModelError> {
     let bad = |name: &str, why: String| ModelError::new(name, Default::default(), None, None, why);
     let mut blocks = Vec::new();
     for (name, text) in parts {
@@ -604,13 +607,16 @@ fn merge_parts(
     }
     blocks.sort_by_key(|(_, h, _)| h.first);
     let mut next = 0;
-    let mut merged = CoreHeader {
+    let mut merged = PartHeader {
+        hamel_ensemble_part: PART_FORMAT,
         threads: 0,
         seconds: 0.0,
         members: total,
         job: job.to_string(),
         first: 0,
         end: total,
+        state: Vec::new(),
+        save: Default::default(),
     };
     let mut answers = Vec::with_capacity(total);
     for (name, h, a) in blocks {

@@ -114,17 +114,8 @@ pub enum Distribution {
     Normal([f64; 2]),
 }
 
-/// What an ensemble keeps of each member: the requested outputs at every output time, or at
-/// the last one only (with the member's statistics either way).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Save {
-    /// Every output time.
-    Outputs,
-    /// The last output time.
-    #[default]
-    Final,
-}
+/// What an ensemble keeps of each member (the core's job protocol's type).
+pub use hamel_sim::job::Save;
 
 /// `[accuracy]`: relative and absolute error wanted on the outputs.
 #[derive(Deserialize)]

@@ -176,7 +176,7 @@ impl Loaded {
         let (exe, built) = cache::binary(self.core()?)?;
         let job = cache::Job {
             t0: self.scene.t0,
-            times: &self.times,
+            times: self.times.clone(),
             y0: self.to_core(&self.y0),
             method,
             options: *options,
@@ -185,17 +185,17 @@ impl Loaded {
             residual: self.request.constraint_residual,
             forces: !self.forces.is_empty(),
             repeat,
-            params: IndexMap::new(),
+            params: Default::default(),
             live: self.live.clone(),
             members: Vec::new(),
-            save: None,
+            save: Default::default(),
         };
         let cache::Answer {
             mut solution,
-            error,
+            stopped,
             seconds,
             mut constraint_forces,
-            constraint_forces_error,
+            forces_failure,
         } = cache::run(&exe, &job)?;
         let expected = self.compiled.constraint_force_names().len();
         if let Some(v) = constraint_forces
@@ -211,14 +211,16 @@ impl Loaded {
                 ),
             });
         }
-        if let Some(e) = constraint_forces_error {
+        if let Some(e) = forces_failure {
             log::warn!("the constraint forces cannot be computed {e} (written as null)");
         }
         self.back_from_core(&mut solution);
         let (crossing, max_condition) =
             self.watch_singular(&mut solution, &self.params, self.delta0);
         constraint_forces.truncate(solution.t.len());
-        let failure = crossing.or(error).map(|m| self.error("integrator", m));
+        let failure = crossing
+            .or(stopped.map(|s| s.to_string()))
+            .map(|m| self.error("integrator", m));
         let run = Run {
             solution,
             failure,

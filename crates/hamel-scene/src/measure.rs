@@ -84,7 +84,7 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let (exe, _) = cache::binary(&entry).map_err(fail)?;
     let full_job = |repeat: usize| cache::Job {
         t0: loaded.scene.t0,
-        times: &loaded.times,
+        times: loaded.times.clone(),
         y0: loaded
             .q0
             .iter()
@@ -98,19 +98,19 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
         residual: loaded.request.constraint_residual,
         forces: false,
         repeat,
-        params: loaded.fixed(),
+        params: loaded.fixed().into_iter().collect(),
         live: loaded.live.clone(),
         members: Vec::new(),
-        save: None,
+        save: Default::default(),
     };
     let first_full = cache::run(&exe, &full_job(1)).map_err(fail)?.seconds;
     let cache::Answer {
         solution: full,
-        error,
+        stopped,
         seconds: full_seconds,
         ..
     } = cache::run(&exe, &full_job(repeats(first_full))).map_err(fail)?;
-    if let Some(e) = error {
+    if let Some(e) = stopped {
         return Err(loaded.error("integrator", format!("the full system's run failed: {e}")));
     }
     let p = &planned.solution;

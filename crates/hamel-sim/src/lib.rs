@@ -55,6 +55,7 @@ mod driver;
 mod ensemble;
 mod explicit;
 mod gauss;
+pub mod job;
 mod live;
 mod rk4;
 mod solution;

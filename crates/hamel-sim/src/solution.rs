@@ -76,7 +76,7 @@ fn is_zero(n: &usize) -> bool {
 }
 
 /// Why an integration stopped early.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
 pub enum ErrorKind {
     /// Inconsistent input (dimensions, non-finite values, unordered output times, bad step).
     #[error("invalid input")]
