@@ -12,8 +12,8 @@
 use std::path::PathBuf;
 
 use hamel_model::ModelError;
-use hamel_scene::Engine;
-use hamel_scene::tradeoff::{self, Range};
+use hamel_run::Engine;
+use hamel_run::tradeoff::{self, Range};
 
 fn main() -> Result<(), ModelError> {
     let path = std::env::args()
@@ -23,7 +23,7 @@ fn main() -> Result<(), ModelError> {
 
     // Load: the scene and its model are read and checked, the equations derived, the plan
     // made (exactly) and the initial state set up.
-    let loaded = hamel_scene::load(&path)?;
+    let loaded = hamel_run::load(&path)?;
     let plan = &loaded.plan;
     println!(
         "{}: integrated {:?}, reconstructed {:?}, dropped {:?}",
@@ -34,10 +34,10 @@ fn main() -> Result<(), ModelError> {
     );
 
     // Simulate with the scene's integrator.
-    let hamel_scene::simulate::Simulated {
+    let hamel_run::simulate::Simulated {
         trajectory,
         failure,
-    } = hamel_scene::simulate::run_loaded(&loaded, Engine::Interpreted, false)?;
+    } = hamel_run::simulate::run_loaded(&loaded, Engine::Interpreted, false)?;
     if let Some(e) = failure {
         return Err(e);
     }

@@ -324,7 +324,7 @@ pub enum StoreAction {
     Clear,
 }
 
-/// What evaluates the right-hand side (`hamel_scene::Engine`).
+/// What evaluates the right-hand side (`hamel_run::Engine`).
 #[derive(Clone, Copy, ValueEnum)]
 pub enum EngineArg {
     /// The scene's generated core, compiled and cached.
@@ -333,11 +333,11 @@ pub enum EngineArg {
     Interpreted,
 }
 
-impl From<EngineArg> for hamel_scene::Engine {
+impl From<EngineArg> for hamel_run::Engine {
     fn from(e: EngineArg) -> Self {
         match e {
-            EngineArg::Compiled => hamel_scene::Engine::Compiled,
-            EngineArg::Interpreted => hamel_scene::Engine::Interpreted,
+            EngineArg::Compiled => hamel_run::Engine::Compiled,
+            EngineArg::Interpreted => hamel_run::Engine::Interpreted,
         }
     }
 }

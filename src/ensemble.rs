@@ -1,14 +1,14 @@
 //! `hamel simulate` on a scene with `[ensemble]`: run the members on the compiled core with a
 //! progress bar, export the core and its job for a scheduler, or merge the parts it wrote
-//! (`hamel_scene::ensemble`; docs/ensembles.md).
+//! (`hamel_run::ensemble`; docs/ensembles.md).
 
 use std::path::Path;
 use std::sync::Arc;
 
 use hamel_model::ModelError;
-use hamel_scene::Loaded;
-use hamel_scene::ensemble::{EnsembleRun, Settings};
-use hamel_scene::members::Members;
+use hamel_run::Loaded;
+use hamel_run::ensemble::{EnsembleRun, Settings};
+use hamel_run::members::Members;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::cli::{EnsembleArgs, TrajectoryFormat};

@@ -2,7 +2,7 @@
 //!
 //! Each subcommand is one stage of the pipeline (model → derivation → analysis → code →
 //! simulation) run on a model or scene file; the work is done by `hamel-derive`,
-//! `hamel-reduce`, `hamel-codegen` and `hamel-scene`, and this file only reads arguments,
+//! `hamel-reduce`, `hamel-codegen` and `hamel-run`, and this file only reads arguments,
 //! calls them and writes what they return. Results go to stdout or to `--output FILE`; errors
 //! go to stderr with the file, the place and the reason, and a non-zero exit status; nothing is
 //! written when a command fails.
@@ -120,7 +120,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             let out = Output::new(output)?;
             let set: IndexMap<String, f64> = set.into_iter().collect();
             let loaded = progress::while_deriving("deriving", || {
-                hamel_scene::load_with_options(&scene, &set, no_store)
+                hamel_run::load_with_options(&scene, &set, no_store)
             })?;
             if let Some(members) = loaded.members()? {
                 let interpreted = matches!(engine, cli::EngineArg::Interpreted);
@@ -128,7 +128,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
                 return ensemble::simulate(&loaded, &members, &ens, format, out);
             }
             ensemble::refuse_options(&scene, &ens)?;
-            hamel_scene::plot::check(plot.as_deref())?;
+            hamel_run::plot::check(plot.as_deref())?;
             simulate(
                 loaded,
                 format,
@@ -146,7 +146,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             set,
         } => {
             let set = set.into_iter().collect();
-            let loaded = hamel_scene::load_with_options(&scene, &set, no_store)?;
+            let loaded = hamel_run::load_with_options(&scene, &set, no_store)?;
             plan(&loaded, format, Output::new(output)?, measure)
         }
         Command::Tradeoff {
@@ -159,12 +159,12 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             set,
         } => {
             let set = set.into_iter().collect();
-            let mut loaded = hamel_scene::load_with_options(&scene, &set, no_store)?;
+            let mut loaded = hamel_run::load_with_options(&scene, &set, no_store)?;
             match export_python {
                 Some(file) => export_tradeoff(&mut loaded, Output::new(Some(file))?, engine.into()),
                 None => {
                     let out = Output::new(output)?;
-                    hamel_scene::plot::check(plot.as_deref())?;
+                    hamel_run::plot::check(plot.as_deref())?;
                     tradeoff(&loaded, format, out, plot.as_deref(), engine.into())
                 }
             }
@@ -343,31 +343,31 @@ fn reduce(
 }
 
 fn simulate(
-    loaded: hamel_scene::Loaded,
+    loaded: hamel_run::Loaded,
     format: TrajectoryFormat,
     out: Output,
     plot: Option<&Path>,
-    engine: hamel_scene::Engine,
+    engine: hamel_run::Engine,
     estimate_error: bool,
 ) -> Result<(), ModelError> {
-    let hamel_scene::simulate::Simulated {
+    let hamel_run::simulate::Simulated {
         trajectory: traj,
         failure,
-    } = hamel_scene::simulate::run_loaded(&loaded, engine, estimate_error)?;
+    } = hamel_run::simulate::run_loaded(&loaded, engine, estimate_error)?;
     // A failure during the integration keeps what was computed, marked incomplete.
     out.write(&match format {
         TrajectoryFormat::Csv => traj.to_csv(),
         TrajectoryFormat::Json => json(&traj),
     })?;
     if let Some(p) = plot {
-        hamel_scene::plot::write(p, &traj)?;
+        hamel_run::plot::write(p, &traj)?;
     }
     eprintln!("{}", traj.summary());
     failure.map_or(Ok(()), Err)
 }
 
 fn plan(
-    loaded: &hamel_scene::Loaded,
+    loaded: &hamel_run::Loaded,
     format: ReportFormat,
     out: Output,
     measure: bool,
@@ -377,7 +377,7 @@ fn plan(
         .map_err(|e| loaded.core_error(e, ""))?
         .summary();
     let measured = if measure {
-        Some(hamel_scene::measure::measure_plan(loaded)?)
+        Some(hamel_run::measure::measure_plan(loaded)?)
     } else {
         None
     };
@@ -391,11 +391,11 @@ fn plan(
             #[derive(serde::Serialize)]
             struct Report<'a> {
                 #[serde(flatten)]
-                plan: &'a hamel_scene::Plan,
+                plan: &'a hamel_run::Plan,
                 #[serde(flatten)]
-                core: hamel_scene::cache::Summary,
+                core: hamel_run::cache::Summary,
                 #[serde(skip_serializing_if = "Option::is_none")]
-                measured: Option<&'a hamel_scene::measure::Measured>,
+                measured: Option<&'a hamel_run::measure::Measured>,
             }
             json(&Report {
                 plan,
@@ -407,31 +407,29 @@ fn plan(
 }
 
 fn tradeoff(
-    loaded: &hamel_scene::Loaded,
+    loaded: &hamel_run::Loaded,
     format: ReportFormat,
     out: Output,
     plot: Option<&Path>,
-    engine: hamel_scene::Engine,
+    engine: hamel_run::Engine,
 ) -> Result<(), ModelError> {
-    let table = hamel_scene::tradeoff::table(loaded, hamel_scene::tradeoff::Range::All, engine)?;
+    let table = hamel_run::tradeoff::table(loaded, hamel_run::tradeoff::Range::All, engine)?;
     out.write(&match format {
         ReportFormat::Text => table.to_text(),
         ReportFormat::Json => json(&table),
     })?;
     if let Some(p) = plot {
-        hamel_scene::plot::write_tradeoff(p, &table)?;
+        hamel_run::plot::write_tradeoff(p, &table)?;
     }
     Ok(())
 }
 
 fn export_tradeoff(
-    loaded: &mut hamel_scene::Loaded,
+    loaded: &mut hamel_run::Loaded,
     out: Output,
-    engine: hamel_scene::Engine,
+    engine: hamel_run::Engine,
 ) -> Result<(), ModelError> {
-    out.write(&json(&hamel_scene::tradeoff::export_python(
-        loaded, engine,
-    )?))
+    out.write(&json(&hamel_run::tradeoff::export_python(loaded, engine)?))
 }
 
 fn codegen(

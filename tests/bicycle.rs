@@ -318,11 +318,11 @@ fn scene(name: &str, roll: f64, steer: f64, rates: (f64, f64), t_end: f64) -> st
     path
 }
 
-fn run(path: &std::path::Path) -> hamel_scene::Trajectory {
-    let hamel_scene::simulate::Simulated {
+fn run(path: &std::path::Path) -> hamel_run::Trajectory {
+    let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
-    } = hamel_scene::simulate::run(path, hamel_scene::Engine::Interpreted, false)
+    } = hamel_run::simulate::run(path, hamel_run::Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none() && t.complete, "{failure:?}");
     t

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use common::oracle::compare;
 use hamel_model::{Control, Law, Model};
-use hamel_scene::{Engine, Trajectory};
+use hamel_run::{Engine, Trajectory};
 use indexmap::IndexMap;
 
 fn root() -> &'static Path {
@@ -42,10 +42,10 @@ fn control(gains: &[(&str, f64)], laws: Vec<Law>) -> Control {
 
 /// Run a scene on the interpreted evaluator; it must complete.
 fn run(scene: &Path) -> Trajectory {
-    let hamel_scene::simulate::Simulated {
+    let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
-    } = hamel_scene::simulate::run(scene, Engine::Interpreted, false)
+    } = hamel_run::simulate::run(scene, Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none() && t.complete, "{}", scene.display());
     t
@@ -257,10 +257,10 @@ fn a_gain_is_a_parameter() {
         ("K_T_L_eta2".to_string(), -2.0),
         ("K_T_R_eta2".to_string(), -2.0),
     ]);
-    let hamel_scene::simulate::Simulated {
+    let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
-    } = hamel_scene::simulate::run_with(&scene, &weak, Engine::Interpreted, false).unwrap();
+    } = hamel_run::simulate::run_with(&scene, &weak, Engine::Interpreted, false).unwrap();
     assert!(failure.is_none());
     let lean = max_after(&base, &base.q["theta"], 0.0);
     let apart = (base.q["theta"].iter().zip(&t.q["theta"]))

@@ -81,7 +81,7 @@ fn output(path: &Path, c: &Command) -> Result<String, String> {
             };
             hamel_reduce::search(&m, &c.eliminate, options, Box::new(|_| {})).map(|r| r.to_text())
         }),
-        "plan" => hamel_scene::load(path).map(|l| l.plan.to_text()),
+        "plan" => hamel_run::load(path).map(|l| l.plan.to_text()),
         other => return Err(format!("unknown test command `{other}`")),
     };
     Ok(match result {

@@ -92,11 +92,11 @@ fn inputs_and_dampings_move_the_forces() {
 #[test]
 fn the_energy_balance_holds_along_a_simulation() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sprung_sleigh.toml");
-    let engine = hamel_scene::Engine::Interpreted;
-    let hamel_scene::simulate::Simulated {
+    let engine = hamel_run::Engine::Interpreted;
+    let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
-    } = hamel_scene::simulate::run(&scene, engine, false).unwrap();
+    } = hamel_run::simulate::run(&scene, engine, false).unwrap();
     assert!(failure.is_none() && t.complete);
     let energy: Vec<f64> = t
         .energy

@@ -48,7 +48,7 @@ pub fn closed_loop(scene: &str) -> hamel_model::Model {
     let text = std::fs::read_to_string(&path).unwrap();
     let dir = path.parent().unwrap().to_path_buf();
     let load = |m: &str| hamel_model::Model::load(dir.join(m));
-    hamel_scene::check(scene, &text, &indexmap::IndexMap::new(), &load)
+    hamel_run::check(scene, &text, &indexmap::IndexMap::new(), &load)
         .unwrap_or_else(|e| panic!("{e}"))
         .model
 }

@@ -17,17 +17,14 @@ use crate::request::Request;
 
 /// A scene checked against its model.
 pub struct Checked {
-    // Read by `load` (feature `derive`).
-    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
-    pub(crate) scene: Scene,
-    // Read by `load` (feature `derive`).
-    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
-    pub(crate) file: SceneFile,
+    /// The scene file as read.
+    pub scene: Scene,
+    /// Its name and text (for located errors).
+    pub file: SceneFile,
     /// The model the scene names.
     pub model: Model,
-    // Read by `load` (feature `derive`).
-    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
-    pub(crate) parsed: Vec<ParsedExpression>,
+    /// Its `[expressions]`, parsed and checked.
+    pub parsed: Vec<ParsedExpression>,
     /// What the scene asks for.
     pub request: Request,
     /// The integrator and its options.
@@ -123,14 +120,14 @@ fn closed_loop(scene: &mut Scene, model: Model, file: &SceneFile) -> Result<Mode
 
 /// The scene file's name and text, for located errors.
 #[derive(Clone)]
-pub(crate) struct SceneFile {
-    pub(crate) name: String,
+pub struct SceneFile {
+    pub name: String,
     source: Arc<String>,
 }
 
 impl SceneFile {
     /// An error at `key` of the scene file (or at the file when `None`).
-    pub(crate) fn error(&self, key: Option<&str>, message: String) -> ModelError {
+    pub fn error(&self, key: Option<&str>, message: String) -> ModelError {
         ModelError::new(&self.name, self.source.clone(), None, key, message)
     }
 }
@@ -266,7 +263,7 @@ fn initial_q(
 /// The configuration, every coordinate of the model in its order, from the values `given` by
 /// name: the dependent coordinates of holonomic constraints may be missing, and are completed
 /// from h(q) = 0 (Newton, from the value given or 0). Error: why it cannot be made.
-pub(crate) fn configuration(
+pub fn configuration(
     given: &IndexMap<String, f64>,
     model: &Model,
     params: &IndexMap<String, f64>,

@@ -7,18 +7,28 @@ use indexmap::IndexMap;
 
 /// One of the scene's requested `[expressions]`, its parameters substituted: its name and a
 /// tape over (the ℓ coordinates, η).
-#[cfg(feature = "derive")]
-pub(crate) struct OutputExpression {
-    pub(crate) name: String,
-    pub(crate) tape: hamel_expr::Tape,
+pub struct OutputExpression {
+    /// The expression's name (its key in `[expressions]`).
+    pub name: String,
+    /// Compiled over (the ℓ coordinates, η, then any parameters left free).
+    pub tape: hamel_expr::Tape,
+}
+
+/// The full state an expression is evaluated on: the model's coordinates, then eta1…etaσ.
+pub struct StateNames<'a> {
+    /// The coordinates, in the model's order.
+    pub coordinates: &'a [String],
+    /// σ, the number of quasi-velocities.
+    pub sigma: usize,
 }
 
 /// An expression parsed and checked against the model, before the parameters are substituted.
-pub(crate) struct ParsedExpression {
-    pub(crate) name: String,
-    #[cfg_attr(not(feature = "derive"), allow(dead_code))]
+pub struct ParsedExpression {
+    /// Its name (its key in `[expressions]`).
+    pub name: String,
     expr: hamel_expr::Expr,
-    pub(crate) coordinates: Vec<usize>,
+    /// The coordinates it uses (indices into the model's).
+    pub coordinates: Vec<usize>,
 }
 
 /// Names a scene's outputs already use; an expression may not take one.
@@ -27,7 +37,7 @@ const RESERVED: [&str; 4] = ["eta", "energy", "constraint_residual", "t"];
 /// Parse `[expressions]`: each a name (an identifier not already an output, coordinate or
 /// parameter) and an expression of the coordinates, the parameters and eta1…etaσ, with the
 /// model's grammar. Errors: (key, reason).
-pub(crate) fn parse_expressions(
+pub fn parse_expressions(
     table: &IndexMap<String, String>,
     model: &Model,
 ) -> Result<Vec<ParsedExpression>, (String, String)> {
@@ -105,34 +115,31 @@ pub(crate) fn parse_expressions(
 }
 
 impl ParsedExpression {
-    #[cfg(feature = "derive")]
-    /// The names of the coordinates the expression uses.
-    pub(crate) fn coordinate_names(&self, d: &hamel_derive::Derivation) -> Vec<String> {
+    /// The names of the coordinates the expression uses (of the model's `coordinates`).
+    pub fn coordinate_names(&self, coordinates: &[String]) -> Vec<String> {
         self.coordinates
             .iter()
-            .map(|&k| d.coordinates[k].clone())
+            .map(|&k| coordinates[k].clone())
             .collect()
     }
 
-    #[cfg(feature = "derive")]
     /// Substitute the scene's parameter values (exact: dyadic rationals, constants folded)
     /// and compile over (the coordinates, eta1…).
-    pub(crate) fn specialised(
+    pub fn specialised(
         &self,
         params: &IndexMap<String, f64>,
-        d: &hamel_derive::Derivation,
+        state: &StateNames,
     ) -> Result<OutputExpression, (String, String)> {
-        self.specialised_over(params, &[], d)
+        self.specialised_over(params, &[], state)
     }
 
-    #[cfg(feature = "derive")]
     /// [`Self::specialised`] with the parameters `free` left as inputs, after the coordinates
     /// and eta1… (an ensemble's members that vary them).
-    pub(crate) fn specialised_over(
+    pub fn specialised_over(
         &self,
         params: &IndexMap<String, f64>,
         free: &[String],
-        d: &hamel_derive::Derivation,
+        state: &StateNames,
     ) -> Result<OutputExpression, (String, String)> {
         let key = format!("expressions.{}", self.name);
         let mut values = std::collections::HashMap::new();
@@ -146,11 +153,11 @@ impl ParsedExpression {
             values.insert(name.clone(), r);
         }
         let expr = self.expr.specialise(&values);
-        let inputs: Vec<String> = d
+        let inputs: Vec<String> = state
             .coordinates
             .iter()
             .cloned()
-            .chain((1..=d.sigma).map(|i| format!("eta{i}")))
+            .chain((1..=state.sigma).map(|i| format!("eta{i}")))
             .chain(free.iter().cloned())
             .collect();
         let tape = hamel_expr::Tape::compile(&[&expr], &inputs)

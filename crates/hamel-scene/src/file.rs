@@ -6,8 +6,7 @@ use indexmap::IndexMap;
 use serde::Deserialize;
 
 /// An error at a key of the scene file: (the key, the reason).
-#[cfg(feature = "derive")]
-pub(crate) type KeyedError = (&'static str, String);
+pub type KeyedError = (&'static str, String);
 
 /// A scene file: the model, the quasi-velocities, the time span and outputs, the parameters,
 /// the initial state, what is requested and how it is integrated.

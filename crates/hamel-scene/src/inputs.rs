@@ -9,29 +9,27 @@
 //! **Outputs**: a [`Driven`] (for `check`) and, once the tables are read ([`tables`]), the
 //! [`hamel_sim::Live`] sources of the closed-loop model's live parameters ([`live`]).
 
-#[cfg(feature = "derive")]
 use hamel_model::Model;
 use hamel_model::{Control, Law};
-#[cfg(feature = "derive")]
 use hamel_sim::{Live, Outside, Samples, Table};
 use indexmap::IndexMap;
 
 use crate::file::{InputSpec, Scene, TableSpec};
 
 /// An error at a key of the scene file: (the key, the reason).
-pub(crate) type Keyed = (String, String);
+pub type Keyed = (String, String);
 
 /// The scene's inputs sorted by how they are driven.
-pub(crate) struct Driven {
+pub struct Driven {
     /// Laws, gains and the names of tabled inputs: the closed loop's control.
-    pub(crate) control: Control,
+    pub control: Control,
     /// Inputs held constant: parameter values.
-    pub(crate) constants: IndexMap<String, f64>,
+    pub constants: IndexMap<String, f64>,
 }
 
 /// Sort `scene.inputs` (nothing is checked against the model here but what needs no model:
 /// a constant is finite, a table has one source of samples).
-pub(crate) fn driven(scene: &Scene) -> Result<Driven, Keyed> {
+pub fn driven(scene: &Scene) -> Result<Driven, Keyed> {
     let mut d = Driven {
         control: Control {
             gains: scene.gains.clone(),
@@ -68,7 +66,6 @@ pub(crate) fn driven(scene: &Scene) -> Result<Driven, Keyed> {
 }
 
 /// Where a table's samples come from: its file, or the samples written out.
-#[cfg_attr(not(feature = "derive"), allow(dead_code))]
 enum TableSource<'a> {
     File(&'a str),
     Written(&'a [f64], &'a [f64]),
@@ -86,14 +83,10 @@ fn source_of(t: &TableSpec) -> Result<TableSource<'_>, String> {
     }
 }
 
-#[cfg(feature = "derive")]
 /// The scene's tables, read (CSV files relative to `dir`) and checked: increasing times,
 /// finite samples, and the run's span [t0, t_end] inside each table that says `outside =
 /// "error"`.
-pub(crate) fn tables(
-    scene: &Scene,
-    dir: &std::path::Path,
-) -> Result<IndexMap<String, Table>, Keyed> {
+pub fn tables(scene: &Scene, dir: &std::path::Path) -> Result<IndexMap<String, Table>, Keyed> {
     let mut out = IndexMap::new();
     for (name, spec) in &scene.inputs {
         let InputSpec::Table(t) = spec else { continue };
@@ -136,7 +129,6 @@ pub(crate) fn tables(
     Ok(out)
 }
 
-#[cfg(feature = "derive")]
 /// The columns `time` and `column` of a CSV text with a header line (`#` lines skipped).
 fn columns(text: &str, time: &str, column: &str) -> Result<(Vec<f64>, Vec<f64>), String> {
     let mut reader = csv::ReaderBuilder::new()
@@ -169,10 +161,9 @@ fn columns(text: &str, time: &str, column: &str) -> Result<(Vec<f64>, Vec<f64>),
     Ok((times, values))
 }
 
-#[cfg(feature = "derive")]
 /// What sets each of `model`'s live parameters (the closed loop's: `t`, then the tabled
 /// inputs), in [`Model::live`]'s order.
-pub(crate) fn live(model: &Model, tables: &IndexMap<String, Table>) -> Vec<Live> {
+pub fn live(model: &Model, tables: &IndexMap<String, Table>) -> Vec<Live> {
     model
         .live
         .iter()

@@ -1,79 +1,32 @@
-//! Scenes: what `hamel simulate`, `plan` and `tradeoff` run, as a library.
+//! The scene language: a scene file read and checked against its model, with no computer
+//! algebra.
 //!
 //! **Job**: a scene file names a model, a quasi-velocity choice, parameter values, an initial
-//! state, the outputs wanted and an integrator (or an accuracy target). This crate reads and
-//! checks it ([`load`]), decides exactly what must be integrated for the outputs requested
-//! ([`plan`]), integrates it on the scene's compiled core or the interpreted evaluator
-//! ([`simulate`]), and measures the speed–accuracy trade of every integrator ([`tradeoff`]).
+//! state, the outputs wanted, inputs and forces, an integrator (or an accuracy target) and
+//! perhaps an ensemble's members. This crate reads it ([`file`]) and checks every part of it
+//! against the model ([`check`]: the `[expressions]`, the [`request`], the [`initial`] state,
+//! the [`inputs`] and their tables, the [`forces`], the [`members`]), before anything is
+//! derived. The run engine (`hamel-run`: load, plan, the code cache, integration, ensembles,
+//! the trade-off) takes a [`Checked`] scene from here.
 //!
-//! **Inputs**: a scene file (TOML) and the model file it names. **Outputs**: a [`Loaded`]
-//! scene (its derivation, [`Plan`] and initial state), [`Trajectory`]s, tradeoff
-//! [`Table`](tradeoff::Table)s, plots.
+//! **Inputs**: a scene's text and a way to load the model it names. **Outputs**: a
+//! [`Checked`] scene (the file, the model, the parsed expressions, the request), or an error
+//! naming the scene file, the key and the reason.
 //!
-//! **Invariants**: every error names the scene (or model) file, the key and the reason; the
-//! plan's decisions are exact (canonical forms, confirmed by `hamel-reduce`'s ground truth);
-//! the compiled core is engine-free (no CAS), built once per scene and cached
-//! ([`cache`]); a failed integration keeps what was computed, marked incomplete.
+//! **Invariants**: nothing here links the computer algebra (what the fuzz targets and the
+//! exported cores need); every error names the scene (or model) file, the key and the reason.
 //!
-//! Without the default feature `derive` only [`file`], [`check`] (with [`expressions`],
-//! [`request`], [`initial`]) are built: a scene read and checked against its model, with no
-//! computer algebra (what the fuzz target links).
-//!
-//! The modules follow the data: [`file`] → [`check`] → [`load`] (with [`expressions`],
-//! [`initial`], [`auto`], [`plan`]) → [`system`] / [`cache`] → [`integrate`] → [`trajectory`],
-//! [`compare`] → [`tradeoff`] → [`simulate`]; [`measure`] and [`plot`] at the side.
-//!
-//! ```no_run
-//! let loaded = hamel_scene::load(std::path::Path::new("scenes/knife_spin.toml"))?;
-//! println!("{}", loaded.plan.to_text());
-//! let hamel_scene::simulate::Simulated { trajectory, failure } = hamel_scene::simulate::run_loaded(&loaded, hamel_scene::Engine::Interpreted, false)?;
-//! assert!(failure.is_none());
-//! print!("{}", trajectory.to_csv());
-//! # Ok::<(), hamel_model::ModelError>(())
-//! ```
+//! The modules follow the data: [`file`] → [`check`] (with [`expressions`], [`request`],
+//! [`initial`], [`inputs`], [`forces`], [`members`]).
 
-#[cfg(feature = "derive")]
-pub mod auto;
-#[cfg(feature = "derive")]
-pub mod cache;
 pub mod check;
-#[cfg(feature = "derive")]
-pub mod compare;
-#[cfg(feature = "derive")]
-pub mod ensemble;
 pub mod expressions;
 pub mod file;
 pub mod forces;
 pub mod initial;
-pub(crate) mod inputs;
-#[cfg(feature = "derive")]
-pub mod integrate;
-#[cfg(feature = "derive")]
-pub mod load;
-#[cfg(feature = "derive")]
-pub mod measure;
+pub mod inputs;
 pub mod members;
-#[cfg(feature = "derive")]
-pub mod plan;
-#[cfg(feature = "derive")]
-pub mod plot;
 pub mod request;
-#[cfg(feature = "derive")]
-pub mod simulate;
-#[cfg(feature = "derive")]
-pub mod system;
-#[cfg(feature = "derive")]
-pub mod tradeoff;
-#[cfg(feature = "derive")]
-pub mod trajectory;
 
 pub use check::{Checked, check};
-#[cfg(feature = "derive")]
-pub use integrate::{Engine, Run};
-#[cfg(feature = "derive")]
-pub use load::{Loaded, load, load_with, load_with_options};
-#[cfg(feature = "derive")]
-pub use plan::Plan;
 pub use request::Request;
-#[cfg(feature = "derive")]
-pub use trajectory::Trajectory;

@@ -99,7 +99,7 @@ pub fn target(name: &str, model: &Model) -> Result<Target, String> {
 
 /// Check `[ensemble]` without reading its file: one source of members, known names, valid
 /// distributions. Errors: (the key, the reason).
-pub(crate) fn check_spec(spec: &Ensemble, model: &Model) -> Result<(), (String, String)> {
+pub fn check_spec(spec: &Ensemble, model: &Model) -> Result<(), (String, String)> {
     let key = |k: &str| format!("ensemble.{k}");
     match (&spec.file, spec.vary.is_empty(), spec.members) {
         (Some(_), true, None) => return Ok(()),

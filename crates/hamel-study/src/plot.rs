@@ -23,17 +23,17 @@ pub fn check(path: Option<&Path>, sweeps: usize) -> Result<(), ModelError> {
             "--plot draws a sweep or a map: give --sweep P=START:STOP:COUNT (twice for a map)",
         ));
     }
-    hamel_scene::plot::check(path)
+    hamel_run::plot::check(path)
 }
 
 /// Write the sweep's figure.
 pub fn sweep(s: &Sweep, path: &Path) -> Result<(), ModelError> {
-    hamel_scene::plot::write_figure(path, (900, 700), |a| draw_sweep(a, s), |a| draw_sweep(a, s))
+    hamel_run::plot::write_figure(path, (900, 700), |a| draw_sweep(a, s), |a| draw_sweep(a, s))
 }
 
 /// Write the map's figure.
 pub fn map(m: &Map, path: &Path) -> Result<(), ModelError> {
-    hamel_scene::plot::write_figure(path, (800, 700), |a| draw_map(a, m), |a| draw_map(a, m))
+    hamel_run::plot::write_figure(path, (800, 700), |a| draw_map(a, m), |a| draw_map(a, m))
 }
 
 fn draw_sweep<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, s: &Sweep) -> Result<(), String>

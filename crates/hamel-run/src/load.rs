@@ -111,7 +111,7 @@ pub fn load_with_options(
     let expressions = request
         .expressions
         .iter()
-        .map(|&i| parsed[i].specialised(&params, &d))
+        .map(|&i| parsed[i].specialised(&params, &state_names(&d)))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|(k, m)| err(&k, m))?;
     let (eta0, projection) = {
@@ -122,7 +122,12 @@ pub fn load_with_options(
     plan.expressions = request
         .expressions
         .iter()
-        .map(|&i| (parsed[i].name.clone(), parsed[i].coordinate_names(&d)))
+        .map(|&i| {
+            (
+                parsed[i].name.clone(),
+                parsed[i].coordinate_names(&d.coordinates),
+            )
+        })
         .collect();
     plan.forces = forces.columns.iter().map(|c| c.name.clone()).collect();
     plan.friction = (forces.watched.iter())
@@ -451,5 +456,15 @@ impl Loaded {
                 n..n
             })
             .collect()
+    }
+}
+
+/// The full state of a derivation as the scene language names it: its coordinates, then η.
+pub(crate) fn state_names(
+    d: &hamel_derive::Derivation,
+) -> hamel_scene::expressions::StateNames<'_> {
+    hamel_scene::expressions::StateNames {
+        coordinates: &d.coordinates,
+        sigma: d.sigma,
     }
 }

@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use hamel_scene::tradeoff::{self, Range};
-use hamel_scene::{Engine, Loaded};
+use hamel_run::tradeoff::{self, Range};
+use hamel_run::{Engine, Loaded};
 
 fn scene(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -14,7 +14,7 @@ fn scene(name: &str) -> PathBuf {
 }
 
 fn knife() -> Loaded {
-    hamel_scene::load(&scene("knife.toml")).unwrap_or_else(|e| panic!("{e}"))
+    hamel_run::load(&scene("knife.toml")).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The knife edge with the paper's quasi-velocities: η = (speed along the blade, θ̇) are
@@ -23,10 +23,10 @@ fn knife() -> Loaded {
 #[test]
 fn the_knife_follows_its_circle() {
     let loaded = knife();
-    let hamel_scene::simulate::Simulated {
+    let hamel_run::simulate::Simulated {
         trajectory: traj,
         failure,
-    } = hamel_scene::simulate::run_loaded(&loaded, Engine::Interpreted, false)
+    } = hamel_run::simulate::run_loaded(&loaded, Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none(), "{failure:?}");
     assert!(traj.complete);

@@ -418,7 +418,13 @@ impl Loaded {
         varying: &[String],
     ) -> Result<Vec<OutputExpression>, (String, String)> {
         (self.request.expressions.iter())
-            .map(|&i| self.parsed[i].specialised_over(&self.params, varying, &self.d))
+            .map(|&i| {
+                self.parsed[i].specialised_over(
+                    &self.params,
+                    varying,
+                    &crate::load::state_names(&self.d),
+                )
+            })
             .collect()
     }
 
