@@ -240,7 +240,8 @@ fn linearisations(
         let mut times = Vec::new();
         for _ in 0..repeat.max(1) {
             let t = Instant::now();
-            let study = hamel_study::Study::prepare(model, None, steady)?;
+            let study =
+                hamel_study::Study::prepare(model, None, steady).map_err(|e| e.locate(model))?;
             let base = hamel_study::Point::default();
             study
                 .sweep(&base, &range, &|| ())
@@ -364,7 +365,7 @@ fn time_hamel(model: &Model, eta: &str, repeats: Repeats) -> Result<Row, ModelEr
     let mut last = None;
     while !repeats.enough(times.len(), spent) {
         let t = Instant::now();
-        let d = hamel_derive::derive(model, Some(eta))?;
+        let d = hamel_derive::derive(model, Some(eta)).map_err(|e| e.locate(model))?;
         times.push(t.elapsed().as_secs_f64());
         let t = Instant::now();
         hamel_print::derivation::text(&d)

@@ -21,7 +21,8 @@ pub fn run(args: &LinearizeArgs, no_store: bool, out: Output) -> Result<(), Mode
         .transpose()?;
     let study = crate::progress::while_deriving("deriving", || {
         Study::prepare_with(&model, args.eta.as_deref(), &args.steady, no_store)
-    })?;
+    })
+    .map_err(|e| e.locate(&model))?;
     let study = match args.threads {
         Some(n) => study.with_threads(n),
         None => study,

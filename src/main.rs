@@ -198,6 +198,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             let model = Model::load(&model)?;
             let budget = std::time::Duration::from_secs_f64(budget.max(0.0));
             hamel_reduce::supervised::work(&model, &eliminate, budget, max)
+                .map_err(|e| e.locate(&model))
         }
         Command::Eval {
             model,
@@ -218,7 +219,11 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             linearize::run(&args, no_store, out)
         }
         Command::Bench(args) => bench(args),
-        Command::DeriveWorker { result } => hamel_reduce::pass::work(&result),
+        // Only the worker's own failures (no job, no result written): the pass's, located
+        // by the caller, are in the result.
+        Command::DeriveWorker { result } => {
+            hamel_reduce::pass::work(&result).map_err(ModelError::environment)
+        }
         Command::Store { action } => store(action),
     }
 }
@@ -280,7 +285,8 @@ fn derive(
     let started = Instant::now();
     let d = progress::while_deriving(&format!("deriving {}", model.name), || {
         hamel_derive::derive_with(&model, eta, form.into(), false)
-    })?;
+    })
+    .map_err(|e| e.locate(&model))?;
     eprintln!(
         "derived {} with quasi-velocities `{}` in {:.3} s",
         d.model,
@@ -328,7 +334,8 @@ fn reduce(
     let started = Instant::now();
     let r = progress::while_deriving(&format!("reducing {}", model.name), || {
         hamel_reduce::reduce(&model, eta, eliminate)
-    })?;
+    })
+    .map_err(|e| e.locate(&model))?;
     eprintln!(
         "analysed {} with quasi-velocities `{}` in {:.3} s",
         r.model,
@@ -441,7 +448,8 @@ fn codegen(
 ) -> Result<(), ModelError> {
     let started = Instant::now();
     let model = load_for(path, eta)?;
-    let w = hamel_codegen::write::write_crate(&model, eta, eliminate, out, options)?;
+    let w = hamel_codegen::write::write_crate(&model, eta, eliminate, out, options)
+        .map_err(|e| e.locate(&model))?;
     eprintln!(
         "wrote {} files to {} in {:.2} s; ingredients: {} operations as trees, {} shared",
         w.files,
@@ -493,14 +501,18 @@ fn eval(
     let (file, text) = output::read_input(state)?;
     // the derivation store's artefact: no computer algebra when it is stored
     let derive = move |m: &Model, choice: &str| {
-        let job = hamel_reduce::pass::Job::new(m, Some(choice), Analysis::Equations)?
+        let located = |e: hamel_reduce::ReduceError| e.locate(m);
+        let job = hamel_reduce::pass::Job::new(m, Some(choice), Analysis::Equations)
+            .map_err(located)?
             .with_supports(true)
             .with_evaluator();
-        let mut artefact = hamel_reduce::pass::obtain(&job, no_store)?;
+        let mut artefact = hamel_reduce::pass::obtain(&job, no_store).map_err(located)?;
         match artefact.evaluator.take() {
             Some(e) => Ok(e),
-            None => hamel_derive::states::Evaluator::of(&artefact.into_derivation()?)
-                .map_err(|e| m.error(format!("the equations cannot be compiled: {e}"))),
+            None => {
+                hamel_derive::states::Evaluator::of(&artefact.into_derivation().map_err(located)?)
+                    .map_err(|e| m.error(format!("the equations cannot be compiled: {e}")))
+            }
         }
     };
     out.write(&hamel_derive::states::evaluate_json(

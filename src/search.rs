@@ -71,7 +71,8 @@ pub fn run(job: &Job, mode: ProgressMode) -> Result<SearchReport, ModelError> {
         if let SearchEvent::Progress { done, total, .. } = e {
             progress(*done, *total)
         }
-    })?;
+    })
+    .map_err(|e| e.locate(job.model))?;
     bar.finish_and_clear();
     let r = match outcome {
         Outcome::Report(r) => *r,

@@ -68,18 +68,24 @@ fn command(path: &Path, text: &str) -> Result<Command, String> {
 fn output(path: &Path, c: &Command) -> Result<String, String> {
     let eta = c.eta.as_deref();
     let result: Result<String, ModelError> = match c.name.as_str() {
-        "derive" => Model::load(path)
-            .and_then(|m| hamel_derive::derive(&m, eta))
-            .map(|d| d.to_text()),
-        "reduce" => Model::load(path)
-            .and_then(|m| hamel_reduce::reduce(&m, eta, &c.eliminate))
-            .map(|r| r.to_text()),
+        "derive" => Model::load(path).and_then(|m| {
+            hamel_derive::derive(&m, eta)
+                .map(|d| d.to_text())
+                .map_err(|e| e.locate(&m))
+        }),
+        "reduce" => Model::load(path).and_then(|m| {
+            hamel_reduce::reduce(&m, eta, &c.eliminate)
+                .map(|r| r.to_text())
+                .map_err(|e| e.locate(&m))
+        }),
         "search" => Model::load(path).and_then(|m| {
             let options = hamel_reduce::SearchOptions {
                 budget: std::time::Duration::from_secs_f64(c.budget),
                 max_candidates: 12,
             };
-            hamel_reduce::search(&m, &c.eliminate, options, Box::new(|_| {})).map(|r| r.to_text())
+            hamel_reduce::search(&m, &c.eliminate, options, Box::new(|_| {}))
+                .map(|r| r.to_text())
+                .map_err(|e| e.locate(&m))
         }),
         "plan" => hamel_run::load(path).map(|l| l.plan.to_text()),
         other => return Err(format!("unknown test command `{other}`")),

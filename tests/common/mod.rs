@@ -94,8 +94,11 @@ pub fn reduce_with_derivation(
     asked: &[String],
 ) -> Result<(hamel_reduce::Reduction, hamel_derive::Derivation), hamel_model::ModelError> {
     use hamel_reduce::pass::{Analysis, Job, make};
-    let p = hamel_reduce::coordinate_indices(model, asked)?;
-    let mut artefact = make(&Job::new(model, eta, Analysis::Eliminate(p))?.for_code())?;
-    let reduction = artefact.reduction.take().expect("analysed");
-    Ok((reduction, artefact.into_derivation()?))
+    let pass = || {
+        let p = hamel_reduce::coordinate_indices(model, asked)?;
+        let mut artefact = make(&Job::new(model, eta, Analysis::Eliminate(p))?.for_code())?;
+        let reduction = artefact.reduction.take().expect("analysed");
+        Ok((reduction, artefact.into_derivation()?))
+    };
+    pass().map_err(|e: hamel_reduce::ReduceError| e.locate(model))
 }

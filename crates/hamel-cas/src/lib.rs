@@ -37,7 +37,7 @@ pub use over::{Denominators, OMatrix, Over, sum_over};
 pub use worker::{on_worker, run, started};
 
 /// What can go wrong in symbolic work.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error, serde::Serialize, serde::Deserialize)]
 pub enum CasError {
     /// Division by an expression that is identically zero.
     #[error("division by an expression that is identically zero")]

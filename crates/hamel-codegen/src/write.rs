@@ -1,9 +1,64 @@
 //! `hamel codegen`: a model's equations written as a standalone Rust crate — derived, the
 //! elimination checked exactly (`hamel-reduce`'s ground truth), generated and written.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use hamel_model::{Model, ModelError};
+use hamel_reduce::ReduceError;
+
+use crate::CodegenError;
+
+/// Why a crate could not be written.
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum WriteError {
+    /// The derivation or the elimination's analysis failed.
+    #[error(transparent)]
+    Reduce(#[from] ReduceError),
+    /// The choice does not eliminate the coordinates asked for.
+    #[error("quasi-velocities `{choice}` do not eliminate {}: {why} (see `hamel reduce`)", coordinates.join(", "))]
+    NotEliminated {
+        /// The choice.
+        choice: String,
+        /// The coordinates asked for.
+        coordinates: Vec<String>,
+        /// Why not (the first occurrence, or what is undecided).
+        why: String,
+    },
+    /// The code could not be generated.
+    #[error(transparent)]
+    Generate(#[from] CodegenError),
+    /// The output directory cannot be written (or is not empty without `force`).
+    #[error("{}: {why}", dir.display())]
+    Output {
+        /// The directory.
+        dir: PathBuf,
+        /// Why.
+        why: String,
+    },
+}
+
+impl From<ModelError> for WriteError {
+    fn from(e: ModelError) -> WriteError {
+        WriteError::Reduce(e.into())
+    }
+}
+
+impl WriteError {
+    /// The located diagnostic (the model's file, or the output directory's).
+    pub fn locate(self, model: &Model) -> ModelError {
+        match self {
+            WriteError::Reduce(e) => e.locate(model),
+            WriteError::Output { dir, why } => ModelError::new(
+                &dir.display().to_string(),
+                Default::default(),
+                None,
+                None,
+                why,
+            ),
+            e => model.error(e.to_string()),
+        }
+    }
+}
 
 /// What was written.
 pub struct Written {
@@ -34,20 +89,15 @@ pub fn write_crate(
     eliminate: &[String],
     out: &Path,
     options: WriteOptions,
-) -> Result<Written, ModelError> {
+) -> Result<Written, WriteError> {
     let WriteOptions {
         force,
         with_simulator,
         fresh,
     } = options;
-    let io_err = |what: String| {
-        ModelError::new(
-            &out.display().to_string(),
-            Default::default(),
-            None,
-            None,
-            what,
-        )
+    let io_err = |why: String| WriteError::Output {
+        dir: out.to_path_buf(),
+        why,
     };
     if out.exists() {
         let non_empty = std::fs::read_dir(out)
@@ -76,10 +126,9 @@ pub fn write_crate(
             format!(" --eliminate {}", eliminate.join(","))
         }
     );
-    let mut g =
-        crate::generate(&d, &eliminated, &command).map_err(|e| model.error(e.to_string()))?;
+    let mut g = crate::generate(&d, &eliminated, &command)?;
     if with_simulator {
-        g = crate::with_simulator(g).map_err(|e| model.error(e.to_string()))?;
+        g = crate::with_simulator(g)?;
     }
     place(out, &g.files).map_err(io_err)?;
     Ok(Written {
@@ -100,7 +149,7 @@ fn derive(
     eliminated: &[usize],
     eliminate: &[String],
     fresh: bool,
-) -> Result<hamel_derive::Derivation, ModelError> {
+) -> Result<hamel_derive::Derivation, WriteError> {
     use hamel_reduce::pass::{Analysis, Job, obtain};
     let analysis = match eliminated.is_empty() {
         true => Analysis::Equations,
@@ -111,7 +160,7 @@ fn derive(
         .for_code();
     let mut artefact = obtain(&job, fresh)?;
     let Some(r) = artefact.reduction.take() else {
-        return artefact.into_derivation();
+        return Ok(artefact.into_derivation()?);
     };
     if !r.ground_truth.present.is_empty() || r.reduced_system.is_none() {
         let why = if let Some(w) = r.ground_truth.occurrences.first() {
@@ -129,12 +178,13 @@ fn derive(
         } else {
             "the kinematic equations still needed contain an eliminated coordinate".into()
         };
-        return Err(model.error(format!(
-            "quasi-velocities `{choice}` do not eliminate {}: {why} (see `hamel reduce`)",
-            eliminate.join(", ")
-        )));
+        return Err(WriteError::NotEliminated {
+            choice: choice.to_string(),
+            coordinates: eliminate.to_vec(),
+            why,
+        });
     }
-    artefact.into_derivation()
+    Ok(artefact.into_derivation()?)
 }
 
 /// Write the crate's files into a temporary directory beside `out` (hamel_model::files), then

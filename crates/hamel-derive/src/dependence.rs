@@ -17,7 +17,9 @@
 
 use hamel_cas::linalg::Combination;
 use hamel_cas::{Ex, Field, Manifold, Matrix};
-use hamel_model::{DependentRow, Model, ModelError};
+use hamel_model::{DependentRow, Model};
+
+use crate::error::DeriveError;
 
 /// A dropped row's exact dependence on the kept rows of α.
 #[derive(Debug)]
@@ -57,25 +59,20 @@ pub(crate) fn on_manifold(model: &Model, f: &Field) -> OnManifold {
 /// the kept rows the pre-screen found it to use, then on all of them, then (when `manifold`
 /// is given) on all of them where the holonomic constraint holds.
 pub(crate) fn dependence(
-    model: &Model,
     alpha: &Matrix,
     dropped: &DependentRow,
     row: Vec<Ex>,
     f: &Field,
     manifold: Option<&OnManifold>,
-) -> Result<Dependence, ModelError> {
+) -> Result<Dependence, DeriveError> {
     let (mu, ell) = (alpha.rows(), alpha.cols());
     let r = Matrix::from_fn(1, ell, |_, j| row[j].clone());
     let on = &dropped.on;
     let support = Matrix::from_fn(on.len(), ell, |i, j| alpha[(on[i], j)].clone());
-    let cas = |e| {
-        model.error_at(
-            &dropped.item.site,
-            format!(
-                "the dependence of the row `{}` could not be decided: {e}",
-                dropped.name
-            ),
-        )
+    let cas = |cause| DeriveError::DependenceUndecided {
+        row: dropped.name.clone(),
+        site: dropped.item.site.clone(),
+        cause,
     };
     let dependence = |coefficients, on| Dependence {
         name: dropped.name.clone(),
@@ -92,59 +89,39 @@ pub(crate) fn dependence(
     }
     match alpha.combination(&r).map_err(cas)? {
         Combination::Of(c) => Ok(dependence(c, None)),
-        Combination::DependentRows(rank) => Err(kept_rows_dependent(model, rank, mu, None)),
+        Combination::DependentRows(rank) => {
+            Err(DeriveError::KeptRowsDependent { rank, mu, on: None })
+        }
         Combination::Not => {
             let (name, m) = match manifold {
-                None => return Err(not_a_combination(model, dropped, None)),
-                Some(Err(why)) => return Err(not_a_combination(model, dropped, Some(why))),
+                None => return Err(not_a_combination(dropped, None)),
+                Some(Err(why)) => return Err(not_a_combination(dropped, Some(why.clone()))),
                 Some(Ok(on)) => on,
             };
             match alpha.combination_on(&r, m).map_err(cas)? {
                 Combination::Of(c) => Ok(dependence(c, Some(name.clone()))),
                 Combination::Not => {
                     let why = format!("not on `{name} = 0` either");
-                    Err(not_a_combination(model, dropped, Some(&why)))
+                    Err(not_a_combination(dropped, Some(why)))
                 }
-                Combination::DependentRows(rank) => {
-                    Err(kept_rows_dependent(model, rank, mu, Some(name)))
-                }
+                Combination::DependentRows(rank) => Err(DeriveError::KeptRowsDependent {
+                    rank,
+                    mu,
+                    on: Some(name.clone()),
+                }),
             }
         }
     }
 }
 
-/// The kept rows were found dependent by the exact elimination (everywhere, or where the
-/// holonomic constraint `on` holds): the pre-screen kept one too many.
-fn kept_rows_dependent(model: &Model, rank: usize, mu: usize, on: Option<&String>) -> ModelError {
-    let (place, there) = match on {
-        Some(h) => (format!(" where `{h} = 0` holds"), " there"),
-        None => (String::new(), ""),
-    };
-    model.error(format!(
-        "the kept rows of α have rank {rank} < {mu}{place}: the numeric pre-screen kept a row dependent{there}"
-    ))
-}
-
 /// The error for a row the pre-screen found dependent that is not exactly a combination;
 /// `manifold`: what was found (or not decided) on the holonomic constraint's manifold.
-fn not_a_combination(
-    model: &Model,
-    dropped: &DependentRow,
-    manifold: Option<&String>,
-) -> ModelError {
-    let manifold = match manifold {
-        Some(why) => format!(" ({why})"),
-        None => String::new(),
-    };
-    model
-        .error_at(
-            &dropped.item.site,
-            format!(
-                "the row `{}` depends on the other rows at every sample configuration, but it is not exactly a combination of them{manifold}",
-                dropped.name
-            ),
-        )
-        .with_help("the rows may be nearly, not exactly, dependent: check the row's expression and the parameters' defaults")
+fn not_a_combination(dropped: &DependentRow, manifold: Option<String>) -> DeriveError {
+    DeriveError::NotACombination {
+        row: dropped.name.clone(),
+        site: dropped.item.site.clone(),
+        manifold,
+    }
 }
 
 /// δ = det[Z; α] must not vanish on the manifold where a dependence holds: there the kept
@@ -154,24 +131,22 @@ pub(crate) fn check_delta(
     dependence: &[Dependence],
     manifold: Option<&OnManifold>,
     delta: &Ex,
-) -> Result<(), ModelError> {
+) -> Result<(), DeriveError> {
     let Some(d) = dependence.iter().find(|d| d.on.is_some()) else {
         return Ok(());
     };
     let Some(Ok((name, m))) = manifold else {
-        return Err(model.error("internal error: a dependence on a manifold without it"));
+        return Err(DeriveError::Engine(hamel_cas::CasError::Internal(
+            "a dependence on a manifold without it".into(),
+        )));
     };
     if m.vanishes(delta) {
         let row = model.dependent.iter().find(|r| r.name == d.name);
-        let msg = format!(
-            "δ = det[Z; α] vanishes wherever `{name} = 0` holds, where the row `{}` depends on the kept rows: the kept rows and the quasi-velocities are not independent on the constraint manifold",
-            d.name
-        );
-        let e = match row {
-            Some(r) => model.error_at(&r.item.site, msg),
-            None => model.error(msg),
-        };
-        return Err(e.with_help("choose quasi-velocities that stay independent of the constraints where the holonomic constraint holds"));
+        return Err(DeriveError::SingularOnManifold {
+            row: d.name.clone(),
+            site: row.map(|r| r.item.site.clone()),
+            manifold: name.clone(),
+        });
     }
     Ok(())
 }

@@ -7,9 +7,10 @@
 //! Q = Q_paper + Q_correction and that the energy is conserved.
 //!
 //! **Inputs**: a checked [`Model`] and a choice name. **Outputs**: a [`Derivation`] (plain data:
-//! canonical text and evaluable trees), or a located [`ModelError`] for models that fail the
+//! canonical text and evaluable trees), or a [`DeriveError`] for models that fail the
 //! algebraic checks (T not quadratic, constraints not linear and homogeneous, α rank-deficient,
-//! det[Z; α] identically zero).
+//! det[Z; α] identically zero): the cause as data, where in the model file as a site; the
+//! located diagnostic is made at the edge ([`DeriveError::locate`]).
 //!
 //! **Invariant**: the symbolic work runs as one job on the computer-algebra thread
 //! ([`hamel_cas::run`]); everything returned is engine-free and `Send`.
@@ -19,6 +20,8 @@ pub mod certify;
 pub mod conditioning;
 pub mod dependence;
 mod derivation;
+mod error;
+pub use error::DeriveError;
 mod numeric;
 pub mod progress;
 mod render;
@@ -45,13 +48,13 @@ pub use symbolic::{
 /// Derive the equations of `model` for the quasi-velocity choice `eta` (the model's first
 /// choice when `None`): in closed form when it stays within the budget of exact elimination,
 /// else structured ([`FormRequest::Auto`]).
-pub fn derive(model: &Model, eta: Option<&str>) -> Result<Derivation, ModelError> {
+pub fn derive(model: &Model, eta: Option<&str>) -> Result<Derivation, DeriveError> {
     derive_with(model, eta, FormRequest::Auto, false)
 }
 
 /// [`derive`] with the ingredients code generation uses
 /// ([`Symbolic::to_derivation_for_code`]).
-pub fn derive_for_code(model: &Model, eta: Option<&str>) -> Result<Derivation, ModelError> {
+pub fn derive_for_code(model: &Model, eta: Option<&str>) -> Result<Derivation, DeriveError> {
     derive_with(model, eta, FormRequest::Auto, true)
 }
 
@@ -61,9 +64,9 @@ pub fn derive_with(
     eta: Option<&str>,
     form: FormRequest,
     code: bool,
-) -> Result<Derivation, ModelError> {
+) -> Result<Derivation, DeriveError> {
     let name = model.choice(eta)?.name.clone();
     let model = model.clone();
     hamel_cas::run(move || Ok(symbolic::derive_form(&model, &name, form)?.to_derivation(code)))
-        .map_err(ModelError::engine)?
+        .map_err(DeriveError::Engine)?
 }

@@ -19,7 +19,9 @@
 
 use hamel_cas::{CasError, Denominators, Ex, Field, FieldSpec, Matrix, OMatrix, Over, sum_over};
 use hamel_expr::Expr;
-use hamel_model::{Item, Kinetic, Model, ModelError, QuasiVelocityChoice, Site};
+use hamel_model::{Item, Kinetic, Model, QuasiVelocityChoice, Site};
+
+use crate::error::DeriveError;
 
 use crate::certify::Certificate;
 use crate::dependence::{Dependence, OnManifold};
@@ -85,12 +87,8 @@ struct Ctx<'m> {
 impl Ctx<'_> {
     /// A CAS error while working on `site`: the input's (division by zero, a construct the
     /// engine does not handle), located there; or the engine's own failure, typed as such.
-    fn cas(&self, site: Option<&Site>, e: CasError) -> ModelError {
-        match (site, e) {
-            (_, e @ CasError::Internal(_)) => ModelError::engine(e),
-            (Some(s), e) => self.model.error_at(s, e.to_string()),
-            (None, e) => self.model.error(e.to_string()),
-        }
+    fn cas(&self, site: Option<&Site>, e: CasError) -> DeriveError {
+        DeriveError::cas(site, e)
     }
 
     /// The coefficients of an expression that must be linear and homogeneous in the
@@ -101,7 +99,7 @@ impl Ctx<'_> {
         c: &Ex,
         site: &Site,
         what: &str,
-    ) -> Result<Vec<Ex>, ModelError> {
+    ) -> Result<Vec<Ex>, DeriveError> {
         let ell = f.ncoords();
         let row: Vec<Ex> = (0..ell).map(|j| c.diff_velocity(j)).collect();
         let rebuilt = sum(f, (0..ell).map(|j| &row[j] * &f.velocity(j)));
@@ -115,16 +113,17 @@ impl Ctx<'_> {
                     shorten(&rest.to_string())
                 )
             };
-            return Err(self
-                .model
-                .error_at(site, format!("the {what} is not linear and homogeneous in the velocities der(q): {detail}"))
-                .with_help("write it as a sum of terms (coefficient depending on q) * der(q)"));
+            return Err(DeriveError::NotLinear {
+                site: site.clone(),
+                what: what.to_string(),
+                detail,
+            });
         }
         Ok(row)
     }
 
     /// The generalised forces F of the model, converted (empty when it has none).
-    fn forces(&self, f: &Field) -> Result<Vec<Ex>, ModelError> {
+    fn forces(&self, f: &Field) -> Result<Vec<Ex>, DeriveError> {
         if !self.model.has_forces() {
             return Ok(Vec::new());
         }
@@ -142,7 +141,7 @@ impl Ctx<'_> {
         &self,
         f: &Field,
         gamma: &Matrix,
-    ) -> Result<Result<Vec<Ex>, String>, ModelError> {
+    ) -> Result<Result<Vec<Ex>, String>, DeriveError> {
         let written = self.forces(f)?;
         if !self.model.has_velocity_forces() {
             return Ok(Ok(written));
@@ -172,14 +171,14 @@ impl Ctx<'_> {
             });
             match f.convert(&put) {
                 Ok(e) => out.push(e),
-                Err(e @ CasError::Internal(_)) => return Err(ModelError::engine(e)),
+                Err(e @ CasError::Internal(_)) => return Err(DeriveError::Engine(e)),
                 Err(e) => return Ok(Err(e.to_string())),
             }
         }
         Ok(Ok(out))
     }
 
-    fn mass_matrix(&self, f: &Field) -> Result<Matrix, ModelError> {
+    fn mass_matrix(&self, f: &Field) -> Result<Matrix, DeriveError> {
         let ell = f.ncoords();
         match &self.model.kinetic {
             Kinetic::Energy(t) => {
@@ -202,15 +201,10 @@ impl Ctx<'_> {
                             shorten(&rest.to_string())
                         )
                     };
-                    return Err(self
-                        .model
-                        .error_at(
-                            &t.site,
-                            format!("T is not a quadratic form in the velocities der(q): {detail}"),
-                        )
-                        .with_help(
-                            "T must be ½ q̇ᵀA(q)q̇: every term of degree exactly 2 in der(q)",
-                        ));
+                    return Err(DeriveError::NotQuadratic {
+                        site: t.site.clone(),
+                        detail,
+                    });
                 }
                 Ok(a)
             }
@@ -223,10 +217,11 @@ impl Ctx<'_> {
                 for i in 0..ell {
                     for j in 0..i {
                         if !(&a[(i, j)] - &a[(j, i)]).is_zero() {
-                            return Err(self.model.error_at(
-                                &rows[i][j].site,
-                                format!("the mass matrix is not symmetric: entry ({}, {}) differs from entry ({}, {})", i + 1, j + 1, j + 1, i + 1),
-                            ));
+                            return Err(DeriveError::NotSymmetric {
+                                site: rows[i][j].site.clone(),
+                                row: i + 1,
+                                column: j + 1,
+                            });
                         }
                     }
                 }
@@ -866,7 +861,7 @@ struct Begun {
     stage: Stage,
 }
 
-fn begin(model: &Model, choice: &str) -> Result<Begun, ModelError> {
+fn begin(model: &Model, choice: &str) -> Result<Begun, DeriveError> {
     let choice = model.choice(Some(choice))?.clone();
     let ctx = Ctx { model };
     let stage = Stage::start(&model.name, "A, α and Z in canonical form, rank of α");
@@ -890,7 +885,7 @@ fn begin(model: &Model, choice: &str) -> Result<Begun, ModelError> {
 /// The exact derivation of `model` for the choice `choice` in closed form; an error when the
 /// exact inverse of [Z; α] outgrows its budget. Must run on the CAS thread (inside
 /// [`hamel_cas::run`]).
-pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
+pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, DeriveError> {
     let mut b = begin(model, choice)?;
     let ctx = Ctx { model };
     b.stage
@@ -898,15 +893,11 @@ pub fn symbolic(model: &Model, choice: &str) -> Result<Symbolic, ModelError> {
     match ctx.inverse(&b.z, &b.alpha, &b.choice)? {
         Ok(inverse) => match closed(model, b, inverse, usize::MAX)? {
             Ok(s) => Ok(s),
-            Err((_, why)) => Err(model
-                .error(format!("the closed form is not available: {why}"))
-                .with_help("derive in structured form (`hamel derive --form structured`)")),
+            Err((_, why)) => Err(DeriveError::ClosedFormUnavailable {
+                why: why.to_string(),
+            }),
         },
-        Err(terms) => Err(model
-            .error(format!(
-                "the closed form of the equations is too large: the exact inverse [Z; α]⁻¹ outgrows the budget of exact elimination ({terms} units of work, no product above 10⁴ terms²)"
-            ))
-            .with_help("derive in structured form (`hamel derive --form structured`): the equations are then evaluated from A, α, Z and U")),
+        Err(work) => Err(DeriveError::ClosedFormTooLarge { work }),
     }
 }
 
@@ -916,7 +907,7 @@ pub fn derive_form(
     model: &Model,
     choice: &str,
     request: FormRequest,
-) -> Result<Derived, ModelError> {
+) -> Result<Derived, DeriveError> {
     let ctx = Ctx { model };
     match request {
         FormRequest::Closed => return Ok(Derived::Closed(Box::new(symbolic(model, choice)?))),
@@ -943,13 +934,13 @@ pub fn derive_form(
 }
 
 /// The structured form: U converted, and [Z; α] certified nonsingular at a point.
-fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> {
+fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, DeriveError> {
     let model = ctx.model;
     if let Some(d) = b.dependence.iter().find(|d| d.on.is_some()) {
-        return Err(model.error(format!(
-            "the row `{}` depends on the kept rows only on a constraint manifold, where hamel certifies δ ≠ 0 in closed form only, and this derivation is structured ({why})",
-            d.name
-        )));
+        return Err(DeriveError::ManifoldDependenceStructured {
+            row: d.name.clone(),
+            why: why.to_string(),
+        });
     }
     b.stage
         .next("[Z; α] certified nonsingular at a point (interval arithmetic)");
@@ -964,12 +955,10 @@ fn structured(ctx: &Ctx, mut b: Begun, why: Why) -> Result<Derived, ModelError> 
     let refs: Vec<Vec<&Expr>> = rows.iter().map(|r| r.iter().collect()).collect();
     let Some(certificate) = crate::certify::full_rank(&refs, &model.coordinates, &model.parameters)
     else {
-        return Err(model
-            .error_at(&span_site(format!("quasi_velocities.{}", b.choice.name), &b.choice.eta), format!(
-                "det[Z; α] could not be certified nonzero at {} points, and its exact elimination is too large: these quasi-velocities may not be independent of each other and of the constraints",
-                crate::certify::ATTEMPTS
-            ))
-            .with_help("each η must add a direction of motion that the constraints and the other η's do not fix"));
+        return Err(DeriveError::Uncertified {
+            site: span_site(format!("quasi_velocities.{}", b.choice.name), &b.choice.eta),
+            attempts: crate::certify::ATTEMPTS,
+        });
     };
     let u =
         b.f.convert(&model.potential.expr)
@@ -1007,7 +996,7 @@ fn closed(
     b: Begun,
     inverse: (Matrix, Matrix, Ex),
     limit: usize,
-) -> Result<ClosedOrBegun, ModelError> {
+) -> Result<ClosedOrBegun, DeriveError> {
     let ctx = Ctx { model };
     let Begun {
         choice,
@@ -1182,7 +1171,7 @@ impl Work {
 
 /// The field of the model's expressions: its coordinates, parameters, the choice's free
 /// functions (to second order), and η₁…η_σ, η̇₁…η̇_σ as plain symbols.
-fn field(ctx: &Ctx, choice: &QuasiVelocityChoice) -> Result<Field, ModelError> {
+fn field(ctx: &Ctx, choice: &QuasiVelocityChoice) -> Result<Field, DeriveError> {
     let model = ctx.model;
     let sigma = model.sigma();
     let mut expressions = Vec::new();
@@ -1246,7 +1235,7 @@ impl Ctx<'_> {
         &self,
         f: &Field,
         choice: &QuasiVelocityChoice,
-    ) -> Result<(Matrix, Matrix, Matrix), ModelError> {
+    ) -> Result<(Matrix, Matrix, Matrix), DeriveError> {
         let model = self.model;
         let (ell, mu, sigma) = (model.ell(), model.mu(), model.sigma());
         let a = self.mass_matrix(f)?;
@@ -1260,21 +1249,21 @@ impl Ctx<'_> {
         let alpha = Matrix::from_fn(mu, ell, |i, j| alpha_rows[i][j].clone());
         if mu > 0 && !self.certified_full_rank(&alpha) {
             let rank = match alpha.rank() {
-                Err(CasError::TooLarge(n)) => {
-                    return Err(model.error(format!(
-                        "the rank of α could not be decided: it was not certified full at {} points, and exact elimination outgrows its budget ({n} units of work)",
-                        crate::certify::ATTEMPTS
-                    )));
+                Err(CasError::TooLarge(work)) => {
+                    return Err(DeriveError::RankUndecided {
+                        attempts: crate::certify::ATTEMPTS,
+                        work,
+                    });
                 }
                 other => other.map_err(|e| self.cas(None, e))?,
             };
             if rank < mu {
                 let items: Vec<Item> = model.constraints.iter().map(|(_, i)| i.clone()).collect();
-                return Err(model
-                    .error_at(&span_site("constraints".into(), &items), format!(
-                        "the constraint matrix α is rank-deficient: rank {rank} < μ = {mu} (the constraints are not independent)"
-                    ))
-                    .with_help("remove the constraints that are combinations of the others"));
+                return Err(DeriveError::RankDeficient {
+                    site: span_site("constraints".into(), &items),
+                    rank,
+                    mu,
+                });
             }
         }
         let mut z_rows = Vec::new();
@@ -1296,7 +1285,7 @@ impl Ctx<'_> {
         f: &Field,
         alpha: &Matrix,
         manifold: Option<&OnManifold>,
-    ) -> Result<Vec<Dependence>, ModelError> {
+    ) -> Result<Vec<Dependence>, DeriveError> {
         let model = self.model;
         model
             .dependent
@@ -1307,7 +1296,7 @@ impl Ctx<'_> {
                     .map_err(|e| self.cas(Some(&d.item.site), e))?;
                 let what = format!("constraint `{}`", d.name);
                 let row = self.linear_row(f, &c, &d.item.site, &what)?;
-                crate::dependence::dependence(model, alpha, d, row, f, manifold)
+                crate::dependence::dependence(alpha, d, row, f, manifold)
             })
             .collect()
     }
@@ -1330,14 +1319,16 @@ impl Ctx<'_> {
         z: &Matrix,
         alpha: &Matrix,
         choice: &QuasiVelocityChoice,
-    ) -> Result<Result<(Matrix, Matrix, Ex), usize>, ModelError> {
+    ) -> Result<Result<(Matrix, Matrix, Ex), usize>, DeriveError> {
         let (ell, mu, sigma) = (self.model.ell(), self.model.mu(), self.model.sigma());
         let m = if mu > 0 { z.vstack(alpha) } else { z.clone() };
         let (minv, delta) = match m.inverse() {
             Ok(Some(found)) => found,
-            Ok(None) => return Err(self.model
-                .error_at(&span_site(format!("quasi_velocities.{}", choice.name), &choice.eta), "det[Z; α] is identically zero: these quasi-velocities are not independent of each other and of the constraints")
-                .with_help("each η must add a direction of motion that the constraints and the other η's do not fix")),
+            Ok(None) => {
+                return Err(DeriveError::Singular {
+                    site: span_site(format!("quasi_velocities.{}", choice.name), &choice.eta),
+                });
+            }
             Err(CasError::TooLarge(n)) => return Ok(Err(n)),
             Err(e) => return Err(self.cas(None, e)),
         };

@@ -5,7 +5,9 @@ use hamel_cas::{Ex, Matrix};
 use hamel_derive::Symbolic;
 use hamel_derive::progress::Stage;
 use hamel_derive::symbolic::{entry, mat};
-use hamel_model::{Model, ModelError};
+use hamel_model::Model;
+
+use crate::ReduceError;
 use indexmap::IndexMap;
 
 use crate::hypotheses::{
@@ -102,7 +104,7 @@ pub(crate) fn dependence_conditions(s: &Symbolic, p: &[usize]) -> Vec<(String, E
 /// The whole analysis of eliminating `p` under the derivation `s`, step by step as in the
 /// paper: (31), (17)/(18), Properties 2.1–2.2, H0–H6, then the ground truth, the findings and
 /// the reduced system. Errors: a determinant the engine could not compute (a bug, named).
-pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduction, ModelError> {
+pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduction, ReduceError> {
     let names = s.field.coordinates().to_vec();
     let mut stage = Stage::start(
         &model.name,
@@ -111,9 +113,9 @@ pub(crate) fn analyse(model: &Model, s: &Symbolic, p: &[usize]) -> Result<Reduct
     let blocks = Blocks::of(&s.z);
     let classification = classify(s, &names, p);
     let structure = block_structure(s, &blocks, &names).map_err(|e| {
-        model.error(format!(
-            "internal error: δ_R of (18) could not be computed: {e}"
-        ))
+        ReduceError::Engine(hamel_cas::CasError::Internal(format!(
+            "δ_R of (18) could not be computed: {e}"
+        )))
     })?;
     stage.next("Properties 2.1 and 2.2, hypotheses H0–H6");
     let h1 = hyp::h1(s, &blocks);

@@ -17,6 +17,8 @@
 #![warn(missing_docs)]
 
 mod analysis;
+mod error;
+pub use error::{ReduceError, WorkerFailure};
 pub mod hypotheses;
 mod invariance;
 pub mod pass;
@@ -38,7 +40,7 @@ pub use search::{
 };
 
 use hamel_derive::Derived;
-use hamel_model::{Model, ModelError};
+use hamel_model::Model;
 
 /// Analyse the elimination of `eliminate` from the equations of `model` under the choice
 /// `eta` (the model's first choice when `None`): [`pass::make`] here, the store untouched.
@@ -46,7 +48,7 @@ pub fn reduce(
     model: &Model,
     eta: Option<&str>,
     eliminate: &[String],
-) -> Result<Reduction, ModelError> {
+) -> Result<Reduction, ReduceError> {
     let p = coordinate_indices(model, eliminate)?;
     let job = pass::Job::new(model, eta, pass::Analysis::Eliminate(p))?;
     Ok(pass::make(&job)?
@@ -62,7 +64,7 @@ fn analyse(
     derived: &Derived,
     p: &[usize],
     d: Option<&hamel_derive::Derivation>,
-) -> Result<Reduction, ModelError> {
+) -> Result<Reduction, ReduceError> {
     match derived {
         Derived::Closed(s) => analysis::analyse(model, s, p),
         Derived::Structured(s) => match d {
@@ -82,36 +84,24 @@ pub fn search(
     eliminate: &[String],
     options: SearchOptions,
     events: Events,
-) -> Result<SearchReport, ModelError> {
+) -> Result<SearchReport, ReduceError> {
     let p = coordinate_indices(model, eliminate)?;
     let model = model.clone();
     hamel_cas::run(move || search::search(&model, &p, options, events))
-        .map_err(ModelError::engine)?
+        .map_err(ReduceError::Engine)?
 }
 
 /// The indices of the named coordinates, or an error naming the unknown one.
-pub fn coordinate_indices(model: &Model, names: &[String]) -> Result<Vec<usize>, ModelError> {
+pub fn coordinate_indices(model: &Model, names: &[String]) -> Result<Vec<usize>, ReduceError> {
     if names.is_empty() {
-        return Err(model
-            .error("no coordinate to eliminate was given")
-            .with_help(format!(
-                "name one or more of the coordinates {}",
-                model.coordinates.join(", ")
-            )));
+        return Err(ReduceError::NothingToEliminate);
     }
     let mut p = Vec::new();
     for n in names {
         match model.coordinates.iter().position(|c| c == n) {
             Some(i) if !p.contains(&i) => p.push(i),
             Some(_) => {}
-            None => {
-                return Err(model
-                    .error(format!("`{n}` is not a coordinate of the model"))
-                    .with_help(format!(
-                        "the coordinates are {}",
-                        model.coordinates.join(", ")
-                    )));
-            }
+            None => return Err(ReduceError::NotACoordinate { name: n.clone() }),
         }
     }
     Ok(p)

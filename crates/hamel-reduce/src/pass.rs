@@ -21,7 +21,9 @@ use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
 use hamel_derive::{Derivation, FormRequest, store};
-use hamel_model::{Model, ModelError, SteadyCheck};
+use hamel_model::{Model, SteadyCheck};
+
+use crate::error::{ReduceError, WorkerFailure};
 use serde::{Deserialize, Serialize};
 
 use crate::Reduction;
@@ -82,16 +84,15 @@ pub struct Artefact {
 
 impl Artefact {
     /// The derivation.
-    pub fn into_derivation(self) -> Result<Derivation, ModelError> {
-        self.derivation.into_derivation().map_err(|e| {
-            ModelError::environment(format!("the stored derivation cannot be read: {e}"))
-        })
+    pub fn into_derivation(self) -> Result<Derivation, ReduceError> {
+        (self.derivation.into_derivation())
+            .map_err(|e| ReduceError::StoredUnreadable(e.to_string()))
     }
 }
 
 impl Job {
     /// The job for `model`'s choice `eta` (its first when `None`).
-    pub fn new(model: &Model, eta: Option<&str>, analysis: Analysis) -> Result<Job, ModelError> {
+    pub fn new(model: &Model, eta: Option<&str>, analysis: Analysis) -> Result<Job, ReduceError> {
         Ok(Job {
             choice: model.choice(eta)?.name.clone(),
             model: model.clone(),
@@ -121,7 +122,7 @@ impl Job {
     }
 
     /// The key of the artefact in the store.
-    fn key(&self) -> Result<store::Key, ModelError> {
+    fn key(&self) -> Result<store::Key, ReduceError> {
         let purpose = format!(
             "{:?}; ingredients for code: {}; evaluator: {}",
             self.analysis, self.code, self.evaluator
@@ -131,7 +132,7 @@ impl Job {
 }
 
 /// Make the artefact of `job` here, in one job on the computer-algebra thread.
-pub fn make(job: &Job) -> Result<Artefact, ModelError> {
+pub fn make(job: &Job) -> Result<Artefact, ReduceError> {
     let model = match job.supports {
         true => job.model.with_supports()?,
         false => job.model.clone(),
@@ -141,11 +142,11 @@ pub fn make(job: &Job) -> Result<Artefact, ModelError> {
         model,
         ..job.clone()
     };
-    hamel_cas::run(move || in_pass(&job)).map_err(ModelError::engine)?
+    hamel_cas::run(move || in_pass(&job)).map_err(ReduceError::Engine)?
 }
 
 /// The pass itself, on the computer-algebra thread.
-fn in_pass(job: &Job) -> Result<Artefact, ModelError> {
+fn in_pass(job: &Job) -> Result<Artefact, ReduceError> {
     let model = &job.model;
     let derived = hamel_derive::derive_form(model, &job.choice, FormRequest::Auto)?;
     let d = derived.to_derivation(job.code);
@@ -184,7 +185,7 @@ fn drop(
     model: &Model,
     derived: &hamel_derive::Derived,
     d: &Derivation,
-) -> Result<Option<Reduction>, ModelError> {
+) -> Result<Option<Reduction>, ReduceError> {
     let all: Vec<usize> = (0..d.ell).collect();
     let truth = crate::analyse(model, derived, &all, Some(d))?.ground_truth;
     let index = |n: &String| d.coordinates.iter().position(|c| c == n);
@@ -220,7 +221,7 @@ pub fn derive_in_worker(program: PathBuf, args: Vec<String>) {
 /// The artefact of `job`: from the derivation store when it holds a sound one (no computer
 /// algebra then) unless `fresh` (`--no-store`), else made (in the worker process when one is
 /// named, [`derive_in_worker`]; else here) and stored.
-pub fn obtain(job: &Job, fresh: bool) -> Result<Artefact, ModelError> {
+pub fn obtain(job: &Job, fresh: bool) -> Result<Artefact, ReduceError> {
     let key = job.key()?;
     if !fresh && let Some(a) = store::lookup::<Artefact>(&key) {
         return Ok(a);
@@ -242,7 +243,7 @@ fn results_dir() -> Result<PathBuf, hamel_cache::RootError> {
 
 /// Make the artefact of `job` in the worker process; where the cache cannot hold its result,
 /// here (with a warning).
-fn in_worker(w: &Worker, job: &Job) -> Result<Artefact, ModelError> {
+fn in_worker(w: &Worker, job: &Job) -> Result<Artefact, ReduceError> {
     let dir = match results_dir() {
         Ok(d) => d,
         Err(e) => {
@@ -254,47 +255,44 @@ fn in_worker(w: &Worker, job: &Job) -> Result<Artefact, ModelError> {
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_nanos());
     let result = dir.join(format!("derive-{}-{nanos}.result", std::process::id()));
-    let failed = |why: String| {
-        ModelError::environment(format!(
-            "the deriving worker ({}): {why}",
-            w.program.display()
-        ))
+    let failed = |failure: WorkerFailure| ReduceError::DeriveWorker {
+        program: w.program.clone(),
+        failure,
     };
+    let exchange = |why: String| failed(WorkerFailure::Exchange(why));
     let mut input = Vec::new();
-    ciborium::into_writer(job, &mut input).map_err(|e| failed(e.to_string()))?;
+    ciborium::into_writer(job, &mut input).map_err(|e| exchange(e.to_string()))?;
     let mut child = Command::new(&w.program)
         .args(&w.args)
         .arg(&result)
         .stdin(Stdio::piped())
         .spawn()
-        .map_err(|e| failed(format!("cannot start it: {e}")))?;
+        .map_err(|e| failed(WorkerFailure::Start(e.to_string())))?;
     let written = child.stdin.take().map(|mut s| s.write_all(&input));
-    let status = child.wait().map_err(|e| failed(e.to_string()))?;
+    let status = child.wait().map_err(|e| exchange(e.to_string()))?;
     let bytes = std::fs::read(&result);
     let _ = std::fs::remove_file(&result);
     match (bytes, written) {
-        (Ok(bytes), _) => read_result(&bytes).map_err(|e| failed(e.to_string()))?,
-        (Err(_), Some(Err(e))) => Err(failed(format!("cannot give it the job: {e}"))),
+        (Ok(bytes), _) => read_result(&bytes).map_err(|e| exchange(e.to_string()))?,
+        (Err(_), Some(Err(e))) => Err(exchange(format!("cannot give it the job: {e}"))),
         (Err(_), _) => Err(failed(ended_without_result(status))),
     }
 }
 
 /// Why a worker left no result: its status, and for an abort the likely cause.
-fn ended_without_result(status: std::process::ExitStatus) -> String {
+fn ended_without_result(status: std::process::ExitStatus) -> WorkerFailure {
     use std::os::unix::process::ExitStatusExt;
-    let mut why = format!("it ended ({status}) without a result");
-    if status.signal() == Some(libc::SIGABRT) {
-        why.push_str(
-            "; the computer algebra stops so when another process holds the one thread its licence allows (a `hamel search`, another derivation; see its notice above): run this again when that has finished",
-        );
+    let text = status.to_string();
+    match status.signal() == Some(libc::SIGABRT) {
+        true => WorkerFailure::LicenceHeld { status: text },
+        false => WorkerFailure::NoResult { status: text },
     }
-    why
 }
 
 /// The worker's result as written by [`work`].
 fn read_result(
     bytes: &[u8],
-) -> Result<Result<Artefact, ModelError>, ciborium::de::Error<std::io::Error>> {
+) -> Result<Result<Artefact, ReduceError>, ciborium::de::Error<std::io::Error>> {
     store::from_cbor(bytes)
 }
 
@@ -302,21 +300,17 @@ fn read_result(
 /// artefact here ([`make`]) and write the outcome, the artefact or the located error, to
 /// `result` (whole or not at all). An error is the caller's to report: `Err` only when the job
 /// cannot be read or the result written.
-pub fn work(result: &Path) -> Result<(), ModelError> {
+pub fn work(result: &Path) -> Result<(), ReduceError> {
     let job: Job = store::from_cbor(std::io::stdin().lock())
-        .map_err(|e| ModelError::environment(format!("derive-worker: no job on stdin: {e}")))?;
+        .map_err(|e| ReduceError::WorkerSide(format!("no job on stdin: {e}")))?;
     let outcome = make(&job);
     let mut bytes = Vec::new();
     ciborium::into_writer(&outcome, &mut bytes)
-        .map_err(|e| ModelError::environment(format!("derive-worker: {e}")))?;
+        .map_err(|e| ReduceError::WorkerSide(e.to_string()))?;
     let (dir, name) = match (result.parent(), result.file_name()) {
         (Some(d), Some(n)) => (d, n.to_string_lossy()),
-        _ => {
-            return Err(ModelError::environment(
-                "derive-worker: no result file named",
-            ));
-        }
+        _ => return Err(ReduceError::WorkerSide("no result file named".into())),
     };
     hamel_cache::write_atomic(dir, &name, &bytes)
-        .map_err(|e| ModelError::environment(format!("derive-worker: {}: {e}", result.display())))
+        .map_err(|e| ReduceError::WorkerSide(format!("{}: {e}", result.display())))
 }

@@ -23,9 +23,7 @@ use std::time::{Duration, Instant};
 use hamel_cas::{Ex, Matrix};
 use hamel_derive::{Derived, FormRequest, Symbolic};
 use hamel_expr::{Dual, Expr, Func};
-use hamel_model::{
-    ChoiceOrigin, Item, Model, ModelError, NumericModel, QuasiVelocityChoice, combinations,
-};
+use hamel_model::{ChoiceOrigin, Item, Model, NumericModel, QuasiVelocityChoice, combinations};
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
@@ -480,14 +478,14 @@ impl Searcher<'_> {
         let derived = match hamel_derive::derive_form(&m2, &name, FormRequest::AutoExact) {
             Ok(d) => d,
             Err(e) => {
-                *self.failures.entry(e.message().to_string()).or_default() += 1;
+                *self.failures.entry(e.to_string()).or_default() += 1;
                 return false;
             }
         };
         let r = match crate::analyse(&m2, &derived, self.p, None) {
             Ok(r) => r,
             Err(e) => {
-                *self.failures.entry(e.message().to_string()).or_default() += 1;
+                *self.failures.entry(e.to_string()).or_default() += 1;
                 return false;
             }
         };
@@ -652,7 +650,7 @@ pub(crate) fn search(
     p: &[usize],
     options: SearchOptions,
     events: Events,
-) -> Result<SearchReport, ModelError> {
+) -> Result<SearchReport, crate::ReduceError> {
     let started = Instant::now();
     let ell = model.ell();
     let base = model.choice(None)?.name.clone();
@@ -980,7 +978,7 @@ impl Searcher<'_> {
 }
 
 /// A of a model whose derivation is structured (its canonical form, for the momenta rows).
-fn structured_mass_matrix(model: &Model, choice: &str) -> Result<Matrix, ModelError> {
+fn structured_mass_matrix(model: &Model, choice: &str) -> Result<Matrix, crate::ReduceError> {
     match hamel_derive::derive_form(model, choice, FormRequest::Structured)? {
         Derived::Structured(s) => Ok(s.a.clone()),
         Derived::Closed(s) => Ok(s.a.clone()),

@@ -28,7 +28,7 @@ pub struct Partition {
 pub fn partition(
     model: &Model,
     reduction: Option<&crate::Reduction>,
-) -> Result<Partition, hamel_model::ModelError> {
+) -> Result<Partition, crate::ReduceError> {
     let index = |n: &String| model.coordinates.iter().position(|c| c == n);
     let dropped: Vec<usize> = reduction.map_or(Vec::new(), |r| {
         r.ground_truth.absent.iter().filter_map(index).collect()
@@ -38,10 +38,9 @@ pub fn partition(
         .filter(|k| !dropped.contains(k))
         .collect();
     if let Some(&k) = dropped.iter().find(|&&k| completion.mentions(k)) {
-        return Err(model.error(format!(
-            "the holonomic constraints mention `{}`, which the equations are free of: hamel cannot drop it and complete the dependent coordinates without it",
-            model.coordinates[k]
-        )));
+        return Err(crate::ReduceError::DroppedInHolonomic {
+            coordinate: model.coordinates[k].clone(),
+        });
     }
     let state_q: Vec<usize> = (0..model.coordinates.len())
         .filter(|k| !dropped.contains(k) && !completion.dependent().contains(k))
@@ -60,7 +59,7 @@ pub(crate) fn check_dropped(
     name: &str,
     d: &Derivation,
     reduction: Option<&crate::Reduction>,
-) -> Result<SteadyCheck, hamel_model::ModelError> {
+) -> Result<SteadyCheck, crate::ReduceError> {
     let steady = model.steady(name)?;
     let p = partition(model, reduction)?;
     Ok(check(&Inputs {

@@ -19,7 +19,9 @@ use hamel_derive::{Compiled, Derivation, StructuredSymbolic};
 
 use crate::invariance::{by_symmetry, symmetries, symmetry_findings};
 use hamel_expr::Dual;
-use hamel_model::{Model, ModelError};
+use hamel_model::Model;
+
+use crate::ReduceError;
 use indexmap::IndexMap;
 
 use crate::analysis::classify_parts;
@@ -43,12 +45,12 @@ pub(crate) fn analyse(
     s: &StructuredSymbolic,
     d: &Derivation,
     p: &[usize],
-) -> Result<Reduction, ModelError> {
+) -> Result<Reduction, ReduceError> {
     let names = model.coordinates.clone();
     let classification = classify_parts(&names, &s.a, &s.u, &s.alpha, &s.z, p);
     let compiled = d
         .compile()
-        .map_err(|e| model.error(format!("the structured equations do not compile: {e}")))?;
+        .map_err(|e| ReduceError::NotCompiled(e.to_string()))?;
     // (31): type (A) and not in Z; nor in the forces F, which enter the equations beside ∇U.
     let by_31: Vec<bool> = classification
         .iter()

@@ -19,7 +19,9 @@ use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use hamel_model::{Model, ModelError};
+use hamel_model::Model;
+
+use crate::ReduceError;
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
@@ -74,7 +76,7 @@ pub fn supervise(
     job: &Job,
     mut worker: Command,
     mut on_event: impl FnMut(&SearchEvent),
-) -> Result<Outcome, ModelError> {
+) -> Result<Outcome, ReduceError> {
     let Job {
         model_path,
         model,
@@ -97,7 +99,7 @@ pub fn supervise(
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
-        .map_err(|e| model.error(format!("cannot start the search worker: {e}")))?;
+        .map_err(|e| ReduceError::SearchWorker(format!("cannot start the search worker: {e}")))?;
     let (tx, rx) = mpsc::channel();
     let stdout = child.stdout.take().expect("piped");
     let reader = std::thread::spawn(move || relay(stdout, tx));
@@ -120,7 +122,7 @@ pub fn supervise(
     };
     let status = child
         .wait()
-        .map_err(|e| model.error(format!("search worker: {e}")))?;
+        .map_err(|e| ReduceError::SearchWorker(format!("search worker: {e}")))?;
     let _ = reader.join();
     Ok(match report {
         Some(r) => Outcome::Report(Box::new(r)),
@@ -210,7 +212,7 @@ pub fn work(
     eliminate: &[String],
     budget: Duration,
     max: usize,
-) -> Result<(), ModelError> {
+) -> Result<(), ReduceError> {
     let send = |m: &Message| {
         let line = serde_json::to_string(m).expect("serialisable");
         let mut out = std::io::stdout().lock();

@@ -34,7 +34,8 @@ pub(crate) fn auto_choice(
             max_candidates: 10,
         },
         Box::new(|_| {}),
-    )?;
+    )
+    .map_err(|e| e.locate(&model))?;
     // Candidates without free functions, in the search's order (simplest first); the first
     // whose map [Z; α] is regular everywhere wins, else the first.
     let usable: Vec<(Model, String, bool)> = report

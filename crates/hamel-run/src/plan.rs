@@ -97,10 +97,13 @@ pub fn plan(
     fresh: bool,
 ) -> Result<Planned, ModelError> {
     use hamel_reduce::pass::{Analysis, Job, obtain};
-    let job = Job::new(model, Some(eta), Analysis::Survey)?.for_code();
-    let mut artefact = obtain(&job, fresh)?;
+    let located = |e: hamel_reduce::ReduceError| e.locate(model);
+    let job = Job::new(model, Some(eta), Analysis::Survey)
+        .map_err(located)?
+        .for_code();
+    let mut artefact = obtain(&job, fresh).map_err(located)?;
     let survey = artefact.reduction.take();
-    let d = artefact.into_derivation()?;
+    let d = artefact.into_derivation().map_err(located)?;
     let Decision {
         integrated,
         reconstructed,

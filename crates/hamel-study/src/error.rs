@@ -1,8 +1,18 @@
 //! Why a study failed.
 
 /// Why a steady motion could not be built, checked or linearised.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[derive(Clone, Debug, thiserror::Error)]
 pub enum StudyError {
+    /// The model or the steady motion named is refused where it is read (located).
+    #[error(transparent)]
+    Model(#[from] hamel_model::ModelError),
+    /// The pass (the derivation, which coordinates drop out, the steady check) failed.
+    #[cfg(feature = "cas")]
+    #[error(transparent)]
+    Reduce(#[from] hamel_reduce::ReduceError),
+    /// The derived equations do not compile for evaluation.
+    #[error("the equations cannot be compiled: {0}")]
+    Compile(String),
     /// An expression of the steady motion could not be evaluated.
     #[error("`{key}` cannot be evaluated: {reason}")]
     Value {
@@ -51,4 +61,17 @@ pub enum StudyError {
     /// A sweep or map was asked for with an unusable range.
     #[error("{0}")]
     Range(String),
+}
+
+impl StudyError {
+    /// The located diagnostic of `model`'s file, for the edge: what the pass or the model
+    /// refused is located there; the numeric failures name the model.
+    pub fn locate(self, model: &hamel_model::Model) -> hamel_model::ModelError {
+        match self {
+            StudyError::Model(e) => e,
+            #[cfg(feature = "cas")]
+            StudyError::Reduce(e) => e.locate(model),
+            e => model.error(e.to_string()),
+        }
+    }
 }

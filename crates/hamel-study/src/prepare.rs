@@ -39,7 +39,7 @@ impl Study {
     /// which coordinates they are free of, check the steady motion exactly, and compile them
     /// for the steady motion `steady`: the one pass ([`hamel_reduce::pass`], from the
     /// derivation store when it holds it) is the only step that uses the computer algebra.
-    pub fn prepare(model: &Model, eta: Option<&str>, steady: &str) -> Result<Study, ModelError> {
+    pub fn prepare(model: &Model, eta: Option<&str>, steady: &str) -> Result<Study, StudyError> {
         Study::prepare_with(model, eta, steady, false)
     }
 
@@ -51,7 +51,7 @@ impl Study {
         eta: Option<&str>,
         steady: &str,
         fresh: bool,
-    ) -> Result<Study, ModelError> {
+    ) -> Result<Study, StudyError> {
         use hamel_reduce::pass::{Analysis, Job, obtain};
         let gravity = gravity(model);
         let steady = model.steady(steady)?.clone();
@@ -69,7 +69,7 @@ impl Study {
             true => d.compile_with_constraint_forces(),
             false => d.compile(),
         }
-        .map_err(|e| model.error(format!("the equations cannot be compiled: {e}")))?;
+        .map_err(|e| StudyError::Compile(e.to_string()))?;
         let reduction = reduction.as_ref();
         let partition = hamel_reduce::steady::partition(model, reduction)?;
         Ok(Study {
