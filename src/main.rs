@@ -219,13 +219,15 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             linearize::run(&args, no_store, out)
         }
         Command::Bench(args) => bench(args),
-        // Only the worker's own failures (no job, no result written): the pass's, located
-        // by the caller, are in the result.
-        Command::DeriveWorker { result } => {
-            hamel_reduce::pass::work(&result).map_err(ModelError::environment)
-        }
+        // The worker's own failures only: the pass's are in the result, for the caller.
+        Command::DeriveWorker { result } => worker_side(hamel_reduce::pass::work(&result)),
         Command::Store { action } => store(action),
     }
+}
+
+/// The deriving worker's own failure (no job, no result written): the machine's.
+fn worker_side(r: Result<(), hamel_reduce::ReduceError>) -> Result<(), ModelError> {
+    r.map_err(ModelError::environment)
 }
 
 /// Pretty JSON, with the final newline.

@@ -146,7 +146,7 @@ pub fn write_crate(
 fn derive(
     model: &Model,
     choice: &str,
-    eliminated: &[usize],
+    eliminated: &[hamel_model::Coord],
     eliminate: &[String],
     fresh: bool,
 ) -> Result<hamel_derive::Derivation, WriteError> {

@@ -22,6 +22,7 @@ pub mod default_choice;
 mod error;
 mod expand;
 pub mod files;
+mod index;
 mod loader;
 mod model;
 mod numeric;
@@ -38,6 +39,7 @@ pub use error::{ErrorKind, ModelError};
 pub use hamel_bodies::{
     Completion, CompletionError, ContactForces, ContactKind, HolonomicConstraint,
 };
+pub use index::{Coord, Param};
 pub use loader::{Item, Kinetic, Origin, Site};
 pub use model::{ChoiceOrigin, MAX_COORDINATES, Model, QuasiVelocityChoice};
 pub use numeric::{NumericModel, sample_configurations};

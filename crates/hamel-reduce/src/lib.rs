@@ -40,7 +40,7 @@ pub use search::{
 };
 
 use hamel_derive::Derived;
-use hamel_model::Model;
+use hamel_model::{Coord, Model};
 
 /// Analyse the elimination of `eliminate` from the equations of `model` under the choice
 /// `eta` (the model's first choice when `None`): [`pass::make`] here, the store untouched.
@@ -85,20 +85,22 @@ pub fn search(
     options: SearchOptions,
     events: Events,
 ) -> Result<SearchReport, ReduceError> {
-    let p = coordinate_indices(model, eliminate)?;
+    let p: Vec<usize> = (coordinate_indices(model, eliminate)?.iter())
+        .map(|k| k.index())
+        .collect();
     let model = model.clone();
     hamel_cas::run(move || search::search(&model, &p, options, events))
         .map_err(ReduceError::Engine)?
 }
 
 /// The indices of the named coordinates, or an error naming the unknown one.
-pub fn coordinate_indices(model: &Model, names: &[String]) -> Result<Vec<usize>, ReduceError> {
+pub fn coordinate_indices(model: &Model, names: &[String]) -> Result<Vec<Coord>, ReduceError> {
     if names.is_empty() {
         return Err(ReduceError::NothingToEliminate);
     }
     let mut p = Vec::new();
     for n in names {
-        match model.coordinates.iter().position(|c| c == n) {
+        match model.coordinate(n) {
             Some(i) if !p.contains(&i) => p.push(i),
             Some(_) => {}
             None => return Err(ReduceError::NotACoordinate { name: n.clone() }),

@@ -21,7 +21,7 @@ use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
 use hamel_derive::{Derivation, FormRequest, store};
-use hamel_model::{Model, SteadyCheck};
+use hamel_model::{Coord, Model, SteadyCheck};
 
 use crate::error::{ReduceError, WorkerFailure};
 use serde::{Deserialize, Serialize};
@@ -35,7 +35,7 @@ pub enum Analysis {
     Equations,
     /// The elimination of these coordinates (indices) analysed (`hamel reduce`, `hamel
     /// codegen --eliminate`).
-    Eliminate(Vec<usize>),
+    Eliminate(Vec<Coord>),
     /// Every coordinate asked about: which the true equations (11) are free of, decided exactly
     /// (a scene's plan is checked against it).
     Survey,
@@ -152,7 +152,10 @@ fn in_pass(job: &Job) -> Result<Artefact, ReduceError> {
     let d = derived.to_derivation(job.code);
     let (reduction, steady_check) = match &job.analysis {
         Analysis::Equations => (None, None),
-        Analysis::Eliminate(p) => (Some(crate::analyse(model, &derived, p, Some(&d))?), None),
+        Analysis::Eliminate(p) => {
+            let p: Vec<usize> = p.iter().map(|k| k.index()).collect();
+            (Some(crate::analyse(model, &derived, &p, Some(&d))?), None)
+        }
         Analysis::Survey => {
             let all: Vec<usize> = (0..d.ell).collect();
             (Some(crate::analyse(model, &derived, &all, Some(&d))?), None)
@@ -188,8 +191,8 @@ fn drop(
 ) -> Result<Option<Reduction>, ReduceError> {
     let all: Vec<usize> = (0..d.ell).collect();
     let truth = crate::analyse(model, derived, &all, Some(d))?.ground_truth;
-    let index = |n: &String| d.coordinates.iter().position(|c| c == n);
-    let mut p: Vec<usize> = truth.absent.iter().filter_map(index).collect();
+    let index = |n: &String| model.coordinate(n).map(Coord::index);
+    let mut p: Vec<usize> = truth.absent_in(model).iter().map(|k| k.index()).collect();
     while !p.is_empty() {
         let r = crate::analyse(model, derived, &p, Some(d))?;
         let back = r.ground_truth.kinematics_witness.as_ref();

@@ -117,6 +117,17 @@ pub struct GroundTruth {
     pub undecided: Vec<String>,
 }
 
+impl GroundTruth {
+    /// The coordinates proved absent, as `model`'s indices (the report names them, for
+    /// people and JSON).
+    pub fn absent_in(&self, model: &hamel_model::Model) -> Vec<hamel_model::Coord> {
+        self.absent
+            .iter()
+            .filter_map(|n| model.coordinate(n))
+            .collect()
+    }
+}
+
 /// q̇_k = (Γη)_k.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct KinematicEquation {

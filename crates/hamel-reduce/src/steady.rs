@@ -7,7 +7,7 @@
 use hamel_cas::{CasError, Ex, Field, FieldSpec, Matrix};
 use hamel_derive::Derivation;
 use hamel_expr::Expr;
-use hamel_model::{Model, Steady};
+use hamel_model::{Coord, Model, Steady};
 
 use hamel_model::SteadyCheck;
 
@@ -15,12 +15,12 @@ use hamel_model::SteadyCheck;
 /// holonomic constraints, and in the state.
 #[derive(Clone, Debug)]
 pub struct Partition {
-    /// Dropped, by index (their proof is the reduction's).
-    pub dropped: Vec<usize>,
-    /// Kept and completed from the holonomic constraints, by index.
-    pub dependent: Vec<usize>,
-    /// In the state (kept, not dependent), by index.
-    pub state_q: Vec<usize>,
+    /// Dropped (their proof is the reduction's).
+    pub dropped: Vec<Coord>,
+    /// Kept and completed from the holonomic constraints.
+    pub dependent: Vec<Coord>,
+    /// In the state (kept, not dependent).
+    pub state_q: Vec<Coord>,
 }
 
 /// The partition of `model`'s coordinates when those `reduction` proves absent are dropped.
@@ -29,27 +29,31 @@ pub fn partition(
     model: &Model,
     reduction: Option<&crate::Reduction>,
 ) -> Result<Partition, crate::ReduceError> {
-    let index = |n: &String| model.coordinates.iter().position(|c| c == n);
-    let dropped: Vec<usize> = reduction.map_or(Vec::new(), |r| {
-        r.ground_truth.absent.iter().filter_map(index).collect()
-    });
+    let dropped: Vec<Coord> = reduction.map_or(Vec::new(), |r| r.ground_truth.absent_in(model));
     let completion = &model.completion;
-    let dependent: Vec<usize> = (completion.dependent().iter().copied())
-        .filter(|k| !dropped.contains(k))
-        .collect();
-    if let Some(&k) = dropped.iter().find(|&&k| completion.mentions(k)) {
+    let is_dependent = |k: &Coord| completion.dependent().contains(&k.index());
+    if let Some(&k) = dropped.iter().find(|k| completion.mentions(k.index())) {
         return Err(crate::ReduceError::DroppedInHolonomic {
-            coordinate: model.coordinates[k].clone(),
+            coordinate: model.coordinate_name(k).to_string(),
         });
     }
-    let state_q: Vec<usize> = (0..model.coordinates.len())
-        .filter(|k| !dropped.contains(k) && !completion.dependent().contains(k))
+    let dependent: Vec<Coord> = (completion.dependent().iter())
+        .map(|&k| Coord::new(k))
+        .filter(|k| !dropped.contains(k))
+        .collect();
+    let state_q: Vec<Coord> = (model.coords())
+        .filter(|k| !dropped.contains(k) && !is_dependent(k))
         .collect();
     Ok(Partition {
         dropped,
         dependent,
         state_q,
     })
+}
+
+/// Indices of `ks`, for the numeric vectors in model order.
+fn indices(ks: &[Coord]) -> Vec<usize> {
+    ks.iter().map(|k| k.index()).collect()
 }
 
 /// The exact check of the steady motion `name` of `model` on the derivation `d`, with the
@@ -66,8 +70,8 @@ pub(crate) fn check_dropped(
         model,
         steady,
         derivation: d,
-        state_q: &p.state_q,
-        dependent: &p.dependent,
+        state_q: &indices(&p.state_q),
+        dependent: &indices(&p.dependent),
     }))
 }
 

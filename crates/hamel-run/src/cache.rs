@@ -240,7 +240,7 @@ pub fn store(
     key: &Key,
     d: &Derivation,
     fixed: &IndexMap<String, f64>,
-    dropped: &[usize],
+    dropped: &[hamel_model::Coord],
     ops_of: impl Fn(&Generated) -> Result<usize, CacheError>,
     ops_full: usize,
     command: &str,
@@ -405,18 +405,19 @@ fn bin_name(dir: &Path) -> String {
 /// path and whether this call built it. A binary whose SHA-256 is not the one recorded in
 /// `meta.json` when hamel built it (planted, altered, or built by something else) is never
 /// run: it is rebuilt from the entry's source, with a warning.
-pub fn binary(entry: &Entry) -> Result<(PathBuf, bool), CacheError> {
+pub fn binary(entry: &Entry) -> Result<Binary, CacheError> {
     let exe = entry.dir.join("scene");
     let root = root()?;
+    let found = |path| Binary { path, built: false };
     if verify(&entry.dir, &exe)? == Check::Good {
-        return Ok((exe, false));
+        return Ok(found(exe));
     }
     let io = |e| CacheError::io(format!("code cache {}", root.display()), e);
     // One build at a time: the shared target directory has one `release/scene`.
     let lock = std::fs::File::create(root.join("build.lock")).map_err(io)?;
     lock.lock().map_err(io)?;
     match verify(&entry.dir, &exe)? {
-        Check::Good => return Ok((exe, false)),
+        Check::Good => return Ok(found(exe)),
         Check::Missing => {}
         Check::Mismatch(why) => {
             log::warn!(
@@ -441,7 +442,18 @@ pub fn binary(entry: &Entry) -> Result<(PathBuf, bool), CacheError> {
     std::fs::copy(root.join("target/release").join(bin_name(&entry.dir)), &tmp).map_err(io)?;
     record_hash(&entry.dir, &sha256(&tmp).map_err(io)?).map_err(io)?;
     std::fs::rename(&tmp, &exe).map_err(io)?;
-    Ok((exe, true))
+    Ok(Binary {
+        path: exe,
+        built: true,
+    })
+}
+
+/// A scene's built core ([`binary`]).
+pub struct Binary {
+    /// The executable.
+    pub path: PathBuf,
+    /// This call built it.
+    pub built: bool,
 }
 
 /// What [`verify`] found.

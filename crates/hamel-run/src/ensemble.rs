@@ -233,13 +233,13 @@ impl Loaded {
         let varying = varying(&self.params, &starts);
         // The scene's integrator, or DOP853 at its [accuracy] tolerances: not the setting that
         // `hamel tradeoff` times fastest, which a merge on another day might not find again.
-        let (method, options) = self.integrator;
+        let crate::check::Integration { method, options } = self.integrator;
         let fixed: IndexMap<String, f64> = (self.fixed().into_iter())
             .filter(|(k, _)| !varying.contains(k))
             .collect();
         let fail = |e: cache::CacheError| self.core_error(e, "the ensemble's compiled core");
         let entry = cache::prepare(&self.model, &self.d, &self.plan, &fixed).map_err(fail)?;
-        let (exe, _) = cache::binary(&entry).map_err(fail)?;
+        let exe = cache::binary(&entry).map_err(fail)?.path;
         let ok: Vec<usize> = (0..starts.len()).filter(|&i| starts[i].is_ok()).collect();
         let job = cache::Job {
             t0: self.scene.t0,
@@ -397,7 +397,7 @@ impl Loaded {
     /// The names of the requested outputs, in the order of [`MemberResult::values`].
     fn output_names(&self) -> Vec<String> {
         let mut names: Vec<String> = (self.request.coordinates.iter())
-            .map(|&k| self.d.coordinates[k].clone())
+            .map(|&k| self.d.coordinates[k.index()].clone())
             .collect();
         if self.request.eta {
             names.extend((1..=self.d.sigma).map(|i| format!("eta{i}")));
@@ -448,10 +448,10 @@ impl Loaded {
             let i = self
                 .state
                 .iter()
-                .position(|&s| s == k)
+                .position(|&s| s == k.index())
                 .expect("requested ⊆ state");
             values.insert(
-                self.d.coordinates[k].clone(),
+                self.d.coordinates[k.index()].clone(),
                 s.y.component(i).map(Some).collect(),
             );
         }

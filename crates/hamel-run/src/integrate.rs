@@ -46,21 +46,46 @@ impl Run {
     }
 }
 
+/// The engine a scene runs on ([`Loaded::usable`]), and whether asking built its core.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Usable {
+    /// The engine.
+    pub engine: Engine,
+    /// This call compiled the scene's core.
+    pub built: bool,
+}
+
+/// A run on the compiled core ([`Loaded::integrate_compiled`]) and the median time of one
+/// integration, measured inside the core.
+pub struct Timed {
+    /// The run.
+    pub run: Run,
+    /// Seconds.
+    pub seconds: f64,
+}
+
 impl Loaded {
     /// The engine that can run this scene: `engine`, or the interpreted evaluator (with a
     /// warning on stderr) when the scene's compiled core cannot be built; and whether this call
     /// built the core.
-    pub fn usable(&self, engine: Engine) -> (Engine, bool) {
+    pub fn usable(&self, engine: Engine) -> Usable {
+        let interpreted = Usable {
+            engine: Engine::Interpreted,
+            built: false,
+        };
         if engine == Engine::Interpreted {
-            return (engine, false);
+            return interpreted;
         }
         match self.core().and_then(cache::binary) {
-            Ok((_, built)) => (Engine::Compiled, built),
+            Ok(b) => Usable {
+                engine: Engine::Compiled,
+                built: b.built,
+            },
             Err(e) => {
                 log::warn!(
                     "the scene's compiled core is not available, using the interpreted evaluator: {e}"
                 );
-                (Engine::Interpreted, false)
+                interpreted
             }
         }
     }
@@ -162,8 +187,8 @@ impl Loaded {
     }
 
     /// Integrate the planned state on the scene's compiled core ([`crate::cache`]: built
-    /// on first use, cached): the run, the median time of one integration measured inside the
-    /// core over `repeat` runs, and whether this call compiled the core. The singular set is
+    /// on first use, cached): the run, and the median time of one integration measured inside
+    /// the core over `repeat` runs. The singular set is
     /// watched at the output states (δ's sign, the condition number of [Z; α] once |δ| falls
     /// below 1e-3 of its start): a sign change ends the output before it, as an error.
     /// Errors: the core could not be built or run (the caller may fall back to [`Self::integrate`]).
@@ -172,8 +197,8 @@ impl Loaded {
         method: Method,
         options: &Options,
         repeat: usize,
-    ) -> Result<(Run, f64, bool), cache::CacheError> {
-        let (exe, built) = cache::binary(self.core()?)?;
+    ) -> Result<Timed, cache::CacheError> {
+        let exe = cache::binary(self.core()?)?.path;
         let job = cache::Job {
             t0: self.scene.t0,
             times: self.times.clone(),
@@ -228,7 +253,10 @@ impl Loaded {
             constraint_forces,
             monitored: None,
         };
-        Ok((self.watched(run), seconds, built))
+        Ok(Timed {
+            run: self.watched(run),
+            seconds,
+        })
     }
 
     /// Watch the singular set at the output states of a compiled run started with

@@ -48,7 +48,7 @@ pub use hamel_scene::{Checked, Request};
 /// The scene language's modules, as the run engine reads them.
 pub use hamel_scene::{check, expressions, file, forces, inputs, members, request};
 
-pub use integrate::{Engine, Run};
+pub use integrate::{Engine, Run, Timed, Usable};
 pub use load::{Loaded, load, load_with, load_with_options};
 pub use plan::Plan;
 pub use trajectory::Trajectory;

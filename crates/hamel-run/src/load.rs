@@ -6,13 +6,13 @@ use std::sync::Arc;
 
 use hamel_derive::Compiled;
 use hamel_model::{Model, ModelError};
-use hamel_sim::{Method, Options, Solution};
+use hamel_sim::Solution;
 use indexmap::IndexMap;
 
 use crate::cache;
-use crate::check::{Checked, SceneFile, check};
+use crate::check::{Checked, Integration, SceneFile, check};
 use crate::expressions::{OutputExpression, ParsedExpression};
-use crate::file::Scene;
+use crate::file::{Accuracy, Scene};
 use crate::forces::Forces;
 use crate::initial::{Completed, Projection, initial_eta};
 use crate::plan::{Plan, Request};
@@ -28,9 +28,9 @@ pub struct Loaded {
     /// What is integrated, reconstructed, dropped.
     pub plan: Plan,
     /// The integrator the scene names (or DOP853 at its `[accuracy]`).
-    pub integrator: (Method, Options),
-    /// The accuracy target (rtol, atol), when the scene gives one instead of an integrator.
-    pub accuracy: Option<(f64, f64)>,
+    pub integrator: Integration,
+    /// The accuracy target, when the scene gives one instead of an integrator.
+    pub accuracy: Option<Accuracy>,
     pub(crate) params: IndexMap<String, f64>,
     /// What sets each live parameter of the closed loop at every evaluation (the time of a
     /// control law, tabled inputs), in the model's order ([`Model::live`]).
@@ -91,7 +91,7 @@ pub fn load_with_options(
         model,
         parsed,
         request,
-        integrator: (method, options),
+        integrator,
         params,
         q0,
         completed,
@@ -144,7 +144,7 @@ pub fn load_with_options(
     Ok(Loaded {
         forces,
         accuracy: match (&scene.integrator, &scene.accuracy) {
-            (None, Some(a)) => Some((a.rtol, a.atol)),
+            (None, Some(a)) => Some(*a),
             _ => None,
         },
         compiled,
@@ -153,7 +153,7 @@ pub fn load_with_options(
         d,
         request,
         plan,
-        integrator: (method, options),
+        integrator,
         params,
         live,
         expressions,
@@ -273,7 +273,7 @@ fn choose(
     let auto_request: Option<Vec<String>> = scene.request.as_ref().map(|names| {
         let mut v = names.clone();
         for e in parsed.iter().filter(|e| names.contains(&e.name)) {
-            v.extend(e.coordinates.iter().map(|&k| model.coordinates[k].clone()));
+            v.extend(model.coordinate_names(&e.coordinates));
         }
         v
     });
@@ -299,7 +299,7 @@ pub(crate) fn start(
     for &reference in references {
         let mut q = q0.to_vec();
         for &k in &plan.dropped_ix {
-            q[k] = reference;
+            q[k.index()] = reference;
         }
         match compiled.evaluate(&q, eta0, params) {
             Ok(e) => return Ok((reference, e.delta)),
@@ -447,7 +447,7 @@ impl Loaded {
             .map(|&k| {
                 self.state
                     .iter()
-                    .position(|&s| s == k)
+                    .position(|&s| s == k.index())
                     .expect("requested ⊆ state")
             })
             .chain(if self.request.eta {

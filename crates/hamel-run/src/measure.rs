@@ -1,6 +1,7 @@
 //! `hamel plan --measure`: the planned computation against the full unreduced system, both on
 //! compiled cores.
 
+use crate::integrate::Timed;
 use hamel_model::ModelError;
 use hamel_sim::MethodName;
 use indexmap::IndexMap;
@@ -54,18 +55,20 @@ impl Measured {
 /// scene's integrator (DOP853 at the `[accuracy]` tolerances when it gives only a target),
 /// each repeated until it has run about 0.3 s; the median times and the outputs' agreement.
 pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
-    let (method, options) = loaded.integrator;
+    let crate::check::Integration { method, options } = loaded.integrator;
     let fail = |e: cache::CacheError| loaded.core_error(e, "");
     let repeats = |seconds: f64| ((0.3 / seconds.max(1e-9)) as usize).clamp(3, 10_000);
-    let (probe, first, _) = loaded
-        .integrate_compiled(method, &options, 1)
-        .map_err(fail)?;
+    let Timed {
+        run: probe,
+        seconds: first,
+    } = (loaded.integrate_compiled(method, &options, 1)).map_err(fail)?;
     if let Some(e) = probe.failure {
         return Err(e);
     }
-    let (planned, planned_seconds, _) = loaded
-        .integrate_compiled(method, &options, repeats(first))
-        .map_err(fail)?;
+    let Timed {
+        run: planned,
+        seconds: planned_seconds,
+    } = (loaded.integrate_compiled(method, &options, repeats(first))).map_err(fail)?;
     let planned_core = loaded.core().map_err(fail)?;
     let ops = (planned_core.meta.ops, planned_core.meta.ops_full);
     // The full system's core: nothing dropped, nothing specialised.
@@ -81,7 +84,7 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
         cache::store(&key, d, &none, &[], |_| Ok(ops.1), ops.1, &command)
     })
     .map_err(fail)?;
-    let (exe, _) = cache::binary(&entry).map_err(fail)?;
+    let exe = cache::binary(&entry).map_err(fail)?.path;
     let full_job = |repeat: usize| cache::Job {
         t0: loaded.scene.t0,
         times: loaded.times.clone(),
@@ -126,9 +129,9 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
                     loaded
                         .state
                         .iter()
-                        .position(|&s| s == k)
+                        .position(|&s| s == k.index())
                         .expect("requested ⊆ state"),
-                    k,
+                    k.index(),
                 )
             })
             .chain((0..d.sigma).map(|i| (n + i, d.ell + i)));

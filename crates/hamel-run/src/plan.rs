@@ -16,6 +16,7 @@
 
 use hamel_derive::{Derivation, Entry};
 use hamel_expr::Expr;
+use hamel_model::Coord;
 use hamel_model::{Model, ModelError};
 use indexmap::IndexMap;
 use serde::Serialize;
@@ -43,15 +44,15 @@ pub struct Plan {
     /// The wheels the friction monitor watches, with their μ.
     #[serde(skip_serializing_if = "IndexMap::is_empty")]
     pub friction: IndexMap<String, f64>,
-    /// Indices of the integrated coordinates (model order).
+    /// The integrated coordinates (model order).
     #[serde(skip)]
-    pub integrated_ix: Vec<usize>,
-    /// Indices of the reconstructed coordinates.
+    pub integrated_ix: Vec<Coord>,
+    /// The reconstructed coordinates.
     #[serde(skip)]
-    pub reconstructed_ix: Vec<usize>,
-    /// Indices of the dropped coordinates.
+    pub reconstructed_ix: Vec<Coord>,
+    /// The dropped coordinates.
     #[serde(skip)]
-    pub dropped_ix: Vec<usize>,
+    pub dropped_ix: Vec<Coord>,
 }
 
 /// The coordinates (indices) occurring in `e`.
@@ -109,17 +110,17 @@ pub fn plan(
         reconstructed,
         dropped,
     } = decide(&d, request);
-    let coords = &d.coordinates;
-    let names = |ix: &[usize]| -> Vec<String> { ix.iter().map(|&k| coords[k].clone()).collect() };
+    let names = |ix: &[Coord]| model.coordinate_names(ix);
     // The decision (on the printed canonical forms) checked against the pass's survey (the
     // ground truth for every coordinate): whatever is not integrated must be proved absent.
-    let survey = survey.as_ref().map(|r| &r.ground_truth);
-    let proved = |k: &usize| survey.is_some_and(|t| t.absent.contains(&coords[*k]));
-    let unproved: Vec<usize> = (0..d.ell)
-        .filter(|k| !integrated.contains(k) && !proved(k))
+    let proved = survey.map_or(Vec::new(), |r| r.ground_truth.absent_in(model));
+    let unproved: Vec<Coord> = (model.coords())
+        .filter(|k| !integrated.contains(k) && !proved.contains(k))
         .collect();
     if !unproved.is_empty() {
-        let absent: Vec<usize> = (0..d.ell).filter(|c| !integrated.contains(c)).collect();
+        let absent: Vec<Coord> = (model.coords())
+            .filter(|c| !integrated.contains(c))
+            .collect();
         return Err(model.error(format!(
             "internal error: the plan integrates ({}) without ({}), but `hamel reduce` does not prove {} absent from the equations",
             names(&integrated).join(", "),
@@ -156,15 +157,15 @@ pub struct Planned {
     pub derivation: Derivation,
 }
 
-/// What a scene integrates, reconstructs and drops, by coordinate index ([`decide`]).
+/// What a scene integrates, reconstructs and drops ([`decide`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Decision {
     /// The coordinates integrated.
-    pub integrated: Vec<usize>,
+    pub integrated: Vec<Coord>,
     /// The requested ones the equations are free of, reconstructed by their kinematics.
-    pub reconstructed: Vec<usize>,
+    pub reconstructed: Vec<Coord>,
     /// The others.
-    pub dropped: Vec<usize>,
+    pub dropped: Vec<Coord>,
 }
 
 /// What is integrated, reconstructed and dropped (coordinate indices), decided on the printed
@@ -200,8 +201,8 @@ pub fn decide(d: &Derivation, request: &Request) -> Decision {
         }
     }
     close(&mut integrated, kinematics, coords);
-    let mut wanted: Vec<usize> = request.coordinates.clone();
-    wanted.extend(&request.needed);
+    let mut wanted: Vec<usize> = request.coordinates.iter().map(|k| k.index()).collect();
+    wanted.extend(request.needed.iter().map(|k| k.index()));
     if request.energy {
         match d.closed() {
             Some(c) => wanted.extend(occurring(&c.energy.expr, coords)),
@@ -228,20 +229,21 @@ pub fn decide(d: &Derivation, request: &Request) -> Decision {
     let dropped: Vec<usize> = (0..d.ell)
         .filter(|c| !integrated.contains(c) && !reconstructed.contains(c))
         .collect();
+    let typed = |v: Vec<usize>| v.into_iter().map(Coord::new).collect();
     Decision {
-        integrated,
-        reconstructed,
-        dropped,
+        integrated: typed(integrated),
+        reconstructed: typed(reconstructed),
+        dropped: typed(dropped),
     }
 }
 
 impl Plan {
-    /// The coordinates in the integrated state, by index: integrated, then reconstructed.
+    /// The coordinates in the integrated state, as indices in model order (the positions
+    /// of their values in a full configuration): integrated, then reconstructed.
     pub fn state(&self) -> Vec<usize> {
-        self.integrated_ix
-            .iter()
+        (self.integrated_ix.iter())
             .chain(&self.reconstructed_ix)
-            .copied()
+            .map(|k| k.index())
             .collect()
     }
 

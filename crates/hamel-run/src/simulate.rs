@@ -1,6 +1,7 @@
 //! `hamel simulate`: run a loaded scene end to end — the integrator its `[accuracy]` target
 //! needs, the engine, the diagnosis of a failure, the error estimate of a loose run.
 
+use crate::integrate::Timed;
 use std::path::Path;
 
 use hamel_model::ModelError;
@@ -61,7 +62,7 @@ pub fn run_loaded(
     estimate_error: bool,
 ) -> Result<Simulated, ModelError> {
     // The compiled core is built (or found) first: the accuracy measurement below runs on it too.
-    let (engine, built) = loaded.usable(engine);
+    let crate::integrate::Usable { engine, built } = loaded.usable(engine);
     let (method, options) = integrator_for(loaded, engine)?;
     let (run, engine) = integrate_on(loaded, engine, built, method, &options)?;
     if let Some((cond, t)) = run.max_condition
@@ -107,8 +108,11 @@ pub(crate) fn integrator_for(
     loaded: &Loaded,
     engine: Engine,
 ) -> Result<(Method, Options), ModelError> {
-    let (mut method, mut options) = loaded.integrator;
-    if let Some((rtol, atol)) = loaded.accuracy {
+    let crate::check::Integration {
+        mut method,
+        mut options,
+    } = loaded.integrator;
+    if let Some(crate::file::Accuracy { rtol, atol }) = loaded.accuracy {
         let table = tradeoff::table(loaded, tradeoff::Range::Adaptive, engine)?;
         match table.recommended {
             Some(i) => {
@@ -144,14 +148,14 @@ fn integrate_on(
             // The compiled core sees a singularity only as a failed step or a value that is
             // not finite; the interpreted evaluator checks δ and A_Γ at every evaluation and
             // names the cause, so a failed run is repeated with it for the diagnosis.
-            Ok((run, _, _)) if run.failure.is_some() && !run.stopped_by_friction() => {
+            Ok(Timed { run, .. }) if run.failure.is_some() && !run.stopped_by_friction() => {
                 log::info!(
                     "note: the compiled core stopped ({}); integrating again with the interpreted evaluator, which watches the singular set at every evaluation",
                     run.failure.as_ref().map_or("", |e| e.message())
                 );
                 (loaded.integrate(method, options)?, Engine::Interpreted)
             }
-            Ok((run, _, _)) => {
+            Ok(Timed { run, .. }) => {
                 if let Ok(core) = loaded.core() {
                     log::info!(
                         "compiled core ({} operations): {} {}",
@@ -212,7 +216,7 @@ impl Loaded {
         let run = match engine {
             Engine::Compiled => self
                 .integrate_compiled(check, &tight, 1)
-                .map(|r| r.0)
+                .map(|t| t.run)
                 .map_err(|e| self.core_error(e, "the check run failed"))?,
             Engine::Interpreted => self.integrate(check, &tight)?,
         };

@@ -13,6 +13,7 @@
 //!
 //! **Inputs**: a loaded scene ([`crate::Loaded`]). **Outputs**: a [`Table`].
 
+use crate::integrate::Timed;
 use std::time::{Duration, Instant};
 
 use hamel_model::ModelError;
@@ -96,9 +97,10 @@ fn timed(
 ) -> Result<(Solution, bool, Duration), ModelError> {
     if engine == Engine::Compiled {
         let fail = |e: crate::cache::CacheError| loaded.core_error(e, "the compiled core failed");
-        let (run, first, _) = loaded
-            .integrate_compiled(method, options, 1)
-            .map_err(fail)?;
+        let Timed {
+            run,
+            seconds: first,
+        } = (loaded.integrate_compiled(method, options, 1)).map_err(fail)?;
         if run.failure.is_some() || first > 0.01 {
             return Ok((
                 run.solution,
@@ -107,9 +109,10 @@ fn timed(
             ));
         }
         let repeat = ((0.05 / first.max(1e-7)) as usize).clamp(3, 1000);
-        let (run, median, _) = loaded
-            .integrate_compiled(method, options, repeat)
-            .map_err(fail)?;
+        let Timed {
+            run,
+            seconds: median,
+        } = (loaded.integrate_compiled(method, options, repeat)).map_err(fail)?;
         return Ok((
             run.solution,
             run.failure.is_none(),
@@ -143,10 +146,9 @@ fn measure(
     engine: Engine,
     energy: bool,
 ) -> Result<(Table, Vec<Vec<f64>>), ModelError> {
-    let (engine, _) = loaded.usable(engine);
-    let target = loaded
-        .accuracy
-        .unwrap_or((loaded.integrator.1.rtol, loaded.integrator.1.atol));
+    let engine = loaded.usable(engine).engine;
+    let options = loaded.integrator.options;
+    let target = (loaded.accuracy).map_or((options.rtol, options.atol), |a| (a.rtol, a.atol));
     let tight = |tol: f64| Options {
         rtol: tol,
         atol: tol,

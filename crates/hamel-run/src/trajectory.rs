@@ -117,10 +117,10 @@ impl Loaded {
                     let i = self
                         .state
                         .iter()
-                        .position(|&s| s == k)
+                        .position(|&s| s == k.index())
                         .expect("requested ⊆ state");
                     (
-                        d.coordinates[k].clone(),
+                        d.coordinates[k.index()].clone(),
                         solution.y.iter().map(|y| y[i]).collect(),
                     )
                 })

@@ -28,7 +28,7 @@ pub struct Checked {
     /// What the scene asks for.
     pub request: Request,
     /// The integrator and its options.
-    pub integrator: (Method, Options),
+    pub integrator: Integration,
     /// The parameter values: the model's, then the scene's, then the overrides.
     pub params: IndexMap<String, f64>,
     /// The initial configuration, every coordinate.
@@ -180,10 +180,19 @@ fn request(
     Ok(request)
 }
 
+/// An integrator and its options, checked.
+#[derive(Clone, Copy, Debug)]
+pub struct Integration {
+    /// The method.
+    pub method: Method,
+    /// Its tolerances and limits.
+    pub options: Options,
+}
+
 /// The integrator and its options: `[integrator]`, or DOP853 at the `[accuracy]` tolerances
 /// (which `hamel simulate` may replace by a faster setting that meets them), or DOP853 at
 /// rtol = 1e-10, atol = 1e-12.
-fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), ModelError> {
+fn integrator(scene: &Scene, file: &SceneFile) -> Result<Integration, ModelError> {
     let err = |key: &str, m: String| file.error(Some(key), m);
     let i = match (&scene.integrator, &scene.accuracy) {
         (Some(_), Some(_)) => {
@@ -246,7 +255,7 @@ fn integrator(scene: &Scene, file: &SceneFile) -> Result<(Method, Options), Mode
         max_steps: i.max_steps.unwrap_or(Options::default().max_steps),
         ..Options::default()
     };
-    Ok((method, options))
+    Ok(Integration { method, options })
 }
 
 /// The initial configuration: every coordinate given, except the dependent coordinates of

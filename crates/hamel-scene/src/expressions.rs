@@ -2,7 +2,7 @@
 //! parameters and η, parsed and checked against the model, then compiled with the scene's
 //! parameter values substituted exactly.
 
-use hamel_model::Model;
+use hamel_model::{Coord, Model};
 use indexmap::IndexMap;
 
 /// One of the scene's requested `[expressions]`, its parameters substituted: its name and a
@@ -27,8 +27,8 @@ pub struct ParsedExpression {
     /// Its name (its key in `[expressions]`).
     pub name: String,
     expr: hamel_expr::Expr,
-    /// The coordinates it uses (indices into the model's).
-    pub coordinates: Vec<usize>,
+    /// The coordinates it uses.
+    pub coordinates: Vec<Coord>,
 }
 
 /// Names a scene's outputs already use; an expression may not take one.
@@ -97,12 +97,9 @@ pub fn parse_expressions(
                     }
                 }
             }
-            let coordinates = (0..model.coordinates.len())
+            let coordinates = (model.coords())
                 .filter(|&k| {
-                    parsed
-                        .occurrences
-                        .iter()
-                        .any(|o| o.name == model.coordinates[k])
+                    (parsed.occurrences.iter()).any(|o| o.name == model.coordinate_name(k))
                 })
                 .collect();
             Ok(ParsedExpression {
@@ -119,7 +116,7 @@ impl ParsedExpression {
     pub fn coordinate_names(&self, coordinates: &[String]) -> Vec<String> {
         self.coordinates
             .iter()
-            .map(|&k| coordinates[k].clone())
+            .map(|&k| coordinates[k.index()].clone())
             .collect()
     }
 

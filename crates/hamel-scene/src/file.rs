@@ -117,10 +117,12 @@ pub enum Distribution {
 pub use hamel_sim::job::Save;
 
 /// `[accuracy]`: relative and absolute error wanted on the outputs.
-#[derive(Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Accuracy {
+    /// Relative error.
     pub rtol: f64,
+    /// Absolute error.
     pub atol: f64,
 }
 

@@ -4,6 +4,7 @@
 //! `[initial]` and `[parameters]`. Nothing is derived here ([`crate::ensemble`] turns members
 //! into initial states); every error names the file, the line and the column, or the key.
 
+use hamel_model::Coord;
 use std::sync::Arc;
 
 use hamel_model::{Model, ModelError};
@@ -19,8 +20,8 @@ pub const MAX_MEMBERS: usize = 10_000_000;
 /// What a member's value sets.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Target {
-    /// The initial value of coordinate k.
-    Coordinate(usize),
+    /// The initial value of a coordinate.
+    Coordinate(Coord),
     /// The initial value of η_{i+1}.
     Eta(usize),
     /// A parameter, by name.
@@ -67,7 +68,7 @@ impl Members {
 /// What a name sets in `model` (σ quasi-velocities): a coordinate, `eta1`…, or a parameter
 /// that may be set (not a derived one). Error: why it is none.
 pub fn target(name: &str, model: &Model) -> Result<Target, String> {
-    if let Some(k) = model.coordinates.iter().position(|c| c == name) {
+    if let Some(k) = model.coordinate(name) {
         return Ok(Target::Coordinate(k));
     }
     if let Some(i) = name

@@ -11,13 +11,15 @@
 //! at the output times; they keep every coordinate in the state, as the constraint residual
 //! does: their components are evaluated at the full configuration.
 
+use hamel_model::Coord;
+
 use crate::forces::ForceOutput;
 
 /// What a scene asks for (`request = [...]`; see the module doc for the default).
 #[derive(Clone, Debug)]
 pub struct Request {
-    /// Requested coordinates, by index.
-    pub coordinates: Vec<usize>,
+    /// Requested coordinates.
+    pub coordinates: Vec<Coord>,
     /// η requested.
     pub eta: bool,
     /// The energy requested.
@@ -27,7 +29,7 @@ pub struct Request {
     /// The scene's `[expressions]` requested, by index.
     pub expressions: Vec<usize>,
     /// Coordinates the requested expressions need (kept in the state, not written).
-    pub needed: Vec<usize>,
+    pub needed: Vec<Coord>,
     /// The constraint forces requested (`force.NAME.COMPONENT`, `force.NAME`), as written;
     /// checked against the model by [`crate::check`], resolved by [`crate::forces::Forces`].
     pub forces: Vec<ForceOutput>,
@@ -45,7 +47,7 @@ impl Request {
     /// residual (module doc).
     pub fn default_outputs(ell: usize, expressions: usize) -> Request {
         Request {
-            coordinates: (0..ell).collect(),
+            coordinates: (0..ell).map(Coord::new).collect(),
             eta: true,
             energy: true,
             constraint_residual: false,
@@ -77,7 +79,7 @@ impl Request {
             friction: false,
         };
         for n in names {
-            if let Some(k) = coordinates.iter().position(|c| c == n) {
+            if let Some(k) = coordinates.iter().position(|c| c == n).map(Coord::new) {
                 if !r.coordinates.contains(&k) {
                     r.coordinates.push(k);
                 }

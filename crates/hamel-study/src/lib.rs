@@ -49,5 +49,5 @@ pub use forms::{Polynomial, SecondOrder, Symbolic};
 pub use hamel_model::SteadyCheck;
 pub use linear::{Linearisation, Point, Stability, Structural, StructuralKind};
 pub use lqr::{Lqr, LqrError, Regulator, RegulatorError, lqr};
-pub use prepare::Study;
+pub use prepare::{Dropped, Study};
 pub use sweep::{Crossing, CrossingKind, Map, Range, Sweep, SweepPoint};

@@ -79,9 +79,9 @@ impl Study {
             compiled,
             eta_name: d.eta_name.clone(),
             eta: d.eta.clone(),
-            state_q: partition.state_q,
-            dependent: partition.dependent,
-            dropped: partition.dropped,
+            state_q: partition.state_q.iter().map(|k| k.index()).collect(),
+            dependent: partition.dependent.iter().map(|k| k.index()).collect(),
+            dropped: partition.dropped.iter().map(|k| k.index()).collect(),
             dropped_because: reduction.map_or(Vec::new(), |r| r.findings.clone()),
             steady_check: steady_check.unwrap_or(crate::SteadyCheck::Numeric {
                 why: "the pass made no check".into(),
@@ -128,10 +128,12 @@ impl Study {
     }
 
     /// The coordinates dropped (the equations are free of them), with the reasons.
-    pub fn dropped(&self) -> (Vec<String>, &[String]) {
+    pub fn dropped(&self) -> Dropped<'_> {
         let names = self.dropped.iter();
-        let names = names.map(|&k| self.model.coordinates[k].clone()).collect();
-        (names, &self.dropped_because)
+        Dropped {
+            coordinates: names.map(|&k| self.model.coordinates[k].clone()).collect(),
+            because: &self.dropped_because,
+        }
     }
 
     /// The kept coordinates completed from the holonomic constraints.
@@ -227,4 +229,12 @@ fn gravity(model: &Model) -> Option<String> {
         (Some(p), None) => Some(p.clone()),
         _ => None,
     }
+}
+
+/// The coordinates a study dropped, and why ([`Study::dropped`]).
+pub struct Dropped<'a> {
+    /// Their names.
+    pub coordinates: Vec<String>,
+    /// The reduction's findings that prove them absent.
+    pub because: &'a [String],
 }
