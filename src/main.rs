@@ -534,7 +534,14 @@ fn store(action: cli::StoreAction) -> Result<(), ModelError> {
                     e.name, e.model, e.choice, e.purpose, e.bytes
                 );
             }
-            text += &format!("{} stored derivations\n", entries.len());
+            let total: u64 = entries.iter().map(|e| e.bytes).sum();
+            let mb = |b: u64| b as f64 / f64::from(1 << 20);
+            text += &format!(
+                "{} stored derivations, {:.1} MiB (limit {:.0} MiB: HAMEL_STORE_MAX_MB; the least recently used go first)\n",
+                entries.len(),
+                mb(total),
+                mb(hamel_derive::store::limit())
+            );
             Output::new(None)?.write(&text)
         }
         cli::StoreAction::Clear => {

@@ -398,7 +398,7 @@ fn the_store_trusts_only_its_own_entries() {
     // hamel store ls lists both, clear empties the store
     let ls = hamel_with_cache(&["store", "ls"], None, &cache);
     let listing = String::from_utf8_lossy(&ls.stdout);
-    assert!(listing.contains("2 stored derivations"), "{listing}");
+    assert!(listing.contains("2 stored derivations, "), "{listing}");
     assert!(
         listing.contains("knife.toml") && listing.contains("choice paper"),
         "{listing}"
@@ -406,4 +406,45 @@ fn the_store_trusts_only_its_own_entries() {
     let clear = hamel_with_cache(&["store", "clear"], None, &cache);
     assert!(clear.status.success() && stderr(&clear).contains("removed 2"));
     assert!(entries().is_empty());
+    the_store_keeps_to_its_limit(&cache, &model, &states);
+}
+
+/// Over `HAMEL_STORE_MAX_MB`, entries go (the least recently used first), never the one just
+/// written.
+fn the_store_keeps_to_its_limit(cache: &Path, knife: &Path, states: &Path) {
+    let eval = |model: &Path, limit: &str| {
+        let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+        let args = [
+            "eval",
+            model.to_str().unwrap(),
+            "--state",
+            states.to_str().unwrap(),
+        ];
+        let o = hamel_command(&args, cache)
+            .env("HAMEL_STORE_MAX_MB", limit)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    let names = || -> Vec<String> {
+        let ls = hamel_with_cache(&["store", "ls"], None, cache);
+        let text = String::from_utf8_lossy(&ls.stdout).to_string();
+        assert!(text.contains("limit"), "{text}");
+        text.lines()
+            .filter(|l| l.contains(".derivation"))
+            .map(String::from)
+            .collect()
+    };
+    let knife_2 = knife.with_file_name("knife_2.toml");
+    let text = std::fs::read_to_string(knife).unwrap();
+    std::fs::write(&knife_2, text.replacen("# ", "# (a copy) ", 1)).unwrap();
+    eval(knife, "1024");
+    eval(&knife_2, "1024");
+    assert_eq!(names().len(), 2);
+    // A limit of zero at the next write: only the entry just written stays.
+    std::fs::write(&knife_2, text.replacen("# ", "# (another copy) ", 1)).unwrap();
+    eval(&knife_2, "0");
+    let left = names();
+    assert_eq!(left.len(), 1, "{left:?}");
+    assert!(left[0].contains("knife_2.toml"), "{left:?}");
 }

@@ -224,7 +224,10 @@ pub fn lookup<T: serde::de::DeserializeOwned>(key: &Key) -> Option<T> {
         .filter(|e| e.key == key.text && hamel_cache::sha256_hex(&e.bytes) == e.sha256)
         .map(|e| from_cbor::<T>(e.bytes.as_slice()));
     match sound {
-        Some(Ok(d)) => Some(d),
+        Some(Ok(d)) => {
+            used(&path);
+            Some(d)
+        }
         _ => {
             log::warn!(
                 "the stored derivation {} is corrupt or not this model's: deriving anew",
@@ -249,10 +252,71 @@ pub fn put<T: Serialize>(key: &Key, value: &T) {
         };
         let mut out = Vec::new();
         ciborium::into_writer(&entry, &mut out).map_err(|e| e.to_string())?;
-        hamel_cache::write_atomic(&dir, &key.file(), &out).map_err(|e| e.to_string())
+        hamel_cache::write_atomic(&dir, &key.file(), &out).map_err(|e| e.to_string())?;
+        prune(&dir, limit(), &key.file());
+        Ok(())
     };
     if let Err(e) = write() {
         log::warn!("the derivation is not stored: {e}");
+    }
+}
+
+/// The store's size limit when `HAMEL_STORE_MAX_MB` does not set one: 1 GiB (a bicycle's
+/// artefact is 3 to 4 MB, a knife's 20 kB).
+pub const DEFAULT_LIMIT: u64 = 1 << 30;
+
+/// The store's size limit in bytes: `HAMEL_STORE_MAX_MB` (mebibytes), else [`DEFAULT_LIMIT`].
+pub fn limit() -> u64 {
+    match std::env::var("HAMEL_STORE_MAX_MB").map(|v| v.trim().parse::<u64>()) {
+        Ok(Ok(mb)) => mb.saturating_mul(1 << 20),
+        Ok(Err(_)) => {
+            log::warn!(
+                "HAMEL_STORE_MAX_MB is not a whole number of mebibytes: the store keeps up to 1024"
+            );
+            DEFAULT_LIMIT
+        }
+        Err(_) => DEFAULT_LIMIT,
+    }
+}
+
+/// An entry was used: its time is now, so that [`prune`] removes the least recently used
+/// first. Best effort.
+fn used(path: &std::path::Path) {
+    if let Ok(f) = std::fs::File::options().append(true).open(path) {
+        let _ = f.set_modified(std::time::SystemTime::now());
+    }
+}
+
+/// Remove the least recently used entries of `dir` until the store holds at most `limit`
+/// bytes; `keep` (the entry just written) stays whatever its size.
+fn prune(dir: &std::path::Path, limit: u64, keep: &str) {
+    let Ok(read) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut entries: Vec<(std::time::SystemTime, u64, std::path::PathBuf)> = read
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".derivation"))
+        .filter_map(|e| {
+            let m = e.metadata().ok()?;
+            Some((m.modified().ok()?, m.len(), e.path()))
+        })
+        .collect();
+    let mut total: u64 = entries.iter().map(|e| e.1).sum();
+    entries.sort_by_key(|e| e.0);
+    for (_, size, path) in entries {
+        if total <= limit {
+            break;
+        }
+        if path.file_name().is_some_and(|n| n == keep) {
+            continue;
+        }
+        if std::fs::remove_file(&path).is_ok() {
+            log::debug!(
+                "derivation store over its limit: removed {}",
+                path.display()
+            );
+            total -= size;
+        }
     }
 }
 
@@ -364,4 +428,34 @@ pub fn clear() -> Result<usize, String> {
         }
     }
     Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::{Duration, SystemTime};
+
+    /// The least recently used entries go first, until the store is within its limit; the
+    /// entry just written stays whatever its size.
+    #[test]
+    fn pruning_removes_the_least_recently_used_first() {
+        let dir = std::env::temp_dir().join(format!("hamel-prune-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let now = SystemTime::now();
+        for (name, age) in [("a", 30), ("b", 10), ("c", 20), ("d", 40)] {
+            let path = dir.join(format!("{name}.derivation"));
+            std::fs::write(&path, [0u8; 100]).unwrap();
+            let f = std::fs::File::options().append(true).open(&path).unwrap();
+            f.set_modified(now - Duration::from_secs(age)).unwrap();
+        }
+        std::fs::write(dir.join("other.txt"), [0u8; 1000]).unwrap();
+        // d (oldest) is the entry just written: kept; a (next oldest) then c go.
+        super::prune(&dir, 250, "d.derivation");
+        let mut left: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["b.derivation", "d.derivation", "other.txt"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
