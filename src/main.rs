@@ -71,7 +71,10 @@ fn on_interrupt() {
 /// holds the licence's one thread only while it derives, none while it computes numbers.
 fn derive_in_worker() {
     match std::env::current_exe() {
-        Ok(exe) => hamel_reduce::pass::derive_in_worker(exe, vec!["derive-worker".into()]),
+        Ok(exe) => {
+            hamel_reduce::pass::derive_in_worker(exe.clone(), vec!["derive-worker".into()]);
+            hamel_reduce::supervised::search_in_worker(exe, vec!["search-worker".into()]);
+        }
         Err(e) => log::warn!("deriving in this process (the program's path is unknown: {e})"),
     }
 }

@@ -229,8 +229,8 @@ pub fn obtain(job: &Job, fresh: bool) -> Result<Artefact, ReduceError> {
     if !fresh && let Some(a) = store::lookup::<Artefact>(&key) {
         return Ok(a);
     }
-    // A process that has started the computer algebra already (an `eta = "auto"` scene's
-    // search) holds the thread: the pass runs here then.
+    // A process that has started the computer algebra already (a library caller that ran a
+    // search or a derivation here) holds the thread: the pass runs here then.
     let artefact = match WORKER.get() {
         Some(w) if !hamel_cas::started() => in_worker(w, job)?,
         _ => make(job)?,

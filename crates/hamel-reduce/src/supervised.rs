@@ -70,6 +70,47 @@ pub struct Job<'a> {
     pub started: Instant,
 }
 
+/// The worker program and its arguments, once named ([`search_in_worker`]).
+static WORKER: std::sync::OnceLock<(std::path::PathBuf, Vec<String>)> = std::sync::OnceLock::new();
+
+/// From now on, [`run_search`] searches in a worker process: `program` with `args`, then the
+/// job's (`hamel` calls itself as `hamel search-worker`). Set once; later calls are ignored.
+pub fn search_in_worker(program: std::path::PathBuf, args: Vec<String>) {
+    let _ = WORKER.set((program, args));
+}
+
+/// A search of `model` (loaded from `model_path`) within `options.budget`, for a library
+/// caller such as a scene's `eta = "auto"`: in the worker process named by
+/// [`search_in_worker`] unless this process has started the computer algebra already (the
+/// licence's thread is then the worker's, given back when it ends, and the budget is a wall),
+/// else here ([`crate::search`]).
+pub fn run_search(
+    model_path: &Path,
+    model: &Model,
+    eliminate: &[String],
+    options: crate::SearchOptions,
+) -> Result<SearchReport, ReduceError> {
+    let Some((program, args)) = WORKER.get().filter(|_| !hamel_cas::started()) else {
+        return crate::search(model, eliminate, options, Box::new(|_| {}));
+    };
+    let job = Job {
+        model_path,
+        model,
+        eliminate,
+        budget: options.budget,
+        max: options.max_candidates,
+        started: Instant::now(),
+    };
+    let mut worker = Command::new(program);
+    worker.args(args);
+    match supervise(&job, worker, |_| {})? {
+        Outcome::Report(r) => Ok(*r),
+        Outcome::Failed(code) => Err(ReduceError::SearchWorker(format!(
+            "the search worker failed (exit status {code}; its error is above)"
+        ))),
+    }
+}
+
 /// Run the search of `job` in a worker process (`worker`, to which the job's arguments are
 /// added), within its budget of its start; `on_event` sees every event (for a progress bar).
 pub fn supervise(

@@ -9,6 +9,7 @@ use hamel_model::{Model, ModelError};
 pub(crate) fn auto_choice(
     model: Model,
     request: Option<&[String]>,
+    fresh: bool,
 ) -> Result<(Model, String), ModelError> {
     let first = model.choice(None)?.name.clone();
     let eliminate: Vec<String> = match request {
@@ -26,16 +27,13 @@ pub(crate) fn auto_choice(
         );
         return Ok((model, first));
     }
-    let report = hamel_reduce::search(
-        &model,
-        &eliminate,
-        hamel_reduce::SearchOptions {
-            budget: std::time::Duration::from_secs(20),
-            max_candidates: 10,
-        },
-        Box::new(|_| {}),
-    )
-    .map_err(|e| e.locate(&model))?;
+    let options = hamel_reduce::SearchOptions {
+        budget: std::time::Duration::from_secs(20),
+        max_candidates: 10,
+    };
+    let path = std::path::Path::new(&model.file);
+    let report = hamel_reduce::supervised::run_search(path, &model, &eliminate, options)
+        .map_err(|e| e.locate(&model))?;
     // Candidates without free functions, in the search's order (simplest first); the first
     // whose map [Z; α] is regular everywhere wins, else the first.
     let usable: Vec<(Model, String, bool)> = report
@@ -45,7 +43,7 @@ pub(crate) fn auto_choice(
         .filter_map(|c| {
             let text = format!("{}\n{}\n", model.source, c.toml);
             let m = Model::from_source(&model.file, &text).ok()?;
-            let d = hamel_derive::derive(&m, Some(&c.name)).ok()?;
+            let d = derive(&m, &c.name, fresh).ok()?;
             let regular = d.closed().is_some_and(|c| c.singular_set.is_empty());
             Some((m, c.name.clone(), regular))
         })
@@ -75,4 +73,16 @@ pub(crate) fn auto_choice(
             Ok((model, first))
         }
     }
+}
+
+/// A candidate's derivation, through the one pass and the store (made in the deriving worker
+/// when the caller named one).
+fn derive(
+    model: &Model,
+    choice: &str,
+    fresh: bool,
+) -> Result<hamel_derive::Derivation, hamel_reduce::ReduceError> {
+    use hamel_reduce::pass::{Analysis, Job, obtain};
+    let job = Job::new(model, Some(choice), Analysis::Equations)?;
+    obtain(&job, fresh)?.into_derivation()
 }

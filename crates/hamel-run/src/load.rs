@@ -100,7 +100,7 @@ pub fn load_with_options(
     let err = |key: &str, m: String| file.error(Some(key), m);
     let tables = crate::inputs::tables(&scene, dir).map_err(|(k, m)| err(&k, m))?;
     let live = crate::inputs::live(&model, &tables);
-    let (model, choice) = choose(model, &scene, &parsed, &file)?;
+    let (model, choice) = choose(model, &scene, &parsed, &file, fresh)?;
     let Derived {
         model,
         mut plan,
@@ -254,6 +254,7 @@ fn choose(
     scene: &Scene,
     parsed: &[ParsedExpression],
     file: &SceneFile,
+    fresh: bool,
 ) -> Result<(Model, String), ModelError> {
     if scene.eta.as_deref() != Some("auto") {
         let chosen = model.choice(scene.eta.as_deref())?;
@@ -277,7 +278,7 @@ fn choose(
         }
         v
     });
-    crate::auto::auto_choice(model, auto_request.as_deref())
+    crate::auto::auto_choice(model, auto_request.as_deref(), fresh)
 }
 
 /// The value at which the dropped coordinates are held, where the equations evaluate at the
