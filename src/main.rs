@@ -39,10 +39,15 @@ fn main() -> ExitCode {
     messages::init();
     on_interrupt();
     let cli = Cli::parse();
-    if !matches!(
+    if matches!(
         cli.command,
         Command::DeriveWorker { .. } | Command::SearchWorker { .. }
     ) {
+        // A worker shares the caller's stdout: when its reader has gone, the worker ends
+        // quietly (as a shell's tools do) instead of failing in the middle of a print.
+        // SAFETY: setting a signal's disposition before any thread is started.
+        unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
+    } else {
         derive_in_worker();
     }
     match run(cli.command, cli.no_store) {

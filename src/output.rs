@@ -44,10 +44,17 @@ impl Output {
         match &self.0 {
             None => {
                 let mut stdout = std::io::stdout().lock();
-                stdout
+                let written = stdout
                     .write_all(text.as_bytes())
-                    .and_then(|_| stdout.flush())
-                    .map_err(|e| io_error(std::path::Path::new("<stdout>"), "cannot write", e))
+                    .and_then(|_| stdout.flush());
+                match written {
+                    // The reader has gone (`hamel … | head`): stop quietly, as a shell's tools
+                    // do, with the status of a process ended by SIGPIPE.
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::exit(141),
+                    w => {
+                        w.map_err(|e| io_error(std::path::Path::new("<stdout>"), "cannot write", e))
+                    }
+                }
             }
             Some(p) => hamel_model::files::write_whole(p, text.as_bytes())
                 .map_err(|e| io_error(p, "cannot write the output", e)),

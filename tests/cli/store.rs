@@ -448,3 +448,40 @@ fn the_store_keeps_to_its_limit(cache: &Path, knife: &Path, states: &Path) {
     assert_eq!(left.len(), 1, "{left:?}");
     assert!(left[0].contains("knife_2.toml"), "{left:?}");
 }
+
+/// `hamel eval … | head -c 1`: when the reader of stdout has gone before the deriving worker
+/// prints the computer algebra's notice, the worker ends quietly and the command says why
+/// (exit 1): no panic, no backtrace.
+#[test]
+fn a_closed_output_ends_the_deriving_worker_quietly() {
+    let dir = scratch("store_closed_output");
+    let cache = own_cache(&dir);
+    let states = dir.join("s.json");
+    std::fs::write(
+        &states,
+        r#"{"q": {"x": 0.1, "y": 0.2, "theta": 0.3}, "eta": [1.0, 0.5]}"#,
+    )
+    .unwrap();
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let args = [
+        "eval",
+        "models/knife.toml",
+        "--state",
+        states.to_str().unwrap(),
+    ];
+    let mut child = start(&args, &cache);
+    drop(child.stdout.take()); // the reader has gone
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        status.code() == Some(1) && err.contains("the output was closed"),
+        "{status:?}: {err}"
+    );
+}

@@ -71,6 +71,15 @@ pub enum WorkerFailure {
         /// Its exit status, as the system says it.
         status: String,
     },
+    /// It was ended by a write to an output that was closed (its stdout, shared with the
+    /// caller's: the reader of a pipe, such as `head`, ended early).
+    #[error(
+        "it ended ({status}): the output was closed before the computer algebra's notice could be written (a pipe's reader ended)"
+    )]
+    OutputClosed {
+        /// Its exit status.
+        status: String,
+    },
     /// It aborted as the computer algebra does when another process holds its licence's one
     /// thread.
     #[error(

@@ -286,9 +286,10 @@ fn in_worker(w: &Worker, job: &Job) -> Result<Artefact, ReduceError> {
 fn ended_without_result(status: std::process::ExitStatus) -> WorkerFailure {
     use std::os::unix::process::ExitStatusExt;
     let text = status.to_string();
-    match status.signal() == Some(libc::SIGABRT) {
-        true => WorkerFailure::LicenceHeld { status: text },
-        false => WorkerFailure::NoResult { status: text },
+    match status.signal() {
+        Some(libc::SIGABRT) => WorkerFailure::LicenceHeld { status: text },
+        Some(libc::SIGPIPE) => WorkerFailure::OutputClosed { status: text },
+        _ => WorkerFailure::NoResult { status: text },
     }
 }
 
