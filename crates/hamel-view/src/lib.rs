@@ -8,7 +8,13 @@
 //! (reproducibly: same bytes); `assets/three/PIN` records the versions and the bundle's
 //! SHA-256, which the tests check.
 //!
-//! **Invariants**: no network at view time; the bundle is exactly the pinned one.
+//! [`poses`] places every frame of a mechanism in the world at a configuration (position and
+//! unit quaternion) from the frames' own expressions, without computer algebra.
+//!
+//! **Invariants**: no network at view time; the bundle is exactly the pinned one; poses are
+//! the frames' definitions evaluated, checked against the ground contact of every wheel.
+
+pub mod poses;
 
 /// three.js (core and orbit controls) as one minified classic script setting `window.THREE`.
 pub const THREE_JS: &str = include_str!("../assets/three/three.bundle.min.js");
