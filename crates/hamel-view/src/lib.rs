@@ -9,12 +9,14 @@
 //! SHA-256, which the tests check.
 //!
 //! [`poses`] places every frame of a mechanism in the world at a configuration (position and
-//! unit quaternion) from the frames' own expressions, without computer algebra.
+//! unit quaternion) from the frames' own expressions, without computer algebra; [`shapes`]
+//! gives a body without a shape the box or ellipsoid of its inertia.
 //!
 //! **Invariants**: no network at view time; the bundle is exactly the pinned one; poses are
 //! the frames' definitions evaluated, checked against the ground contact of every wheel.
 
 pub mod poses;
+pub mod shapes;
 
 /// three.js (core and orbit controls) as one minified classic script setting `window.THREE`.
 pub const THREE_JS: &str = include_str!("../assets/three/three.bundle.min.js");
