@@ -78,7 +78,7 @@ pub(crate) fn build(m: &Mechanism) -> Result<Tree, BodiesError> {
 }
 
 /// The frames, each after its parent; errors for unknown parents, duplicates and cycles.
-fn order(frames: &[Frame]) -> Result<Vec<&Frame>, BodiesError> {
+pub fn order(frames: &[Frame]) -> Result<Vec<&Frame>, BodiesError> {
     let by_name: IndexMap<&str, &Frame> = frames.iter().map(|f| (f.name.as_str(), f)).collect();
     for (i, f) in frames.iter().enumerate() {
         let place = Place::new(Section::Frames, &f.name, "parent");

@@ -40,6 +40,7 @@ pub mod vector;
 pub use contact::Row;
 pub use error::{BodiesError, Place, Problem, Section};
 pub use expand::{Expansion, HolonomicConstraint, HolonomicRows, expand, holonomic_rows, supports};
+pub use frames::order as frames_in_order;
 pub use mechanism::{
     Anchor, Axis, Blade, Body, Damper, Direction, Frame, Holonomic, Inertia, Load, LoadKind,
     Mechanism, Rotation, Spring, Stretch, WORLD, Wheel, World,
