@@ -613,6 +613,10 @@ fn merge_parts(
     }
     blocks.sort_by_key(|(_, h, _)| h.first);
     let mut next = 0;
+    // Every part of one job has the job's state and save; the threads and seconds add up.
+    let (state, save) = (blocks.first()).map_or((Vec::new(), Save::default()), |(_, h, _)| {
+        (h.state.clone(), h.save)
+    });
     let mut merged = PartHeader {
         hamel_ensemble_part: PART_FORMAT,
         threads: 0,
@@ -621,8 +625,8 @@ fn merge_parts(
         job: job.to_string(),
         first: 0,
         end: total,
-        state: Vec::new(),
-        save: Default::default(),
+        state,
+        save,
     };
     let mut answers = Vec::with_capacity(total);
     for (name, h, a) in blocks {
