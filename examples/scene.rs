@@ -37,6 +37,7 @@ fn main() -> Result<(), ModelError> {
     let hamel_run::simulate::Simulated {
         trajectory,
         failure,
+        ..
     } = hamel_run::simulate::run_loaded(&loaded, Engine::Interpreted, false)?;
     if let Some(e) = failure {
         return Err(e);

@@ -182,35 +182,7 @@ pub enum Command {
     },
     /// Integrate a scene (model, quasi-velocities, parameters, initial state, integrator) and
     /// write the trajectory; a one-line summary goes to stderr.
-    Simulate {
-        /// The scene file (TOML); its `model` path is relative to it.
-        scene: PathBuf,
-        /// Output format.
-        #[arg(long, value_enum, default_value = "csv")]
-        format: TrajectoryFormat,
-        /// Write the trajectory to this file instead of stdout.
-        #[arg(long)]
-        output: Option<PathBuf>,
-        /// Also draw the coordinates and quasi-velocities against time (FILE.svg or FILE.png).
-        #[arg(long)]
-        plot: Option<PathBuf>,
-        /// `compiled`: the scene's generated core, specialised for its parameters, built with
-        /// cargo on first use and cached (falls back to `interpreted`, with a warning, when it
-        /// cannot be built); `interpreted`: the structured evaluator, nothing compiled.
-        #[arg(long, value_enum, default_value = "compiled")]
-        engine: EngineArg,
-        /// Estimate the global error on the requested outputs with a check run (1/1000 of the
-        /// tolerances, or half the step) and report it (stderr, and `stats.error_estimate`).
-        /// Done without asking when a tolerance is loose (≥ 1e-3).
-        #[arg(long)]
-        estimate_error: bool,
-        /// Set a parameter or input (repeatable), on top of the scene's `[parameters]`;
-        /// derived parameters are evaluated again from it.
-        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
-        set: Vec<(String, f64)>,
-        #[command(flatten)]
-        ensemble: EnsembleArgs,
-    },
+    Simulate(SimulateArgs),
     /// Plan a scene: from the outputs it requests, which coordinates are integrated,
     /// reconstructed or dropped, and the operation count of the right-hand side (all decided
     /// exactly).
@@ -369,6 +341,44 @@ pub struct BenchArgs {
     pub output: Option<PathBuf>,
 }
 
+/// The options of `hamel simulate`.
+#[derive(Args)]
+pub struct SimulateArgs {
+    /// The scene file (TOML); its `model` path is relative to it.
+    pub scene: PathBuf,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: TrajectoryFormat,
+    /// Write the trajectory to this file instead of stdout.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+    /// Also draw the coordinates and quasi-velocities against time (FILE.svg or FILE.png).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Also write the run as an animated 3D page (FILE.html, self-contained, opens offline):
+    /// the bodies, wheels and blades posed at every output time, the contacts' tracks, the
+    /// requested outputs plotted, requested contact forces as arrows. Every coordinate is
+    /// integrated for it.
+    #[arg(long, value_name = "FILE.html")]
+    pub animate: Option<PathBuf>,
+    /// `compiled`: the scene's generated core, specialised for its parameters, built with
+    /// cargo on first use and cached (falls back to `interpreted`, with a warning, when it
+    /// cannot be built); `interpreted`: the structured evaluator, nothing compiled.
+    #[arg(long, value_enum, default_value = "compiled")]
+    pub engine: EngineArg,
+    /// Estimate the global error on the requested outputs with a check run (1/1000 of the
+    /// tolerances, or half the step) and report it (stderr, and `stats.error_estimate`).
+    /// Done without asking when a tolerance is loose (≥ 1e-3).
+    #[arg(long)]
+    pub estimate_error: bool,
+    /// Set a parameter or input (repeatable), on top of the scene's `[parameters]`;
+    /// derived parameters are evaluated again from it.
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    pub set: Vec<(String, f64)>,
+    #[command(flatten)]
+    pub ensemble: EnsembleArgs,
+}
+
 /// The options of `hamel linearize`.
 #[derive(Args)]
 pub struct LinearizeArgs {
@@ -463,6 +473,15 @@ pub struct EnsembleArgs {
     /// into one result.
     #[arg(long, value_name = "PART", num_args = 1.., conflicts_with = "shard")]
     pub merge: Vec<PathBuf>,
+    /// Ensembles: the members `--animate` shows, side by side or overlaid (default: the first
+    /// four); they are run again, every output time kept.
+    #[arg(
+        long,
+        value_name = "I,J,…",
+        value_delimiter = ',',
+        requires = "animate"
+    )]
+    pub animate_members: Vec<usize>,
 }
 
 /// `--min-time`: seconds, from 0 to 600 (a bound on how long one model and choice is timed).

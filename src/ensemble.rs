@@ -27,10 +27,11 @@ fn usage(scene: &Path, message: String) -> ModelError {
 
 /// Refuse the ensemble options for a scene without `[ensemble]`.
 pub fn refuse_options(scene: &Path, args: &EnsembleArgs) -> Result<(), ModelError> {
-    if args.shard.is_some() || args.export_ensemble.is_some() || !args.merge.is_empty() {
+    let given = args.shard.is_some() || args.export_ensemble.is_some() || !args.merge.is_empty();
+    if given || !args.animate_members.is_empty() {
         return Err(usage(
             scene,
-            "--shard, --export-ensemble and --merge are for a scene with [ensemble]".into(),
+            "--shard, --export-ensemble, --merge and --animate-members are for a scene with [ensemble]".into(),
         ));
     }
     Ok(())
@@ -60,14 +61,24 @@ pub fn refuse_single(
     }
 }
 
-/// Run, export or merge the scene's ensemble and write one result (CSV or JSON lines).
+/// Run, export or merge the scene's ensemble and write one result (CSV or JSON lines); with
+/// `animate`, the page of the chosen members too.
 pub fn simulate(
     loaded: &Loaded,
     members: &Members,
     args: &EnsembleArgs,
     format: TrajectoryFormat,
     out: Output,
+    animate: Option<&Path>,
 ) -> Result<(), ModelError> {
+    if let (Some(page), Some(_)) = (animate, &args.export_ensemble) {
+        let msg = "--animate with --export-ensemble: the members are not run here; animate the scene after merging";
+        return Err(usage(page, msg.into()));
+    }
+    // The members shown are checked before anything runs.
+    let chosen = animate
+        .map(|_| hamel_run::animate::chosen_members(loaded, members, &args.animate_members))
+        .transpose()?;
     if let Some(dir) = &args.export_ensemble {
         let n = loaded.export_ensemble(members, dir)?;
         eprintln!("{}", export_note(dir, n));
@@ -83,6 +94,11 @@ pub fn simulate(
         TrajectoryFormat::Json => run.to_json_lines(),
     })?;
     eprintln!("{}", run.summary());
+    if let (Some(page), Some(chosen)) = (animate, chosen) {
+        let shown = loaded.run_ensemble(&chosen.members, Settings::default(), &|_, _| {})?;
+        let html = hamel_run::animate::ensemble_animation(loaded, &shown, &chosen)?.html();
+        hamel_run::animate::write(page, &html)?;
+    }
     Ok(())
 }
 

@@ -115,37 +115,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             format,
             Output::new(output)?,
         ),
-        Command::Simulate {
-            scene,
-            format,
-            output,
-            plot,
-            engine,
-            estimate_error,
-            set,
-            ensemble: ens,
-        } => {
-            let out = Output::new(output)?;
-            let set: IndexMap<String, f64> = set.into_iter().collect();
-            let loaded = progress::while_deriving("deriving", || {
-                hamel_run::load_with_options(&scene, &set, no_store)
-            })?;
-            if let Some(members) = loaded.members()? {
-                let interpreted = matches!(engine, cli::EngineArg::Interpreted);
-                ensemble::refuse_single(&scene, plot.is_some(), estimate_error, interpreted)?;
-                return ensemble::simulate(&loaded, &members, &ens, format, out);
-            }
-            ensemble::refuse_options(&scene, &ens)?;
-            hamel_run::plot::check(plot.as_deref())?;
-            simulate(
-                loaded,
-                format,
-                out,
-                plot.as_deref(),
-                engine.into(),
-                estimate_error,
-            )
-        }
+        Command::Simulate(args) => simulate_command(args, no_store),
         Command::Plan {
             scene,
             format,
@@ -154,7 +124,11 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             set,
         } => {
             let set = set.into_iter().collect();
-            let loaded = hamel_run::load_with_options(&scene, &set, no_store)?;
+            let options = hamel_run::LoadOptions {
+                fresh: no_store,
+                ..Default::default()
+            };
+            let loaded = hamel_run::load_with_options(&scene, &set, options)?;
             plan(&loaded, format, Output::new(output)?, measure)
         }
         Command::Tradeoff {
@@ -167,7 +141,11 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             set,
         } => {
             let set = set.into_iter().collect();
-            let mut loaded = hamel_run::load_with_options(&scene, &set, no_store)?;
+            let options = hamel_run::LoadOptions {
+                fresh: no_store,
+                ..Default::default()
+            };
+            let mut loaded = hamel_run::load_with_options(&scene, &set, options)?;
             match export_python {
                 Some(file) => export_tradeoff(&mut loaded, Output::new(Some(file))?, engine.into()),
                 None => {
@@ -359,28 +337,83 @@ fn reduce(
     })
 }
 
+/// The figures `hamel simulate` draws beside the trajectory.
+struct Figures<'a> {
+    /// `--plot FILE.svg|png`.
+    plot: Option<&'a Path>,
+    /// `--animate FILE.html`.
+    animate: Option<&'a Path>,
+}
+
+/// `hamel simulate`: a single run or an ensemble, with its figures.
+fn simulate_command(args: cli::SimulateArgs, no_store: bool) -> Result<(), ModelError> {
+    let cli::SimulateArgs {
+        scene,
+        format,
+        output,
+        plot,
+        animate,
+        engine,
+        estimate_error,
+        set,
+        ensemble: ens,
+    } = args;
+    let out = Output::new(output)?;
+    if let Some(page) = &animate {
+        hamel_run::animate::check(page)?;
+    }
+    let set: IndexMap<String, f64> = set.into_iter().collect();
+    let options = hamel_run::LoadOptions {
+        fresh: no_store,
+        every_coordinate: animate.is_some(),
+    };
+    let loaded = progress::while_deriving("deriving", || {
+        hamel_run::load_with_options(&scene, &set, options)
+    })?;
+    if let Some(members) = loaded.members()? {
+        let interpreted = matches!(engine, cli::EngineArg::Interpreted);
+        ensemble::refuse_single(&scene, plot.is_some(), estimate_error, interpreted)?;
+        return ensemble::simulate(&loaded, &members, &ens, format, out, animate.as_deref());
+    }
+    ensemble::refuse_options(&scene, &ens)?;
+    hamel_run::plot::check(plot.as_deref())?;
+    simulate(
+        loaded,
+        format,
+        out,
+        Figures {
+            plot: plot.as_deref(),
+            animate: animate.as_deref(),
+        },
+        engine.into(),
+        estimate_error,
+    )
+}
+
 fn simulate(
     loaded: hamel_run::Loaded,
     format: TrajectoryFormat,
     out: Output,
-    plot: Option<&Path>,
+    figures: Figures,
     engine: hamel_run::Engine,
     estimate_error: bool,
 ) -> Result<(), ModelError> {
-    let hamel_run::simulate::Simulated {
-        trajectory: traj,
-        failure,
-    } = hamel_run::simulate::run_loaded(&loaded, engine, estimate_error)?;
+    let run = hamel_run::simulate::run_loaded(&loaded, engine, estimate_error)?;
+    let traj = &run.trajectory;
     // A failure during the integration keeps what was computed, marked incomplete.
     out.write(&match format {
         TrajectoryFormat::Csv => traj.to_csv(),
-        TrajectoryFormat::Json => json(&traj),
+        TrajectoryFormat::Json => json(traj),
     })?;
-    if let Some(p) = plot {
-        hamel_run::plot::write(p, &traj)?;
+    if let Some(p) = figures.plot {
+        hamel_run::plot::write(p, traj)?;
+    }
+    if let Some(p) = figures.animate {
+        let page = hamel_run::animate::animation(&loaded, &run)?.html();
+        hamel_run::animate::write(p, &page)?;
     }
     eprintln!("{}", traj.summary());
-    failure.map_or(Ok(()), Err)
+    run.failure.map_or(Ok(()), Err)
 }
 
 fn plan(

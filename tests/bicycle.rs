@@ -322,6 +322,7 @@ fn run(path: &std::path::Path) -> hamel_run::Trajectory {
     let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
+        ..
     } = hamel_run::simulate::run(path, hamel_run::Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none() && t.complete, "{failure:?}");

@@ -10,6 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::Mutex;
 
+#[path = "cli/animate.rs"]
+mod animate;
 #[path = "cli/bench.rs"]
 mod bench;
 #[path = "cli/cache.rs"]

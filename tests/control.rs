@@ -45,6 +45,7 @@ fn run(scene: &Path) -> Trajectory {
     let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
+        ..
     } = hamel_run::simulate::run(scene, Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none() && t.complete, "{}", scene.display());
@@ -260,6 +261,7 @@ fn a_gain_is_a_parameter() {
     let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
+        ..
     } = hamel_run::simulate::run_with(&scene, &weak, Engine::Interpreted, false).unwrap();
     assert!(failure.is_none());
     let lean = max_after(&base, &base.q["theta"], 0.0);

@@ -96,6 +96,7 @@ fn the_energy_balance_holds_along_a_simulation() {
     let hamel_run::simulate::Simulated {
         trajectory: t,
         failure,
+        ..
     } = hamel_run::simulate::run(&scene, engine, false).unwrap();
     assert!(failure.is_none() && t.complete);
     let energy: Vec<f64> = t

@@ -245,7 +245,8 @@ fn no_command_panics_on_a_bundled_model_or_choice() {
 }
 
 /// A copy of the scene at `path` in `dir`, its model named by absolute path, run for at most
-/// `t_end` seconds over a few outputs, an ensemble cut to a few members.
+/// `t_end` seconds over a few outputs, an ensemble cut to a few members (its members file
+/// named by absolute path).
 pub(crate) fn short_scene(path: &Path, dir: &Path, t_end: f64) -> PathBuf {
     let mut scene: toml::Table = std::fs::read_to_string(path).unwrap().parse().unwrap();
     let model = path
@@ -256,10 +257,14 @@ pub(crate) fn short_scene(path: &Path, dir: &Path, t_end: f64) -> PathBuf {
     let end = scene["t_end"].as_float().unwrap_or(t_end).min(t_end);
     scene.insert("t_end".into(), end.into());
     scene.insert("outputs".into(), 11.into());
-    if let Some(toml::Value::Table(e)) = scene.get_mut("ensemble")
-        && e.contains_key("members")
-    {
-        e.insert("members".into(), 8.into());
+    if let Some(toml::Value::Table(e)) = scene.get_mut("ensemble") {
+        if e.contains_key("members") {
+            e.insert("members".into(), 8.into());
+        }
+        if let Some(file) = e.get("file").and_then(|f| f.as_str()) {
+            let file = path.parent().unwrap().join(file);
+            e.insert("file".into(), file.to_string_lossy().into_owned().into());
+        }
     }
     let copy = dir.join(path.file_name().unwrap());
     std::fs::write(&copy, toml::to_string(&scene).unwrap()).unwrap();

@@ -42,8 +42,8 @@ pub use error::{BodiesError, Place, Problem, Section};
 pub use expand::{Expansion, HolonomicConstraint, HolonomicRows, expand, holonomic_rows, supports};
 pub use frames::order as frames_in_order;
 pub use mechanism::{
-    Anchor, Axis, Blade, Body, Damper, Direction, Frame, Holonomic, Inertia, Load, LoadKind,
-    Mechanism, Rotation, Spring, Stretch, WORLD, Wheel, World,
+    Anchor, Axis, Blade, Body, Damper, Direction, Frame, Geometry, Holonomic, Inertia, Load,
+    LoadKind, Mechanism, Rotation, Shape, Spring, Stretch, WORLD, Wheel, World,
 };
 pub use numeric::{Completion, CompletionError, Point};
 pub use reactions::{Contact, ContactForces, ContactKind, Normal, Support, WheelForce};

@@ -267,6 +267,51 @@ pub struct Mechanism {
     pub springs: Vec<Spring>,
     /// Dampers (they enter F).
     pub dampers: Vec<Damper>,
+    /// Shapes to draw (`[shapes.NAME]`): what an animated page shows of the frames; no
+    /// effect on the dynamics.
+    #[serde(default)]
+    pub shapes: Vec<Shape>,
+}
+
+/// A solid drawn on a frame (`[shapes.NAME]`, issue 60). It stands in, on an animated page,
+/// for the bodies of its frame, which are otherwise drawn as the solids of their inertia; it
+/// has no mass and no effect on the dynamics.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
+pub struct Shape {
+    /// Its name.
+    pub name: String,
+    /// The frame it moves with (`world` for scenery).
+    pub frame: String,
+    /// Its centre, in the frame's axes.
+    pub centre: V3,
+    /// What it is, and its sizes (expressions of the parameters).
+    pub geometry: Geometry,
+    /// Its colour as red, green, blue; None: the page's palette.
+    pub colour: Option<[u8; 3]>,
+}
+
+/// A shape's solid.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
+pub enum Geometry {
+    /// A box with these side lengths along the frame's axes.
+    Box {
+        /// Full side lengths (x, y, z).
+        size: V3,
+    },
+    /// A circular cylinder about a frame axis, centred on the shape's centre.
+    Cylinder {
+        /// Its radius.
+        radius: Expr,
+        /// Its length along the axis.
+        length: Expr,
+        /// Its axis.
+        axis: Axis,
+    },
+    /// A sphere.
+    Sphere {
+        /// Its radius.
+        radius: Expr,
+    },
 }
 
 /// The name of the fixed frame.

@@ -249,6 +249,7 @@ fn mechanism(
         loads: Vec::new(),
         springs: Vec::new(),
         dampers: Vec::new(),
+        shapes: Vec::new(),
     };
     for (name, b) in &raw.bodies {
         m.bodies.push(body(loader, sites, name, b)?);
@@ -295,6 +296,8 @@ fn mechanism(
             damping: scalar(loader, &raw.damping, &format!("{key}.damping"))?,
         });
     }
+    let names: Vec<String> = m.frames.iter().map(|f| f.name.clone()).collect();
+    m.shapes = crate::shapes::shapes(&raw.shapes, &names, loader, err)?;
     Ok(m)
 }
 
@@ -398,7 +401,11 @@ fn load(
 }
 
 /// One scalar expression of the configuration.
-fn scalar(loader: &mut Loader, v: &Spanned<RawScalar>, key: &str) -> Result<Expr, ModelError> {
+pub(crate) fn scalar(
+    loader: &mut Loader,
+    v: &Spanned<RawScalar>,
+    key: &str,
+) -> Result<Expr, ModelError> {
     scalar_of(loader, v, key, FieldKind::Positional)
 }
 
@@ -413,7 +420,11 @@ fn scalar_of(
 }
 
 /// Three scalars of the configuration (zero when absent).
-fn vector(loader: &mut Loader, v: Option<&RawVector>, key: &str) -> Result<[Expr; 3], ModelError> {
+pub(crate) fn vector(
+    loader: &mut Loader,
+    v: Option<&RawVector>,
+    key: &str,
+) -> Result<[Expr; 3], ModelError> {
     vector_of(loader, v, key, FieldKind::Positional)
 }
 

@@ -29,6 +29,7 @@ mod numeric;
 mod parameters;
 mod rank;
 mod schema;
+mod shapes;
 pub mod states;
 mod steady;
 mod symmetry;

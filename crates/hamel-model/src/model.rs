@@ -546,6 +546,10 @@ fn lagrangian_dynamics(
             "loads act on frames: a model typed by hand gives its generalised forces in [forces]";
         return Err(err(l.span(), &format!("loads.{name}"), msg.into()));
     }
+    if let Some((name, s)) = raw.shapes.first() {
+        let msg = "shapes are drawn on frames: a model typed by hand has none (describe it by bodies and frames to draw it)";
+        return Err(err(s.span(), &format!("shapes.{name}"), msg.into()));
+    }
     Ok(Dynamics {
         kinetic,
         potential,

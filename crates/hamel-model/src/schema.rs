@@ -43,6 +43,9 @@ pub(crate) struct RawModel {
     pub springs: IndexMap<String, Spanned<RawSpring>>,
     #[serde(default)]
     pub dampers: IndexMap<String, Spanned<RawDamper>>,
+    /// Shapes to draw on frames (animated pages only).
+    #[serde(default)]
+    pub shapes: IndexMap<String, Spanned<RawShape>>,
     #[serde(default)]
     pub quasi_velocities: IndexMap<String, Spanned<RawChoice>>,
     #[serde(default)]
@@ -172,6 +175,30 @@ pub(crate) struct RawWheel {
     pub axis: Spanned<RawDirection>,
     pub radius: Spanned<RawScalar>,
     pub dependent: Option<Spanned<String>>,
+}
+
+/// `[shapes.NAME]`: exactly one of `box`, `cylinder`, `sphere`, on a frame.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawShape {
+    pub frame: Spanned<String>,
+    /// Side lengths along the frame's axes.
+    #[serde(rename = "box")]
+    pub cuboid: Option<RawVector>,
+    pub cylinder: Option<Spanned<RawCylinder>>,
+    /// The radius.
+    pub sphere: Option<Spanned<RawScalar>>,
+    pub centre: Option<RawVector>,
+    pub colour: Option<Spanned<String>>,
+}
+
+/// A shape's `cylinder = { radius = …, length = …, axis = "z" }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawCylinder {
+    pub radius: Spanned<RawScalar>,
+    pub length: Spanned<RawScalar>,
+    pub axis: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]

@@ -105,6 +105,10 @@ pub struct MemberResult {
     /// Why it stopped early or could not start.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// Every coordinate at each saved time, when the state holds them all (a scene loaded
+    /// with [`crate::LoadOptions::every_coordinate`]); not written.
+    #[serde(skip)]
+    pub configurations: Option<Vec<Vec<f64>>>,
 }
 
 /// An ensemble's results: the header and the members in order.
@@ -498,6 +502,16 @@ impl Loaded {
             rhs_evals: s.stats.rhs_evals,
             energy_drift: s.stats.energy_drift,
             error,
+            configurations: (n == self.d.ell).then(|| match save {
+                Save::Final => {
+                    s.y.iter()
+                        .last()
+                        .map(|y| self.full_q(y))
+                        .into_iter()
+                        .collect()
+                }
+                Save::Outputs => s.y.iter().map(|y| self.full_q(y)).collect(),
+            }),
         }
     }
 }
@@ -538,6 +552,7 @@ fn failed_to_start(member: usize, why: &str) -> MemberResult {
         rhs_evals: 0,
         energy_drift: None,
         error: Some(format!("cannot start: {why}")),
+        configurations: None,
     }
 }
 

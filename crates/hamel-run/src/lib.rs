@@ -23,12 +23,13 @@
 //! ```no_run
 //! let loaded = hamel_run::load(std::path::Path::new("scenes/knife_spin.toml"))?;
 //! println!("{}", loaded.plan.to_text());
-//! let hamel_run::simulate::Simulated { trajectory, failure } = hamel_run::simulate::run_loaded(&loaded, hamel_run::Engine::Interpreted, false)?;
+//! let hamel_run::simulate::Simulated { trajectory, failure, .. } = hamel_run::simulate::run_loaded(&loaded, hamel_run::Engine::Interpreted, false)?;
 //! assert!(failure.is_none());
 //! print!("{}", trajectory.to_csv());
 //! # Ok::<(), hamel_model::ModelError>(())
 //! ```
 
+pub mod animate;
 pub mod auto;
 pub mod cache;
 pub mod compare;
@@ -49,6 +50,6 @@ pub use hamel_scene::{Checked, Request};
 pub use hamel_scene::{check, expressions, file, forces, inputs, members, request};
 
 pub use integrate::{Engine, Run, Timed, Usable};
-pub use load::{Loaded, load, load_with, load_with_options};
+pub use load::{LoadOptions, Loaded, load, load_with, load_with_options};
 pub use plan::Plan;
 pub use trajectory::Trajectory;

@@ -71,32 +71,45 @@ pub fn load_with(
     scene_path: &Path,
     overrides: &IndexMap<String, f64>,
 ) -> Result<Loaded, ModelError> {
-    load_with_options(scene_path, overrides, false)
+    load_with_options(scene_path, overrides, LoadOptions::default())
 }
 
-/// [`load_with`], the derivation made anew (and stored) whatever the derivation store holds
-/// when `fresh` (`--no-store`).
+/// How a scene is loaded beyond what its file says.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LoadOptions {
+    /// Derive anew (and store) whatever the derivation store holds (`--no-store`).
+    pub fresh: bool,
+    /// Keep every coordinate in the integrated state, requested or not, so that the run gives
+    /// whole configurations ([`crate::simulate::Simulated::configurations`]; `--animate`).
+    pub every_coordinate: bool,
+}
+
+/// [`load_with`] with [`LoadOptions`].
 pub fn load_with_options(
     scene_path: &Path,
     overrides: &IndexMap<String, f64>,
-    fresh: bool,
+    options: LoadOptions,
 ) -> Result<Loaded, ModelError> {
     let (name, text) = read(scene_path)?;
     let dir = scene_path.parent().unwrap_or(Path::new("."));
     let model_of = |m: &str| Model::load(dir.join(m));
     let checked = check(&name, &text, overrides, &model_of)?;
+    let fresh = options.fresh;
     let Checked {
         scene,
         file,
         model,
         parsed,
-        request,
+        mut request,
         integrator,
         params,
         q0,
         completed,
         times,
     } = checked;
+    if options.every_coordinate {
+        keep_every_coordinate(&mut request, model.coordinates.len());
+    }
     let err = |key: &str, m: String| file.error(Some(key), m);
     let tables = crate::inputs::tables(&scene, dir).map_err(|(k, m)| err(&k, m))?;
     let live = crate::inputs::live(&model, &tables);
@@ -169,6 +182,15 @@ pub fn load_with_options(
         file,
         core: OnceCell::new(),
     })
+}
+
+/// Every coordinate not requested becomes needed: kept in the state, not written.
+fn keep_every_coordinate(request: &mut Request, ell: usize) {
+    for k in (0..ell).map(hamel_model::Coord::new) {
+        if !request.coordinates.contains(&k) && !request.needed.contains(&k) {
+            request.needed.push(k);
+        }
+    }
 }
 
 /// What the scene derives: its model (with the wheels' supports when it computes forces), plan,

@@ -27,6 +27,9 @@ pub struct Simulated {
     pub trajectory: Trajectory,
     /// Why the run ended before its last output time.
     pub failure: Option<ModelError>,
+    /// Every coordinate at each output time, when the state holds them all (none dropped:
+    /// requested, or kept by [`crate::LoadOptions::every_coordinate`]).
+    pub configurations: Option<Vec<Vec<f64>>>,
 }
 
 /// Load the scene at `scene_path` and [`run_loaded`] it.
@@ -96,9 +99,12 @@ pub fn run_loaded(
             Err(e) => log::warn!("no error estimate: {}", e.message()),
         }
     }
+    let configurations = (loaded.state.len() == loaded.d.ell)
+        .then(|| run.solution.y.iter().map(|y| loaded.full_q(y)).collect());
     Ok(Simulated {
         trajectory: traj,
         failure: run.failure,
+        configurations,
     })
 }
 

@@ -26,6 +26,7 @@ fn the_knife_follows_its_circle() {
     let hamel_run::simulate::Simulated {
         trajectory: traj,
         failure,
+        ..
     } = hamel_run::simulate::run_loaded(&loaded, Engine::Interpreted, false)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(failure.is_none(), "{failure:?}");

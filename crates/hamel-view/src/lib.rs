@@ -15,8 +15,15 @@
 //! **Invariants**: no network at view time; the bundle is exactly the pinned one; poses are
 //! the frames' definitions evaluated, checked against the ground contact of every wheel.
 
+pub mod drawing;
+pub mod motion;
+pub mod page;
 pub mod poses;
 pub mod shapes;
+
+pub use drawing::{DrawError, Drawing};
+pub use motion::{Arrow, Motion, Series};
+pub use page::Animation;
 
 /// three.js (core and orbit controls) as one minified classic script setting `window.THREE`.
 pub const THREE_JS: &str = include_str!("../assets/three/three.bundle.min.js");
