@@ -296,8 +296,6 @@ fn mechanism(
             damping: scalar(loader, &raw.damping, &format!("{key}.damping"))?,
         });
     }
-    let names: Vec<String> = m.frames.iter().map(|f| f.name.clone()).collect();
-    m.shapes = crate::shapes::shapes(&raw.shapes, &names, loader, err)?;
     Ok(m)
 }
 
@@ -401,59 +399,19 @@ fn load(
 }
 
 /// One scalar expression of the configuration.
-pub(crate) fn scalar(
-    loader: &mut Loader,
-    v: &Spanned<RawScalar>,
-    key: &str,
-) -> Result<Expr, ModelError> {
-    scalar_of(loader, v, key, FieldKind::Positional)
-}
-
-fn scalar_of(
-    loader: &mut Loader,
-    v: &Spanned<RawScalar>,
-    key: &str,
-    kind: FieldKind,
-) -> Result<Expr, ModelError> {
-    let text = Spanned::new(v.span(), v.get_ref().text());
-    Ok(loader.item(&text, key, kind)?.expr)
+fn scalar(loader: &mut Loader, v: &Spanned<RawScalar>, key: &str) -> Result<Expr, ModelError> {
+    loader.scalar(v, key, FieldKind::Positional)
 }
 
 /// Three scalars of the configuration (zero when absent).
-pub(crate) fn vector(
-    loader: &mut Loader,
-    v: Option<&RawVector>,
-    key: &str,
-) -> Result<[Expr; 3], ModelError> {
-    vector_of(loader, v, key, FieldKind::Positional)
+fn vector(loader: &mut Loader, v: Option<&RawVector>, key: &str) -> Result<[Expr; 3], ModelError> {
+    loader.vector(v, key, FieldKind::Positional)
 }
 
 /// A load's force or torque: three scalars that may also depend on the velocities der(q)
 /// (drag, viscous friction).
 fn load_vector(loader: &mut Loader, v: &RawVector, key: &str) -> Result<[Expr; 3], ModelError> {
-    vector_of(loader, Some(v), key, FieldKind::Force)
-}
-
-fn vector_of(
-    loader: &mut Loader,
-    v: Option<&RawVector>,
-    key: &str,
-    kind: FieldKind,
-) -> Result<[Expr; 3], ModelError> {
-    let Some(v) = v else {
-        return Ok(hamel_bodies::vector::zero());
-    };
-    if v.get_ref().len() != 3 {
-        return Err(loader.err(
-            v.span(),
-            key,
-            format!("a vector needs 3 components, found {}", v.get_ref().len()),
-        ));
-    }
-    let c = |i: usize, loader: &mut Loader| {
-        scalar_of(loader, &v.get_ref()[i], &format!("{key}[{}]", i + 1), kind)
-    };
-    Ok([c(0, loader)?, c(1, loader)?, c(2, loader)?])
+    loader.vector(Some(v), key, FieldKind::Force)
 }
 
 fn direction(

@@ -12,6 +12,7 @@ use indexmap::IndexMap;
 use toml::Spanned;
 
 use crate::error::ModelError;
+use crate::schema::{RawScalar, RawVector};
 
 /// Where an expression (or a value) sits in the model file.
 #[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq, Eq)]
@@ -175,6 +176,35 @@ pub(crate) struct Loader<'a> {
 }
 
 impl<'a> Loader<'a> {
+    /// One scalar of a table field: its text parsed as an expression of the `kind` allowed.
+    pub(crate) fn scalar(
+        &mut self,
+        v: &Spanned<RawScalar>,
+        key: &str,
+        kind: FieldKind,
+    ) -> Result<Expr, ModelError> {
+        let text = Spanned::new(v.span(), v.get_ref().text());
+        Ok(self.item(&text, key, kind)?.expr)
+    }
+
+    /// Three scalars (`[a, b, c]`; zero when absent), each at its place (`KEY[i]`).
+    pub(crate) fn vector(
+        &mut self,
+        v: Option<&RawVector>,
+        key: &str,
+        kind: FieldKind,
+    ) -> Result<[Expr; 3], ModelError> {
+        let Some(v) = v else {
+            return Ok(hamel_bodies::vector::zero());
+        };
+        if v.get_ref().len() != 3 {
+            let msg = format!("a vector needs 3 components, found {}", v.get_ref().len());
+            return Err(self.err(v.span(), key, msg));
+        }
+        let mut c = |i: usize| self.scalar(&v.get_ref()[i], &format!("{key}[{}]", i + 1), kind);
+        Ok([c(0)?, c(1)?, c(2)?])
+    }
+
     /// A loader for the expressions of `file` (text `source`), with these names.
     pub(crate) fn new(
         file: &'a str,

@@ -180,7 +180,9 @@ impl Model {
             parameters.clone(),
         );
         let dynamics = if crate::bodies::describes_bodies(&raw) {
-            crate::bodies::dynamics(&raw, &mut loader, &err)?
+            let mut d = crate::bodies::dynamics(&raw, &mut loader, &err)?;
+            crate::shapes::attach(&raw.shapes, &mut d, &mut loader, &err)?;
+            d
         } else {
             lagrangian_dynamics(&raw, &mut loader, &err)?
         };

@@ -8,13 +8,29 @@ use hamel_bodies::{Axis, Geometry, Point, Shape, WORLD};
 use hamel_expr::Expr;
 use toml::Spanned;
 
-use crate::bodies::{scalar, vector};
 use crate::error::ModelError;
-use crate::loader::{ErrorAt, Loader};
+use crate::loader::{Dynamics, ErrorAt, FieldKind, Loader};
 use crate::schema::{RawScalar, RawShape};
 
+/// Every `[shapes.NAME]` of the file checked and put on the mechanism of `dynamics` (a model
+/// of bodies).
+pub(crate) fn attach(
+    raw: &indexmap::IndexMap<String, Spanned<RawShape>>,
+    dynamics: &mut Dynamics,
+    loader: &mut Loader,
+    err: &ErrorAt,
+) -> Result<(), ModelError> {
+    let Some(m) = dynamics.mechanism.as_mut() else {
+        return Ok(());
+    };
+    let m = std::sync::Arc::make_mut(m);
+    let frames: Vec<String> = m.frames.iter().map(|f| f.name.clone()).collect();
+    m.shapes = shapes(raw, &frames, loader, err)?;
+    Ok(())
+}
+
 /// Every `[shapes.NAME]` of the file, checked against the frames named in `frames`.
-pub(crate) fn shapes(
+fn shapes(
     raw: &indexmap::IndexMap<String, Spanned<RawShape>>,
     frames: &[String],
     loader: &mut Loader,
@@ -40,7 +56,11 @@ fn shape(
         return Err(err(raw.frame.span(), &format!("{key}.frame"), msg));
     }
     let geometry = geometry(loader, &key, s, err)?;
-    let centre = vector(loader, raw.centre.as_ref(), &format!("{key}.centre"))?;
+    let centre = loader.vector(
+        raw.centre.as_ref(),
+        &format!("{key}.centre"),
+        FieldKind::Positional,
+    )?;
     let colour = match &raw.colour {
         Some(c) => Some(colour(c.get_ref()).ok_or_else(|| {
             let msg = format!("`{}` is not a colour: write `#rrggbb`", c.get_ref());
@@ -68,7 +88,7 @@ fn geometry(
     match (&raw.cuboid, &raw.cylinder, &raw.sphere) {
         (Some(b), None, None) => {
             let bkey = format!("{key}.box");
-            let size = vector(loader, Some(b), &bkey)?;
+            let size = loader.vector(Some(b), &bkey, FieldKind::Positional)?;
             for (e, v) in size.iter().zip(b.get_ref()) {
                 check_size(loader, e, v.span(), &bkey, err)?;
             }
@@ -108,7 +128,7 @@ fn size(
     key: &str,
     err: &ErrorAt,
 ) -> Result<Expr, ModelError> {
-    let e = scalar(loader, v, key)?;
+    let e = loader.scalar(v, key, FieldKind::Positional)?;
     check_size(loader, &e, v.span(), key, err)?;
     Ok(e)
 }

@@ -206,7 +206,7 @@ fn member_label(index: usize, r: &MemberResult) -> String {
 /// The note of a page whose model has no bodies.
 fn no_bodies(model: &hamel_model::Model) -> String {
     format!(
-        "The model `{}` is written by hand as L and α: it has no bodies, frames or wheels to draw. Its requested outputs are plotted beside; describe it by bodies (docs/bodies.md) to see it move.",
+        "The model `{}` is written by hand as L and α: it has no bodies, frames or wheels to draw. Its requested outputs are plotted beside; describe it by bodies and frames (docs/model-format.md) to see it move.",
         model.name
     )
 }
