@@ -1,19 +1,26 @@
 //! Animated 3D pages of simulated scenes (issue 60): one self-contained HTML file that plays
-//! the motion offline, years later, from disk.
+//! the motion offline, years later, from disk (`hamel simulate SCENE --animate PAGE.html`;
+//! docs/animate.md).
 //!
-//! **Job**: carry the 3D library inline. This first step vendors three.js: the core and the
-//! orbit controls of three@0.187.0 from the npm registry, bundled by esbuild into one classic
-//! script that sets `window.THREE` ([`THREE_JS`]), with its MIT licence ([`THREE_LICENSE`]),
-//! which every page prints. `assets/three/build.sh` rebuilds the bundle from the registry
-//! (reproducibly: same bytes); `assets/three/PIN` records the versions and the bundle's
-//! SHA-256, which the tests check.
+//! **Job**: from a mechanism (`hamel_bodies::Mechanism`) and its motions (configurations at
+//! output times), make the page. [`poses`] places every frame in the world at a configuration
+//! (position and unit quaternion) from the frames' own expressions; [`drawing`] decides what is
+//! drawn, fixed in time (wheels as disks, blades as plates, the model's `[shapes]`, other
+//! bodies as their inertia's ellipsoid from [`shapes`]); [`motion`] holds a run's poses,
+//! contact points, plotted outputs and force arrows at its output times; [`page`] writes the
+//! HTML with three.js inline ([`THREE_JS`]: the core and the orbit controls of three@0.187.0
+//! from the npm registry, bundled by esbuild into one classic script that sets
+//! `window.THREE`; its MIT licence, [`THREE_LICENSE`], is printed in every page).
+//! `assets/three/build.sh` rebuilds the bundle from the registry (reproducibly: same bytes);
+//! `assets/three/PIN` records the versions and the bundle's SHA-256, which the tests check.
 //!
-//! [`poses`] places every frame of a mechanism in the world at a configuration (position and
-//! unit quaternion) from the frames' own expressions, without computer algebra; [`shapes`]
-//! gives a body without a shape the box or ellipsoid of its inertia.
+//! **Inputs**: a mechanism, parameter values, times and whole configurations (every
+//! coordinate), optionally outputs and contact forces. **Output**: [`Animation::html`].
 //!
-//! **Invariants**: no network at view time; the bundle is exactly the pinned one; poses are
-//! the frames' definitions evaluated, checked against the ground contact of every wheel.
+//! **Invariants**: no computer algebra; no network at view time; the bundle is exactly the
+//! pinned one; the numbers cross into the page exactly (base64 float64), so the page's
+//! `window.hamel.poseAt` equals [`poses::poses`] at the output times; text from a model or
+//! scene enters the page as escaped JSON and as text, never as markup (SECURITY.md).
 
 pub mod drawing;
 pub mod motion;
