@@ -1,0 +1,18 @@
+"""hamel: the Boltzmann–Hamel equations of nonholonomic systems, derived exactly, evaluated on
+numpy arrays.
+
+    >>> import hamel
+    >>> disk = hamel.Model.load("models/rolling_disk.toml")
+    >>> d = disk.derive("velocities")       # from the derivation store, or made in a worker
+    >>> print(d.text())
+    >>> out = disk.eval(q, eta, choice="velocities")   # q: (N, ℓ), eta: (N, σ)
+
+Errors in a model are ``hamel.ModelError`` with ``file``, ``line``, ``column``, ``key`` and
+``reason``. The computer algebra (Symbolica) never runs in this process: a derivation the
+store lacks is made by ``python -m hamel._worker``, which exits when it is done.
+"""
+
+from ._hamel import Derivation, HamelError, Model, ModelError, version
+
+__all__ = ["Derivation", "HamelError", "Model", "ModelError", "version"]
+__version__ = version()
