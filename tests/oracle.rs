@@ -253,3 +253,44 @@ fn the_bicycles_steer_and_pedal_torques_match_the_oracle() {
         checked += 1;
     }
 }
+
+/// The models of bodies under `models/bodies/` (the twins of hand-typed models, and the
+/// rolling disc in SymPy's coordinates and speeds) against the oracle, every choice.
+#[test]
+fn the_models_of_bodies_match_the_lagrange_multiplier_oracle() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/models/bodies");
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    assert!(paths.len() >= 4, "{paths:?}");
+    for (mi, path) in paths.iter().enumerate() {
+        let model = hamel_model::Model::load(path).unwrap_or_else(|e| panic!("{e}"));
+        for (ci, choice) in model.choices.iter().enumerate() {
+            let w = compare(
+                &model,
+                &choice.name,
+                7000 + 10 * mi as u64 + ci as u64,
+                STATES,
+            );
+            let line = format!(
+                "{}/{}: structured f64 {:.1e} ({} of {} states), structured dd {:.1e}, symbolic dd {:.1e}",
+                model.name,
+                choice.name,
+                w.structured_f64,
+                w.f64_states,
+                w.states,
+                w.structured_dd,
+                w.symbolic_dd
+            );
+            assert!(
+                w.structured_f64 <= TOL && w.symbolic_dd <= TOL && w.structured_dd <= 1e-20,
+                "{line}"
+            );
+            assert!(2 * w.f64_states >= w.states, "{line}");
+            eprintln!("{line}");
+        }
+    }
+}
