@@ -17,6 +17,7 @@ use pyo3::prelude::*;
 mod derivation;
 mod errors;
 mod model;
+mod scene;
 mod worker;
 
 /// The extension module.
@@ -28,6 +29,8 @@ mod _hamel {
     use super::errors::{HamelError, ModelError};
     #[pymodule_export]
     use super::model::Model;
+    #[pymodule_export]
+    use super::scene::Scene;
     #[pymodule_export]
     use super::worker::work;
 

@@ -12,7 +12,7 @@ Errors in a model are ``hamel.ModelError`` with ``file``, ``line``, ``column``, 
 store lacks is made by ``python -m hamel._worker``, which exits when it is done.
 """
 
-from ._hamel import Derivation, HamelError, Model, ModelError, version
+from ._hamel import Derivation, HamelError, Model, ModelError, Scene, version
 
-__all__ = ["Derivation", "HamelError", "Model", "ModelError", "version"]
+__all__ = ["Derivation", "HamelError", "Model", "ModelError", "Scene", "version"]
 __version__ = version()

@@ -1,0 +1,116 @@
+//! A scene as Python sees it: a model, quasi-velocities, parameters, an initial state and an
+//! integrator (`scenes/*.toml`), simulated into arrays with names.
+
+use std::path::PathBuf;
+
+use indexmap::IndexMap;
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::errors::to_py;
+
+/// A scene file: what `hamel simulate` runs (docs/tradeoff.md, scenes/).
+#[pyclass(module = "hamel._hamel", frozen)]
+pub struct Scene {
+    path: PathBuf,
+    set: IndexMap<String, f64>,
+}
+
+#[pymethods]
+impl Scene {
+    /// Read and check a scene (its model, choice, initial state, integrator), with parameter
+    /// values `set` on top of its `[parameters]`; the equations from the derivation store, or
+    /// derived in a worker process.
+    #[staticmethod]
+    #[pyo3(signature = (path, *, set = None))]
+    fn load(py: Python<'_>, path: PathBuf, set: Option<IndexMap<String, f64>>) -> PyResult<Scene> {
+        let scene = Scene {
+            path,
+            set: set.unwrap_or_default(),
+        };
+        scene.loaded(py)?;
+        Ok(scene)
+    }
+
+    /// Integrate the scene (`engine`: `compiled`, its generated core built with cargo on
+    /// first use and cached, or `interpreted`). Returns a dict: `t` (N,), `q` {coordinate:
+    /// (N,)} for the requested coordinates, `eta` (N, σ) when requested, `energy` (N,) when
+    /// requested, `expressions` and `forces` {name: (N,)} (NaN where a value cannot be
+    /// computed), `complete`, and `stats`. A run that stops early raises `hamel.HamelError`
+    /// naming why.
+    #[pyo3(signature = (*, engine = "compiled"))]
+    fn simulate<'py>(&self, py: Python<'py>, engine: &str) -> PyResult<Bound<'py, PyDict>> {
+        let engine = match engine {
+            "compiled" => hamel_run::Engine::Compiled,
+            "interpreted" => hamel_run::Engine::Interpreted,
+            other => {
+                let msg = format!("engine `{other}`: write `compiled` or `interpreted`");
+                return Err(pyo3::exceptions::PyValueError::new_err(msg));
+            }
+        };
+        let (path, set) = (&self.path, &self.set);
+        let run = crate::detached(py, || {
+            let loaded = hamel_run::load_with_options(path, set, Default::default())?;
+            hamel_run::simulate::run_loaded(&loaded, engine, false)
+        })
+        .map_err(|e| to_py(py, &e))?;
+        if let Some(e) = &run.failure {
+            return Err(to_py(py, e));
+        }
+        trajectory(py, &run.trajectory)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<hamel.Scene {}>", self.path.display())
+    }
+}
+
+impl Scene {
+    /// Check the scene: read, checked and derived (from the store, or in a worker process).
+    fn loaded(&self, py: Python<'_>) -> PyResult<()> {
+        let (path, set) = (&self.path, &self.set);
+        crate::detached(py, || {
+            hamel_run::load_with_options(path, set, Default::default()).map(drop)
+        })
+        .map_err(|e| to_py(py, &e))
+    }
+}
+
+/// A trajectory as a dict of arrays.
+fn trajectory<'py>(py: Python<'py>, t: &hamel_run::Trajectory) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    let column = |v: &[Option<f64>]| {
+        PyArray1::from_vec(py, v.iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+    };
+    out.set_item("t", PyArray1::from_slice(py, &t.t))?;
+    let q = PyDict::new(py);
+    for (name, v) in &t.q {
+        q.set_item(name, PyArray1::from_slice(py, v))?;
+    }
+    out.set_item("q", q)?;
+    if let Some(first) = t.eta.first() {
+        let flat: Vec<f64> = t.eta.concat();
+        let eta = PyArray1::from_vec(py, flat).reshape([t.eta.len(), first.len()])?;
+        out.set_item("eta", eta)?;
+    }
+    if let Some(e) = &t.energy {
+        out.set_item("energy", column(e))?;
+    }
+    for (key, map) in [("expressions", &t.expressions), ("forces", &t.forces)] {
+        let d = PyDict::new(py);
+        for (name, v) in map {
+            d.set_item(name, column(v))?;
+        }
+        out.set_item(key, d)?;
+    }
+    out.set_item("complete", t.complete)?;
+    let stats = PyDict::new(py);
+    stats.set_item("steps", t.stats.steps)?;
+    stats.set_item("rejected", t.stats.rejected)?;
+    stats.set_item("rhs_evals", t.stats.rhs_evals)?;
+    stats.set_item("energy_drift", t.stats.energy_drift)?;
+    out.set_item("stats", stats)?;
+    out.set_item("method", t.method.as_str())?;
+    Ok(out)
+}
