@@ -56,6 +56,24 @@ impl Derivation {
             .map_err(|e| HamelError::new_err(e.to_string()))
     }
 
+    /// Every object as hamel's canonical text (model-file syntax; `etaR` the quasi-velocities,
+    /// `etaR_dot` their rates): `a`, `alpha`, `z`, `grad_u`, and in closed form `gamma`,
+    /// `theta`, `delta`, `a_gamma`, `forcing`, `q` (the Q⁽ⁱ⁾), `kinematics`, `equations`, … —
+    /// the derivation's JSON (what `hamel derive --format json` holds).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = serde_json::to_string(&*self.inner)
+            .map_err(|e| HamelError::new_err(format!("the derivation as JSON: {e}")))?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// The objects as SymPy matrices and expressions (`hamel._sympy.to_sympy`; needs SymPy):
+    /// every name a real Symbol, `der(q)` the Symbol `q_dot`.
+    fn to_sympy<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        slf.py()
+            .import("hamel._sympy")?
+            .call_method1("to_sympy", (slf,))
+    }
+
     /// LaTeX for notebooks (Jupyter shows it).
     fn _repr_latex_(&self) -> PyResult<String> {
         self.latex(true)
