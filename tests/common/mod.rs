@@ -14,6 +14,7 @@ pub const ELIMINATE: &[(&str, &str)] = &[
     ("knife", "x,y,theta"),
     ("remark22", "q1"),
     ("rolling_disk", "xC,yC,phi"),
+    ("rolling_disc_sympy", "q4,q5,q1"),
     ("segway", "x,y,psi,phiL,phiR"),
     ("snakeboard", "x,y,theta"),
     ("sprung_sleigh", "x,y,psi"),
