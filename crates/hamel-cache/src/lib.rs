@@ -213,11 +213,26 @@ fn not_own(_m: &std::fs::Metadata) -> Option<String> {
     None
 }
 
-/// The running executable's identity for a cache key: its size and modification time (a
-/// rebuilt hamel keys its entries anew); "unknown" when it cannot be read.
+/// The file whose identity keys this process's entries when it is not the running executable
+/// ([`use_identity_of`]).
+static IDENTITY_FILE: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+
+/// Key this process's cache entries by `file` instead of the running executable: a library
+/// that carries hamel into another program (the Python extension module inside `python`)
+/// names itself, so that a rebuilt library keys its entries anew. The first call wins.
+pub fn use_identity_of(file: PathBuf) {
+    let _ = IDENTITY_FILE.set(file);
+}
+
+/// The running executable's identity for a cache key (or that of the file given to
+/// [`use_identity_of`]): its size and modification time (a rebuilt hamel keys its entries
+/// anew); "unknown" when it cannot be read.
 pub fn executable_identity() -> String {
-    std::env::current_exe()
-        .and_then(std::fs::metadata)
+    let file = match IDENTITY_FILE.get() {
+        Some(file) => Ok(file.clone()),
+        None => std::env::current_exe(),
+    };
+    file.and_then(std::fs::metadata)
         .map(|m| {
             let modified = (m.modified().ok())
                 .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())

@@ -742,6 +742,30 @@ pub fn with_simulator(mut g: Generated) -> Result<Generated, CodegenError> {
     Ok(g)
 }
 
+/// The C ABI of a generated core (`abi/capi.rs`: `hamel_rhs` with numbalsoda's signature,
+/// `hamel_eval_states`, `hamel_prepare`, …), the module that hamel's Python package opens.
+pub const C_ABI: &str = include_str!("../abi/capi.rs");
+
+/// Make a generated crate a C-ABI shared library named `library` ([`manifest::c_library`])
+/// with the module [`C_ABI`]; its binaries are dropped (they name the library
+/// `hamel_generated`).
+pub fn with_c_abi(mut g: Generated, library: &str) -> Result<Generated, CodegenError> {
+    g.edit_manifest(|doc| manifest::c_library(doc, library))?;
+    g.files.retain(|(path, _)| !path.starts_with("src/bin/"));
+    let lib = g
+        .files
+        .iter_mut()
+        .find(|(path, _)| path == "src/lib.rs")
+        .ok_or_else(|| CodegenError::Internal("a generated crate without src/lib.rs".into()))?;
+    lib.1.push_str(
+        "
+pub mod capi;
+",
+    );
+    g.files.push(("src/capi.rs".into(), C_ABI.into()));
+    Ok(g)
+}
+
 impl Generated {
     /// Edit the crate's manifest with a TOML writer ([`manifest::edit`]).
     pub fn edit_manifest(

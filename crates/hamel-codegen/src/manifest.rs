@@ -112,6 +112,13 @@ pub fn add_binary(doc: &mut DocumentMut, name: &str, path: &str) {
     }
 }
 
+/// Make the library a C-ABI shared library named `name` (`lib{name}.so` on Linux): what
+/// [`crate::with_c_abi`] builds for hamel's Python package.
+pub fn c_library(doc: &mut DocumentMut, name: &str) {
+    doc["lib"]["name"] = value(crate::escape::package_name(&[name]).replace('-', "_"));
+    doc["lib"]["crate-type"] = value(Array::from_iter(["cdylib"]));
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

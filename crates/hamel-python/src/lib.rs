@@ -14,10 +14,14 @@
 
 use pyo3::prelude::*;
 
+mod core;
 mod derivation;
+mod ensemble;
 mod errors;
 mod model;
+mod rhs;
 mod scene;
+mod study;
 mod worker;
 
 /// The extension module.
@@ -29,6 +33,8 @@ mod _hamel {
     use super::errors::{HamelError, ModelError};
     #[pymodule_export]
     use super::model::Model;
+    #[pymodule_export]
+    use super::rhs::Rhs;
     #[pymodule_export]
     use super::scene::Scene;
     #[pymodule_export]
@@ -47,6 +53,14 @@ mod _hamel {
     #[pyfunction]
     fn _cas_started() -> bool {
         hamel_cas::started()
+    }
+
+    /// Key the caches by this extension module's file (`path`: its size and modification
+    /// time), not by the Python interpreter running it: a rebuilt extension generates anew.
+    /// The package calls it once, at import.
+    #[pyfunction]
+    fn _use_identity(path: std::path::PathBuf) {
+        hamel_cache::use_identity_of(path);
     }
 
     /// Derive in worker processes started as `python -m hamel._worker`, `python` the

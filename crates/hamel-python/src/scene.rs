@@ -61,6 +61,48 @@ impl Scene {
         trajectory(py, &run.trajectory)
     }
 
+    /// Run an ensemble on the scene's compiled core, its members in parallel on the core's
+    /// rayon pool (`threads`, 0: one per core), the GIL released. `members`: `{name: values}`
+    /// (coordinates, `eta1`…, parameters; equal lengths; NaN: the scene's value), else the
+    /// scene's own `[ensemble]`. `save`: `"final"` (the last output time) or `"outputs"` (every
+    /// one); default the scene's. Returns `member`, `complete`, `steps`, `rhs_evals`
+    /// (arrays), `given` and `values` ({name: array}: (N,) when final, (N, T) otherwise),
+    /// `t`, `errors` (a message or None per member) and `header`.
+    #[pyo3(signature = (members = None, *, save = None, threads = 0))]
+    fn ensemble<'py>(
+        &self,
+        py: Python<'py>,
+        members: Option<IndexMap<String, Vec<f64>>>,
+        save: Option<&str>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let save = match save {
+            None => None,
+            Some("final") => Some(hamel_run::file::Save::Final),
+            Some("outputs") => Some(hamel_run::file::Save::Outputs),
+            Some(other) => {
+                let msg = format!("save must be \"final\" or \"outputs\", not {other:?}");
+                return Err(pyo3::exceptions::PyValueError::new_err(msg));
+            }
+        };
+        let (path, set) = (&self.path, &self.set);
+        let settings = hamel_run::ensemble::Settings {
+            threads,
+            ..Default::default()
+        };
+        let (run, save) = crate::detached(py, || {
+            let loaded = hamel_run::load_with_options(path, set, Default::default())?;
+            let save = save.unwrap_or_else(|| loaded.ensemble_save());
+            let members = match &members {
+                Some(columns) => crate::ensemble::members(&loaded, columns, save),
+                None => crate::ensemble::scene_members(&loaded, save),
+            }?;
+            Ok((loaded.run_ensemble(&members, settings, &|_, _| {})?, save))
+        })
+        .map_err(|e: hamel_model::ModelError| to_py(py, &e))?;
+        crate::ensemble::to_dict(py, &run, save)
+    }
+
     fn __repr__(&self) -> String {
         format!("<hamel.Scene {}>", self.path.display())
     }

@@ -36,3 +36,33 @@ def test_a_scene_with_a_bad_key_is_a_located_error(tmp_path):
     assert "t_ned" in str(e.value)
     with pytest.raises(ValueError, match="engine"):
         hamel.Scene.load(ROOT / "scenes" / "knife.toml").simulate(engine="fast")
+
+
+def test_an_ensemble_given_from_python_follows_the_closed_form():
+    scene = hamel.Scene.load(ROOT / "scenes" / "knife.toml")
+    speeds = np.array([0.5, 1.0, 1.5, 2.0])
+    turns = np.array([0.5, 0.25, np.nan, 1.0])  # NaN: the scene's eta2 = 0.5
+    run = scene.ensemble({"eta1": speeds, "eta2": turns}, threads=2)
+    assert list(run["member"]) == [0, 1, 2, 3] and all(run["complete"])
+    assert run["errors"] == [None] * 4
+    w = np.where(np.isnan(turns), 0.5, turns)
+    th = 0.3 + w * 10.0
+    final = run["values"]
+    assert final["theta"].shape == (4,)
+    assert np.max(np.abs(final["theta"] - th)) < 1e-9
+    assert np.max(np.abs(final["x"] - speeds / w * (np.sin(th) - np.sin(0.3)))) < 1e-8
+    assert np.array_equal(run["given"]["eta1"], speeds)
+    every = scene.ensemble({"eta1": speeds[:2]}, save="outputs")
+    assert every["values"]["theta"].shape == (2, 101) and every["t"].shape == (101,)
+
+
+def test_the_scenes_own_ensemble_and_bad_members():
+    run = hamel.Scene.load(ROOT / "scenes" / "knife_ensemble.toml").ensemble()
+    assert len(run["member"]) == run["header"]["members"] and all(run["complete"])
+    knife = hamel.Scene.load(ROOT / "scenes" / "knife.toml")
+    with pytest.raises(hamel.ModelError, match="no \\[ensemble\\]"):
+        knife.ensemble()
+    with pytest.raises(hamel.ModelError, match="speed"):
+        knife.ensemble({"speed": [1.0]})
+    with pytest.raises(hamel.ModelError, match="equal length"):
+        knife.ensemble({"eta1": [1.0], "eta2": [1.0, 2.0]})

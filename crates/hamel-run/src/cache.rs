@@ -73,7 +73,7 @@ pub enum CacheError {
         source: std::sync::Arc<std::io::Error>,
     },
     /// cargo failed on the entry's crate (the last lines of its output).
-    #[error("cargo {command} failed for the scene's core in {}:\n{log}", dir.display())]
+    #[error("cargo {command} failed for the generated core in {}:\n{log}", dir.display())]
     Cargo {
         /// `build` or `clean`.
         command: String,
@@ -182,6 +182,22 @@ impl Key {
         }
     }
 
+    /// The key of the C-ABI library of `model`'s full system with choice `eta`, the `fixed`
+    /// parameters specialised and the others inputs ([`prepare_library`]).
+    pub fn library(model: &Model, eta: &str, fixed: &IndexMap<String, f64>) -> Key {
+        let mut key = Key::new(model, eta, &[], fixed);
+        key.text.push_str(
+            "
+artifact: the C-ABI library (hamel_codegen::with_c_abi)",
+        );
+        key
+    }
+
+    /// The key's text (what identifies the code).
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
     /// FNV-1a, 64 bits: the entry's directory name.
     fn hash(&self) -> String {
         hamel_sim::job::fingerprint(&self.text)
@@ -248,16 +264,12 @@ pub fn store(
     let special = d.specialise(fixed)?;
     let mut generated =
         hamel_codegen::with_simulator(hamel_codegen::generate(&special, dropped, command)?)?;
-    let root = root()?;
-    let dir = root.join(key.hash());
-    // The binary is named after the entry: every entry's crate builds in the one shared target
-    // directory, where a fresh (not rebuilt) binary is not copied to `release/` again. So is
-    // the package: cargo hashes a workspace root's artifacts by its name and version, not its
-    // path, so two entries of one model would share a library.
-    let bin = bin_name(&dir);
+    let dir = root()?.join(key.hash());
+    // The binary and the package are named after the entry ([`Artifact::crate_name`]).
     generated.edit_manifest(|doc| {
-        hamel_codegen::manifest::rename_package(doc, &format!("hamel-{bin}"));
-        hamel_codegen::manifest::add_binary(doc, &bin, "src/scene_main.rs");
+        let scene = Artifact::Scene;
+        hamel_codegen::manifest::rename_package(doc, &scene.package(&dir));
+        hamel_codegen::manifest::add_binary(doc, &scene.crate_name(&dir), "src/scene_main.rs");
     })?;
     let meta = Meta {
         key: key.text.clone(),
@@ -266,6 +278,13 @@ pub fn store(
         path: generated.solved.name.to_string(),
         binary_sha256: None,
     };
+    write_entry(key, &generated, meta)
+}
+
+/// Write the crate `generated` and `meta` as the entry of `key`, whole (by rename).
+fn write_entry(key: &Key, generated: &Generated, meta: Meta) -> Result<Entry, CacheError> {
+    let root = root()?;
+    let dir = root.join(key.hash());
     let tmp = root.join(format!("{}.tmp{}", key.hash(), std::process::id()));
     let io = |e| {
         CacheError::io(
@@ -324,6 +343,39 @@ pub fn prepare(
             ops_full,
             &format!("hamel simulate (scene of {}, {})", model.file, d.eta_name),
         )
+    })
+}
+
+/// The C-ABI library of `model`'s full system with the choice of `d` (every coordinate; the
+/// `fixed` parameters specialised as a scene's are, the others inputs:
+/// [`hamel_codegen::with_c_abi`]), found in the cache or generated into it; [`library`] builds
+/// it. What hamel's Python package opens.
+pub fn prepare_library(
+    model: &Model,
+    d: &Derivation,
+    fixed: &IndexMap<String, f64>,
+) -> Result<Entry, CacheError> {
+    let key = Key::library(model, &d.eta_name, fixed);
+    cached(&key, || {
+        let d = &d.specialise(fixed)?;
+        let dir = root()?.join(key.hash());
+        let command = format!("hamel's Python package ({}, {})", model.file, d.eta_name);
+        let mut generated = hamel_codegen::with_c_abi(
+            hamel_codegen::generate(d, &[], &command)?,
+            &Artifact::Library.crate_name(&dir),
+        )?;
+        generated.edit_manifest(|doc| {
+            hamel_codegen::manifest::rename_package(doc, &Artifact::Library.package(&dir));
+        })?;
+        let ops = ops_of(&generated, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
+        let meta = Meta {
+            key: key.text.clone(),
+            ops,
+            ops_full: ops,
+            path: generated.solved.name.to_string(),
+            binary_sha256: None,
+        };
+        write_entry(&key, &generated, meta)
     })
 }
 
@@ -392,54 +444,131 @@ impl Summary {
     }
 }
 
-/// The name of an entry's binary: `scene-` and its directory's name.
-fn bin_name(dir: &Path) -> String {
-    format!(
-        "scene-{}",
-        dir.file_name()
-            .map_or(String::new(), |n| n.to_string_lossy().into_owned())
-    )
+/// What an entry builds: a scene's `scene` binary ([`prepare`]) or the C-ABI library
+/// ([`prepare_library`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Artifact {
+    /// The scene's integration binary.
+    Scene,
+    /// The shared library with the C ABI.
+    Library,
 }
 
-/// The entry's `scene` binary, built with cargo (offline, release) when missing; returns the
-/// path and whether this call built it. A binary whose SHA-256 is not the one recorded in
-/// `meta.json` when hamel built it (planted, altered, or built by something else) is never
-/// run: it is rebuilt from the entry's source, with a warning.
+impl Artifact {
+    /// Its file in the entry's directory.
+    fn file(self) -> String {
+        match self {
+            Artifact::Scene => "scene".into(),
+            Artifact::Library => format!("core{}", std::env::consts::DLL_SUFFIX),
+        }
+    }
+
+    /// The name cargo gives it, after the entry: every entry's crate builds in the one shared
+    /// target directory, where a fresh (not rebuilt) artefact is not copied to `release/` again.
+    fn crate_name(self, dir: &Path) -> String {
+        let hash = dir
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        match self {
+            Artifact::Scene => format!("scene-{hash}"),
+            Artifact::Library => format!("hamel_core_{hash}"),
+        }
+    }
+
+    /// The package's name (cargo hashes a workspace root's artefacts by its name and version,
+    /// not its path: two entries of one model would otherwise share a library).
+    fn package(self, dir: &Path) -> String {
+        match self {
+            Artifact::Scene => format!("hamel-{}", self.crate_name(dir)),
+            Artifact::Library => self.crate_name(dir).replace('_', "-"),
+        }
+    }
+
+    /// Where cargo leaves it in the shared target directory.
+    fn built(self, root: &Path, dir: &Path) -> PathBuf {
+        let release = root.join("target/release");
+        match self {
+            Artifact::Scene => release.join(self.crate_name(dir)),
+            Artifact::Library => release.join(format!(
+                "{}{}{}",
+                std::env::consts::DLL_PREFIX,
+                self.crate_name(dir),
+                std::env::consts::DLL_SUFFIX
+            )),
+        }
+    }
+
+    /// cargo's option selecting it.
+    fn target(self, dir: &Path) -> Vec<String> {
+        match self {
+            Artifact::Scene => vec!["--bin".into(), self.crate_name(dir)],
+            Artifact::Library => vec!["--lib".into()],
+        }
+    }
+}
+
+/// The entry's `scene` binary, built with cargo (offline, release) when missing ([`built`]).
 pub fn binary(entry: &Entry) -> Result<Binary, CacheError> {
-    let exe = entry.dir.join("scene");
+    built(entry, Artifact::Scene)
+}
+
+/// The entry's C-ABI library ([`prepare_library`]), built with cargo when missing ([`built`]).
+pub fn library(entry: &Entry) -> Result<Binary, CacheError> {
+    built(entry, Artifact::Library)
+}
+
+/// The entry's `artifact`, built with cargo (offline, release) when missing; returns the
+/// path and whether this call built it. An artefact whose SHA-256 is not the one recorded in
+/// `meta.json` when hamel built it (planted, altered, or built by something else) is never
+/// run or loaded: it is rebuilt from the entry's source, with a warning.
+pub fn built(entry: &Entry, artifact: Artifact) -> Result<Binary, CacheError> {
+    let exe = entry.dir.join(artifact.file());
     let root = root()?;
     let found = |path| Binary { path, built: false };
     if verify(&entry.dir, &exe)? == Check::Good {
         return Ok(found(exe));
     }
     let io = |e| CacheError::io(format!("code cache {}", root.display()), e);
-    // One build at a time: the shared target directory has one `release/scene`.
+    // One build at a time in the shared target directory.
     let lock = std::fs::File::create(root.join("build.lock")).map_err(io)?;
     lock.lock().map_err(io)?;
     match verify(&entry.dir, &exe)? {
         Check::Good => return Ok(found(exe)),
         Check::Missing => {}
         Check::Mismatch(why) => {
+            let verb = match artifact {
+                Artifact::Scene => "running",
+                Artifact::Library => "loading",
+            };
             log::warn!(
-                "the cached core {} {why}: not running it; rebuilding it from its source",
+                "the cached core {} {why}: not {verb} it; rebuilding it from its source",
                 exe.display()
             );
             std::fs::remove_file(&exe).map_err(io)?;
             // Whatever cargo kept of this entry is not trusted either: build it anew.
+            let package = artifact.package(&entry.dir);
             cargo(
                 entry,
                 &root,
-                &["clean", "--release", "--offline", "--quiet", "--package"],
+                &[
+                    "clean",
+                    "--release",
+                    "--offline",
+                    "--quiet",
+                    "--package",
+                    &package,
+                ],
             )?;
         }
     }
-    cargo(
-        entry,
-        &root,
-        &["build", "--release", "--offline", "--quiet", "--bin"],
-    )?;
-    let tmp = entry.dir.join(format!("scene.tmp{}", std::process::id()));
-    std::fs::copy(root.join("target/release").join(bin_name(&entry.dir)), &tmp).map_err(io)?;
+    let target = artifact.target(&entry.dir);
+    let mut args = vec!["build", "--release", "--offline", "--quiet"];
+    args.extend(target.iter().map(String::as_str));
+    cargo(entry, &root, &args)?;
+    let tmp = entry
+        .dir
+        .join(format!("{}.tmp{}", artifact.file(), std::process::id()));
+    std::fs::copy(artifact.built(&root, &entry.dir), &tmp).map_err(io)?;
     record_hash(&entry.dir, &sha256(&tmp).map_err(io)?).map_err(io)?;
     std::fs::rename(&tmp, &exe).map_err(io)?;
     Ok(Binary {
@@ -486,19 +615,11 @@ fn verify(dir: &Path, exe: &Path) -> Result<Check, CacheError> {
     })
 }
 
-/// Run cargo on the entry's crate with the cache's shared target directory; `args` end with
-/// the option that takes the package's binary (`--bin`) or package (`--package`) name.
+/// Run cargo with `args` on the entry's crate with the cache's shared target directory.
 fn cargo(entry: &Entry, root: &Path, args: &[&str]) -> Result<(), CacheError> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let bin = bin_name(&entry.dir);
-    let name = if args.last() == Some(&"--package") {
-        format!("hamel-{bin}")
-    } else {
-        bin
-    };
     let out = Command::new(&cargo)
         .args(args)
-        .arg(name)
         .arg("--manifest-path")
         .arg(entry.dir.join("Cargo.toml"))
         .env("CARGO_TARGET_DIR", root.join("target"))

@@ -451,6 +451,15 @@ impl Loaded {
         &self.model
     }
 
+    /// What the scene keeps of each ensemble member (`[ensemble] save`; the default without one).
+    pub fn ensemble_save(&self) -> crate::file::Save {
+        self.scene
+            .ensemble
+            .as_ref()
+            .map(|e| e.save)
+            .unwrap_or_default()
+    }
+
     /// The value at which the dropped coordinates are held.
     pub fn reference_value(&self) -> f64 {
         self.reference

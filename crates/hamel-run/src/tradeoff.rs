@@ -341,33 +341,83 @@ fn planned_tape(
         let inputs = (0..tape.inputs().len()).map(Input::State).collect();
         return Ok((tape, inputs));
     }
-    let (ell, sigma) = loaded.dims();
-    let generated = hamel_codegen::generate(&loaded.d, &[], "export")
-        .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))?;
+    let parameter = |name: &str| match name {
+        hamel_model::TIME => Input::Time,
+        _ => Input::Number(loaded.parameter(name)),
+    };
+    solved_tape(
+        &loaded.d,
+        loaded.state(),
+        loaded.reference_value(),
+        parameter,
+    )
+    .map_err(|e| loaded.error("eta", format!("cannot generate the right-hand side: {e}")))
+}
+
+/// The closed form's rates of the coordinates `state` (each once, in order), then η̇, as one
+/// tape, and where its inputs come from: the state's coordinates and η from the state vector
+/// (y = (q_state, η)), the other coordinates held at `held`, each parameter from `parameter`.
+fn solved_tape(
+    d: &hamel_derive::Derivation,
+    state: &[usize],
+    held: f64,
+    parameter: impl Fn(&str) -> hamel_codegen::python::Input,
+) -> Result<(hamel_expr::Tape, Vec<hamel_codegen::python::Input>), hamel_codegen::CodegenError> {
+    use hamel_codegen::python::Input;
+    let (ell, sigma) = (d.ell, d.sigma);
+    let generated = hamel_codegen::generate(d, &[], "export")?;
     let solved = &generated.solved;
-    let state = loaded.state();
     let exprs: Vec<&hamel_expr::Expr> = state
         .iter()
         .map(|&k| &solved.exprs[sigma + k])
         .chain(&solved.exprs[..sigma])
         .collect();
     let tape = hamel_expr::Tape::compile(&exprs, &solved.inputs)
-        .map_err(|e| loaded.error("eta", format!("internal error: {e}")))?;
+        .map_err(|e| hamel_codegen::CodegenError::Internal(e.to_string()))?;
     // Inputs of the solved form: the ℓ coordinates, the parameters, then η.
     let inputs: Vec<Input> = (0..ell)
         .map(|k| match state.iter().position(|&s| s == k) {
             Some(i) => Input::State(i),
-            None => Input::Number(loaded.reference_value()),
+            None => Input::Number(held),
         })
-        .chain(solved.inputs[ell..solved.inputs.len() - sigma].iter().map(
-            |name| match name.as_str() {
-                hamel_model::TIME => Input::Time,
-                _ => Input::Number(loaded.parameter(name)),
-            },
-        ))
+        .chain(
+            solved.inputs[ell..solved.inputs.len() - sigma]
+                .iter()
+                .map(|name| parameter(name)),
+        )
         .chain((0..sigma).map(|s| Input::State(state.len() + s)))
         .collect();
     Ok((tape, inputs))
+}
+
+/// The full system's right-hand side (y = (q, η), every coordinate) of a closed-form
+/// derivation as Python source, `rhs_into(t, y, dy)` (straight-line code over `math`, the
+/// parameter values `values` written as numbers): what numba compiles into a copy of hamel's
+/// equations. None for a structured derivation (no closed form to write).
+pub fn python_rhs_into(
+    d: &hamel_derive::Derivation,
+    values: &indexmap::IndexMap<String, f64>,
+) -> Result<Option<String>, hamel_codegen::CodegenError> {
+    if d.closed().is_none() {
+        return Ok(None);
+    }
+    let state: Vec<usize> = (0..d.ell).collect();
+    let parameter = |name: &str| {
+        hamel_codegen::python::Input::Number(values.get(name).copied().unwrap_or(f64::NAN))
+    };
+    let (tape, inputs) = solved_tape(d, &state, 0.0, parameter)?;
+    if let Some(name) = d.parameters.keys().find(|n| !values.contains_key(*n)) {
+        return Err(hamel_codegen::CodegenError::Internal(format!(
+            "no value for the parameter `{name}`"
+        )));
+    }
+    let header = format!(
+        "The right-hand side of model `{}` with quasi-velocities `{}`: y = (q, eta), written by hamel's Python package.",
+        d.model, d.eta_name
+    );
+    Ok(Some(hamel_codegen::python::rhs_into_function(
+        &tape, &inputs, &header,
+    )))
 }
 
 /// The structured right-hand side of the planned state (the rates of the state's coordinates,

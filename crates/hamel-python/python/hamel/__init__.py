@@ -12,7 +12,12 @@ Errors in a model are ``hamel.ModelError`` with ``file``, ``line``, ``column``, 
 store lacks is made by ``python -m hamel._worker``, which exits when it is done.
 """
 
-from ._hamel import Derivation, HamelError, Model, ModelError, Scene, version
+from . import _hamel
+from ._hamel import Derivation, HamelError, Model, ModelError, Rhs, Scene, version
 
-__all__ = ["Derivation", "HamelError", "Model", "ModelError", "Scene", "version"]
+# hamel's caches key their entries by the code that made them: this extension, not the
+# interpreter that runs it.
+_hamel._use_identity(_hamel.__file__)
+
+__all__ = ["Derivation", "HamelError", "Model", "ModelError", "Rhs", "Scene", "version"]
 __version__ = version()
