@@ -170,6 +170,12 @@ impl Core {
     pub fn rhs(&self, y: &[f64], dy: &mut [f64], data: &[f64]) -> Result<(), String> {
         let n = self.dims.ell + self.dims.sigma;
         assert!(y.len() == n && dy.len() == n && data.len() == self.dims.data);
+        // The plain call first (no message buffer on the hot path); the checked one says why.
+        // SAFETY: lengths checked above.
+        unsafe { (self.rhs)(0.0, y.as_ptr(), dy.as_mut_ptr(), data.as_ptr()) };
+        if !dy.iter().any(|x| x.is_nan()) {
+            return Ok(());
+        }
         let mut err = ErrBuf::new();
         // SAFETY: lengths checked above.
         let code = unsafe {

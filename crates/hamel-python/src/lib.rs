@@ -21,6 +21,7 @@ mod errors;
 mod model;
 mod rhs;
 mod scene;
+mod search;
 mod study;
 mod worker;
 

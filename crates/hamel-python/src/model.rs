@@ -210,6 +210,61 @@ impl Model {
         crate::study::linearize(py, &self.inner, steady, eta, at.unwrap_or_default(), sweep)
     }
 
+    /// Which coordinates drop out with the choice `eta` when `eliminate` are eliminated,
+    /// decided exactly (`hamel reduce`; in a worker process when the store lacks it): the
+    /// reduction's JSON as Python objects (`free_of`, witnesses, the ground truth, …) and its
+    /// printed report as `text`.
+    #[pyo3(signature = (eliminate, *, eta = None))]
+    fn reduce<'py>(
+        &self,
+        py: Python<'py>,
+        eliminate: Vec<String>,
+        eta: Option<&str>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let model = &self.inner;
+        let r = crate::detached(py, || reduction(model, eta, &eliminate))
+            .map_err(|e| to_py(py, &e.locate(model)))?;
+        let text = hamel_print::reduction::text(&r, model)
+            .map_err(|e| HamelError::new_err(format!("printing the reduction: {e}")))?;
+        let json = serde_json::to_string(&r).expect("serialisable");
+        let dict = py.import("json")?.call_method1("loads", (json,))?;
+        dict.set_item("text", text)?;
+        Ok(dict)
+    }
+
+    /// Search parametrised quasi-velocities for choices that eliminate `eliminate`
+    /// (`hamel search`), within `budget` seconds, collecting at most `max` candidates; in a
+    /// worker process (`python -m hamel._worker search-worker`), ended at the deadline. The
+    /// report's JSON as Python objects: `candidates` a list of rows (a table:
+    /// `pandas.DataFrame(r["candidates"])`), `families`, `stop`, and `text`.
+    #[pyo3(signature = (eliminate, *, budget = 60.0, max = 12))]
+    fn search<'py>(
+        &self,
+        py: Python<'py>,
+        eliminate: Vec<String>,
+        budget: f64,
+        max: usize,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        if !(budget.is_finite() && budget > 0.0) {
+            let msg = format!("budget must be a positive number of seconds, got {budget}");
+            return Err(pyo3::exceptions::PyValueError::new_err(msg));
+        }
+        let model = &self.inner;
+        let file = crate::search::model_file(model).map_err(HamelError::new_err)?;
+        let options = hamel_reduce::SearchOptions {
+            budget: std::time::Duration::from_secs_f64(budget),
+            max_candidates: max,
+        };
+        let report = crate::detached(py, || {
+            hamel_reduce::supervised::run_search(file.path(), model, &eliminate, options)
+        })
+        .map_err(|e| to_py(py, &e.locate(model)))?;
+        let json = serde_json::to_string(&report).expect("serialisable");
+        let dict = py.import("json")?.call_method1("loads", (json,))?;
+        dict.set_item("text", report.to_text())?;
+        Ok(dict)
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "<hamel.Model {} ({} coordinates, {} constraints)>",
@@ -356,4 +411,19 @@ fn evaluated_dict<'py>(
         dict.set_item("constraint_forces", by_name)?;
     }
     Ok(dict)
+}
+
+/// The reduction of `model` with `eliminate` (`hamel reduce`'s analysis), from the store or
+/// made in a worker process ([`hamel_reduce::pass::obtain`]): never the computer algebra here.
+fn reduction(
+    model: &hamel_model::Model,
+    eta: Option<&str>,
+    eliminate: &[String],
+) -> Result<hamel_reduce::Reduction, hamel_reduce::ReduceError> {
+    let p = hamel_reduce::coordinate_indices(model, eliminate)?;
+    let job = Job::new(model, eta, Analysis::Eliminate(p))?;
+    let artefact = hamel_reduce::pass::obtain(&job, false)?;
+    artefact.reduction.ok_or_else(|| {
+        hamel_reduce::ReduceError::StoredUnreadable("the stored analysis has no reduction".into())
+    })
 }

@@ -38,6 +38,31 @@ pub struct Rhs {
 }
 
 impl Rhs {
+    /// The hot path of `rhs(t, y)` for `solve_ivp`: y a contiguous float64 vector of ℓ + σ
+    /// values, dy written straight into a new array; None for anything else.
+    fn one_contiguous<'py>(
+        &self,
+        py: Python<'py>,
+        y: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyArray1<f64>>>> {
+        let Ok(y) = y.cast::<PyArray1<f64>>() else {
+            return Ok(None);
+        };
+        let n = self.n();
+        if !y.is_contiguous() || y.len() != n {
+            return Ok(None);
+        }
+        // SAFETY: a new array, not yet shared.
+        let dy = unsafe { PyArray1::<f64>::new(py, n, false) };
+        // SAFETY: `y` is read and `dy` written while this thread holds the GIL and runs no
+        // Python code, so nothing else can write `y` or see `dy` meanwhile.
+        let (ys, dys) = unsafe { (y.as_slice()?, dy.as_slice_mut()?) };
+        self.core
+            .rhs(ys, dys, &self.data)
+            .map_err(HamelError::new_err)?;
+        Ok(Some(dy))
+    }
+
     /// The right-hand side of `core` (a core of `model`) with `overrides` set on top of the
     /// model's parameter values (derived ones evaluated again).
     pub fn new(
@@ -75,9 +100,13 @@ impl Rhs {
         &self,
         py: Python<'py>,
         t: f64,
-        y: PyReadonlyArrayDyn<'py, f64>,
+        y: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let _ = t;
+        if let Some(dy) = self.one_contiguous(py, y)? {
+            return Ok(dy.into_any());
+        }
+        let y: PyReadonlyArrayDyn<'py, f64> = y.extract()?;
         let n = self.n();
         let shape = y.shape().to_vec();
         if shape.first() != Some(&n) || shape.len() > 2 {

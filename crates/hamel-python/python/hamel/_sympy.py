@@ -2,9 +2,11 @@
 
 hamel's canonical text uses the model file's syntax: names (identifiers that hamel has
 checked), numbers, ``+ - * / ^``, calls of the known functions, ``etaR`` for the
-quasi-velocities and ``etaR_dot`` for their rates. Every name becomes a real SymPy Symbol (so
-that ``E``, ``I``, ``S``, ``N`` or ``beta`` are not taken for SymPy's constants), ``^`` is a
-power, decimals are exact rationals."""
+quasi-velocities and ``etaR_dot`` for their rates, ``der(q)`` for a velocity (the Symbol
+``q_dot``). Every name becomes a real SymPy Symbol (so that ``E``, ``I``, ``S``, ``N``,
+``beta`` or ``lambda`` are not taken for SymPy's constants or Python's words), ``^`` is a
+power, decimals are exact rationals. The text is read by a small parser of that grammar, not
+by ``sympy.parse_expr`` (which hands Python's compiler nesting too deep for a bicycle)."""
 
 import re
 
@@ -16,30 +18,106 @@ SHAPES = {
     "equations_paper": "vector",
 }
 
-_NAME = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
+
+
+_TOKEN = re.compile(r"\s*(?:(?P<number>[0-9]+(?:\.[0-9]*)?(?:[eE][+-]?[0-9]+)?|\.[0-9]+(?:[eE][+-]?[0-9]+)?)"
+                    r"|(?P<name>[A-Za-z_][A-Za-z_0-9]*)|(?P<op>[-+*/^(),]))")
+
+
+def _tokens(text):
+    out, at = [], 0
+    text = text.rstrip()
+    while at < len(text):
+        m = _TOKEN.match(text, at)
+        if not m:
+            raise ValueError(f"cannot read {text[at:at + 20]!r} in hamel's text")
+        out.append((m.lastgroup, m.group(m.lastgroup)))
+        at = m.end()
+    return out
 
 
 def _parser():
+    """A reader of hamel's canonical text into SymPy: sums and products are read in loops
+    (a bicycle's entries have hundreds of terms, more than Python's own parser nests), names
+    become real Symbols whatever they are (`lambda`, `E`, `I`, `beta`)."""
     import sympy as sp
-    from sympy.parsing.sympy_parser import (convert_xor, parse_expr, rationalize,
-                                            standard_transformations)
 
     functions = {"sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "sqrt": sp.sqrt, "exp": sp.exp,
                  "log": sp.log, "asin": sp.asin, "acos": sp.acos, "atan": sp.atan,
                  "atan2": sp.atan2, "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh,
-                 "abs": sp.Abs, "pi": sp.pi}
-    transformations = standard_transformations + (convert_xor, rationalize)
+                 "abs": sp.Abs}
     symbols = {}
 
-    def der(x):
-        return sp.Symbol(f"{x.name}_dot", real=True)
+    def symbol(name):
+        return symbols.setdefault(name, sp.Symbol(name, real=True))
 
     def parse(text):
-        local = dict(functions)
-        for name in set(_NAME.findall(text)) - set(functions) - {"der"}:
-            local[name] = symbols.setdefault(name, sp.Symbol(name, real=True))
-        local["der"] = der
-        return parse_expr(text, local_dict=local, transformations=transformations)
+        tokens = _tokens(text)
+        at = 0
+
+        def peek():
+            return tokens[at] if at < len(tokens) else (None, None)
+
+        def take(value=None):
+            nonlocal at
+            kind, got = peek()
+            if kind is None or (value is not None and got != value):
+                raise ValueError(f"expected {value or 'more'} in {text[:60]!r}")
+            at += 1
+            return kind, got
+
+        def expr():
+            terms = [term()]
+            while peek()[1] in ("+", "-"):
+                _, sign = take()
+                terms.append(term() if sign == "+" else -term())
+            return terms[0] if len(terms) == 1 else sp.Add(*terms)
+
+        def term():
+            factors = [unary()]
+            while peek()[1] in ("*", "/"):
+                _, op = take()
+                factors.append(unary() if op == "*" else sp.Pow(unary(), -1))
+            return factors[0] if len(factors) == 1 else sp.Mul(*factors)
+
+        def unary():
+            if peek()[1] in ("-", "+"):
+                _, sign = take()
+                return unary() if sign == "+" else -unary()
+            base = atom()
+            if peek()[1] == "^":
+                take()
+                return sp.Pow(base, unary())
+            return base
+
+        def atom():
+            kind, got = take()
+            if kind == "number":
+                return sp.Rational(got)
+            if got == "(":
+                inner = expr()
+                take(")")
+                return inner
+            if kind != "name":
+                raise ValueError(f"unexpected {got!r} in {text[:60]!r}")
+            if peek()[1] != "(":
+                return sp.pi if got == "pi" else symbol(got)
+            take("(")
+            args = [expr()]
+            while peek()[1] == ",":
+                take()
+                args.append(expr())
+            take(")")
+            if got == "der":
+                return symbol(f"{args[0].name}_dot")
+            if got not in functions:
+                raise ValueError(f"unknown function {got!r} in hamel's text")
+            return functions[got](*args)
+
+        value = expr()
+        if at != len(tokens):
+            raise ValueError(f"unexpected {tokens[at][1]!r} in {text[:60]!r}")
+        return value
 
     return parse
 

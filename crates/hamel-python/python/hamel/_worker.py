@@ -10,7 +10,9 @@ from ._hamel import work
 
 def main() -> int:
     if len(sys.argv) < 2:
-        print("usage: python -m hamel._worker derive-worker RESULT", file=sys.stderr)
+        print("usage: python -m hamel._worker derive-worker RESULT\n"
+              "       python -m hamel._worker search-worker MODEL --eliminate A,B --budget S --max N",
+              file=sys.stderr)
         return 2
     try:
         work(sys.argv[1], sys.argv[2:])
