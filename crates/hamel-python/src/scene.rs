@@ -41,14 +41,7 @@ impl Scene {
     /// naming why.
     #[pyo3(signature = (*, engine = "compiled"))]
     fn simulate<'py>(&self, py: Python<'py>, engine: &str) -> PyResult<Bound<'py, PyDict>> {
-        let engine = match engine {
-            "compiled" => hamel_run::Engine::Compiled,
-            "interpreted" => hamel_run::Engine::Interpreted,
-            other => {
-                let msg = format!("engine `{other}`: write `compiled` or `interpreted`");
-                return Err(pyo3::exceptions::PyValueError::new_err(msg));
-            }
-        };
+        let engine = engine_named(engine)?;
         let (path, set) = (&self.path, &self.set);
         let run = crate::detached(py, || {
             let loaded = hamel_run::load_with_options(path, set, Default::default())?;
@@ -103,6 +96,44 @@ impl Scene {
         crate::ensemble::to_dict(py, &run, save)
     }
 
+    /// The trade of speed against accuracy (`hamel tradeoff`): every integrator at its
+    /// settings (`range="all"`), the adaptive ones (`"adaptive"`), or the fine work–precision
+    /// curve (`"work-precision"`), each timed and its error measured against a tight
+    /// reference. Returns the table's JSON as Python objects (`rows`: a list of dicts, a
+    /// table for `pandas.DataFrame`; `recommended`: the index of the fastest row that meets
+    /// the scene's target) and the printed table as `text`.
+    #[pyo3(signature = (*, range = "all", engine = "compiled"))]
+    fn tradeoff<'py>(
+        &self,
+        py: Python<'py>,
+        range: &str,
+        engine: &str,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        use hamel_run::tradeoff::Range;
+        let engine = engine_named(engine)?;
+        let range = match range {
+            "all" => Range::All,
+            "adaptive" => Range::Adaptive,
+            "work-precision" => Range::WorkPrecision,
+            other => {
+                let msg = format!(
+                    "range must be \"all\", \"adaptive\" or \"work-precision\", not {other:?}"
+                );
+                return Err(pyo3::exceptions::PyValueError::new_err(msg));
+            }
+        };
+        let (path, set) = (&self.path, &self.set);
+        let table = crate::detached(py, || {
+            let loaded = hamel_run::load_with_options(path, set, Default::default())?;
+            hamel_run::tradeoff::table(&loaded, range, engine)
+        })
+        .map_err(|e| to_py(py, &e))?;
+        let json = serde_json::to_string(&table).expect("serialisable");
+        let dict = py.import("json")?.call_method1("loads", (json,))?;
+        dict.set_item("text", table.to_text())?;
+        Ok(dict)
+    }
+
     fn __repr__(&self) -> String {
         format!("<hamel.Scene {}>", self.path.display())
     }
@@ -155,4 +186,16 @@ fn trajectory<'py>(py: Python<'py>, t: &hamel_run::Trajectory) -> PyResult<Bound
     out.set_item("stats", stats)?;
     out.set_item("method", t.method.as_str())?;
     Ok(out)
+}
+
+/// The engine named `name`.
+fn engine_named(name: &str) -> PyResult<hamel_run::Engine> {
+    match name {
+        "compiled" => Ok(hamel_run::Engine::Compiled),
+        "interpreted" => Ok(hamel_run::Engine::Interpreted),
+        other => {
+            let msg = format!("engine `{other}`: write `compiled` or `interpreted`");
+            Err(pyo3::exceptions::PyValueError::new_err(msg))
+        }
+    }
 }

@@ -66,3 +66,17 @@ def test_the_scenes_own_ensemble_and_bad_members():
         knife.ensemble({"speed": [1.0]})
     with pytest.raises(hamel.ModelError, match="equal length"):
         knife.ensemble({"eta1": [1.0], "eta2": [1.0, 2.0]})
+
+
+def test_the_tradeoff_table_recommends_the_fastest_row_that_meets_the_target():
+    t = hamel.Scene.load(ROOT / "scenes" / "knife.toml").tradeoff()
+    rows = t["rows"]
+    assert {"dop853", "dopri5", "rk4", "gauss-legendre"} <= {r["method"] for r in rows}
+    assert t["reference_check"] < 1e-12 and t["engine"] == "compiled"
+    err = {r["tol"]: r["error_span"] for r in rows if r["method"] == "dop853" and r["tol"]}
+    assert err[1e-12] < 1e-3 * err[1e-5]
+    meets = [r for r in rows if r["complete"] and r["target_ratio"] <= 1.0]
+    assert rows[t["recommended"]]["seconds"] == min(r["seconds"] for r in meets)
+    assert "dop853" in t["text"]
+    with pytest.raises(ValueError, match="range"):
+        hamel.Scene.load(ROOT / "scenes" / "knife.toml").tradeoff(range="some")
