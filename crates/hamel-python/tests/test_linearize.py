@@ -37,6 +37,7 @@ def test_the_bicycles_weave_and_capsize_speeds(sweep):
     points = sweep["points"]
     assert len(points) == 21
     assert all(p["eigenvalues"].dtype == complex and p["eigenvalues"].shape == (4,) for p in points)
+    assert not hamel._hamel._cas_started()  # derived (if at all) in a worker process
 
 
 def test_they_equal_the_command_lines(sweep, tmp_path):
