@@ -6,6 +6,10 @@ numpy arrays.
     >>> d = disk.derive("velocities")       # from the derivation store, or made in a worker
     >>> print(d.text())
     >>> out = disk.eval(q, eta, choice="velocities")   # q: (N, ℓ), eta: (N, σ)
+    >>> rhs = disk.rhs("velocities")         # f(t, y) for solve_ivp; rhs.address, rhs.data for numbalsoda
+    >>> bike = hamel.Model.load("models/whipple_bicycle.toml")
+    >>> bike.linearize("upright", sweep="v=0:10:21")["crossings"]   # weave and capsize
+    >>> hamel.Scene.load("scenes/knife.toml").ensemble({"eta1": speeds})
 
 Errors in a model are ``hamel.ModelError`` with ``file``, ``line``, ``column``, ``key`` and
 ``reason``. The computer algebra (Symbolica) never runs in this process: a derivation the
