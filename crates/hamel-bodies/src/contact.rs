@@ -9,6 +9,10 @@
 //! vanish. When the frames do not keep the wheel on the ground, h = 0 is a holonomic constraint
 //! (the wheel's `dependent` coordinate), whose velocity row is dh/dt like any other's.
 //!
+//! **Tyre** (`crown` ρ > 0: a torus about the spin axis, the circle of radius r swept by a
+//! circle of radius ρ): the contact lies ρ further down, c = centre − r k/|k| − ρ up, at height
+//! h = height(centre) − r|k| − ρ. ρ = 0 is the thin disk.
+//!
 //! The vectors are taken in the axes of the frame the wheel turns in ([`crate::carry`]), so that
 //! the spin angle does not enter k. When k has a single nonzero component there, |k| is that
 //! component, signed as it is at the reference configuration (the wheel above the ground), k/|k|
@@ -82,14 +86,26 @@ pub(crate) fn wheel(
         Some(_) => Expr::int(1),
         None => norm.value.clone(),
     };
+    // A tyre's contact lies a further crown radius ρ below the circle of radius r: −ρ·up.
+    let crown = |times: Expr| {
+        w.crown
+            .as_ref()
+            .map(|rho| scale(&neg(mul(rho.clone(), times)), up))
+    };
     let (v, note, rolling) = match unit {
         Some(unit) => {
-            let offset = scale(&neg(w.radius.clone()), &unit);
+            let mut offset = scale(&neg(w.radius.clone()), &unit);
+            if let Some(down) = crown(Expr::int(1)) {
+                offset = crate::vector::plus(&offset, &down);
+            }
             let rolling = cross(&a, &unit);
             (v_centre.plus(&c.omega().cross(&offset)), norm.note, rolling)
         }
         None => {
-            let offset = scale(&neg(w.radius.clone()), &k);
+            let mut offset = scale(&neg(w.radius.clone()), &k);
+            if let Some(down) = crown(norm.value.clone()) {
+                offset = crate::vector::plus(&offset, &down);
+            }
             let v = v_centre.scale(&norm.value).plus(&c.omega().cross(&offset));
             let note = format!(
                 "its no-slip rows are multiplied by |k| = {} (positive unless the wheel lies flat), so that no square root divides them",
@@ -110,7 +126,10 @@ pub(crate) fn wheel(
             });
         }
     }
-    let height = sub(c.height(), mul(w.radius.clone(), norm.value));
+    let mut height = sub(c.height(), mul(w.radius.clone(), norm.value));
+    if let Some(rho) = &w.crown {
+        height = sub(height, rho.clone());
+    }
     Ok(Rolling {
         rows,
         height,

@@ -131,6 +131,16 @@ pub enum Problem {
     /// A non-positive radius.
     #[error("the radius is not positive at the default parameters ({0})")]
     Radius(f64),
+    /// A tyre's crown radius that is negative or not below its wheel's radius.
+    #[error(
+        "the crown radius must be at least 0 and less than the wheel's radius {radius} at the default parameters; it is {crown}"
+    )]
+    Crown {
+        /// The crown radius.
+        crown: f64,
+        /// The wheel's radius.
+        radius: f64,
+    },
     /// A wheel whose frames do not keep it on the ground and that names no dependent
     /// coordinate.
     #[error(

@@ -373,6 +373,20 @@ fn wheels(
         if r <= 0.0 {
             return Err(BodiesError::new(place("radius"), Problem::Radius(r)));
         }
+        if let Some(crown) = &w.crown {
+            let rho = reference
+                .value(crown)
+                .map_err(|e| BodiesError::new(place("crown"), e))?;
+            if !(0.0..r).contains(&rho) {
+                // Shown to 12 digits: 0.15 - 0.1 is 0.05, not 0.04999999999999999.
+                let shown = |x: f64| format!("{x:.12}").parse::<f64>().unwrap_or(x);
+                let problem = Problem::Crown {
+                    crown: shown(rho),
+                    radius: shown(r),
+                };
+                return Err(BodiesError::new(place("crown"), problem));
+            }
+        }
         let rolling = contact::wheel(tree, &m.frames, w, &m.coordinates, reference)?;
         let normal = match &w.dependent {
             Some(q) => {

@@ -138,8 +138,11 @@ pub struct Wheel {
     pub frame: String,
     /// The spin axis, in the frame's axes (unit length).
     pub axis: Direction,
-    /// The radius.
+    /// The radius (a torus's major radius: from the axis to the middle of the tyre's crown).
     pub radius: Expr,
+    /// The crown radius of a tyre (the torus's minor radius, about the circle of `radius`);
+    /// None: a thin disk.
+    pub crown: Option<Expr>,
     /// The coordinate the contact's height constraint determines, if the frames do not keep
     /// the wheel on the ground by construction.
     pub dependent: Option<String>,

@@ -554,6 +554,13 @@ fn wheel(
     sites.note(&format!("{key}.frame"), raw.frame.span());
     sites.note(&format!("{key}.axis"), raw.axis.span());
     sites.note(&format!("{key}.radius"), raw.radius.span());
+    let crown = match &raw.crown {
+        Some(c) => {
+            sites.note(&format!("{key}.crown"), c.span());
+            Some(scalar(loader, c, &format!("{key}.crown"))?)
+        }
+        None => None,
+    };
     let dependent = match &raw.dependent {
         Some(d) => {
             sites.note(&format!("{key}.dependent"), d.span());
@@ -571,6 +578,7 @@ fn wheel(
         frame: raw.frame.get_ref().clone(),
         axis: direction(loader, &raw.axis, &format!("{key}.axis"))?,
         radius: scalar(loader, &raw.radius, &format!("{key}.radius"))?,
+        crown,
         dependent,
     })
 }

@@ -174,6 +174,8 @@ pub(crate) struct RawWheel {
     pub frame: Spanned<String>,
     pub axis: Spanned<RawDirection>,
     pub radius: Spanned<RawScalar>,
+    /// The tyre's crown radius (a torus about the axis); absent: a thin disk.
+    pub crown: Option<Spanned<RawScalar>>,
     pub dependent: Option<Spanned<String>>,
 }
 

@@ -83,3 +83,20 @@ def test_eval_refuses_arrays_of_the_wrong_shape():
     knife = hamel.Model.load(MODELS / "knife.toml")
     with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
         knife.eval(np.zeros((4, 2)), np.zeros((4, 2)), choice="paper")
+
+
+def test_a_tyre_with_no_crown_is_the_thin_disk():
+    """models/bodies/rolling_tyre.toml (a torus: wheels.disk.crown = "c") with c = 0 has the
+    equations of the thin disk of rolling_disk_bodies.toml; with its crown it has others."""
+    tyre = hamel.Model.load(MODELS / "bodies" / "rolling_tyre.toml")
+    disk = hamel.Model.load(MODELS / "bodies" / "rolling_disk_bodies.toml")
+    rng = np.random.default_rng(62)
+    q = rng.uniform(-1.2, 1.2, size=(30, 5))
+    eta = rng.uniform(-2, 2, size=(30, 3))
+    flat = tyre.eval(q, eta, choice="velocities", params={"c": 0.0}, engine="interpreted")
+    thin = disk.eval(q, eta, choice="velocities", engine="interpreted")
+    for key in ("eta_dot", "q_dot", "energy"):
+        scale = np.maximum(1.0, np.abs(thin[key]))
+        assert np.max(np.abs(flat[key] - thin[key]) / scale) < 1e-12, key
+    crowned = tyre.eval(q, eta, choice="velocities", engine="interpreted")
+    assert np.max(np.abs(crowned["eta_dot"] - thin["eta_dot"])) > 1e-3

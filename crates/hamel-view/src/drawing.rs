@@ -100,8 +100,10 @@ pub enum ContactPoint {
     Wheel {
         /// The frame's name.
         frame: String,
-        /// The radius.
+        /// The radius (a tyre's major radius).
         radius: f64,
+        /// A tyre's crown radius (0: a thin disk): the contact lies that much further down.
+        crown: f64,
         /// The spin axis in the frame's axes.
         axis: [f64; 3],
     },
@@ -244,10 +246,15 @@ impl Builder<'_> {
     fn wheels(&mut self, m: &Mechanism) -> Result<(), DrawError> {
         for w in &m.wheels {
             let radius = self.value("wheel", &w.name, &w.radius)?;
+            let crown = match &w.crown {
+                Some(c) => self.value("wheel", &w.name, c)?,
+                None => 0.0,
+            };
             let axis = self.direction("wheel", &w.name, &w.axis)?;
+            // A tyre is drawn as the disk through its crown's outer edge, as wide as the crown.
             let form = Form::Wheel {
-                radius,
-                width: 0.1 * radius,
+                radius: radius + crown,
+                width: (2.0 * crown).max(0.1 * radius),
             };
             self.push(
                 &w.name,
@@ -262,6 +269,7 @@ impl Builder<'_> {
                 at: ContactPoint::Wheel {
                     frame: w.frame.clone(),
                     radius,
+                    crown,
                     axis,
                 },
             });
@@ -435,6 +443,7 @@ impl Contact {
             ContactPoint::Wheel {
                 frame,
                 radius,
+                crown,
                 axis,
             } => {
                 let pose = placed[frame];
@@ -445,9 +454,9 @@ impl Contact {
                 let c = pose.position;
                 if n < 1e-12 {
                     // The wheel lies flat: its lowest points form a circle; its centre's foot.
-                    return [0, 1, 2].map(|i| c[i] - up[i] * radius);
+                    return [0, 1, 2].map(|i| c[i] - up[i] * (radius + crown));
                 }
-                [0, 1, 2].map(|i| c[i] + radius * down[i] / n)
+                [0, 1, 2].map(|i| c[i] + radius * down[i] / n - crown * up[i])
             }
         }
     }
