@@ -13,20 +13,29 @@
 //! circle of radius ρ): the contact lies ρ further down, c = centre − r k/|k| − ρ up, at height
 //! h = height(centre) − r|k| − ρ. ρ = 0 is the thin disk.
 //!
+//! **Rolling body** (`[rolling.NAME]`, a convex surface about a centre fixed in a frame): the
+//! contact is the surface's point whose outward normal is −up, from its support function at
+//! u = up (in the frame's axes): a sphere of radius a touches at centre − a·u, at height
+//! height(centre) − a; an ellipsoid with semi-axes (a, b, c) at centre − w/s, w = (a²u₁, b²u₂,
+//! c²u₃), s = √(u·w), at height height(centre) − s. The ellipsoid's no-slip rows are those of
+//! s·v = s·v_centre + ω × (−w), and its height's rate row is s·dh/dt = s·d height(centre)/dt −
+//! ½ d(s²)/dt: no square root divides them.
+//!
 //! The vectors are taken in the axes of the frame the wheel turns in ([`crate::carry`]), so that
 //! the spin angle does not enter k. When k has a single nonzero component there, |k| is that
 //! component, signed as it is at the reference configuration (the wheel above the ground), k/|k|
 //! is a signed axis, and neither a square root nor a division enters the equations.
 
+use hamel_expr::Rational;
 use hamel_expr::build::{div, mul, neg, sub};
 use hamel_expr::{Expr, Func};
 
 use crate::carry::carry;
 use crate::error::{BodiesError, Place, Problem, Section};
 use crate::frames::Tree;
-use crate::mechanism::{Blade, Direction, Frame, Wheel};
+use crate::mechanism::{Blade, Direction, Frame, Roller, Surface, Wheel};
 use crate::numeric::Point;
-use crate::vector::{V3, cross, dot, scale};
+use crate::vector::{Rate, V3, cross, dot, negate, scale};
 
 /// A row of α, named.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,15 +126,7 @@ pub(crate) fn wheel(
     };
     let rolling: V3 = std::array::from_fn(|j| dot(&k_c.world_axes[j], &rolling));
     let rolling = forwards(rolling, reference).map_err(|e| BodiesError::new(at("axis"), e))?;
-    let mut rows = Vec::new();
-    for (j, axis) in k_c.world_axes.iter().enumerate() {
-        if j != tree.up.index {
-            rows.push(Row {
-                name: format!("{}_no_slip_{}", w.name, ["x", "y", "z"][j]),
-                coefficients: v.dot(axis),
-            });
-        }
-    }
+    let rows = horizontal_rows(&w.name, &v, &k_c.world_axes, tree);
     let mut height = sub(c.height(), mul(w.radius.clone(), norm.value));
     if let Some(rho) = &w.crown {
         height = sub(height, rho.clone());
@@ -137,6 +138,102 @@ pub(crate) fn wheel(
         scale: row_scale,
         rolling,
     })
+}
+
+/// What a rolling body contributes.
+pub(crate) struct Touching {
+    /// The no-slip rows.
+    pub rows: Vec<Row>,
+    /// The contact's height above the ground.
+    pub height: Expr,
+    /// The row of the height constraint, when dh/dt would divide by a square root (the
+    /// ellipsoid's s·dh/dt); None: dh/dt.
+    pub height_rate: Option<Vec<Expr>>,
+    /// What the rows were multiplied by, when not 1.
+    pub note: Option<String>,
+}
+
+/// The rows and contact height of a rolling body.
+pub(crate) fn roller(
+    tree: &Tree,
+    frames: &[Frame],
+    r: &Roller,
+    coordinates: &[String],
+) -> Result<Touching, BodiesError> {
+    let at = |field| Place::new(Section::Rolling, &r.name, field);
+    // A sphere is symmetric about every axis: its centre is carried up through the rotations
+    // about an axis it lies on, which then never enter its equations.
+    let sphere = matches!(r.surface, Surface::Sphere { .. });
+    let c = carry(
+        tree,
+        frames,
+        &r.frame,
+        r.centre.clone(),
+        &|_| sphere,
+        coordinates,
+    )
+    .map_err(|e| BodiesError::new(at("frame"), e))?;
+    let up = &c.kinematics.up;
+    let v_centre = c
+        .velocity(coordinates)
+        .map_err(|e| BodiesError::new(at("frame"), e))?;
+    let (v, height, height_rate, note) = match &r.surface {
+        Surface::Sphere { radius } => {
+            let v = v_centre.plus(&c.omega().cross(&scale(&neg(radius.clone()), up)));
+            (v, sub(c.height(), radius.clone()), None, None)
+        }
+        Surface::Ellipsoid { semi_axes } => {
+            let w: V3 = std::array::from_fn(|i| {
+                let a = &semi_axes[i];
+                mul(mul(a.clone(), a.clone()), up[i].clone())
+            });
+            let s2 = dot(up, &w);
+            let s = Expr::call(Func::Sqrt, s2.clone());
+            let v = v_centre.scale(&s).plus(&c.omega().cross(&negate(&w)));
+            let rate = scaled_rate(&c.height(), &s, &s2, coordinates)
+                .map_err(|e| BodiesError::new(at("frame"), e))?;
+            let note = format!(
+                "its no-slip rows and its height's rate are multiplied by s = {s} (positive), so that no square root divides them"
+            );
+            (v, sub(c.height(), s), Some(rate), Some(note))
+        }
+    };
+    let rows = horizontal_rows(&r.name, &v, &c.kinematics.world_axes, tree);
+    Ok(Touching {
+        rows,
+        height,
+        height_rate,
+        note,
+    })
+}
+
+/// s·d(H − s)/dt = s·dH/dt − ½ d(s²)/dt, per coordinate rate.
+fn scaled_rate(
+    centre_height: &Expr,
+    s: &Expr,
+    s2: &Expr,
+    coordinates: &[String],
+) -> Result<Vec<Expr>, Problem> {
+    let half = Expr::Num(Rational::new(1.into(), 2.into()));
+    (coordinates.iter())
+        .map(|q| {
+            let dh = centre_height.diff(q)?;
+            let ds2 = s2.diff(q)?;
+            Ok(sub(mul(s.clone(), dh), mul(half.clone(), ds2)))
+        })
+        .collect()
+}
+
+/// The rows `NAME_no_slip_x`, … of a contact point's velocity `v` along the world's horizontal
+/// axes.
+fn horizontal_rows(name: &str, v: &Rate, world_axes: &[V3; 3], tree: &Tree) -> Vec<Row> {
+    (world_axes.iter().enumerate())
+        .filter(|(j, _)| *j != tree.up.index)
+        .map(|(j, axis)| Row {
+            name: format!("{name}_no_slip_{}", ["x", "y", "z"][j]),
+            coefficients: v.dot(axis),
+        })
+        .collect()
 }
 
 /// The rolling direction (world axes) oriented as vehicles are described: towards the world's

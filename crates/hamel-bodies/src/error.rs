@@ -13,6 +13,8 @@ pub enum Section {
     Bodies,
     /// `[wheels.NAME]`
     Wheels,
+    /// `[rolling.NAME]`
+    Rolling,
     /// `[blades.NAME]`
     Blades,
     /// `[holonomic.NAME]`
@@ -33,6 +35,7 @@ impl Section {
             Section::Frames => "frames",
             Section::Bodies => "bodies",
             Section::Wheels => "wheels",
+            Section::Rolling => "rolling",
             Section::Blades => "blades",
             Section::Holonomic => "holonomic",
             Section::Loads => "loads",
@@ -131,6 +134,14 @@ pub enum Problem {
     /// A non-positive radius.
     #[error("the radius is not positive at the default parameters ({0})")]
     Radius(f64),
+    /// A non-positive semi-axis of an ellipsoid.
+    #[error("the semi-axis along {axis} is not positive at the default parameters ({value})")]
+    SemiAxis {
+        /// `x`, `y` or `z`.
+        axis: &'static str,
+        /// Its value there.
+        value: f64,
+    },
     /// A tyre's crown radius that is negative or not below its wheel's radius.
     #[error(
         "the crown radius must be at least 0 and less than the wheel's radius {radius} at the default parameters; it is {crown}"
@@ -141,17 +152,25 @@ pub enum Problem {
         /// The wheel's radius.
         radius: f64,
     },
-    /// A wheel whose frames do not keep it on the ground and that names no dependent
-    /// coordinate.
+    /// A wheel or rolling body whose frames do not keep it on the ground and that names no
+    /// dependent coordinate.
     #[error(
-        "the wheel's contact leaves the ground (height {height:.3e} at q = {at:?}): name the coordinate its height constraint determines with `dependent`"
+        "the {what}'s contact leaves the ground (height {height:.3e} at q = {at:?}): name the coordinate its height constraint determines with `dependent`"
     )]
     OffGround {
+        /// `wheel` or `rolling body`.
+        what: &'static str,
         /// The contact's height there.
         height: f64,
         /// The configuration.
         at: Vec<f64>,
     },
+    /// A contact whose height does not involve the coordinate named to determine it: its frames
+    /// cannot bring it to the ground by that coordinate.
+    #[error(
+        "the contact's height does not depend on `{0}`: moving it cannot bring the contact to the ground (name a coordinate its frames' height involves)"
+    )]
+    HeightFree(String),
     /// A holonomic constraint that cannot be solved for its dependent coordinate.
     #[error(
         "the constraint does not determine `{coordinate}` at the reference configuration: {reason}"

@@ -17,7 +17,7 @@ use indexmap::IndexMap;
 use crate::contact::{self, Row};
 use crate::error::{BodiesError, Place, Problem, Section};
 use crate::frames::{self, Tree};
-use crate::mechanism::{Body, Direction, Mechanism};
+use crate::mechanism::{Body, Direction, Mechanism, Surface};
 use crate::motion::Motion;
 use crate::numeric::{Completion, CompletionError, Point};
 use crate::reactions;
@@ -32,6 +32,10 @@ pub struct HolonomicConstraint {
     pub h: Expr,
     /// The coordinate it determines.
     pub dependent: String,
+    /// Its velocity row, when not dh/dt: a multiple of it by a positive factor, free of the
+    /// square roots dh/dt would divide by (an ellipsoid's contact); one entry per coordinate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate: Option<Vec<Expr>>,
 }
 
 /// A mechanism as L = T + U and α.
@@ -73,6 +77,7 @@ pub fn expand(
     let tree = frames::build(m)?;
     let (a, potential) = inertia_and_potential(&tree, m, &reference)?;
     let mut rolling = wheels(m, &tree, values, samples, &reference)?;
+    rollers(m, &tree, values, samples, &reference, &mut rolling)?;
     for b in &m.blades {
         check_frame(&tree, Section::Blades, &b.name, &b.frame)?;
         check_direction(&b.direction, &reference)
@@ -89,6 +94,7 @@ pub fn expand(
             name: c.name.clone(),
             h: c.h.clone(),
             dependent: c.dependent.clone(),
+            rate: None,
         }));
     let place = |c: &HolonomicConstraint, field| holonomic_place(m, c, field);
     let holonomic = holonomic_rows(&m.coordinates, &rolling.holonomic, values, &place)?;
@@ -395,11 +401,13 @@ fn wheels(
                     name: name.clone(),
                     h: rolling.height.clone(),
                     dependent: q.clone(),
+                    rate: None,
                 });
                 reactions::Normal::Row(name)
             }
             None => {
-                on_the_ground(m, w, &rolling.height, values, samples)?;
+                let place = (place("dependent"), "wheel");
+                on_the_ground(m, place, &w.radius, &rolling.height, values, samples)?;
                 supports.next(reactions::root_of(&m.frames, &w.frame))
             }
         };
@@ -410,6 +418,82 @@ fn wheels(
             .extend(rolling.note.map(|n| format!("wheel {}: {n}", w.name)));
     }
     Ok(out)
+}
+
+/// The rolling bodies' rows and height constraints (issue 62). Their contact forces are not
+/// read off yet: they are not among `forces`.
+fn rollers(
+    m: &Mechanism,
+    tree: &Tree,
+    values: &IndexMap<String, f64>,
+    samples: &[Vec<f64>],
+    reference: &Point,
+    out: &mut Contacts,
+) -> Result<(), BodiesError> {
+    for r in &m.rollers {
+        let place = |field| Place::new(Section::Rolling, &r.name, field);
+        check_frame(tree, Section::Rolling, &r.name, &r.frame)?;
+        let size =
+            check_surface(&r.surface, reference).map_err(|e| BodiesError::new(place(e.0), e.1))?;
+        let touching = contact::roller(tree, &m.frames, r, &m.coordinates)?;
+        match &r.dependent {
+            Some(q) if !mentions(&touching.height, q) => {
+                return Err(BodiesError::new(
+                    place("dependent"),
+                    Problem::HeightFree(q.clone()),
+                ));
+            }
+            Some(q) => out.holonomic.push(HolonomicConstraint {
+                name: format!("{}_contact", r.name),
+                h: touching.height.clone(),
+                dependent: q.clone(),
+                rate: touching.height_rate,
+            }),
+            None => {
+                let at = (place("dependent"), "rolling body");
+                on_the_ground(m, at, &size, &touching.height, values, samples)?;
+            }
+        }
+        out.rows.extend(touching.rows);
+        out.notes.extend(
+            touching
+                .note
+                .map(|n| format!("rolling body {}: {n}", r.name)),
+        );
+    }
+    Ok(())
+}
+
+/// Whether `e` holds the symbol `name` (where it does not, `e` does not depend on it).
+fn mentions(e: &Expr, name: &str) -> bool {
+    e.any(&mut |x| matches!(x, Expr::Sym(s) if s == name))
+}
+
+/// A surface's sizes are positive at the defaults; its largest size (for tolerances), or the
+/// field at fault and why.
+fn check_surface(s: &Surface, at: &Point) -> Result<Expr, (&'static str, Problem)> {
+    match s {
+        Surface::Sphere { radius } => {
+            let r = at.value(radius).map_err(|e| ("sphere", e))?;
+            if r <= 0.0 {
+                return Err(("sphere", Problem::Radius(r)));
+            }
+            Ok(radius.clone())
+        }
+        Surface::Ellipsoid { semi_axes } => {
+            let mut largest = (0.0, 0);
+            for (i, axis) in ["x", "y", "z"].into_iter().enumerate() {
+                let value = at.value(&semi_axes[i]).map_err(|e| ("ellipsoid", e))?;
+                if value <= 0.0 {
+                    return Err(("ellipsoid", Problem::SemiAxis { axis, value }));
+                }
+                if value > largest.0 {
+                    largest = (value, i);
+                }
+            }
+            Ok(semi_axes[largest.1].clone())
+        }
+    }
 }
 
 /// Numbers the supports as [`reactions::supports`] does: roots in the order of their first
@@ -435,28 +519,30 @@ impl Supports {
     }
 }
 
-/// A wheel without a dependent coordinate must touch the ground at every sample (its frames
-/// keep it there by construction).
+/// A contact without a dependent coordinate must touch the ground at every sample (its frames
+/// keep it there by construction). `size`: the contact's scale (a radius) for the tolerance;
+/// `what`: a wheel or a rolling body, at `place`.
 fn on_the_ground(
     m: &Mechanism,
-    w: &crate::mechanism::Wheel,
+    (place, what): (Place, &'static str),
+    size: &Expr,
     h: &Expr,
     values: &IndexMap<String, f64>,
     samples: &[Vec<f64>],
 ) -> Result<(), BodiesError> {
-    let place = Place::new(Section::Wheels, &w.name, "dependent");
     for q in samples {
         let at = Point::at(&m.coordinates, q, values);
         let height = at
             .value(h)
             .map_err(|e| BodiesError::new(place.clone(), e))?;
         let scale = at
-            .value(&w.radius)
+            .value(size)
             .map_err(|e| BodiesError::new(place.clone(), e))?;
         if height.abs() > 1e-12 * scale.abs().max(1.0) {
             return Err(BodiesError::new(
                 place,
                 Problem::OffGround {
+                    what,
                     height,
                     at: q.clone(),
                 },
@@ -502,11 +588,13 @@ pub fn holonomic_rows(
     let mut rows = Vec::new();
     let (mut kept, mut dependent, mut implied) = (Vec::new(), Vec::new(), Vec::new());
     for (i, c) in constraints.iter().enumerate() {
-        let coefficients = coordinates
-            .iter()
-            .map(|q| c.h.diff(q))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| BodiesError::new(place(c, "h"), e))?;
+        let coefficients = match &c.rate {
+            Some(rate) => rate.clone(),
+            None => (coordinates.iter())
+                .map(|q| c.h.diff(q))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| BodiesError::new(place(c, "h"), e))?,
+        };
         rows.push(Row {
             name: c.name.clone(),
             coefficients,
@@ -630,12 +718,12 @@ fn is_implied(
 /// Where a holonomic constraint of a mechanism was declared: a wheel's `dependent`, or
 /// `[holonomic.NAME]`.
 fn holonomic_place(m: &Mechanism, c: &HolonomicConstraint, field: &'static str) -> Place {
-    match m
-        .wheels
-        .iter()
-        .find(|w| format!("{}_contact", w.name) == c.name)
-    {
-        Some(w) => Place::new(Section::Wheels, &w.name, "dependent"),
+    let contact = |name: &str| format!("{name}_contact") == c.name;
+    if let Some(w) = m.wheels.iter().find(|w| contact(&w.name)) {
+        return Place::new(Section::Wheels, &w.name, "dependent");
+    }
+    match m.rollers.iter().find(|r| contact(&r.name)) {
+        Some(r) => Place::new(Section::Rolling, &r.name, "dependent"),
         None => Place::new(Section::Holonomic, &c.name, field),
     }
 }

@@ -43,7 +43,7 @@ pub use expand::{Expansion, HolonomicConstraint, HolonomicRows, expand, holonomi
 pub use frames::order as frames_in_order;
 pub use mechanism::{
     Anchor, Axis, Blade, Body, Damper, Direction, Frame, Geometry, Holonomic, Inertia, Load,
-    LoadKind, Mechanism, Rotation, Shape, Spring, Stretch, WORLD, Wheel, World,
+    LoadKind, Mechanism, Roller, Rotation, Shape, Spring, Stretch, Surface, WORLD, Wheel, World,
 };
 pub use numeric::{Completion, CompletionError, Point};
 pub use reactions::{Contact, ContactForces, ContactKind, Normal, Support, WheelForce};

@@ -129,7 +129,7 @@ pub struct Body {
     pub inertia: Option<Inertia>,
 }
 
-/// A wheel (a thin disk) rolling without slipping on the ground.
+/// A wheel rolling without slipping on the ground: a thin disk, or a tyre (a torus) with a crown.
 #[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Wheel {
     /// Its name.
@@ -142,10 +142,43 @@ pub struct Wheel {
     pub radius: Expr,
     /// The crown radius of a tyre (the torus's minor radius, about the circle of `radius`);
     /// None: a thin disk.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crown: Option<Expr>,
     /// The coordinate the contact's height constraint determines, if the frames do not keep
     /// the wheel on the ground by construction.
     pub dependent: Option<String>,
+}
+
+/// A convex surface of a body, rolling without slipping on the ground (`[rolling.NAME]`,
+/// issue 62): a ball, a ball robot's shell, a rattleback's hull.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
+pub struct Roller {
+    /// Its name.
+    pub name: String,
+    /// The frame the surface is fixed in.
+    pub frame: String,
+    /// The surface's centre, in the frame's axes (a Routh sphere's centre of mass is off it).
+    pub centre: V3,
+    /// The surface.
+    pub surface: Surface,
+    /// The coordinate the contact's height constraint determines, if the frames do not keep
+    /// the surface on the ground by construction.
+    pub dependent: Option<String>,
+}
+
+/// A rolling body's convex surface, about its centre.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
+pub enum Surface {
+    /// A sphere of this radius.
+    Sphere {
+        /// The radius.
+        radius: Expr,
+    },
+    /// An ellipsoid with these semi-axes along the frame's axes.
+    Ellipsoid {
+        /// The semi-axes (x, y, z).
+        semi_axes: V3,
+    },
 }
 
 /// A blade (knife edge, sleigh runner, skate): the point may not move across the blade, in the
@@ -260,6 +293,9 @@ pub struct Mechanism {
     pub bodies: Vec<Body>,
     /// Rolling wheels.
     pub wheels: Vec<Wheel>,
+    /// Rolling bodies with a curved surface (`[rolling.NAME]`: spheres, ellipsoids).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rollers: Vec<Roller>,
     /// Blades.
     pub blades: Vec<Blade>,
     /// Holonomic constraints.

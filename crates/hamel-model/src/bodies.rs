@@ -1,5 +1,5 @@
 //! Reading a model given by bodies, frames and rolling wheels (`[world]`, `[frames.*]`,
-//! `[bodies.*]`, `[wheels.*]`, `[blades.*]`, `[holonomic.*]`): every field parsed and resolved
+//! `[bodies.*]`, `[wheels.*]`, `[rolling.*]`, `[blades.*]`, `[holonomic.*]`): every field parsed and resolved
 //! with its place in the file, the mechanism expanded by `hamel-bodies` into A, U and the rows
 //! of α, and any problem it finds located at the field it names.
 
@@ -8,8 +8,8 @@ use std::ops::Range;
 
 use hamel_bodies::{
     Anchor, Axis, Blade, BodiesError, Body, Completion, Damper, Direction, Frame, Holonomic,
-    HolonomicConstraint, Inertia, Load, LoadKind, Mechanism, Place, Rotation, Row, Section, Spring,
-    Stretch, WORLD, Wheel, World,
+    HolonomicConstraint, Inertia, Load, LoadKind, Mechanism, Place, Roller, Rotation, Row, Section,
+    Spring, Stretch, Surface, WORLD, Wheel, World,
 };
 use hamel_expr::Expr;
 use toml::Spanned;
@@ -44,7 +44,12 @@ impl Sites {
 
 /// Whether the file describes bodies (then it gives no `[lagrangian]`).
 pub(crate) fn describes_bodies(raw: &RawModel) -> bool {
-    raw.world.is_some() || !raw.frames.is_empty() || !raw.bodies.is_empty()
+    raw.world.is_some()
+        || !raw.frames.is_empty()
+        || !raw.bodies.is_empty()
+        || !raw.wheels.is_empty()
+        || !raw.rolling.is_empty()
+        || !raw.blades.is_empty()
 }
 
 /// L and α from the file's bodies: A, U and the rows of α expanded by `hamel-bodies`, any
@@ -122,6 +127,12 @@ fn row_section(r: &Row, m: &Mechanism) -> String {
             .map(|n| format!("{section}.{n}"))
     };
     from(m.wheels.iter().map(|w| w.name.as_str()).collect(), "wheels")
+        .or_else(|| {
+            from(
+                m.rollers.iter().map(|r| r.name.as_str()).collect(),
+                "rolling",
+            )
+        })
         .or_else(|| from(m.blades.iter().map(|b| b.name.as_str()).collect(), "blades"))
         .unwrap_or_else(|| format!("holonomic.{}", r.name))
 }
@@ -168,6 +179,7 @@ pub(crate) fn holonomic_of(
             name: c.name,
             h: c.h,
             dependent: c.dependent,
+            rate: None,
         });
     }
     let place = |c: &HolonomicConstraint, field| Place::new(Section::Holonomic, &c.name, field);
@@ -244,6 +256,7 @@ fn mechanism(
         frames,
         bodies: Vec::new(),
         wheels: Vec::new(),
+        rollers: Vec::new(),
         blades: Vec::new(),
         holonomic: Vec::new(),
         loads: Vec::new(),
@@ -256,6 +269,9 @@ fn mechanism(
     }
     for (name, w) in &raw.wheels {
         m.wheels.push(wheel(loader, sites, name, w, err)?);
+    }
+    for (name, r) in &raw.rolling {
+        m.rollers.push(roller(loader, sites, name, r, err)?);
     }
     for (name, b) in &raw.blades {
         m.blades.push(blade(loader, sites, name, b)?);
@@ -579,6 +595,59 @@ fn wheel(
         axis: direction(loader, &raw.axis, &format!("{key}.axis"))?,
         radius: scalar(loader, &raw.radius, &format!("{key}.radius"))?,
         crown,
+        dependent,
+    })
+}
+
+fn roller(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    name: &str,
+    r: &Spanned<crate::schema::RawRoller>,
+    err: &ErrorAt,
+) -> Result<Roller, ModelError> {
+    let key = format!("rolling.{name}");
+    sites.note(&key, r.span());
+    let raw = r.get_ref();
+    sites.note(&format!("{key}.frame"), raw.frame.span());
+    let surface = match (&raw.sphere, &raw.ellipsoid) {
+        (Some(a), None) => {
+            sites.note(&format!("{key}.sphere"), a.span());
+            Surface::Sphere {
+                radius: scalar(loader, a, &format!("{key}.sphere"))?,
+            }
+        }
+        (None, Some(axes)) => {
+            sites.note(&format!("{key}.ellipsoid"), axes.span());
+            let semi_axes = loader.vector(
+                Some(axes),
+                &format!("{key}.ellipsoid"),
+                FieldKind::Positional,
+            )?;
+            Surface::Ellipsoid { semi_axes }
+        }
+        _ => {
+            let msg = "give exactly one of `sphere = RADIUS` and `ellipsoid = [a, b, c]` (semi-axes along the frame's axes)";
+            return Err(err(r.span(), &key, msg.into()));
+        }
+    };
+    let dependent = match &raw.dependent {
+        Some(d) => {
+            sites.note(&format!("{key}.dependent"), d.span());
+            Some(coordinate_name(
+                loader,
+                d,
+                &format!("{key}.dependent"),
+                err,
+            )?)
+        }
+        None => None,
+    };
+    Ok(Roller {
+        name: name.to_string(),
+        frame: raw.frame.get_ref().clone(),
+        centre: vector(loader, raw.centre.as_ref(), &format!("{key}.centre"))?,
+        surface,
         dependent,
     })
 }

@@ -33,6 +33,9 @@ pub(crate) struct RawModel {
     pub bodies: IndexMap<String, Spanned<RawBody>>,
     #[serde(default)]
     pub wheels: IndexMap<String, Spanned<RawWheel>>,
+    /// Rolling bodies with a curved surface (issue 62).
+    #[serde(default)]
+    pub rolling: IndexMap<String, Spanned<RawRoller>>,
     #[serde(default)]
     pub blades: IndexMap<String, Spanned<RawBlade>>,
     #[serde(default)]
@@ -176,6 +179,20 @@ pub(crate) struct RawWheel {
     pub radius: Spanned<RawScalar>,
     /// The tyre's crown radius (a torus about the axis); absent: a thin disk.
     pub crown: Option<Spanned<RawScalar>>,
+    pub dependent: Option<Spanned<String>>,
+}
+
+/// `[rolling.NAME]`: a convex surface on a frame, exactly one of `sphere` and `ellipsoid`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawRoller {
+    pub frame: Spanned<String>,
+    /// The radius.
+    pub sphere: Option<Spanned<RawScalar>>,
+    /// The semi-axes along the frame's axes.
+    pub ellipsoid: Option<RawVector>,
+    /// The surface's centre in the frame's axes (default: the origin).
+    pub centre: Option<RawVector>,
     pub dependent: Option<Spanned<String>>,
 }
 

@@ -12,7 +12,7 @@
 //!   principal moments ([`crate::shapes`]); a point mass, or moments no solid has, a small
 //!   sphere.
 
-use hamel_bodies::{Axis, Direction, Geometry, Mechanism, Point};
+use hamel_bodies::{Axis, Direction, Geometry, Mechanism, Point, Surface};
 use hamel_expr::Expr;
 use indexmap::IndexMap;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -107,6 +107,17 @@ pub enum ContactPoint {
         /// The spin axis in the frame's axes.
         axis: [f64; 3],
     },
+    /// A rolling body's lowest point: the surface's support point at the downward direction
+    /// (an ellipsoid centre − (a²u₁, b²u₂, c²u₃)/s, u = up in the frame's axes; a sphere has
+    /// equal semi-axes).
+    Roller {
+        /// The frame's name.
+        frame: String,
+        /// The surface's centre in the frame's axes.
+        centre: [f64; 3],
+        /// Its semi-axes along the frame's axes.
+        semi_axes: [f64; 3],
+    },
     /// A blade's point, fixed in its frame.
     Blade {
         /// The frame's name.
@@ -159,6 +170,7 @@ impl Drawing {
             },
         };
         d.wheels(m)?;
+        d.rollers(m)?;
         d.blades(m)?;
         d.shapes(m)?;
         d.bodies(m)?;
@@ -277,6 +289,34 @@ impl Builder<'_> {
         Ok(())
     }
 
+    /// A rolling body: its sphere or ellipsoid about its centre.
+    fn rollers(&mut self, m: &Mechanism) -> Result<(), DrawError> {
+        for r in &m.rollers {
+            let v = |e: &Expr| self.value("rolling body", &r.name, e);
+            let centre = [v(&r.centre[0])?, v(&r.centre[1])?, v(&r.centre[2])?];
+            let (form, semi_axes) = match &r.surface {
+                Surface::Sphere { radius } => {
+                    let radius = v(radius)?;
+                    (Form::Sphere { radius }, [radius; 3])
+                }
+                Surface::Ellipsoid { semi_axes } => {
+                    let half = [v(&semi_axes[0])?, v(&semi_axes[1])?, v(&semi_axes[2])?];
+                    (Form::Ellipsoid { half }, half)
+                }
+            };
+            self.push(&r.name, &r.frame, centre, IDENTITY, form, None);
+            self.drawing.contacts.push(Contact {
+                name: r.name.clone(),
+                at: ContactPoint::Roller {
+                    frame: r.frame.clone(),
+                    centre,
+                    semi_axes,
+                },
+            });
+        }
+        Ok(())
+    }
+
     /// A blade: a plate standing on its point, along its direction, its height along the
     /// frame's direction nearest to up at the start (perpendicular to the blade).
     fn blades(&mut self, m: &Mechanism) -> Result<(), DrawError> {
@@ -362,7 +402,9 @@ impl Builder<'_> {
     /// frame reported.
     fn bodies(&mut self, m: &Mechanism) -> Result<(), DrawError> {
         let covered = |frame: &str| {
-            m.wheels.iter().any(|w| w.frame == frame) || m.shapes.iter().any(|s| s.frame == frame)
+            m.wheels.iter().any(|w| w.frame == frame)
+                || m.rollers.iter().any(|r| r.frame == frame)
+                || m.shapes.iter().any(|s| s.frame == frame)
         };
         for b in &m.bodies {
             let frame = self.frame(&b.frame);
@@ -440,6 +482,23 @@ impl Contact {
     pub fn position(&self, placed: &IndexMap<String, Pose>, up: [f64; 3]) -> [f64; 3] {
         match &self.at {
             ContactPoint::Blade { frame, point, .. } => placed[frame].apply(*point),
+            ContactPoint::Roller {
+                frame,
+                centre,
+                semi_axes,
+            } => {
+                let pose = placed[frame];
+                let inverse = [
+                    pose.rotation[0],
+                    -pose.rotation[1],
+                    -pose.rotation[2],
+                    -pose.rotation[3],
+                ];
+                let u = rotate(inverse, up);
+                let w = [0, 1, 2].map(|i| semi_axes[i] * semi_axes[i] * u[i]);
+                let s = (0..3).map(|i| u[i] * w[i]).sum::<f64>().sqrt();
+                pose.apply([0, 1, 2].map(|i| centre[i] - w[i] / s))
+            }
             ContactPoint::Wheel {
                 frame,
                 radius,
