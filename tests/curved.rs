@@ -2,7 +2,9 @@
 //! * the Routh sphere keeps its energy, Jellett's and Routh's integrals, and the Chaplygin ball
 //!   its energy and its angular momentum about the contact point, to 1e-10 relative over 20 s;
 //! * the rattleback with Kane and Levinson's parameters reverses its spin, at the time Kane and
-//!   Levinson's equations give, to 1e-6 relative.
+//!   Levinson's equations give, to 1e-6 relative;
+//! * the benchmark bicycle with toroidal tyres has the weave and capsize speeds of a numerical
+//!   Jacobian of its nonlinear equations, to 1e-8.
 //!
 //! The check outside hamel: the Newton–Euler equations of a rigid body on an ellipsoidal hull
 //! (a sphere: equal semi-axes) rolling without slipping, written here by hand in the body's
@@ -10,8 +12,12 @@
 //! solution the integrals, computed from (u, ω) by hand, are constant as well, equal hamel's at
 //! the start, and the motion is hamel's.
 
+mod common;
+
 use std::path::Path;
 
+use common::oracle::completed_dd;
+use hamel_expr::{DD, Scalar};
 use hamel_sim::{Method, OdeSystem, Options, SystemError, integrate};
 
 fn scene(name: &str) -> hamel_run::Trajectory {
@@ -404,4 +410,139 @@ fn the_rattleback_reverses_its_spin_when_kane_and_levinsons_equations_say() {
     // It turns the other way, and in earnest (without dissipation it reverses again later).
     let most = spin.iter().copied().fold(f64::MIN, f64::max);
     assert!(most > 1.0, "the spin reaches only {most}");
+}
+
+/// The benchmark bicycle with toroidal tyres (models/bodies/whipple_bicycle_tyres.toml, 2 cm
+/// crowns): the weave and capsize speeds of `hamel_study`'s linearisation against those of
+/// an independent one, the Jacobian of the nonlinear equations by central differences at
+/// upright running (in double-double, Richardson-extrapolated: the pitch completed onto the
+/// front tyre's contact at every perturbed configuration), to 1e-8.
+#[test]
+fn the_tyre_bicycles_weave_and_capsize_speeds_agree_with_a_numerical_jacobian() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/bodies/whipple_bicycle_tyres.toml");
+    let model = hamel_model::Model::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let study = hamel_study::Study::prepare(&model, None, "upright").unwrap();
+    let range = hamel_study::Range::parse("v=0:10:201").unwrap();
+    let sweep = study
+        .sweep(&hamel_study::Point::default(), &range, &|| ())
+        .unwrap();
+    let speeds: Vec<f64> = sweep.crossings.iter().map(|c| c.value).collect();
+    assert_eq!(speeds.len(), 2, "{:?}", sweep.crossings);
+    let d = hamel_derive::derive(&model, Some("benchmark")).unwrap();
+    let jacobian = Jacobian {
+        model: &model,
+        numeric: hamel_model::NumericModel::new(&model, &indexmap::IndexMap::new()).unwrap(),
+        compiled: d.compile().unwrap(),
+        params: d.parameters.clone(),
+    };
+    let weave = |v: f64| {
+        (jacobian.eigenvalues(v).iter())
+            .filter(|z| z[1].abs() > 1e-6)
+            .map(|z| z[0])
+            .fold(f64::MIN, f64::max)
+    };
+    let capsize = |v: f64| {
+        (jacobian.eigenvalues(v).iter())
+            .filter(|z| z[1] == 0.0)
+            .map(|z| z[0])
+            .fold(f64::MIN, f64::max)
+    };
+    let numeric = [root(&weave, speeds[0]), root(&capsize, speeds[1])];
+    for (name, (mine, theirs)) in ["weave", "capsize"].iter().zip(speeds.iter().zip(numeric)) {
+        let differ = (mine - theirs).abs() / theirs;
+        eprintln!(
+            "tyre bicycle: {name} speed {mine:.10} m/s (numerical Jacobian {theirs:.10}, {differ:.1e} relative)"
+        );
+        assert!(differ <= 1e-8, "{name}: {mine} against {theirs}");
+    }
+    // The crowns move both speeds from the knife-edge benchmark's (4.2923825, 6.0242620).
+    assert!((speeds[0] - 4.2923825).abs() > 1e-3 && (speeds[1] - 6.0242620).abs() > 1e-3);
+}
+
+/// The linear equations of upright running by differences of the nonlinear ones.
+struct Jacobian<'m> {
+    model: &'m hamel_model::Model,
+    numeric: hamel_model::NumericModel<'m>,
+    compiled: hamel_derive::Compiled,
+    params: indexmap::IndexMap<String, f64>,
+}
+
+impl Jacobian<'_> {
+    /// (roll'', steer'') at roll, steer and η = (roll', steer', −v/rR), in double-double.
+    fn accelerations(&self, x: [f64; 4], v: f64) -> [DD; 2] {
+        let coordinates = &self.model.coordinates;
+        let mut q = vec![0.0; coordinates.len()];
+        let at = |name: &str| coordinates.iter().position(|c| c == name).unwrap();
+        q[at("roll")] = x[0];
+        q[at("steer")] = x[1];
+        let qx = completed_dd(self.model, &self.numeric, &mut q, &self.params).unwrap();
+        let rate = DD::from_f64(-v) / DD::from_f64(self.params["rR"]);
+        let eta = [DD::from_f64(x[2]), DD::from_f64(x[3]), rate];
+        let r = self.compiled.rhs::<DD>(&qx, &eta, &self.params).unwrap();
+        [r.eta_dot[0], r.eta_dot[1]]
+    }
+
+    /// ∂(roll'', steer'')/∂x_k by central differences at steps h and h/2 (powers of two, so
+    /// the perturbed states are exact), Richardson-extrapolated.
+    fn column(&self, k: usize, v: f64) -> [f64; 2] {
+        let difference = |h: f64| {
+            let mut plus = [0.0; 4];
+            plus[k] = h;
+            let minus = plus.map(|x| -x);
+            let (a, b) = (self.accelerations(plus, v), self.accelerations(minus, v));
+            [0, 1].map(|i| (a[i] - b[i]) / DD::from_f64(2.0 * h))
+        };
+        let h = 2f64.powi(-16);
+        let (coarse, fine) = (difference(h), difference(h / 2.0));
+        [0, 1].map(|i| ((DD::from_f64(4.0) * fine[i] - coarse[i]) / DD::from_f64(3.0)).value())
+    }
+
+    /// The eigenvalues of [[0, I], [∂q̈/∂q, ∂q̈/∂q̇]] for (roll, steer) at speed v.
+    fn eigenvalues(&self, v: f64) -> Vec<[f64; 2]> {
+        let mut a = nalgebra::Matrix4::<f64>::zeros();
+        a[(0, 2)] = 1.0;
+        a[(1, 3)] = 1.0;
+        for k in 0..4 {
+            let c = self.column(k, v);
+            a[(2, k)] = c[0];
+            a[(3, k)] = c[1];
+        }
+        (a.complex_eigenvalues().iter())
+            .map(|z| [z.re, if z.im.abs() < 1e-12 { 0.0 } else { z.im }])
+            .collect()
+    }
+}
+
+/// The root of `f` near `guess` (a sign change within ±0.01), by the Illinois variant of
+/// regula falsi (each evaluation here is 16 right-hand sides in double-double).
+fn root(f: &dyn Fn(f64) -> f64, guess: f64) -> f64 {
+    let (mut a, mut b) = (guess - 0.01, guess + 0.01);
+    let (mut fa, mut fb) = (f(a), f(b));
+    assert!(fa * fb < 0.0, "no sign change about {guess}");
+    let mut side = 0;
+    for _ in 0..100 {
+        let c = (a * fb - b * fa) / (fb - fa);
+        let fc = f(c);
+        if fc == 0.0 || (b - a).abs() <= 1e-15 * guess {
+            return c;
+        }
+        if (fc < 0.0) == (fb < 0.0) {
+            (b, fb) = (c, fc);
+            if side == -1 {
+                fa /= 2.0;
+            }
+            side = -1;
+        } else {
+            (a, fa) = (c, fc);
+            if side == 1 {
+                fb /= 2.0;
+            }
+            side = 1;
+        }
+        if (b - a).abs() <= 1e-14 * guess.abs() {
+            break;
+        }
+    }
+    if fa.abs() < fb.abs() { a } else { b }
 }

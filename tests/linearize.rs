@@ -852,3 +852,33 @@ fn gravity_split_descending_ranges_and_bad_maps() {
         .to_string();
     assert!(e.contains("two different parameters"), "{e}");
 }
+
+/// The benchmark with toroidal tyres (models/bodies/whipple_bicycle_tyres.toml): with both
+/// crown radii 0 its linear equations are the benchmark's M, C1, K0, K2 to 1e-12; with crowns
+/// it has weave and capsize speeds of its own.
+#[test]
+fn tyre_bicycle_with_knife_edge_crowns_is_the_benchmark() {
+    let m = Model::load(format!(
+        "{}/models/bodies/whipple_bicycle_tyres.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap_or_else(|e| panic!("{e:?}"));
+    let s = Study::prepare(&m, None, "upright").unwrap_or_else(|e| panic!("{e:?}"));
+    let knife_edges = point(&[("cR", 0.0), ("cF", 0.0)]);
+    let range = Range::parse("v=0:10:3").unwrap();
+    let sweep = s.sweep(&knife_edges, &range, &|| ()).unwrap();
+    let mats = sweep.matrices.expect("polynomial in v");
+    same_matrix("M", mats.m.as_ref().unwrap(), &M, 1e-12);
+    let c = mats.c.as_ref().unwrap();
+    same_matrix("C1", &c.coefficients[&1], &C1, 1e-12);
+    let k = mats.k.as_ref().unwrap();
+    same_matrix("K2", &k.coefficients[&2], &K2, 1e-12);
+    let g = mats.gravity.as_ref().expect("g enters only through U");
+    same_matrix("K0", &g.k0, &K0, 1e-12);
+    // With the file's crowns (2 cm), the weave and capsize speeds move.
+    let fine = Range::parse("v=0:10:201").unwrap();
+    let crowned = s.sweep(&Point::default(), &fine, &|| ()).unwrap();
+    let speeds: Vec<f64> = crowned.crossings.iter().map(|c| c.value).collect();
+    assert_eq!(speeds.len(), 2, "{:?}", crowned.crossings);
+    assert!((speeds[0] - 4.2923828).abs() > 1e-3 && (speeds[1] - 6.0242624).abs() > 1e-3);
+}

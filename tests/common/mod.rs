@@ -9,18 +9,23 @@ pub mod oracle;
 pub const ELIMINATE: &[(&str, &str)] = &[
     ("bar_blade", "x,y,theta"),
     ("bar_wheels", "x,y,theta,psi1"),
+    ("chaplygin_ball", "x,y,psi"),
     ("chaplygin_sleigh", "x,y,theta"),
     ("diff_drive", "x,y,psi,phiL,phiR,phiC"),
     ("knife", "x,y,theta"),
     ("remark22", "q1"),
     ("rolling_disk", "xC,yC,phi"),
     ("rolling_disc_sympy", "q4,q5,q1"),
+    ("rolling_tyre", "xC,yC,phi"),
+    ("rattleback", "x,y,psi"),
+    ("routh_sphere", "x,y,psi,phi"),
     ("segway", "x,y,psi,phiL,phiR"),
     ("snakeboard", "x,y,theta"),
     ("sprung_sleigh", "x,y,psi"),
     ("unicycle_rider", "xC,yC,phi,psi"),
     ("vertical_knife", "x,y,theta"),
     ("whipple_bicycle", "x,y,yaw,rear_wheel,front_wheel"),
+    ("whipple_bicycle_tyres", "x,y,yaw,rear_wheel,front_wheel"),
 ];
 
 /// The bundled models, sorted by file name.

@@ -1,8 +1,9 @@
-//! Models from bodies, frames and rolling wheels.
+//! Models from bodies, frames, rolling wheels and rolling bodies.
 //!
 //! **Job**: turn a [`Mechanism`] (the world's up direction and gravity, a tree of frames with
-//! rotations and origins, rigid bodies with masses and inertias, rolling wheels, blades and
-//! holonomic constraints) into what the rest of hamel starts from: the kinetic energy's matrix A
+//! rotations and origins, rigid bodies with masses and inertias, rolling wheels and tyres,
+//! rolling bodies with a curved surface (spheres, ellipsoids), blades and holonomic
+//! constraints) into what the rest of hamel starts from: the kinetic energy's matrix A
 //! (T = ½ q̇ᵀAq̇), the potential U (L = T + U), the rows of α and the holonomic constraints
 //! h(q) = 0 with their dependent coordinates, and the generalised forces F of the loads and
 //! dampers (springs enter U) ([`expand`] → [`Expansion`]).
