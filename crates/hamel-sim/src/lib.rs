@@ -49,6 +49,7 @@
 #![warn(missing_docs)]
 
 mod control;
+pub mod dla;
 mod dop853;
 mod dopri5;
 mod driver;
