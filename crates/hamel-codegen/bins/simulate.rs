@@ -123,6 +123,7 @@ fn run() -> Result<(String, Option<String>), String> {
         "dop853" => Method::Dop853,
         "dopri5" => Method::Dopri5,
         "vern9" => Method::Vern9,
+        "taylor" => Method::Taylor,
         "rk4" => Method::Rk4 {
             step: number(&args, "--step", None)?,
         },

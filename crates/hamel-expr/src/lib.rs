@@ -30,6 +30,7 @@ mod parse;
 mod specialise;
 mod tape;
 mod tape_data;
+pub mod taylor;
 mod trace;
 
 pub use ast::{Expr, Func, Rational, SubstituteError};

@@ -466,6 +466,7 @@ impl Row {
             MethodName::Dop853 => Method::Dop853,
             MethodName::Dopri5 => Method::Dopri5,
             MethodName::Vern9 => Method::Vern9,
+            MethodName::Taylor => Method::Taylor,
             MethodName::Rk4 => Method::Rk4 {
                 step: self.step.expect("a fixed-step row has its step"),
             },

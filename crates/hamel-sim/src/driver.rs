@@ -30,6 +30,10 @@ pub enum Method {
     /// extension: fewer evaluations than DOP853 at tight tolerances (DifferentialEquations.jl's
     /// `Vern9`).
     Vern9,
+    /// The Taylor method (Jorba & Zou 2005, as TIDES and heyoka): the solution's own series to
+    /// an order and over a step chosen from the tolerance, dense output from the series; for
+    /// systems that give their series ([`OdeSystem::taylor_coefficients`], `crate::taylor`).
+    Taylor,
     /// Implicit Gauss–Legendre collocation: symmetric and symplectic, order `2·stages`.
     GaussLegendre {
         /// 2 (order 4) or 3 (order 6).
@@ -55,16 +59,19 @@ pub enum MethodName {
     Vern9,
     /// [`Method::GaussLegendre`].
     GaussLegendre,
+    /// [`Method::Taylor`].
+    Taylor,
 }
 
 impl MethodName {
     /// Every integrator.
-    pub const ALL: [MethodName; 5] = [
+    pub const ALL: [MethodName; 6] = [
         MethodName::Rk4,
         MethodName::Dopri5,
         MethodName::Dop853,
         MethodName::Vern9,
         MethodName::GaussLegendre,
+        MethodName::Taylor,
     ];
 
     /// The name as written.
@@ -75,6 +82,7 @@ impl MethodName {
             MethodName::Dop853 => "dop853",
             MethodName::Vern9 => "vern9",
             MethodName::GaussLegendre => "gauss-legendre",
+            MethodName::Taylor => "taylor",
         }
     }
 }
@@ -94,6 +102,7 @@ impl Method {
             Method::Dop853 => MethodName::Dop853,
             Method::Vern9 => MethodName::Vern9,
             Method::GaussLegendre { .. } => MethodName::GaussLegendre,
+            Method::Taylor => MethodName::Taylor,
         }
     }
 
@@ -101,7 +110,7 @@ impl Method {
     pub fn is_adaptive(&self) -> bool {
         match self {
             Method::Rk4 { .. } => false,
-            Method::Dopri5 | Method::Dop853 | Method::Vern9 => true,
+            Method::Dopri5 | Method::Dop853 | Method::Vern9 | Method::Taylor => true,
             Method::GaussLegendre { step, .. } => step.is_none(),
         }
     }
@@ -222,6 +231,7 @@ fn integrate_state<S: OdeSystem + ?Sized>(
             Method::Dopri5 => run.adaptive(&mut Dopri5::new(n), &tol),
             Method::Dop853 => run.adaptive(&mut Dop853::new(n), &tol),
             Method::Vern9 => run.adaptive(&mut Vern9::new(n), &tol),
+            Method::Taylor => run.taylor(&tol),
         }
     };
     let solution = recorder.finish(ev.stats, outcome.is_ok());
@@ -336,6 +346,59 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
                 std::mem::swap(&mut self.y, &mut y_new);
             }
             self.recorder.push(t_out, &self.y);
+        }
+        Ok(())
+    }
+
+    /// Taylor steps ([`crate::taylor`]): the series at each step, its step from the
+    /// coefficients, the outputs inside the step read off the series.
+    fn taylor(&mut self, tol: &Tolerances) -> Result<(), Failure> {
+        let t_end = *self.outputs.last().expect("outputs not empty");
+        let direction = (t_end - self.t).signum();
+        let h_max = self.options.h_max.unwrap_or((t_end - self.t).abs());
+        let order = crate::taylor::order(tol.rtol);
+        let (n, mut series) = (self.y.len(), Vec::new());
+        let mut y_out = vec![0.0; n];
+        let mut next = 0;
+        while next < self.outputs.len() {
+            if self.ev.stats.steps >= self.options.max_steps {
+                return Err(self.too_many_steps());
+            }
+            self.ev
+                .series(self.t, &self.y, order, &mut series)
+                .map_err(|failure| self.step_failure(failure, 0.0))?;
+            if !series.iter().all(|v| v.is_finite()) {
+                return Err(self.step_failure(StepFailure::NonFinite, 0.0));
+            }
+            let h =
+                crate::taylor::step(&series, n, order, (tol.rtol, tol.atol), &self.y).min(h_max);
+            if 0.1 * h <= f64::EPSILON * self.t.abs().max((t_end - self.t).abs()) {
+                return Err(self.underflow(h, None));
+            }
+            let t_next = if (self.t + direction * h - t_end) * direction >= 0.0 {
+                t_end
+            } else {
+                self.t + direction * h
+            };
+            while next < self.outputs.len() && (self.outputs[next] - t_next) * direction < 0.0 {
+                crate::taylor::sum(&series, n, self.outputs[next] - self.t, &mut y_out);
+                self.ev
+                    .project(self.outputs[next], &mut y_out, false)
+                    .map_err(|failure| self.step_failure(failure, h))?;
+                self.recorder.push(self.outputs[next], &y_out);
+                next += 1;
+            }
+            crate::taylor::sum(&series, n, t_next - self.t, &mut y_out);
+            self.ev.stats.steps += 1;
+            self.ev
+                .project(t_next, &mut y_out, true)
+                .map_err(|failure| self.step_failure(failure, h))?;
+            self.t = t_next;
+            self.y.copy_from_slice(&y_out);
+            while next < self.outputs.len() && self.outputs[next] == t_next {
+                self.recorder.push(t_next, &self.y);
+                next += 1;
+            }
         }
         Ok(())
     }
@@ -665,12 +728,17 @@ fn validate<S: OdeSystem + ?Sized>(
     if let Some(beta) = options.beta.filter(|b| !(0.0..=0.2).contains(b)) {
         return invalid(format!("beta = {beta} must lie in [0, 0.2]"));
     }
-    if method.is_adaptive() && rtol <= 10.0 * f64::EPSILON {
+    // The Taylor method sums its series without error control: it can be asked for ε itself.
+    let floor = match method {
+        Method::Taylor => f64::EPSILON,
+        _ => 10.0 * f64::EPSILON,
+    };
+    if method.is_adaptive() && rtol < floor * (1.0 + f64::EPSILON) {
         return Err((
             ErrorKind::ToleranceTooSmall,
             format!(
-                "rtol = {rtol:e} is below what f64 arithmetic can deliver: it must exceed 10·ε ≈ {:.1e}",
-                10.0 * f64::EPSILON
+                "rtol = {rtol:e} is below what f64 arithmetic can deliver: it must exceed {} ≈ {floor:.1e}",
+                if floor > f64::EPSILON { "10·ε" } else { "ε" }
             ),
         ));
     }

@@ -63,6 +63,7 @@ mod solution;
 mod states;
 mod step;
 mod system;
+pub mod taylor;
 #[cfg(test)]
 mod testing;
 mod vern9;

@@ -50,6 +50,10 @@ pub struct Stats {
     /// Calls of [`OdeSystem::rhs`](crate::OdeSystem::rhs), including those made for
     /// finite-difference Jacobians.
     pub rhs_evals: usize,
+    /// Evaluations of the solution's Taylor series (the Taylor method: one per step, each
+    /// costing about order²/2 times an evaluation of f).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub series_evals: usize,
     /// Jacobian evaluations, analytic or by finite differences.
     pub jacobian_evals: usize,
     /// Simplified-Newton iterations (implicit methods).

@@ -32,6 +32,19 @@ pub trait OdeSystem {
         None
     }
 
+    /// The Taylor coefficients of the solution through (t, y) up to `order`, for the Taylor
+    /// method: `out` gets `order + 1` rows of `dim` values, row k holding y⁽ᵏ⁾(t)/k!. Default
+    /// None: the system has no series, and [`crate::Method::Taylor`] refuses it.
+    fn taylor_coefficients(
+        &self,
+        _t: f64,
+        _y: &[f64],
+        _order: usize,
+        _out: &mut Vec<f64>,
+    ) -> Option<Result<(), SystemError>> {
+        None
+    }
+
     /// Optional invariant to monitor: the energy at a state (default None).
     fn energy(&self, _t: f64, _y: &[f64]) -> Option<f64> {
         None
@@ -119,6 +132,26 @@ impl<'a, S: OdeSystem + ?Sized> Evaluator<'a, S> {
         self.system
             .rhs(t, y, dy)
             .map_err(|error| StepFailure::System { t, error })
+    }
+
+    /// The Taylor coefficients through (t, y) ([`OdeSystem::taylor_coefficients`]), counted
+    /// in `series_evals`.
+    pub(crate) fn series(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        out: &mut Vec<f64>,
+    ) -> Result<(), StepFailure> {
+        self.stats.series_evals += 1;
+        let error = |message: &str| StepFailure::System {
+            t,
+            error: SystemError::new(message),
+        };
+        match self.system.taylor_coefficients(t, y, order, out) {
+            None => Err(error("the system gives no Taylor series")),
+            Some(result) => result.map_err(|error| StepFailure::System { t, error }),
+        }
     }
 
     /// Project `y` (the state just accepted at `t`, or with `step` false an output read from
