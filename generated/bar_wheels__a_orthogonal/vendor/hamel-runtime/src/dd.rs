@@ -199,8 +199,16 @@ impl DD {
         (sk * cos_u + ck * sin_u, ck * cos_u - sk * sin_u)
     }
 
-    /// sin and cos together (reduced modulo 2π, then to a quarter period).
+    /// sin and cos together (reduced modulo 2π, then to a quarter period). Beyond |t| = 1e15
+    /// the quotient by 2π is no longer an exact f64 integer and the reduction keeps no digit:
+    /// there (and for a non-finite angle, whose sine is NaN) the f64 sine and cosine of the
+    /// leading part, as f64 evaluation would give them, rather than a remainder outside the
+    /// tables' range (a state that large is a diverged one, which the caller reports).
     pub fn sin_cos(self) -> (DD, DD) {
+        if self.hi.is_nan() || self.hi.abs() >= 1e15 {
+            let (s, c) = self.hi.sin_cos();
+            return (DD::from_f64(s), DD::from_f64(c));
+        }
         // The quotients in f64 suffice: a misrounded one leaves a remainder just past the
         // boundary, which the series and the tables cover.
         let n = (self.hi / TWO_PI.hi).round();
@@ -342,6 +350,22 @@ impl Div for DD {
 #[cfg(test)]
 mod tests {
     use super::DD;
+
+    /// A diverged state's huge or non-finite angle gives f64's sine and cosine, not a panic
+    /// (an RK4 step far too long for the rattleback sent 1e30 here).
+    #[test]
+    fn huge_and_non_finite_angles_do_not_leave_the_tables() {
+        for x in [1e15, -3.5e20, 1e300, f64::MAX] {
+            let (s, c) = DD::from_f64(x).sin_cos();
+            assert_eq!((s.hi, c.hi), x.sin_cos(), "{x}");
+        }
+        for x in [f64::INFINITY, f64::NEG_INFINITY, f64::NAN] {
+            let (s, c) = DD::from_f64(x).sin_cos();
+            assert!(s.hi.is_nan() && c.hi.is_nan(), "{x}");
+        }
+        let (s, _) = DD::from_f64(9.9e14).sin_cos();
+        assert!((s.hi - 9.9e14f64.sin()).abs() < 1e-3, "{}", s.hi);
+    }
 
     #[test]
     fn the_table_driven_sin_cos_matches_the_plain_series_to_31_digits() {
