@@ -577,18 +577,7 @@ fn wheel(
         }
         None => None,
     };
-    let dependent = match &raw.dependent {
-        Some(d) => {
-            sites.note(&format!("{key}.dependent"), d.span());
-            Some(coordinate_name(
-                loader,
-                d,
-                &format!("{key}.dependent"),
-                err,
-            )?)
-        }
-        None => None,
-    };
+    let dependent = dependent_of(loader, sites, &key, raw.dependent.as_ref(), err)?;
     Ok(Wheel {
         name: name.to_string(),
         frame: raw.frame.get_ref().clone(),
@@ -597,6 +586,22 @@ fn wheel(
         crown,
         dependent,
     })
+}
+
+/// A wheel's or rolling body's `dependent` coordinate, if it names one (`key`: the entry).
+fn dependent_of(
+    loader: &mut Loader,
+    sites: &mut Sites,
+    key: &str,
+    dependent: Option<&Spanned<String>>,
+    err: &ErrorAt,
+) -> Result<Option<String>, ModelError> {
+    let Some(d) = dependent else {
+        return Ok(None);
+    };
+    let field = format!("{key}.dependent");
+    sites.note(&field, d.span());
+    coordinate_name(loader, d, &field, err).map(Some)
 }
 
 fn roller(
@@ -619,11 +624,7 @@ fn roller(
         }
         (None, Some(axes)) => {
             sites.note(&format!("{key}.ellipsoid"), axes.span());
-            let semi_axes = loader.vector(
-                Some(axes),
-                &format!("{key}.ellipsoid"),
-                FieldKind::Positional,
-            )?;
+            let semi_axes = vector(loader, Some(axes), &format!("{key}.ellipsoid"))?;
             Surface::Ellipsoid { semi_axes }
         }
         _ => {
@@ -631,18 +632,7 @@ fn roller(
             return Err(err(r.span(), &key, msg.into()));
         }
     };
-    let dependent = match &raw.dependent {
-        Some(d) => {
-            sites.note(&format!("{key}.dependent"), d.span());
-            Some(coordinate_name(
-                loader,
-                d,
-                &format!("{key}.dependent"),
-                err,
-            )?)
-        }
-        None => None,
-    };
+    let dependent = dependent_of(loader, sites, &key, raw.dependent.as_ref(), err)?;
     Ok(Roller {
         name: name.to_string(),
         frame: raw.frame.get_ref().clone(),
