@@ -32,11 +32,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use hamel_generated::{
-    DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
+    fast, forces, runtime, reduced_with, DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
     REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_jacobian_live, residual_max,
     residual_max_many,
 };
 use hamel_sim::job::{Answer, ForcesFailure, Job, JobError, Member, MemberAnswer, PART_FORMAT, PartHeader, Progress, Save, Stopped};
+use hamel_generated::runtime::{Scalar, Traced};
 use hamel_sim::{Ensemble, Live, OdeSystem, Shard, Solution, States, SystemError, integrate_many, live_values};
 
 struct Reduced {
@@ -142,6 +143,33 @@ impl OdeSystem for Reduced {
                 })
                 .map_err(|e| SystemError::new(format!("projection onto the holonomic constraints: {e}"))),
         )
+    }
+    /// The solution's series for the Taylor method: the reduced right-hand side traced once
+    /// and the recurrences run over it ([`runtime::taylor_by_trace`]); parameters that change
+    /// with time give none.
+    fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, out: &mut Vec<f64>) -> Option<Result<(), SystemError>> {
+        if !LIVE.is_empty() {
+            return Some(Err(SystemError::new("the Taylor method needs parameters constant in time; this scene sets some at every step")));
+        }
+        // with the forces' work W appended (does_work), its rate the power q̇ᵀF
+        let series = runtime::taylor_by_trace(y, order, out, |x, dx| {
+            dx[..REDUCED_DIM].copy_from_slice(&reduced_with::<Traced>(&x[..REDUCED_DIM], &self.prep)?);
+            if x.len() > REDUCED_DIM {
+                let mut q = [Traced::constant(self.reference); DIMS.ell];
+                for (i, &k) in KEPT.iter().enumerate() {
+                    q[k] = x[i];
+                }
+                let (_, qd) = fast(&q, &x[KEPT.len()..REDUCED_DIM], &self.prep.p)?;
+                let mut f = [Traced::constant(0.0); DIMS.ell];
+                forces(&q, &qd, &self.prep.p, &mut f);
+                dx[REDUCED_DIM] = f.iter().zip(&qd).fold(Traced::constant(0.0), |w, (f, v)| w + *f * *v);
+            }
+            Ok::<(), runtime::EvalError>(())
+        });
+        Some(series.map_err(|e| match e {
+            runtime::SeriesFailure::NonFinite => SystemError::new(format!("at t = {t}: the Taylor series is not finite")),
+            runtime::SeriesFailure::System(e) => SystemError::new(format!("at t = {t}: {e}")),
+        }))
     }
     fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {
         let p = match self.at(t) {

@@ -319,13 +319,13 @@ impl Compiled {
         self.forces.is_some()
     }
 
-    /// F(q, q̇) at the velocities `q_dot` (None without forces).
-    pub fn forces_at(
+    /// F(q, q̇) at the velocities `q_dot` (None without forces), in any scalar type.
+    pub fn forces_at<S: Scalar>(
         &self,
-        q: &[f64],
-        q_dot: &[f64],
+        q: &[S],
+        q_dot: &[S],
         params: &IndexMap<String, f64>,
-    ) -> Result<Option<Vec<f64>>, NumericError> {
+    ) -> Result<Option<Vec<S>>, NumericError> {
         let Some(f) = &self.forces else {
             return Ok(None);
         };

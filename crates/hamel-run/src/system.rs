@@ -158,6 +158,48 @@ impl OdeSystem for System<'_> {
         Some(Ok(residual))
     }
 
+    /// The solution's series for the Taylor method: the structured right-hand side traced
+    /// once, the recurrences run over it ([`hamel_runtime::taylor_by_trace`]). A system whose parameters
+    /// change with time (live ones) has no series this way, and says so.
+    fn taylor_coefficients(
+        &self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        out: &mut Vec<f64>,
+    ) -> Option<Result<(), SystemError>> {
+        use hamel_runtime::{Scalar, SeriesFailure, Traced};
+        if !self.live.is_empty() {
+            return Some(Err(SystemError::new(
+                "the Taylor method needs parameters constant in time; this scene sets some at every step",
+            )));
+        }
+        let ns = self.state.len();
+        let work = y.len() > self.dim();
+        let series = hamel_runtime::taylor_by_trace(y, order, out, |x, dx| {
+            let (qs, eta) = x.split_at(ns);
+            let eta = &eta[..self.sigma];
+            let q = self.full_q(qs, Traced::constant(self.reference));
+            let r = self.compiled.rhs::<Traced>(&q, eta, &self.params)?;
+            for (i, &k) in self.state.iter().enumerate() {
+                dx[i] = r.q_dot[k];
+            }
+            dx[ns..ns + self.sigma].copy_from_slice(&r.eta_dot);
+            if work {
+                let forces = self.compiled.forces_at(&q, &r.q_dot, &self.params)?;
+                let power = forces.iter().flatten().zip(&r.q_dot).map(|(f, v)| *f * *v);
+                dx[ns + self.sigma] = power.fold(Traced::constant(0.0), |a, b| a + b);
+            }
+            Ok::<(), hamel_derive::NumericError>(())
+        });
+        Some(series.map_err(|e| match e {
+            SeriesFailure::NonFinite => {
+                SystemError::new(format!("at t = {t}: the Taylor series is not finite"))
+            }
+            SeriesFailure::System(e) => SystemError::new(format!("at t = {t}: {e}")),
+        }))
+    }
+
     /// Exact Jacobian: the structured right-hand side over dual numbers, one column per
     /// state component (used by the implicit Gauss–Legendre method).
     fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), SystemError>> {

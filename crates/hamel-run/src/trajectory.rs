@@ -61,6 +61,9 @@ pub struct StatsOut {
     pub steps: usize,
     pub rejected: usize,
     pub rhs_evals: usize,
+    /// The Taylor method's series (each costs about its order's square in right-hand sides).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub series_evals: usize,
     /// max |E − E(t0)| / |E(t0)| over the outputs: for a model whose forces do no work (None
     /// when they do: see `energy_balance_drift`).
     pub energy_drift: Option<f64>,
@@ -151,6 +154,7 @@ impl Loaded {
                 steps: solution.stats.steps,
                 rejected: solution.stats.rejected,
                 rhs_evals: solution.stats.rhs_evals,
+                series_evals: solution.stats.series_evals,
                 energy_drift: (solution.work.is_empty())
                     .then_some(solution.stats.energy_drift)
                     .flatten(),
@@ -198,13 +202,17 @@ impl Trajectory {
     pub fn summary(&self) -> String {
         let s = &self.stats;
         format!(
-            "{} ({}), {}: {} steps ({} rejected), {} RHS evaluations, {}, constraint drift {}{}",
+            "{} ({}), {}: {} steps ({} rejected), {}, {}, constraint drift {}{}",
             self.model,
             self.eta_name,
             self.method,
             s.steps,
             s.rejected,
-            s.rhs_evals,
+            if s.series_evals > 0 {
+                format!("{} Taylor series", s.series_evals)
+            } else {
+                format!("{} RHS evaluations", s.rhs_evals)
+            },
             match (s.energy_balance_drift, s.energy_drift) {
                 (Some(b), _) => format!(
                     "energy balance drift {b:.2e} (E − W, W the work of the forces)"
@@ -319,4 +327,8 @@ fn friction_summary(m: &crate::forces::Monitored) -> String {
             )
         })
         .collect()
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }

@@ -33,7 +33,9 @@ pub trait OdeSystem {
     }
 
     /// The Taylor coefficients of the solution through (t, y) up to `order`, for the Taylor
-    /// method: `out` gets `order + 1` rows of `dim` values, row k holding y⁽ᵏ⁾(t)/k!. Default
+    /// method: `out` gets `order + 1` rows of `y.len()` values, row k holding y⁽ᵏ⁾(t)/k!. A
+    /// system that [`does_work`](Self::does_work) is asked with the work W appended to its
+    /// state (`dim + 1` values) and gives W's series too, W' = [`power`](Self::power). Default
     /// None: the system has no series, and [`crate::Method::Taylor`] refuses it.
     fn taylor_coefficients(
         &self,

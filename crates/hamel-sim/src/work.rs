@@ -61,6 +61,18 @@ impl<S: OdeSystem + ?Sized> OdeSystem for WithWork<'_, S> {
         let n = self.n();
         self.inner.project(t, &mut y[..n])
     }
+
+    /// The state's series and the work's (W' = the power), from the inner system asked with
+    /// W appended ([`OdeSystem::taylor_coefficients`]).
+    fn taylor_coefficients(
+        &self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        out: &mut Vec<f64>,
+    ) -> Option<Result<(), SystemError>> {
+        self.inner.taylor_coefficients(t, y, order, out)
+    }
 }
 
 /// The system with its work appended.

@@ -25,9 +25,11 @@ mod dd;
 mod dual;
 mod error;
 mod fixed;
+mod jet;
 mod lanes;
 pub mod lu;
 mod scalar;
+mod series;
 mod structured;
 mod support;
 
@@ -36,9 +38,11 @@ pub use dd::DD;
 pub use dual::{Dual, DualN};
 pub use error::{EvalError, cold_error, finite};
 pub use fixed::{Buffers, Fixed, Precision, Rhs, Storage};
+pub use jet::{JET_CAPACITY, Jet, JetFailure, taylor_by_jets};
 pub use lanes::{LANES, LaneFn, Lanes, abs_max, max_abs, over_rows};
 pub use lu::{Lu, solve_system};
 pub use scalar::{RationalParts, Scalar, widen};
+pub use series::{SeriesFailure, Traced, taylor_by_trace};
 pub use structured::{
     DOUBLE_DOUBLE_ABOVE, Dims, Failure, KEPT_ROWS_PIVOT, Layout, Structured, select as select_rows,
 };

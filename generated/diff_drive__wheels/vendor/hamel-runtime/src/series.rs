@@ -1,0 +1,447 @@
+//! The solution's Taylor series of an autonomous ODE y' = f(y) in O(p²) operations per
+//! operation of f ([`taylor_by_trace`]): f, written over [`Scalar`], is evaluated once at the
+//! state over [`Traced`] numbers, which record its operations on a per-thread program (its
+//! branches, pivots among them, decided by the values at the state, as an f64 evaluation
+//! decides them); then the automatic differentiation recurrences (Jorba & Zou 2005, §3) run
+//! over the program, coefficient k of every node from the lower ones, k = 1 … p − 1.
+//!
+//! Values that depend on no state variable are folded while tracing, and an operation with a
+//! constant operand becomes the cheaper node it is (a sum with a constant touches coefficient
+//! 0 only, a product with one scales). [`crate::taylor_by_jets`] computes the same series by
+//! truncated power series arithmetic, in O(p³): the tests hold the two against each other.
+
+use std::cell::RefCell;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+use crate::scalar::{RationalParts, Scalar};
+
+/// A node of the traced program; operands are earlier nodes.
+#[derive(Clone, Copy, Debug)]
+enum Node {
+    /// State variable i.
+    Input(usize),
+    /// A constant made a node (where a recurrence reads an operand's series).
+    Const,
+    Add(u32, u32),
+    Sub(u32, u32),
+    Neg(u32),
+    /// a + c, c a constant (in coefficient 0 only, which is the traced value).
+    AddConst(u32),
+    /// c·a.
+    Scale(u32, f64),
+    Mul(u32, u32),
+    Div(u32, u32),
+    /// c / b, c a constant.
+    ConstDiv(u32),
+    Sqrt(u32),
+    /// sin a, with the node of cos a.
+    Sin(u32, u32),
+    /// cos a, with the node of sin a.
+    Cos(u32, u32),
+    Exp(u32),
+    Ln(u32),
+    /// atan a, with the node of 1 + a².
+    Atan(u32, u32),
+    /// atan2(y, x), with the node of x² + y².
+    Atan2(u32, u32, u32),
+}
+
+/// The program being traced on this thread: the nodes and their values at the state.
+#[derive(Default)]
+struct Program {
+    nodes: Vec<Node>,
+    values: Vec<f64>,
+}
+
+thread_local! {
+    static PROGRAM: RefCell<Program> = RefCell::new(Program::default());
+}
+
+/// No node: the number is a constant.
+const CONSTANT: u32 = u32::MAX;
+
+/// A number of a traced evaluation: its value at the state and the node that computes it
+/// (none for a constant).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Traced {
+    node: u32,
+    v: f64,
+}
+
+impl Traced {
+    fn constant_of(v: f64) -> Traced {
+        Traced { node: CONSTANT, v }
+    }
+
+    fn is_constant(&self) -> bool {
+        self.node == CONSTANT
+    }
+
+    fn push(node: Node, v: f64) -> Traced {
+        PROGRAM.with_borrow_mut(|p| {
+            p.nodes.push(node);
+            p.values.push(v);
+            Traced {
+                node: (p.nodes.len() - 1) as u32,
+                v,
+            }
+        })
+    }
+
+    /// A unary function's node, or its folded value for a constant.
+    fn unary(self, v: f64, node: impl FnOnce(u32) -> Node) -> Traced {
+        if self.is_constant() {
+            Traced::constant_of(v)
+        } else {
+            Traced::push(node(self.node), v)
+        }
+    }
+}
+
+impl Add for Traced {
+    type Output = Traced;
+    fn add(self, o: Traced) -> Traced {
+        let v = self.v + o.v;
+        match (self.is_constant(), o.is_constant()) {
+            (true, true) => Traced::constant_of(v),
+            (false, true) => Traced::push(Node::AddConst(self.node), v),
+            (true, false) => Traced::push(Node::AddConst(o.node), v),
+            (false, false) => Traced::push(Node::Add(self.node, o.node), v),
+        }
+    }
+}
+impl Sub for Traced {
+    type Output = Traced;
+    fn sub(self, o: Traced) -> Traced {
+        let v = self.v - o.v;
+        match (self.is_constant(), o.is_constant()) {
+            (true, true) => Traced::constant_of(v),
+            (false, true) => Traced::push(Node::AddConst(self.node), v),
+            (true, false) => {
+                let minus = Traced::push(Node::Neg(o.node), -o.v);
+                Traced::push(Node::AddConst(minus.node), v)
+            }
+            (false, false) => Traced::push(Node::Sub(self.node, o.node), v),
+        }
+    }
+}
+impl Neg for Traced {
+    type Output = Traced;
+    fn neg(self) -> Traced {
+        self.unary(-self.v, Node::Neg)
+    }
+}
+impl Mul for Traced {
+    type Output = Traced;
+    fn mul(self, o: Traced) -> Traced {
+        let v = self.v * o.v;
+        match (self.is_constant(), o.is_constant()) {
+            (true, true) => Traced::constant_of(v),
+            (false, true) => Traced::push(Node::Scale(self.node, o.v), v),
+            (true, false) => Traced::push(Node::Scale(o.node, self.v), v),
+            (false, false) => Traced::push(Node::Mul(self.node, o.node), v),
+        }
+    }
+}
+impl Div for Traced {
+    type Output = Traced;
+    fn div(self, o: Traced) -> Traced {
+        let v = self.v / o.v;
+        match (self.is_constant(), o.is_constant()) {
+            (true, true) => Traced::constant_of(v),
+            (false, true) => Traced::push(Node::Scale(self.node, 1.0 / o.v), v),
+            (true, false) => Traced::push(Node::ConstDiv(o.node), v),
+            (false, false) => Traced::push(Node::Div(self.node, o.node), v),
+        }
+    }
+}
+
+impl Scalar for Traced {
+    fn constant(v: f64) -> Self {
+        Traced::constant_of(v)
+    }
+    fn rational(r: &RationalParts) -> Self {
+        Traced::constant_of(r.nearest)
+    }
+    fn value(&self) -> f64 {
+        self.v
+    }
+    fn sin(self) -> Self {
+        self.sin_cos().0
+    }
+    fn cos(self) -> Self {
+        self.sin_cos().1
+    }
+    fn sin_cos(self) -> (Self, Self) {
+        let (s, c) = libm::sincos(self.v);
+        if self.is_constant() {
+            return (Traced::constant_of(s), Traced::constant_of(c));
+        }
+        let at = PROGRAM.with_borrow(|p| p.nodes.len() as u32);
+        let sin = Traced::push(Node::Sin(self.node, at + 1), s);
+        let cos = Traced::push(Node::Cos(self.node, at), c);
+        (sin, cos)
+    }
+    fn sqrt(self) -> Self {
+        self.unary(self.v.sqrt(), Node::Sqrt)
+    }
+    fn exp(self) -> Self {
+        self.unary(self.v.exp(), Node::Exp)
+    }
+    fn ln(self) -> Self {
+        self.unary(self.v.ln(), Node::Ln)
+    }
+    fn atan(self) -> Self {
+        if self.is_constant() {
+            return Traced::constant_of(self.v.atan());
+        }
+        let r = Traced::constant(1.0) + self * self;
+        Traced::push(Node::Atan(self.node, r.node), self.v.atan())
+    }
+    fn atan2(self, x: Self) -> Self {
+        let v = self.v.atan2(x.v);
+        if self.is_constant() && x.is_constant() {
+            return Traced::constant_of(v);
+        }
+        // a constant operand as a node of its own: the recurrence reads both series
+        let as_node = |a: Traced| {
+            if a.is_constant() {
+                Traced::push(Node::Const, a.v)
+            } else {
+                a
+            }
+        };
+        let (y, x) = (as_node(self), as_node(x));
+        let r = x * x + y * y;
+        Traced::push(Node::Atan2(y.node, x.node, r.node), v)
+    }
+    /// By squaring, as the series program of a tape does.
+    fn powi(self, n: i32) -> Self {
+        if self.is_constant() {
+            return Traced::constant_of(self.v.powi(n));
+        }
+        let mut result: Option<Traced> = None;
+        let mut base = self;
+        let mut e = n.unsigned_abs();
+        while e > 0 {
+            if e & 1 == 1 {
+                result = Some(result.map_or(base, |r| r * base));
+            }
+            e >>= 1;
+            if e > 0 {
+                base = base * base;
+            }
+        }
+        match result {
+            None => Traced::constant_of(1.0),
+            Some(r) if n < 0 => Traced::constant(1.0) / r,
+            Some(r) => r,
+        }
+    }
+}
+
+/// Why [`taylor_by_trace`] could not give the series.
+#[derive(Debug)]
+pub enum SeriesFailure<E> {
+    /// The right-hand side failed.
+    System(E),
+    /// A coefficient is not finite (a divisor, root or logarithm at 0 in the series).
+    NonFinite,
+}
+
+/// The Taylor coefficients of the solution of the autonomous ODE y' = f(y) through `y`, to
+/// `order`: `out` gets `order + 1` rows of `y.len()` values, row k holding y⁽ᵏ⁾/k!. `f` is
+/// called once, over [`Traced`] numbers.
+pub fn taylor_by_trace<E>(
+    y: &[f64],
+    order: usize,
+    out: &mut Vec<f64>,
+    f: impl FnOnce(&[Traced], &mut [Traced]) -> Result<(), E>,
+) -> Result<(), SeriesFailure<E>> {
+    let n = y.len();
+    PROGRAM.with_borrow_mut(|p| {
+        p.nodes.clear();
+        p.values.clear();
+    });
+    let x: Vec<Traced> = y
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| Traced::push(Node::Input(i), v))
+        .collect();
+    let mut dx = vec![Traced::constant(0.0); n];
+    f(&x, &mut dx).map_err(SeriesFailure::System)?;
+    out.clear();
+    out.resize((order + 1) * n, 0.0);
+    PROGRAM.with_borrow(|p| run(p, &dx, order, out));
+    if out.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(SeriesFailure::NonFinite)
+    }
+}
+
+/// The recurrences over the program: `out` holds y's coefficients row by row, its row 0 the
+/// state already (the inputs' values).
+fn run(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
+    let (n, w) = (f.len(), order + 1);
+    let mut c = vec![0.0; p.nodes.len() * w];
+    for (i, &v) in p.values.iter().enumerate() {
+        c[i * w] = v;
+    }
+    for (i, &v) in p.values.iter().take(n).enumerate() {
+        out[i] = v;
+    }
+    let fk = |c: &[f64], i: usize, k: usize| match f[i].node {
+        CONSTANT if k == 0 => f[i].v,
+        CONSTANT => 0.0,
+        node => c[node as usize * w + k],
+    };
+    for k in 0..order {
+        if k > 0 {
+            for (node, at) in p.nodes.iter().zip((0..).step_by(w)) {
+                c[at + k] = coefficient(&c, w, (*node, at), k, out, n);
+            }
+        }
+        for i in 0..n {
+            out[(k + 1) * n + i] = fk(&c, i, k) / (k + 1) as f64;
+        }
+    }
+}
+
+/// Σ_{j=lo}^{hi} a[j]·b[k − j] for series a and b (slices from coefficient 0).
+#[inline(always)]
+fn cauchy(a: &[f64], b: &[f64], k: usize, lo: usize, hi: usize) -> f64 {
+    let mut s = 0.0;
+    for j in lo..=hi {
+        s += a[j] * b[k - j];
+    }
+    s
+}
+
+/// Σ_{j=1}^{hi} j·a[j]·b[k − j].
+#[inline(always)]
+fn weighted(a: &[f64], b: &[f64], k: usize, hi: usize) -> f64 {
+    let mut s = 0.0;
+    for j in 1..=hi {
+        s += j as f64 * a[j] * b[k - j];
+    }
+    s
+}
+
+/// Coefficient k ≥ 1 of `node`, whose own coefficients start at `c[at]`: its operands'
+/// coefficients known to k and its own to k − 1; an input's is the state's (`out`, rows of `n`).
+fn coefficient(
+    c: &[f64],
+    w: usize,
+    (node, at): (Node, usize),
+    k: usize,
+    out: &[f64],
+    n: usize,
+) -> f64 {
+    let s = |a: u32| &c[a as usize * w..a as usize * w + w];
+    let own = &c[at..at + w];
+    let kf = k as f64;
+    match node {
+        Node::Const => 0.0,
+        Node::Input(i) => out[k * n + i],
+        Node::Add(a, b) => s(a)[k] + s(b)[k],
+        Node::Sub(a, b) => s(a)[k] - s(b)[k],
+        Node::Neg(a) => -s(a)[k],
+        Node::AddConst(a) => s(a)[k],
+        Node::Scale(a, m) => m * s(a)[k],
+        Node::Mul(a, b) => cauchy(s(a), s(b), k, 0, k),
+        Node::Div(a, b) => (s(a)[k] - cauchy(s(b), own, k, 1, k)) / s(b)[0],
+        Node::ConstDiv(b) => -cauchy(s(b), own, k, 1, k) / s(b)[0],
+        Node::Sqrt(a) => {
+            let r = own;
+            (s(a)[k] - cauchy(r, r, k, 1, k - 1)) / (2.0 * r[0])
+        }
+        Node::Sin(a, cos) => weighted(s(a), s(cos), k, k) / kf,
+        Node::Cos(a, sin) => -weighted(s(a), s(sin), k, k) / kf,
+        Node::Exp(a) => weighted(s(a), own, k, k) / kf,
+        Node::Ln(a) => {
+            let l = own;
+            (s(a)[k] - weighted(l, s(a), k, k - 1) / kf) / s(a)[0]
+        }
+        Node::Atan(a, r) => {
+            let (t, r) = (own, s(r));
+            (kf * s(a)[k] - quotient_sum(t, r, k)) / (kf * r[0])
+        }
+        Node::Atan2(y, x, r) => {
+            let (t, r, y, x) = (own, s(r), s(y), s(x));
+            // g = x y' − y x', coefficient k − 1
+            let mut g = 0.0;
+            for i in 0..k {
+                let d = (k - i) as f64;
+                g += d * (x[i] * y[k - i] - y[i] * x[k - i]);
+            }
+            (g - quotient_sum(t, r, k)) / (kf * r[0])
+        }
+    }
+}
+
+/// Σ_{j=0}^{k−2} (j + 1) t[j + 1] r[k − 1 − j]: the known part of coefficient k − 1 of t'·r.
+#[inline(always)]
+fn quotient_sum(t: &[f64], r: &[f64], k: usize) -> f64 {
+    let mut s = 0.0;
+    for j in 0..k.saturating_sub(1) {
+        s += (j + 1) as f64 * t[j + 1] * r[k - 1 - j];
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::jet::{Jet, taylor_by_jets};
+
+    /// A right-hand side with every operation, constants among the operands.
+    fn f<S: Scalar>(x: &[S], dx: &mut [S]) -> Result<(), ()> {
+        let (a, b, c) = (x[0], x[1], x[2]);
+        let two = S::constant(2.0);
+        let (s, co) = (a * two).sin_cos();
+        let r = (b * b + S::constant(1.5)).sqrt();
+        let q = (S::constant(3.0) - c) / r + S::constant(0.5) / (co + S::constant(2.0));
+        dx[0] = b * co - s / two + (-c).exp() * S::constant(0.1);
+        dx[1] = (r.ln() - a.powi(3)) * q + b.atan() - c.powi(-2) * S::constant(0.01);
+        dx[2] = (b.atan2(c) + S::constant(0.25).atan2(a) + c.atan2(S::constant(-1.0))) * q
+            + S::constant(7.0).sqrt();
+        Ok(())
+    }
+
+    #[test]
+    fn the_recurrences_give_the_series_truncated_arithmetic_gives() {
+        let y = [0.3, -0.7, 1.2];
+        for order in [1, 2, 5, 12, 20] {
+            let (mut by_trace, mut by_jets) = (Vec::new(), Vec::new());
+            taylor_by_trace(&y, order, &mut by_trace, f::<Traced>).unwrap();
+            taylor_by_jets(&y, order, &mut by_jets, f::<Jet>).unwrap();
+            assert_eq!(by_trace.len(), by_jets.len());
+            for (k, (a, b)) in by_trace.iter().zip(&by_jets).enumerate() {
+                let scale = b.abs().max(1e-300);
+                assert!(
+                    (a - b).abs() <= 1e-13 * scale.max(1.0),
+                    "order {order}, entry {k}: {a} against {b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_constant_right_hand_side_and_a_pole_are_handled() {
+        let mut out = Vec::new();
+        taylor_by_trace::<()>(&[1.0, 2.0], 4, &mut out, |_, dx| {
+            dx[0] = Traced::constant(3.0);
+            dx[1] = Traced::constant(0.0);
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(out, vec![1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        // y' = 1/y at y = 0: no series
+        let pole = taylor_by_trace::<()>(&[0.0], 3, &mut out, |x, dx| {
+            dx[0] = Traced::constant(1.0) / x[0];
+            Ok(())
+        });
+        assert!(matches!(pole, Err(SeriesFailure::NonFinite)));
+    }
+}
