@@ -28,9 +28,7 @@ cmake): without them it prints a message on stderr and exits with status 3.
 
 import json
 import math
-import statistics
 import sys
-import time
 
 try:
     import numpy as np
@@ -40,6 +38,8 @@ except ImportError:
     print("numbalsoda_tradeoff.py: numba and numbalsoda are needed (pip install numba numbalsoda; "
           "numbalsoda builds with gfortran and cmake); skipped", file=sys.stderr)
     sys.exit(3)
+
+from wp import error, interpolated, pareto, timed  # noqa: E402
 
 MATH = ("sin", "cos", "tan", "sqrt", "exp", "log", "asin", "acos", "atan", "sinh", "cosh", "tanh")
 
@@ -67,30 +67,6 @@ def compile_rhs(rhs_into, n):
     return f.address
 
 
-def error(usol, system, offset):
-    ref = system["reference"]
-    req = system["requested"]
-    if usol.shape[0] != len(ref) + offset or not np.all(np.isfinite(usol)):
-        return math.inf
-    worst = 0.0
-    for j, row in enumerate(ref):
-        for value, i in zip(row, req):
-            worst = max(worst, abs(usol[j + offset, i] - value) / max(1.0, abs(value)))
-    return worst
-
-
-def timed(fun):
-    runs, total = [], 0.0
-    while True:
-        start = time.perf_counter()
-        out = fun()
-        took = time.perf_counter() - start
-        runs.append(took)
-        total += took
-        if (total > 0.05 and len(runs) >= 5) or len(runs) >= 2000:
-            return out, statistics.median(runs)
-
-
 def measure(path):
     system, funcptr = load(path)
     times = system["times"]
@@ -112,26 +88,6 @@ def measure(path):
         at = interpolated(front, err) if math.isfinite(err) else None
         rows.append((tol, err, seconds, best, ratio, seconds / at if at else None))
     return system, rows
-
-
-def pareto(runs):
-    """hamel's work–precision front: the runs that no run beats in both error and time, by
-    increasing error (so decreasing time)."""
-    front = []
-    for r in sorted(runs, key=lambda r: (r["error_span"], r["seconds"])):
-        if r["error_span"] > 0 and (not front or r["seconds"] < front[-1]["seconds"]):
-            front.append(r)
-    return front
-
-
-def interpolated(front, err):
-    """hamel's time at error `err` on its front, log–log linear between the two runs that
-    bracket it (None outside the front)."""
-    for lo, hi in zip(front, front[1:]):
-        if lo["error_span"] <= err <= hi["error_span"]:
-            x = (math.log(err) - math.log(lo["error_span"])) / (math.log(hi["error_span"]) - math.log(lo["error_span"]))
-            return math.exp(math.log(lo["seconds"]) + x * (math.log(hi["seconds"]) - math.log(lo["seconds"])))
-    return None
 
 
 def main():

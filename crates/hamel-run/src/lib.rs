@@ -33,6 +33,7 @@ pub mod animate;
 pub mod auto;
 pub mod cache;
 pub mod compare;
+pub mod dla;
 pub mod ensemble;
 pub mod initial;
 pub mod integrate;

@@ -344,7 +344,8 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
         "engine": table.engine,
         "hamel": table.rows.iter().map(|r| serde_json::json!({
             "method": r.method, "tol": r.tol, "seconds": r.seconds,
-            "error_span": r.error_span, "rhs_evals": r.rhs_evals, "complete": r.complete,
+            "error_span": r.error_span, "rhs_evals": r.rhs_evals, "series_evals": r.series_evals,
+            "complete": r.complete,
         })).collect::<Vec<_>>(),
     }))
 }

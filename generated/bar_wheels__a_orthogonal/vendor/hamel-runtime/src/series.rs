@@ -34,8 +34,8 @@ enum Node {
     /// c / b, c a constant.
     ConstDiv(u32),
     Sqrt(u32),
-    /// sin a, with the node of cos a.
-    Sin(u32, u32),
+    /// sin a; cos a is the next node.
+    Sin(u32),
     /// cos a, with the node of sin a.
     Cos(u32, u32),
     Exp(u32),
@@ -178,7 +178,7 @@ impl Scalar for Traced {
             return (Traced::constant_of(s), Traced::constant_of(c));
         }
         let at = PROGRAM.with_borrow(|p| p.nodes.len() as u32);
-        let sin = Traced::push(Node::Sin(self.node, at + 1), s);
+        let sin = Traced::push(Node::Sin(self.node), s);
         let cos = Traced::push(Node::Cos(self.node, at), c);
         (sin, cos)
     }
@@ -281,7 +281,8 @@ pub fn taylor_by_trace<E>(
 }
 
 /// The recurrences over the program: `out` holds y's coefficients row by row, its row 0 the
-/// state already (the inputs' values).
+/// state already (the inputs' values). Every node's coefficients are contiguous (`w` of them),
+/// so that the sums of the recurrences run over slices.
 fn run(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
     let (n, w) = (f.len(), order + 1);
     let mut c = vec![0.0; p.nodes.len() * w];
@@ -291,91 +292,104 @@ fn run(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
     for (i, &v) in p.values.iter().take(n).enumerate() {
         out[i] = v;
     }
-    let fk = |c: &[f64], i: usize, k: usize| match f[i].node {
-        CONSTANT if k == 0 => f[i].v,
-        CONSTANT => 0.0,
-        node => c[node as usize * w + k],
-    };
     for k in 0..order {
         if k > 0 {
-            for (node, at) in p.nodes.iter().zip((0..).step_by(w)) {
-                c[at + k] = coefficient(&c, w, (*node, at), k, out, n);
+            for (i, node) in p.nodes.iter().enumerate() {
+                let (done, rest) = c.split_at_mut(i * w);
+                let operand = |a: u32| &done[a as usize * w..a as usize * w + k + 1];
+                rest[k] = match *node {
+                    Node::Input(j) => out[k * n + j],
+                    // its cosine is the next node: its coefficients to k − 1 are known
+                    Node::Sin(a) => weighted(operand(a), &rest[w..w + k], k) / k as f64,
+                    _ => coefficient(*node, k, operand, &rest[..k]),
+                };
             }
         }
-        for i in 0..n {
-            out[(k + 1) * n + i] = fk(&c, i, k) / (k + 1) as f64;
+        for (i, fi) in f.iter().enumerate() {
+            let fk = match fi.node {
+                CONSTANT if k == 0 => fi.v,
+                CONSTANT => 0.0,
+                node => c[node as usize * w + k],
+            };
+            out[(k + 1) * n + i] = fk / (k + 1) as f64;
         }
     }
 }
 
-/// Σ_{j=lo}^{hi} a[j]·b[k − j] for series a and b (slices from coefficient 0).
+/// Σ_i a[i]·b[len − 1 − i] over slices of one length: a Cauchy product's coefficient. Four
+/// partial sums, so that the additions do not wait on one another.
 #[inline(always)]
-fn cauchy(a: &[f64], b: &[f64], k: usize, lo: usize, hi: usize) -> f64 {
-    let mut s = 0.0;
-    for j in lo..=hi {
-        s += a[j] * b[k - j];
+fn convolve(a: &[f64], b: &[f64]) -> f64 {
+    let len = a.len().min(b.len());
+    let (a, b) = (&a[..len], &b[..len]);
+    let mut acc = [0.0; 4];
+    let (chunks, tail) = (len / 4, len % 4);
+    for c in 0..chunks {
+        for (l, s) in acc.iter_mut().enumerate() {
+            let i = 4 * c + l;
+            *s += a[i] * b[len - 1 - i];
+        }
     }
-    s
+    for i in 4 * chunks..4 * chunks + tail {
+        acc[0] += a[i] * b[len - 1 - i];
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
-/// Σ_{j=1}^{hi} j·a[j]·b[k − j].
+/// Σ_{j=1}^{k} j·a[j]·b[k − j], `a` and `b` to coefficient k (b's own coefficient k unused).
 #[inline(always)]
-fn weighted(a: &[f64], b: &[f64], k: usize, hi: usize) -> f64 {
-    let mut s = 0.0;
-    for j in 1..=hi {
-        s += j as f64 * a[j] * b[k - j];
-    }
-    s
+fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
+    let terms = a[1..=k].iter().zip(b[..k].iter().rev());
+    terms
+        .enumerate()
+        .map(|(j, (x, y))| (j + 1) as f64 * x * y)
+        .sum()
 }
 
-/// Coefficient k ≥ 1 of `node`, whose own coefficients start at `c[at]`: its operands'
-/// coefficients known to k and its own to k − 1; an input's is the state's (`out`, rows of `n`).
-fn coefficient(
-    c: &[f64],
-    w: usize,
-    (node, at): (Node, usize),
-    k: usize,
-    out: &[f64],
-    n: usize,
-) -> f64 {
-    let s = |a: u32| &c[a as usize * w..a as usize * w + w];
-    let own = &c[at..at + w];
+/// Coefficient k ≥ 1 of a node other than an input: `s(a)` is operand a's series to
+/// coefficient k, `own` the node's to k − 1.
+#[inline(always)]
+fn coefficient<'a>(node: Node, k: usize, s: impl Fn(u32) -> &'a [f64], own: &[f64]) -> f64 {
     let kf = k as f64;
     match node {
-        Node::Const => 0.0,
-        Node::Input(i) => out[k * n + i],
+        Node::Input(_) | Node::Const => 0.0,
         Node::Add(a, b) => s(a)[k] + s(b)[k],
         Node::Sub(a, b) => s(a)[k] - s(b)[k],
         Node::Neg(a) => -s(a)[k],
         Node::AddConst(a) => s(a)[k],
         Node::Scale(a, m) => m * s(a)[k],
-        Node::Mul(a, b) => cauchy(s(a), s(b), k, 0, k),
-        Node::Div(a, b) => (s(a)[k] - cauchy(s(b), own, k, 1, k)) / s(b)[0],
-        Node::ConstDiv(b) => -cauchy(s(b), own, k, 1, k) / s(b)[0],
-        Node::Sqrt(a) => {
-            let r = own;
-            (s(a)[k] - cauchy(r, r, k, 1, k - 1)) / (2.0 * r[0])
-        }
-        Node::Sin(a, cos) => weighted(s(a), s(cos), k, k) / kf,
-        Node::Cos(a, sin) => -weighted(s(a), s(sin), k, k) / kf,
-        Node::Exp(a) => weighted(s(a), own, k, k) / kf,
+        Node::Mul(a, b) => convolve(s(a), s(b)),
+        // q·b = a: q[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) / b[0]
+        Node::Div(a, b) => (s(a)[k] - convolve(&s(b)[1..], own)) / s(b)[0],
+        Node::ConstDiv(b) => -convolve(&s(b)[1..], own) / s(b)[0],
+        // r² = a: r[k] = (a[k] − Σ_{j=1}^{k−1} r[j] r[k − j]) / (2 r[0])
+        Node::Sqrt(a) => (s(a)[k] - convolve(&own[1..], &own[1..])) / (2.0 * own[0]),
+        // s' = a' c, c' = −a' s (sin a, whose cosine comes after it, is computed in `run`)
+        Node::Sin(..) => unreachable!("computed in run"),
+        Node::Cos(a, sin) => -weighted(s(a), s(sin), k) / kf,
+        // e' = a' e
+        Node::Exp(a) => weighted(s(a), own, k) / kf,
+        // a l' = a': l[k] = (a[k] − (1/k) Σ_{j=1}^{k−1} j l[j] a[k − j]) / a[0]
         Node::Ln(a) => {
-            let l = own;
-            (s(a)[k] - weighted(l, s(a), k, k - 1) / kf) / s(a)[0]
+            let a = s(a);
+            let terms = own[1..k].iter().zip(a[1..k].iter().rev());
+            let sum: f64 = terms
+                .enumerate()
+                .map(|(j, (l, x))| (j + 1) as f64 * l * x)
+                .sum();
+            (a[k] - sum / kf) / a[0]
         }
-        Node::Atan(a, r) => {
-            let (t, r) = (own, s(r));
-            (kf * s(a)[k] - quotient_sum(t, r, k)) / (kf * r[0])
-        }
+        // t'·r = a', r = 1 + a²
+        Node::Atan(a, r) => (kf * s(a)[k] - quotient_sum(own, s(r), k)) / (kf * s(r)[0]),
+        // t'·r = x y' − y x', r = x² + y²
         Node::Atan2(y, x, r) => {
-            let (t, r, y, x) = (own, s(r), s(y), s(x));
-            // g = x y' − y x', coefficient k − 1
+            let (y, x) = (s(y), s(x));
             let mut g = 0.0;
             for i in 0..k {
                 let d = (k - i) as f64;
                 g += d * (x[i] * y[k - i] - y[i] * x[k - i]);
             }
-            (g - quotient_sum(t, r, k)) / (kf * r[0])
+            (g - quotient_sum(own, s(r), k)) / (kf * s(r)[0])
         }
     }
 }

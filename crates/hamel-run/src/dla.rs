@@ -1,0 +1,181 @@
+//! hamel's models on the discrete Lagrange–d'Alembert integrator ([`hamel_sim::dla`]), for
+//! long horizons: L = ½ q̇ᵀA(q)q̇ + U(q) with α(q)q̇ = 0 as a [`Nonholonomic`] system.
+//!
+//! **Inputs**: a derivation's compiled ingredients ([`Compiled::ingredients_at`]: A, U, ∇U,
+//! ∂A/∂q, α on one tape) and parameter values. **Outputs**: M = A, V = −U, ∂L/∂q =
+//! ½ q̇ᵀ(∂A/∂q)q̇ + ∇U and A = α's independent rows, at any q. **Invariant**: only models whose
+//! energy is conserved are accepted ([`ModelSystem::new`]): no forces beyond ∇U, no holonomic
+//! constraints (the method keeps none), no parameters set in time.
+
+use hamel_derive::Compiled;
+use hamel_runtime::{Dims, Layout};
+use hamel_sim::dla::Nonholonomic;
+use indexmap::IndexMap;
+use nalgebra::DMatrix;
+
+/// Why a model cannot run on the discrete Lagrange–d'Alembert integrator.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum DlaRefusal {
+    /// Its forces do work: the method is for conservative systems.
+    #[error(
+        "the model has forces beyond ∇U: the discrete Lagrange–d'Alembert method integrates conservative systems (use dop853, vern9 or taylor)"
+    )]
+    Forces,
+    /// It has holonomic constraints the method does not keep.
+    #[error(
+        "the model has holonomic constraints, which the discrete Lagrange–d'Alembert method does not keep"
+    )]
+    Holonomic,
+}
+
+/// A model as a [`Nonholonomic`] system at fixed parameter values.
+pub struct ModelSystem<'a> {
+    compiled: &'a Compiled,
+    params: IndexMap<String, f64>,
+    dims: Dims,
+    layout: Layout,
+}
+
+impl<'a> ModelSystem<'a> {
+    /// The model of `compiled` at `params`; `holonomic` says whether it has holonomic
+    /// constraints.
+    pub fn new(
+        compiled: &'a Compiled,
+        params: IndexMap<String, f64>,
+        holonomic: bool,
+    ) -> Result<Self, DlaRefusal> {
+        if compiled.has_forces() {
+            return Err(DlaRefusal::Forces);
+        }
+        if holonomic {
+            return Err(DlaRefusal::Holonomic);
+        }
+        let dims = compiled.dims();
+        Ok(ModelSystem {
+            compiled,
+            params,
+            dims,
+            layout: Layout::new(dims),
+        })
+    }
+
+    /// The ingredients at q (NaN where they cannot be evaluated: the integrator then stops on
+    /// a non-finite value).
+    fn ingredients(&self, q: &[f64]) -> Vec<f64> {
+        self.compiled
+            .ingredients_at(q, &self.params)
+            .unwrap_or_else(|_| vec![f64::NAN; self.layout.len])
+    }
+}
+
+impl Nonholonomic for ModelSystem<'_> {
+    fn dim(&self) -> usize {
+        self.dims.ell
+    }
+    fn constraints(&self) -> usize {
+        self.dims.mu
+    }
+    fn mass(&self, q: &[f64], m: &mut DMatrix<f64>) {
+        let out = self.ingredients(q);
+        let l = self.dims.ell;
+        *m = DMatrix::from_row_slice(l, l, &out[self.layout.a..self.layout.a + l * l]);
+    }
+    /// ∂L/∂q_k = ½ vᵀ(∂A/∂q_k)v + ∂U/∂q_k.
+    fn force(&self, q: &[f64], v: &[f64], f: &mut [f64]) {
+        let out = self.ingredients(q);
+        let l = self.dims.ell;
+        for (k, fk) in f.iter_mut().enumerate() {
+            let da = &out[self.layout.da + k * l * l..self.layout.da + (k + 1) * l * l];
+            let quadratic: f64 = (0..l)
+                .map(|i| (0..l).map(|j| v[i] * da[i * l + j] * v[j]).sum::<f64>())
+                .sum();
+            *fk = 0.5 * quadratic + out[self.layout.grad_u + k];
+        }
+    }
+    /// α's independent rows (its dependent ones, after them, add nothing).
+    fn constraint_matrix(&self, q: &[f64], a: &mut DMatrix<f64>) {
+        let out = self.ingredients(q);
+        let (l, m) = (self.dims.ell, self.dims.mu);
+        let alpha = &out[self.layout.alpha..self.layout.alpha + m * l];
+        *a = DMatrix::from_row_slice(m, l, alpha);
+    }
+    fn potential(&self, q: &[f64]) -> f64 {
+        -self.ingredients(q)[self.layout.u]
+    }
+}
+
+/// A long run of the discrete Lagrange–d'Alembert method on a scene's model
+/// ([`crate::Loaded::long_horizon`]).
+#[derive(Clone, Debug)]
+pub struct LongRun {
+    /// Steps taken.
+    pub steps: usize,
+    /// The energy at the start.
+    pub energy0: f64,
+    /// The energy's error E − E₀ at every `every`-th step (the start first).
+    pub energy_error: Vec<f64>,
+    /// The largest ‖α(q)q̇‖∞ over the run.
+    pub constraint: f64,
+    /// The configuration and velocities at the end.
+    pub q: Vec<f64>,
+    /// q̇ at the end.
+    pub v: Vec<f64>,
+}
+
+impl crate::Loaded {
+    /// The scene's model as a [`Nonholonomic`] system, with its initial configuration and
+    /// velocities q̇₀ = Γ(q₀)η₀ (every coordinate, whatever the plan keeps).
+    pub fn long_horizon_system(
+        &self,
+    ) -> Result<(ModelSystem<'_>, Vec<f64>, Vec<f64>), hamel_model::ModelError> {
+        if !self.live.is_empty() {
+            return Err(self.error(
+                "integrator",
+                "parameters set at every step: the discrete Lagrange–d'Alembert method integrates conservative systems".into(),
+            ));
+        }
+        let holonomic = !self.model.holonomic.is_empty();
+        let system = ModelSystem::new(&self.compiled, self.params.clone(), holonomic)
+            .map_err(|e| self.error("integrator", e.to_string()))?;
+        let eta = &self.y0[self.state.len()..];
+        let e = self
+            .compiled
+            .evaluate(&self.q0, eta, &self.params)
+            .map_err(|e| self.error("initial", e.to_string()))?;
+        Ok((system, self.q0.clone(), e.q_dot))
+    }
+
+    /// `steps` steps of `h` from the scene's initial state, the energy error kept every
+    /// `every` steps (a run of 10⁶ steps keeps what a plot of it needs).
+    pub fn long_horizon(
+        &self,
+        h: f64,
+        steps: usize,
+        every: usize,
+        variant: hamel_sim::dla::Variant,
+    ) -> Result<LongRun, hamel_model::ModelError> {
+        let (system, mut q, mut v) = self.long_horizon_system()?;
+        let energy0 = hamel_sim::dla::energy(&system, &q, &v);
+        let mut dla = hamel_sim::dla::Dla::new(&system, h, variant);
+        let (mut energy_error, mut constraint) = (vec![0.0], 0.0_f64);
+        let mut a = DMatrix::zeros(system.constraints(), system.dim());
+        for step in 1..=steps {
+            dla.step(&mut q, &mut v)
+                .map_err(|e| self.error("integrator", format!("step {step}: {e}")))?;
+            if step % every == 0 {
+                energy_error.push(hamel_sim::dla::energy(&system, &q, &v) - energy0);
+                system.constraint_matrix(&q, &mut a);
+                let r = &a * nalgebra::DVector::from_column_slice(&v);
+                constraint = constraint.max(r.amax());
+            }
+        }
+        Ok(LongRun {
+            steps,
+            energy0,
+            energy_error,
+            constraint,
+            q,
+            v,
+        })
+    }
+}

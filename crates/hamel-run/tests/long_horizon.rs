@@ -1,0 +1,76 @@
+//! The discrete Lagrange–d'Alembert method on hamel's models over long horizons (issue 63):
+//! the scenes' models as `hamel_sim::dla::Nonholonomic` systems (A, U, ∇U, ∂A/∂q and α from the
+//! derivation's ingredients). The energy error stays bounded with no trend, the constraints
+//! hold to round-off. The CAS runs in-process on its one worker thread (loading the scenes).
+
+use std::path::{Path, PathBuf};
+
+use hamel_sim::dla::Variant;
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name)
+}
+
+/// The slope of a least-squares line through the samples over the last 90 % of the run, in
+/// units of the run's length (so comparable with the spread), and the spread max − min.
+fn trend_and_spread(e: &[f64]) -> (f64, f64) {
+    let tail = &e[e.len() / 10..];
+    let n = tail.len() as f64;
+    let mean_x = (n - 1.0) / 2.0;
+    let mean_y = tail.iter().sum::<f64>() / n;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, y) in tail.iter().enumerate() {
+        let dx = i as f64 - mean_x;
+        sxy += dx * (y - mean_y);
+        sxx += dx * dx;
+    }
+    let spread = e.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        - e.iter().cloned().fold(f64::INFINITY, f64::min);
+    ((sxy / sxx * n).abs(), spread)
+}
+
+fn long_run(name: &str, h: f64, steps: usize) {
+    let loaded = hamel_run::load(&scene(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let run = loaded
+        .long_horizon(h, steps, 100, Variant::Reversible)
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let (trend, spread) = trend_and_spread(&run.energy_error);
+    let relative = spread / run.energy0.abs();
+    println!(
+        "{name}: {steps} steps of {h}: energy {:.6}, error spread {relative:.1e} (relative), trend {:.1e}, constraint {:.1e}",
+        run.energy0,
+        trend / run.energy0.abs(),
+        run.constraint
+    );
+    assert!(relative < 1e-2, "{name}: energy error spread {relative:e}");
+    assert!(
+        trend < spread,
+        "{name}: trend {trend:e} against spread {spread:e}"
+    );
+    assert!(
+        run.constraint < 1e-12,
+        "{name}: constraint {:e}",
+        run.constraint
+    );
+}
+
+#[test]
+fn the_rolling_disk_keeps_its_energy_over_long_horizons() {
+    long_run("rolling_disk.toml", 0.01, 200_000);
+}
+
+#[test]
+fn the_chaplygin_sleigh_keeps_its_energy_over_long_horizons() {
+    long_run("chaplygin_sleigh.toml", 0.01, 200_000);
+}
+
+#[test]
+fn a_model_with_forces_is_refused() {
+    let loaded = hamel_run::load(&scene("whipple_bicycle.toml")).unwrap();
+    let e = loaded
+        .long_horizon(0.01, 10, 1, Variant::Reversible)
+        .unwrap_err();
+    assert!(e.to_string().contains("conservative"), "{e}");
+}
