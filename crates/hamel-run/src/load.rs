@@ -113,6 +113,10 @@ pub fn load_with_options(
     let err = |key: &str, m: String| file.error(Some(key), m);
     let tables = crate::inputs::tables(&scene, dir).map_err(|(k, m)| err(&k, m))?;
     let live = crate::inputs::live(&model, &tables);
+    if matches!(integrator.method, hamel_sim::Method::Taylor) && !live.is_empty() {
+        let why = "the Taylor method needs a right-hand side free of t, and this scene's inputs change with time (a law of t, or a table): use dop853 or vern9";
+        return Err(err("integrator.method", why.into()));
+    }
     let (model, choice) = choose(model, &scene, &parsed, &file, fresh)?;
     let Derived {
         model,

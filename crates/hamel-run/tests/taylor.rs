@@ -126,3 +126,29 @@ fn the_compiled_cores_give_the_same_series() {
     }
     std::fs::remove_dir_all(&cache).ok();
 }
+
+/// A scene whose inputs change with time asks for a series the trace cannot give (the
+/// right-hand side depends on t through them): refused when loaded, at the method's key.
+#[test]
+fn a_scene_with_inputs_in_time_is_refused_the_taylor_method() {
+    let text = std::fs::read_to_string(scene("diff_drive_circle.toml")).unwrap();
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    let text = text
+        .replace("../models", &models.display().to_string())
+        .replace("k_v*(V - eta1)", "k_v*(V*(1 + 0.1*sin(3*t)) - eta1)")
+        .replace("method = \"dop853\"", "method = \"taylor\"");
+    assert!(text.contains("sin(3*t)") && text.contains("\"taylor\""));
+    let dir = std::env::temp_dir().join(format!("hamel-taylor-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("in_time.toml");
+    std::fs::write(&path, text).unwrap();
+    let e = match hamel_run::load(&path) {
+        Ok(_) => panic!("loaded"),
+        Err(e) => e.to_string(),
+    };
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(
+        e.contains("integrator.method") && e.contains("free of t"),
+        "{e}"
+    );
+}
