@@ -34,7 +34,7 @@ except ImportError:
     print("heyoka_tradeoff.py: heyoka is needed (pip install heyoka); skipped", file=sys.stderr)
     sys.exit(3)
 
-from wp import error, interpolated, pareto, timed  # noqa: E402
+from wp import error, interpolated, pareto, print_summary, timed  # noqa: E402
 
 FUNCTIONS = ("sin", "cos", "tan", "sqrt", "exp", "log", "atan", "asin", "acos", "sinh", "cosh", "tanh")
 
@@ -109,13 +109,7 @@ def main():
                   f"| {inter_text} |")
         print()
         summary.append((system["model"], [r[5] for r in rows if r[5]], [r[6] for r in rows if r[6]], len(rows)))
-    print("| scene | heyoka / hamel at equal error (1e-4 to 1e-14): hamel's fastest run at ≤ the error "
-          "| the same, hamel's time interpolated at the error | rows compared |")
-    print("|---|---|---|---|")
-    for model, ratios, inters, count in summary:
-        span = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"
-        ispan = f"{min(inters):.2f}–{max(inters):.2f}" if inters else "–"
-        print(f"| {model} | {span} | {ispan} | {len(ratios)} of {count} |")
+    print_summary("heyoka", "1e-4 to 1e-14", summary)
 
 
 if __name__ == "__main__":

@@ -39,7 +39,7 @@ except ImportError:
           "numbalsoda builds with gfortran and cmake); skipped", file=sys.stderr)
     sys.exit(3)
 
-from wp import error, interpolated, pareto, timed  # noqa: E402
+from wp import error, interpolated, pareto, print_summary, timed  # noqa: E402
 
 MATH = ("sin", "cos", "tan", "sqrt", "exp", "log", "asin", "acos", "atan", "sinh", "cosh", "tanh")
 
@@ -111,13 +111,7 @@ def main():
         ratios = [r[4] for r in rows if r[4]]
         inters = [r[5] for r in rows if r[5]]
         summary.append((system["model"], ratios, inters, len(rows)))
-    print("| scene | numbalsoda / hamel at equal error (1e-4 to 1e-12): hamel's fastest run at ≤ the error "
-          "| the same, hamel's time interpolated at the error | rows compared |")
-    print("|---|---|---|---|")
-    for model, ratios, inters, count in summary:
-        span = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"
-        ispan = f"{min(inters):.2f}–{max(inters):.2f}" if inters else "–"
-        print(f"| {model} | {span} | {ispan} | {len(ratios)} of {count} |")
+    print_summary("numbalsoda", "1e-4 to 1e-12", summary)
 
 
 if __name__ == "__main__":

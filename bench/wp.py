@@ -51,3 +51,16 @@ def interpolated(front, err):
             x = (math.log(err) - math.log(lo["error_span"])) / (math.log(hi["error_span"]) - math.log(lo["error_span"]))
             return math.exp(math.log(lo["seconds"]) + x * (math.log(hi["seconds"]) - math.log(lo["seconds"])))
     return None
+
+
+def print_summary(peer, span, summary):
+    """The closing table of a comparison: per scene, the range of peer / hamel at equal error
+    (hamel's fastest run at <= the error, and hamel's time interpolated at it) and how many
+    rows were compared. `summary` holds (model, ratios, interpolated ratios, rows)."""
+    print(f"| scene | {peer} / hamel at equal error ({span}): hamel's fastest run at ≤ the error "
+          "| the same, hamel's time interpolated at the error | rows compared |")
+    print("|---|---|---|---|")
+    for model, ratios, inters, count in summary:
+        ratio_span = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"
+        inter_span = f"{min(inters):.2f}–{max(inters):.2f}" if inters else "–"
+        print(f"| {model} | {ratio_span} | {inter_span} | {len(ratios)} of {count} |")

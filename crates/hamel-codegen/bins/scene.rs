@@ -64,8 +64,8 @@ impl Reduced {
 
     /// The full configuration: the kept coordinates from the state, the eliminated ones at
     /// the reference value.
-    fn full_q(&self, y: &[f64]) -> [f64; DIMS.ell] {
-        let mut q = [self.reference; DIMS.ell];
+    fn full_q<S: Scalar>(&self, y: &[S]) -> [S; DIMS.ell] {
+        let mut q = [S::constant(self.reference); DIMS.ell];
         for (i, &k) in KEPT.iter().enumerate() {
             q[k] = y[i];
         }
@@ -155,10 +155,7 @@ impl OdeSystem for Reduced {
         let series = runtime::taylor_by_trace(y, order, out, |x, dx| {
             dx[..REDUCED_DIM].copy_from_slice(&reduced_with::<Traced>(&x[..REDUCED_DIM], &self.prep)?);
             if x.len() > REDUCED_DIM {
-                let mut q = [Traced::constant(self.reference); DIMS.ell];
-                for (i, &k) in KEPT.iter().enumerate() {
-                    q[k] = x[i];
-                }
+                let q = self.full_q(x);
                 let (_, qd) = fast(&q, &x[KEPT.len()..REDUCED_DIM], &self.prep.p)?;
                 let mut f = [Traced::constant(0.0); DIMS.ell];
                 forces(&q, &qd, &self.prep.p, &mut f);

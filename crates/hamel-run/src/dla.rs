@@ -34,6 +34,9 @@ pub struct ModelSystem<'a> {
     params: IndexMap<String, f64>,
     dims: Dims,
     layout: Layout,
+    /// The last configuration evaluated and its ingredients: a step asks for M, ∂L/∂q and α at
+    /// the same q, which one evaluation of the tape gives.
+    last: std::cell::RefCell<(Vec<f64>, Vec<f64>)>,
 }
 
 impl<'a> ModelSystem<'a> {
@@ -56,15 +59,21 @@ impl<'a> ModelSystem<'a> {
             params,
             dims,
             layout: Layout::new(dims),
+            last: Default::default(),
         })
     }
 
     /// The ingredients at q (NaN where they cannot be evaluated: the integrator then stops on
-    /// a non-finite value).
-    fn ingredients(&self, q: &[f64]) -> Vec<f64> {
-        self.compiled
-            .ingredients_at(q, &self.params)
-            .unwrap_or_else(|_| vec![f64::NAN; self.layout.len])
+    /// a non-finite value), evaluated once per configuration.
+    fn ingredients(&self, q: &[f64]) -> std::cell::Ref<'_, [f64]> {
+        if self.last.borrow().0 != q {
+            let out = self
+                .compiled
+                .ingredients_at(q, &self.params)
+                .unwrap_or_else(|_| vec![f64::NAN; self.layout.len]);
+            *self.last.borrow_mut() = (q.to_vec(), out);
+        }
+        std::cell::Ref::map(self.last.borrow(), |(_, out)| out.as_slice())
     }
 }
 
