@@ -107,6 +107,9 @@ impl Samples {
     /// The kept rows with a coefficient of at least `ZERO` relative in `row`'s least-squares
     /// dependence on them, at some sample.
     fn support(&self, kept: &[usize], row: usize) -> Vec<usize> {
+        if kept.is_empty() {
+            return Vec::new(); // every row is zero: nothing to depend on
+        }
         let mut on = vec![false; kept.len()];
         for m in &self.0 {
             let k = m.select_rows(kept).transpose();
@@ -313,5 +316,40 @@ right_roll = "cos(theta)*der(x) + sin(theta)*der(y) + w*der(theta) - r*der(b)"
             .to_string();
         assert!(e.contains("dependent at the model's defaults"), "{e}");
         assert!(e.contains("`right_roll`"), "{e}");
+    }
+
+    /// A blade at the origin of a frame that only turns (the body moves in another): its one
+    /// constraint row is zero, so
+    /// no row is kept and the zero row depends on nothing (found by the model fuzz target,
+    /// which panicked here on the empty least-squares problem).
+    #[test]
+    fn a_lone_zero_row_depends_on_nothing() {
+        let text = r#"
+name = "still_blade"
+title = "a blade that cannot move"
+coordinates = ["x", "y", "theta"]
+[parameters]
+m = 2.0
+[world]
+up = "z"
+[frames.cart]
+origin = ["x", "y", 0]
+rotations = [{ axis = "z", angle = "theta" }]
+[frames.body]
+rotations = [{ axis = "z", angle = "theta" }]
+[bodies.sleigh]
+frame = "cart"
+mass = "m"
+inertia = { xx = "m", yy = "m", zz = "m" }
+[blades.runner]
+frame = "body"
+direction = "x"
+"#;
+        let m = Model::from_source("still.toml", text).unwrap();
+        assert_eq!(m.mu(), 0);
+        assert_eq!(m.dependent.len(), 1);
+        assert!(m.dependent[0].on.is_empty());
+        let header = m.to_lagrangian_toml();
+        assert!(header.contains("depends on nothing: it is zero"), "{header}");
     }
 }
