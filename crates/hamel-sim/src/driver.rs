@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use crate::control::{Tolerances, Verdict, initial_step};
 use crate::dop853::Dop853;
 use crate::dopri5::Dopri5;
+use crate::events::{Event, EventHit, Watch};
 use crate::gauss::Gauss;
 use crate::rk4::Rk4;
 use crate::solution::{ErrorKind, IntegrationError, Solution, Stats};
@@ -169,26 +170,69 @@ pub fn integrate<S: OdeSystem + ?Sized>(
     output_times: &[f64],
     options: &Options,
 ) -> Result<Solution, IntegrationError> {
-    if system.does_work() {
-        let mut start = y0.to_vec();
-        start.push(0.0);
-        let wrapped = crate::work::with_work(system);
-        let result = integrate_state(&wrapped, method, t0, &start, output_times, options);
-        return crate::work::split_result(result, y0.len());
-    }
-    integrate_state(system, method, t0, y0, output_times, options)
+    integrate_with_events(system, method, t0, y0, output_times, options, &[])
 }
 
-/// [`integrate`] of the state as it is (the work of the forces, if any, already in it).
-fn integrate_state<S: OdeSystem + ?Sized>(
+/// [`integrate`], watching `events` ([`crate::events`]): each crossing found is in the
+/// solution's `events`, located on the step's continuous extension; a terminal one ends the
+/// integration at its time (the outputs before it recorded, `complete` false). Events need a
+/// method with a continuous extension: DOPRI5, DOP853, Vern9 or the Taylor method.
+///
+/// # Errors
+/// As [`integrate`]; events with another method are invalid input.
+pub fn integrate_with_events<S: OdeSystem + ?Sized>(
     system: &S,
     method: Method,
     t0: f64,
     y0: &[f64],
     output_times: &[f64],
     options: &Options,
+    events: &[Event<'_>],
 ) -> Result<Solution, IntegrationError> {
-    if let Err((kind, message)) = validate(system, method, t0, y0, output_times, options) {
+    let start = Start {
+        method,
+        t0,
+        output_times,
+        options,
+        events,
+    };
+    if system.does_work() {
+        let mut y = y0.to_vec();
+        y.push(0.0);
+        let wrapped = crate::work::with_work(system);
+        let result = integrate_state(&wrapped, &start, &y, y0.len());
+        return crate::work::split_result(result, y0.len());
+    }
+    integrate_state(system, &start, y0, y0.len())
+}
+
+/// What an integration is asked for, apart from the system and its initial state.
+struct Start<'s, 'e, 'a> {
+    method: Method,
+    t0: f64,
+    output_times: &'s [f64],
+    options: &'s Options,
+    events: &'e [Event<'a>],
+}
+
+/// [`integrate`] of the state as it is (the work of the forces, if any, already in it: the
+/// events see the first `dim` components).
+fn integrate_state<S: OdeSystem + ?Sized>(
+    system: &S,
+    start: &Start<'_, '_, '_>,
+    y0: &[f64],
+    dim: usize,
+) -> Result<Solution, IntegrationError> {
+    let Start {
+        method,
+        t0,
+        output_times,
+        options,
+        events,
+    } = *start;
+    let checked = validate(system, method, t0, y0, output_times, options)
+        .and_then(|()| validate_events(method, events));
+    if let Err((kind, message)) = checked {
         let failure = Failure {
             kind,
             time: t0,
@@ -220,6 +264,7 @@ fn integrate_state<S: OdeSystem + ?Sized>(
             y: y0.to_vec(),
             outputs,
             options,
+            watch: Watch::new(events, t0, y0, dim),
         };
         match method {
             Method::Rk4 { step } => run.fixed(&mut Rk4::new(n), step),
@@ -269,6 +314,7 @@ struct Run<'r, 'a, S: ?Sized> {
     y: Vec<f64>,
     outputs: &'r [f64],
     options: &'r Options,
+    watch: Watch<'r, 'r>,
 }
 
 impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
@@ -358,7 +404,7 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
         let h_max = self.options.h_max.unwrap_or((t_end - self.t).abs());
         let order = crate::taylor::order(tol.rtol);
         let (n, mut series) = (self.y.len(), Vec::new());
-        let mut y_out = vec![0.0; n];
+        let (mut y_out, mut y_at) = (vec![0.0; n], vec![0.0; n]);
         let mut next = 0;
         while next < self.outputs.len() {
             if self.ev.stats.steps >= self.options.max_steps {
@@ -380,25 +426,36 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
             } else {
                 self.t + direction * h
             };
-            while next < self.outputs.len() && (self.outputs[next] - t_next) * direction < 0.0 {
-                crate::taylor::sum(&series, n, self.outputs[next] - self.t, &mut y_out);
-                self.ev
-                    .project(self.outputs[next], &mut y_out, false)
-                    .map_err(|failure| self.step_failure(failure, h))?;
-                self.recorder.push(self.outputs[next], &y_out);
-                next += 1;
-            }
-            crate::taylor::sum(&series, n, t_next - self.t, &mut y_out);
+            let h = t_next - self.t;
+            crate::taylor::sum(&series, n, h, &mut y_out);
             self.ev.stats.steps += 1;
             self.ev
                 .project(t_next, &mut y_out, true)
                 .map_err(|failure| self.step_failure(failure, h))?;
-            self.t = t_next;
-            self.y.copy_from_slice(&y_out);
-            while next < self.outputs.len() && self.outputs[next] == t_next {
-                self.recorder.push(t_next, &self.y);
+            let terminal = self.events(h, t_next, &y_out, &mut |theta, out| {
+                crate::taylor::sum(&series, n, theta * h, out)
+            })?;
+            let t_stop = terminal.unwrap_or(t_next);
+            while let Some(&t_out) = self.outputs.get(next) {
+                if (t_out - t_stop) * direction > 0.0 {
+                    break;
+                }
+                if t_out == t_next {
+                    self.recorder.push(t_out, &y_out);
+                } else {
+                    crate::taylor::sum(&series, n, t_out - self.t, &mut y_at);
+                    self.ev
+                        .project(t_out, &mut y_at, false)
+                        .map_err(|failure| self.step_failure(failure, h))?;
+                    self.recorder.push(t_out, &y_at);
+                }
                 next += 1;
             }
+            if terminal.is_some() {
+                return Ok(());
+            }
+            self.t = t_next;
+            self.y.copy_from_slice(&y_out);
         }
         Ok(())
     }
@@ -490,10 +547,11 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
             };
             let t_new = if hits_stop { stop } else { self.t + h_try };
             let dense = has_dense
-                && self
-                    .outputs
-                    .get(next)
-                    .is_some_and(|&t_out| (t_out - t_new) * direction < 0.0);
+                && (!self.watch.is_empty()
+                    || self
+                        .outputs
+                        .get(next)
+                        .is_some_and(|&t_out| (t_out - t_new) * direction < 0.0));
             if let Err(failure) = stepper.accept(self.ev, self.t, &self.y, h_try, &y_new, dense) {
                 self.ev.stats.rejected += 1;
                 (h, after_reject, last_failure) =
@@ -506,9 +564,15 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
                 .ev
                 .project(t_new, &mut y_new, true)
                 .map_err(|failure| self.step_failure(failure, h_try))?;
-
+            let terminal = match stepper.interpolant() {
+                Some(interpolant) => self.events(h_try, t_new, &y_new, &mut |theta, out| {
+                    interpolant.interpolate(theta, out)
+                })?,
+                None => None,
+            };
+            let t_stop = terminal.unwrap_or(t_new);
             while let Some(&t_out) = self.outputs.get(next) {
-                if (t_out - t_new) * direction > 0.0 {
+                if (t_out - t_stop) * direction > 0.0 {
                     break;
                 }
                 if t_out == t_new {
@@ -529,6 +593,9 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
                 }
                 next += 1;
             }
+            if terminal.is_some() {
+                return Ok(());
+            }
             // After the outputs: the continuous extension may read the step's last stage.
             if projected {
                 self.ev
@@ -547,6 +614,50 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
             (after_reject, last_failure) = (false, None);
         }
         Ok(())
+    }
+
+    /// The events over the accepted step from `self.t` by `h` to `(t_new, y_new)` (projected),
+    /// located on `state(θ, out)`, the step's continuous extension: each recorded, its state
+    /// projected as an output's is; the time of a terminal one, if any (the run ends there).
+    fn events(
+        &mut self,
+        h: f64,
+        t_new: f64,
+        y_new: &[f64],
+        state: &mut dyn FnMut(f64, &mut [f64]),
+    ) -> Result<Option<f64>, Failure> {
+        if self.watch.is_empty() {
+            return Ok(None);
+        }
+        let mut y = std::mem::take(&mut self.watch.lent);
+        let count = self.watch.step(self.t, h, y_new, state);
+        for k in 0..count {
+            let found = self.watch.found[k];
+            let t = if found.theta == 1.0 {
+                y.copy_from_slice(y_new);
+                t_new
+            } else {
+                state(found.theta, &mut y);
+                let t = self.t + found.theta * h;
+                self.ev
+                    .project(t, &mut y, false)
+                    .map_err(|failure| self.step_failure(failure, h))?;
+                t
+            };
+            let terminal = self.watch.terminal(found.event);
+            self.recorder.solution.events.push(EventHit {
+                event: found.event,
+                t,
+                y: y[..self.watch.dim()].to_vec(),
+                terminal,
+            });
+            if terminal {
+                self.recorder.terminated = true;
+                return Ok(Some(t));
+            }
+        }
+        self.watch.lent = y;
+        Ok(None)
     }
 
     /// The failure reported when the step size underflows, naming the last failed attempt.
@@ -583,6 +694,8 @@ struct Recorder<'a, S: ?Sized> {
     system: &'a S,
     energy0: Option<f64>,
     solution: Solution,
+    /// Whether a terminal event ended the run.
+    terminated: bool,
 }
 
 impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
@@ -601,6 +714,7 @@ impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
                 y: States::with_capacity(y0.len(), outputs),
                 ..Solution::default()
             },
+            terminated: false,
         }
     }
 
@@ -628,7 +742,7 @@ impl<'a, S: OdeSystem + ?Sized> Recorder<'a, S> {
         stats.constraint_drift = keep_finite(&mut solution.constraint, f64::abs);
         Solution {
             stats,
-            complete,
+            complete: complete && !self.terminated,
             ..solution
         }
     }
@@ -743,4 +857,19 @@ fn validate<S: OdeSystem + ?Sized>(
         ));
     }
     Ok(())
+}
+
+/// Events need a continuous extension to be located on.
+fn validate_events(method: Method, events: &[Event<'_>]) -> Result<(), (ErrorKind, String)> {
+    match method {
+        Method::Dopri5 | Method::Dop853 | Method::Vern9 | Method::Taylor => Ok(()),
+        _ if events.is_empty() => Ok(()),
+        _ => Err((
+            ErrorKind::InvalidInput,
+            format!(
+                "events are located on a continuous extension, which {} has none of: use dopri5, dop853, vern9 or taylor",
+                method.name()
+            ),
+        )),
+    }
 }

@@ -54,6 +54,7 @@ mod dop853;
 mod dopri5;
 mod driver;
 mod ensemble;
+pub mod events;
 mod explicit;
 mod gauss;
 pub mod job;
@@ -69,7 +70,8 @@ mod testing;
 mod vern9;
 mod work;
 
-pub use driver::{Method, MethodName, Options, integrate};
+pub use driver::{Method, MethodName, Options, integrate, integrate_with_events};
+pub use events::{Crossing, Event, EventHit};
 pub use ensemble::{Ensemble, EnsembleError, Shard, integrate_many};
 pub use live::{Interpolation, Live, Outside, Samples, Table, TableError, live_values};
 pub use solution::{ErrorKind, IntegrationError, Solution, Stats};

@@ -21,6 +21,10 @@ pub struct Solution {
     /// W(t) = ∫ power dt at each output, so that E(t) − W(t) is conserved; empty otherwise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub work: Vec<f64>,
+    /// The events found ([`crate::integrate_with_events`]), in time order; a terminal one is
+    /// last.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub events: Vec<crate::EventHit>,
     /// Counters and invariant drift.
     pub stats: Stats,
     /// Whether every requested output time was reached.

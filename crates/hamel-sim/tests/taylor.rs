@@ -4,13 +4,18 @@
 //! * the error at the outputs follows the tolerance (tolerance proportionality) and reaches
 //!   1e-13 at the tightest, where DOP853 at its tightest stops short;
 //! * the dense output (the series between steps) is as accurate as the steps;
-//! * a system without a series is refused with a clear error.
+//! * a system without a series is refused with a clear error;
+//! * events: the orbit's crossings of the x axis (t = kπ) and of the y axis (Kepler's equation
+//!   at Ê = π/3) located on the series to 1e-12, a terminal one ending the run, the crossing's
+//!   direction respected; DOP853 to its tolerance; methods without dense output refused.
 
 use std::cell::RefCell;
 
 use hamel_expr::taylor::{Role, Series};
 use hamel_expr::{Tape, parse};
-use hamel_sim::{Method, OdeSystem, Options, SystemError, integrate};
+use hamel_sim::{
+    Crossing, Event, Method, OdeSystem, Options, SystemError, integrate, integrate_with_events,
+};
 
 /// y' = f(t, y) from expressions in the state's names and t.
 struct Expressions {
@@ -173,4 +178,125 @@ fn a_system_without_a_series_is_refused() {
     )
     .unwrap_err();
     assert!(e.to_string().contains("no Taylor series"), "{e}");
+}
+
+/// Kepler's orbit over 5 orbits watching `events`, at tolerance `tol`.
+fn with_events(method: Method, tol: f64, events: &[Event]) -> hamel_sim::Solution {
+    let options = Options {
+        rtol: tol,
+        atol: tol,
+        max_steps: 10_000_000,
+        ..Options::default()
+    };
+    let outputs: Vec<f64> = (1..=100).map(|k| k as f64 * 0.1 * std::f64::consts::PI).collect();
+    integrate_with_events(&kepler(), method, 0.0, &exact(0.0), &outputs, &options, events)
+        .unwrap()
+}
+
+/// y = 0: the periapsis (rising, t = 2kπ) and the apoapsis (falling, t = (2k + 1)π).
+fn axis(crossing: Crossing) -> Event<'static> {
+    Event {
+        condition: Box::new(|_t, y| y[1]),
+        crossing,
+        terminal: false,
+    }
+}
+
+#[test]
+fn events_are_located_on_the_series_to_1e_12() {
+    let pi = std::f64::consts::PI;
+    for (method, tol, within) in [(Method::Taylor, 1e-15, 1e-12), (Method::Dop853, 1e-12, 1e-9)] {
+        let s = with_events(method, tol, &[axis(Crossing::Either)]);
+        assert!(s.complete);
+        let times: Vec<f64> = s.events.iter().map(|e| e.t).collect();
+        // t = 0 is the start, not a crossing; the last, t = 10π, the end of the run
+        assert_eq!(times.len(), 10, "{method:?}: {times:?}");
+        let worst = (times.iter().enumerate())
+            .map(|(k, t)| (t - (k + 1) as f64 * pi).abs())
+            .fold(0.0, f64::max);
+        let state = (s.events.iter())
+            .map(|e| (0..4).map(|i| (e.y[i] - exact(e.t)[i]).abs()).fold(0.0, f64::max))
+            .fold(0.0, f64::max);
+        eprintln!(
+            "kepler events, {} at tol {tol:.0e}: 10 crossings of y = 0 within {worst:.1e} of kπ, states within {state:.1e}",
+            method.name()
+        );
+        assert!(worst <= within, "{method:?}: {worst:e}");
+        assert!(state <= 10.0 * within, "{method:?}: {state:e}");
+    }
+}
+
+#[test]
+fn an_event_counts_only_its_direction_and_a_terminal_one_ends_the_run() {
+    let pi = std::f64::consts::PI;
+    let s = with_events(Method::Taylor, 1e-14, &[axis(Crossing::Falling)]);
+    let times: Vec<f64> = s.events.iter().map(|e| e.t).collect();
+    assert_eq!(times.len(), 5, "{times:?}");
+    for (k, t) in times.iter().enumerate() {
+        assert!((t - (2 * k + 1) as f64 * pi).abs() < 1e-12, "{times:?}");
+    }
+    // x = 0, falling: cos Ê = e, Ê = π/3, t = π/3 − e sin(π/3)
+    let stop = Event {
+        condition: Box::new(|_t, y| y[0]),
+        crossing: Crossing::Falling,
+        terminal: true,
+    };
+    let s = with_events(Method::Taylor, 1e-15, &[axis(Crossing::Either), stop]);
+    let want = pi / 3.0 - E * (pi / 3.0).sin();
+    let hit = s.events.last().unwrap();
+    assert!((hit.event, hit.terminal) == (1, true) && s.events.len() == 1);
+    assert!((hit.t - want).abs() < 1e-12, "{} against {want}", hit.t);
+    assert!(hit.y[0].abs() < 1e-12, "{:?}", hit.y);
+    assert!(!s.complete);
+    assert_eq!(s.t, [0.1 * pi], "the outputs before the event, none after");
+}
+
+#[test]
+fn events_without_a_continuous_extension_are_refused() {
+    let options = Options::default();
+    let e = integrate_with_events(
+        &kepler(),
+        Method::Rk4 { step: 0.01 },
+        0.0,
+        &exact(0.0),
+        &[1.0],
+        &options,
+        &[axis(Crossing::Either)],
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("continuous extension"), "{e}");
+}
+
+/// Kepler's orbit over one period in `steps` equal steps of the truncated series of order `p`
+/// (the system's coefficients summed by `hamel_sim::taylor::sum`): the error at the end.
+fn fixed_order_error(p: usize, steps: usize) -> f64 {
+    let system = kepler();
+    let period = 2.0 * std::f64::consts::PI;
+    let h = period / steps as f64;
+    let (mut y, mut series) = (exact(0.0).to_vec(), Vec::new());
+    for k in 0..steps {
+        system
+            .taylor_coefficients(k as f64 * h, &y, p, &mut series)
+            .unwrap()
+            .unwrap();
+        hamel_sim::taylor::sum(&series, 4, h, &mut y);
+    }
+    let want = exact(period);
+    (0..4).map(|i| (y[i] - want[i]).abs()).fold(0.0, f64::max)
+}
+
+/// The series truncated at order p makes a local error O(h^{p+1}), so a global one O(h^p): the
+/// observed order when the step halves (steps chosen so that the errors stay well above
+/// round-off and in the asymptotic range).
+#[test]
+fn the_truncated_series_has_the_order_of_its_truncation() {
+    for (p, steps) in [(2, 4000), (4, 400), (6, 200), (8, 120), (10, 120)] {
+        let (e1, e2) = (fixed_order_error(p, steps), fixed_order_error(p, 2 * steps));
+        let observed = (e1 / e2).log2();
+        eprintln!(
+            "kepler, taylor order {p}: {steps} steps {e1:.2e}, {} steps {e2:.2e}: observed order {observed:.2}",
+            2 * steps
+        );
+        assert!((observed - p as f64).abs() < 0.3, "order {p}: observed {observed}");
+    }
 }
