@@ -350,6 +350,9 @@ direction = "x"
         assert_eq!(m.dependent.len(), 1);
         assert!(m.dependent[0].on.is_empty());
         let header = m.to_lagrangian_toml();
-        assert!(header.contains("depends on nothing: it is zero"), "{header}");
+        assert!(
+            header.contains("depends on nothing: it is zero"),
+            "{header}"
+        );
     }
 }

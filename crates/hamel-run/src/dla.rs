@@ -188,3 +188,93 @@ impl crate::Loaded {
         })
     }
 }
+
+impl crate::Loaded {
+    /// A scene run with `method = "dla"`: the model on the discrete Lagrange–d'Alembert method
+    /// with step `h` ([`hamel_sim::dla::integrate`]; the step before an output off the step
+    /// grid shortened), its states at the outputs in the plan's order (η = Z(q)q̇), with the
+    /// scene's monitors (energy, constraint residual) evaluated as for the other methods.
+    pub fn integrate_dla(
+        &self,
+        h: f64,
+        variant: hamel_sim::dla::Variant,
+        options: &hamel_sim::Options,
+    ) -> Result<crate::Run, hamel_model::ModelError> {
+        let (system, q0, v0) = self.long_horizon_system()?;
+        let (trajectory, failure) = match hamel_sim::dla::integrate(
+            &system,
+            (h, variant),
+            (self.scene.t0, &q0, &v0),
+            &self.times,
+            options.max_steps,
+        ) {
+            Ok(t) => (t, None),
+            Err(e) => (
+                *e.partial.clone(),
+                Some(self.error("integrator", e.to_string())),
+            ),
+        };
+        let mut y = hamel_sim::States::with_capacity(self.y0.len(), trajectory.t.len());
+        for (q, v) in trajectory.q.iter().zip(trajectory.v.iter()) {
+            y.push(&self.planned_state(q, v)?);
+        }
+        let solution = self.monitored(trajectory.t, y, trajectory.steps, failure.is_none())?;
+        Ok(crate::Run {
+            solution,
+            failure,
+            max_condition: None,
+            constraint_forces: Vec::new(),
+            monitored: None,
+        })
+    }
+
+    /// The state in the plan's order (the state's coordinates, then η = Z(q)q̇) from every
+    /// coordinate and its rate.
+    fn planned_state(&self, q: &[f64], v: &[f64]) -> Result<Vec<f64>, hamel_model::ModelError> {
+        let rows = (self.compiled)
+            .quasi_velocity_map(q, &self.params)
+            .map_err(|e| self.error("integrator", e.to_string()))?;
+        let eta = rows[..self.d.sigma]
+            .iter()
+            .map(|z| z.iter().zip(v).map(|(a, b)| a * b).sum::<f64>());
+        Ok(self.state.iter().map(|&k| q[k]).chain(eta).collect())
+    }
+
+    /// A solution of states `y` at `t` with the scene's monitors at each, their drift over the
+    /// run (from the initial state), `steps` steps.
+    fn monitored(
+        &self,
+        t: Vec<f64>,
+        y: hamel_sim::States,
+        steps: usize,
+        complete: bool,
+    ) -> Result<hamel_sim::Solution, hamel_model::ModelError> {
+        use hamel_sim::OdeSystem;
+        let system = self.system()?;
+        let mut energy = vec![None; t.len()];
+        system.energies(&t, y.as_flat(), &mut energy);
+        let mut constraint = vec![None; t.len()];
+        system.constraint_residuals(&t, y.as_flat(), &mut constraint);
+        let e0 = system.energy(self.scene.t0, &self.y0);
+        let largest = |v: &[Option<f64>], of: &dyn Fn(f64) -> f64| {
+            v.iter().flatten().map(|&x| of(x)).reduce(f64::max)
+        };
+        let stats = hamel_sim::Stats {
+            steps,
+            energy_drift: e0.and_then(|e0| {
+                largest(&energy, &|e| (e - e0).abs()).map(|d| d / e0.abs().max(f64::MIN_POSITIVE))
+            }),
+            constraint_drift: largest(&constraint, &f64::abs),
+            ..Default::default()
+        };
+        Ok(hamel_sim::Solution {
+            t,
+            y,
+            energy,
+            constraint,
+            stats,
+            complete,
+            ..Default::default()
+        })
+    }
+}

@@ -100,32 +100,13 @@ impl Loaded {
                 .all(|k| self.state.contains(&k))
     }
 
-    /// Integrate the planned state with `method`; on failure, what was computed and the error.
+    /// Integrate the planned state with `method` (the discrete Lagrange–d'Alembert method on
+    /// the model itself, [`Loaded::integrate_dla`]); on failure, what was computed and the error.
     pub fn integrate(&self, method: Method, options: &Options) -> Result<Run, ModelError> {
-        let numeric = hamel_model::NumericModel::new(&self.model, &self.params)
-            .map_err(|e| self.error("parameters", e.to_string()))?;
-        let system = System {
-            compiled: &self.compiled,
-            params: self.params.clone(),
-            live: self
-                .model
-                .live
-                .iter()
-                .cloned()
-                .zip(self.live.iter().cloned())
-                .collect(),
-            names: &self.d.coordinates,
-            ell: self.d.ell,
-            sigma: self.d.sigma,
-            state: self.state.clone(),
-            reference: self.reference,
-            energy: self.request.energy,
-            residual: self.request.constraint_residual,
-            delta0: self.delta0,
-            numeric,
-            watch: Default::default(),
-            holonomic: self.projects().then_some(&self.model.completion),
-        };
+        if let Method::Dla { step, variant } = method {
+            return self.integrate_dla(step, variant, options);
+        }
+        let system = self.system()?;
         let (solution, failure) = match hamel_sim::integrate(
             &system,
             method,
@@ -152,6 +133,35 @@ impl Loaded {
             constraint_forces: forces,
             monitored: None,
         }))
+    }
+
+    /// The planned state's right-hand side on the interpreted evaluator, with the scene's
+    /// monitors.
+    pub(crate) fn system(&self) -> Result<System<'_>, ModelError> {
+        let numeric = hamel_model::NumericModel::new(&self.model, &self.params)
+            .map_err(|e| self.error("parameters", e.to_string()))?;
+        Ok(System {
+            compiled: &self.compiled,
+            params: self.params.clone(),
+            live: self
+                .model
+                .live
+                .iter()
+                .cloned()
+                .zip(self.live.iter().cloned())
+                .collect(),
+            names: &self.d.coordinates,
+            ell: self.d.ell,
+            sigma: self.d.sigma,
+            state: self.state.clone(),
+            reference: self.reference,
+            energy: self.request.energy,
+            residual: self.request.constraint_residual,
+            delta0: self.delta0,
+            numeric,
+            watch: Default::default(),
+            holonomic: self.projects().then_some(&self.model.completion),
+        })
     }
 
     /// A state in the plan's order (integrated, then reconstructed coordinates, then η) in the

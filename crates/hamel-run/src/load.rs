@@ -125,6 +125,11 @@ pub fn load_with_options(
         compiled,
         forces,
     } = derive(model, &choice, &scene, &request, &file, fresh)?;
+    // the model's own forces are refused when the scene is checked; these are the scene's
+    if matches!(integrator.method, hamel_sim::Method::Dla { .. }) && compiled.has_forces() {
+        let why = crate::dla::DlaRefusal::Forces.to_string();
+        return Err(err("integrator.method", why));
+    }
     let expressions = request
         .expressions
         .iter()

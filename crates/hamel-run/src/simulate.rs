@@ -64,7 +64,12 @@ pub fn run_loaded(
     engine: Engine,
     estimate_error: bool,
 ) -> Result<Simulated, ModelError> {
-    // The compiled core is built (or found) first: the accuracy measurement below runs on it too.
+    // The compiled core is built (or found) first: the accuracy measurement below runs on it
+    // too. The discrete Lagrange–d'Alembert method runs on the model's ingredients, not a core.
+    let engine = match loaded.integrator.method {
+        Method::Dla { .. } => Engine::Interpreted,
+        _ => engine,
+    };
     let crate::integrate::Usable { engine, built } = loaded.usable(engine);
     let (method, options) = integrator_for(loaded, engine)?;
     let (run, engine) = integrate_on(loaded, engine, built, method, &options)?;
@@ -197,6 +202,13 @@ impl Loaded {
         let (check, by) = match method {
             Method::Rk4 { step } => (
                 Method::Rk4 { step: step / 2.0 },
+                format!("at step {:.3e}", step / 2.0),
+            ),
+            Method::Dla { step, variant } => (
+                Method::Dla {
+                    step: step / 2.0,
+                    variant,
+                },
                 format!("at step {:.3e}", step / 2.0),
             ),
             Method::GaussLegendre {

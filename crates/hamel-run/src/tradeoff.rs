@@ -512,6 +512,10 @@ impl Row {
             MethodName::Rk4 => Method::Rk4 {
                 step: self.step.expect("a fixed-step row has its step"),
             },
+            MethodName::Dla => Method::Dla {
+                step: self.step.expect("a fixed-step row has its step"),
+                variant: Default::default(),
+            },
             MethodName::GaussLegendre => Method::GaussLegendre {
                 stages: 3,
                 step: self.step,

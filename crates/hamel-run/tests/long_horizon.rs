@@ -74,3 +74,66 @@ fn a_model_with_forces_is_refused() {
         .unwrap_err();
     assert!(e.to_string().contains("conservative"), "{e}");
 }
+
+/// `scene`'s text with its `[accuracy]` replaced by `method = "dla"` at `step`, loaded.
+fn on_dla(name: &str, step: f64) -> hamel_run::Loaded {
+    let text = std::fs::read_to_string(scene(name)).unwrap();
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    let cut = text.find("[accuracy]").expect("the scene sets an accuracy");
+    let text = format!(
+        "{}[integrator]\nmethod = \"dla\"\nstep = {step}\n",
+        text[..cut].replace("../models", &models.display().to_string())
+    );
+    let dir = std::env::temp_dir().join(format!("hamel-dla-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{step}_{name}"));
+    std::fs::write(&path, text).unwrap();
+    let loaded = hamel_run::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::remove_file(&path).ok();
+    loaded
+}
+
+/// A scene with `method = "dla"`: its outputs in the scene's state (η from q̇), second order
+/// in the step against DOP853 at 1e-13, the energy and the constraints as the method keeps
+/// them, through the same monitors and the same trajectory as the other methods.
+#[test]
+fn a_scene_runs_on_the_dla_method_at_second_order() {
+    let reference = {
+        let loaded = hamel_run::load(&scene("chaplygin_sleigh.toml")).unwrap();
+        let options = hamel_sim::Options {
+            rtol: 1e-13,
+            atol: 1e-13,
+            ..Default::default()
+        };
+        loaded
+            .integrate(hamel_sim::Method::Dop853, &options)
+            .unwrap()
+            .solution
+    };
+    let mut errors = Vec::new();
+    for h in [0.02, 0.01] {
+        let loaded = on_dla("chaplygin_sleigh.toml", h);
+        let simulated =
+            hamel_run::simulate::run_loaded(&loaded, hamel_run::Engine::Compiled, false).unwrap();
+        assert!(simulated.failure.is_none(), "{:?}", simulated.failure);
+        let trajectory = simulated.trajectory;
+        assert_eq!(trajectory.engine, hamel_run::Engine::Interpreted);
+        let run = loaded
+            .integrate(loaded.integrator.method, &loaded.integrator.options)
+            .unwrap();
+        let s = &run.solution;
+        assert!(s.complete && s.t == reference.t);
+        let error = (s.y.iter().zip(reference.y.iter()))
+            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+            .fold(0.0, f64::max);
+        let (energy, constraint) = (s.stats.energy_drift, s.stats.constraint_drift);
+        println!(
+            "chaplygin sleigh on dla, step {h}: {} steps, error {error:.2e} against dop853, energy drift {energy:?}, constraint {constraint:?}",
+            s.stats.steps
+        );
+        assert!(energy.unwrap() < 1e-3, "{energy:?}");
+        errors.push(error);
+    }
+    let order = (errors[0] / errors[1]).log2();
+    assert!((order - 2.0).abs() < 0.2, "observed order {order}");
+}

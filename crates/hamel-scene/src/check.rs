@@ -57,6 +57,9 @@ pub fn check(
     let parsed = parse_expressions(&scene.expressions, &model).map_err(|(k, m)| err(&k, m))?;
     let request = request(&scene, &model, &parsed, &file)?;
     let integrator = integrator(&scene, &file)?;
+    if matches!(integrator.method, Method::Dla { .. }) {
+        conservative(&model).map_err(|why| err("integrator.method", why.into()))?;
+    }
     model
         .parameter_values(overrides)
         .map_err(|e| file.error(None, format!("--set: {e}")))?;
@@ -230,11 +233,31 @@ fn integrator(scene: &Scene, file: &SceneFile) -> Result<Integration, ModelError
         MethodName::Dop853 => Method::Dop853,
         MethodName::Vern9 => Method::Vern9,
         MethodName::Taylor => Method::Taylor,
+        MethodName::Dla => Method::Dla {
+            step: i
+                .step
+                .ok_or_else(|| err("integrator.step", "dla needs a step".into()))?,
+            variant: i.variant.unwrap_or_default(),
+        },
         MethodName::GaussLegendre => Method::GaussLegendre {
             stages: i.stages.unwrap_or(3),
             step: i.step,
         },
     };
+    if let Method::Dla { step, .. } = method
+        && !(step.is_finite() && step > 0.0)
+    {
+        return Err(err(
+            "integrator.step",
+            format!("the step must be positive and finite, not {step}"),
+        ));
+    }
+    if i.variant.is_some() && i.method != MethodName::Dla {
+        return Err(err(
+            "integrator.variant",
+            "a variant is the dla method's (where its discrete constraint is taken)".into(),
+        ));
+    }
     // Tolerances the adaptive methods cannot meet are refused before anything runs.
     let key = if scene.accuracy.is_some() {
         "accuracy.rtol"
@@ -246,7 +269,9 @@ fn integrator(scene: &Scene, file: &SceneFile) -> Result<Integration, ModelError
         Method::Taylor => (f64::EPSILON, "ε ≈ 2.2e-16"),
         _ => (10.0 * f64::EPSILON, "10·ε ≈ 2.2e-15"),
     };
-    if !matches!(method, Method::Rk4 { .. }) && i.rtol < floor * (1.0 + f64::EPSILON) {
+    if !matches!(method, Method::Rk4 { .. } | Method::Dla { .. })
+        && i.rtol < floor * (1.0 + f64::EPSILON)
+    {
         return Err(err(
             key,
             format!(
@@ -262,6 +287,27 @@ fn integrator(scene: &Scene, file: &SceneFile) -> Result<Integration, ModelError
         ..Options::default()
     };
     Ok(Integration { method, options })
+}
+
+/// Why the discrete Lagrange–d'Alembert method cannot run `model`, if it cannot: it integrates
+/// conservative systems with linear velocity constraints only.
+fn conservative(model: &Model) -> Result<(), &'static str> {
+    if !model.holonomic.is_empty() {
+        return Err(
+            "the model has holonomic constraints, which the discrete Lagrange–d'Alembert method does not keep (use dop853, vern9 or taylor)",
+        );
+    }
+    if model.has_forces() {
+        return Err(
+            "the model has forces beyond ∇U: the discrete Lagrange–d'Alembert method integrates conservative systems (use dop853, vern9 or taylor)",
+        );
+    }
+    if !model.live.is_empty() {
+        return Err(
+            "the scene sets parameters at every step (inputs, control laws): the discrete Lagrange–d'Alembert method integrates conservative systems (use dop853, vern9 or taylor)",
+        );
+    }
+    Ok(())
 }
 
 /// The initial configuration: every coordinate given, except the dependent coordinates of

@@ -159,6 +159,8 @@ pub struct Integrator {
     pub step: Option<f64>,
     pub stages: Option<usize>,
     pub max_steps: Option<usize>,
+    /// The discrete Lagrange–d'Alembert method's discrete constraint (`dla` only).
+    pub variant: Option<hamel_sim::dla::Variant>,
 }
 
 fn default_rtol() -> f64 {
@@ -177,6 +179,7 @@ impl Default for Integrator {
             step: None,
             stages: None,
             max_steps: None,
+            variant: None,
         }
     }
 }

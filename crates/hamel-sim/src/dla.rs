@@ -47,9 +47,11 @@ pub trait Nonholonomic {
 }
 
 /// Where the discrete constraint is taken.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Variant {
     /// A((q₀ + q₁)/2)(q₁ − q₀) = 0: reversible (McLachlan & Perlmutter).
+    #[default]
     Reversible,
     /// A(q₀)(q₁ − q₀) = 0: not reversible (Cortés & Martínez's choice; its energy drifts on
     /// the contact oscillator, Modin & Verdier 2020).
@@ -75,6 +77,12 @@ pub enum DlaError {
     /// A non-finite value.
     #[error("a non-finite value in the {0} stage")]
     NotFinite(&'static str),
+    /// An output time before the time reached ([`integrate`] runs forward).
+    #[error("the output time {0} is before the time reached: the outputs must increase")]
+    OutputOrder(f64),
+    /// A run ([`integrate`]) needed more steps than it was allowed.
+    #[error("more than max_steps = {0} steps needed")]
+    TooManySteps(usize),
 }
 
 /// Most Newton iterations per step.
@@ -121,6 +129,11 @@ impl<'s, S: Nonholonomic + ?Sized> Dla<'s, S> {
             start_momentum: vec![0.0; n],
             start_a: DMatrix::zeros(m, n),
         }
+    }
+
+    /// The step from now on (a run shortens the step before an output off the step grid).
+    pub fn set_step(&mut self, h: f64) {
+        self.h = h;
     }
 
     /// One step: (q, v) ← (q₁, v₁).
@@ -269,4 +282,93 @@ pub fn energy<S: Nonholonomic + ?Sized>(system: &S, q: &[f64], v: &[f64]) -> f64
     system.mass(q, &mut m);
     let v = DVector::from_column_slice(v);
     0.5 * v.dot(&(&m * &v)) + system.potential(q)
+}
+
+/// A run's states at its output times ([`integrate`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trajectory {
+    /// The output times reached.
+    pub t: Vec<f64>,
+    /// q at each.
+    pub q: crate::States,
+    /// q̇ at each.
+    pub v: crate::States,
+    /// Steps taken.
+    pub steps: usize,
+}
+
+/// A run that failed: the step's error, its time, and the outputs reached before it.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("at t = {time}: {error}")]
+pub struct RunError {
+    /// What failed.
+    pub error: DlaError,
+    /// The time the failing step started from.
+    pub time: f64,
+    /// The outputs reached.
+    pub partial: Box<Trajectory>,
+}
+
+/// Steps of `h` (> 0) from (t0, q0, v0) to each of `output_times` (increasing, after t0),
+/// the step before an output off the step grid shortened to land on it (as the fixed-step
+/// Runge–Kutta methods do: outputs on the grid keep the method's reversibility whole); at most
+/// `max_steps` steps ([`DlaError::TooManySteps`] past it).
+pub fn integrate<S: Nonholonomic + ?Sized>(
+    system: &S,
+    (h, variant): (f64, Variant),
+    (t0, q0, v0): (f64, &[f64], &[f64]),
+    output_times: &[f64],
+    max_steps: usize,
+) -> Result<Trajectory, RunError> {
+    let n = system.dim();
+    let mut run = Trajectory {
+        q: crate::States::with_capacity(n, output_times.len()),
+        v: crate::States::with_capacity(n, output_times.len()),
+        ..Trajectory::default()
+    };
+    let (mut q, mut v, mut t) = (q0.to_vec(), v0.to_vec(), t0);
+    let mut dla = Dla::new(system, h, variant);
+    for &t_out in output_times {
+        // full steps, with the round-off of the times forgiven, then one to land on t_out
+        let slack = 16.0 * f64::EPSILON * t.abs().max(t_out.abs());
+        let span = t_out - t;
+        if span < 0.0 {
+            return Err(RunError {
+                error: DlaError::OutputOrder(t_out),
+                time: t,
+                partial: Box::new(run),
+            });
+        }
+        let steps = if span == 0.0 {
+            0
+        } else {
+            (((span - slack) / h * (1.0 - 1e-12)).ceil() as usize).max(1)
+        };
+        let start = t;
+        for k in 1..=steps {
+            let fail = |error, run: &mut Trajectory| RunError {
+                error,
+                time: t,
+                partial: Box::new(std::mem::take(run)),
+            };
+            if run.steps >= max_steps {
+                return Err(fail(DlaError::TooManySteps(max_steps), &mut run));
+            }
+            let t_next = if k == steps {
+                t_out
+            } else {
+                start + h * k as f64
+            };
+            // a full step is h itself, the last one too when t_out is on the grid
+            let full = k < steps || (t_next - t - h).abs() <= slack;
+            dla.set_step(if full { h } else { t_next - t });
+            dla.step(&mut q, &mut v).map_err(|e| fail(e, &mut run))?;
+            run.steps += 1;
+            t = t_next;
+        }
+        run.t.push(t_out);
+        run.q.push(&q);
+        run.v.push(&v);
+    }
+    Ok(run)
 }

@@ -35,6 +35,17 @@ pub enum Method {
     /// an order and over a step chosen from the tolerance, dense output from the series; for
     /// systems that give their series ([`OdeSystem::taylor_coefficients`], `crate::taylor`).
     Taylor,
+    /// The discrete Lagrange–d'Alembert method ([`crate::dla`]) with a fixed step, for
+    /// conservative nonholonomic systems over long horizons: it integrates a
+    /// [`crate::dla::Nonholonomic`] system ([`crate::dla::integrate`]), not an [`OdeSystem`],
+    /// so [`integrate`] refuses it; hamel-run runs scenes' models on it.
+    Dla {
+        /// Step size (positive).
+        step: f64,
+        /// Where the discrete constraint is taken.
+        #[serde(default)]
+        variant: crate::dla::Variant,
+    },
     /// Implicit Gauss–Legendre collocation: symmetric and symplectic, order `2·stages`.
     GaussLegendre {
         /// 2 (order 4) or 3 (order 6).
@@ -62,17 +73,20 @@ pub enum MethodName {
     GaussLegendre,
     /// [`Method::Taylor`].
     Taylor,
+    /// [`Method::Dla`].
+    Dla,
 }
 
 impl MethodName {
     /// Every integrator.
-    pub const ALL: [MethodName; 6] = [
+    pub const ALL: [MethodName; 7] = [
         MethodName::Rk4,
         MethodName::Dopri5,
         MethodName::Dop853,
         MethodName::Vern9,
         MethodName::GaussLegendre,
         MethodName::Taylor,
+        MethodName::Dla,
     ];
 
     /// The name as written.
@@ -84,6 +98,7 @@ impl MethodName {
             MethodName::Vern9 => "vern9",
             MethodName::GaussLegendre => "gauss-legendre",
             MethodName::Taylor => "taylor",
+            MethodName::Dla => "dla",
         }
     }
 }
@@ -104,13 +119,14 @@ impl Method {
             Method::Vern9 => MethodName::Vern9,
             Method::GaussLegendre { .. } => MethodName::GaussLegendre,
             Method::Taylor => MethodName::Taylor,
+            Method::Dla { .. } => MethodName::Dla,
         }
     }
 
     /// Whether the step is chosen by error control (the tolerances apply), rather than fixed.
     pub fn is_adaptive(&self) -> bool {
         match self {
-            Method::Rk4 { .. } => false,
+            Method::Rk4 { .. } | Method::Dla { .. } => false,
             Method::Dopri5 | Method::Dop853 | Method::Vern9 | Method::Taylor => true,
             Method::GaussLegendre { step, .. } => step.is_none(),
         }
@@ -277,6 +293,8 @@ fn integrate_state<S: OdeSystem + ?Sized>(
             Method::Dop853 => run.adaptive(&mut Dop853::new(n), &tol),
             Method::Vern9 => run.adaptive(&mut Vern9::new(n), &tol),
             Method::Taylor => run.taylor(&tol),
+            // refused by `validate` before anything runs
+            Method::Dla { .. } => Err(run.fail(ErrorKind::InvalidInput, "dla".into())),
         }
     };
     let solution = recorder.finish(ev.stats, outcome.is_ok());
@@ -812,6 +830,11 @@ fn validate<S: OdeSystem + ?Sized>(
         previous = t;
     }
     match method {
+        Method::Dla { .. } => {
+            return invalid(
+                "the discrete Lagrange–d'Alembert method integrates a nonholonomic system (hamel_sim::dla::integrate), not an OdeSystem".into(),
+            );
+        }
         Method::Rk4 { step }
         | Method::GaussLegendre {
             step: Some(step), ..

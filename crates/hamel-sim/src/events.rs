@@ -99,7 +99,10 @@ pub(crate) struct Found {
 impl<'e, 'a> Watch<'e, 'a> {
     /// The conditions at the initial point.
     pub fn new(events: &'e [Event<'a>], t0: f64, y0: &[f64], dim: usize) -> Self {
-        let before = events.iter().map(|e| (e.condition)(t0, &y0[..dim])).collect();
+        let before = events
+            .iter()
+            .map(|e| (e.condition)(t0, &y0[..dim]))
+            .collect();
         Watch {
             events,
             dim,
@@ -145,7 +148,11 @@ impl<'e, 'a> Watch<'e, 'a> {
             self.before[i] = after;
         }
         self.found.sort_by(|a, b| a.theta.total_cmp(&b.theta));
-        if let Some(k) = self.found.iter().position(|f| self.events[f.event].terminal) {
+        if let Some(k) = self
+            .found
+            .iter()
+            .position(|f| self.events[f.event].terminal)
+        {
             self.found.truncate(k + 1);
         }
         self.found.len()

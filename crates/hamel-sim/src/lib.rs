@@ -71,8 +71,8 @@ mod vern9;
 mod work;
 
 pub use driver::{Method, MethodName, Options, integrate, integrate_with_events};
-pub use events::{Crossing, Event, EventHit};
 pub use ensemble::{Ensemble, EnsembleError, Shard, integrate_many};
+pub use events::{Crossing, Event, EventHit};
 pub use live::{Interpolation, Live, Outside, Samples, Table, TableError, live_values};
 pub use solution::{ErrorKind, IntegrationError, Solution, Stats};
 pub use states::States;

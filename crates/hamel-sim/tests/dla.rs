@@ -250,3 +250,63 @@ fn the_chaplygin_sleighs_asymptotic_speed_and_heading_converge_as_h_squared() {
         assert!((3.5..4.5).contains(&speed), "speed: {speed}");
     }
 }
+
+/// `dla::integrate`: outputs on the step grid are full steps (the same states as stepping by
+/// hand, to the bit), an output off the grid shortens the step before it, an output before
+/// the time reached and too many steps are errors carrying the outputs reached.
+#[test]
+fn a_run_steps_onto_its_outputs() {
+    let sleigh = Sleigh {
+        m: 1.0,
+        i: 0.5,
+        a: 0.5,
+    };
+    let (q0, v0) = ([0.0, 0.0, 0.0], [1.0, 0.0, 1.0]);
+    let h = 0.05;
+    let run = hamel_sim::dla::integrate(
+        &sleigh,
+        (h, Variant::Reversible),
+        (0.0, &q0, &v0),
+        &[0.0, 0.5, 1.0, 1.02],
+        1000,
+    )
+    .unwrap();
+    assert_eq!(run.steps, 21);
+    assert_eq!(run.q[0], q0);
+    let (mut q, mut v) = (q0, v0);
+    let mut dla = Dla::new(&sleigh, h, Variant::Reversible);
+    for k in 1..=20 {
+        dla.step(&mut q, &mut v).unwrap();
+        if k == 10 {
+            assert_eq!(run.q[1], q);
+        }
+    }
+    assert_eq!((&run.q[2], &run.v[2]), (&q[..], &v[..]));
+    dla.set_step(0.02);
+    dla.step(&mut q, &mut v).unwrap();
+    assert!((run.q[3].iter().zip(&q)).all(|(a, b)| (a - b).abs() < 1e-15));
+
+    let back = hamel_sim::dla::integrate(
+        &sleigh,
+        (h, Variant::Reversible),
+        (0.0, &q0, &v0),
+        &[0.5, 0.25],
+        1000,
+    )
+    .unwrap_err();
+    assert!(matches!(
+        back.error,
+        hamel_sim::dla::DlaError::OutputOrder(_)
+    ));
+    assert_eq!(back.partial.t, [0.5]);
+    let many = hamel_sim::dla::integrate(
+        &sleigh,
+        (h, Variant::Reversible),
+        (0.0, &q0, &v0),
+        &[0.5, 1.0],
+        15,
+    )
+    .unwrap_err();
+    assert!(many.to_string().contains("max_steps = 15"), "{many}");
+    assert_eq!(many.partial.t, [0.5]);
+}

@@ -188,9 +188,19 @@ fn with_events(method: Method, tol: f64, events: &[Event]) -> hamel_sim::Solutio
         max_steps: 10_000_000,
         ..Options::default()
     };
-    let outputs: Vec<f64> = (1..=100).map(|k| k as f64 * 0.1 * std::f64::consts::PI).collect();
-    integrate_with_events(&kepler(), method, 0.0, &exact(0.0), &outputs, &options, events)
-        .unwrap()
+    let outputs: Vec<f64> = (1..=100)
+        .map(|k| k as f64 * 0.1 * std::f64::consts::PI)
+        .collect();
+    integrate_with_events(
+        &kepler(),
+        method,
+        0.0,
+        &exact(0.0),
+        &outputs,
+        &options,
+        events,
+    )
+    .unwrap()
 }
 
 /// y = 0: the periapsis (rising, t = 2kπ) and the apoapsis (falling, t = (2k + 1)π).
@@ -205,7 +215,10 @@ fn axis(crossing: Crossing) -> Event<'static> {
 #[test]
 fn events_are_located_on_the_series_to_1e_12() {
     let pi = std::f64::consts::PI;
-    for (method, tol, within) in [(Method::Taylor, 1e-15, 1e-12), (Method::Dop853, 1e-12, 1e-9)] {
+    for (method, tol, within) in [
+        (Method::Taylor, 1e-15, 1e-12),
+        (Method::Dop853, 1e-12, 1e-9),
+    ] {
         let s = with_events(method, tol, &[axis(Crossing::Either)]);
         assert!(s.complete);
         let times: Vec<f64> = s.events.iter().map(|e| e.t).collect();
@@ -215,7 +228,11 @@ fn events_are_located_on_the_series_to_1e_12() {
             .map(|(k, t)| (t - (k + 1) as f64 * pi).abs())
             .fold(0.0, f64::max);
         let state = (s.events.iter())
-            .map(|e| (0..4).map(|i| (e.y[i] - exact(e.t)[i]).abs()).fold(0.0, f64::max))
+            .map(|e| {
+                (0..4)
+                    .map(|i| (e.y[i] - exact(e.t)[i]).abs())
+                    .fold(0.0, f64::max)
+            })
             .fold(0.0, f64::max);
         eprintln!(
             "kepler events, {} at tol {tol:.0e}: 10 crossings of y = 0 within {worst:.1e} of kπ, states within {state:.1e}",
@@ -297,6 +314,9 @@ fn the_truncated_series_has_the_order_of_its_truncation() {
             "kepler, taylor order {p}: {steps} steps {e1:.2e}, {} steps {e2:.2e}: observed order {observed:.2}",
             2 * steps
         );
-        assert!((observed - p as f64).abs() < 0.3, "order {p}: observed {observed}");
+        assert!(
+            (observed - p as f64).abs() < 0.3,
+            "order {p}: observed {observed}"
+        );
     }
 }
