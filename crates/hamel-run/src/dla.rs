@@ -8,8 +8,9 @@
 //! constraints (the method keeps none), no parameters set in time.
 
 use hamel_derive::Compiled;
+use hamel_expr::{Expr, Func};
 use hamel_runtime::{Dims, Layout};
-use hamel_sim::dla::Nonholonomic;
+use hamel_sim::dla::{Coordinate, Nonholonomic};
 use indexmap::IndexMap;
 use nalgebra::DMatrix;
 
@@ -37,6 +38,8 @@ pub struct ModelSystem<'a> {
     /// The last configuration evaluated and its ingredients: a step asks for M, ∂L/∂q and α at
     /// the same q, which one evaluation of the tape gives.
     last: std::cell::RefCell<(Vec<f64>, Vec<f64>)>,
+    /// How M, ∂L/∂q, α and U depend on each coordinate ([`coordinates`]).
+    kinds: Vec<Coordinate>,
 }
 
 impl<'a> ModelSystem<'a> {
@@ -60,7 +63,16 @@ impl<'a> ModelSystem<'a> {
             dims,
             layout: Layout::new(dims),
             last: Default::default(),
+            kinds: vec![Coordinate::General; dims.ell],
         })
+    }
+
+    /// With how the system depends on each coordinate ([`coordinates`]).
+    pub fn with_coordinates(mut self, kinds: Vec<Coordinate>) -> Self {
+        if kinds.len() == self.dims.ell {
+            self.kinds = kinds;
+        }
+        self
     }
 
     /// The ingredients at q (NaN where they cannot be evaluated: the integrator then stops on
@@ -111,6 +123,90 @@ impl Nonholonomic for ModelSystem<'_> {
     fn potential(&self, q: &[f64]) -> f64 {
         -self.ingredients(q)[self.layout.u]
     }
+    fn coordinate(&self, k: usize) -> Coordinate {
+        self.kinds[k]
+    }
+}
+
+/// How the ingredients a step reads (A, ∂A/∂q, U, ∇U and α's kept rows, from the derivation's
+/// expressions: decided on the trees, not by sampling) depend on each coordinate: not at all
+/// (absent from every tree), periodically with period 2π (only inside sin, cos and tan, through
+/// integer multiples of it), or otherwise.
+pub fn coordinates(d: &hamel_derive::Derivation) -> Vec<Coordinate> {
+    let general = vec![Coordinate::General; d.ell];
+    let Ok(exprs) = d.ingredient_exprs() else {
+        return general;
+    };
+    let layout = Layout::new(d.dims());
+    if exprs.len() != layout.len {
+        return general;
+    }
+    let (l, m) = (d.ell, d.dims().mu);
+    let read: Vec<&Expr> = [
+        layout.alpha..layout.alpha + m * l,
+        layout.a..layout.a + l * l,
+        layout.u..layout.u + 1,
+        layout.grad_u..layout.grad_u + l,
+        layout.da..layout.da + l * l * l,
+    ]
+    .into_iter()
+    .flat_map(|r| exprs[r].iter().copied())
+    .collect();
+    (d.coordinates.iter())
+        .map(|c| {
+            if !read.iter().any(|e| mentions(e, c)) {
+                Coordinate::Absent
+            } else if read.iter().all(|e| periodic_in(e, c)) {
+                Coordinate::Periodic(2.0 * std::f64::consts::PI)
+            } else {
+                Coordinate::General
+            }
+        })
+        .collect()
+}
+
+fn mentions(e: &Expr, c: &str) -> bool {
+    e.any(&mut |x| match x {
+        Expr::Sym(s) | Expr::Der(s) => s == c,
+        Expr::Free { args, .. } => args.iter().any(|a| a == c),
+        _ => false,
+    })
+}
+
+/// Whether `e` is 2π-periodic in `c` by its form: every occurrence of `c` inside sin, cos or
+/// tan of n·c + (terms free of c), n an integer.
+fn periodic_in(e: &Expr, c: &str) -> bool {
+    if !mentions(e, c) {
+        return true;
+    }
+    match e {
+        Expr::Call(Func::Sin | Func::Cos | Func::Tan, arg) => integer_multiple(arg, c),
+        Expr::Add(v) | Expr::Mul(v) => v.iter().all(|x| periodic_in(x, c)),
+        Expr::Neg(x) => periodic_in(x, c),
+        Expr::Div(a, b) | Expr::Pow(a, b) | Expr::Atan2(a, b) => {
+            periodic_in(a, c) && periodic_in(b, c)
+        }
+        Expr::Call(_, x) => periodic_in(x, c),
+        Expr::Num(_) | Expr::Sym(_) | Expr::Der(_) | Expr::Free { .. } => false,
+    }
+}
+
+/// Whether `arg` is n·c + (terms free of c) with n a nonzero integer.
+fn integer_multiple(arg: &Expr, c: &str) -> bool {
+    let term = |t: &Expr| match t {
+        Expr::Sym(s) => s == c,
+        Expr::Neg(x) => matches!(&**x, Expr::Sym(s) if s == c),
+        Expr::Mul(v) => {
+            v.len() == 2
+                && v.iter().any(|x| matches!(x, Expr::Sym(s) if s == c))
+                && v.iter().any(|x| x.as_integer().is_some())
+        }
+        _ => false,
+    };
+    match arg {
+        Expr::Add(v) => v.iter().all(|t| !mentions(t, c) || term(t)),
+        t => term(t),
+    }
 }
 
 /// A long run of the discrete Lagrange–d'Alembert method on a scene's model
@@ -145,7 +241,8 @@ impl crate::Loaded {
         }
         let holonomic = !self.model.holonomic.is_empty();
         let system = ModelSystem::new(&self.compiled, self.params.clone(), holonomic)
-            .map_err(|e| self.error("integrator", e.to_string()))?;
+            .map_err(|e| self.error("integrator", e.to_string()))?
+            .with_coordinates(coordinates(&self.d));
         let eta = &self.y0[self.state.len()..];
         let e = self
             .compiled
@@ -168,16 +265,20 @@ impl crate::Loaded {
         let mut dla = hamel_sim::dla::Dla::new(&system, h, variant);
         let (mut energy_error, mut constraint) = (vec![0.0], 0.0_f64);
         let mut a = DMatrix::zeros(system.constraints(), system.dim());
+        let mut positions = hamel_sim::dla::Positions::new(&system, &q);
         for step in 1..=steps {
-            dla.step(&mut q, &mut v)
+            positions.recentre();
+            dla.step(&mut positions.local, &mut v)
                 .map_err(|e| self.error("integrator", format!("step {step}: {e}")))?;
+            let q = &positions.local;
             if step % every == 0 {
-                energy_error.push(hamel_sim::dla::energy(&system, &q, &v) - energy0);
-                system.constraint_matrix(&q, &mut a);
+                energy_error.push(hamel_sim::dla::energy(&system, q, &v) - energy0);
+                system.constraint_matrix(q, &mut a);
                 let r = &a * nalgebra::DVector::from_column_slice(&v);
                 constraint = constraint.max(r.amax());
             }
         }
+        positions.absolute(&mut q);
         Ok(LongRun {
             steps,
             energy0,

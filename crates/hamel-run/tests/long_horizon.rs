@@ -137,3 +137,65 @@ fn a_scene_runs_on_the_dla_method_at_second_order() {
     let order = (errors[0] / errors[1]).log2();
     assert!((order - 2.0).abs() < 0.2, "observed order {order}");
 }
+
+/// The mean spacing of the maxima of the state's component `name` over a DOP853 run of the
+/// scene: the period of its oscillation.
+fn period_of(loaded: &hamel_run::Loaded, name: &str) -> f64 {
+    let k = loaded.state_names().iter().position(|n| n == name).unwrap();
+    let run = loaded
+        .integrate(hamel_sim::Method::Dop853, &Default::default())
+        .unwrap();
+    let (t, y) = (&run.solution.t, &run.solution.y);
+    let peaks: Vec<f64> = (1..t.len() - 1)
+        .filter(|&i| y[i][k] > y[i - 1][k] && y[i][k] >= y[i + 1][k])
+        .map(|i| t[i])
+        .collect();
+    (peaks[peaks.len() - 1] - peaks[0]) / (peaks.len() - 1) as f64
+}
+
+/// The acceptance's 10⁶ periods (issue 63), about 8 minutes a model: run with
+/// `cargo test --release -p hamel-run --test long_horizon -- --ignored --nocapture`. The rolling
+/// disk's period is its tilt's oscillation (measured on a DOP853 run of the scene, ≈ 0.46 s);
+/// the sleigh does not oscillate (it settles into a straight run): its period is the time
+/// constant of that settling.
+#[test]
+#[ignore]
+fn a_million_periods() {
+    // HAMEL_PERIODS: fewer periods for a quick look
+    let periods: f64 = std::env::var("HAMEL_PERIODS").map_or(1e6, |p| p.parse().unwrap());
+    let disk = hamel_run::load(&scene("rolling_disk.toml")).unwrap();
+    let period = period_of(&disk, "theta");
+    let steps = (periods * period / 0.01) as usize;
+    println!("rolling disk: tilt period {period:.4} s, 10^6 periods = {steps} steps of 0.01");
+    long_run("rolling_disk.toml", 0.01, steps);
+    // m v̇ = m a ω², (I + m a²) ω̇ = −m a v ω: the turning decays at the rate kV, k = m a/(I +
+    // m a²), V = √(2E/m) (E = 1.0416 in the scene: V = 1.0206, 1/kV = 0.318 s)
+    let (m, i, a, e) = (2.0, 0.05, 0.2, 1.0416_f64);
+    let time = (i + m * a * a) / (m * a * (2.0 * e / m).sqrt());
+    let steps = (periods * time / 0.01) as usize;
+    println!("chaplygin sleigh: time constant {time:.4} s, 10^6 of them = {steps} steps of 0.01");
+    long_run("chaplygin_sleigh.toml", 0.01, steps);
+}
+
+/// The rolling disk's ingredients do not involve its position on the ground nor its spin
+/// angle, and involve its heading and tilt only through sines and cosines: a long run keeps
+/// the first three at zero and the angles within π of it (`hamel_sim::dla::Positions`).
+#[test]
+fn the_rolling_disks_coordinates_are_classified_from_its_trees() {
+    use hamel_sim::dla::Coordinate;
+    let loaded = hamel_run::load(&scene("rolling_disk.toml")).unwrap();
+    let d = hamel_derive::derive(loaded.model(), Some("velocities")).unwrap();
+    let kinds = hamel_run::dla::coordinates(&d);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    // xC, yC, phi, psi, theta
+    assert_eq!(
+        kinds,
+        [
+            Coordinate::Absent,
+            Coordinate::Absent,
+            Coordinate::Periodic(two_pi),
+            Coordinate::Absent,
+            Coordinate::Periodic(two_pi)
+        ]
+    );
+}

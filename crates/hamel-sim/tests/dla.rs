@@ -310,3 +310,92 @@ fn a_run_steps_onto_its_outputs() {
     assert!(many.to_string().contains("max_steps = 15"), "{many}");
     assert_eq!(many.partial.t, [0.5]);
 }
+
+/// The sleigh, saying that it does not depend on x and y and depends on θ with period 2π.
+struct Classified(Sleigh);
+
+impl Nonholonomic for Classified {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn constraints(&self) -> usize {
+        1
+    }
+    fn mass(&self, q: &[f64], m: &mut DMatrix<f64>) {
+        self.0.mass(q, m)
+    }
+    fn force(&self, q: &[f64], v: &[f64], f: &mut [f64]) {
+        self.0.force(q, v, f)
+    }
+    fn constraint_matrix(&self, q: &[f64], a: &mut DMatrix<f64>) {
+        self.0.constraint_matrix(q, a)
+    }
+    fn potential(&self, q: &[f64]) -> f64 {
+        self.0.potential(q)
+    }
+    fn coordinate(&self, k: usize) -> hamel_sim::dla::Coordinate {
+        use hamel_sim::dla::Coordinate;
+        [
+            Coordinate::Absent,
+            Coordinate::Absent,
+            Coordinate::Periodic(2.0 * std::f64::consts::PI),
+        ][k]
+    }
+}
+
+/// Far from the origin (x, y = ±10⁹ m, θ a million turns on), a run keeps every digit of its
+/// steps: the coordinates the sleigh does not depend on are moved back to zero before each
+/// step and θ within π of it (`dla::Positions`), so the motion relative to the start is the
+/// one from the origin, to round-off of the offsets; without that, the steps' increments of
+/// x and y (about 0.01 m on an ulp of 1.2e-7 m) would keep five digits.
+#[test]
+fn a_run_far_from_the_origin_keeps_its_digits() {
+    let sleigh = Classified(Sleigh {
+        m: 1.0,
+        i: 0.5,
+        a: 0.5,
+    });
+    let turns = 2e6 * std::f64::consts::PI;
+    let run = |q0: [f64; 3]| {
+        hamel_sim::dla::integrate(
+            &sleigh,
+            (0.01, Variant::Reversible),
+            (0.0, &q0, &[0.8 * 0.3f64.cos(), 0.8 * 0.3f64.sin(), 1.0]),
+            &[5.0],
+            10_000,
+        )
+        .unwrap()
+    };
+    let (near, far) = (run([0.0, 0.0, 0.3]), run([1e9, -1e9, turns + 0.3]));
+    let moved = [far.q[0][0] - 1e9, far.q[0][1] + 1e9, far.q[0][2] - turns];
+    let speeds = |v: &[f64], w: &[f64]| (0..3).map(|k| (v[k] - w[k]).abs()).fold(0.0, f64::max);
+    for k in 0..3 {
+        // the offsets' own rounding: an ulp of 1e9 is 1.2e-7
+        assert!(
+            (moved[k] - near.q[0][k]).abs() < 1e-6,
+            "{k}: {moved:?} {:?}",
+            &near.q[0]
+        );
+    }
+    // θ₀ itself is 0.3 to an ulp of 6e6 (9e-10): the velocities follow to a few of those
+    let kept = speeds(&far.v[0], &near.v[0]);
+    assert!(kept < 1e-8, "{kept:e}");
+    // the same run stepping with the coordinates as they are loses digits at every step
+    let plain = hamel_sim::dla::integrate(
+        &sleigh.0,
+        (0.01, Variant::Reversible),
+        (
+            0.0,
+            &[1e9, -1e9, turns + 0.3],
+            &[0.8 * 0.3f64.cos(), 0.8 * 0.3f64.sin(), 1.0],
+        ),
+        &[5.0],
+        10_000,
+    )
+    .unwrap();
+    let lost = speeds(&plain.v[0], &near.v[0]);
+    eprintln!(
+        "velocities at t = 5 far from the origin: {kept:.1e} off, {lost:.1e} without recentring"
+    );
+    assert!(lost > 100.0 * kept, "{lost:e} against {kept:e}");
+}
