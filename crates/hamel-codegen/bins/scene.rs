@@ -33,8 +33,8 @@ use std::time::Instant;
 
 use hamel_generated::{
     fast, forces, runtime, reduced_with, DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
-    REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_jacobian_live, residual_max,
-    residual_max_many,
+    REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_into_with, reduced_jacobian_live,
+    reduced_series, residual_max, residual_max_many,
 };
 use hamel_sim::job::{Answer, ForcesFailure, Job, JobError, Member, MemberAnswer, PART_FORMAT, PartHeader, Progress, Save, Stopped};
 use hamel_generated::runtime::{Scalar, Traced};
@@ -144,12 +144,27 @@ impl OdeSystem for Reduced {
                 .map_err(|e| SystemError::new(format!("projection onto the holonomic constraints: {e}"))),
         )
     }
-    /// The solution's series for the Taylor method: the reduced right-hand side traced once
-    /// and the recurrences run over it ([`runtime::taylor_by_trace`]); parameters that change
-    /// with time give none.
+    /// The solution's series for the Taylor method: by the recurrences compiled from the
+    /// closed form ([`reduced_series`]), checked at the state by an f64 evaluation first; else
+    /// the reduced right-hand side traced once and the recurrences run over it
+    /// ([`runtime::taylor_by_trace`]), as for a state that carries the forces' work.
+    /// Parameters that change with time give none.
     fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, out: &mut Vec<f64>) -> Option<Result<(), SystemError>> {
         if !LIVE.is_empty() {
             return Some(Err(SystemError::new("the Taylor method needs parameters constant in time; this scene sets some at every step")));
+        }
+        if y.len() == REDUCED_DIM {
+            let mut dx = [0.0; REDUCED_DIM];
+            if let Err(e) = reduced_into_with(y, &mut dx, &self.prep) {
+                return Some(Err(SystemError::new(format!("at t = {t}: {e}"))));
+            }
+            if reduced_series(y, &self.prep, order, out).is_some() {
+                return Some(if out.iter().all(|v| v.is_finite()) {
+                    Ok(())
+                } else {
+                    Err(SystemError::new(format!("at t = {t}: the Taylor series is not finite")))
+                });
+            }
         }
         // with the forces' work W appended (does_work), its rate the power q̇ᵀF
         let series = runtime::taylor_by_trace(y, order, out, |x, dx| {

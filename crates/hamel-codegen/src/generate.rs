@@ -15,6 +15,7 @@ use crate::{CodegenError, RUNTIME_SOURCES, escape, manifest};
 mod contact;
 mod emit;
 mod path;
+mod series;
 mod solved;
 
 use emit::*;
@@ -181,6 +182,9 @@ struct Code {
     reduced_part: (String, String, usize),
     /// The placeholders of the constraint forces ([`contact::fields`]).
     contact_fields: [(&'static str, String); 5],
+    /// The body of `reduced_series`: the Taylor recurrences of the reduced closed form
+    /// compiled ([`series`]), or `None` without one.
+    series_part: String,
 }
 
 impl Code {
@@ -265,6 +269,10 @@ impl Code {
             ),
             None => ("    Ok([])\n".into(), REDUCED_AT_REFERENCE.into(), 0),
         };
+        let series_part = match &reduced_tape {
+            Some(t) if d.live.is_empty() => reduced_series(t, kept.len(), &params, d.sigma),
+            _ => "    let _ = (x, prep, order, out);\n    None\n".to_string(),
+        };
         let energy_part = energy_part(d, exprs[u_at], &solved_inputs, &full_slots)?;
         let residual_part = residual_part(d, alpha_exprs, &solved_inputs, &full_slots)?;
         let contact_fields = contact::fields(d, full_slots)?;
@@ -288,6 +296,7 @@ impl Code {
             candidate: solved.map(|(c, _)| c),
             solved_part,
             reduced_part,
+            series_part,
         })
     }
 
@@ -403,6 +412,7 @@ impl Code {
             ("n_full", self.solved_part.2.to_string()),
             ("reduced_solved", self.reduced_solved.to_string()),
             ("reduced_body", self.reduced_part.1.clone()),
+            ("series_body", self.series_part.clone()),
             ("prepare_reduced", self.reduced_part.0.clone()),
             ("n_reduced", self.reduced_part.2.to_string()),
             ("solved", self.choice.solved.to_string()),
@@ -632,6 +642,27 @@ fn reduced_tape(
         .chain((0..d.sigma).map(eta_input))
         .collect();
     Tape::compile(&kept_solved, &kept_inputs).ok()
+}
+
+/// The body of `reduced_series` from the reduced tape (inputs: the kept coordinates, the
+/// parameters, η; outputs: η̇, the kept rates, the definiteness tests): the state is (kept q,
+/// η), its rates the kept rates then η̇.
+fn reduced_series(tape: &Tape, kept: usize, params: &[String], sigma: usize) -> String {
+    use series::SeriesInput;
+    let inputs: Vec<SeriesInput> = (0..kept)
+        .map(SeriesInput::State)
+        .chain(
+            params
+                .iter()
+                .map(|p| SeriesInput::Fixed(format!("p.{}", emit::ident(p)))),
+        )
+        .chain((0..sigma).map(|s| SeriesInput::State(kept + s)))
+        .collect();
+    let rates: Vec<usize> = (sigma..sigma + kept).chain(0..sigma).collect();
+    format!(
+        "    let p = &prep.p;\n{}    Some(())\n",
+        series::series_body(tape, &inputs, &rates)
+    )
 }
 
 /// The placeholders of the `Parameters` struct: names, fields, defaults, setter arms.

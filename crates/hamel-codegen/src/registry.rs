@@ -74,14 +74,27 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
          /// The constraint forces' components ([`Core::constraint_forces`]), in order.\n    \
          pub constraint_force_names: &'static [&'static str],\n    \
          /// The constraint forces at (q, η) (issue 58).\n    pub constraint_forces: VectorFn,\n    \
-         /// Operation counts (trees, shared).\n    pub operations: (usize, usize),\n}\n\n\
+         /// Operation counts (trees, shared).\n    pub operations: (usize, usize),\n    \
+         /// The Taylor coefficients at x to an order by the compiled recurrences\n    \
+         /// (`reduced_series`; None without a closed form).\n    pub series: SeriesFn,\n    \
+         /// The same by tracing `reduced_with` (`runtime::taylor_by_trace`; None where a\n    \
+         /// coefficient is not finite).\n    pub series_traced: SeriesFn,\n}\n\n\
+         /// Taylor coefficients at a reduced state to an order, into the buffer.\n\
+         pub type SeriesFn = fn(&[f64], usize, &mut Vec<f64>) -> Result<Option<()>, EvalError>;\n\n\
          /// The default parameters of module `$m`, prepared once (`Prepared::new`), or its error.\n\
          macro_rules! prepared {\n    ($m:ident) => {{\n        static PREPARED: std::sync::LazyLock<Result<$m::Prepared, EvalError>> =\n            std::sync::LazyLock::new(|| $m::Prepared::new(&$m::Parameters::default()));\n        PREPARED.as_ref().map_err(Clone::clone)?\n    }};\n}\n\n\
          macro_rules! core {\n    ($m:ident, $model:expr, $eta:expr, $scene:expr) => {\n        Core {\n            model: $model,\n            eta: $eta,\n            scene: $scene,\n            dims: $m::DIMS,\n            eliminated: &$m::ELIMINATED,\n            kept: &$m::KEPT,\n            full: |q, e| $m::full_rhs(q, e, &$m::Parameters::default()),\n            full_dual: |q, e| $m::rhs(q, e, &$m::Parameters::default()),\n            full_unchecked: |q, e| {\n                $m::structured_unchecked(q, e, &$m::Parameters::default(), true).map(Rhs::from)\n            },\n            reduced: |x| $m::reduced_rhs(x, &$m::Parameters::default()),\n            reduced_into: |x, dx| $m::reduced_into_with(x, dx, prepared!($m)),\n            full_into: |y, dy| $m::full_into_with(y, dy, prepared!($m)),\n            full_into_per_call: |y, dy| $m::full_into(y, dy, &$m::Parameters::default()),\n            jacobian: |x| $m::reduced_jacobian(x, &$m::Parameters::default()),\n            reconstruction: |q, e| $m::reconstruction(q, e, &$m::Parameters::default()),\n            constraint_residual: |q, qd| $m::constraint_residual(q, qd, &$m::Parameters::default()),\n            energy: |q, e| $m::energy(q, e, &$m::Parameters::default()),\n            residual: |q, e| $m::residual_max(q, e, &$m::Parameters::default()),\n            \
          energies: |rows, out| $m::energy_many(rows, &$m::Parameters::default(), out),\n            \
          residuals: |rows, out| $m::residual_max_many(rows, &$m::Parameters::default(), out),\n            constraint_force_names: &$m::CONSTRAINT_FORCES,\n            \
          constraint_forces: |q, e| $m::constraint_forces(q, e, &$m::Parameters::default()),\n            \
-         operations: $m::OPERATIONS,\n        }\n    };\n}\n\n\
+         operations: $m::OPERATIONS,\n            \
+         series: |x, order, out| Ok($m::reduced_series(x, prepared!($m), order, out)),\n            \
+         series_traced: |x, order, out| {\n                let prep = prepared!($m);\n                \
+         let f = |x: &[runtime::Traced], dx: &mut [runtime::Traced]| {\n                    \
+         dx.copy_from_slice(&$m::reduced_with(x, prep)?);\n                    Ok::<(), EvalError>(())\n                };\n                \
+         match runtime::taylor_by_trace(x, order, out, f) {\n                    Ok(()) => Ok(Some(())),\n                    \
+         Err(runtime::SeriesFailure::System(e)) => Err(e),\n                    Err(runtime::SeriesFailure::NonFinite) => Ok(None),\n                }\n            },\n        \
+         }\n    };\n}\n\n\
          /// Every generated core.\n#[rustfmt::skip]\npub const MODELS: &[Core] = &[\n",
     );
     for m in members {

@@ -135,7 +135,16 @@ pub struct Core {
     pub constraint_forces: VectorFn,
     /// Operation counts (trees, shared).
     pub operations: (usize, usize),
+    /// The Taylor coefficients at x to an order by the compiled recurrences
+    /// (`reduced_series`; None without a closed form).
+    pub series: SeriesFn,
+    /// The same by tracing `reduced_with` (`runtime::taylor_by_trace`; None where a
+    /// coefficient is not finite).
+    pub series_traced: SeriesFn,
 }
+
+/// Taylor coefficients at a reduced state to an order, into the buffer.
+pub type SeriesFn = fn(&[f64], usize, &mut Vec<f64>) -> Result<Option<()>, EvalError>;
 
 /// The default parameters of module `$m`, prepared once (`Prepared::new`), or its error.
 macro_rules! prepared {
@@ -174,6 +183,19 @@ macro_rules! core {
             constraint_force_names: &$m::CONSTRAINT_FORCES,
             constraint_forces: |q, e| $m::constraint_forces(q, e, &$m::Parameters::default()),
             operations: $m::OPERATIONS,
+            series: |x, order, out| Ok($m::reduced_series(x, prepared!($m), order, out)),
+            series_traced: |x, order, out| {
+                let prep = prepared!($m);
+                let f = |x: &[runtime::Traced], dx: &mut [runtime::Traced]| {
+                    dx.copy_from_slice(&$m::reduced_with(x, prep)?);
+                    Ok::<(), EvalError>(())
+                };
+                match runtime::taylor_by_trace(x, order, out, f) {
+                    Ok(()) => Ok(Some(())),
+                    Err(runtime::SeriesFailure::System(e)) => Err(e),
+                    Err(runtime::SeriesFailure::NonFinite) => Ok(None),
+                }
+            },
         }
     };
 }

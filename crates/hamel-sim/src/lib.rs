@@ -4,7 +4,11 @@
 //! work counters and drift of monitored invariants. Methods ([`Method`]): fixed-step classical
 //! RK4; adaptive Dormand–Prince 5(4), DOP853 and Verner's 9(8) with dense output, Hairer's step-size
 //! controllers and published tableaus; implicit Gauss–Legendre collocation (2 or 3 stages,
-//! orders 4 and 6; symmetric and symplectic) with a fixed step or step-doubling control.
+//! orders 4 and 6; symmetric and symplectic) with a fixed step or step-doubling control; the
+//! Taylor method ([`taylor`]) for systems that give their series; the discrete
+//! Lagrange–d'Alembert method ([`dla`]) for conservative nonholonomic systems over long
+//! horizons. Events ([`events`], [`integrate_with_events`]): zero crossings of conditions of the
+//! state, located on the continuous extensions, terminal or not.
 //!
 //! Many runs at once (Monte Carlo over initial states and parameters, sweeps):
 //! [`integrate_many`] on a rayon pool, outcomes in member order.

@@ -1088,6 +1088,194 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 3, 0.0);
+    out[..3].copy_from_slice(&x[..3]);
+    let s4: f64 = p.m_r;
+    let s5: f64 = p.l_r;
+    let s6: f64 = s5.powi(2);
+    let s7: f64 = 72.0;
+    let s8: f64 = (s4 * s7);
+    let s9: f64 = p.m_f;
+    let s10: f64 = (s7 * s9);
+    let s11: f64 = (s8 + s10);
+    let s12: f64 = (s6 * s11);
+    let s13: f64 = 9.0;
+    let s14: f64 = p.l_f;
+    let s15: f64 = s14.powi(2);
+    let s16: f64 = (s9 * s13 * s15);
+    let s17: f64 = (-s16);
+    let s18: f64 = (s12 + s17);
+    let s19: f64 = (s4 * s18);
+    let s20: f64 = s9.powi(2);
+    let s21: f64 = (s13 * s15 * s20);
+    let s22: f64 = (-s21);
+    let s23: f64 = (s19 + s22);
+    let s25: f64 = 144.0;
+    let s26: f64 = (s6 * s25);
+    let s27: f64 = (s13 * s15);
+    let s28: f64 = (s26 + s27);
+    let s29: f64 = (s4 * s28);
+    let s30: f64 = 108.0;
+    let s31: f64 = (s6 * s30);
+    let s32: f64 = (s27 + s31);
+    let s33: f64 = (s9 * s32);
+    let s34: f64 = (s29 + s33);
+    let s35: f64 = (s9 * s34);
+    let s36: f64 = 36.0;
+    let s37: f64 = s4.powi(2);
+    let s38: f64 = (s6 * s36 * s37);
+    let s43: f64 = 24.0;
+    let s44: f64 = (s4 * s43);
+    let s45: f64 = (s10 + s44);
+    let s46: f64 = (s6 * s45);
+    let s47: f64 = 12.0;
+    let s48: f64 = (s9 * s15 * s47);
+    let s49: f64 = (-s48);
+    let s50: f64 = (s46 + s49);
+    let s51: f64 = (s4 * s50);
+    let s52: f64 = 18.0;
+    let s53: f64 = (s15 * s20 * s52);
+    let s54: f64 = (-s53);
+    let s55: f64 = (s51 + s54);
+    let s59: f64 = (s6 * s7);
+    let s60: f64 = 3.0;
+    let s61: f64 = (s15 * s60);
+    let s62: f64 = (s59 + s61);
+    let s63: f64 = (s4 * s62);
+    let s64: f64 = (s33 + s63);
+    let s65: f64 = (s9 * s64);
+    let s66: f64 = (s6 * s37 * s47);
+    let s67: f64 = (s65 + s66);
+    let s72: f64 = (s4 * s60);
+    let s73: f64 = (s9 * s13);
+    let s74: f64 = (s72 + s73);
+    let s76: f64 = (-s72);
+    let s77: f64 = (-s73);
+    let s78: f64 = (s76 + s77);
+    let s79: f64 = (s6 * s9 * s15 * s78);
+    let s83: f64 = 2.0;
+    let s85: f64 = 1.0;
+    let s88: f64 = (s9 * s60);
+    let s91: f64 = s5.powi(3);
+    let s94: f64 = 0.0;
+    let s100: f64 = (s4 * s6 * s43);
+    let s101: f64 = (s9 * s15 * s60);
+    let s102: f64 = (-s101);
+    let s103: f64 = (s100 + s102);
+    let s105: f64 = (s4 * s47);
+    let s106: f64 = (s9 * s36);
+    let s107: f64 = (s105 + s106);
+    let s108: f64 = (s6 * s107);
+    let mut c = vec![0.0; 44 * w];
+    c[0 * w + 0] = x[2];
+    c[1 * w + 0] = x[0];
+    c[2 * w + 0] = c[1 * w + 0].sin();
+    c[3 * w + 0] = c[1 * w + 0].cos();
+    c[4 * w + 0] = c[3 * w + 0] * c[3 * w + 0];
+    c[5 * w + 0] = (s23) * c[4 * w + 0];
+    c[6 * w + 0] = c[5 * w + 0] + s35 + s38;
+    c[7 * w + 0] = c[0 * w + 0] * c[6 * w + 0];
+    c[8 * w + 0] = x[1];
+    c[9 * w + 0] = c[3 * w + 0] * c[2 * w + 0];
+    c[10 * w + 0] = c[9 * w + 0] * c[8 * w + 0];
+    c[11 * w + 0] = (s5 * s55) * c[10 * w + 0];
+    c[12 * w + 0] = c[7 * w + 0] + c[11 * w + 0];
+    c[13 * w + 0] = c[3 * w + 0] * c[12 * w + 0];
+    c[14 * w + 0] = c[2 * w + 0] * c[8 * w + 0];
+    c[15 * w + 0] = (s5 * s67) * c[14 * w + 0];
+    c[16 * w + 0] = c[13 * w + 0] + c[15 * w + 0];
+    c[17 * w + 0] = c[0 * w + 0] * c[16 * w + 0];
+    c[18 * w + 0] = c[8 * w + 0] * c[8 * w + 0];
+    c[19 * w + 0] = (s6 * s9 * s15 * s74) * c[4 * w + 0];
+    c[20 * w + 0] = c[19 * w + 0] + s79;
+    c[21 * w + 0] = c[3 * w + 0] * c[18 * w + 0];
+    c[22 * w + 0] = c[21 * w + 0] * c[20 * w + 0];
+    c[23 * w + 0] = c[17 * w + 0] + c[22 * w + 0];
+    c[24 * w + 0] = (s83) * c[4 * w + 0];
+    c[25 * w + 0] = c[24 * w + 0] + s85;
+    c[26 * w + 0] = (s4) * c[25 * w + 0];
+    c[27 * w + 0] = c[26 * w + 0] + s88;
+    c[28 * w + 0] = c[27 * w + 0] * c[27 * w + 0];
+    c[29 * w + 0] = c[3 * w + 0] * c[28 * w + 0];
+    c[30 * w + 0] = (s9 * s15 * s91) * c[29 * w + 0];
+    c[31 * w + 0] = c[23 * w + 0] / c[30 * w + 0];
+    c[32 * w + 0] = c[3 * w + 0] * c[2 * w + 0];
+    c[33 * w + 0] = (s60) * c[32 * w + 0];
+    c[34 * w + 0] = -c[33 * w + 0];
+    c[35 * w + 0] = (s5) * c[27 * w + 0];
+    c[36 * w + 0] = c[34 * w + 0] / c[35 * w + 0];
+    c[37 * w + 0] = c[8 * w + 0] * c[36 * w + 0];
+    c[38 * w + 0] = (s103) * c[4 * w + 0];
+    c[39 * w + 0] = s101 + c[38 * w + 0] + s108;
+    c[40 * w + 0] = (s6 * s9 * s15) * c[27 * w + 0];
+    c[41 * w + 0] = c[39 * w + 0] / c[40 * w + 0];
+    c[42 * w + 0] = c[0 * w + 0] * c[41 * w + 0];
+    c[43 * w + 0] = c[37 * w + 0] + c[42 * w + 0];
+    if order > 0 { out[3 + 2] = s94; }
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 3 + 2];
+            c[1 * w + k] = out[k * 3 + 0];
+            c[2 * w + k] = runtime::recur::sin(&c[1 * w..], &c[3 * w..], k);
+            c[3 * w + k] = runtime::recur::cos(&c[1 * w..], &c[2 * w..], k);
+            c[4 * w + k] = runtime::recur::product(&c[3 * w..], &c[3 * w..], k);
+            c[5 * w + k] = (s23) * c[4 * w + k];
+            c[6 * w + k] = c[5 * w + k];
+            c[7 * w + k] = runtime::recur::product(&c[0 * w..], &c[6 * w..], k);
+            c[8 * w + k] = out[k * 3 + 1];
+            c[9 * w + k] = runtime::recur::product(&c[3 * w..], &c[2 * w..], k);
+            c[10 * w + k] = runtime::recur::product(&c[9 * w..], &c[8 * w..], k);
+            c[11 * w + k] = (s5 * s55) * c[10 * w + k];
+            c[12 * w + k] = c[7 * w + k] + c[11 * w + k];
+            c[13 * w + k] = runtime::recur::product(&c[3 * w..], &c[12 * w..], k);
+            c[14 * w + k] = runtime::recur::product(&c[2 * w..], &c[8 * w..], k);
+            c[15 * w + k] = (s5 * s67) * c[14 * w + k];
+            c[16 * w + k] = c[13 * w + k] + c[15 * w + k];
+            c[17 * w + k] = runtime::recur::product(&c[0 * w..], &c[16 * w..], k);
+            c[18 * w + k] = runtime::recur::product(&c[8 * w..], &c[8 * w..], k);
+            c[19 * w + k] = (s6 * s9 * s15 * s74) * c[4 * w + k];
+            c[20 * w + k] = c[19 * w + k];
+            c[21 * w + k] = runtime::recur::product(&c[3 * w..], &c[18 * w..], k);
+            c[22 * w + k] = runtime::recur::product(&c[21 * w..], &c[20 * w..], k);
+            c[23 * w + k] = c[17 * w + k] + c[22 * w + k];
+            c[24 * w + k] = (s83) * c[4 * w + k];
+            c[25 * w + k] = c[24 * w + k];
+            c[26 * w + k] = (s4) * c[25 * w + k];
+            c[27 * w + k] = c[26 * w + k];
+            c[28 * w + k] = runtime::recur::product(&c[27 * w..], &c[27 * w..], k);
+            c[29 * w + k] = runtime::recur::product(&c[3 * w..], &c[28 * w..], k);
+            c[30 * w + k] = (s9 * s15 * s91) * c[29 * w + k];
+            c[31 * w + k] = runtime::recur::quotient(c[23 * w + k], &c[30 * w..], &c[31 * w..31 * w + k], k);
+            c[32 * w + k] = runtime::recur::product(&c[3 * w..], &c[2 * w..], k);
+            c[33 * w + k] = (s60) * c[32 * w + k];
+            c[34 * w + k] = -c[33 * w + k];
+            c[35 * w + k] = (s5) * c[27 * w + k];
+            c[36 * w + k] = runtime::recur::quotient(c[34 * w + k], &c[35 * w..], &c[36 * w..36 * w + k], k);
+            c[37 * w + k] = runtime::recur::product(&c[8 * w..], &c[36 * w..], k);
+            c[38 * w + k] = (s103) * c[4 * w + k];
+            c[39 * w + k] = c[38 * w + k];
+            c[40 * w + k] = (s6 * s9 * s15) * c[27 * w + k];
+            c[41 * w + k] = runtime::recur::quotient(c[39 * w + k], &c[40 * w..], &c[41 * w..41 * w + k], k);
+            c[42 * w + k] = runtime::recur::product(&c[0 * w..], &c[41 * w..], k);
+            c[43 * w + k] = c[37 * w + k] + c[42 * w + k];
+        }
+        out[(k + 1) * 3 + 0] = c[43 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 3 + 1] = c[31 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 13]) -> Result<[S; REDUCED_DIM], EvalError> {

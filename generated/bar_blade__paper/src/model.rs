@@ -859,6 +859,81 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 3, 0.0);
+    out[..3].copy_from_slice(&x[..3]);
+    let s4: f64 = p.m_r;
+    let s5: f64 = (-s4);
+    let s6: f64 = 3.0;
+    let s7: f64 = p.m_f;
+    let s8: f64 = (s6 * s7);
+    let s9: f64 = (-s8);
+    let s10: f64 = (s5 + s9);
+    let s12: f64 = 2.0;
+    let s16: f64 = 1.0;
+    let s22: f64 = (s4 * s6);
+    let s23: f64 = (-s22);
+    let s24: f64 = (s9 + s23);
+    let s26: f64 = p.l_r;
+    let mut c = vec![0.0; 19 * w];
+    c[0 * w + 0] = x[0];
+    c[1 * w + 0] = c[0 * w + 0].sin();
+    c[2 * w + 0] = c[0 * w + 0].cos();
+    c[3 * w + 0] = x[1];
+    c[4 * w + 0] = x[2];
+    c[5 * w + 0] = c[1 * w + 0] * c[3 * w + 0];
+    c[6 * w + 0] = c[5 * w + 0] * c[4 * w + 0];
+    c[7 * w + 0] = (s10) * c[6 * w + 0];
+    c[8 * w + 0] = c[2 * w + 0] * c[2 * w + 0];
+    c[9 * w + 0] = (s12) * c[8 * w + 0];
+    c[10 * w + 0] = c[9 * w + 0] + s16;
+    c[11 * w + 0] = (s4) * c[10 * w + 0];
+    c[12 * w + 0] = s8 + c[11 * w + 0];
+    c[13 * w + 0] = c[2 * w + 0] * c[12 * w + 0];
+    c[14 * w + 0] = c[7 * w + 0] / c[13 * w + 0];
+    c[15 * w + 0] = c[3 * w + 0] * c[4 * w + 0];
+    c[16 * w + 0] = (s24) * c[15 * w + 0];
+    c[17 * w + 0] = (s26) * c[12 * w + 0];
+    c[18 * w + 0] = c[16 * w + 0] / c[17 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 3 + 0];
+            c[1 * w + k] = runtime::recur::sin(&c[0 * w..], &c[2 * w..], k);
+            c[2 * w + k] = runtime::recur::cos(&c[0 * w..], &c[1 * w..], k);
+            c[3 * w + k] = out[k * 3 + 1];
+            c[4 * w + k] = out[k * 3 + 2];
+            c[5 * w + k] = runtime::recur::product(&c[1 * w..], &c[3 * w..], k);
+            c[6 * w + k] = runtime::recur::product(&c[5 * w..], &c[4 * w..], k);
+            c[7 * w + k] = (s10) * c[6 * w + k];
+            c[8 * w + k] = runtime::recur::product(&c[2 * w..], &c[2 * w..], k);
+            c[9 * w + k] = (s12) * c[8 * w + k];
+            c[10 * w + k] = c[9 * w + k];
+            c[11 * w + k] = (s4) * c[10 * w + k];
+            c[12 * w + k] = c[11 * w + k];
+            c[13 * w + k] = runtime::recur::product(&c[2 * w..], &c[12 * w..], k);
+            c[14 * w + k] = runtime::recur::quotient(c[7 * w + k], &c[13 * w..], &c[14 * w..14 * w + k], k);
+            c[15 * w + k] = runtime::recur::product(&c[3 * w..], &c[4 * w..], k);
+            c[16 * w + k] = (s24) * c[15 * w + k];
+            c[17 * w + k] = (s26) * c[12 * w + k];
+            c[18 * w + k] = runtime::recur::quotient(c[16 * w + k], &c[17 * w..], &c[18 * w..18 * w + k], k);
+        }
+        out[(k + 1) * 3 + 0] = c[4 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 3 + 1] = c[14 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 3 + 2] = c[18 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 11]) -> Result<[S; REDUCED_DIM], EvalError> {

@@ -1211,6 +1211,154 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 3, 0.0);
+    out[..3].copy_from_slice(&x[..3]);
+    let s4: f64 = p.m_w;
+    let s5: f64 = p.R;
+    let s6: f64 = p.l_r;
+    let s7: f64 = (-s6);
+    let s8: f64 = (s5 + s7);
+    let s9: f64 = (s5 * s8);
+    let s10: f64 = 6.0;
+    let s11: f64 = p.a;
+    let s12: f64 = s11.powi(2);
+    let s13: f64 = (s10 * s12);
+    let s14: f64 = s6.powi(2);
+    let s15: f64 = (s10 * s14);
+    let s16: f64 = (-s15);
+    let s17: f64 = (s9 + s13 + s16);
+    let s18: f64 = (s5 * s17);
+    let s19: f64 = (-s13);
+    let s20: f64 = (s15 + s19);
+    let s21: f64 = (s6 * s20);
+    let s22: f64 = (s18 + s21);
+    let s25: f64 = s5.powi(2);
+    let s26: f64 = (s13 + s16 + s25);
+    let s30: f64 = 2.0;
+    let s31: f64 = (s5 * s30);
+    let s32: f64 = (-s31);
+    let s33: f64 = (s6 * s30);
+    let s34: f64 = (s32 + s33);
+    let s35: f64 = (s5 * s34);
+    let s36: f64 = 12.0;
+    let s37: f64 = (s12 * s36);
+    let s38: f64 = (-s37);
+    let s39: f64 = (s35 + s38);
+    let s40: f64 = (s5 * s39);
+    let s41: f64 = (s6 * s12 * s36);
+    let s42: f64 = (s40 + s41);
+    let s43: f64 = (s4 * s42);
+    let s44: f64 = p.m_f;
+    let s45: f64 = 4.0;
+    let s46: f64 = (s5 * s45);
+    let s47: f64 = (-s46);
+    let s48: f64 = (s6 * s45);
+    let s49: f64 = (s47 + s48);
+    let s50: f64 = (s14 * s44 * s49);
+    let s53: f64 = (-s25);
+    let s54: f64 = (s16 + s19 + s53);
+    let s55: f64 = (s4 * s54);
+    let s56: f64 = (s14 * s44 * s45);
+    let s57: f64 = (-s56);
+    let s58: f64 = (s55 + s57);
+    let s62: f64 = (s9 + s13);
+    let s63: f64 = (s5 * s62);
+    let s64: f64 = (s6 * s10 * s12);
+    let s65: f64 = (-s64);
+    let s66: f64 = (s63 + s65);
+    let s67: f64 = (s4 * s66);
+    let s68: f64 = (-s33);
+    let s69: f64 = (s31 + s68);
+    let s70: f64 = (s14 * s44 * s69);
+    let s75: f64 = (s19 + s53);
+    let s76: f64 = (s4 * s75);
+    let s77: f64 = (s14 * s30 * s44);
+    let s78: f64 = (-s77);
+    let s85: f64 = (s4 * s10);
+    let s86: f64 = (s30 * s44);
+    let s87: f64 = (s85 + s86);
+    let mut c = vec![0.0; 30 * w];
+    c[0 * w + 0] = x[1];
+    c[1 * w + 0] = x[2];
+    c[2 * w + 0] = x[0];
+    c[3 * w + 0] = c[2 * w + 0].sin();
+    c[4 * w + 0] = c[2 * w + 0].cos();
+    c[5 * w + 0] = (s4 * s22) * c[4 * w + 0];
+    c[6 * w + 0] = (s4 * s11 * s26) * c[3 * w + 0];
+    c[7 * w + 0] = c[5 * w + 0] + c[6 * w + 0];
+    c[8 * w + 0] = c[4 * w + 0] * c[7 * w + 0];
+    c[9 * w + 0] = c[8 * w + 0] + s43 + s50;
+    c[10 * w + 0] = c[4 * w + 0] * c[9 * w + 0];
+    c[11 * w + 0] = (s11 * s58) * c[3 * w + 0];
+    c[12 * w + 0] = c[10 * w + 0] + c[11 * w + 0];
+    c[13 * w + 0] = c[4 * w + 0] * c[12 * w + 0];
+    c[14 * w + 0] = c[13 * w + 0] + s67 + s70;
+    c[15 * w + 0] = c[0 * w + 0] * c[1 * w + 0];
+    c[16 * w + 0] = c[15 * w + 0] * c[14 * w + 0];
+    c[17 * w + 0] = c[4 * w + 0] * c[4 * w + 0];
+    c[18 * w + 0] = (s4 * s26) * c[17 * w + 0];
+    c[19 * w + 0] = c[18 * w + 0] + s76 + s78;
+    c[20 * w + 0] = (s8) * c[4 * w + 0];
+    c[21 * w + 0] = (s11) * c[3 * w + 0];
+    c[22 * w + 0] = c[20 * w + 0] + c[21 * w + 0];
+    c[23 * w + 0] = c[3 * w + 0] * c[19 * w + 0];
+    c[24 * w + 0] = c[23 * w + 0] * c[22 * w + 0];
+    c[25 * w + 0] = c[16 * w + 0] / c[24 * w + 0];
+    c[26 * w + 0] = c[0 * w + 0] * c[1 * w + 0];
+    c[27 * w + 0] = c[26 * w + 0] * c[4 * w + 0];
+    c[28 * w + 0] = (s5 * s14 * s87) * c[27 * w + 0];
+    c[29 * w + 0] = c[28 * w + 0] / c[24 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 3 + 1];
+            c[1 * w + k] = out[k * 3 + 2];
+            c[2 * w + k] = out[k * 3 + 0];
+            c[3 * w + k] = runtime::recur::sin(&c[2 * w..], &c[4 * w..], k);
+            c[4 * w + k] = runtime::recur::cos(&c[2 * w..], &c[3 * w..], k);
+            c[5 * w + k] = (s4 * s22) * c[4 * w + k];
+            c[6 * w + k] = (s4 * s11 * s26) * c[3 * w + k];
+            c[7 * w + k] = c[5 * w + k] + c[6 * w + k];
+            c[8 * w + k] = runtime::recur::product(&c[4 * w..], &c[7 * w..], k);
+            c[9 * w + k] = c[8 * w + k];
+            c[10 * w + k] = runtime::recur::product(&c[4 * w..], &c[9 * w..], k);
+            c[11 * w + k] = (s11 * s58) * c[3 * w + k];
+            c[12 * w + k] = c[10 * w + k] + c[11 * w + k];
+            c[13 * w + k] = runtime::recur::product(&c[4 * w..], &c[12 * w..], k);
+            c[14 * w + k] = c[13 * w + k];
+            c[15 * w + k] = runtime::recur::product(&c[0 * w..], &c[1 * w..], k);
+            c[16 * w + k] = runtime::recur::product(&c[15 * w..], &c[14 * w..], k);
+            c[17 * w + k] = runtime::recur::product(&c[4 * w..], &c[4 * w..], k);
+            c[18 * w + k] = (s4 * s26) * c[17 * w + k];
+            c[19 * w + k] = c[18 * w + k];
+            c[20 * w + k] = (s8) * c[4 * w + k];
+            c[21 * w + k] = (s11) * c[3 * w + k];
+            c[22 * w + k] = c[20 * w + k] + c[21 * w + k];
+            c[23 * w + k] = runtime::recur::product(&c[3 * w..], &c[19 * w..], k);
+            c[24 * w + k] = runtime::recur::product(&c[23 * w..], &c[22 * w..], k);
+            c[25 * w + k] = runtime::recur::quotient(c[16 * w + k], &c[24 * w..], &c[25 * w..25 * w + k], k);
+            c[26 * w + k] = runtime::recur::product(&c[0 * w..], &c[1 * w..], k);
+            c[27 * w + k] = runtime::recur::product(&c[26 * w..], &c[4 * w..], k);
+            c[28 * w + k] = (s5 * s14 * s87) * c[27 * w + k];
+            c[29 * w + k] = runtime::recur::quotient(c[28 * w + k], &c[24 * w..], &c[29 * w..29 * w + k], k);
+        }
+        out[(k + 1) * 3 + 0] = c[1 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 3 + 1] = c[25 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 3 + 2] = c[29 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 14]) -> Result<[S; REDUCED_DIM], EvalError> {

@@ -612,6 +612,51 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 2, 0.0);
+    out[..2].copy_from_slice(&x[..2]);
+    let s0: f64 = p.a;
+    let s4: f64 = p.m;
+    let s8: f64 = s0.powi(2);
+    let s9: f64 = (s4 * s8);
+    let s10: f64 = p.I;
+    let s11: f64 = (s9 + s10);
+    let mut c = vec![0.0; 8 * w];
+    c[0 * w + 0] = x[1];
+    c[1 * w + 0] = c[0 * w + 0] * c[0 * w + 0];
+    c[2 * w + 0] = (s0) * c[1 * w + 0];
+    c[3 * w + 0] = x[0];
+    c[4 * w + 0] = c[0 * w + 0] * c[3 * w + 0];
+    c[5 * w + 0] = (s0 * s4) * c[4 * w + 0];
+    c[6 * w + 0] = -c[5 * w + 0];
+    c[7 * w + 0] = (1.0 / s11) * c[6 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 2 + 1];
+            c[1 * w + k] = runtime::recur::product(&c[0 * w..], &c[0 * w..], k);
+            c[2 * w + k] = (s0) * c[1 * w + k];
+            c[3 * w + k] = out[k * 2 + 0];
+            c[4 * w + k] = runtime::recur::product(&c[0 * w..], &c[3 * w..], k);
+            c[5 * w + k] = (s0 * s4) * c[4 * w + k];
+            c[6 * w + k] = -c[5 * w + k];
+            c[7 * w + k] = (1.0 / s11) * c[6 * w + k];
+        }
+        out[(k + 1) * 2 + 0] = c[2 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 2 + 1] = c[7 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 3]) -> Result<[S; REDUCED_DIM], EvalError> {

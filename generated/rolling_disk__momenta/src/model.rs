@@ -1061,6 +1061,149 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 5, 0.0);
+    out[..5].copy_from_slice(&x[..5]);
+    let s2: f64 = 10.0;
+    let s7: f64 = -12.0;
+    let s10: f64 = 4.0;
+    let s18: f64 = 12.0;
+    let s23: f64 = 3.0;
+    let s27: f64 = p.R;
+    let s28: f64 = s27.powi(3);
+    let s29: f64 = p.m_d;
+    let s30: f64 = s29.powi(2);
+    let s31: f64 = p.g;
+    let s33: f64 = 16.0;
+    let s37: f64 = 144.0;
+    let s43: f64 = 48.0;
+    let s45: f64 = -96.0;
+    let s49: f64 = 5.0;
+    let s50: f64 = s27.powi(4);
+    let s54: f64 = s27.powi(2);
+    let mut c = vec![0.0; 50 * w];
+    c[0 * w + 0] = x[4];
+    c[1 * w + 0] = x[3];
+    c[2 * w + 0] = x[1];
+    c[3 * w + 0] = c[2 * w + 0].sin();
+    c[4 * w + 0] = c[2 * w + 0].cos();
+    c[5 * w + 0] = c[4 * w + 0] * c[4 * w + 0];
+    c[6 * w + 0] = (s2) * c[5 * w + 0];
+    c[7 * w + 0] = c[6 * w + 0] + s7;
+    c[8 * w + 0] = c[1 * w + 0] * c[7 * w + 0];
+    c[9 * w + 0] = x[2];
+    c[10 * w + 0] = c[3 * w + 0] * c[9 * w + 0];
+    c[11 * w + 0] = (s10) * c[10 * w + 0];
+    c[12 * w + 0] = -c[11 * w + 0];
+    c[13 * w + 0] = c[8 * w + 0] + c[12 * w + 0];
+    c[14 * w + 0] = c[0 * w + 0] * c[13 * w + 0];
+    c[15 * w + 0] = c[14 * w + 0] / c[4 * w + 0];
+    c[16 * w + 0] = c[1 * w + 0] * c[3 * w + 0];
+    c[17 * w + 0] = (s18) * c[16 * w + 0];
+    c[18 * w + 0] = (s10) * c[9 * w + 0];
+    c[19 * w + 0] = c[17 * w + 0] + c[18 * w + 0];
+    c[20 * w + 0] = c[0 * w + 0] * c[19 * w + 0];
+    c[21 * w + 0] = (s23) * c[4 * w + 0];
+    c[22 * w + 0] = c[20 * w + 0] / c[21 * w + 0];
+    c[23 * w + 0] = c[4 * w + 0] * c[4 * w + 0];
+    c[24 * w + 0] = c[4 * w + 0] * c[23 * w + 0];
+    c[25 * w + 0] = (s10 * s28 * s30 * s31) * c[24 * w + 0];
+    c[26 * w + 0] = c[9 * w + 0] * c[9 * w + 0];
+    c[27 * w + 0] = (s33) * c[26 * w + 0];
+    c[28 * w + 0] = -c[27 * w + 0];
+    c[29 * w + 0] = c[1 * w + 0] * c[1 * w + 0];
+    c[30 * w + 0] = (s37) * c[29 * w + 0];
+    c[31 * w + 0] = -c[30 * w + 0];
+    c[32 * w + 0] = c[25 * w + 0] + c[28 * w + 0] + c[31 * w + 0];
+    c[33 * w + 0] = c[3 * w + 0] * c[32 * w + 0];
+    c[34 * w + 0] = (s43) * c[5 * w + 0];
+    c[35 * w + 0] = c[34 * w + 0] + s45;
+    c[36 * w + 0] = c[1 * w + 0] * c[9 * w + 0];
+    c[37 * w + 0] = c[36 * w + 0] * c[35 * w + 0];
+    c[38 * w + 0] = c[33 * w + 0] + c[37 * w + 0];
+    c[39 * w + 0] = (s30 * s49 * s50) * c[24 * w + 0];
+    c[40 * w + 0] = c[38 * w + 0] / c[39 * w + 0];
+    c[41 * w + 0] = (s10) * c[3 * w + 0];
+    c[42 * w + 0] = (s29 * s54) * c[5 * w + 0];
+    c[43 * w + 0] = c[41 * w + 0] / c[42 * w + 0];
+    c[44 * w + 0] = c[9 * w + 0] * c[43 * w + 0];
+    c[45 * w + 0] = -c[6 * w + 0];
+    c[46 * w + 0] = s18 + c[45 * w + 0];
+    c[47 * w + 0] = c[46 * w + 0] / c[42 * w + 0];
+    c[48 * w + 0] = c[1 * w + 0] * c[47 * w + 0];
+    c[49 * w + 0] = c[44 * w + 0] + c[48 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 5 + 4];
+            c[1 * w + k] = out[k * 5 + 3];
+            c[2 * w + k] = out[k * 5 + 1];
+            c[3 * w + k] = runtime::recur::sin(&c[2 * w..], &c[4 * w..], k);
+            c[4 * w + k] = runtime::recur::cos(&c[2 * w..], &c[3 * w..], k);
+            c[5 * w + k] = runtime::recur::product(&c[4 * w..], &c[4 * w..], k);
+            c[6 * w + k] = (s2) * c[5 * w + k];
+            c[7 * w + k] = c[6 * w + k];
+            c[8 * w + k] = runtime::recur::product(&c[1 * w..], &c[7 * w..], k);
+            c[9 * w + k] = out[k * 5 + 2];
+            c[10 * w + k] = runtime::recur::product(&c[3 * w..], &c[9 * w..], k);
+            c[11 * w + k] = (s10) * c[10 * w + k];
+            c[12 * w + k] = -c[11 * w + k];
+            c[13 * w + k] = c[8 * w + k] + c[12 * w + k];
+            c[14 * w + k] = runtime::recur::product(&c[0 * w..], &c[13 * w..], k);
+            c[15 * w + k] = runtime::recur::quotient(c[14 * w + k], &c[4 * w..], &c[15 * w..15 * w + k], k);
+            c[16 * w + k] = runtime::recur::product(&c[1 * w..], &c[3 * w..], k);
+            c[17 * w + k] = (s18) * c[16 * w + k];
+            c[18 * w + k] = (s10) * c[9 * w + k];
+            c[19 * w + k] = c[17 * w + k] + c[18 * w + k];
+            c[20 * w + k] = runtime::recur::product(&c[0 * w..], &c[19 * w..], k);
+            c[21 * w + k] = (s23) * c[4 * w + k];
+            c[22 * w + k] = runtime::recur::quotient(c[20 * w + k], &c[21 * w..], &c[22 * w..22 * w + k], k);
+            c[23 * w + k] = runtime::recur::product(&c[4 * w..], &c[4 * w..], k);
+            c[24 * w + k] = runtime::recur::product(&c[4 * w..], &c[23 * w..], k);
+            c[25 * w + k] = (s10 * s28 * s30 * s31) * c[24 * w + k];
+            c[26 * w + k] = runtime::recur::product(&c[9 * w..], &c[9 * w..], k);
+            c[27 * w + k] = (s33) * c[26 * w + k];
+            c[28 * w + k] = -c[27 * w + k];
+            c[29 * w + k] = runtime::recur::product(&c[1 * w..], &c[1 * w..], k);
+            c[30 * w + k] = (s37) * c[29 * w + k];
+            c[31 * w + k] = -c[30 * w + k];
+            c[32 * w + k] = c[25 * w + k] + c[28 * w + k] + c[31 * w + k];
+            c[33 * w + k] = runtime::recur::product(&c[3 * w..], &c[32 * w..], k);
+            c[34 * w + k] = (s43) * c[5 * w + k];
+            c[35 * w + k] = c[34 * w + k];
+            c[36 * w + k] = runtime::recur::product(&c[1 * w..], &c[9 * w..], k);
+            c[37 * w + k] = runtime::recur::product(&c[36 * w..], &c[35 * w..], k);
+            c[38 * w + k] = c[33 * w + k] + c[37 * w + k];
+            c[39 * w + k] = (s30 * s49 * s50) * c[24 * w + k];
+            c[40 * w + k] = runtime::recur::quotient(c[38 * w + k], &c[39 * w..], &c[40 * w..40 * w + k], k);
+            c[41 * w + k] = (s10) * c[3 * w + k];
+            c[42 * w + k] = (s29 * s54) * c[5 * w + k];
+            c[43 * w + k] = runtime::recur::quotient(c[41 * w + k], &c[42 * w..], &c[43 * w..43 * w + k], k);
+            c[44 * w + k] = runtime::recur::product(&c[9 * w..], &c[43 * w..], k);
+            c[45 * w + k] = -c[6 * w + k];
+            c[46 * w + k] = c[45 * w + k];
+            c[47 * w + k] = runtime::recur::quotient(c[46 * w + k], &c[42 * w..], &c[47 * w..47 * w + k], k);
+            c[48 * w + k] = runtime::recur::product(&c[1 * w..], &c[47 * w..], k);
+            c[49 * w + k] = c[44 * w + k] + c[48 * w + k];
+        }
+        out[(k + 1) * 5 + 0] = c[49 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 1] = c[0 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 2] = c[15 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 3] = c[22 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 4] = c[40 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 3]) -> Result<[S; REDUCED_DIM], EvalError> {

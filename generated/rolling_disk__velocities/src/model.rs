@@ -967,6 +967,99 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 5, 0.0);
+    out[..5].copy_from_slice(&x[..5]);
+    let s0: f64 = 2.0;
+    let s7: f64 = 5.0;
+    let s11: f64 = 6.0;
+    let s16: f64 = 3.0;
+    let s19: f64 = p.R;
+    let s22: f64 = 4.0;
+    let s23: f64 = p.g;
+    let s24: f64 = (s22 * s23);
+    let s30: f64 = (s7 * s19);
+    let mut c = vec![0.0; 29 * w];
+    c[0 * w + 0] = x[3];
+    c[1 * w + 0] = x[4];
+    c[2 * w + 0] = c[0 * w + 0] * c[1 * w + 0];
+    c[3 * w + 0] = (s0) * c[2 * w + 0];
+    c[4 * w + 0] = x[1];
+    c[5 * w + 0] = c[4 * w + 0].sin();
+    c[6 * w + 0] = c[4 * w + 0].cos();
+    c[7 * w + 0] = c[3 * w + 0] / c[6 * w + 0];
+    c[8 * w + 0] = c[6 * w + 0] * c[6 * w + 0];
+    c[9 * w + 0] = x[2];
+    c[10 * w + 0] = c[8 * w + 0] * c[9 * w + 0];
+    c[11 * w + 0] = (s7) * c[10 * w + 0];
+    c[12 * w + 0] = c[0 * w + 0] * c[5 * w + 0];
+    c[13 * w + 0] = (s11) * c[12 * w + 0];
+    c[14 * w + 0] = c[11 * w + 0] + c[13 * w + 0];
+    c[15 * w + 0] = c[1 * w + 0] * c[14 * w + 0];
+    c[16 * w + 0] = (s16) * c[6 * w + 0];
+    c[17 * w + 0] = c[15 * w + 0] / c[16 * w + 0];
+    c[18 * w + 0] = c[9 * w + 0] * c[9 * w + 0];
+    c[19 * w + 0] = c[6 * w + 0] * c[18 * w + 0];
+    c[20 * w + 0] = (s7 * s19) * c[19 * w + 0];
+    c[21 * w + 0] = c[20 * w + 0] + s24;
+    c[22 * w + 0] = c[5 * w + 0] * c[21 * w + 0];
+    c[23 * w + 0] = c[0 * w + 0] * c[6 * w + 0];
+    c[24 * w + 0] = c[23 * w + 0] * c[9 * w + 0];
+    c[25 * w + 0] = (s11 * s19) * c[24 * w + 0];
+    c[26 * w + 0] = -c[25 * w + 0];
+    c[27 * w + 0] = c[22 * w + 0] + c[26 * w + 0];
+    c[28 * w + 0] = (1.0 / s30) * c[27 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 5 + 3];
+            c[1 * w + k] = out[k * 5 + 4];
+            c[2 * w + k] = runtime::recur::product(&c[0 * w..], &c[1 * w..], k);
+            c[3 * w + k] = (s0) * c[2 * w + k];
+            c[4 * w + k] = out[k * 5 + 1];
+            c[5 * w + k] = runtime::recur::sin(&c[4 * w..], &c[6 * w..], k);
+            c[6 * w + k] = runtime::recur::cos(&c[4 * w..], &c[5 * w..], k);
+            c[7 * w + k] = runtime::recur::quotient(c[3 * w + k], &c[6 * w..], &c[7 * w..7 * w + k], k);
+            c[8 * w + k] = runtime::recur::product(&c[6 * w..], &c[6 * w..], k);
+            c[9 * w + k] = out[k * 5 + 2];
+            c[10 * w + k] = runtime::recur::product(&c[8 * w..], &c[9 * w..], k);
+            c[11 * w + k] = (s7) * c[10 * w + k];
+            c[12 * w + k] = runtime::recur::product(&c[0 * w..], &c[5 * w..], k);
+            c[13 * w + k] = (s11) * c[12 * w + k];
+            c[14 * w + k] = c[11 * w + k] + c[13 * w + k];
+            c[15 * w + k] = runtime::recur::product(&c[1 * w..], &c[14 * w..], k);
+            c[16 * w + k] = (s16) * c[6 * w + k];
+            c[17 * w + k] = runtime::recur::quotient(c[15 * w + k], &c[16 * w..], &c[17 * w..17 * w + k], k);
+            c[18 * w + k] = runtime::recur::product(&c[9 * w..], &c[9 * w..], k);
+            c[19 * w + k] = runtime::recur::product(&c[6 * w..], &c[18 * w..], k);
+            c[20 * w + k] = (s7 * s19) * c[19 * w + k];
+            c[21 * w + k] = c[20 * w + k];
+            c[22 * w + k] = runtime::recur::product(&c[5 * w..], &c[21 * w..], k);
+            c[23 * w + k] = runtime::recur::product(&c[0 * w..], &c[6 * w..], k);
+            c[24 * w + k] = runtime::recur::product(&c[23 * w..], &c[9 * w..], k);
+            c[25 * w + k] = (s11 * s19) * c[24 * w + k];
+            c[26 * w + k] = -c[25 * w + k];
+            c[27 * w + k] = c[22 * w + k] + c[26 * w + k];
+            c[28 * w + k] = (1.0 / s30) * c[27 * w + k];
+        }
+        out[(k + 1) * 5 + 0] = c[0 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 1] = c[1 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 2] = c[7 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 3] = c[17 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 4] = c[28 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 7]) -> Result<[S; REDUCED_DIM], EvalError> {

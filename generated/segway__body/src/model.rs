@@ -1490,6 +1490,168 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 4, 0.0);
+    out[..4].copy_from_slice(&x[..4]);
+    let s0: f64 = p.m_b;
+    let s1: f64 = 3.0;
+    let s2: f64 = p.m_w;
+    let s3: f64 = (s1 * s2);
+    let s4: f64 = (s0 + s3);
+    let s10: f64 = p.l;
+    let s11: f64 = s10.powi(2);
+    let s12: f64 = (s0 * s11);
+    let s13: f64 = p.I_bx;
+    let s14: f64 = p.I_bz;
+    let s15: f64 = (-s14);
+    let s16: f64 = (s12 + s13 + s15);
+    let s18: f64 = p.g;
+    let s19: f64 = (s0 * s10 * s18);
+    let s22: f64 = p.T_L;
+    let s23: f64 = (-s22);
+    let s24: f64 = p.T_R;
+    let s25: f64 = (-s24);
+    let s30: f64 = p.r;
+    let s39: f64 = 1.0;
+    let s40: f64 = p.I_by;
+    let s41: f64 = (s12 + s40);
+    let s42: f64 = (s4 * s41);
+    let s52: f64 = 2.0;
+    let s53: f64 = (s0 * s11 * s52);
+    let s54: f64 = (-s53);
+    let s55: f64 = (s13 * s52);
+    let s56: f64 = (-s55);
+    let s57: f64 = (s14 * s52);
+    let s58: f64 = (s54 + s56 + s57);
+    let s65: f64 = p.b;
+    let s66: f64 = (s23 + s24);
+    let s67: f64 = (s65 * s66);
+    let s71: f64 = (-s12);
+    let s72: f64 = (-s13);
+    let s73: f64 = (s14 + s71 + s72);
+    let s75: f64 = 0.5;
+    let s76: f64 = s30.powi(2);
+    let s77: f64 = (s75 * s76);
+    let s78: f64 = s65.powi(2);
+    let s79: f64 = (s1 * s78);
+    let s80: f64 = (s77 + s79);
+    let s81: f64 = (s2 * s80);
+    let mut c = vec![0.0; 47 * w];
+    c[0 * w + 0] = x[0];
+    c[1 * w + 0] = c[0 * w + 0].sin();
+    c[2 * w + 0] = c[0 * w + 0].cos();
+    c[3 * w + 0] = x[3];
+    c[4 * w + 0] = c[3 * w + 0] * c[3 * w + 0];
+    c[5 * w + 0] = c[2 * w + 0] * c[4 * w + 0];
+    c[6 * w + 0] = (s16) * c[5 * w + 0];
+    c[7 * w + 0] = c[6 * w + 0] + s19;
+    c[8 * w + 0] = c[1 * w + 0] * c[7 * w + 0];
+    c[9 * w + 0] = c[8 * w + 0] + s23 + s25;
+    c[10 * w + 0] = (s4) * c[9 * w + 0];
+    c[11 * w + 0] = (s0 * s10) * c[2 * w + 0];
+    c[12 * w + 0] = -c[11 * w + 0];
+    c[13 * w + 0] = x[1];
+    c[14 * w + 0] = c[13 * w + 0] * c[13 * w + 0];
+    c[15 * w + 0] = c[4 * w + 0] + c[14 * w + 0];
+    c[16 * w + 0] = c[1 * w + 0] * c[15 * w + 0];
+    c[17 * w + 0] = (s0 * s10 * s30) * c[16 * w + 0];
+    c[18 * w + 0] = s22 + s24 + c[17 * w + 0];
+    c[19 * w + 0] = (1.0 / s30) * c[18 * w + 0];
+    c[20 * w + 0] = c[12 * w + 0] * c[19 * w + 0];
+    c[21 * w + 0] = c[10 * w + 0] + c[20 * w + 0];
+    c[22 * w + 0] = c[2 * w + 0] * c[2 * w + 0];
+    c[23 * w + 0] = (s0 * s0 * s10 * s10) * c[22 * w + 0];
+    c[24 * w + 0] = -c[23 * w + 0];
+    c[25 * w + 0] = s42 + c[24 * w + 0];
+    c[26 * w + 0] = s39 / c[25 * w + 0];
+    c[27 * w + 0] = c[21 * w + 0] * c[26 * w + 0];
+    c[28 * w + 0] = c[9 * w + 0] * c[12 * w + 0];
+    c[29 * w + 0] = (s41) * c[19 * w + 0];
+    c[30 * w + 0] = c[28 * w + 0] + c[29 * w + 0];
+    c[31 * w + 0] = c[26 * w + 0] * c[30 * w + 0];
+    c[32 * w + 0] = c[2 * w + 0] * c[13 * w + 0];
+    c[33 * w + 0] = (s30 * s58) * c[32 * w + 0];
+    c[34 * w + 0] = x[2];
+    c[35 * w + 0] = (s0 * s10 * s30) * c[34 * w + 0];
+    c[36 * w + 0] = -c[35 * w + 0];
+    c[37 * w + 0] = c[33 * w + 0] + c[36 * w + 0];
+    c[38 * w + 0] = c[1 * w + 0] * c[3 * w + 0];
+    c[39 * w + 0] = c[38 * w + 0] * c[37 * w + 0];
+    c[40 * w + 0] = c[39 * w + 0] + s67;
+    c[41 * w + 0] = (1.0 / s30) * c[40 * w + 0];
+    c[42 * w + 0] = c[2 * w + 0] * c[2 * w + 0];
+    c[43 * w + 0] = (s73) * c[42 * w + 0];
+    c[44 * w + 0] = s12 + s13 + c[43 * w + 0] + s81;
+    c[45 * w + 0] = s39 / c[44 * w + 0];
+    c[46 * w + 0] = c[41 * w + 0] * c[45 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 4 + 0];
+            c[1 * w + k] = runtime::recur::sin(&c[0 * w..], &c[2 * w..], k);
+            c[2 * w + k] = runtime::recur::cos(&c[0 * w..], &c[1 * w..], k);
+            c[3 * w + k] = out[k * 4 + 3];
+            c[4 * w + k] = runtime::recur::product(&c[3 * w..], &c[3 * w..], k);
+            c[5 * w + k] = runtime::recur::product(&c[2 * w..], &c[4 * w..], k);
+            c[6 * w + k] = (s16) * c[5 * w + k];
+            c[7 * w + k] = c[6 * w + k];
+            c[8 * w + k] = runtime::recur::product(&c[1 * w..], &c[7 * w..], k);
+            c[9 * w + k] = c[8 * w + k];
+            c[10 * w + k] = (s4) * c[9 * w + k];
+            c[11 * w + k] = (s0 * s10) * c[2 * w + k];
+            c[12 * w + k] = -c[11 * w + k];
+            c[13 * w + k] = out[k * 4 + 1];
+            c[14 * w + k] = runtime::recur::product(&c[13 * w..], &c[13 * w..], k);
+            c[15 * w + k] = c[4 * w + k] + c[14 * w + k];
+            c[16 * w + k] = runtime::recur::product(&c[1 * w..], &c[15 * w..], k);
+            c[17 * w + k] = (s0 * s10 * s30) * c[16 * w + k];
+            c[18 * w + k] = c[17 * w + k];
+            c[19 * w + k] = (1.0 / s30) * c[18 * w + k];
+            c[20 * w + k] = runtime::recur::product(&c[12 * w..], &c[19 * w..], k);
+            c[21 * w + k] = c[10 * w + k] + c[20 * w + k];
+            c[22 * w + k] = runtime::recur::product(&c[2 * w..], &c[2 * w..], k);
+            c[23 * w + k] = (s0 * s0 * s10 * s10) * c[22 * w + k];
+            c[24 * w + k] = -c[23 * w + k];
+            c[25 * w + k] = c[24 * w + k];
+            c[26 * w + k] = runtime::recur::quotient(0.0, &c[25 * w..], &c[26 * w..26 * w + k], k);
+            c[27 * w + k] = runtime::recur::product(&c[21 * w..], &c[26 * w..], k);
+            c[28 * w + k] = runtime::recur::product(&c[9 * w..], &c[12 * w..], k);
+            c[29 * w + k] = (s41) * c[19 * w + k];
+            c[30 * w + k] = c[28 * w + k] + c[29 * w + k];
+            c[31 * w + k] = runtime::recur::product(&c[26 * w..], &c[30 * w..], k);
+            c[32 * w + k] = runtime::recur::product(&c[2 * w..], &c[13 * w..], k);
+            c[33 * w + k] = (s30 * s58) * c[32 * w + k];
+            c[34 * w + k] = out[k * 4 + 2];
+            c[35 * w + k] = (s0 * s10 * s30) * c[34 * w + k];
+            c[36 * w + k] = -c[35 * w + k];
+            c[37 * w + k] = c[33 * w + k] + c[36 * w + k];
+            c[38 * w + k] = runtime::recur::product(&c[1 * w..], &c[3 * w..], k);
+            c[39 * w + k] = runtime::recur::product(&c[38 * w..], &c[37 * w..], k);
+            c[40 * w + k] = c[39 * w + k];
+            c[41 * w + k] = (1.0 / s30) * c[40 * w + k];
+            c[42 * w + k] = runtime::recur::product(&c[2 * w..], &c[2 * w..], k);
+            c[43 * w + k] = (s73) * c[42 * w + k];
+            c[44 * w + k] = c[43 * w + k];
+            c[45 * w + k] = runtime::recur::quotient(0.0, &c[44 * w..], &c[45 * w..45 * w + k], k);
+            c[46 * w + k] = runtime::recur::product(&c[41 * w..], &c[45 * w..], k);
+        }
+        out[(k + 1) * 4 + 0] = c[13 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 1] = c[27 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 2] = c[31 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 3] = c[46 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 16]) -> Result<[S; REDUCED_DIM], EvalError> {

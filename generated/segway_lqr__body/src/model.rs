@@ -1575,6 +1575,215 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 4, 0.0);
+    out[..4].copy_from_slice(&x[..4]);
+    let s0: f64 = p.m_b;
+    let s1: f64 = 3.0;
+    let s2: f64 = p.m_w;
+    let s3: f64 = (s1 * s2);
+    let s4: f64 = (s0 + s3);
+    let s9: f64 = p.l;
+    let s10: f64 = s9.powi(2);
+    let s11: f64 = (s0 * s10);
+    let s12: f64 = p.I_bx;
+    let s13: f64 = p.I_bz;
+    let s14: f64 = (-s13);
+    let s15: f64 = (s11 + s12 + s14);
+    let s17: f64 = p.K_T_L_eta3;
+    let s18: f64 = p.K_T_R_eta3;
+    let s21: f64 = p.K_T_L_theta;
+    let s22: f64 = p.K_T_R_theta;
+    let s23: f64 = (s21 + s22);
+    let s26: f64 = p.K_T_L_eta1;
+    let s27: f64 = p.K_T_R_eta1;
+    let s28: f64 = (s26 + s27);
+    let s31: f64 = p.K_T_L_eta2;
+    let s32: f64 = p.K_T_R_eta2;
+    let s33: f64 = (s31 + s32);
+    let s35: f64 = p.g;
+    let s41: f64 = p.r;
+    let s43: f64 = (-s26);
+    let s44: f64 = (-s27);
+    let s48: f64 = (-s17);
+    let s49: f64 = (-s18);
+    let s52: f64 = (-s21);
+    let s53: f64 = (-s22);
+    let s54: f64 = (s52 + s53);
+    let s56: f64 = (-s31);
+    let s57: f64 = (-s32);
+    let s58: f64 = (s56 + s57);
+    let s64: f64 = 1.0;
+    let s65: f64 = p.I_by;
+    let s66: f64 = (s11 + s65);
+    let s67: f64 = (s4 * s66);
+    let s77: f64 = 2.0;
+    let s78: f64 = (s0 * s10 * s77);
+    let s79: f64 = (-s78);
+    let s80: f64 = (s12 * s77);
+    let s81: f64 = (-s80);
+    let s82: f64 = (s13 * s77);
+    let s83: f64 = (s79 + s81 + s82);
+    let s89: f64 = p.b;
+    let s90: f64 = (s17 + s49);
+    let s91: f64 = (s89 * s90);
+    let s94: f64 = (s21 + s53);
+    let s96: f64 = (s26 + s44);
+    let s98: f64 = (s31 + s57);
+    let s103: f64 = (-s11);
+    let s104: f64 = (-s12);
+    let s105: f64 = (s13 + s103 + s104);
+    let s107: f64 = 0.5;
+    let s108: f64 = s41.powi(2);
+    let s109: f64 = (s107 * s108);
+    let s110: f64 = s89.powi(2);
+    let s111: f64 = (s1 * s110);
+    let s112: f64 = (s109 + s111);
+    let s113: f64 = (s2 * s112);
+    let mut c = vec![0.0; 61 * w];
+    c[0 * w + 0] = x[3];
+    c[1 * w + 0] = x[0];
+    c[2 * w + 0] = c[1 * w + 0].sin();
+    c[3 * w + 0] = c[1 * w + 0].cos();
+    c[4 * w + 0] = c[0 * w + 0] * c[2 * w + 0];
+    c[5 * w + 0] = c[4 * w + 0] * c[3 * w + 0];
+    c[6 * w + 0] = (s15) * c[5 * w + 0];
+    c[7 * w + 0] = c[6 * w + 0] + s17 + s18;
+    c[8 * w + 0] = c[0 * w + 0] * c[7 * w + 0];
+    c[9 * w + 0] = (s23) * c[1 * w + 0];
+    c[10 * w + 0] = x[1];
+    c[11 * w + 0] = (s28) * c[10 * w + 0];
+    c[12 * w + 0] = x[2];
+    c[13 * w + 0] = (s33) * c[12 * w + 0];
+    c[14 * w + 0] = (s0 * s9 * s35) * c[2 * w + 0];
+    c[15 * w + 0] = c[8 * w + 0] + c[9 * w + 0] + c[11 * w + 0] + c[13 * w + 0] + c[14 * w + 0];
+    c[16 * w + 0] = (s4) * c[15 * w + 0];
+    c[17 * w + 0] = (s0 * s9) * c[3 * w + 0];
+    c[18 * w + 0] = -c[17 * w + 0];
+    c[19 * w + 0] = c[2 * w + 0] * c[10 * w + 0];
+    c[20 * w + 0] = (s0 * s9 * s41) * c[19 * w + 0];
+    c[21 * w + 0] = c[20 * w + 0] + s43 + s44;
+    c[22 * w + 0] = c[10 * w + 0] * c[21 * w + 0];
+    c[23 * w + 0] = c[0 * w + 0] * c[2 * w + 0];
+    c[24 * w + 0] = (s0 * s9 * s41) * c[23 * w + 0];
+    c[25 * w + 0] = c[24 * w + 0] + s48 + s49;
+    c[26 * w + 0] = c[0 * w + 0] * c[25 * w + 0];
+    c[27 * w + 0] = (s54) * c[1 * w + 0];
+    c[28 * w + 0] = (s58) * c[12 * w + 0];
+    c[29 * w + 0] = c[22 * w + 0] + c[26 * w + 0] + c[27 * w + 0] + c[28 * w + 0];
+    c[30 * w + 0] = (1.0 / s41) * c[29 * w + 0];
+    c[31 * w + 0] = c[18 * w + 0] * c[30 * w + 0];
+    c[32 * w + 0] = c[16 * w + 0] + c[31 * w + 0];
+    c[33 * w + 0] = c[3 * w + 0] * c[3 * w + 0];
+    c[34 * w + 0] = (s0 * s0 * s9 * s9) * c[33 * w + 0];
+    c[35 * w + 0] = -c[34 * w + 0];
+    c[36 * w + 0] = s67 + c[35 * w + 0];
+    c[37 * w + 0] = s64 / c[36 * w + 0];
+    c[38 * w + 0] = c[32 * w + 0] * c[37 * w + 0];
+    c[39 * w + 0] = c[15 * w + 0] * c[18 * w + 0];
+    c[40 * w + 0] = (s66) * c[30 * w + 0];
+    c[41 * w + 0] = c[39 * w + 0] + c[40 * w + 0];
+    c[42 * w + 0] = c[37 * w + 0] * c[41 * w + 0];
+    c[43 * w + 0] = c[3 * w + 0] * c[10 * w + 0];
+    c[44 * w + 0] = (s41 * s83) * c[43 * w + 0];
+    c[45 * w + 0] = (s0 * s9 * s41) * c[12 * w + 0];
+    c[46 * w + 0] = -c[45 * w + 0];
+    c[47 * w + 0] = c[44 * w + 0] + c[46 * w + 0];
+    c[48 * w + 0] = c[2 * w + 0] * c[47 * w + 0];
+    c[49 * w + 0] = c[48 * w + 0] + s91;
+    c[50 * w + 0] = c[0 * w + 0] * c[49 * w + 0];
+    c[51 * w + 0] = (s89 * s94) * c[1 * w + 0];
+    c[52 * w + 0] = (s89 * s96) * c[10 * w + 0];
+    c[53 * w + 0] = (s89 * s98) * c[12 * w + 0];
+    c[54 * w + 0] = c[50 * w + 0] + c[51 * w + 0] + c[52 * w + 0] + c[53 * w + 0];
+    c[55 * w + 0] = (1.0 / s41) * c[54 * w + 0];
+    c[56 * w + 0] = c[3 * w + 0] * c[3 * w + 0];
+    c[57 * w + 0] = (s105) * c[56 * w + 0];
+    c[58 * w + 0] = s11 + s12 + c[57 * w + 0] + s113;
+    c[59 * w + 0] = s64 / c[58 * w + 0];
+    c[60 * w + 0] = c[55 * w + 0] * c[59 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 4 + 3];
+            c[1 * w + k] = out[k * 4 + 0];
+            c[2 * w + k] = runtime::recur::sin(&c[1 * w..], &c[3 * w..], k);
+            c[3 * w + k] = runtime::recur::cos(&c[1 * w..], &c[2 * w..], k);
+            c[4 * w + k] = runtime::recur::product(&c[0 * w..], &c[2 * w..], k);
+            c[5 * w + k] = runtime::recur::product(&c[4 * w..], &c[3 * w..], k);
+            c[6 * w + k] = (s15) * c[5 * w + k];
+            c[7 * w + k] = c[6 * w + k];
+            c[8 * w + k] = runtime::recur::product(&c[0 * w..], &c[7 * w..], k);
+            c[9 * w + k] = (s23) * c[1 * w + k];
+            c[10 * w + k] = out[k * 4 + 1];
+            c[11 * w + k] = (s28) * c[10 * w + k];
+            c[12 * w + k] = out[k * 4 + 2];
+            c[13 * w + k] = (s33) * c[12 * w + k];
+            c[14 * w + k] = (s0 * s9 * s35) * c[2 * w + k];
+            c[15 * w + k] = c[8 * w + k] + c[9 * w + k] + c[11 * w + k] + c[13 * w + k] + c[14 * w + k];
+            c[16 * w + k] = (s4) * c[15 * w + k];
+            c[17 * w + k] = (s0 * s9) * c[3 * w + k];
+            c[18 * w + k] = -c[17 * w + k];
+            c[19 * w + k] = runtime::recur::product(&c[2 * w..], &c[10 * w..], k);
+            c[20 * w + k] = (s0 * s9 * s41) * c[19 * w + k];
+            c[21 * w + k] = c[20 * w + k];
+            c[22 * w + k] = runtime::recur::product(&c[10 * w..], &c[21 * w..], k);
+            c[23 * w + k] = runtime::recur::product(&c[0 * w..], &c[2 * w..], k);
+            c[24 * w + k] = (s0 * s9 * s41) * c[23 * w + k];
+            c[25 * w + k] = c[24 * w + k];
+            c[26 * w + k] = runtime::recur::product(&c[0 * w..], &c[25 * w..], k);
+            c[27 * w + k] = (s54) * c[1 * w + k];
+            c[28 * w + k] = (s58) * c[12 * w + k];
+            c[29 * w + k] = c[22 * w + k] + c[26 * w + k] + c[27 * w + k] + c[28 * w + k];
+            c[30 * w + k] = (1.0 / s41) * c[29 * w + k];
+            c[31 * w + k] = runtime::recur::product(&c[18 * w..], &c[30 * w..], k);
+            c[32 * w + k] = c[16 * w + k] + c[31 * w + k];
+            c[33 * w + k] = runtime::recur::product(&c[3 * w..], &c[3 * w..], k);
+            c[34 * w + k] = (s0 * s0 * s9 * s9) * c[33 * w + k];
+            c[35 * w + k] = -c[34 * w + k];
+            c[36 * w + k] = c[35 * w + k];
+            c[37 * w + k] = runtime::recur::quotient(0.0, &c[36 * w..], &c[37 * w..37 * w + k], k);
+            c[38 * w + k] = runtime::recur::product(&c[32 * w..], &c[37 * w..], k);
+            c[39 * w + k] = runtime::recur::product(&c[15 * w..], &c[18 * w..], k);
+            c[40 * w + k] = (s66) * c[30 * w + k];
+            c[41 * w + k] = c[39 * w + k] + c[40 * w + k];
+            c[42 * w + k] = runtime::recur::product(&c[37 * w..], &c[41 * w..], k);
+            c[43 * w + k] = runtime::recur::product(&c[3 * w..], &c[10 * w..], k);
+            c[44 * w + k] = (s41 * s83) * c[43 * w + k];
+            c[45 * w + k] = (s0 * s9 * s41) * c[12 * w + k];
+            c[46 * w + k] = -c[45 * w + k];
+            c[47 * w + k] = c[44 * w + k] + c[46 * w + k];
+            c[48 * w + k] = runtime::recur::product(&c[2 * w..], &c[47 * w..], k);
+            c[49 * w + k] = c[48 * w + k];
+            c[50 * w + k] = runtime::recur::product(&c[0 * w..], &c[49 * w..], k);
+            c[51 * w + k] = (s89 * s94) * c[1 * w + k];
+            c[52 * w + k] = (s89 * s96) * c[10 * w + k];
+            c[53 * w + k] = (s89 * s98) * c[12 * w + k];
+            c[54 * w + k] = c[50 * w + k] + c[51 * w + k] + c[52 * w + k] + c[53 * w + k];
+            c[55 * w + k] = (1.0 / s41) * c[54 * w + k];
+            c[56 * w + k] = runtime::recur::product(&c[3 * w..], &c[3 * w..], k);
+            c[57 * w + k] = (s105) * c[56 * w + k];
+            c[58 * w + k] = c[57 * w + k];
+            c[59 * w + k] = runtime::recur::quotient(0.0, &c[58 * w..], &c[59 * w..59 * w + k], k);
+            c[60 * w + k] = runtime::recur::product(&c[55 * w..], &c[59 * w..], k);
+        }
+        out[(k + 1) * 4 + 0] = c[10 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 1] = c[38 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 2] = c[42 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 3] = c[60 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 26]) -> Result<[S; REDUCED_DIM], EvalError> {

@@ -979,6 +979,72 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 5, 0.0);
+    out[..5].copy_from_slice(&x[..5]);
+    let s2: f64 = p.m;
+    let s3: f64 = p.r;
+    let s4: f64 = s3.powi(2);
+    let s9: f64 = (s2 * s4);
+    let s10: f64 = p.J;
+    let s11: f64 = (-s10);
+    let s12: f64 = (s9 + s11);
+    let s20: f64 = 0.0;
+    let mut c = vec![0.0; 16 * w];
+    c[0 * w + 0] = x[1];
+    c[1 * w + 0] = c[0 * w + 0].sin();
+    c[2 * w + 0] = c[0 * w + 0].cos();
+    c[3 * w + 0] = x[2];
+    c[4 * w + 0] = x[4];
+    c[5 * w + 0] = c[2 * w + 0] * c[3 * w + 0];
+    c[6 * w + 0] = c[5 * w + 0] * c[4 * w + 0];
+    c[7 * w + 0] = (s2 * s4) * c[6 * w + 0];
+    c[8 * w + 0] = c[2 * w + 0] * c[2 * w + 0];
+    c[9 * w + 0] = (s12) * c[8 * w + 0];
+    c[10 * w + 0] = s10 + c[9 * w + 0];
+    c[11 * w + 0] = c[10 * w + 0] * c[1 * w + 0];
+    c[12 * w + 0] = c[7 * w + 0] / c[11 * w + 0];
+    c[13 * w + 0] = -c[7 * w + 0];
+    c[14 * w + 0] = c[13 * w + 0] / c[11 * w + 0];
+    c[15 * w + 0] = x[3];
+    if order > 0 { out[5 + 4] = s20; }
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 5 + 1];
+            c[1 * w + k] = runtime::recur::sin(&c[0 * w..], &c[2 * w..], k);
+            c[2 * w + k] = runtime::recur::cos(&c[0 * w..], &c[1 * w..], k);
+            c[3 * w + k] = out[k * 5 + 2];
+            c[4 * w + k] = out[k * 5 + 4];
+            c[5 * w + k] = runtime::recur::product(&c[2 * w..], &c[3 * w..], k);
+            c[6 * w + k] = runtime::recur::product(&c[5 * w..], &c[4 * w..], k);
+            c[7 * w + k] = (s2 * s4) * c[6 * w + k];
+            c[8 * w + k] = runtime::recur::product(&c[2 * w..], &c[2 * w..], k);
+            c[9 * w + k] = (s12) * c[8 * w + k];
+            c[10 * w + k] = c[9 * w + k];
+            c[11 * w + k] = runtime::recur::product(&c[10 * w..], &c[1 * w..], k);
+            c[12 * w + k] = runtime::recur::quotient(c[7 * w + k], &c[11 * w..], &c[12 * w..12 * w + k], k);
+            c[13 * w + k] = -c[7 * w + k];
+            c[14 * w + k] = runtime::recur::quotient(c[13 * w + k], &c[11 * w..], &c[14 * w..14 * w + k], k);
+            c[15 * w + k] = out[k * 5 + 3];
+        }
+        out[(k + 1) * 5 + 0] = c[15 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 1] = c[4 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 2] = c[12 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 5 + 3] = c[14 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 7]) -> Result<[S; REDUCED_DIM], EvalError> {

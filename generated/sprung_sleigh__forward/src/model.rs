@@ -1020,6 +1020,167 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
     reduced_from(x, p, &prepare_reduced::<f64>(p)?)
 }
 
+/// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
+/// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
+/// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
+/// operation); None without a closed form or with parameters set in time (the scene core then
+/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
+/// recurrences do not repeat the closed form's definiteness tests.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+    let p = &prep.p;
+    let w = order + 1;
+    out.clear();
+    out.resize(w * 4, 0.0);
+    out[..4].copy_from_slice(&x[..4]);
+    let s0: f64 = p.m_r;
+    let s5: f64 = p.m;
+    let s6: f64 = p.a;
+    let s7: f64 = (s5 * s6);
+    let s10: f64 = p.c_d;
+    let s14: f64 = p.F;
+    let s17: f64 = (-s0);
+    let s19: f64 = p.k;
+    let s20: f64 = (-s19);
+    let s23: f64 = p.L;
+    let s24: f64 = 2.0;
+    let s25: f64 = (s19 * s24);
+    let s26: f64 = (-s25);
+    let s29: f64 = p.c;
+    let s35: f64 = (s19 * s23);
+    let s36: f64 = (-s35);
+    let s39: f64 = p.L0;
+    let s40: f64 = (s23 * s24);
+    let s43: f64 = s23.powi(2);
+    let s52: f64 = (s0 * s5);
+    let s61: f64 = (s6 * s10);
+    let s62: f64 = (-s61);
+    let s65: f64 = p.c_psi;
+    let s66: f64 = (-s65);
+    let s71: f64 = s6.powi(2);
+    let s72: f64 = (s5 * s71);
+    let s73: f64 = p.I;
+    let s77: f64 = (s0 + s5);
+    let mut c = vec![0.0; 54 * w];
+    c[0 * w + 0] = x[2];
+    c[1 * w + 0] = c[0 * w + 0] * c[0 * w + 0];
+    c[2 * w + 0] = x[0];
+    c[3 * w + 0] = (s0) * c[2 * w + 0];
+    c[4 * w + 0] = c[3 * w + 0] + s7;
+    c[5 * w + 0] = c[1 * w + 0] * c[4 * w + 0];
+    c[6 * w + 0] = x[1];
+    c[7 * w + 0] = (s10) * c[6 * w + 0];
+    c[8 * w + 0] = -c[7 * w + 0];
+    c[9 * w + 0] = c[5 * w + 0] + c[8 * w + 0] + s14;
+    c[10 * w + 0] = (s0) * c[9 * w + 0];
+    c[11 * w + 0] = (s0) * c[1 * w + 0];
+    c[12 * w + 0] = c[11 * w + 0] + s20;
+    c[13 * w + 0] = c[2 * w + 0] * c[12 * w + 0];
+    c[14 * w + 0] = c[11 * w + 0] + s26;
+    c[15 * w + 0] = (s23) * c[14 * w + 0];
+    c[16 * w + 0] = x[3];
+    c[17 * w + 0] = (s29) * c[16 * w + 0];
+    c[18 * w + 0] = -c[17 * w + 0];
+    c[19 * w + 0] = c[13 * w + 0] + c[15 * w + 0] + c[18 * w + 0];
+    c[20 * w + 0] = c[2 * w + 0] * c[19 * w + 0];
+    c[21 * w + 0] = c[18 * w + 0] + s36;
+    c[22 * w + 0] = (s23) * c[21 * w + 0];
+    c[23 * w + 0] = c[2 * w + 0] + s40;
+    c[24 * w + 0] = c[2 * w + 0] * c[23 * w + 0];
+    c[25 * w + 0] = c[24 * w + 0] + s43;
+    c[26 * w + 0] = c[25 * w + 0].sqrt();
+    c[27 * w + 0] = (s19 * s39) * c[26 * w + 0];
+    c[28 * w + 0] = c[20 * w + 0] + c[22 * w + 0] + c[27 * w + 0];
+    c[29 * w + 0] = c[2 * w + 0] + s23;
+    c[30 * w + 0] = c[28 * w + 0] / c[29 * w + 0];
+    c[31 * w + 0] = (s17) * c[30 * w + 0];
+    c[32 * w + 0] = c[10 * w + 0] + c[31 * w + 0];
+    c[33 * w + 0] = (1.0 / s52) * c[32 * w + 0];
+    c[34 * w + 0] = -c[6 * w + 0];
+    c[35 * w + 0] = (s24) * c[16 * w + 0];
+    c[36 * w + 0] = -c[35 * w + 0];
+    c[37 * w + 0] = c[34 * w + 0] + c[36 * w + 0];
+    c[38 * w + 0] = c[2 * w + 0] * c[37 * w + 0];
+    c[39 * w + 0] = (s0) * c[38 * w + 0];
+    c[40 * w + 0] = (s5) * c[6 * w + 0];
+    c[41 * w + 0] = -c[40 * w + 0];
+    c[42 * w + 0] = c[41 * w + 0] + s62;
+    c[43 * w + 0] = (s6) * c[42 * w + 0];
+    c[44 * w + 0] = c[39 * w + 0] + c[43 * w + 0] + s66;
+    c[45 * w + 0] = c[0 * w + 0] * c[44 * w + 0];
+    c[46 * w + 0] = c[2 * w + 0] * c[2 * w + 0];
+    c[47 * w + 0] = (s0) * c[46 * w + 0];
+    c[48 * w + 0] = c[47 * w + 0] + s72 + s73;
+    c[49 * w + 0] = c[45 * w + 0] / c[48 * w + 0];
+    c[50 * w + 0] = (s17) * c[9 * w + 0];
+    c[51 * w + 0] = (s77) * c[30 * w + 0];
+    c[52 * w + 0] = c[50 * w + 0] + c[51 * w + 0];
+    c[53 * w + 0] = (1.0 / s52) * c[52 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 4 + 2];
+            c[1 * w + k] = runtime::recur::product(&c[0 * w..], &c[0 * w..], k);
+            c[2 * w + k] = out[k * 4 + 0];
+            c[3 * w + k] = (s0) * c[2 * w + k];
+            c[4 * w + k] = c[3 * w + k];
+            c[5 * w + k] = runtime::recur::product(&c[1 * w..], &c[4 * w..], k);
+            c[6 * w + k] = out[k * 4 + 1];
+            c[7 * w + k] = (s10) * c[6 * w + k];
+            c[8 * w + k] = -c[7 * w + k];
+            c[9 * w + k] = c[5 * w + k] + c[8 * w + k];
+            c[10 * w + k] = (s0) * c[9 * w + k];
+            c[11 * w + k] = (s0) * c[1 * w + k];
+            c[12 * w + k] = c[11 * w + k];
+            c[13 * w + k] = runtime::recur::product(&c[2 * w..], &c[12 * w..], k);
+            c[14 * w + k] = c[11 * w + k];
+            c[15 * w + k] = (s23) * c[14 * w + k];
+            c[16 * w + k] = out[k * 4 + 3];
+            c[17 * w + k] = (s29) * c[16 * w + k];
+            c[18 * w + k] = -c[17 * w + k];
+            c[19 * w + k] = c[13 * w + k] + c[15 * w + k] + c[18 * w + k];
+            c[20 * w + k] = runtime::recur::product(&c[2 * w..], &c[19 * w..], k);
+            c[21 * w + k] = c[18 * w + k];
+            c[22 * w + k] = (s23) * c[21 * w + k];
+            c[23 * w + k] = c[2 * w + k];
+            c[24 * w + k] = runtime::recur::product(&c[2 * w..], &c[23 * w..], k);
+            c[25 * w + k] = c[24 * w + k];
+            c[26 * w + k] = runtime::recur::sqrt(c[25 * w + k], &c[26 * w..26 * w + k], k);
+            c[27 * w + k] = (s19 * s39) * c[26 * w + k];
+            c[28 * w + k] = c[20 * w + k] + c[22 * w + k] + c[27 * w + k];
+            c[29 * w + k] = c[2 * w + k];
+            c[30 * w + k] = runtime::recur::quotient(c[28 * w + k], &c[29 * w..], &c[30 * w..30 * w + k], k);
+            c[31 * w + k] = (s17) * c[30 * w + k];
+            c[32 * w + k] = c[10 * w + k] + c[31 * w + k];
+            c[33 * w + k] = (1.0 / s52) * c[32 * w + k];
+            c[34 * w + k] = -c[6 * w + k];
+            c[35 * w + k] = (s24) * c[16 * w + k];
+            c[36 * w + k] = -c[35 * w + k];
+            c[37 * w + k] = c[34 * w + k] + c[36 * w + k];
+            c[38 * w + k] = runtime::recur::product(&c[2 * w..], &c[37 * w..], k);
+            c[39 * w + k] = (s0) * c[38 * w + k];
+            c[40 * w + k] = (s5) * c[6 * w + k];
+            c[41 * w + k] = -c[40 * w + k];
+            c[42 * w + k] = c[41 * w + k];
+            c[43 * w + k] = (s6) * c[42 * w + k];
+            c[44 * w + k] = c[39 * w + k] + c[43 * w + k];
+            c[45 * w + k] = runtime::recur::product(&c[0 * w..], &c[44 * w..], k);
+            c[46 * w + k] = runtime::recur::product(&c[2 * w..], &c[2 * w..], k);
+            c[47 * w + k] = (s0) * c[46 * w + k];
+            c[48 * w + k] = c[47 * w + k];
+            c[49 * w + k] = runtime::recur::quotient(c[45 * w + k], &c[48 * w..], &c[49 * w..49 * w + k], k);
+            c[50 * w + k] = (s17) * c[9 * w + k];
+            c[51 * w + k] = (s77) * c[30 * w + k];
+            c[52 * w + k] = c[50 * w + k] + c[51 * w + k];
+            c[53 * w + k] = (1.0 / s52) * c[52 * w + k];
+        }
+        out[(k + 1) * 4 + 0] = c[16 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 1] = c[33 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 2] = c[49 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 4 + 3] = c[53 * w + k] / (k + 1) as f64;
+    }
+    Some(())
+}
+
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.
 #[inline(always)]
 fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 20]) -> Result<[S; REDUCED_DIM], EvalError> {

@@ -13,6 +13,7 @@
 use std::cell::RefCell;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
+use crate::recur;
 use crate::scalar::{RationalParts, Scalar};
 
 /// A node of the traced program; operands are earlier nodes.
@@ -300,7 +301,7 @@ fn run(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
                 rest[k] = match *node {
                     Node::Input(j) => out[k * n + j],
                     // its cosine is the next node: its coefficients to k − 1 are known
-                    Node::Sin(a) => weighted(operand(a), &rest[w..w + k], k) / k as f64,
+                    Node::Sin(a) => recur::sin(operand(a), &rest[w..w + k], k),
                     _ => coefficient(*node, k, operand, &rest[..k]),
                 };
             }
@@ -316,41 +317,10 @@ fn run(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
     }
 }
 
-/// Σ_i a[i]·b[len − 1 − i] over slices of one length: a Cauchy product's coefficient. Four
-/// partial sums, so that the additions do not wait on one another.
-#[inline(always)]
-fn convolve(a: &[f64], b: &[f64]) -> f64 {
-    let len = a.len().min(b.len());
-    let (a, b) = (&a[..len], &b[..len]);
-    let mut acc = [0.0; 4];
-    let (chunks, tail) = (len / 4, len % 4);
-    for c in 0..chunks {
-        for (l, s) in acc.iter_mut().enumerate() {
-            let i = 4 * c + l;
-            *s += a[i] * b[len - 1 - i];
-        }
-    }
-    for i in 4 * chunks..4 * chunks + tail {
-        acc[0] += a[i] * b[len - 1 - i];
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3])
-}
-
-/// Σ_{j=1}^{k} j·a[j]·b[k − j], `a` and `b` to coefficient k (b's own coefficient k unused).
-#[inline(always)]
-fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
-    let terms = a[1..=k].iter().zip(b[..k].iter().rev());
-    terms
-        .enumerate()
-        .map(|(j, (x, y))| (j + 1) as f64 * x * y)
-        .sum()
-}
-
-/// Coefficient k ≥ 1 of a node other than an input: `s(a)` is operand a's series to
-/// coefficient k, `own` the node's to k − 1.
+/// Coefficient k ≥ 1 of a node other than an input ([`crate::recur`]): `s(a)` is operand a's
+/// series to coefficient k, `own` the node's to k − 1.
 #[inline(always)]
 fn coefficient<'a>(node: Node, k: usize, s: impl Fn(u32) -> &'a [f64], own: &[f64]) -> f64 {
-    let kf = k as f64;
     match node {
         Node::Input(_) | Node::Const => 0.0,
         Node::Add(a, b) => s(a)[k] + s(b)[k],
@@ -358,50 +328,19 @@ fn coefficient<'a>(node: Node, k: usize, s: impl Fn(u32) -> &'a [f64], own: &[f6
         Node::Neg(a) => -s(a)[k],
         Node::AddConst(a) => s(a)[k],
         Node::Scale(a, m) => m * s(a)[k],
-        Node::Mul(a, b) => convolve(s(a), s(b)),
-        // q·b = a: q[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) / b[0]
-        Node::Div(a, b) => (s(a)[k] - convolve(&s(b)[1..], own)) / s(b)[0],
-        Node::ConstDiv(b) => -convolve(&s(b)[1..], own) / s(b)[0],
-        // r² = a: r[k] = (a[k] − Σ_{j=1}^{k−1} r[j] r[k − j]) / (2 r[0])
-        Node::Sqrt(a) => (s(a)[k] - convolve(&own[1..], &own[1..])) / (2.0 * own[0]),
-        // s' = a' c, c' = −a' s (sin a, whose cosine comes after it, is computed in `run`)
+        Node::Mul(a, b) => recur::product(s(a), s(b), k),
+        Node::Div(a, b) => recur::quotient(s(a)[k], s(b), own, k),
+        // c/b: the quotient of a series that is c at 0 and zero after
+        Node::ConstDiv(b) => recur::quotient(0.0, s(b), own, k),
+        Node::Sqrt(a) => recur::sqrt(s(a)[k], own, k),
+        // sin a, whose cosine comes after it, is computed in `run`
         Node::Sin(..) => unreachable!("computed in run"),
-        Node::Cos(a, sin) => -weighted(s(a), s(sin), k) / kf,
-        // e' = a' e
-        Node::Exp(a) => weighted(s(a), own, k) / kf,
-        // a l' = a': l[k] = (a[k] − (1/k) Σ_{j=1}^{k−1} j l[j] a[k − j]) / a[0]
-        Node::Ln(a) => {
-            let a = s(a);
-            let terms = own[1..k].iter().zip(a[1..k].iter().rev());
-            let sum: f64 = terms
-                .enumerate()
-                .map(|(j, (l, x))| (j + 1) as f64 * l * x)
-                .sum();
-            (a[k] - sum / kf) / a[0]
-        }
-        // t'·r = a', r = 1 + a²
-        Node::Atan(a, r) => (kf * s(a)[k] - quotient_sum(own, s(r), k)) / (kf * s(r)[0]),
-        // t'·r = x y' − y x', r = x² + y²
-        Node::Atan2(y, x, r) => {
-            let (y, x) = (s(y), s(x));
-            let mut g = 0.0;
-            for i in 0..k {
-                let d = (k - i) as f64;
-                g += d * (x[i] * y[k - i] - y[i] * x[k - i]);
-            }
-            (g - quotient_sum(own, s(r), k)) / (kf * s(r)[0])
-        }
+        Node::Cos(a, sin) => recur::cos(s(a), s(sin), k),
+        Node::Exp(a) => recur::exp(s(a), own, k),
+        Node::Ln(a) => recur::ln(s(a), own, k),
+        Node::Atan(a, r) => recur::atan(s(a), s(r), own, k),
+        Node::Atan2(y, x, r) => recur::atan2(s(y), s(x), s(r), own, k),
     }
-}
-
-/// Σ_{j=0}^{k−2} (j + 1) t[j + 1] r[k − 1 − j]: the known part of coefficient k − 1 of t'·r.
-#[inline(always)]
-fn quotient_sum(t: &[f64], r: &[f64], k: usize) -> f64 {
-    let mut s = 0.0;
-    for j in 0..k.saturating_sub(1) {
-        s += (j + 1) as f64 * t[j + 1] * r[k - 1 - j];
-    }
-    s
 }
 
 #[cfg(test)]

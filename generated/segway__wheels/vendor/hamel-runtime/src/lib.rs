@@ -28,6 +28,7 @@ mod fixed;
 mod jet;
 mod lanes;
 pub mod lu;
+pub mod recur;
 mod scalar;
 mod series;
 mod structured;

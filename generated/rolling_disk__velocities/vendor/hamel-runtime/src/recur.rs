@@ -1,0 +1,112 @@
+//! The automatic differentiation recurrences of the Taylor method (Jorba & Zou 2005, §3), one
+//! coefficient at a time: coefficient k ≥ 1 of an operation's result from its operands' series
+//! to k and its own to k − 1. Normalised coefficients, x(t₀ + τ) = Σ_j x[j] τ^j. What the
+//! interpreter of traced programs ([`crate::taylor_by_trace`]) and the generated cores'
+//! compiled recurrences (`reduced_series`) both call, so that the two compute alike.
+//!
+//! Slices: `a`, `b`, … an operand's coefficients 0..=k (at least), `own` the result's 0..k.
+
+/// Σ_i a[i]·b[len − 1 − i] over slices of one length: a Cauchy product's coefficient. Four
+/// partial sums, so that the additions do not wait on one another.
+#[inline(always)]
+pub fn convolve(a: &[f64], b: &[f64]) -> f64 {
+    let len = a.len().min(b.len());
+    let (a, b) = (&a[..len], &b[..len]);
+    let mut acc = [0.0; 4];
+    let (chunks, tail) = (len / 4, len % 4);
+    for c in 0..chunks {
+        for (l, s) in acc.iter_mut().enumerate() {
+            let i = 4 * c + l;
+            *s += a[i] * b[len - 1 - i];
+        }
+    }
+    for i in 4 * chunks..4 * chunks + tail {
+        acc[0] += a[i] * b[len - 1 - i];
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+/// Σ_{j=1}^{k} j·a[j]·b[k − j], `a` and `b` to coefficient k (b's own coefficient k unused).
+#[inline(always)]
+pub fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
+    let terms = a[1..=k].iter().zip(b[..k].iter().rev());
+    terms
+        .enumerate()
+        .map(|(j, (x, y))| (j + 1) as f64 * x * y)
+        .sum()
+}
+
+/// (a·b)[k].
+#[inline(always)]
+pub fn product(a: &[f64], b: &[f64], k: usize) -> f64 {
+    convolve(&a[..=k], &b[..=k])
+}
+
+/// (a/b)[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) / b[0].
+#[inline(always)]
+pub fn quotient(a_k: f64, b: &[f64], own: &[f64], k: usize) -> f64 {
+    (a_k - convolve(&b[1..=k], &own[..k])) / b[0]
+}
+
+/// √a[k] = (a[k] − Σ_{j=1}^{k−1} r[j] r[k − j]) / (2 r[0]).
+#[inline(always)]
+pub fn sqrt(a_k: f64, own: &[f64], k: usize) -> f64 {
+    (a_k - convolve(&own[1..k], &own[1..k])) / (2.0 * own[0])
+}
+
+/// (sin a)[k] from a and cos a: s' = a' c.
+#[inline(always)]
+pub fn sin(a: &[f64], cos: &[f64], k: usize) -> f64 {
+    weighted(a, cos, k) / k as f64
+}
+
+/// (cos a)[k] from a and sin a: c' = −a' s.
+#[inline(always)]
+pub fn cos(a: &[f64], sin: &[f64], k: usize) -> f64 {
+    -weighted(a, sin, k) / k as f64
+}
+
+/// (exp a)[k]: e' = a' e.
+#[inline(always)]
+pub fn exp(a: &[f64], own: &[f64], k: usize) -> f64 {
+    weighted(a, own, k) / k as f64
+}
+
+/// (ln a)[k] = (a[k] − (1/k) Σ_{j=1}^{k−1} j l[j] a[k − j]) / a[0]: a l' = a'.
+#[inline(always)]
+pub fn ln(a: &[f64], own: &[f64], k: usize) -> f64 {
+    let terms = own[1..k].iter().zip(a[1..k].iter().rev());
+    let sum: f64 = terms
+        .enumerate()
+        .map(|(j, (l, x))| (j + 1) as f64 * l * x)
+        .sum();
+    (a[k] - sum / k as f64) / a[0]
+}
+
+/// (atan a)[k] with r = 1 + a²: t'·r = a'.
+#[inline(always)]
+pub fn atan(a: &[f64], r: &[f64], own: &[f64], k: usize) -> f64 {
+    let kf = k as f64;
+    (kf * a[k] - quotient_sum(own, r, k)) / (kf * r[0])
+}
+
+/// atan2(y, x)[k] with r = x² + y²: t'·r = x y' − y x'.
+#[inline(always)]
+pub fn atan2(y: &[f64], x: &[f64], r: &[f64], own: &[f64], k: usize) -> f64 {
+    let mut g = 0.0;
+    for i in 0..k {
+        let d = (k - i) as f64;
+        g += d * (x[i] * y[k - i] - y[i] * x[k - i]);
+    }
+    (g - quotient_sum(own, r, k)) / (k as f64 * r[0])
+}
+
+/// Σ_{j=0}^{k−2} (j + 1) t[j + 1] r[k − 1 − j]: the known part of coefficient k − 1 of t'·r.
+#[inline(always)]
+fn quotient_sum(t: &[f64], r: &[f64], k: usize) -> f64 {
+    let mut s = 0.0;
+    for j in 0..k.saturating_sub(1) {
+        s += (j + 1) as f64 * t[j + 1] * r[k - 1 - j];
+    }
+    s
+}
