@@ -304,99 +304,46 @@ impl Series {
         work: &[f64],
         width: usize,
     ) -> f64 {
+        use hamel_runtime::recur;
         let x = |j: usize, m: usize| work[j * width + m];
-        let me = |m: usize| work[i * width + m];
-        let kf = k as f64;
+        // operand j's series to k, the node's own to k − 1
+        let s = |j: usize| &work[j * width..j * width + k + 1];
+        let own = &work[i * width..i * width + k];
+        if k == 0 {
+            return match *node {
+                Node::State(s) => state[s],
+                Node::Time => t0,
+                Node::Const(c) => c,
+                Node::Add(ref a) => a.iter().map(|&j| x(j, 0)).sum(),
+                Node::Neg(a) => -x(a, 0),
+                Node::Mul(a, b) => x(a, 0) * x(b, 0),
+                Node::Div(a, b) => x(a, 0) / x(b, 0),
+                Node::Pow(a, r) => x(a, 0).powf(r),
+                Node::Sqrt(a) => x(a, 0).sqrt(),
+                Node::Sin(a, _) => x(a, 0).sin(),
+                Node::Cos(a, _) => x(a, 0).cos(),
+                Node::Exp(a) => x(a, 0).exp(),
+                Node::Log(a) => x(a, 0).ln(),
+                Node::Atan(a, _) => x(a, 0).atan(),
+                Node::Atan2(y, xn, _) => x(y, 0).atan2(x(xn, 0)),
+            };
+        }
         match *node {
             Node::State(s) => state[k * self.dim + s],
-            Node::Time => match k {
-                0 => t0,
-                1 => 1.0,
-                _ => 0.0,
-            },
-            Node::Const(c) => {
-                if k == 0 {
-                    c
-                } else {
-                    0.0
-                }
-            }
+            Node::Time => f64::from(k == 1),
+            Node::Const(_) => 0.0,
             Node::Add(ref a) => a.iter().map(|&j| x(j, k)).sum(),
             Node::Neg(a) => -x(a, k),
-            Node::Mul(a, b) => (0..=k).map(|j| x(a, j) * x(b, k - j)).sum(),
-            Node::Div(a, b) => {
-                let s: f64 = (1..=k).map(|j| x(b, j) * me(k - j)).sum();
-                (x(a, k) - s) / x(b, 0)
-            }
-            Node::Pow(a, r) => {
-                if k == 0 {
-                    return x(a, 0).powf(r);
-                }
-                let s: f64 = (0..k)
-                    .map(|j| (r * (k - j) as f64 - j as f64) * x(a, k - j) * me(j))
-                    .sum();
-                s / (kf * x(a, 0))
-            }
-            Node::Sqrt(a) => {
-                if k == 0 {
-                    return x(a, 0).sqrt();
-                }
-                let s: f64 = (1..k).map(|j| me(j) * me(k - j)).sum();
-                (x(a, k) - s) / (2.0 * me(0))
-            }
-            Node::Sin(a, c) => {
-                if k == 0 {
-                    return x(a, 0).sin();
-                }
-                (1..=k)
-                    .map(|j| j as f64 * x(a, j) * x(c, k - j))
-                    .sum::<f64>()
-                    / kf
-            }
-            Node::Cos(a, s) => {
-                if k == 0 {
-                    return x(a, 0).cos();
-                }
-                -(1..=k)
-                    .map(|j| j as f64 * x(a, j) * x(s, k - j))
-                    .sum::<f64>()
-                    / kf
-            }
-            Node::Exp(a) => {
-                if k == 0 {
-                    return x(a, 0).exp();
-                }
-                (1..=k).map(|j| j as f64 * x(a, j) * me(k - j)).sum::<f64>() / kf
-            }
-            Node::Log(a) => {
-                if k == 0 {
-                    return x(a, 0).ln();
-                }
-                let s: f64 = (1..k).map(|j| j as f64 * me(j) * x(a, k - j)).sum();
-                (x(a, k) - s / kf) / x(a, 0)
-            }
-            Node::Atan(a, d) => {
-                if k == 0 {
-                    return x(a, 0).atan();
-                }
-                // d θ' = a': k θ[k] d[0] = k a[k] − Σ_{j=1}^{k−1} d[j] (k − j) θ[k − j]
-                let s: f64 = (1..k).map(|j| x(d, j) * (k - j) as f64 * me(k - j)).sum();
-                (kf * x(a, k) - s) / (kf * x(d, 0))
-            }
-            Node::Atan2(y, xn, r) => {
-                if k == 0 {
-                    return x(y, 0).atan2(x(xn, 0));
-                }
-                // r θ' = x y' − y x': w[k−1] = Σ_{j=0}^{k−1} (j+1)(x[k−1−j] y[j+1] − y[k−1−j] x[j+1])
-                let w: f64 = (0..k)
-                    .map(|j| {
-                        (j + 1) as f64
-                            * (x(xn, k - 1 - j) * x(y, j + 1) - x(y, k - 1 - j) * x(xn, j + 1))
-                    })
-                    .sum();
-                let s: f64 = (1..k).map(|j| x(r, j) * (k - j) as f64 * me(k - j)).sum();
-                (w - s) / (kf * x(r, 0))
-            }
+            Node::Mul(a, b) => recur::product(s(a), s(b), k),
+            Node::Div(a, b) => recur::quotient(x(a, k), s(b), own, k),
+            Node::Pow(a, r) => recur::power(s(a), own, r, k),
+            Node::Sqrt(a) => recur::sqrt(x(a, k), own, k),
+            Node::Sin(a, c) => recur::sin(s(a), s(c), k),
+            Node::Cos(a, sn) => recur::cos(s(a), s(sn), k),
+            Node::Exp(a) => recur::exp(s(a), own, k),
+            Node::Log(a) => recur::ln(s(a), own, k),
+            Node::Atan(a, d) => recur::atan(s(a), s(d), own, k),
+            Node::Atan2(y, xn, r) => recur::atan2(s(y), s(xn), s(r), own, k),
         }
     }
 }

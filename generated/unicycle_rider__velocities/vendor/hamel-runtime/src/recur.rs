@@ -83,6 +83,17 @@ pub fn ln(a: &[f64], own: &[f64], k: usize) -> f64 {
     (a[k] - sum / k as f64) / a[0]
 }
 
+/// (a^r)[k] for a constant real r: a·p' = r·a'·p, p[k] = Σ_{j=0}^{k−1} (r(k − j) − j) a[k − j]
+/// p[j] / (k a[0]).
+#[inline(always)]
+pub fn power(a: &[f64], own: &[f64], r: f64, k: usize) -> f64 {
+    let mut s = 0.0;
+    for (j, p) in own[..k].iter().enumerate() {
+        s += (r * (k - j) as f64 - j as f64) * a[k - j] * p;
+    }
+    s / (k as f64 * a[0])
+}
+
 /// (atan a)[k] with r = 1 + a²: t'·r = a'.
 #[inline(always)]
 pub fn atan(a: &[f64], r: &[f64], own: &[f64], k: usize) -> f64 {
