@@ -454,21 +454,10 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
                 crate::taylor::sum(&series, n, theta * h, out)
             })?;
             let t_stop = terminal.unwrap_or(t_next);
-            while let Some(&t_out) = self.outputs.get(next) {
-                if (t_out - t_stop) * direction > 0.0 {
-                    break;
-                }
-                if t_out == t_next {
-                    self.recorder.push(t_out, &y_out);
-                } else {
-                    crate::taylor::sum(&series, n, t_out - self.t, &mut y_at);
-                    self.ev
-                        .project(t_out, &mut y_at, false)
-                        .map_err(|failure| self.step_failure(failure, h))?;
-                    self.recorder.push(t_out, &y_at);
-                }
-                next += 1;
-            }
+            let mut extension =
+                |theta: f64, out: &mut [f64]| crate::taylor::sum(&series, n, theta * h, out);
+            let step = (h, t_next, t_stop);
+            next = self.outputs_in(step, &y_out, next, &mut extension, &mut y_at)?;
             if terminal.is_some() {
                 return Ok(());
             }
@@ -589,28 +578,12 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
                 None => None,
             };
             let t_stop = terminal.unwrap_or(t_new);
-            while let Some(&t_out) = self.outputs.get(next) {
-                if (t_out - t_stop) * direction > 0.0 {
-                    break;
-                }
-                if t_out == t_new {
-                    self.recorder.push(t_out, &y_new);
-                } else {
-                    let interpolant = stepper.interpolant().expect("dense output prepared");
-                    interpolant.interpolate((t_out - self.t) / h_try, &mut dense_out);
-                    if !dense_out.iter().all(|v| v.is_finite()) {
-                        return Err(self.fail(
-                            ErrorKind::NonFiniteState,
-                            format!("dense output at t = {t_out} is not finite"),
-                        ));
-                    }
-                    self.ev
-                        .project(t_out, &mut dense_out, false)
-                        .map_err(|failure| self.step_failure(failure, h_try))?;
-                    self.recorder.push(t_out, &dense_out);
-                }
-                next += 1;
-            }
+            let mut extension = |theta: f64, out: &mut [f64]| {
+                let interpolant = stepper.interpolant().expect("dense output prepared");
+                interpolant.interpolate(theta, out)
+            };
+            let step = (h_try, t_new, t_stop);
+            next = self.outputs_in(step, &y_new, next, &mut extension, &mut dense_out)?;
             if terminal.is_some() {
                 return Ok(());
             }
@@ -632,6 +605,42 @@ impl<S: OdeSystem + ?Sized> Run<'_, '_, S> {
             (after_reject, last_failure) = (false, None);
         }
         Ok(())
+    }
+
+    /// The outputs from `next` on up to `t_stop` in the accepted step from `self.t` by `h` to
+    /// `(t_new, y_new)`: the step's end itself, or read off its continuous extension
+    /// `state(θ, out)` (checked finite, projected) through `buffer`. The next output's index.
+    fn outputs_in(
+        &mut self,
+        (h, t_new, t_stop): (f64, f64, f64),
+        y_new: &[f64],
+        mut next: usize,
+        state: &mut dyn FnMut(f64, &mut [f64]),
+        buffer: &mut [f64],
+    ) -> Result<usize, Failure> {
+        let direction = h.signum();
+        while let Some(&t_out) = self.outputs.get(next) {
+            if (t_out - t_stop) * direction > 0.0 {
+                break;
+            }
+            if t_out == t_new {
+                self.recorder.push(t_out, y_new);
+            } else {
+                state((t_out - self.t) / h, buffer);
+                if !buffer.iter().all(|v| v.is_finite()) {
+                    return Err(self.fail(
+                        ErrorKind::NonFiniteState,
+                        format!("dense output at t = {t_out} is not finite"),
+                    ));
+                }
+                self.ev
+                    .project(t_out, buffer, false)
+                    .map_err(|failure| self.step_failure(failure, h))?;
+                self.recorder.push(t_out, buffer);
+            }
+            next += 1;
+        }
+        Ok(next)
     }
 
     /// The events over the accepted step from `self.t` by `h` to `(t_new, y_new)` (projected),
