@@ -10,6 +10,9 @@
 //!
 //! It prints law/constant for each, from criterion's estimates of this same run.
 
+mod common;
+
+use common::{estimate, uniform};
 use criterion::{Criterion, criterion_group};
 use hamel_models::{Core, MODELS};
 use std::hint::black_box;
@@ -23,15 +26,9 @@ fn core(scene: &str) -> &'static Core {
         .expect("the Segway's cores are generated")
 }
 
-/// Deterministic states in [-1, 1) (a linear congruential sequence: no dependency needed).
+/// Deterministic states in [-1, 1).
 fn states(n: usize) -> Vec<Vec<f64>> {
-    let mut s: u64 = 0x2545_f491_4f6c_dd1d;
-    let mut next = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut next = uniform();
     (0..STATES)
         .map(|_| (0..n).map(|_| next()).collect())
         .collect()
@@ -66,14 +63,6 @@ fn benches(c: &mut Criterion) {
             })
         });
     }
-}
-
-/// Criterion's point estimate of the mean, in seconds, for a benchmark of this run.
-fn estimate(id: &str) -> Option<f64> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/criterion");
-    let text = std::fs::read_to_string(dir.join(id).join("new/estimates.json")).ok()?;
-    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
-    Some(v["mean"]["point_estimate"].as_f64()? * 1e-9)
 }
 
 fn summary() {

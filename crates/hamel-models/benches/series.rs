@@ -11,6 +11,9 @@
 //!
 //! It prints traced/compiled for each, from criterion's estimates of this same run.
 
+mod common;
+
+use common::{estimate, uniform};
 use criterion::{Criterion, criterion_group};
 use hamel_models::{Core, MODELS};
 use std::hint::black_box;
@@ -24,16 +27,10 @@ fn core(model: &str, eta: &str) -> &'static Core {
         .expect("the core is generated")
 }
 
-/// Admissible reduced states in [-1, 1) (a linear congruential sequence).
+/// Admissible reduced states in [-1, 1).
 fn states(core: &Core) -> Vec<Vec<f64>> {
     let n = core.kept.len() + core.dims.sigma;
-    let mut s: u64 = 0x2545_f491_4f6c_dd1d;
-    let mut next = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut next = uniform();
     let mut out = Vec::new();
     while out.len() < STATES {
         let x: Vec<f64> = (0..n).map(|_| next()).collect();
@@ -71,15 +68,6 @@ fn benches(c: &mut Criterion) {
     }
 }
 
-/// Criterion's point estimate of the mean, in seconds, for a benchmark of this run.
-fn estimate(id: &str) -> Option<f64> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/criterion");
-    let text = std::fs::read_to_string(dir.join(id).join("new/estimates.json")).ok()?;
-    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
-    Some(v["mean"]["point_estimate"].as_f64()? * 1e-9)
-}
-
-/// traced/compiled from this run's estimates.
 fn summary() {
     println!("\nThe compiled recurrences against the traced ones (same states, this run)");
     for (model, _) in CASES {
