@@ -493,8 +493,14 @@ fn codegen(
     let model = load_for(path, eta)?;
     let w = hamel_codegen::write::write_crate(&model, eta, eliminate, out, options)
         .map_err(|e| e.locate(&model))?;
+    let partials = match w.partials {
+        0 => String::new(),
+        k => format!(
+            " (the derivatives of Z, α and A not written: taken at run time by dual numbers in {k} coordinates)"
+        ),
+    };
     eprintln!(
-        "wrote {} files to {} in {:.2} s; ingredients: {} operations as trees, {} shared",
+        "wrote {} files to {} in {:.2} s; ingredients: {} operations as trees, {} shared{partials}",
         w.files,
         out.display(),
         started.elapsed().as_secs_f64(),

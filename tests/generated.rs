@@ -485,3 +485,50 @@ fn compiled_taylor_recurrences_match_the_traced_ones() {
     );
     assert!(compiled >= 15, "{compiled}");
 }
+
+/// SymPy's count for the same bicycle: test_kane3's mass matrix and forcing after `cse`
+/// (`python3 bench/sympy_bicycle.py --count`, SymPy 1.14; docs/models/whipple_bicycle.md).
+const SYMPY_BICYCLE_OPERATIONS: usize = 2_513;
+
+/// The bicycle's core writes Z, α and A once and takes their derivatives at run time by dual
+/// numbers (`hamel_runtime::ingredients_by_partials`): every ingredient, the derivative blocks
+/// included, against the derivation's own trees (∂A/∂q_k, ∂Z/∂q_k, ∂α/∂q_k taken symbolically,
+/// `Expr::diff`) evaluated by the interpreter, at random configurations; and what it writes is
+/// at most SymPy's operations.
+#[test]
+fn the_bicycles_derivatives_by_dual_numbers_are_its_trees_derivatives() {
+    use hamel_models::whipple_bicycle__benchmark as core;
+    let models = common::models();
+    let model = &*common::model_of_core(&models, "whipple_bicycle", "");
+    let d = hamel_derive::derive(model, Some("benchmark")).unwrap();
+    let exprs = d.ingredient_exprs().unwrap();
+    let inputs: Vec<String> = (d.coordinates.iter().chain(d.parameters.keys()))
+        .cloned()
+        .collect();
+    let trees = hamel_expr::Tape::compile(&exprs, &inputs).unwrap();
+    assert_eq!(exprs.len(), core::LEN);
+    let p = core::Parameters::default();
+    let mut rng = ChaCha8Rng::seed_from_u64(63);
+    let mut worst = 0.0f64;
+    for _ in 0..20 {
+        let q: Vec<f64> = (0..d.ell).map(|_| rng.random_range(-1.5..1.5)).collect();
+        let at: Vec<f64> = q
+            .iter()
+            .copied()
+            .chain(d.parameters.values().copied())
+            .collect();
+        let expected = trees.eval(&at).unwrap();
+        let mut got = [0.0; core::LEN];
+        core::ingredients(&q, &p, &mut got);
+        let scale = expected.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+        for (g, e) in got.iter().zip(&expected) {
+            worst = worst.max((g - e).abs() / scale);
+        }
+    }
+    println!(
+        "bicycle: ingredients by dual numbers against the trees' derivatives {worst:.1e}; {} shared operations written (SymPy {SYMPY_BICYCLE_OPERATIONS})",
+        core::OPERATIONS.1
+    );
+    assert!(worst <= 1e-13, "{worst:e}");
+    assert!(core::OPERATIONS.1 <= SYMPY_BICYCLE_OPERATIONS);
+}

@@ -14,11 +14,13 @@ use crate::{CodegenError, RUNTIME_SOURCES, escape, manifest};
 
 mod contact;
 mod emit;
+mod ingredients;
 mod path;
 mod series;
 mod solved;
 
 use emit::*;
+use ingredients::IngredientCode;
 use path::*;
 use solved::*;
 
@@ -31,6 +33,10 @@ pub struct Generated {
     pub ops_trees: usize,
     /// The same after sharing common subexpressions.
     pub ops_shared: usize,
+    /// Coordinates whose derivatives of Z, α and A the code takes at run time by dual
+    /// numbers (a structured derivation: `hamel_runtime::ingredients_by_partials`), not written
+    /// as trees; 0 when the derivatives are written.
+    pub partials: usize,
     /// The solved form written into `solved` (used by `fast` or not).
     pub solved: SolvedForm,
 }
@@ -87,6 +93,7 @@ pub fn generate(
         files,
         ops_trees: code.ops_trees,
         ops_shared: code.ops_shared,
+        partials: code.ingredients.partials(),
         solved: match code.candidate {
             Some(c) => SolvedForm {
                 name: c.name,
@@ -153,7 +160,7 @@ fn fill(template: &str, fields: &[(&str, String)]) -> Result<String, CodegenErro
 /// The generated code's pieces: the ingredients' tape, the solved form chosen for the full
 /// system and, when it compiles without the eliminated coordinates, for the reduced one.
 struct Code {
-    tape: Tape,
+    ingredients: IngredientCode,
     /// α(q) alone (the constraint residual needs nothing else).
     alpha: Tape,
     /// The body of `energy_from`, and what it computes, for the docs.
@@ -199,11 +206,12 @@ impl Code {
             .cloned()
             .chain(params.clone())
             .collect();
-        let tape = Tape::compile(&exprs, &inputs)?;
         // Where α and U lie in the ingredients (the runtime's `Layout`: Z, α, A, U, …).
         let rho = d.dims().rho();
         let alpha_at = d.sigma * d.ell;
         let u_at = alpha_at + rho * d.ell + d.ell * d.ell;
+        let ingredients = IngredientCode::new(d, &exprs, &inputs, u_at)?;
+        let (ops_trees, ops_shared) = ingredients.operations(&exprs, u_at + 1 + d.ell);
         let alpha_exprs = &exprs[alpha_at..alpha_at + rho * d.ell];
         let alpha = Tape::compile(alpha_exprs, &inputs)?;
         let h: Vec<&Expr> = d.holonomic.iter().map(|c| &c.h.expr).collect();
@@ -223,9 +231,14 @@ impl Code {
             eta: "eta",
             eta_at: 0,
         };
-        let (choice, solved) =
-            choose_path(d, &tape, solved_candidates(d), &solved_inputs, &full_slots)
-                .map_err(CodegenError::Path)?;
+        let (choice, solved) = choose_path(
+            d,
+            ops_shared,
+            solved_candidates(d),
+            &solved_inputs,
+            &full_slots,
+        )
+        .map_err(CodegenError::Path)?;
         let reduced_tape = solved.as_ref().and_then(|(candidate, _)| {
             // Also with nothing eliminated: the reduced form is then the solved form itself,
             // with its parameter-only values prepared once (evaluating `fast` at each call
@@ -282,11 +295,11 @@ impl Code {
             energy_part,
             residual_part,
             monitors_in_lanes: d.closed().is_some(),
-            ops_trees: exprs.iter().map(|e| e.tree_operations()).sum(),
-            ops_shared: tape.operation_count(),
+            ops_trees,
+            ops_shared,
             solved_ops: solved.as_ref().map_or(0, |(_, t)| t.operation_count()),
             reduced_solved: reduced_tape.is_some(),
-            tape,
+            ingredients,
             holonomic,
             forces,
             params,
@@ -371,7 +384,10 @@ impl Code {
             ("ops_trees", self.ops_trees.to_string()),
             ("ops_shared", self.ops_shared.to_string()),
             ("solved_ops", self.solved_ops.to_string()),
-            ("body", straight_line(&self.tape, &full_slots)),
+            ("body", self.ingredients.body(&full_slots)),
+            ("ingredient_parts", self.ingredients.parts(&full_slots)),
+            ("ingredients_doc", self.ingredients.doc().into()),
+            ("partials_doc", self.ingredients.partials_doc(d)),
             ("alpha_body", straight_line(&self.alpha, &full_slots)),
             ("energy_body", self.energy_part.0.clone()),
             ("energy_doc", self.energy_part.1.to_string()),

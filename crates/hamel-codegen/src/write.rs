@@ -68,6 +68,9 @@ pub struct Written {
     pub ops_trees: usize,
     /// See `ops_trees`.
     pub ops_shared: usize,
+    /// Coordinates whose derivatives of Z, α and A are taken at run time by dual numbers
+    /// (a structured derivation), not written as trees; 0 when they are written.
+    pub partials: usize,
 }
 
 /// How to write the crate.
@@ -135,6 +138,7 @@ pub fn write_crate(
         files: g.files.len(),
         ops_trees: g.ops_trees,
         ops_shared: g.ops_shared,
+        partials: g.partials,
     })
 }
 

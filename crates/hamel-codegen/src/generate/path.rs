@@ -210,7 +210,7 @@ pub(super) fn near_singular_set(
 /// structured derivation, which has no closed form to solve.
 pub(super) fn choose_path(
     d: &Derivation,
-    ingredients: &Tape,
+    ingredient_ops: usize,
     candidates: Vec<Candidate>,
     inputs: &[String],
     slots: &Slots,
@@ -219,7 +219,7 @@ pub(super) fn choose_path(
     if candidates.is_empty() {
         let doc = format!(
             "structured (the derivation is in structured form, docs/derivation.md §6: no closed form to solve; estimate: {} operations = ingredients + ℓ³ + σ²ℓ²)",
-            ingredients.operation_count() + ell.pow(3) + d.sigma.pow(2) * ell.pow(2)
+            ingredient_ops + ell.pow(3) + d.sigma.pow(2) * ell.pow(2)
         );
         return Ok((PathChoice { solved: false, doc }, None));
     }
@@ -237,7 +237,7 @@ pub(super) fn choose_path(
         })
         .collect::<Result<_, String>>()?;
     tried.sort_by_key(|t| (t.0, t.1));
-    let ops_s = ingredients.operation_count() + ell.pow(3) + d.sigma.pow(2) * ell.pow(2);
+    let ops_s = ingredient_ops + ell.pow(3) + d.sigma.pow(2) * ell.pow(2);
     let compiled = d.compile().map_err(|e| e.to_string())?;
     let near_states = near_singular_states(d, &compiled);
     let mut notes = Vec::new();

@@ -28,6 +28,7 @@ mod fixed;
 mod jet;
 mod lanes;
 pub mod lu;
+mod partials;
 pub mod recur;
 mod scalar;
 mod series;
@@ -42,6 +43,7 @@ pub use fixed::{Buffers, Fixed, Precision, Rhs, Storage};
 pub use jet::{JET_CAPACITY, Jet, JetFailure, taylor_by_jets};
 pub use lanes::{LANES, LaneFn, Lanes, abs_max, max_abs, over_rows};
 pub use lu::{Lu, solve_system};
+pub use partials::{Partials, ingredients_by_partials};
 pub use scalar::{RationalParts, Scalar, widen};
 pub use series::{SeriesFailure, Traced, taylor_by_trace};
 pub use structured::{

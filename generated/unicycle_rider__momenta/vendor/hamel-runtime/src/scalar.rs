@@ -20,6 +20,7 @@ pub struct RationalParts {
 /// [`crate::DualN`]) for exact derivatives, and double-double ([`DD`]).
 pub trait Scalar:
     Copy
+    + 'static
     + Add<Output = Self>
     + Sub<Output = Self>
     + Mul<Output = Self>
