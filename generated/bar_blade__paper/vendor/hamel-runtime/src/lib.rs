@@ -5,7 +5,8 @@
 //! partial pivoting over any scalar ([`lu`]), [`Lanes`] (four f64 evaluated together, for
 //! monitors over many states: [`over_rows`]), and the structured Boltzmann–Hamel right-hand
 //! side (6), (9), (11) assembled from the ingredients Z, α, A, U, ∇U, ∂A/∂q, ∂Z/∂q, ∂α/∂q
-//! ([`Structured`]), with its f64 error estimate; after an evaluation, the constraints'
+//! ([`Structured`]), with its f64 error estimate; for a structured derivation's core, the
+//! derivative blocks of Z, α, A by dual numbers at run time ([`ingredients_by_partials`]); after an evaluation, the constraints'
 //! multipliers and q̈ ([`Structured::constraint_force`]) and the normal forces of the wheels a
 //! frame carries ([`support_normals`], issue 58).
 //!
