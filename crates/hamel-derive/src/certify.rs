@@ -155,6 +155,7 @@ impl Div for Interval {
 }
 
 impl Scalar for Interval {
+    hamel_runtime::plain_itself!();
     fn constant(v: f64) -> Self {
         Interval::point(v)
     }

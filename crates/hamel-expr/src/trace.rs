@@ -210,6 +210,7 @@ impl Neg for Traced {
 }
 
 impl Scalar for Traced {
+    hamel_runtime::plain_itself!();
     fn constant(v: f64) -> Self {
         Traced::constant_of(v)
     }

@@ -104,6 +104,7 @@ impl<T: Scalar, const K: usize> Neg for Partials<T, K> {
 }
 
 impl<T: Scalar, const K: usize> Scalar for Partials<T, K> {
+    crate::plain_itself!();
     fn constant(v: f64) -> Self {
         Partials {
             v: T::constant(v),
@@ -171,8 +172,9 @@ impl<T: Scalar, const K: usize> Scalar for Partials<T, K> {
 /// `layout.len`.
 ///
 /// The geometry is given twice, as the same generic function: `hot` over `Partials<f64, K>`,
-/// inlined, used when `S` is f64; `cold` over `Cold<Partials<S, K>>` for the wide types (the
-/// double-double repeat, the Jacobian's duals), every operation a call, so that the compiler is
+/// inlined, used when `S` is f64; `cold` over `Cold<Partials<S::Plain, K>>` for the wide types
+/// (the double-double repeat, the Jacobian's duals; `Plain` unwraps a `Cold` they come in, so
+/// that each operation is one call with the arithmetic inside it), so that the compiler is
 /// not handed the geometry inlined once per wide type ([`Cold`]'s reason: the bicycle's core took
 /// 3 min 53 s to build with it inlined, against 24 s before).
 pub fn ingredients_by_partials<
@@ -187,12 +189,22 @@ pub fn ingredients_by_partials<
     dims: Dims,
     out: &mut [S],
     hot: impl FnOnce(&[Partials<f64, K>], &mut [Partials<f64, K>]),
-    cold: impl FnOnce(&[Cold<Partials<S, K>>], &mut [Cold<Partials<S, K>>]),
+    cold: impl FnOnce(&[Cold<Partials<S::Plain, K>>], &mut [Cold<Partials<S::Plain, K>>]),
 ) {
     if let (Some(q), Some(out)) = (as_f64::<S, L>(q), as_f64_mut::<S, N>(out)) {
         return spread::<f64, Partials<f64, K>, K, L, G>(q, moving, dims, out, hot, |x| x, |x| x);
     }
-    spread::<S, Cold<Partials<S, K>>, K, L, G>(q, moving, dims, out, cold, Cold, |x| x.0);
+    let wrap = |x: Partials<S, K>| {
+        Cold(Partials {
+            v: x.v.to_plain(),
+            d: x.d.map(S::to_plain),
+        })
+    };
+    let unwrap = |x: Cold<Partials<S::Plain, K>>| Partials {
+        v: S::from_plain(x.0.v),
+        d: x.0.d.map(S::from_plain),
+    };
+    spread::<S, Cold<Partials<S::Plain, K>>, K, L, G>(q, moving, dims, out, cold, wrap, unwrap);
 }
 
 /// `q` as f64 when `S` is f64 (and it has `L` entries).
@@ -335,6 +347,19 @@ mod tests {
         let wide = &mut wide[..layout.len];
         let qd = q.map(|v| Dual::new(v, 0.0));
         ingredients_by_partials::<Dual, 2, 2, 8, N>(&qd, &[0, 1], dims, wide, geometry, geometry);
+        // … and so does a `Cold` one, computed in its plain type.
+        let mut cold = [crate::Cold(Dual::new(7.0, 0.0)); 64];
+        let cold = &mut cold[..layout.len];
+        let qc = qd.map(crate::Cold);
+        ingredients_by_partials::<crate::Cold<Dual>, 2, 2, 8, N>(
+            &qc,
+            &[0, 1],
+            dims,
+            cold,
+            geometry,
+            geometry,
+        );
+        assert!(wide.iter().zip(cold.iter()).all(|(w, c)| w.v == c.0.v));
         for (w, o) in wide
             .iter()
             .zip(out.iter())

@@ -158,6 +158,7 @@ impl Div for Traced {
 }
 
 impl Scalar for Traced {
+    crate::plain_itself!();
     fn constant(v: f64) -> Self {
         Traced::constant_of(v)
     }

@@ -65,6 +65,7 @@ impl Neg for Lanes {
 }
 
 impl Scalar for Lanes {
+    crate::plain_itself!();
     #[inline(always)]
     fn constant(v: f64) -> Self {
         Lanes([v; LANES])

@@ -142,6 +142,7 @@ impl Div for Jet {
 }
 
 impl Scalar for Jet {
+    crate::plain_itself!();
     fn constant(v: f64) -> Self {
         let mut j = Jet::with_len(1);
         j.c[0] = v;

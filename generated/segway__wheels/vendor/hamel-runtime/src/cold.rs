@@ -63,6 +63,13 @@ macro_rules! unary {
 }
 
 impl<T: Scalar> Scalar for Cold<T> {
+    type Plain = T;
+    fn to_plain(self) -> T {
+        self.0
+    }
+    fn from_plain(p: T) -> Self {
+        Cold(p)
+    }
     const CHECKED: bool = T::CHECKED;
     fn constant(v: f64) -> Self {
         Cold(T::constant(v))

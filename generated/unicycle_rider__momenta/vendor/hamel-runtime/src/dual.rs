@@ -57,6 +57,7 @@ impl<T: Scalar> Neg for Dual<T> {
 }
 
 impl<T: Scalar> Scalar for Dual<T> {
+    crate::plain_itself!();
     fn constant(v: f64) -> Self {
         Dual::new(T::constant(v), T::constant(0.0))
     }
@@ -183,6 +184,7 @@ impl<const N: usize> Neg for DualN<N> {
 }
 
 impl<const N: usize> Scalar for DualN<N> {
+    crate::plain_itself!();
     fn constant(v: f64) -> Self {
         DualN { v, d: [0.0; N] }
     }

@@ -16,6 +16,21 @@ pub struct RationalParts {
     pub nearest: f64,
 }
 
+/// The [`Scalar::Plain`] items of a type that computes in itself (every scalar type but
+/// [`Cold`](crate::Cold)): write `plain_itself!();` in its `impl Scalar`.
+#[macro_export]
+macro_rules! plain_itself {
+    () => {
+        type Plain = Self;
+        fn to_plain(self) -> Self {
+            self
+        }
+        fn from_plain(p: Self) -> Self {
+            p
+        }
+    };
+}
+
 /// The number types the equations are evaluated in: f64, dual numbers ([`crate::Dual`],
 /// [`crate::DualN`]) for exact derivatives, and double-double ([`DD`]).
 pub trait Scalar:
@@ -27,6 +42,16 @@ pub trait Scalar:
     + Div<Output = Self>
     + Neg<Output = Self>
 {
+    /// What this type computes in behind its calls: itself, except [`Cold`](crate::Cold)`<T>`,
+    /// which is `T` behind calls that are never inlined. Code that puts a composite of scalars
+    /// behind `Cold` itself ([`crate::ingredients_by_partials`]) builds it of the plain type, so
+    /// as not to call out of line from inside a call out of line. Types other than `Cold`
+    /// write [`plain_itself!`](crate::plain_itself) in their impl.
+    type Plain: Scalar;
+    /// This as [`Scalar::Plain`].
+    fn to_plain(self) -> Self::Plain;
+    /// Back from [`Scalar::Plain`].
+    fn from_plain(p: Self::Plain) -> Self;
     /// A constant.
     fn constant(v: f64) -> Self;
     /// An exact rational literal, as accurately as the type allows.
@@ -83,6 +108,7 @@ pub trait Scalar:
 }
 
 impl Scalar for f64 {
+    crate::plain_itself!();
     const CHECKED: bool = true;
     fn constant(v: f64) -> Self {
         v
@@ -128,6 +154,7 @@ impl Scalar for f64 {
 }
 
 impl Scalar for DD {
+    crate::plain_itself!();
     fn constant(v: f64) -> Self {
         DD::from_f64(v)
     }
