@@ -242,7 +242,6 @@ fn spread<S: Scalar, E: Scalar, const K: usize, const L: usize, const G: usize>(
     for (o, x) in out[..G].iter_mut().zip(&g) {
         *o = x.v;
     }
-    out[layout.da..].fill(S::constant(0.0));
     let (l, s, rho) = (dims.ell, dims.sigma, dims.rho());
     // (where the block of q_k starts, the block's size, where its entries lie in `g`)
     let blocks = [
@@ -250,11 +249,17 @@ fn spread<S: Scalar, E: Scalar, const K: usize, const L: usize, const G: usize>(
         (layout.dz, s * l, layout.z),
         (layout.dalpha, rho * l, layout.alpha),
     ];
-    for (j, &k) in moving.iter().enumerate() {
+    for k in 0..l {
+        let j = moving.iter().position(|&m| m == k);
         for &(start, size, from) in &blocks {
             let block = &mut out[start + k * size..start + (k + 1) * size];
-            for (o, x) in block.iter_mut().zip(&g[from..from + size]) {
-                *o = x.d[j];
+            match j {
+                Some(j) => {
+                    for (o, x) in block.iter_mut().zip(&g[from..from + size]) {
+                        *o = x.d[j];
+                    }
+                }
+                None => block.fill(S::constant(0.0)),
             }
         }
     }
@@ -342,6 +347,16 @@ mod tests {
         };
         ingredients_by_partials::<f64, 2, 2, 8, N>(&q, &[0, 1], dims, out, hot_geometry, geometry);
         assert!(hot, "f64 takes the inlined path");
+        // A coordinate not carried has its blocks zero, whatever the buffer held.
+        let mut stale = [7.0; N];
+        ingredients_by_partials::<f64, 1, 2, 8, N>(&q, &[1], dims, &mut stale, geometry, geometry);
+        let (a, z, al) = (layout.da, layout.dz, layout.dalpha);
+        assert!(
+            [a..a + 4, z..z + 2, al..al + 2]
+                .into_iter()
+                .all(|r| stale[r].iter().all(|&x| x == 0.0))
+        );
+        assert_eq!(stale[a + 4 + 3], 0.3f64.cos());
         // The cold path (a wide type) gives the same numbers.
         let mut wide = [Dual::new(7.0, 0.0); 64];
         let wide = &mut wide[..layout.len];
