@@ -16,6 +16,7 @@ mod contact;
 mod emit;
 mod ingredients;
 mod path;
+mod recurrence;
 mod series;
 mod solved;
 

@@ -602,11 +602,101 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 #[allow(unused_variables, unused_mut, clippy::all)]
 pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
     let p = &prep.p;
+    let s0: f64 = 0.0;
+    if order <= 20 {
+        let w: usize = 21;
+        out.clear();
+        out.resize((order + 1) * 2, 0.0);
+        out[..2].copy_from_slice(&x[..2]);
+        let mut c = [0.0; 1 * 21];
+        if order > 0 { out[2 + 0] = s0; }
+        if order > 0 { out[2 + 1] = s0; }
+        if order <= 0 {
+            return Some(());
+        }
+        // coefficient 0: c[j * 21 + 0] for node j
+        if order <= 1 {
+            return Some(());
+        }
+        // coefficient 1: c[j * 21 + 1] for node j
+        if order <= 2 {
+            return Some(());
+        }
+        // coefficient 2: c[j * 21 + 2] for node j
+        if order <= 3 {
+            return Some(());
+        }
+        // coefficient 3: c[j * 21 + 3] for node j
+        if order <= 4 {
+            return Some(());
+        }
+        // coefficient 4: c[j * 21 + 4] for node j
+        if order <= 5 {
+            return Some(());
+        }
+        // coefficient 5: c[j * 21 + 5] for node j
+        if order <= 6 {
+            return Some(());
+        }
+        // coefficient 6: c[j * 21 + 6] for node j
+        if order <= 7 {
+            return Some(());
+        }
+        // coefficient 7: c[j * 21 + 7] for node j
+        if order <= 8 {
+            return Some(());
+        }
+        // coefficient 8: c[j * 21 + 8] for node j
+        if order <= 9 {
+            return Some(());
+        }
+        // coefficient 9: c[j * 21 + 9] for node j
+        if order <= 10 {
+            return Some(());
+        }
+        // coefficient 10: c[j * 21 + 10] for node j
+        if order <= 11 {
+            return Some(());
+        }
+        // coefficient 11: c[j * 21 + 11] for node j
+        if order <= 12 {
+            return Some(());
+        }
+        // coefficient 12: c[j * 21 + 12] for node j
+        if order <= 13 {
+            return Some(());
+        }
+        // coefficient 13: c[j * 21 + 13] for node j
+        if order <= 14 {
+            return Some(());
+        }
+        // coefficient 14: c[j * 21 + 14] for node j
+        if order <= 15 {
+            return Some(());
+        }
+        // coefficient 15: c[j * 21 + 15] for node j
+        if order <= 16 {
+            return Some(());
+        }
+        // coefficient 16: c[j * 21 + 16] for node j
+        if order <= 17 {
+            return Some(());
+        }
+        // coefficient 17: c[j * 21 + 17] for node j
+        if order <= 18 {
+            return Some(());
+        }
+        // coefficient 18: c[j * 21 + 18] for node j
+        if order <= 19 {
+            return Some(());
+        }
+        // coefficient 19: c[j * 21 + 19] for node j
+        return Some(());
+    }
     let w = order + 1;
     out.clear();
-    out.resize(w * 2, 0.0);
+    out.resize((order + 1) * 2, 0.0);
     out[..2].copy_from_slice(&x[..2]);
-    let s0: f64 = 0.0;
     let mut c = vec![0.0; 1 * w];
     if order > 0 { out[2 + 0] = s0; }
     if order > 0 { out[2 + 1] = s0; }

@@ -17,6 +17,7 @@ use std::fmt::Write;
 use hamel_expr::{Func, Op, Tape};
 
 use super::emit::lit;
+use super::recurrence::{Step, at};
 
 /// What a tape input is for the series.
 #[derive(Clone, Debug)]
@@ -36,38 +37,25 @@ enum Val {
     Node(usize),
 }
 
-/// The program being written: the f64 lets, the coefficient-0 statements, the statements for
-/// coefficient k ≥ 1, one per node.
+/// The program being written: the f64 lets, the coefficient-0 statements, and each node's
+/// recurrence for coefficient k ≥ 1.
 #[derive(Default)]
 struct Program {
-    /// The state's dimension.
-    n: usize,
     scalars: String,
     zero: String,
-    step: String,
+    steps: Vec<Step>,
     nodes: usize,
     /// sin and cos nodes of an operation, once made.
     sin_cos: std::collections::HashMap<usize, (usize, usize)>,
 }
 
-/// `c[node·w + k]` and the slices the recurrences read.
-fn at(node: usize, k: &str) -> String {
-    format!("c[{node} * w + {k}]")
-}
-fn from(node: usize) -> String {
-    format!("&c[{node} * w..]")
-}
-fn own(node: usize) -> String {
-    format!("&c[{node} * w..{node} * w + k]")
-}
-
 impl Program {
-    /// A new node: its value at the state and its coefficient k ≥ 1, as Rust expressions.
-    fn node(&mut self, zero: String, step: String) -> usize {
+    /// A new node: its value at the state (a Rust expression) and its recurrence.
+    fn node(&mut self, zero: String, step: Step) -> usize {
         let j = self.nodes;
         self.nodes += 1;
         let _ = writeln!(self.zero, "    {} = {zero};", at(j, "0"));
-        let _ = writeln!(self.step, "            {} = {step};", at(j, "k"));
+        self.steps.push(step);
         j
     }
 
@@ -88,42 +76,39 @@ impl Program {
     fn as_node(&mut self, v: &Val) -> usize {
         match v {
             Val::Node(n) => *n,
-            Val::Scalar(s) => self.node(s.clone(), "0.0".into()),
+            Val::Scalar(s) => self.node(s.clone(), Step::Zero),
         }
     }
 
     fn product(&mut self, a: usize, b: usize) -> usize {
         self.node(
             format!("{} * {}", at(a, "0"), at(b, "0")),
-            format!("runtime::recur::product({}, {}, k)", from(a), from(b)),
+            Step::Product(a, b),
         )
     }
 
     fn scale(&mut self, a: usize, by: &str) -> usize {
         self.node(
             format!("{by} * {}", at(a, "0")),
-            format!("{by} * {}", at(a, "k")),
+            Step::Scale(a, by.to_string()),
         )
     }
 
-    /// a / b with `a_zero` the dividend's value and `a_k` its coefficient k.
-    fn quotient(&mut self, a_zero: String, a_k: String, b: usize) -> usize {
-        let j = self.nodes;
+    /// a / b with `a_zero` the dividend's value and `a` its node (None: fixed over the step).
+    fn quotient(&mut self, a_zero: String, a: Option<usize>, b: usize) -> usize {
+        let own = self.nodes;
         self.node(
             format!("{a_zero} / {}", at(b, "0")),
-            format!(
-                "runtime::recur::quotient({a_k}, {}, {}, k)",
-                from(b),
-                own(j)
-            ),
+            Step::Quotient { a, b, own },
         )
     }
 
-    fn unary(&mut self, f: &str, a: usize, recurrence: &str) -> usize {
-        let j = self.nodes;
-        let step = match recurrence {
-            "sqrt" => format!("runtime::recur::sqrt({}, {}, k)", at(a, "k"), own(j)),
-            _ => format!("runtime::recur::{recurrence}({}, {}, k)", from(a), own(j)),
+    /// √a, exp a or ln a (`f`: the f64 method and the recurrence's name).
+    fn unary(&mut self, f: &'static str, a: usize) -> usize {
+        let own = self.nodes;
+        let step = match f {
+            "sqrt" => Step::Sqrt { a, own },
+            _ => Step::Call { f, a, own },
         };
         self.node(format!("{}.{f}()", at(a, "0")), step)
     }
@@ -133,26 +118,20 @@ impl Program {
             return pair;
         }
         let (s, c) = (self.nodes, self.nodes + 1);
-        self.node(
-            format!("{}.sin()", at(a, "0")),
-            format!("runtime::recur::sin({}, {}, k)", from(a), from(c)),
-        );
-        self.node(
-            format!("{}.cos()", at(a, "0")),
-            format!("runtime::recur::cos({}, {}, k)", from(a), from(s)),
-        );
+        self.node(format!("{}.sin()", at(a, "0")), Step::Sin { a, cos: c });
+        self.node(format!("{}.cos()", at(a, "0")), Step::Cos { a, sin: s });
         self.sin_cos.insert(op, (s, c));
         (s, c)
     }
 
     /// exp(m·ln a) for a node a and a multiplier m (an f64 text or a node).
     fn power(&mut self, a: usize, m: &Val) -> usize {
-        let l = self.unary("ln", a, "ln");
+        let l = self.unary("ln", a);
         let e = match m {
             Val::Scalar(s) => self.scale(l, s),
             Val::Node(n) => self.product(*n, l),
         };
-        self.unary("exp", e, "exp")
+        self.unary("exp", e)
     }
 
     fn square_sum(&mut self, x: usize, y: usize, one: bool) -> usize {
@@ -163,9 +142,9 @@ impl Program {
         match yy {
             Some(yy) => self.node(
                 format!("{} + {}", at(xx, "0"), at(yy, "0")),
-                format!("{} + {}", at(xx, "k"), at(yy, "k")),
+                Step::Sum(vec![xx, yy]),
             ),
-            None => self.node(format!("1.0 + {}", at(xx, "0")), at(xx, "k")),
+            None => self.node(format!("1.0 + {}", at(xx, "0")), Step::Sum(vec![xx])),
         }
     }
 }
@@ -187,10 +166,7 @@ pub(super) fn series_body(tape: &Tape, inputs: &[SeriesInput], rates: &[usize]) 
             }
         }
     }
-    let mut p = Program {
-        n: rates.len(),
-        ..Program::default()
-    };
+    let mut p = Program::default();
     let mut vals: Vec<Val> = Vec::with_capacity(ops.len());
     for (k, op) in ops.iter().enumerate() {
         let v = if needed[k] {
@@ -201,34 +177,106 @@ pub(super) fn series_body(tape: &Tape, inputs: &[SeriesInput], rates: &[usize]) 
         vals.push(v);
     }
     let n = rates.len();
-    let mut o = String::new();
-    let _ = writeln!(o, "    let w = order + 1;");
-    let _ = writeln!(o, "    out.clear();\n    out.resize(w * {n}, 0.0);");
-    let _ = writeln!(o, "    out[..{n}].copy_from_slice(&x[..{n}]);");
-    o += &p.scalars;
-    let _ = writeln!(o, "    let mut c = vec![0.0; {} * w];", p.nodes.max(1));
-    o += &p.zero;
-    let mut rows = String::new();
+    let mut w = Written {
+        n,
+        nodes: p.nodes.max(1),
+        zero: p.zero,
+        fixed_rows: String::new(),
+        steps: p.steps,
+        rates: Vec::new(),
+    };
     for (i, &r) in rates.iter().enumerate() {
         match &vals[tape.outputs()[r]] {
-            Val::Node(j) => {
-                let _ = writeln!(
-                    rows,
-                    "        out[(k + 1) * {n} + {i}] = {} / (k + 1) as f64;",
-                    at(*j, "k")
-                );
-            }
+            Val::Node(j) => w.rates.push((i, *j)),
             Val::Scalar(s) => {
-                let _ = writeln!(o, "    if order > 0 {{ out[{n} + {i}] = {s}; }}");
+                let _ = writeln!(w.fixed_rows, "if order > 0 {{ out[{n} + {i}] = {s}; }}");
             }
         }
     }
-    let _ = writeln!(o, "    for k in 0..order {{\n        if k > 0 {{");
-    o += &p.step;
-    let _ = writeln!(o, "        }}");
-    o += &rows;
-    let _ = writeln!(o, "    }}");
-    o
+    format!("{}{}{}", p.scalars, unrolled(&w), looped(&w))
+}
+
+/// The highest order written out whole: the order at rtol = ε (`hamel_sim::taylor::order`,
+/// ⌈−ln ε/2 + 1⌉ = 20); a higher one takes the loop.
+const UNROLLED_ORDER: usize = 20;
+
+/// The series program, ready to write: the coefficient-0 statements (`c[j * w + 0] = …;`), the
+/// rows fixed over the step, each node's recurrence, and the node of each state component's
+/// rate.
+struct Written {
+    n: usize,
+    nodes: usize,
+    zero: String,
+    fixed_rows: String,
+    steps: Vec<Step>,
+    /// (component i, the node of its rate).
+    rates: Vec<(usize, usize)>,
+}
+
+impl Written {
+    /// The statements that start either way: `out` sized and holding the state, the
+    /// coefficient-0 values, the rows fixed over the step (lines indented by `pad`).
+    fn start(&self, c: &str, pad: &str) -> String {
+        let n = self.n;
+        let mut o = String::new();
+        let _ = writeln!(o, "out.clear();\nout.resize((order + 1) * {n}, 0.0);");
+        let _ = writeln!(o, "out[..{n}].copy_from_slice(&x[..{n}]);");
+        let _ = writeln!(o, "let mut c = {c};");
+        o += &self.zero;
+        o += &self.fixed_rows;
+        o.lines()
+            .map(|l| format!("{pad}{}\n", l.trim_start()))
+            .collect()
+    }
+}
+
+/// Orders up to [`UNROLLED_ORDER`], every coefficient's statements written out at constant
+/// indices into a fixed array (`Step::unrolled`): the same numbers as [`looped`], bit for bit.
+fn unrolled(w: &Written) -> String {
+    let (n, width) = (w.n, UNROLLED_ORDER + 1);
+    let mut o = format!("    if order <= {UNROLLED_ORDER} {{\n        let w: usize = {width};\n");
+    o += &w.start(&format!("[0.0; {} * {width}]", w.nodes), "        ");
+    for k in 0..UNROLLED_ORDER {
+        let _ = writeln!(
+            o,
+            "        if order <= {k} {{\n            return Some(());\n        }}"
+        );
+        let _ = writeln!(
+            o,
+            "        // coefficient {k}: c[j * {width} + {k}] for node j"
+        );
+        if k > 0 {
+            for (j, step) in w.steps.iter().enumerate() {
+                let at = j * width + k;
+                let _ = writeln!(o, "        c[{at}] = {};", step.unrolled(n, k, width));
+            }
+        }
+        for &(i, j) in &w.rates {
+            let (row, at) = ((k + 1) * n + i, j * width + k);
+            let _ = writeln!(o, "        out[{row}] = c[{at}] / {}.0;", k + 1);
+        }
+    }
+    o + "        return Some(());\n    }\n"
+}
+
+/// Any order: the loop over k, each recurrence a call of `runtime::recur` (`Step::looped`).
+fn looped(w: &Written) -> String {
+    let n = w.n;
+    let mut o = "    let w = order + 1;\n".to_string();
+    o += &w.start(&format!("vec![0.0; {} * w]", w.nodes), "    ");
+    o += "    for k in 0..order {\n        if k > 0 {\n";
+    for (j, step) in w.steps.iter().enumerate() {
+        let _ = writeln!(o, "            {} = {};", at(j, "k"), step.looped(n));
+    }
+    o += "        }\n";
+    for &(i, j) in &w.rates {
+        let _ = writeln!(
+            o,
+            "        out[(k + 1) * {n} + {i}] = {} / (k + 1) as f64;",
+            at(j, "k")
+        );
+    }
+    o + "    }\n"
 }
 
 /// The operands of an operation.
@@ -248,10 +296,7 @@ fn value(p: &mut Program, k: usize, op: &Op, vals: &[Val], inputs: &[SeriesInput
         .all(|&a| matches!(vals[a], Val::Scalar(_)));
     if let Op::Input(s) = op {
         return match &inputs[*s] {
-            SeriesInput::State(i) => {
-                let step = format!("out[k * {} + {i}]", p.n);
-                Val::Node(p.node(format!("x[{i}]"), step))
-            }
+            SeriesInput::State(i) => Val::Node(p.node(format!("x[{i}]"), Step::State(*i))),
             SeriesInput::Fixed(text) => p.scalar(k, text.clone()),
         };
     }
@@ -264,15 +309,15 @@ fn value(p: &mut Program, k: usize, op: &Op, vals: &[Val], inputs: &[SeriesInput
         Op::Mul(list) => product(p, list, vals),
         Op::Neg(a) => {
             let a = p.as_node(v(a));
-            p.node(format!("-{}", at(a, "0")), format!("-{}", at(a, "k")))
+            p.node(format!("-{}", at(a, "0")), Step::Neg(a))
         }
         Op::Div(a, b) => match (v(a), v(b)) {
             (Val::Node(a), Val::Scalar(s)) => {
                 let (a, r) = (*a, format!("(1.0 / {s})"));
                 p.scale(a, &r)
             }
-            (Val::Scalar(s), Val::Node(b)) => p.quotient(s.clone(), "0.0".into(), *b),
-            (Val::Node(a), Val::Node(b)) => p.quotient(at(*a, "0"), at(*a, "k"), *b),
+            (Val::Scalar(s), Val::Node(b)) => p.quotient(s.clone(), None, *b),
+            (Val::Node(a), Val::Node(b)) => p.quotient(at(*a, "0"), Some(*a), *b),
             (Val::Scalar(_), Val::Scalar(_)) => unreachable!("scalar above"),
         },
         Op::PowI(a, e) => {
@@ -289,7 +334,7 @@ fn value(p: &mut Program, k: usize, op: &Op, vals: &[Val], inputs: &[SeriesInput
                 let b = p.as_node(v(b));
                 let m = format!("{s}.ln()");
                 let e = p.scale(b, &m);
-                p.unary("exp", e, "exp")
+                p.unary("exp", e)
             }
         },
         Op::Call(f, a) => {
@@ -299,16 +344,10 @@ fn value(p: &mut Program, k: usize, op: &Op, vals: &[Val], inputs: &[SeriesInput
         Op::Atan2(y, x) => {
             let (y, x) = (p.as_node(v(y)), p.as_node(v(x)));
             let r = p.square_sum(x, y, false);
-            let j = p.nodes;
+            let own = p.nodes;
             p.node(
                 format!("{}.atan2({})", at(y, "0"), at(x, "0")),
-                format!(
-                    "runtime::recur::atan2({}, {}, {}, {}, k)",
-                    from(y),
-                    from(x),
-                    from(r),
-                    own(j)
-                ),
+                Step::Atan2 { y, x, r, own },
             )
         }
         Op::Input(_) | Op::Const(_) => unreachable!("scalar above"),
@@ -320,10 +359,10 @@ fn sum(p: &mut Program, list: &[usize], vals: &[Val]) -> usize {
     for &a in list {
         zero.push(Program::value(&vals[a]));
         if let Val::Node(n) = vals[a] {
-            step.push(at(n, "k"));
+            step.push(n);
         }
     }
-    p.node(zero.join(" + "), step.join(" + "))
+    p.node(zero.join(" + "), Step::Sum(step))
 }
 
 fn product(p: &mut Program, list: &[usize], vals: &[Val]) -> usize {
@@ -354,7 +393,7 @@ fn product(p: &mut Program, list: &[usize], vals: &[Val]) -> usize {
 /// a^e by squaring (a quotient for a negative e).
 fn integer_power(p: &mut Program, a: usize, e: i32) -> usize {
     if e == 0 {
-        return p.node("1.0".into(), "0.0".into());
+        return p.node("1.0".into(), Step::Zero);
     }
     let (mut result, mut base, mut n) = (None, a, e.unsigned_abs());
     while n > 0 {
@@ -371,7 +410,7 @@ fn integer_power(p: &mut Program, a: usize, e: i32) -> usize {
     }
     let positive = result.expect("e ≠ 0");
     if e < 0 {
-        p.quotient("1.0".into(), "0.0".into(), positive)
+        p.quotient("1.0".into(), None, positive)
     } else {
         positive
     }
@@ -383,23 +422,15 @@ fn call(p: &mut Program, f: Func, op: usize, a: usize) -> usize {
         Func::Cos => p.sin_cos(op, a).1,
         Func::Tan => {
             let (s, c) = p.sin_cos(op, a);
-            p.quotient(at(s, "0"), at(s, "k"), c)
+            p.quotient(at(s, "0"), Some(s), c)
         }
-        Func::Sqrt => p.unary("sqrt", a, "sqrt"),
-        Func::Exp => p.unary("exp", a, "exp"),
-        Func::Log => p.unary("ln", a, "ln"),
+        Func::Sqrt => p.unary("sqrt", a),
+        Func::Exp => p.unary("exp", a),
+        Func::Log => p.unary("ln", a),
         Func::Atan => {
             let r = p.square_sum(a, a, true);
-            let j = p.nodes;
-            p.node(
-                format!("{}.atan()", at(a, "0")),
-                format!(
-                    "runtime::recur::atan({}, {}, {}, k)",
-                    from(a),
-                    from(r),
-                    own(j)
-                ),
-            )
+            let own = p.nodes;
+            p.node(format!("{}.atan()", at(a, "0")), Step::Atan { a, r, own })
         }
     }
 }
@@ -458,8 +489,11 @@ mod tests {
             SeriesInput::State(1),
         ];
         let body = series_body(&tape, &roles, &[0, 1]);
-        assert_eq!(body.matches(".sin()").count(), 1, "{body}");
-        assert_eq!(body.matches(".cos()").count(), 1, "{body}");
+        // Twice: once in the orders written out, once in the loop.
+        assert_eq!(body.matches(".sin()").count(), 2, "{body}");
+        assert_eq!(body.matches(".cos()").count(), 2, "{body}");
+        assert_eq!(body.matches("if order <= 20 {").count(), 1, "{body}");
+        assert_eq!(body.matches("for k in 0..order {").count(), 1, "{body}");
         assert!(body.contains("let s0: f64 = p.m;"), "{body}");
         assert!(
             body.contains("= (s0 * s1) * c[4 * w + k];"),

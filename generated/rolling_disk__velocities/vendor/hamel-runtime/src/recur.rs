@@ -36,16 +36,23 @@ pub fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
         .sum()
 }
 
-/// (a·b)[k].
+/// (a·b)[k]: the terms of coefficients below k first, then a[0]·b[k] and a[k]·b[0], the two
+/// that wait on coefficient k of the operands. In a chain of operations each coefficient k then
+/// waits on its operands' by one multiplication and two additions, not by a whole sum: the
+/// latency the compiled series (`reduced_series`, written out) is bound by.
 #[inline(always)]
 pub fn product(a: &[f64], b: &[f64], k: usize) -> f64 {
-    convolve(&a[..=k], &b[..=k])
+    if k == 0 {
+        return a[0] * b[0];
+    }
+    (convolve(&a[1..k], &b[1..k]) + a[0] * b[k]) + a[k] * b[0]
 }
 
-/// (a/b)[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) / b[0].
+/// (a/b)[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) / b[0], the term of b[k] added last (as in
+/// [`product`]).
 #[inline(always)]
 pub fn quotient(a_k: f64, b: &[f64], own: &[f64], k: usize) -> f64 {
-    (a_k - convolve(&b[1..=k], &own[..k])) / b[0]
+    (a_k - (convolve(&b[1..k], &own[1..k]) + b[k] * own[0])) / b[0]
 }
 
 /// √a[k] = (a[k] − Σ_{j=1}^{k−1} r[j] r[k − j]) / (2 r[0]).
