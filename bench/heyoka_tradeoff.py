@@ -96,7 +96,9 @@ def main():
     for path in sys.argv[1:]:
         system, rows, compact = measure(path)
         mode = ", compact mode" if compact else ""
-        print(f"{system['model']}: heyoka's Taylor integrator{mode} against hamel (same equations, same reference)")
+        build = system.get("build", "portable")
+        print(f"{system['model']}: heyoka's Taylor integrator{mode} against hamel (same equations, same reference; "
+              f"hamel's core {build}{', HAMEL_NATIVE=1' if build == 'native' else ''})")
         print()
         print("| heyoka tol | error over span | time | jit | hamel's fastest at ≤ that error | heyoka / hamel "
               "| heyoka / hamel, hamel interpolated at that error |")

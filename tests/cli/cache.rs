@@ -295,3 +295,61 @@ fn the_interpreted_engine_leaves_the_code_cache_alone() {
     assert_eq!(entries.len(), 1, "one entry, the scene's core: {entries:?}");
     assert!(!cache.join("target").exists(), "plan builds nothing");
 }
+
+/// With `HAMEL_NATIVE=1` a scene's core is built for this CPU (`-C target-cpu=native`, fused
+/// multiply–adds) as an entry of its own, in the cache's `target-native/`, its key naming the
+/// build and the CPU's features; the portable entry stays as it was. Both integrate the same
+/// equations: to the scene's tolerance, not bit for bit (a fused multiply–add rounds once).
+#[test]
+fn a_core_built_for_this_cpu_is_an_entry_of_its_own() {
+    let dir = scratch("native");
+    let native = |args: &[&str]| {
+        let _guard = super::ONE_AT_A_TIME
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        let mut cmd = super::hamel_command(args, &code_cache());
+        cmd.env("HAMEL_NATIVE", "1").output().unwrap()
+    };
+    let plan = ["plan", "scenes/knife.toml", "--format", "json"];
+    let portable_code = json_on_stdout(&hamel(&plan, None))["code"].clone();
+    let native_code = json_on_stdout(&native(&plan))["code"].clone();
+    assert_ne!(portable_code, native_code, "one entry for both builds");
+    let (p_out, n_out) = (dir.join("portable.json"), dir.join("native.json"));
+    let simulate = |out: &Path| {
+        let out = out.to_str().unwrap().to_string();
+        [
+            "simulate",
+            "scenes/knife.toml",
+            "--format",
+            "json",
+            "--output",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([out])
+        .collect::<Vec<String>>()
+    };
+    let args = simulate(&p_out);
+    let o = hamel(&args.iter().map(String::as_str).collect::<Vec<_>>(), None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let args = simulate(&n_out);
+    let o = native(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let code = PathBuf::from(native_code.as_str().unwrap());
+    let meta = std::fs::read_to_string(code.join("meta.json")).unwrap();
+    assert!(meta.contains("build: native"), "{meta}");
+    assert!(meta.contains("CPU features: "), "{meta}");
+    assert!(code_cache().join("target-native/release").is_dir());
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&p_out), read(&n_out));
+    assert_eq!(
+        (&a["engine"], &b["engine"]),
+        (&"compiled".into(), &"compiled".into())
+    );
+    for k in ["x", "y", "theta"] {
+        let d = largest_difference(&a, &b, k);
+        assert!(d < 1e-8, "{k}: portable and native differ by {d:e}");
+    }
+}

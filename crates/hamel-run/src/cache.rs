@@ -18,6 +18,13 @@
 //! and modification time of the running `hamel` executable (a rebuilt hamel may generate other
 //! code), the model file's text, the choice, the dropped coordinates and the parameter values
 //! (exact f64 bits). Builds are serialised by a lock file; entries appear by rename, whole.
+//!
+//! **Builds for this machine** ([`Build`]): with `HAMEL_NATIVE=1` the cores are compiled for
+//! the CPU they run on (`-C target-cpu=native`, its vector units, and multiply–adds fused: what
+//! heyoka's JIT does), in a target directory of their own (`target-native/`), the CPU's feature
+//! list part of the key: a cache shared by machines of other CPUs builds each its own. Fused
+//! multiply–adds round once where a multiplication and an addition round twice, so such a core's
+//! results differ from the portable one's in the last bits; the default stays portable.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -153,17 +160,107 @@ pub fn root() -> Result<PathBuf, CacheError> {
     })
 }
 
+/// How the cached cores are compiled.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Build {
+    /// For any CPU of the target (the default): the same bits on every machine.
+    #[default]
+    Portable,
+    /// For this machine's CPU (`HAMEL_NATIVE=1`): its features (rustc's list for
+    /// `target-cpu=native`) are part of the key.
+    Native {
+        /// The `target_feature` lines rustc prints for the host CPU.
+        features: String,
+    },
+}
+
+/// The flags of a native build: the host's CPU, and multiply–adds fused.
+const NATIVE_RUSTFLAGS: &str = "-C target-cpu=native -C llvm-args=-fp-contract=fast";
+
+impl Build {
+    /// The build this process uses: native when `HAMEL_NATIVE` is `1` (or `true`), asked of
+    /// rustc once.
+    pub fn current() -> Result<Build, CacheError> {
+        static BUILD: std::sync::OnceLock<Result<Build, CacheError>> = std::sync::OnceLock::new();
+        BUILD
+            .get_or_init(|| {
+                let on = std::env::var("HAMEL_NATIVE").is_ok_and(|v| v == "1" || v == "true");
+                if on {
+                    native_features()
+                } else {
+                    Ok(Build::Portable)
+                }
+            })
+            .clone()
+    }
+
+    /// The cargo target directory under the cache's root.
+    fn target_dir(&self, root: &Path) -> PathBuf {
+        match self {
+            Build::Portable => root.join("target"),
+            Build::Native { .. } => root.join("target-native"),
+        }
+    }
+
+    /// Its line in a key.
+    fn key_text(&self) -> String {
+        match self {
+            Build::Portable => "build: portable".into(),
+            Build::Native { features } => {
+                format!("build: native ({NATIVE_RUSTFLAGS}); CPU features: {features}")
+            }
+        }
+    }
+}
+
+/// rustc's target features for `-C target-cpu=native`.
+fn native_features() -> Result<Build, CacheError> {
+    let rustc = std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
+    let out = Command::new(&rustc)
+        .args(["--print", "cfg", "-C", "target-cpu=native"])
+        .stdin(Stdio::null())
+        .output()
+        .map_err(|e| {
+            CacheError::io(
+                format!("cannot run {} for HAMEL_NATIVE", rustc.display()),
+                e,
+            )
+        })?;
+    if !out.status.success() {
+        return Err(CacheError::io(
+            "HAMEL_NATIVE: rustc --print cfg -C target-cpu=native failed".to_string(),
+            std::io::Error::other(String::from_utf8_lossy(&out.stderr).into_owned()),
+        ));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let features: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("target_feature=\""))
+        .map(|f| f.trim_end_matches('"'))
+        .collect();
+    Ok(Build::Native {
+        features: features.join(","),
+    })
+}
+
 /// What identifies a scene's code.
 #[derive(Clone, Debug)]
 pub struct Key {
     text: String,
+    build: Build,
 }
 
 impl Key {
     /// The key of the code for `model` (its text, the scene's control closing its loop, and
     /// whether its supports are released: a core with the constraint forces' map or without)
     /// with choice `eta`, `dropped` eliminated and `fixed` parameters specialised.
-    pub fn new(model: &Model, eta: &str, dropped: &[String], fixed: &IndexMap<String, f64>) -> Key {
+    pub fn new(
+        model: &Model,
+        eta: &str,
+        dropped: &[String],
+        fixed: &IndexMap<String, f64>,
+        build: &Build,
+    ) -> Key {
         let exe = hamel_cache::executable_identity();
         let params: Vec<String> = fixed
             .iter()
@@ -171,21 +268,23 @@ impl Key {
             .collect();
         Key {
             text: format!(
-                "hamel {}; executable {exe}\nchoice: {eta}\ndropped: {}\nparameters: {}\nsupports released (the constraint forces' map): {}\ncontrol:\n{}\nmodel:\n{}",
+                "hamel {}; executable {exe}\n{}\nchoice: {eta}\ndropped: {}\nparameters: {}\nsupports released (the constraint forces' map): {}\ncontrol:\n{}\nmodel:\n{}",
                 env!("CARGO_PKG_VERSION"),
+                build.key_text(),
                 dropped.join(", "),
                 params.join(", "),
                 model.contact_forces.released,
                 model.control,
                 model.source
             ),
+            build: build.clone(),
         }
     }
 
     /// The key of the C-ABI library of `model`'s full system with choice `eta`, the `fixed`
     /// parameters specialised and the others inputs ([`prepare_library`]).
     pub fn library(model: &Model, eta: &str, fixed: &IndexMap<String, f64>) -> Key {
-        let mut key = Key::new(model, eta, &[], fixed);
+        let mut key = Key::new(model, eta, &[], fixed, &Build::Portable);
         key.text.push_str(
             "
 artifact: the C-ABI library (hamel_codegen::with_c_abi)",
@@ -220,6 +319,9 @@ pub struct Meta {
     /// every run ([`binary`]).
     #[serde(default)]
     pub binary_sha256: Option<String>,
+    /// How it is compiled (the key says it too).
+    #[serde(default)]
+    pub build: Build,
 }
 
 /// A cache entry: a generated crate, maybe built.
@@ -277,6 +379,7 @@ pub fn store(
         ops_full,
         path: generated.solved.name.to_string(),
         binary_sha256: None,
+        build: key.build.clone(),
     };
     write_entry(key, &generated, meta)
 }
@@ -326,7 +429,7 @@ pub fn prepare(
     plan: &Plan,
     fixed: &IndexMap<String, f64>,
 ) -> Result<Entry, CacheError> {
-    let key = Key::new(model, &d.eta_name, &plan.dropped, fixed);
+    let key = Key::new(model, &d.eta_name, &plan.dropped, fixed, &Build::current()?);
     cached(&key, || {
         let full = hamel_codegen::generate(d, &[], "plan")?;
         let ops_full = ops_of(&full, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
@@ -374,6 +477,7 @@ pub fn prepare_library(
             ops_full: ops,
             path: generated.solved.name.to_string(),
             binary_sha256: None,
+            build: key.build.clone(),
         };
         write_entry(&key, &generated, meta)
     })
@@ -484,9 +588,9 @@ impl Artifact {
         }
     }
 
-    /// Where cargo leaves it in the shared target directory.
-    fn built(self, root: &Path, dir: &Path) -> PathBuf {
-        let release = root.join("target/release");
+    /// Where cargo leaves it in the shared target directory `target`.
+    fn built(self, target: &Path, dir: &Path) -> PathBuf {
+        let release = target.join("release");
         match self {
             Artifact::Scene => release.join(self.crate_name(dir)),
             Artifact::Library => release.join(format!(
@@ -568,7 +672,8 @@ pub fn built(entry: &Entry, artifact: Artifact) -> Result<Binary, CacheError> {
     let tmp = entry
         .dir
         .join(format!("{}.tmp{}", artifact.file(), std::process::id()));
-    std::fs::copy(artifact.built(&root, &entry.dir), &tmp).map_err(io)?;
+    let target = entry.meta.build.target_dir(&root);
+    std::fs::copy(artifact.built(&target, &entry.dir), &tmp).map_err(io)?;
     record_hash(&entry.dir, &sha256(&tmp).map_err(io)?).map_err(io)?;
     std::fs::rename(&tmp, &exe).map_err(io)?;
     Ok(Binary {
@@ -618,17 +723,20 @@ fn verify(dir: &Path, exe: &Path) -> Result<Check, CacheError> {
 /// Run cargo with `args` on the entry's crate with the cache's shared target directory.
 fn cargo(entry: &Entry, root: &Path, args: &[&str]) -> Result<(), CacheError> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let out = Command::new(&cargo)
+    let mut command = Command::new(&cargo);
+    command
         .args(args)
         .arg("--manifest-path")
         .arg(entry.dir.join("Cargo.toml"))
-        .env("CARGO_TARGET_DIR", root.join("target"))
-        .stdin(Stdio::null())
-        .output()
-        .map_err(|e| CacheError::NoCargo {
-            cargo: PathBuf::from(&cargo),
-            source: std::sync::Arc::new(e),
-        })?;
+        .env("CARGO_TARGET_DIR", entry.meta.build.target_dir(root))
+        .stdin(Stdio::null());
+    if let Build::Native { .. } = entry.meta.build {
+        command.env("RUSTFLAGS", NATIVE_RUSTFLAGS);
+    }
+    let out = command.output().map_err(|e| CacheError::NoCargo {
+        cargo: PathBuf::from(&cargo),
+        source: std::sync::Arc::new(e),
+    })?;
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
         let tail: Vec<&str> = err.lines().rev().take(15).collect();
@@ -771,8 +879,42 @@ mod tests {
         );
         let model = Model::load(path).unwrap();
         let fixed = IndexMap::new();
-        let plain = Key::new(&model, "benchmark", &[], &fixed);
-        let supported = Key::new(&model.with_supports().unwrap(), "benchmark", &[], &fixed);
+        let portable = &Build::Portable;
+        let plain = Key::new(&model, "benchmark", &[], &fixed, portable);
+        let supported = Key::new(
+            &model.with_supports().unwrap(),
+            "benchmark",
+            &[],
+            &fixed,
+            portable,
+        );
         assert_ne!(plain.text, supported.text);
+    }
+
+    /// A core built for one CPU is never another build's: the build and the CPU's features
+    /// are in the key, and native builds have a target directory of their own.
+    #[test]
+    fn the_build_is_part_of_the_key() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/knife.toml");
+        let model = Model::load(path).unwrap();
+        let fixed = IndexMap::new();
+        let builds = [
+            Build::Portable,
+            Build::Native {
+                features: "avx2,fma".into(),
+            },
+            Build::Native {
+                features: "sse2".into(),
+            },
+        ];
+        let keys: Vec<Key> = (builds.iter())
+            .map(|b| Key::new(&model, "paper", &[], &fixed, b))
+            .collect();
+        assert_ne!(keys[0].hash(), keys[1].hash());
+        assert_ne!(keys[1].hash(), keys[2].hash());
+        assert!(keys[1].text.contains("CPU features: avx2,fma"));
+        let root = Path::new("/cache");
+        assert_eq!(builds[0].target_dir(root), root.join("target"));
+        assert_eq!(builds[1].target_dir(root), root.join("target-native"));
     }
 }

@@ -75,7 +75,13 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
     let model = &loaded.model;
     let d = &loaded.d;
     let none = IndexMap::new();
-    let key = cache::Key::new(model, &d.eta_name, &[], &none);
+    let key = cache::Key::new(
+        model,
+        &d.eta_name,
+        &[],
+        &none,
+        &cache::Build::current().map_err(fail)?,
+    );
     let command = format!(
         "hamel plan --measure (full system of {}, {})",
         model.file, d.eta_name

@@ -342,6 +342,10 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
         "reference": reference,
         "target": table.target,
         "engine": table.engine,
+        "build": match crate::cache::Build::current() {
+            Ok(crate::cache::Build::Native { .. }) if table.engine == Engine::Compiled => "native",
+            _ => "portable",
+        },
         "hamel": table.rows.iter().map(|r| serde_json::json!({
             "method": r.method, "tol": r.tol, "seconds": r.seconds,
             "error_span": r.error_span, "rhs_evals": r.rhs_evals, "series_evals": r.series_evals,
@@ -547,9 +551,12 @@ impl Table {
             self.target.1,
             self.reference,
             self.reference_check,
-            match self.engine {
-                Engine::Compiled => "scene's compiled core",
-                Engine::Interpreted => "interpreted evaluator",
+            match (self.engine, crate::cache::Build::current()) {
+                (Engine::Compiled, Ok(crate::cache::Build::Native { .. })) => {
+                    "scene's compiled core, built for this CPU (HAMEL_NATIVE)"
+                }
+                (Engine::Compiled, _) => "scene's compiled core",
+                (Engine::Interpreted, _) => "interpreted evaluator",
             }
         );
         for (i, r) in self.rows.iter().enumerate() {

@@ -38,13 +38,16 @@ pub fn step(series: &[f64], n: usize, order: usize, (rtol, atol): (f64, f64), y:
     rho / std::f64::consts::E.powi(2) * (-0.7 / (p - 1.0)).exp()
 }
 
-/// y(t + τ) = Σ_k y[k] τ^k into `out`, by Horner's rule.
+/// y(t + τ) = Σ_k y[k] τ^k into `out`, by Horner's rule: one component at a time, its sum
+/// held in a register (the components' chains overlap; row by row, every component went
+/// through memory at every row).
 pub fn sum(series: &[f64], n: usize, tau: f64, out: &mut [f64]) {
     let rows = series.len() / n;
-    out.copy_from_slice(&series[(rows - 1) * n..]);
-    for k in (0..rows - 1).rev() {
-        for (o, c) in out.iter_mut().zip(&series[k * n..(k + 1) * n]) {
-            *o = *o * tau + c;
+    for (i, o) in out.iter_mut().enumerate().take(n) {
+        let mut s = series[(rows - 1) * n + i];
+        for k in (0..rows - 1).rev() {
+            s = s * tau + series[k * n + i];
         }
+        *o = s;
     }
 }

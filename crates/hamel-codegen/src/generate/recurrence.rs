@@ -29,6 +29,8 @@ pub(super) enum Step {
     Sum(Vec<usize>),
     /// a · b.
     Product(usize, usize),
+    /// a².
+    Square(usize),
     /// a / b (`a` None: a dividend fixed over the step); `own` is this node.
     Quotient {
         a: Option<usize>,
@@ -82,6 +84,7 @@ impl Step {
             Step::Product(a, b) => {
                 format!("runtime::recur::product({}, {}, k)", from(*a), from(*b))
             }
+            Step::Square(a) => format!("runtime::recur::square({}, k)", from(*a)),
             Step::Quotient { a, b, own } => format!(
                 "runtime::recur::quotient({}, {}, {}, k)",
                 a.map_or("0.0".to_string(), |a| at(a, k)),
@@ -116,6 +119,7 @@ impl Step {
                 c(*a, k),
                 c(*b, 0)
             ),
+            Step::Square(a) => square(k, |i| c(*a, i)),
             Step::Quotient { a, b, own } => format!(
                 "({} - ({} + {} * {})) / {}",
                 a.map_or("0.0".to_string(), |a| c(a, k)),
@@ -170,6 +174,7 @@ impl Step {
             ),
             Step::State(_)
             | Step::Product(..)
+            | Step::Square(_)
             | Step::Quotient { .. }
             | Step::Sin { .. }
             | Step::Cos { .. }
@@ -199,6 +204,19 @@ fn convolve(pairs: impl Iterator<Item = (String, String)>) -> String {
         s(&acc[2]),
         s(&acc[3])
     )
+}
+
+/// `runtime::recur::square` written out (`c(i)`: coefficient i of the operand).
+fn square(k: usize, c: impl Fn(usize) -> String) -> String {
+    let terms: Vec<String> = (1..k.div_ceil(2))
+        .map(|i| format!(" + {} * {}", c(i), c(k - i)))
+        .collect();
+    let s = format!("2.0 * (0.0{})", terms.concat());
+    let base = match k % 2 {
+        0 => format!("({s} + {} * {})", c(k / 2), c(k / 2)),
+        _ => s,
+    };
+    format!("{base} + (2.0 * {}) * {}", c(0), c(k))
 }
 
 /// `runtime::recur::weighted` written out: Σ_{m=1}^{k} m·a[m]·b[k − m], one running sum.

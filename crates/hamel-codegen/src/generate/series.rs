@@ -81,10 +81,12 @@ impl Program {
     }
 
     fn product(&mut self, a: usize, b: usize) -> usize {
-        self.node(
-            format!("{} * {}", at(a, "0"), at(b, "0")),
-            Step::Product(a, b),
-        )
+        let step = if a == b {
+            Step::Square(a)
+        } else {
+            Step::Product(a, b)
+        };
+        self.node(format!("{} * {}", at(a, "0"), at(b, "0")), step)
     }
 
     fn scale(&mut self, a: usize, by: &str) -> usize {

@@ -329,6 +329,7 @@ fn coefficient<'a>(node: Node, k: usize, s: impl Fn(u32) -> &'a [f64], own: &[f6
         Node::Neg(a) => -s(a)[k],
         Node::AddConst(a) => s(a)[k],
         Node::Scale(a, m) => m * s(a)[k],
+        Node::Mul(a, b) if a == b => recur::square(s(a), k),
         Node::Mul(a, b) => recur::product(s(a), s(b), k),
         Node::Div(a, b) => recur::quotient(s(a)[k], s(b), own, k),
         // c/b: the quotient of a series that is c at 0 and zero after

@@ -48,6 +48,26 @@ pub fn product(a: &[f64], b: &[f64], k: usize) -> f64 {
     (convolve(&a[1..k], &b[1..k]) + a[0] * b[k]) + a[k] * b[0]
 }
 
+/// (a²)[k]: the product's symmetric terms once, doubled: 2·Σ_{0<i<k/2} a[i] a[k − i] (one
+/// running sum), a[k/2]² for even k, then 2a[0]·a[k] last (as in [`product`]). Half the
+/// product's multiplications.
+#[inline(always)]
+pub fn square(a: &[f64], k: usize) -> f64 {
+    if k == 0 {
+        return a[0] * a[0];
+    }
+    let mut s = 0.0;
+    for i in 1..k.div_ceil(2) {
+        s += a[i] * a[k - i];
+    }
+    let base = if k.is_multiple_of(2) {
+        2.0 * s + a[k / 2] * a[k / 2]
+    } else {
+        2.0 * s
+    };
+    base + (2.0 * a[0]) * a[k]
+}
+
 /// (a/b)[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) / b[0], the term of b[k] added last (as in
 /// [`product`]).
 #[inline(always)]
@@ -127,4 +147,25 @@ fn quotient_sum(t: &[f64], r: &[f64], k: usize) -> f64 {
         s += (j + 1) as f64 * t[j + 1] * r[k - 1 - j];
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The square's recurrence is the product's with the operand twice, to rounding.
+    #[test]
+    fn square_is_the_product_of_a_series_with_itself() {
+        let a: Vec<f64> = (0..21)
+            .map(|i| ((i * 7 % 11) as f64 - 5.0) / (i + 1) as f64)
+            .collect();
+        for k in 0..=20 {
+            let (s, p) = (square(&a, k), product(&a, &a, k));
+            let scale: f64 = (0..=k).map(|i| (a[i] * a[k - i]).abs()).sum();
+            assert!(
+                (s - p).abs() <= 4.0 * f64::EPSILON * scale,
+                "k = {k}: {s} against {p}"
+            );
+        }
+    }
 }
