@@ -8,7 +8,8 @@
 //!   (the four partial sums of `convolve`, the running sum of `weighted`), so that both ways
 //!   give the same bits. What heyoka's JIT does for each order: with every index a constant the
 //!   coefficient buffer is a fixed array whose slots the compiler keeps in registers, and no
-//!   loop of variable length is left (measured 1.7–2.8× faster per series, docs/tradeoff.md).
+//!   loop of variable length is left (measured 1.7–2.8× faster per series,
+//!   docs/design/integrators.md).
 //!   The rarer recurrences (exp, ln, atan, atan2) stay calls, with k a literal.
 //!
 //! Coefficient `k` of node `j` is `c[j * w + k]` (written out: the constant index itself);
