@@ -524,6 +524,57 @@ fn written_out_series_are_the_looped_ones_bit_for_bit() {
     assert!(cores >= 15, "{cores}");
 }
 
+/// The compiled series checks at the state the closed form's definiteness tests that depend on
+/// it (the scene core no longer evaluates the right-hand side before each series): where
+/// `reduced_into` finds A_Γ not definite, the series fails with the same error before any
+/// coefficient; where it passes, so does the series. At random states of every core with a
+/// closed form, and at a state of NaNs, which fails every test (a core whose tests all depend
+/// on the parameters alone passes it, and the driver then finds the series not finite).
+#[test]
+fn compiled_series_check_the_closed_forms_tests_at_the_state() {
+    let mut rng = ChaCha8Rng::seed_from_u64(636);
+    let (mut cores, mut failed) = (0, 0);
+    for core in MODELS {
+        let n = core.kept.len() + core.dims.sigma;
+        let mut out = Vec::new();
+        let states = (0..20)
+            .map(|_| {
+                (0..n)
+                    .map(|_| rng.random_range(-4.0..4.0))
+                    .collect::<Vec<f64>>()
+            })
+            .chain([vec![f64::NAN; n]]);
+        for x in states {
+            let Some(series) = (core.series)(&x, 5, &mut out).transpose() else {
+                break;
+            };
+            match (core.reduced_into)(&x, &mut vec![0.0; n]) {
+                Err(e) if e.to_string().contains("not positive definite") => {
+                    let got = series.expect_err("the series passed a failed test");
+                    assert_eq!(
+                        got.to_string(),
+                        e.to_string(),
+                        "{} {}",
+                        core.model,
+                        core.eta
+                    );
+                    failed += 1;
+                }
+                Err(_) => {}
+                Ok(()) => {
+                    series.unwrap_or_else(|e| panic!("{} {}: {e}", core.model, core.eta));
+                }
+            }
+        }
+        cores += usize::from(!out.is_empty());
+    }
+    eprintln!("{cores} cores with compiled series, {failed} failed tests found alike");
+    assert!(
+        cores >= 15 && failed >= 5,
+        "{cores} cores, {failed} failed tests"
+    );
+}
+
 /// SymPy's count for the same bicycle: test_kane3's mass matrix and forcing after `cse`
 /// (`python3 bench/sympy_bicycle.py --count`, SymPy 1.14; docs/models/whipple_bicycle.md).
 const SYMPY_BICYCLE_OPERATIONS: usize = 2_513;

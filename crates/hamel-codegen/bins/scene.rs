@@ -33,7 +33,7 @@ use std::time::Instant;
 
 use hamel_generated::{
     fast, forces, runtime, reduced_with, DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
-    REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_into_with, reduced_jacobian_live,
+    REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_jacobian_live,
     reduced_series, residual_max, residual_max_many,
 };
 use hamel_sim::job::{Answer, ForcesFailure, Job, JobError, Member, MemberAnswer, PART_FORMAT, PartHeader, Progress, Save, Stopped};
@@ -145,7 +145,7 @@ impl OdeSystem for Reduced {
         )
     }
     /// The solution's series for the Taylor method: by the recurrences compiled from the
-    /// closed form ([`reduced_series`]), checked at the state by an f64 evaluation first; else
+    /// closed form ([`reduced_series`], which checks the closed form's tests at the state); else
     /// the reduced right-hand side traced once and the recurrences run over it
     /// ([`runtime::taylor_by_trace`]), as for a state that carries the forces' work.
     /// Parameters that change with time give none.
@@ -154,13 +154,10 @@ impl OdeSystem for Reduced {
             return Some(Err(SystemError::new("the Taylor method needs parameters constant in time; this scene sets some at every step")));
         }
         if y.len() == REDUCED_DIM {
-            let mut dx = [0.0; REDUCED_DIM];
-            if let Err(e) = reduced_into_with(y, &mut dx, &self.prep) {
-                return Some(Err(SystemError::new(format!("at t = {t}: {e}"))));
-            }
-            // (whether it is finite, the driver checks)
-            if reduced_series(y, &self.prep, order, out).is_some() {
-                return Some(Ok(()));
+            // the closed form's definiteness tests at coefficient 0; whether the series is
+            // finite, the driver checks
+            if let Some(series) = reduced_series(y, &self.prep, order, out) {
+                return Some(series.map_err(|e| SystemError::new(format!("at t = {t}: {e}"))));
             }
         }
         // with the forces' work W appended (does_work), its rate the power q̇ᵀF

@@ -15,6 +15,7 @@ use crate::{CodegenError, RUNTIME_SOURCES, escape, manifest};
 mod contact;
 mod emit;
 mod ingredients;
+mod monomials;
 mod path;
 mod recurrence;
 mod series;
@@ -664,7 +665,7 @@ fn reduced_tape(
 
 /// The body of `reduced_series` from the reduced tape (inputs: the kept coordinates, the
 /// parameters, η; outputs: η̇, the kept rates, the definiteness tests): the state is (kept q,
-/// η), its rates the kept rates then η̇.
+/// η), its rates the kept rates then η̇; the tests that depend on the state are checked at it.
 fn reduced_series(tape: &Tape, kept: usize, params: &[String], sigma: usize) -> String {
     use series::SeriesInput;
     let inputs: Vec<SeriesInput> = (0..kept)
@@ -677,9 +678,10 @@ fn reduced_series(tape: &Tape, kept: usize, params: &[String], sigma: usize) -> 
         .chain((0..sigma).map(|s| SeriesInput::State(kept + s)))
         .collect();
     let rates: Vec<usize> = (sigma..sigma + kept).chain(0..sigma).collect();
+    let tests: Vec<usize> = (sigma + kept..tape.outputs().len()).collect();
     format!(
-        "    let p = &prep.p;\n{}    Some(())\n",
-        series::series_body(tape, &inputs, &rates)
+        "    let p = &prep.p;\n{}    Some(Ok(()))\n",
+        series::series_body(tape, &inputs, &rates, &tests)
     )
 }
 

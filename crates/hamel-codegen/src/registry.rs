@@ -88,7 +88,7 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
          residuals: |rows, out| $m::residual_max_many(rows, &$m::Parameters::default(), out),\n            constraint_force_names: &$m::CONSTRAINT_FORCES,\n            \
          constraint_forces: |q, e| $m::constraint_forces(q, e, &$m::Parameters::default()),\n            \
          operations: $m::OPERATIONS,\n            \
-         series: |x, order, out| Ok($m::reduced_series(x, prepared!($m), order, out)),\n            \
+         series: |x, order, out| $m::reduced_series(x, prepared!($m), order, out).transpose(),\n            \
          series_traced: |x, order, out| {\n                let prep = prepared!($m);\n                \
          let f = |x: &[runtime::Traced], dx: &mut [runtime::Traced]| {\n                    \
          dx.copy_from_slice(&$m::reduced_with(x, prep)?);\n                    Ok::<(), EvalError>(())\n                };\n                \

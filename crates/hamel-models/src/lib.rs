@@ -183,7 +183,7 @@ macro_rules! core {
             constraint_force_names: &$m::CONSTRAINT_FORCES,
             constraint_forces: |q, e| $m::constraint_forces(q, e, &$m::Parameters::default()),
             operations: $m::OPERATIONS,
-            series: |x, order, out| Ok($m::reduced_series(x, prepared!($m), order, out)),
+            series: |x, order, out| $m::reduced_series(x, prepared!($m), order, out).transpose(),
             series_traced: |x, order, out| {
                 let prep = prepared!($m);
                 let f = |x: &[runtime::Traced], dx: &mut [runtime::Traced]| {

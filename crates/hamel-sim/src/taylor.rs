@@ -25,17 +25,18 @@ pub fn step(series: &[f64], n: usize, order: usize, (rtol, atol): (f64, f64), y:
     };
     let size = y.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     let scale = (atol / rtol).max(size);
-    let radius = |k: usize| {
+    // ln of (s/‖y[k]‖)^{1/k}: two logarithms and one exponential, where two powers cost more
+    let log_radius = |k: usize| {
         let c = norm(k);
         if c == 0.0 {
             f64::INFINITY
         } else {
-            (scale / c).powf(1.0 / k as f64)
+            (scale / c).ln() / k as f64
         }
     };
     let p = order as f64;
-    let rho = radius(order - 1).min(radius(order));
-    rho / std::f64::consts::E.powi(2) * (-0.7 / (p - 1.0)).exp()
+    let log_rho = log_radius(order - 1).min(log_radius(order));
+    (log_rho - 2.0 - 0.7 / (p - 1.0)).exp()
 }
 
 /// y(t + τ) = Σ_k y[k] τ^k into `out`, by Horner's rule: one component at a time, its sum

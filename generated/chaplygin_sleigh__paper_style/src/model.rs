@@ -616,10 +616,11 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 /// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
 /// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
 /// operation); None without a closed form or with parameters set in time (the scene core then
-/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
-/// recurrences do not repeat the closed form's definiteness tests.
+/// traces [`reduced_with`]); an error where the state fails the closed form's definiteness
+/// tests (those of [`reduced_with`], checked at coefficient 0). Whether the coefficients are
+/// finite, the caller checks.
 #[allow(unused_variables, unused_mut, clippy::all)]
-pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
     let p = &prep.p;
     let s0: f64 = p.a;
     let s4: f64 = p.m;
@@ -642,13 +643,13 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[6 * w + 0] = -c[5 * w + 0];
         c[7 * w + 0] = (1.0 / s11) * c[6 * w + 0];
         if order <= 0 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 0: c[j * 21 + 0] for node j
-        out[2] = c[42] / 1.0;
-        out[3] = c[147] / 1.0;
+        out[2] = c[42] * 1.0;
+        out[3] = c[147] * 1.0;
         if order <= 1 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 1: c[j * 21 + 1] for node j
         c[1] = out[3];
@@ -659,10 +660,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[106] = (s0 * s4) * c[85];
         c[127] = -c[106];
         c[148] = (1.0 / s11) * c[127];
-        out[4] = c[43] / 2.0;
-        out[5] = c[148] / 2.0;
+        out[4] = c[43] * 0.5;
+        out[5] = c[148] * 0.5;
         if order <= 2 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 2: c[j * 21 + 2] for node j
         c[2] = out[5];
@@ -673,10 +674,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[107] = (s0 * s4) * c[86];
         c[128] = -c[107];
         c[149] = (1.0 / s11) * c[128];
-        out[6] = c[44] / 3.0;
-        out[7] = c[149] / 3.0;
+        out[6] = c[44] * 0.3333333333333333;
+        out[7] = c[149] * 0.3333333333333333;
         if order <= 3 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 3: c[j * 21 + 3] for node j
         c[3] = out[7];
@@ -687,10 +688,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[108] = (s0 * s4) * c[87];
         c[129] = -c[108];
         c[150] = (1.0 / s11) * c[129];
-        out[8] = c[45] / 4.0;
-        out[9] = c[150] / 4.0;
+        out[8] = c[45] * 0.25;
+        out[9] = c[150] * 0.25;
         if order <= 4 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 4: c[j * 21 + 4] for node j
         c[4] = out[9];
@@ -701,10 +702,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[109] = (s0 * s4) * c[88];
         c[130] = -c[109];
         c[151] = (1.0 / s11) * c[130];
-        out[10] = c[46] / 5.0;
-        out[11] = c[151] / 5.0;
+        out[10] = c[46] * 0.2;
+        out[11] = c[151] * 0.2;
         if order <= 5 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 5: c[j * 21 + 5] for node j
         c[5] = out[11];
@@ -715,10 +716,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[110] = (s0 * s4) * c[89];
         c[131] = -c[110];
         c[152] = (1.0 / s11) * c[131];
-        out[12] = c[47] / 6.0;
-        out[13] = c[152] / 6.0;
+        out[12] = c[47] * 0.16666666666666666;
+        out[13] = c[152] * 0.16666666666666666;
         if order <= 6 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 6: c[j * 21 + 6] for node j
         c[6] = out[13];
@@ -729,10 +730,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[111] = (s0 * s4) * c[90];
         c[132] = -c[111];
         c[153] = (1.0 / s11) * c[132];
-        out[14] = c[48] / 7.0;
-        out[15] = c[153] / 7.0;
+        out[14] = c[48] * 0.14285714285714285;
+        out[15] = c[153] * 0.14285714285714285;
         if order <= 7 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 7: c[j * 21 + 7] for node j
         c[7] = out[15];
@@ -743,10 +744,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[112] = (s0 * s4) * c[91];
         c[133] = -c[112];
         c[154] = (1.0 / s11) * c[133];
-        out[16] = c[49] / 8.0;
-        out[17] = c[154] / 8.0;
+        out[16] = c[49] * 0.125;
+        out[17] = c[154] * 0.125;
         if order <= 8 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 8: c[j * 21 + 8] for node j
         c[8] = out[17];
@@ -757,10 +758,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[113] = (s0 * s4) * c[92];
         c[134] = -c[113];
         c[155] = (1.0 / s11) * c[134];
-        out[18] = c[50] / 9.0;
-        out[19] = c[155] / 9.0;
+        out[18] = c[50] * 0.1111111111111111;
+        out[19] = c[155] * 0.1111111111111111;
         if order <= 9 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 9: c[j * 21 + 9] for node j
         c[9] = out[19];
@@ -771,10 +772,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[114] = (s0 * s4) * c[93];
         c[135] = -c[114];
         c[156] = (1.0 / s11) * c[135];
-        out[20] = c[51] / 10.0;
-        out[21] = c[156] / 10.0;
+        out[20] = c[51] * 0.1;
+        out[21] = c[156] * 0.1;
         if order <= 10 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 10: c[j * 21 + 10] for node j
         c[10] = out[21];
@@ -785,10 +786,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[115] = (s0 * s4) * c[94];
         c[136] = -c[115];
         c[157] = (1.0 / s11) * c[136];
-        out[22] = c[52] / 11.0;
-        out[23] = c[157] / 11.0;
+        out[22] = c[52] * 0.09090909090909091;
+        out[23] = c[157] * 0.09090909090909091;
         if order <= 11 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 11: c[j * 21 + 11] for node j
         c[11] = out[23];
@@ -799,10 +800,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[116] = (s0 * s4) * c[95];
         c[137] = -c[116];
         c[158] = (1.0 / s11) * c[137];
-        out[24] = c[53] / 12.0;
-        out[25] = c[158] / 12.0;
+        out[24] = c[53] * 0.08333333333333333;
+        out[25] = c[158] * 0.08333333333333333;
         if order <= 12 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 12: c[j * 21 + 12] for node j
         c[12] = out[25];
@@ -813,10 +814,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[117] = (s0 * s4) * c[96];
         c[138] = -c[117];
         c[159] = (1.0 / s11) * c[138];
-        out[26] = c[54] / 13.0;
-        out[27] = c[159] / 13.0;
+        out[26] = c[54] * 0.07692307692307693;
+        out[27] = c[159] * 0.07692307692307693;
         if order <= 13 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 13: c[j * 21 + 13] for node j
         c[13] = out[27];
@@ -827,10 +828,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[118] = (s0 * s4) * c[97];
         c[139] = -c[118];
         c[160] = (1.0 / s11) * c[139];
-        out[28] = c[55] / 14.0;
-        out[29] = c[160] / 14.0;
+        out[28] = c[55] * 0.07142857142857142;
+        out[29] = c[160] * 0.07142857142857142;
         if order <= 14 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 14: c[j * 21 + 14] for node j
         c[14] = out[29];
@@ -841,10 +842,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[119] = (s0 * s4) * c[98];
         c[140] = -c[119];
         c[161] = (1.0 / s11) * c[140];
-        out[30] = c[56] / 15.0;
-        out[31] = c[161] / 15.0;
+        out[30] = c[56] * 0.06666666666666667;
+        out[31] = c[161] * 0.06666666666666667;
         if order <= 15 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 15: c[j * 21 + 15] for node j
         c[15] = out[31];
@@ -855,10 +856,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[120] = (s0 * s4) * c[99];
         c[141] = -c[120];
         c[162] = (1.0 / s11) * c[141];
-        out[32] = c[57] / 16.0;
-        out[33] = c[162] / 16.0;
+        out[32] = c[57] * 0.0625;
+        out[33] = c[162] * 0.0625;
         if order <= 16 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 16: c[j * 21 + 16] for node j
         c[16] = out[33];
@@ -869,10 +870,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[121] = (s0 * s4) * c[100];
         c[142] = -c[121];
         c[163] = (1.0 / s11) * c[142];
-        out[34] = c[58] / 17.0;
-        out[35] = c[163] / 17.0;
+        out[34] = c[58] * 0.058823529411764705;
+        out[35] = c[163] * 0.058823529411764705;
         if order <= 17 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 17: c[j * 21 + 17] for node j
         c[17] = out[35];
@@ -883,10 +884,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[122] = (s0 * s4) * c[101];
         c[143] = -c[122];
         c[164] = (1.0 / s11) * c[143];
-        out[36] = c[59] / 18.0;
-        out[37] = c[164] / 18.0;
+        out[36] = c[59] * 0.05555555555555555;
+        out[37] = c[164] * 0.05555555555555555;
         if order <= 18 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 18: c[j * 21 + 18] for node j
         c[18] = out[37];
@@ -897,10 +898,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[123] = (s0 * s4) * c[102];
         c[144] = -c[123];
         c[165] = (1.0 / s11) * c[144];
-        out[38] = c[60] / 19.0;
-        out[39] = c[165] / 19.0;
+        out[38] = c[60] * 0.05263157894736842;
+        out[39] = c[165] * 0.05263157894736842;
         if order <= 19 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 19: c[j * 21 + 19] for node j
         c[19] = out[39];
@@ -911,9 +912,9 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         c[124] = (s0 * s4) * c[103];
         c[145] = -c[124];
         c[166] = (1.0 / s11) * c[145];
-        out[40] = c[61] / 20.0;
-        out[41] = c[166] / 20.0;
-        return Some(());
+        out[40] = c[61] * 0.05;
+        out[41] = c[166] * 0.05;
+        return Some(Ok(()));
     }
     let w = order + 1;
     out.clear();
@@ -939,10 +940,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
             c[6 * w + k] = -c[5 * w + k];
             c[7 * w + k] = (1.0 / s11) * c[6 * w + k];
         }
-        out[(k + 1) * 2 + 0] = c[2 * w + k] / (k + 1) as f64;
-        out[(k + 1) * 2 + 1] = c[7 * w + k] / (k + 1) as f64;
+        out[(k + 1) * 2 + 0] = c[2 * w + k] * runtime::recur::inverse(k + 1);
+        out[(k + 1) * 2 + 1] = c[7 * w + k] * runtime::recur::inverse(k + 1);
     }
-    Some(())
+    Some(Ok(()))
 }
 
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.

@@ -597,10 +597,11 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 /// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
 /// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
 /// operation); None without a closed form or with parameters set in time (the scene core then
-/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
-/// recurrences do not repeat the closed form's definiteness tests.
+/// traces [`reduced_with`]); an error where the state fails the closed form's definiteness
+/// tests (those of [`reduced_with`], checked at coefficient 0). Whether the coefficients are
+/// finite, the caller checks.
 #[allow(unused_variables, unused_mut, clippy::all)]
-pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
     let p = &prep.p;
     let s0: f64 = 0.0;
     if order <= 20 {
@@ -612,86 +613,86 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         if order > 0 { out[2 + 0] = s0; }
         if order > 0 { out[2 + 1] = s0; }
         if order <= 0 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 0: c[j * 21 + 0] for node j
         if order <= 1 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 1: c[j * 21 + 1] for node j
         if order <= 2 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 2: c[j * 21 + 2] for node j
         if order <= 3 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 3: c[j * 21 + 3] for node j
         if order <= 4 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 4: c[j * 21 + 4] for node j
         if order <= 5 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 5: c[j * 21 + 5] for node j
         if order <= 6 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 6: c[j * 21 + 6] for node j
         if order <= 7 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 7: c[j * 21 + 7] for node j
         if order <= 8 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 8: c[j * 21 + 8] for node j
         if order <= 9 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 9: c[j * 21 + 9] for node j
         if order <= 10 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 10: c[j * 21 + 10] for node j
         if order <= 11 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 11: c[j * 21 + 11] for node j
         if order <= 12 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 12: c[j * 21 + 12] for node j
         if order <= 13 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 13: c[j * 21 + 13] for node j
         if order <= 14 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 14: c[j * 21 + 14] for node j
         if order <= 15 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 15: c[j * 21 + 15] for node j
         if order <= 16 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 16: c[j * 21 + 16] for node j
         if order <= 17 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 17: c[j * 21 + 17] for node j
         if order <= 18 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 18: c[j * 21 + 18] for node j
         if order <= 19 {
-            return Some(());
+            return Some(Ok(()));
         }
         // coefficient 19: c[j * 21 + 19] for node j
-        return Some(());
+        return Some(Ok(()));
     }
     let w = order + 1;
     out.clear();
@@ -704,7 +705,7 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         if k > 0 {
         }
     }
-    Some(())
+    Some(Ok(()))
 }
 
 /// The body of [`reduced_with`] and [`reduced`]; `c`: the parameter-only values.

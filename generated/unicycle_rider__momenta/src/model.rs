@@ -8124,10 +8124,11 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 /// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
 /// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
 /// operation); None without a closed form or with parameters set in time (the scene core then
-/// traces [`reduced_with`]). The caller checks the state with [`reduced_into_with`] first: the
-/// recurrences do not repeat the closed form's definiteness tests.
+/// traces [`reduced_with`]); an error where the state fails the closed form's definiteness
+/// tests (those of [`reduced_with`], checked at coefficient 0). Whether the coefficients are
+/// finite, the caller checks.
 #[allow(unused_variables, unused_mut, clippy::all)]
-pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<()> {
+pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
     let _ = (x, prep, order, out);
     None
 }

@@ -15,6 +15,8 @@
 //! Coefficient `k` of node `j` is `c[j * w + k]` (written out: the constant index itself);
 //! `out[k * n + i]` holds coefficient k of the state's component i.
 
+use super::emit::lit;
+
 /// How a node's coefficient k ≥ 1 is computed (`runtime::recur`'s recurrences).
 #[derive(Clone, Debug)]
 pub(super) enum Step {
@@ -105,9 +107,26 @@ impl Step {
         }
     }
 
+    /// The reciprocal the written-out recurrence multiplies by (`r{own}`, computed once from
+    /// coefficient 0 as `runtime::recur` computes it at every k), as a `let`; None for a step
+    /// without one.
+    pub(super) fn reciprocal(&self) -> Option<String> {
+        match self {
+            Step::Quotient { b, own, .. } => {
+                Some(format!("let r{own}: f64 = 1.0 / {};", at(*b, "0")))
+            }
+            Step::Sqrt { own, .. } => Some(format!(
+                "let r{own}: f64 = 1.0 / (2.0 * {});",
+                at(*own, "0")
+            )),
+            _ => None,
+        }
+    }
+
     /// Coefficient `k` (a literal) as a Rust expression with every index a constant
     /// (coefficient i of node j at `c[j · width + i]`) and the sums written out in
-    /// `runtime::recur`'s order of addition.
+    /// `runtime::recur`'s order of addition; a quotient or root multiplies by its
+    /// [`Step::reciprocal`], a sine or cosine by 1/k.
     pub(super) fn unrolled(&self, n: usize, k: usize, width: usize) -> String {
         let c = |node: usize, i: usize| format!("c[{}]", node * width + i);
         match self {
@@ -122,24 +141,26 @@ impl Step {
             ),
             Step::Square(a) => square(k, |i| c(*a, i)),
             Step::Quotient { a, b, own } => format!(
-                "({} - ({} + {} * {})) / {}",
+                "({} - ({} + {} * {})) * r{own}",
                 a.map_or("0.0".to_string(), |a| c(a, k)),
                 convolve((1..k).map(|j| (c(*b, j), c(*own, k - j)))),
                 c(*b, k),
                 c(*own, 0),
-                c(*b, 0)
             ),
-            Step::Sin { a, cos } => {
-                format!("{} / {k}.0", weighted(k, |m| (c(*a, m), c(*cos, k - m))))
-            }
-            Step::Cos { a, sin } => {
-                format!("-{} / {k}.0", weighted(k, |m| (c(*a, m), c(*sin, k - m))))
-            }
+            Step::Sin { a, cos } => format!(
+                "{} * {}",
+                weighted(k, |m| (c(*a, m), c(*cos, k - m))),
+                lit(1.0 / k as f64)
+            ),
+            Step::Cos { a, sin } => format!(
+                "-{} * {}",
+                weighted(k, |m| (c(*a, m), c(*sin, k - m))),
+                lit(1.0 / k as f64)
+            ),
             Step::Sqrt { a, own } => format!(
-                "({} - {}) / (2.0 * {})",
+                "({} - {}) * r{own}",
                 c(*a, k),
                 convolve((0..k.saturating_sub(1)).map(|i| (c(*own, 1 + i), c(*own, k - 1 - i)))),
-                c(*own, 0)
             ),
             _ => self.linear_or_call(&k.to_string(), &|node| c(node, k)),
         }
@@ -248,7 +269,7 @@ mod tests {
         assert_eq!(convolve(std::iter::empty()), "((0.0 + 0.0) + (0.0 + 0.0))");
         assert_eq!(
             Step::Sin { a: 0, cos: 1 }.unrolled(2, 2, 21),
-            "(1.0 * c[1] * c[22] + 2.0 * c[2] * c[21]) / 2.0"
+            "(1.0 * c[1] * c[22] + 2.0 * c[2] * c[21]) * 0.5"
         );
         assert_eq!(Step::State(1).unrolled(3, 4, 21), "out[13]");
         assert_eq!(Step::Sum(vec![0, 2]).unrolled(3, 4, 21), "c[4] + c[46]");

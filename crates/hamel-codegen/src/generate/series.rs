@@ -16,7 +16,8 @@ use std::fmt::Write;
 
 use hamel_expr::{Func, Op, Tape};
 
-use super::emit::lit;
+use super::emit::{NOT_DEFINITE, lit};
+use super::monomials::{Factor, Monomials};
 use super::recurrence::{Step, at};
 
 /// What a tape input is for the series.
@@ -47,6 +48,8 @@ struct Program {
     nodes: usize,
     /// sin and cos nodes of an operation, once made.
     sin_cos: std::collections::HashMap<usize, (usize, usize)>,
+    /// The node of each shared pair of factors ([`Monomials::pairs`]), once made.
+    pairs: std::collections::HashMap<usize, usize>,
 }
 
 impl Program {
@@ -152,37 +155,60 @@ impl Program {
 }
 
 /// The series program of `tape` (its inputs playing `inputs`), for the rates `rates` (the tape
-/// output of each state component's rate): the body of `reduced_series`, which fills `out` with
-/// `order + 1` rows of the state's coefficients from `x`. None where an operation has no
-/// recurrence here.
-pub(super) fn series_body(tape: &Tape, inputs: &[SeriesInput], rates: &[usize]) -> String {
-    let ops = tape.ops();
-    let mut needed = vec![false; ops.len()];
-    for &r in rates {
-        needed[tape.outputs()[r]] = true;
-    }
-    for k in (0..ops.len()).rev() {
-        if needed[k] {
-            for a in operands(&ops[k]) {
-                needed[a] = true;
-            }
-        }
-    }
+/// output of each state component's rate), checking the definiteness tests `tests` (tape
+/// outputs, each to be > 0) at the state: the body of `reduced_series`, which fills `out` with
+/// `order + 1` rows of the state's coefficients from `x`, or returns the failed test's error
+/// before any coefficient beyond 0. Tests of the parameters alone are `Prepared::new`'s.
+pub(super) fn series_body(
+    tape: &Tape,
+    inputs: &[SeriesInput],
+    rates: &[usize],
+    tests: &[usize],
+) -> String {
+    let (ops, outputs) = (tape.ops(), tape.outputs());
+    let varying = tape.varying(|i| matches!(inputs[i], SeriesInput::State(_)));
+    let tests: Vec<usize> = (tests.iter().map(|&o| outputs[o]))
+        .filter(|&op| varying[op])
+        .collect();
+    let rate_ops: Vec<usize> = rates.iter().map(|&r| outputs[r]).collect();
+    let direct = |k: usize| operands(&ops[k]);
+    let mono = Monomials::new(ops, &reached(ops, &rate_ops, direct), &varying, &rate_ops);
+    let needed = reached(ops, &rate_ops, |k| match &ops[k] {
+        Op::Mul(_) if mono.of.contains_key(&k) => mono.operands(k),
+        op => operands(op),
+    });
+    let for_tests = reached(ops, &tests, direct);
     let mut p = Program::default();
+    let mut checks = String::new();
     let mut vals: Vec<Val> = Vec::with_capacity(ops.len());
     for (k, op) in ops.iter().enumerate() {
         let v = if needed[k] {
-            value(&mut p, k, op, &vals, inputs)
+            value(&mut p, (k, op), &vals, inputs, &mono)
+        } else if for_tests[k] {
+            // an f64 at the state, from the nodes' coefficient 0
+            let _ = writeln!(checks, "let z{k}: f64 = {};", zero_text(op, &vals, inputs));
+            Val::Scalar(format!("z{k}"))
         } else {
             Val::Scalar("f64::NAN".into())
         };
         vals.push(v);
+    }
+    if !tests.is_empty() {
+        let all = tests
+            .iter()
+            .map(|&t| format!("{} > 0.0", Program::value(&vals[t])));
+        let _ = writeln!(
+            checks,
+            "if !({}) {{\nreturn Some(Err(runtime::cold_error(\"{NOT_DEFINITE} here\")));\n}}",
+            all.collect::<Vec<_>>().join(" && ")
+        );
     }
     let n = rates.len();
     let mut w = Written {
         n,
         nodes: p.nodes.max(1),
         zero: p.zero,
+        checks,
         fixed_rows: String::new(),
         steps: p.steps,
         rates: Vec::new(),
@@ -198,17 +224,44 @@ pub(super) fn series_body(tape: &Tape, inputs: &[SeriesInput], rates: &[usize]) 
     format!("{}{}{}", p.scalars, unrolled(&w), looped(&w))
 }
 
+/// The operations `from` depends on, `from` included, an operation `k` reading
+/// `operands(k)`.
+fn reached(ops: &[Op], from: &[usize], operands: impl Fn(usize) -> Vec<usize>) -> Vec<bool> {
+    let mut reached = vec![false; ops.len()];
+    from.iter().for_each(|&o| reached[o] = true);
+    for k in (0..ops.len()).rev() {
+        if reached[k] {
+            for a in operands(k) {
+                reached[a] = true;
+            }
+        }
+    }
+    reached
+}
+
+/// An operation's f64 value at the state, its operands' texts at coefficient 0.
+fn zero_text(op: &Op, vals: &[Val], inputs: &[SeriesInput]) -> String {
+    match op {
+        Op::Input(s) => match &inputs[*s] {
+            SeriesInput::State(i) => format!("x[{i}]"),
+            SeriesInput::Fixed(text) => text.clone(),
+        },
+        _ => scalar_text(op, vals),
+    }
+}
+
 /// The highest order written out whole: the order at rtol = ε (`hamel_sim::taylor::order`,
 /// ⌈−ln ε/2 + 1⌉ = 20); a higher one takes the loop.
 const UNROLLED_ORDER: usize = 20;
 
 /// The series program, ready to write: the coefficient-0 statements (`c[j * w + 0] = …;`), the
-/// rows fixed over the step, each node's recurrence, and the node of each state component's
-/// rate.
+/// definiteness tests at the state, the rows fixed over the step, each node's recurrence, and
+/// the node of each state component's rate.
 struct Written {
     n: usize,
     nodes: usize,
     zero: String,
+    checks: String,
     fixed_rows: String,
     steps: Vec<Step>,
     /// (component i, the node of its rate).
@@ -225,6 +278,7 @@ impl Written {
         let _ = writeln!(o, "out[..{n}].copy_from_slice(&x[..{n}]);");
         let _ = writeln!(o, "let mut c = {c};");
         o += &self.zero;
+        o += &self.checks;
         o += &self.fixed_rows;
         o.lines()
             .map(|l| format!("{pad}{}\n", l.trim_start()))
@@ -238,10 +292,13 @@ fn unrolled(w: &Written) -> String {
     let (n, width) = (w.n, UNROLLED_ORDER + 1);
     let mut o = format!("    if order <= {UNROLLED_ORDER} {{\n        let w: usize = {width};\n");
     o += &w.start(&format!("[0.0; {} * {width}]", w.nodes), "        ");
+    for r in w.steps.iter().filter_map(Step::reciprocal) {
+        let _ = writeln!(o, "        {r}");
+    }
     for k in 0..UNROLLED_ORDER {
         let _ = writeln!(
             o,
-            "        if order <= {k} {{\n            return Some(());\n        }}"
+            "        if order <= {k} {{\n            return Some(Ok(()));\n        }}"
         );
         let _ = writeln!(
             o,
@@ -255,10 +312,14 @@ fn unrolled(w: &Written) -> String {
         }
         for &(i, j) in &w.rates {
             let (row, at) = ((k + 1) * n + i, j * width + k);
-            let _ = writeln!(o, "        out[{row}] = c[{at}] / {}.0;", k + 1);
+            let _ = writeln!(
+                o,
+                "        out[{row}] = c[{at}] * {};",
+                lit(1.0 / (k + 1) as f64)
+            );
         }
     }
-    o + "        return Some(());\n    }\n"
+    o + "        return Some(Ok(()));\n    }\n"
 }
 
 /// Any order: the loop over k, each recurrence a call of `runtime::recur` (`Step::looped`).
@@ -274,7 +335,7 @@ fn looped(w: &Written) -> String {
     for &(i, j) in &w.rates {
         let _ = writeln!(
             o,
-            "        out[(k + 1) * {n} + {i}] = {} / (k + 1) as f64;",
+            "        out[(k + 1) * {n} + {i}] = {} * runtime::recur::inverse(k + 1);",
             at(j, "k")
         );
     }
@@ -282,7 +343,7 @@ fn looped(w: &Written) -> String {
 }
 
 /// The operands of an operation.
-fn operands(op: &Op) -> Vec<usize> {
+pub(super) fn operands(op: &Op) -> Vec<usize> {
     match op {
         Op::Input(_) | Op::Const(_) => vec![],
         Op::Add(v) | Op::Mul(v) => v.clone(),
@@ -291,8 +352,14 @@ fn operands(op: &Op) -> Vec<usize> {
     }
 }
 
-/// The value of operation `k`.
-fn value(p: &mut Program, k: usize, op: &Op, vals: &[Val], inputs: &[SeriesInput]) -> Val {
+/// The value of operation `k` (a product with its shared pairs, `mono`).
+fn value(
+    p: &mut Program,
+    (k, op): (usize, &Op),
+    vals: &[Val],
+    inputs: &[SeriesInput],
+    mono: &Monomials,
+) -> Val {
     let all_scalar = operands(op)
         .iter()
         .all(|&a| matches!(vals[a], Val::Scalar(_)));
@@ -301,6 +368,13 @@ fn value(p: &mut Program, k: usize, op: &Op, vals: &[Val], inputs: &[SeriesInput
             SeriesInput::State(i) => Val::Node(p.node(format!("x[{i}]"), Step::State(*i))),
             SeriesInput::Fixed(text) => p.scalar(k, text.clone()),
         };
+    }
+    // (before the test for scalars: a split power is no operand of its own)
+    if let Some(factors) = mono.of.get(&k) {
+        let nodes = (factors.iter())
+            .map(|&f| factor(p, f, vals, mono))
+            .collect();
+        return Val::Node(chain(p, nodes, scalars(&mono.fixed[&k], vals)));
     }
     if all_scalar {
         return p.scalar(k, scalar_text(op, vals));
@@ -367,19 +441,48 @@ fn sum(p: &mut Program, list: &[usize], vals: &[Val]) -> usize {
     p.node(zero.join(" + "), Step::Sum(step))
 }
 
-fn product(p: &mut Program, list: &[usize], vals: &[Val]) -> usize {
-    let scalars: Vec<String> = (list.iter())
+/// The fixed operands of a product, as f64 texts.
+fn scalars(list: &[usize], vals: &[Val]) -> Vec<String> {
+    (list.iter())
         .filter_map(|&a| match &vals[a] {
             Val::Scalar(s) => Some(s.clone()),
             Val::Node(_) => None,
         })
-        .collect();
+        .collect()
+}
+
+fn product(p: &mut Program, list: &[usize], vals: &[Val]) -> usize {
     let nodes: Vec<usize> = (list.iter())
         .filter_map(|&a| match vals[a] {
             Val::Node(n) => Some(n),
             Val::Scalar(_) => None,
         })
         .collect();
+    chain(p, nodes, scalars(list, vals))
+}
+
+/// The node of a factor of a shared product: an operation's, or its pair's (made once).
+fn factor(p: &mut Program, f: Factor, vals: &[Val], mono: &Monomials) -> usize {
+    match f {
+        Factor::Op(a) => match vals[a] {
+            Val::Node(n) => n,
+            Val::Scalar(_) => unreachable!("a factor depends on the state"),
+        },
+        Factor::Pair(i) => {
+            if let Some(&n) = p.pairs.get(&i) {
+                return n;
+            }
+            let (x, y) = mono.pairs[i];
+            let (x, y) = (factor(p, x, vals, mono), factor(p, y, vals, mono));
+            let n = p.product(x, y);
+            p.pairs.insert(i, n);
+            n
+        }
+    }
+}
+
+/// The product of nodes, one after another, scaled by the fixed factors.
+fn chain(p: &mut Program, nodes: Vec<usize>, scalars: Vec<String>) -> usize {
     let mut acc = nodes[0];
     for &b in &nodes[1..] {
         acc = p.product(acc, b);
@@ -490,7 +593,7 @@ mod tests {
             SeriesInput::Fixed("p.g".into()),
             SeriesInput::State(1),
         ];
-        let body = series_body(&tape, &roles, &[0, 1]);
+        let body = series_body(&tape, &roles, &[0, 1], &[]);
         // Twice: once in the orders written out, once in the loop.
         assert_eq!(body.matches(".sin()").count(), 2, "{body}");
         assert_eq!(body.matches(".cos()").count(), 2, "{body}");

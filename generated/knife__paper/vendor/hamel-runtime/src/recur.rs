@@ -68,35 +68,46 @@ pub fn square(a: &[f64], k: usize) -> f64 {
     base + (2.0 * a[0]) * a[k]
 }
 
-/// (a/b)[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) / b[0], the term of b[k] added last (as in
+// Every division below is a multiplication by a reciprocal: 1/b[0], 1/(2r[0]) and 1/k do not
+// wait on coefficient k, so the chain from one coefficient to the next carries multiplications
+// (4 cycles) where it carried divisions (13–15); the written-out series computes the same
+// reciprocals once (`reduced_series`), the same bits.
+
+/// 1/k, the factor of the recurrences that divide by the coefficient's index.
+#[inline(always)]
+pub fn inverse(k: usize) -> f64 {
+    1.0 / k as f64
+}
+
+/// (a/b)[k] = (a[k] − Σ_{j=1}^{k} b[j] q[k − j]) · (1/b[0]), the term of b[k] added last (as in
 /// [`product`]).
 #[inline(always)]
 pub fn quotient(a_k: f64, b: &[f64], own: &[f64], k: usize) -> f64 {
-    (a_k - (convolve(&b[1..k], &own[1..k]) + b[k] * own[0])) / b[0]
+    (a_k - (convolve(&b[1..k], &own[1..k]) + b[k] * own[0])) * (1.0 / b[0])
 }
 
-/// √a[k] = (a[k] − Σ_{j=1}^{k−1} r[j] r[k − j]) / (2 r[0]).
+/// √a[k] = (a[k] − Σ_{j=1}^{k−1} r[j] r[k − j]) · (1/(2 r[0])).
 #[inline(always)]
 pub fn sqrt(a_k: f64, own: &[f64], k: usize) -> f64 {
-    (a_k - convolve(&own[1..k], &own[1..k])) / (2.0 * own[0])
+    (a_k - convolve(&own[1..k], &own[1..k])) * (1.0 / (2.0 * own[0]))
 }
 
 /// (sin a)[k] from a and cos a: s' = a' c.
 #[inline(always)]
 pub fn sin(a: &[f64], cos: &[f64], k: usize) -> f64 {
-    weighted(a, cos, k) / k as f64
+    weighted(a, cos, k) * inverse(k)
 }
 
 /// (cos a)[k] from a and sin a: c' = −a' s.
 #[inline(always)]
 pub fn cos(a: &[f64], sin: &[f64], k: usize) -> f64 {
-    -weighted(a, sin, k) / k as f64
+    -weighted(a, sin, k) * inverse(k)
 }
 
 /// (exp a)[k]: e' = a' e.
 #[inline(always)]
 pub fn exp(a: &[f64], own: &[f64], k: usize) -> f64 {
-    weighted(a, own, k) / k as f64
+    weighted(a, own, k) * inverse(k)
 }
 
 /// (ln a)[k] = (a[k] − (1/k) Σ_{j=1}^{k−1} j l[j] a[k − j]) / a[0]: a l' = a'.

@@ -313,7 +313,7 @@ fn run(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
                 CONSTANT => 0.0,
                 node => c[node as usize * w + k],
             };
-            out[(k + 1) * n + i] = fk / (k + 1) as f64;
+            out[(k + 1) * n + i] = fk * recur::inverse(k + 1);
         }
     }
 }
