@@ -33,6 +33,36 @@ def timed(fun):
             return out, statistics.median(runs)
 
 
+# An error is resolved where it is at least this many times the reference's own (its difference
+# from the check run, exported as `reference_check`): below, the reference cannot tell which of
+# two runs is the more accurate, and the row is shown but not ranked.
+RESOLUTION = 2.0
+
+
+def resolved(err, system):
+    return err >= RESOLUTION * system.get("reference_check", 0.0)
+
+
+def compare(system, hamel, front, err, seconds):
+    """A peer's run against hamel's: (hamel's fastest run at <= err, peer / hamel, peer / hamel
+    with hamel's time interpolated at err). The ratios are None where err is not finite or
+    below the reference's resolution."""
+    best = min((r for r in hamel if r["error_span"] <= err), key=lambda r: r["seconds"], default=None)
+    if not (math.isfinite(err) and resolved(err, system)):
+        return best, None, None
+    ratio = seconds / best["seconds"] if best else None
+    at = interpolated(front, err)
+    return best, ratio, seconds / at if at else None
+
+
+def ratio_texts(err, system, ratio, inter):
+    """The two ratio cells of a row."""
+    if math.isfinite(err) and not resolved(err, system):
+        below = f"below the reference's resolution ({system['reference_check']:.1e})"
+        return below, below
+    return (f"{ratio:.2f}" if ratio else "–"), (f"{inter:.2f}" if inter else "–")
+
+
 def pareto(runs):
     """hamel's work–precision front: the runs that no run beats in both error and time, by
     increasing error (so decreasing time)."""
@@ -56,11 +86,13 @@ def interpolated(front, err):
 def print_summary(peer, span, summary):
     """The closing table of a comparison: per scene, the range of peer / hamel at equal error
     (hamel's fastest run at <= the error, and hamel's time interpolated at it) and how many
-    rows were compared. `summary` holds (model, ratios, interpolated ratios, rows)."""
+    rows were compared. `summary` holds (model, ratios, interpolated ratios, rows, rows below the
+    reference's resolution)."""
     print(f"| scene | {peer} / hamel at equal error ({span}): hamel's fastest run at ≤ the error "
           "| the same, hamel's time interpolated at the error | rows compared |")
     print("|---|---|---|---|")
-    for model, ratios, inters, count in summary:
+    for model, ratios, inters, count, below in summary:
         ratio_span = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"
         inter_span = f"{min(inters):.2f}–{max(inters):.2f}" if inters else "–"
-        print(f"| {model} | {ratio_span} | {inter_span} | {len(ratios)} of {count} |")
+        unranked = f" ({below} below the reference's resolution)" if below else ""
+        print(f"| {model} | {ratio_span} | {inter_span} | {len(ratios)} of {count}{unranked} |")

@@ -340,6 +340,7 @@ pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::
         "times": loaded.times,
         "requested": loaded.requested_components(),
         "reference": reference,
+        "reference_check": table.reference_check,
         "target": table.target,
         "engine": table.engine,
         "build": match crate::cache::Build::current() {
