@@ -191,9 +191,9 @@ struct Code {
     reduced_part: (String, String, usize),
     /// The placeholders of the constraint forces ([`contact::fields`]).
     contact_fields: [(&'static str, String); 5],
-    /// The body of `reduced_series`: the Taylor recurrences of the reduced closed form
-    /// compiled ([`series`]), or `None` without one.
-    series_part: String,
+    /// The bodies of `reduced_series` (written out, looped): the Taylor recurrences of the
+    /// reduced closed form compiled ([`series`]), or `None` without one.
+    series_part: (String, String),
 }
 
 impl Code {
@@ -286,7 +286,10 @@ impl Code {
         };
         let series_part = match &reduced_tape {
             Some(t) if d.live.is_empty() => reduced_series(t, kept.len(), &params, d.sigma),
-            _ => "    let _ = (x, prep, order, out);\n    None\n".to_string(),
+            _ => {
+                let none = "    let _ = (x, prep, order, out);\n    None\n".to_string();
+                (none.clone(), none)
+            }
         };
         let energy_part = energy_part(d, exprs[u_at], &solved_inputs, &full_slots)?;
         let residual_part = residual_part(d, alpha_exprs, &solved_inputs, &full_slots)?;
@@ -430,7 +433,8 @@ impl Code {
             ("n_full", self.solved_part.2.to_string()),
             ("reduced_solved", self.reduced_solved.to_string()),
             ("reduced_body", self.reduced_part.1.clone()),
-            ("series_body", self.series_part.clone()),
+            ("series_written", self.series_part.0.clone()),
+            ("series_looped", self.series_part.1.clone()),
             ("prepare_reduced", self.reduced_part.0.clone()),
             ("n_reduced", self.reduced_part.2.to_string()),
             ("solved", self.choice.solved.to_string()),
@@ -666,7 +670,7 @@ fn reduced_tape(
 /// The body of `reduced_series` from the reduced tape (inputs: the kept coordinates, the
 /// parameters, η; outputs: η̇, the kept rates, the definiteness tests): the state is (kept q,
 /// η), its rates the kept rates then η̇; the tests that depend on the state are checked at it.
-fn reduced_series(tape: &Tape, kept: usize, params: &[String], sigma: usize) -> String {
+fn reduced_series(tape: &Tape, kept: usize, params: &[String], sigma: usize) -> (String, String) {
     use series::SeriesInput;
     let inputs: Vec<SeriesInput> = (0..kept)
         .map(SeriesInput::State)
@@ -679,10 +683,9 @@ fn reduced_series(tape: &Tape, kept: usize, params: &[String], sigma: usize) -> 
         .collect();
     let rates: Vec<usize> = (sigma..sigma + kept).chain(0..sigma).collect();
     let tests: Vec<usize> = (sigma + kept..tape.outputs().len()).collect();
-    format!(
-        "    let p = &prep.p;\n{}    Some(Ok(()))\n",
-        series::series_body(tape, &inputs, &rates, &tests)
-    )
+    let bodies = series::series_body(tape, &inputs, &rates, &tests);
+    let body = |b: &str| format!("    let p = &prep.p;\n{b}    Some(Ok(()))\n");
+    (body(&bodies.written), body(&bodies.looped))
 }
 
 /// The placeholders of the `Parameters` struct: names, fields, defaults, setter arms.

@@ -77,6 +77,8 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
          /// Operation counts (trees, shared).\n    pub operations: (usize, usize),\n    \
          /// The Taylor coefficients at x to an order by the compiled recurrences\n    \
          /// (`reduced_series`; None without a closed form).\n    pub series: SeriesFn,\n    \
+         /// The same by the loop alone (`reduced_series_looped`, what a CPU without FMA runs).\n    \
+         pub series_looped: SeriesFn,\n    \
          /// The same by tracing `reduced_with` (`runtime::taylor_by_trace`; None where a\n    \
          /// coefficient is not finite).\n    pub series_traced: SeriesFn,\n}\n\n\
          /// Taylor coefficients at a reduced state to an order, into the buffer.\n\
@@ -89,6 +91,8 @@ pub fn models_lib(members: &[Member]) -> Result<String, crate::CodegenError> {
          constraint_forces: |q, e| $m::constraint_forces(q, e, &$m::Parameters::default()),\n            \
          operations: $m::OPERATIONS,\n            \
          series: |x, order, out| $m::reduced_series(x, prepared!($m), order, out).transpose(),\n            \
+         series_looped: |x, order, out| {\n                \
+         $m::reduced_series_looped(x, prepared!($m), order, out).transpose()\n            },\n            \
          series_traced: |x, order, out| {\n                let prep = prepared!($m);\n                \
          let f = |x: &[runtime::Traced], dx: &mut [runtime::Traced]| {\n                    \
          dx.copy_from_slice(&$m::reduced_with(x, prep)?);\n                    Ok::<(), EvalError>(())\n                };\n                \

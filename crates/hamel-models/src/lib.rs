@@ -138,6 +138,8 @@ pub struct Core {
     /// The Taylor coefficients at x to an order by the compiled recurrences
     /// (`reduced_series`; None without a closed form).
     pub series: SeriesFn,
+    /// The same by the loop alone (`reduced_series_looped`, what a CPU without FMA runs).
+    pub series_looped: SeriesFn,
     /// The same by tracing `reduced_with` (`runtime::taylor_by_trace`; None where a
     /// coefficient is not finite).
     pub series_traced: SeriesFn,
@@ -184,6 +186,9 @@ macro_rules! core {
             constraint_forces: |q, e| $m::constraint_forces(q, e, &$m::Parameters::default()),
             operations: $m::OPERATIONS,
             series: |x, order, out| $m::reduced_series(x, prepared!($m), order, out).transpose(),
+            series_looped: |x, order, out| {
+                $m::reduced_series_looped(x, prepared!($m), order, out).transpose()
+            },
             series_traced: |x, order, out| {
                 let prep = prepared!($m);
                 let f = |x: &[runtime::Traced], dx: &mut [runtime::Traced]| {

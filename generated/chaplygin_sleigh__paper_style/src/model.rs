@@ -618,9 +618,34 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 /// operation); None without a closed form or with parameters set in time (the scene core then
 /// traces [`reduced_with`]); an error where the state fails the closed form's definiteness
 /// tests (those of [`reduced_with`], checked at coefficient 0). Whether the coefficients are
-/// finite, the caller checks.
-#[allow(unused_variables, unused_mut, clippy::all)]
+/// finite, the caller checks. Its sums fuse their multiply–adds (`f64::mul_add`, rounded once):
+/// where the CPU has FMA the series written out runs compiled for it, one instruction each;
+/// elsewhere [`reduced_series_looped`], the same bits.
 pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has FMA, the one feature `reduced_series_fma` is compiled for.
+            return unsafe { reduced_series_fma(x, prep, order, out) };
+        }
+        reduced_series_looped(x, prep, order, out)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    reduced_series_written(x, prep, order, out)
+}
+
+/// [`reduced_series_written`] compiled for FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+fn reduced_series_fma(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
+    reduced_series_written(x, prep, order, out)
+}
+
+/// [`reduced_series`] with every coefficient's statements written out up to order 20 (the
+/// loop beyond).
+#[inline(always)]
+#[allow(unused_variables, unused_mut, clippy::all)]
+fn reduced_series_written(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
     let p = &prep.p;
     let s0: f64 = p.a;
     let s4: f64 = p.m;
@@ -653,10 +678,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 1: c[j * 21 + 1] for node j
         c[1] = out[3];
-        c[22] = 2.0 * (0.0) + (2.0 * c[0]) * c[1];
+        c[22] = (2.0 * c[0]).mul_add(c[1], 2.0 * 0.0);
         c[43] = (s0) * c[22];
         c[64] = out[2];
-        c[85] = (((0.0 + 0.0) + (0.0 + 0.0)) + c[0] * c[64]) + c[1] * c[63];
+        c[85] = c[1].mul_add(c[63], c[0].mul_add(c[64], ((0.0 + 0.0) + (0.0 + 0.0))));
         c[106] = (s0 * s4) * c[85];
         c[127] = -c[106];
         c[148] = (1.0 / s11) * c[127];
@@ -667,10 +692,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 2: c[j * 21 + 2] for node j
         c[2] = out[5];
-        c[23] = (2.0 * (0.0) + c[1] * c[1]) + (2.0 * c[0]) * c[2];
+        c[23] = (2.0 * c[0]).mul_add(c[2], c[1].mul_add(c[1], 2.0 * 0.0));
         c[44] = (s0) * c[23];
         c[65] = out[4];
-        c[86] = ((((0.0 + c[1] * c[64]) + 0.0) + (0.0 + 0.0)) + c[0] * c[65]) + c[2] * c[63];
+        c[86] = c[2].mul_add(c[63], c[0].mul_add(c[65], ((c[1].mul_add(c[64], 0.0) + 0.0) + (0.0 + 0.0))));
         c[107] = (s0 * s4) * c[86];
         c[128] = -c[107];
         c[149] = (1.0 / s11) * c[128];
@@ -681,10 +706,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 3: c[j * 21 + 3] for node j
         c[3] = out[7];
-        c[24] = 2.0 * (0.0 + c[1] * c[2]) + (2.0 * c[0]) * c[3];
+        c[24] = (2.0 * c[0]).mul_add(c[3], 2.0 * c[1].mul_add(c[2], 0.0));
         c[45] = (s0) * c[24];
         c[66] = out[6];
-        c[87] = ((((0.0 + c[1] * c[65] + c[2] * c[64]) + 0.0) + (0.0 + 0.0)) + c[0] * c[66]) + c[3] * c[63];
+        c[87] = c[3].mul_add(c[63], c[0].mul_add(c[66], ((c[2].mul_add(c[64], c[1].mul_add(c[65], 0.0)) + 0.0) + (0.0 + 0.0))));
         c[108] = (s0 * s4) * c[87];
         c[129] = -c[108];
         c[150] = (1.0 / s11) * c[129];
@@ -695,10 +720,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 4: c[j * 21 + 4] for node j
         c[4] = out[9];
-        c[25] = (2.0 * (0.0 + c[1] * c[3]) + c[2] * c[2]) + (2.0 * c[0]) * c[4];
+        c[25] = (2.0 * c[0]).mul_add(c[4], c[2].mul_add(c[2], 2.0 * c[1].mul_add(c[3], 0.0)));
         c[46] = (s0) * c[25];
         c[67] = out[8];
-        c[88] = ((((0.0 + c[1] * c[66] + c[2] * c[65] + c[3] * c[64]) + 0.0) + (0.0 + 0.0)) + c[0] * c[67]) + c[4] * c[63];
+        c[88] = c[4].mul_add(c[63], c[0].mul_add(c[67], ((c[3].mul_add(c[64], c[2].mul_add(c[65], c[1].mul_add(c[66], 0.0))) + 0.0) + (0.0 + 0.0))));
         c[109] = (s0 * s4) * c[88];
         c[130] = -c[109];
         c[151] = (1.0 / s11) * c[130];
@@ -709,10 +734,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 5: c[j * 21 + 5] for node j
         c[5] = out[11];
-        c[26] = 2.0 * (0.0 + c[1] * c[4] + c[2] * c[3]) + (2.0 * c[0]) * c[5];
+        c[26] = (2.0 * c[0]).mul_add(c[5], 2.0 * c[2].mul_add(c[3], c[1].mul_add(c[4], 0.0)));
         c[47] = (s0) * c[26];
         c[68] = out[10];
-        c[89] = ((((0.0 + c[1] * c[67]) + (0.0 + c[2] * c[66])) + ((0.0 + c[3] * c[65]) + (0.0 + c[4] * c[64]))) + c[0] * c[68]) + c[5] * c[63];
+        c[89] = c[5].mul_add(c[63], c[0].mul_add(c[68], ((c[1].mul_add(c[67], 0.0) + c[2].mul_add(c[66], 0.0)) + (c[3].mul_add(c[65], 0.0) + c[4].mul_add(c[64], 0.0)))));
         c[110] = (s0 * s4) * c[89];
         c[131] = -c[110];
         c[152] = (1.0 / s11) * c[131];
@@ -723,10 +748,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 6: c[j * 21 + 6] for node j
         c[6] = out[13];
-        c[27] = (2.0 * (0.0 + c[1] * c[5] + c[2] * c[4]) + c[3] * c[3]) + (2.0 * c[0]) * c[6];
+        c[27] = (2.0 * c[0]).mul_add(c[6], c[3].mul_add(c[3], 2.0 * c[2].mul_add(c[4], c[1].mul_add(c[5], 0.0))));
         c[48] = (s0) * c[27];
         c[69] = out[12];
-        c[90] = ((((0.0 + c[1] * c[68] + c[5] * c[64]) + (0.0 + c[2] * c[67])) + ((0.0 + c[3] * c[66]) + (0.0 + c[4] * c[65]))) + c[0] * c[69]) + c[6] * c[63];
+        c[90] = c[6].mul_add(c[63], c[0].mul_add(c[69], ((c[5].mul_add(c[64], c[1].mul_add(c[68], 0.0)) + c[2].mul_add(c[67], 0.0)) + (c[3].mul_add(c[66], 0.0) + c[4].mul_add(c[65], 0.0)))));
         c[111] = (s0 * s4) * c[90];
         c[132] = -c[111];
         c[153] = (1.0 / s11) * c[132];
@@ -737,10 +762,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 7: c[j * 21 + 7] for node j
         c[7] = out[15];
-        c[28] = 2.0 * (0.0 + c[1] * c[6] + c[2] * c[5] + c[3] * c[4]) + (2.0 * c[0]) * c[7];
+        c[28] = (2.0 * c[0]).mul_add(c[7], 2.0 * c[3].mul_add(c[4], c[2].mul_add(c[5], c[1].mul_add(c[6], 0.0))));
         c[49] = (s0) * c[28];
         c[70] = out[14];
-        c[91] = ((((0.0 + c[1] * c[69] + c[5] * c[65] + c[6] * c[64]) + (0.0 + c[2] * c[68])) + ((0.0 + c[3] * c[67]) + (0.0 + c[4] * c[66]))) + c[0] * c[70]) + c[7] * c[63];
+        c[91] = c[7].mul_add(c[63], c[0].mul_add(c[70], ((c[6].mul_add(c[64], c[5].mul_add(c[65], c[1].mul_add(c[69], 0.0))) + c[2].mul_add(c[68], 0.0)) + (c[3].mul_add(c[67], 0.0) + c[4].mul_add(c[66], 0.0)))));
         c[112] = (s0 * s4) * c[91];
         c[133] = -c[112];
         c[154] = (1.0 / s11) * c[133];
@@ -751,10 +776,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 8: c[j * 21 + 8] for node j
         c[8] = out[17];
-        c[29] = (2.0 * (0.0 + c[1] * c[7] + c[2] * c[6] + c[3] * c[5]) + c[4] * c[4]) + (2.0 * c[0]) * c[8];
+        c[29] = (2.0 * c[0]).mul_add(c[8], c[4].mul_add(c[4], 2.0 * c[3].mul_add(c[5], c[2].mul_add(c[6], c[1].mul_add(c[7], 0.0)))));
         c[50] = (s0) * c[29];
         c[71] = out[16];
-        c[92] = ((((0.0 + c[1] * c[70] + c[5] * c[66] + c[6] * c[65] + c[7] * c[64]) + (0.0 + c[2] * c[69])) + ((0.0 + c[3] * c[68]) + (0.0 + c[4] * c[67]))) + c[0] * c[71]) + c[8] * c[63];
+        c[92] = c[8].mul_add(c[63], c[0].mul_add(c[71], ((c[7].mul_add(c[64], c[6].mul_add(c[65], c[5].mul_add(c[66], c[1].mul_add(c[70], 0.0)))) + c[2].mul_add(c[69], 0.0)) + (c[3].mul_add(c[68], 0.0) + c[4].mul_add(c[67], 0.0)))));
         c[113] = (s0 * s4) * c[92];
         c[134] = -c[113];
         c[155] = (1.0 / s11) * c[134];
@@ -765,10 +790,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 9: c[j * 21 + 9] for node j
         c[9] = out[19];
-        c[30] = 2.0 * (0.0 + c[1] * c[8] + c[2] * c[7] + c[3] * c[6] + c[4] * c[5]) + (2.0 * c[0]) * c[9];
+        c[30] = (2.0 * c[0]).mul_add(c[9], 2.0 * c[4].mul_add(c[5], c[3].mul_add(c[6], c[2].mul_add(c[7], c[1].mul_add(c[8], 0.0)))));
         c[51] = (s0) * c[30];
         c[72] = out[18];
-        c[93] = ((((0.0 + c[1] * c[71] + c[5] * c[67]) + (0.0 + c[2] * c[70] + c[6] * c[66])) + ((0.0 + c[3] * c[69] + c[7] * c[65]) + (0.0 + c[4] * c[68] + c[8] * c[64]))) + c[0] * c[72]) + c[9] * c[63];
+        c[93] = c[9].mul_add(c[63], c[0].mul_add(c[72], ((c[5].mul_add(c[67], c[1].mul_add(c[71], 0.0)) + c[6].mul_add(c[66], c[2].mul_add(c[70], 0.0))) + (c[7].mul_add(c[65], c[3].mul_add(c[69], 0.0)) + c[8].mul_add(c[64], c[4].mul_add(c[68], 0.0))))));
         c[114] = (s0 * s4) * c[93];
         c[135] = -c[114];
         c[156] = (1.0 / s11) * c[135];
@@ -779,10 +804,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 10: c[j * 21 + 10] for node j
         c[10] = out[21];
-        c[31] = (2.0 * (0.0 + c[1] * c[9] + c[2] * c[8] + c[3] * c[7] + c[4] * c[6]) + c[5] * c[5]) + (2.0 * c[0]) * c[10];
+        c[31] = (2.0 * c[0]).mul_add(c[10], c[5].mul_add(c[5], 2.0 * c[4].mul_add(c[6], c[3].mul_add(c[7], c[2].mul_add(c[8], c[1].mul_add(c[9], 0.0))))));
         c[52] = (s0) * c[31];
         c[73] = out[20];
-        c[94] = ((((0.0 + c[1] * c[72] + c[5] * c[68] + c[9] * c[64]) + (0.0 + c[2] * c[71] + c[6] * c[67])) + ((0.0 + c[3] * c[70] + c[7] * c[66]) + (0.0 + c[4] * c[69] + c[8] * c[65]))) + c[0] * c[73]) + c[10] * c[63];
+        c[94] = c[10].mul_add(c[63], c[0].mul_add(c[73], ((c[9].mul_add(c[64], c[5].mul_add(c[68], c[1].mul_add(c[72], 0.0))) + c[6].mul_add(c[67], c[2].mul_add(c[71], 0.0))) + (c[7].mul_add(c[66], c[3].mul_add(c[70], 0.0)) + c[8].mul_add(c[65], c[4].mul_add(c[69], 0.0))))));
         c[115] = (s0 * s4) * c[94];
         c[136] = -c[115];
         c[157] = (1.0 / s11) * c[136];
@@ -793,10 +818,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 11: c[j * 21 + 11] for node j
         c[11] = out[23];
-        c[32] = 2.0 * (0.0 + c[1] * c[10] + c[2] * c[9] + c[3] * c[8] + c[4] * c[7] + c[5] * c[6]) + (2.0 * c[0]) * c[11];
+        c[32] = (2.0 * c[0]).mul_add(c[11], 2.0 * c[5].mul_add(c[6], c[4].mul_add(c[7], c[3].mul_add(c[8], c[2].mul_add(c[9], c[1].mul_add(c[10], 0.0))))));
         c[53] = (s0) * c[32];
         c[74] = out[22];
-        c[95] = ((((0.0 + c[1] * c[73] + c[5] * c[69] + c[9] * c[65] + c[10] * c[64]) + (0.0 + c[2] * c[72] + c[6] * c[68])) + ((0.0 + c[3] * c[71] + c[7] * c[67]) + (0.0 + c[4] * c[70] + c[8] * c[66]))) + c[0] * c[74]) + c[11] * c[63];
+        c[95] = c[11].mul_add(c[63], c[0].mul_add(c[74], ((c[10].mul_add(c[64], c[9].mul_add(c[65], c[5].mul_add(c[69], c[1].mul_add(c[73], 0.0)))) + c[6].mul_add(c[68], c[2].mul_add(c[72], 0.0))) + (c[7].mul_add(c[67], c[3].mul_add(c[71], 0.0)) + c[8].mul_add(c[66], c[4].mul_add(c[70], 0.0))))));
         c[116] = (s0 * s4) * c[95];
         c[137] = -c[116];
         c[158] = (1.0 / s11) * c[137];
@@ -807,10 +832,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 12: c[j * 21 + 12] for node j
         c[12] = out[25];
-        c[33] = (2.0 * (0.0 + c[1] * c[11] + c[2] * c[10] + c[3] * c[9] + c[4] * c[8] + c[5] * c[7]) + c[6] * c[6]) + (2.0 * c[0]) * c[12];
+        c[33] = (2.0 * c[0]).mul_add(c[12], c[6].mul_add(c[6], 2.0 * c[5].mul_add(c[7], c[4].mul_add(c[8], c[3].mul_add(c[9], c[2].mul_add(c[10], c[1].mul_add(c[11], 0.0)))))));
         c[54] = (s0) * c[33];
         c[75] = out[24];
-        c[96] = ((((0.0 + c[1] * c[74] + c[5] * c[70] + c[9] * c[66] + c[10] * c[65] + c[11] * c[64]) + (0.0 + c[2] * c[73] + c[6] * c[69])) + ((0.0 + c[3] * c[72] + c[7] * c[68]) + (0.0 + c[4] * c[71] + c[8] * c[67]))) + c[0] * c[75]) + c[12] * c[63];
+        c[96] = c[12].mul_add(c[63], c[0].mul_add(c[75], ((c[11].mul_add(c[64], c[10].mul_add(c[65], c[9].mul_add(c[66], c[5].mul_add(c[70], c[1].mul_add(c[74], 0.0))))) + c[6].mul_add(c[69], c[2].mul_add(c[73], 0.0))) + (c[7].mul_add(c[68], c[3].mul_add(c[72], 0.0)) + c[8].mul_add(c[67], c[4].mul_add(c[71], 0.0))))));
         c[117] = (s0 * s4) * c[96];
         c[138] = -c[117];
         c[159] = (1.0 / s11) * c[138];
@@ -821,10 +846,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 13: c[j * 21 + 13] for node j
         c[13] = out[27];
-        c[34] = 2.0 * (0.0 + c[1] * c[12] + c[2] * c[11] + c[3] * c[10] + c[4] * c[9] + c[5] * c[8] + c[6] * c[7]) + (2.0 * c[0]) * c[13];
+        c[34] = (2.0 * c[0]).mul_add(c[13], 2.0 * c[6].mul_add(c[7], c[5].mul_add(c[8], c[4].mul_add(c[9], c[3].mul_add(c[10], c[2].mul_add(c[11], c[1].mul_add(c[12], 0.0)))))));
         c[55] = (s0) * c[34];
         c[76] = out[26];
-        c[97] = ((((0.0 + c[1] * c[75] + c[5] * c[71] + c[9] * c[67]) + (0.0 + c[2] * c[74] + c[6] * c[70] + c[10] * c[66])) + ((0.0 + c[3] * c[73] + c[7] * c[69] + c[11] * c[65]) + (0.0 + c[4] * c[72] + c[8] * c[68] + c[12] * c[64]))) + c[0] * c[76]) + c[13] * c[63];
+        c[97] = c[13].mul_add(c[63], c[0].mul_add(c[76], ((c[9].mul_add(c[67], c[5].mul_add(c[71], c[1].mul_add(c[75], 0.0))) + c[10].mul_add(c[66], c[6].mul_add(c[70], c[2].mul_add(c[74], 0.0)))) + (c[11].mul_add(c[65], c[7].mul_add(c[69], c[3].mul_add(c[73], 0.0))) + c[12].mul_add(c[64], c[8].mul_add(c[68], c[4].mul_add(c[72], 0.0)))))));
         c[118] = (s0 * s4) * c[97];
         c[139] = -c[118];
         c[160] = (1.0 / s11) * c[139];
@@ -835,10 +860,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 14: c[j * 21 + 14] for node j
         c[14] = out[29];
-        c[35] = (2.0 * (0.0 + c[1] * c[13] + c[2] * c[12] + c[3] * c[11] + c[4] * c[10] + c[5] * c[9] + c[6] * c[8]) + c[7] * c[7]) + (2.0 * c[0]) * c[14];
+        c[35] = (2.0 * c[0]).mul_add(c[14], c[7].mul_add(c[7], 2.0 * c[6].mul_add(c[8], c[5].mul_add(c[9], c[4].mul_add(c[10], c[3].mul_add(c[11], c[2].mul_add(c[12], c[1].mul_add(c[13], 0.0))))))));
         c[56] = (s0) * c[35];
         c[77] = out[28];
-        c[98] = ((((0.0 + c[1] * c[76] + c[5] * c[72] + c[9] * c[68] + c[13] * c[64]) + (0.0 + c[2] * c[75] + c[6] * c[71] + c[10] * c[67])) + ((0.0 + c[3] * c[74] + c[7] * c[70] + c[11] * c[66]) + (0.0 + c[4] * c[73] + c[8] * c[69] + c[12] * c[65]))) + c[0] * c[77]) + c[14] * c[63];
+        c[98] = c[14].mul_add(c[63], c[0].mul_add(c[77], ((c[13].mul_add(c[64], c[9].mul_add(c[68], c[5].mul_add(c[72], c[1].mul_add(c[76], 0.0)))) + c[10].mul_add(c[67], c[6].mul_add(c[71], c[2].mul_add(c[75], 0.0)))) + (c[11].mul_add(c[66], c[7].mul_add(c[70], c[3].mul_add(c[74], 0.0))) + c[12].mul_add(c[65], c[8].mul_add(c[69], c[4].mul_add(c[73], 0.0)))))));
         c[119] = (s0 * s4) * c[98];
         c[140] = -c[119];
         c[161] = (1.0 / s11) * c[140];
@@ -849,10 +874,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 15: c[j * 21 + 15] for node j
         c[15] = out[31];
-        c[36] = 2.0 * (0.0 + c[1] * c[14] + c[2] * c[13] + c[3] * c[12] + c[4] * c[11] + c[5] * c[10] + c[6] * c[9] + c[7] * c[8]) + (2.0 * c[0]) * c[15];
+        c[36] = (2.0 * c[0]).mul_add(c[15], 2.0 * c[7].mul_add(c[8], c[6].mul_add(c[9], c[5].mul_add(c[10], c[4].mul_add(c[11], c[3].mul_add(c[12], c[2].mul_add(c[13], c[1].mul_add(c[14], 0.0))))))));
         c[57] = (s0) * c[36];
         c[78] = out[30];
-        c[99] = ((((0.0 + c[1] * c[77] + c[5] * c[73] + c[9] * c[69] + c[13] * c[65] + c[14] * c[64]) + (0.0 + c[2] * c[76] + c[6] * c[72] + c[10] * c[68])) + ((0.0 + c[3] * c[75] + c[7] * c[71] + c[11] * c[67]) + (0.0 + c[4] * c[74] + c[8] * c[70] + c[12] * c[66]))) + c[0] * c[78]) + c[15] * c[63];
+        c[99] = c[15].mul_add(c[63], c[0].mul_add(c[78], ((c[14].mul_add(c[64], c[13].mul_add(c[65], c[9].mul_add(c[69], c[5].mul_add(c[73], c[1].mul_add(c[77], 0.0))))) + c[10].mul_add(c[68], c[6].mul_add(c[72], c[2].mul_add(c[76], 0.0)))) + (c[11].mul_add(c[67], c[7].mul_add(c[71], c[3].mul_add(c[75], 0.0))) + c[12].mul_add(c[66], c[8].mul_add(c[70], c[4].mul_add(c[74], 0.0)))))));
         c[120] = (s0 * s4) * c[99];
         c[141] = -c[120];
         c[162] = (1.0 / s11) * c[141];
@@ -863,10 +888,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 16: c[j * 21 + 16] for node j
         c[16] = out[33];
-        c[37] = (2.0 * (0.0 + c[1] * c[15] + c[2] * c[14] + c[3] * c[13] + c[4] * c[12] + c[5] * c[11] + c[6] * c[10] + c[7] * c[9]) + c[8] * c[8]) + (2.0 * c[0]) * c[16];
+        c[37] = (2.0 * c[0]).mul_add(c[16], c[8].mul_add(c[8], 2.0 * c[7].mul_add(c[9], c[6].mul_add(c[10], c[5].mul_add(c[11], c[4].mul_add(c[12], c[3].mul_add(c[13], c[2].mul_add(c[14], c[1].mul_add(c[15], 0.0)))))))));
         c[58] = (s0) * c[37];
         c[79] = out[32];
-        c[100] = ((((0.0 + c[1] * c[78] + c[5] * c[74] + c[9] * c[70] + c[13] * c[66] + c[14] * c[65] + c[15] * c[64]) + (0.0 + c[2] * c[77] + c[6] * c[73] + c[10] * c[69])) + ((0.0 + c[3] * c[76] + c[7] * c[72] + c[11] * c[68]) + (0.0 + c[4] * c[75] + c[8] * c[71] + c[12] * c[67]))) + c[0] * c[79]) + c[16] * c[63];
+        c[100] = c[16].mul_add(c[63], c[0].mul_add(c[79], ((c[15].mul_add(c[64], c[14].mul_add(c[65], c[13].mul_add(c[66], c[9].mul_add(c[70], c[5].mul_add(c[74], c[1].mul_add(c[78], 0.0)))))) + c[10].mul_add(c[69], c[6].mul_add(c[73], c[2].mul_add(c[77], 0.0)))) + (c[11].mul_add(c[68], c[7].mul_add(c[72], c[3].mul_add(c[76], 0.0))) + c[12].mul_add(c[67], c[8].mul_add(c[71], c[4].mul_add(c[75], 0.0)))))));
         c[121] = (s0 * s4) * c[100];
         c[142] = -c[121];
         c[163] = (1.0 / s11) * c[142];
@@ -877,10 +902,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 17: c[j * 21 + 17] for node j
         c[17] = out[35];
-        c[38] = 2.0 * (0.0 + c[1] * c[16] + c[2] * c[15] + c[3] * c[14] + c[4] * c[13] + c[5] * c[12] + c[6] * c[11] + c[7] * c[10] + c[8] * c[9]) + (2.0 * c[0]) * c[17];
+        c[38] = (2.0 * c[0]).mul_add(c[17], 2.0 * c[8].mul_add(c[9], c[7].mul_add(c[10], c[6].mul_add(c[11], c[5].mul_add(c[12], c[4].mul_add(c[13], c[3].mul_add(c[14], c[2].mul_add(c[15], c[1].mul_add(c[16], 0.0)))))))));
         c[59] = (s0) * c[38];
         c[80] = out[34];
-        c[101] = ((((0.0 + c[1] * c[79] + c[5] * c[75] + c[9] * c[71] + c[13] * c[67]) + (0.0 + c[2] * c[78] + c[6] * c[74] + c[10] * c[70] + c[14] * c[66])) + ((0.0 + c[3] * c[77] + c[7] * c[73] + c[11] * c[69] + c[15] * c[65]) + (0.0 + c[4] * c[76] + c[8] * c[72] + c[12] * c[68] + c[16] * c[64]))) + c[0] * c[80]) + c[17] * c[63];
+        c[101] = c[17].mul_add(c[63], c[0].mul_add(c[80], ((c[13].mul_add(c[67], c[9].mul_add(c[71], c[5].mul_add(c[75], c[1].mul_add(c[79], 0.0)))) + c[14].mul_add(c[66], c[10].mul_add(c[70], c[6].mul_add(c[74], c[2].mul_add(c[78], 0.0))))) + (c[15].mul_add(c[65], c[11].mul_add(c[69], c[7].mul_add(c[73], c[3].mul_add(c[77], 0.0)))) + c[16].mul_add(c[64], c[12].mul_add(c[68], c[8].mul_add(c[72], c[4].mul_add(c[76], 0.0))))))));
         c[122] = (s0 * s4) * c[101];
         c[143] = -c[122];
         c[164] = (1.0 / s11) * c[143];
@@ -891,10 +916,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 18: c[j * 21 + 18] for node j
         c[18] = out[37];
-        c[39] = (2.0 * (0.0 + c[1] * c[17] + c[2] * c[16] + c[3] * c[15] + c[4] * c[14] + c[5] * c[13] + c[6] * c[12] + c[7] * c[11] + c[8] * c[10]) + c[9] * c[9]) + (2.0 * c[0]) * c[18];
+        c[39] = (2.0 * c[0]).mul_add(c[18], c[9].mul_add(c[9], 2.0 * c[8].mul_add(c[10], c[7].mul_add(c[11], c[6].mul_add(c[12], c[5].mul_add(c[13], c[4].mul_add(c[14], c[3].mul_add(c[15], c[2].mul_add(c[16], c[1].mul_add(c[17], 0.0))))))))));
         c[60] = (s0) * c[39];
         c[81] = out[36];
-        c[102] = ((((0.0 + c[1] * c[80] + c[5] * c[76] + c[9] * c[72] + c[13] * c[68] + c[17] * c[64]) + (0.0 + c[2] * c[79] + c[6] * c[75] + c[10] * c[71] + c[14] * c[67])) + ((0.0 + c[3] * c[78] + c[7] * c[74] + c[11] * c[70] + c[15] * c[66]) + (0.0 + c[4] * c[77] + c[8] * c[73] + c[12] * c[69] + c[16] * c[65]))) + c[0] * c[81]) + c[18] * c[63];
+        c[102] = c[18].mul_add(c[63], c[0].mul_add(c[81], ((c[17].mul_add(c[64], c[13].mul_add(c[68], c[9].mul_add(c[72], c[5].mul_add(c[76], c[1].mul_add(c[80], 0.0))))) + c[14].mul_add(c[67], c[10].mul_add(c[71], c[6].mul_add(c[75], c[2].mul_add(c[79], 0.0))))) + (c[15].mul_add(c[66], c[11].mul_add(c[70], c[7].mul_add(c[74], c[3].mul_add(c[78], 0.0)))) + c[16].mul_add(c[65], c[12].mul_add(c[69], c[8].mul_add(c[73], c[4].mul_add(c[77], 0.0))))))));
         c[123] = (s0 * s4) * c[102];
         c[144] = -c[123];
         c[165] = (1.0 / s11) * c[144];
@@ -905,10 +930,10 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         }
         // coefficient 19: c[j * 21 + 19] for node j
         c[19] = out[39];
-        c[40] = 2.0 * (0.0 + c[1] * c[18] + c[2] * c[17] + c[3] * c[16] + c[4] * c[15] + c[5] * c[14] + c[6] * c[13] + c[7] * c[12] + c[8] * c[11] + c[9] * c[10]) + (2.0 * c[0]) * c[19];
+        c[40] = (2.0 * c[0]).mul_add(c[19], 2.0 * c[9].mul_add(c[10], c[8].mul_add(c[11], c[7].mul_add(c[12], c[6].mul_add(c[13], c[5].mul_add(c[14], c[4].mul_add(c[15], c[3].mul_add(c[16], c[2].mul_add(c[17], c[1].mul_add(c[18], 0.0))))))))));
         c[61] = (s0) * c[40];
         c[82] = out[38];
-        c[103] = ((((0.0 + c[1] * c[81] + c[5] * c[77] + c[9] * c[73] + c[13] * c[69] + c[17] * c[65] + c[18] * c[64]) + (0.0 + c[2] * c[80] + c[6] * c[76] + c[10] * c[72] + c[14] * c[68])) + ((0.0 + c[3] * c[79] + c[7] * c[75] + c[11] * c[71] + c[15] * c[67]) + (0.0 + c[4] * c[78] + c[8] * c[74] + c[12] * c[70] + c[16] * c[66]))) + c[0] * c[82]) + c[19] * c[63];
+        c[103] = c[19].mul_add(c[63], c[0].mul_add(c[82], ((c[18].mul_add(c[64], c[17].mul_add(c[65], c[13].mul_add(c[69], c[9].mul_add(c[73], c[5].mul_add(c[77], c[1].mul_add(c[81], 0.0)))))) + c[14].mul_add(c[68], c[10].mul_add(c[72], c[6].mul_add(c[76], c[2].mul_add(c[80], 0.0))))) + (c[15].mul_add(c[67], c[11].mul_add(c[71], c[7].mul_add(c[75], c[3].mul_add(c[79], 0.0)))) + c[16].mul_add(c[66], c[12].mul_add(c[70], c[8].mul_add(c[74], c[4].mul_add(c[78], 0.0))))))));
         c[124] = (s0 * s4) * c[103];
         c[145] = -c[124];
         c[166] = (1.0 / s11) * c[145];
@@ -916,6 +941,48 @@ pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f6
         out[41] = c[166] * 0.05;
         return Some(Ok(()));
     }
+    let w = order + 1;
+    out.clear();
+    out.resize((order + 1) * 2, 0.0);
+    out[..2].copy_from_slice(&x[..2]);
+    let mut c = vec![0.0; 8 * w];
+    c[0 * w + 0] = x[1];
+    c[1 * w + 0] = c[0 * w + 0] * c[0 * w + 0];
+    c[2 * w + 0] = (s0) * c[1 * w + 0];
+    c[3 * w + 0] = x[0];
+    c[4 * w + 0] = c[0 * w + 0] * c[3 * w + 0];
+    c[5 * w + 0] = (s0 * s4) * c[4 * w + 0];
+    c[6 * w + 0] = -c[5 * w + 0];
+    c[7 * w + 0] = (1.0 / s11) * c[6 * w + 0];
+    for k in 0..order {
+        if k > 0 {
+            c[0 * w + k] = out[k * 2 + 1];
+            c[1 * w + k] = runtime::recur::square(&c[0 * w..], k);
+            c[2 * w + k] = (s0) * c[1 * w + k];
+            c[3 * w + k] = out[k * 2 + 0];
+            c[4 * w + k] = runtime::recur::product(&c[0 * w..], &c[3 * w..], k);
+            c[5 * w + k] = (s0 * s4) * c[4 * w + k];
+            c[6 * w + k] = -c[5 * w + k];
+            c[7 * w + k] = (1.0 / s11) * c[6 * w + k];
+        }
+        out[(k + 1) * 2 + 0] = c[2 * w + k] * runtime::recur::inverse(k + 1);
+        out[(k + 1) * 2 + 1] = c[7 * w + k] * runtime::recur::inverse(k + 1);
+    }
+    Some(Ok(()))
+}
+
+/// [`reduced_series`] by the loop over `runtime::recur` alone, at any order: small code, what
+/// a CPU without FMA runs (its `mul_add`s the C library's correctly rounded `fma`, slower);
+/// the same bits as the series written out.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series_looped(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
+    let p = &prep.p;
+    let s0: f64 = p.a;
+    let s4: f64 = p.m;
+    let s8: f64 = s0.powi(2);
+    let s9: f64 = (s4 * s8);
+    let s10: f64 = p.I;
+    let s11: f64 = (s9 + s10);
     let w = order + 1;
     out.clear();
     out.resize((order + 1) * 2, 0.0);

@@ -1942,9 +1942,43 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 /// operation); None without a closed form or with parameters set in time (the scene core then
 /// traces [`reduced_with`]); an error where the state fails the closed form's definiteness
 /// tests (those of [`reduced_with`], checked at coefficient 0). Whether the coefficients are
-/// finite, the caller checks.
-#[allow(unused_variables, unused_mut, clippy::all)]
+/// finite, the caller checks. Its sums fuse their multiply–adds (`f64::mul_add`, rounded once):
+/// where the CPU has FMA the series written out runs compiled for it, one instruction each;
+/// elsewhere [`reduced_series_looped`], the same bits.
 pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has FMA, the one feature `reduced_series_fma` is compiled for.
+            return unsafe { reduced_series_fma(x, prep, order, out) };
+        }
+        reduced_series_looped(x, prep, order, out)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    reduced_series_written(x, prep, order, out)
+}
+
+/// [`reduced_series_written`] compiled for FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+fn reduced_series_fma(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
+    reduced_series_written(x, prep, order, out)
+}
+
+/// [`reduced_series`] with every coefficient's statements written out up to order 20 (the
+/// loop beyond).
+#[inline(always)]
+#[allow(unused_variables, unused_mut, clippy::all)]
+fn reduced_series_written(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
+    let _ = (x, prep, order, out);
+    None
+}
+
+/// [`reduced_series`] by the loop over `runtime::recur` alone, at any order: small code, what
+/// a CPU without FMA runs (its `mul_add`s the C library's correctly rounded `fma`, slower);
+/// the same bits as the series written out.
+#[allow(unused_variables, unused_mut, clippy::all)]
+pub fn reduced_series_looped(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
     let _ = (x, prep, order, out);
     None
 }

@@ -132,20 +132,20 @@ impl Step {
         match self {
             Step::State(i) => format!("out[{}]", k * n + i),
             Step::Product(a, b) => format!(
-                "({} + {} * {}) + {} * {}",
-                convolve((1..k).map(|i| (c(*a, i), c(*b, k - i)))),
+                "{}.mul_add({}, {}.mul_add({}, {}))",
+                c(*a, k),
+                c(*b, 0),
                 c(*a, 0),
                 c(*b, k),
-                c(*a, k),
-                c(*b, 0)
+                convolve((1..k).map(|i| (c(*a, i), c(*b, k - i)))),
             ),
             Step::Square(a) => square(k, |i| c(*a, i)),
             Step::Quotient { a, b, own } => format!(
-                "({} - ({} + {} * {})) * r{own}",
+                "({} - {}.mul_add({}, {})) * r{own}",
                 a.map_or("0.0".to_string(), |a| c(a, k)),
-                convolve((1..k).map(|j| (c(*b, j), c(*own, k - j)))),
                 c(*b, k),
                 c(*own, 0),
+                convolve((1..k).map(|j| (c(*b, j), c(*own, k - j)))),
             ),
             Step::Sin { a, cos } => format!(
                 "{} * {}",
@@ -205,20 +205,25 @@ impl Step {
     }
 }
 
+/// Terms x·y fused one after another into a running sum from 0.0, as `runtime::recur` adds
+/// them: `xₙ.mul_add(yₙ, … x₁.mul_add(y₁, 0.0))`.
+fn fused<'a>(terms: impl IntoIterator<Item = &'a (String, String)>) -> String {
+    (terms.into_iter()).fold("0.0".to_string(), |s, (x, y)| {
+        format!("{x}.mul_add({y}, {s})")
+    })
+}
+
 /// `runtime::recur::convolve` written out: Σ xᵢ·yᵢ in four partial sums, term i into sum
 /// i mod 4 over whole chunks of four, the rest into the first, then (s₀ + s₁) + (s₂ + s₃);
-/// each partial sum starts from 0.0, as the runtime's do.
+/// each partial sum starts from 0.0 and fuses its terms in, as the runtime's do.
 fn convolve(pairs: impl Iterator<Item = (String, String)>) -> String {
-    let terms: Vec<String> = pairs.map(|(x, y)| format!("{x} * {y}")).collect();
+    let terms: Vec<(String, String)> = pairs.collect();
     let whole = terms.len() / 4 * 4;
-    let mut acc: [Vec<&str>; 4] = Default::default();
+    let mut acc: [Vec<&(String, String)>; 4] = Default::default();
     for (i, t) in terms.iter().enumerate() {
         acc[if i < whole { i % 4 } else { 0 }].push(t);
     }
-    let s = |t: &[&str]| match t {
-        [] => "0.0".to_string(),
-        _ => format!("(0.0 + {})", t.join(" + ")),
-    };
+    let s = |t: &[&(String, String)]| fused(t.iter().copied());
     format!(
         "(({} + {}) + ({} + {}))",
         s(&acc[0]),
@@ -230,26 +235,24 @@ fn convolve(pairs: impl Iterator<Item = (String, String)>) -> String {
 
 /// `runtime::recur::square` written out (`c(i)`: coefficient i of the operand).
 fn square(k: usize, c: impl Fn(usize) -> String) -> String {
-    let terms: Vec<String> = (1..k.div_ceil(2))
-        .map(|i| format!(" + {} * {}", c(i), c(k - i)))
-        .collect();
-    let s = format!("2.0 * (0.0{})", terms.concat());
+    let terms: Vec<(String, String)> = (1..k.div_ceil(2)).map(|i| (c(i), c(k - i))).collect();
+    let s = format!("2.0 * {}", fused(&terms));
     let base = match k % 2 {
-        0 => format!("({s} + {} * {})", c(k / 2), c(k / 2)),
+        0 => format!("{}.mul_add({}, {s})", c(k / 2), c(k / 2)),
         _ => s,
     };
-    format!("{base} + (2.0 * {}) * {}", c(0), c(k))
+    format!("(2.0 * {}).mul_add({}, {base})", c(0), c(k))
 }
 
-/// `runtime::recur::weighted` written out: Σ_{m=1}^{k} m·a[m]·b[k − m], one running sum.
+/// `runtime::recur::weighted` written out: Σ_{m=1}^{k} (m·a[m])·b[k − m], one running sum.
 fn weighted(k: usize, pair: impl Fn(usize) -> (String, String)) -> String {
-    let terms: Vec<String> = (1..=k)
+    let terms: Vec<(String, String)> = (1..=k)
         .map(|m| {
             let (a, b) = pair(m);
-            format!("{m}.0 * {a} * {b}")
+            (format!("({m}.0 * {a})"), b)
         })
         .collect();
-    format!("({})", terms.join(" + "))
+    fused(&terms)
 }
 
 #[cfg(test)]
@@ -263,13 +266,13 @@ mod tests {
         let pairs = (0..6).map(|i| (format!("a{i}"), format!("b{}", 5 - i)));
         assert_eq!(
             convolve(pairs),
-            "(((0.0 + a0 * b5 + a4 * b1 + a5 * b0) + (0.0 + a1 * b4)) + \
-             ((0.0 + a2 * b3) + (0.0 + a3 * b2)))"
+            "((a5.mul_add(b0, a4.mul_add(b1, a0.mul_add(b5, 0.0))) + a1.mul_add(b4, 0.0)) + \
+             (a2.mul_add(b3, 0.0) + a3.mul_add(b2, 0.0)))"
         );
         assert_eq!(convolve(std::iter::empty()), "((0.0 + 0.0) + (0.0 + 0.0))");
         assert_eq!(
             Step::Sin { a: 0, cos: 1 }.unrolled(2, 2, 21),
-            "(1.0 * c[1] * c[22] + 2.0 * c[2] * c[21]) * 0.5"
+            "(2.0 * c[2]).mul_add(c[21], (1.0 * c[1]).mul_add(c[22], 0.0)) * 0.5"
         );
         assert_eq!(Step::State(1).unrolled(3, 4, 21), "out[13]");
         assert_eq!(Step::Sum(vec![0, 2]).unrolled(3, 4, 21), "c[4] + c[46]");

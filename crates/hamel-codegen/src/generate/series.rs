@@ -164,7 +164,7 @@ pub(super) fn series_body(
     inputs: &[SeriesInput],
     rates: &[usize],
     tests: &[usize],
-) -> String {
+) -> SeriesBodies {
     let (ops, outputs) = (tape.ops(), tape.outputs());
     let varying = tape.varying(|i| matches!(inputs[i], SeriesInput::State(_)));
     let tests: Vec<usize> = (tests.iter().map(|&o| outputs[o]))
@@ -221,7 +221,19 @@ pub(super) fn series_body(
             }
         }
     }
-    format!("{}{}{}", p.scalars, unrolled(&w), looped(&w))
+    SeriesBodies {
+        written: format!("{}{}{}", p.scalars, unrolled(&w), looped(&w)),
+        looped: format!("{}{}", p.scalars, looped(&w)),
+    }
+}
+
+/// The two bodies of a series program: the same coefficients, the same bits.
+pub(super) struct SeriesBodies {
+    /// Orders up to [`UNROLLED_ORDER`] written out, the loop beyond: what a CPU with FMA runs.
+    pub(super) written: String,
+    /// The loop alone (small code): what a CPU without FMA runs, its `mul_add`s the C
+    /// library's.
+    pub(super) looped: String,
 }
 
 /// The operations `from` depends on, `from` included, an operation `k` reading
@@ -593,7 +605,7 @@ mod tests {
             SeriesInput::Fixed("p.g".into()),
             SeriesInput::State(1),
         ];
-        let body = series_body(&tape, &roles, &[0, 1], &[]);
+        let body = series_body(&tape, &roles, &[0, 1], &[]).written;
         // Twice: once in the orders written out, once in the loop.
         assert_eq!(body.matches(".sin()").count(), 2, "{body}");
         assert_eq!(body.matches(".cos()").count(), 2, "{body}");

@@ -5,6 +5,13 @@
 //! compiled recurrences (`reduced_series`) both call, so that the two compute alike.
 //!
 //! Slices: `a`, `b`, … an operand's coefficients 0..=k (at least), `own` the result's 0..k.
+//!
+//! Every multiply–add of the sums the series written out repeats ([`convolve`], [`weighted`],
+//! [`product`], [`square`], [`quotient`]) is a fused one, `f64::mul_add`: rounded once, so the
+//! same bits on every machine, and one instruction where the CPU has FMA. Callers inline these
+//! into a copy of their loop compiled for FMA (`#[target_feature(enable = "fma")]`), taken
+//! where the CPU has it (the trace interpreter's `run`, the generated `reduced_series`);
+//! elsewhere `mul_add` is the C library's correctly rounded `fma`, slower and the same bits.
 
 /// Σ_i a[i]·b[len − 1 − i] over slices of one length: a Cauchy product's coefficient. Four
 /// partial sums, so that the additions do not wait on one another.
@@ -12,28 +19,26 @@
 pub fn convolve(a: &[f64], b: &[f64]) -> f64 {
     let len = a.len().min(b.len());
     let (a, b) = (&a[..len], &b[..len]);
-    let mut acc = [0.0; 4];
+    let mut acc = [0.0_f64; 4];
     let (chunks, tail) = (len / 4, len % 4);
     for c in 0..chunks {
         for (l, s) in acc.iter_mut().enumerate() {
             let i = 4 * c + l;
-            *s += a[i] * b[len - 1 - i];
+            *s = a[i].mul_add(b[len - 1 - i], *s);
         }
     }
     for i in 4 * chunks..4 * chunks + tail {
-        acc[0] += a[i] * b[len - 1 - i];
+        acc[0] = a[i].mul_add(b[len - 1 - i], acc[0]);
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
-/// Σ_{j=1}^{k} j·a[j]·b[k − j], `a` and `b` to coefficient k (b's own coefficient k unused).
+/// Σ_{j=1}^{k} j·a[j]·b[k − j], `a` and `b` to coefficient k (b's own coefficient k unused):
+/// one running sum from 0, term j as (j·a[j])·b[k − j] fused into it.
 #[inline(always)]
 pub fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
     let terms = a[1..=k].iter().zip(b[..k].iter().rev());
-    terms
-        .enumerate()
-        .map(|(j, (x, y))| (j + 1) as f64 * x * y)
-        .sum()
+    (terms.enumerate()).fold(0.0, |s, (j, (x, y))| ((j + 1) as f64 * x).mul_add(*y, s))
 }
 
 /// (a·b)[k]: the terms of coefficients below k first, then a[0]·b[k] and a[k]·b[0], the two
@@ -45,7 +50,7 @@ pub fn product(a: &[f64], b: &[f64], k: usize) -> f64 {
     if k == 0 {
         return a[0] * b[0];
     }
-    (convolve(&a[1..k], &b[1..k]) + a[0] * b[k]) + a[k] * b[0]
+    a[k].mul_add(b[0], a[0].mul_add(b[k], convolve(&a[1..k], &b[1..k])))
 }
 
 /// (a²)[k]: the product's symmetric terms once, doubled: 2·Σ_{0<i<k/2} a[i] a[k − i] (one
@@ -56,16 +61,16 @@ pub fn square(a: &[f64], k: usize) -> f64 {
     if k == 0 {
         return a[0] * a[0];
     }
-    let mut s = 0.0;
+    let mut s = 0.0_f64;
     for i in 1..k.div_ceil(2) {
-        s += a[i] * a[k - i];
+        s = a[i].mul_add(a[k - i], s);
     }
     let base = if k.is_multiple_of(2) {
-        2.0 * s + a[k / 2] * a[k / 2]
+        a[k / 2].mul_add(a[k / 2], 2.0 * s)
     } else {
         2.0 * s
     };
-    base + (2.0 * a[0]) * a[k]
+    (2.0 * a[0]).mul_add(a[k], base)
 }
 
 // Every division below is a multiplication by a reciprocal: 1/b[0], 1/(2r[0]) and 1/k do not
@@ -83,7 +88,7 @@ pub fn inverse(k: usize) -> f64 {
 /// [`product`]).
 #[inline(always)]
 pub fn quotient(a_k: f64, b: &[f64], own: &[f64], k: usize) -> f64 {
-    (a_k - (convolve(&b[1..k], &own[1..k]) + b[k] * own[0])) * (1.0 / b[0])
+    (a_k - b[k].mul_add(own[0], convolve(&b[1..k], &own[1..k]))) * (1.0 / b[0])
 }
 
 /// √a[k] = (a[k] − Σ_{j=1}^{k−1} r[j] r[k − j]) · (1/(2 r[0])).
@@ -163,6 +168,33 @@ fn quotient_sum(t: &[f64], r: &[f64], k: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The sums the series written out repeats, once compiled for FMA (one instruction each
+    /// `mul_add`) and once not (the C library's `fma`): the same bits, what makes a series the
+    /// same on every machine.
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn fused_sums_give_the_same_bits_with_and_without_the_fma_unit() {
+        #[target_feature(enable = "fma")]
+        fn with_unit(a: &[f64], b: &[f64], k: usize) -> [f64; 4] {
+            without(a, b, k)
+        }
+        #[inline(always)]
+        fn without(a: &[f64], b: &[f64], k: usize) -> [f64; 4] {
+            [product(a, b, k), square(a, k), quotient(a[k], b, a, k), sin(a, b, k)]
+        }
+        if !std::arch::is_x86_feature_detected!("fma") {
+            return;
+        }
+        let a: Vec<f64> = (0..21).map(|i| ((i * 7 % 11) as f64 - 5.3) / (i + 1) as f64).collect();
+        let b: Vec<f64> = (0..21).map(|i| ((i * 5 % 13) as f64 + 0.7) / (i + 2) as f64).collect();
+        for k in 1..=20 {
+            // SAFETY: the CPU has FMA (tested above).
+            let fused = unsafe { with_unit(&a, &b, k) };
+            let called = std::hint::black_box(without)(&a, &b, k);
+            assert_eq!(fused.map(f64::to_bits), called.map(f64::to_bits), "k = {k}");
+        }
+    }
 
     /// The square's recurrence is the product's with the operand twice, to rounding.
     #[test]
