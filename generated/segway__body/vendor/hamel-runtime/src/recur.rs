@@ -181,13 +181,22 @@ mod tests {
         }
         #[inline(always)]
         fn without(a: &[f64], b: &[f64], k: usize) -> [f64; 4] {
-            [product(a, b, k), square(a, k), quotient(a[k], b, a, k), sin(a, b, k)]
+            [
+                product(a, b, k),
+                square(a, k),
+                quotient(a[k], b, a, k),
+                sin(a, b, k),
+            ]
         }
         if !std::arch::is_x86_feature_detected!("fma") {
             return;
         }
-        let a: Vec<f64> = (0..21).map(|i| ((i * 7 % 11) as f64 - 5.3) / (i + 1) as f64).collect();
-        let b: Vec<f64> = (0..21).map(|i| ((i * 5 % 13) as f64 + 0.7) / (i + 2) as f64).collect();
+        let a: Vec<f64> = (0..21)
+            .map(|i| ((i * 7 % 11) as f64 - 5.3) / (i + 1) as f64)
+            .collect();
+        let b: Vec<f64> = (0..21)
+            .map(|i| ((i * 5 % 13) as f64 + 0.7) / (i + 2) as f64)
+            .collect();
         for k in 1..=20 {
             // SAFETY: the CPU has FMA (tested above).
             let fused = unsafe { with_unit(&a, &b, k) };
