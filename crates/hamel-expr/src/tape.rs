@@ -36,6 +36,26 @@ pub enum Op {
 }
 
 impl Op {
+    /// `mark` each operand (an earlier instruction's index), in order.
+    pub fn for_each_operand(&self, mut mark: impl FnMut(usize)) {
+        match self {
+            Op::Input(_) | Op::Const(_) => {}
+            Op::Add(v) | Op::Mul(v) => v.iter().for_each(|&a| mark(a)),
+            Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => mark(*a),
+            Op::Div(a, b) | Op::PowF(a, b) | Op::Atan2(a, b) => {
+                mark(*a);
+                mark(*b);
+            }
+        }
+    }
+
+    /// The operands, in order ([`Op::for_each_operand`]).
+    pub fn operands(&self) -> Vec<usize> {
+        let mut out = Vec::new();
+        self.for_each_operand(|a| out.push(a));
+        out
+    }
+
     /// Arithmetic operations of this instruction: an n-ary sum or product counts n − 1, an
     /// integer power its multiplications by squaring. With `varying` (per instruction, see
     /// [`Tape::varying`]), the fixed operands of a sum or product count as one, combined first.

@@ -315,7 +315,7 @@ fn live(ops: Vec<Op>, outputs: &[usize]) -> (Vec<Op>, Vec<usize>) {
     }
     for k in (0..ops.len()).rev() {
         if needed[k] {
-            operands(&ops[k], |a| needed[a] = true);
+            ops[k].for_each_operand(|a| needed[a] = true);
         }
     }
     let mut new = vec![usize::MAX; ops.len()];
@@ -328,18 +328,6 @@ fn live(ops: Vec<Op>, outputs: &[usize]) -> (Vec<Op>, Vec<usize>) {
         }
     }
     (kept, outputs.iter().map(|&o| new[o]).collect())
-}
-
-fn operands(op: &Op, mut mark: impl FnMut(usize)) {
-    match op {
-        Op::Input(_) | Op::Const(_) => {}
-        Op::Add(v) | Op::Mul(v) => v.iter().for_each(|&a| mark(a)),
-        Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => mark(*a),
-        Op::Div(a, b) | Op::PowF(a, b) | Op::Atan2(a, b) => {
-            mark(*a);
-            mark(*b);
-        }
-    }
 }
 
 fn renumber(op: &mut Op, new: &[usize]) {

@@ -117,9 +117,7 @@ fn split_powers(ops: &[Op], needed: &[bool], varying: &[bool], keep: &[usize]) -
     keep.iter().for_each(|&k| other_use[k] = true);
     for (k, op) in ops.iter().enumerate().filter(|(k, _)| needed[*k]) {
         if !matches!(op, Op::Mul(_)) || !varying[k] {
-            super::series::operands(op)
-                .into_iter()
-                .for_each(|a| other_use[a] = true);
+            op.for_each_operand(|a| other_use[a] = true);
         }
     }
     (ops.iter().enumerate())

@@ -171,11 +171,11 @@ pub(super) fn series_body(
         .filter(|&op| varying[op])
         .collect();
     let rate_ops: Vec<usize> = rates.iter().map(|&r| outputs[r]).collect();
-    let direct = |k: usize| operands(&ops[k]);
+    let direct = |k: usize| ops[k].operands();
     let mono = Monomials::new(ops, &reached(ops, &rate_ops, direct), &varying, &rate_ops);
     let needed = reached(ops, &rate_ops, |k| match &ops[k] {
         Op::Mul(_) if mono.of.contains_key(&k) => mono.operands(k),
-        op => operands(op),
+        op => op.operands(),
     });
     let for_tests = reached(ops, &tests, direct);
     let mut p = Program::default();
@@ -354,16 +354,6 @@ fn looped(w: &Written) -> String {
     o + "    }\n"
 }
 
-/// The operands of an operation.
-pub(super) fn operands(op: &Op) -> Vec<usize> {
-    match op {
-        Op::Input(_) | Op::Const(_) => vec![],
-        Op::Add(v) | Op::Mul(v) => v.clone(),
-        Op::Neg(a) | Op::PowI(a, _) | Op::Call(_, a) => vec![*a],
-        Op::Div(a, b) | Op::PowF(a, b) | Op::Atan2(a, b) => vec![*a, *b],
-    }
-}
-
 /// The value of operation `k` (a product with its shared pairs, `mono`).
 fn value(
     p: &mut Program,
@@ -372,7 +362,8 @@ fn value(
     inputs: &[SeriesInput],
     mono: &Monomials,
 ) -> Val {
-    let all_scalar = operands(op)
+    let all_scalar = op
+        .operands()
         .iter()
         .all(|&a| matches!(vals[a], Val::Scalar(_)));
     if let Op::Input(s) = op {
