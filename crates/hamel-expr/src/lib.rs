@@ -45,4 +45,4 @@ pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
 pub use specialise::rational_of_f64;
 pub use tape::{Op, Tape, TapeError};
 pub use tape_data::{OpData, TapeData};
-pub use trace::{TraceError, Traced, trace};
+pub use trace::{Guard, Guarded, TraceError, Traced, trace, trace_guarded};

@@ -36,6 +36,77 @@ struct Recorder {
     constants: HashMap<u64, usize>,
     /// A constant that is not a finite number was needed (the tape cannot hold it).
     non_finite: bool,
+    /// The decisions taken by value ([`Scalar::decided`]), their operands as instructions.
+    guards: Vec<Guard>,
+    /// A decision was taken that no guard states ([`Scalar::undecidable`]).
+    undecidable: bool,
+}
+
+/// A decision the traced computation took by value: the tape computes what the computation
+/// would wherever |`chosen`| > `factor` · max |`others`| (the max of none is 0). `chosen` and
+/// `others` index [`Guarded::tape`]'s outputs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Guard {
+    /// The output whose magnitude must stay above the others'.
+    pub chosen: usize,
+    /// The multiple of the others' largest magnitude it must exceed.
+    pub factor: f64,
+    /// The outputs it is compared with.
+    pub others: Vec<usize>,
+}
+
+/// A trace with the decisions it took by value ([`trace_guarded`]).
+#[derive(Clone, Debug)]
+pub struct Guarded {
+    /// The tape: the computation's outputs (the first [`Guarded::outputs`]), then the values
+    /// the guards compare.
+    pub tape: Tape,
+    /// How many of the tape's outputs are the computation's.
+    pub outputs: usize,
+    /// The decisions, each a condition on the tape's outputs at a state.
+    pub guards: Vec<Guard>,
+    /// Whether a decision was taken that no guard states: the tape then holds at the tracing
+    /// point only, and the guards do not say where else.
+    pub undecidable: bool,
+}
+
+impl Guard {
+    /// Whether it holds for these values of the tape's outputs (false where one is NaN).
+    pub fn holds(&self, values: &[f64]) -> bool {
+        let largest = (self.others.iter()).fold(0.0_f64, |m, &o| m.max(values[o].abs()));
+        values[self.chosen].abs() > self.factor * largest && !largest.is_nan()
+    }
+}
+
+impl Guarded {
+    /// Whether every guard holds for these values of the tape's outputs.
+    pub fn holds(&self, values: &[f64]) -> bool {
+        !self.undecidable && self.guards.iter().all(|g| g.holds(values))
+    }
+}
+
+/// A guard in the recorder: instructions, not yet outputs.
+fn record_guard(chosen: Traced, factor: f64, others: &[Traced]) {
+    let fixed = |x: &Traced| x.is_constant();
+    if fixed(&chosen) && others.iter().all(fixed) {
+        return; // decided alike at every state
+    }
+    let nonzero: Vec<Traced> = others.iter().copied().filter(|x| !x.is(0.0)).collect();
+    RECORDERS.with(|r| {
+        let mut r = r.borrow_mut();
+        let Some(rec) = r.last_mut() else { return };
+        let others: Vec<usize> = nonzero.iter().map(|&x| rec.operand(x)).collect();
+        let chosen = rec.operand(chosen);
+        let guard = Guard {
+            chosen,
+            // against nothing, any multiple says the same: |chosen| > 0
+            factor: if others.is_empty() { 0.0 } else { factor },
+            others,
+        };
+        if !rec.guards.contains(&guard) {
+            rec.guards.push(guard);
+        }
+    });
 }
 
 thread_local! {
@@ -251,6 +322,17 @@ impl Scalar for Traced {
     fn powf(self, e: Self) -> Self {
         Traced::binary(self.value.powf(e.value), self, e, Op::PowF)
     }
+    const RECORDS_DECISIONS: bool = true;
+    fn decided(chosen: Self, factor: f64, others: &[Self]) {
+        record_guard(chosen, factor, others);
+    }
+    fn undecidable() {
+        RECORDERS.with(|r| {
+            if let Some(rec) = r.borrow_mut().last_mut() {
+                rec.undecidable = true;
+            }
+        });
+    }
 }
 
 /// Why a computation could not be traced.
@@ -266,12 +348,43 @@ pub enum TraceError<E> {
 }
 
 /// Run `f` on traced inputs (`names[i]` at `values[i]`) and record what it computes into a tape
-/// whose outputs are what `f` returns, in order.
+/// whose outputs are what `f` returns, in order (the path taken at `values`: see
+/// [`trace_guarded`] for where else it holds).
 pub fn trace<E>(
     names: &[String],
     values: &[f64],
     f: impl FnOnce(&[Traced]) -> Result<Vec<Traced>, E>,
 ) -> Result<Tape, TraceError<E>> {
+    let (tape, _, _) = record(names, values, f, false)?;
+    Ok(tape)
+}
+
+/// [`trace`], with the decisions `f` took by value ([`Scalar::decided`]) as guards: the tape's
+/// outputs are `f`'s, then the values the guards compare; at a state where every guard holds
+/// (and no decision was undecidable) the tape computes what `f` would.
+pub fn trace_guarded<E>(
+    names: &[String],
+    values: &[f64],
+    f: impl FnOnce(&[Traced]) -> Result<Vec<Traced>, E>,
+) -> Result<Guarded, TraceError<E>> {
+    let (tape, guards, undecidable) = record(names, values, f, true)?;
+    let outputs = tape.outputs().len() - guards.iter().map(|g| 1 + g.others.len()).sum::<usize>();
+    Ok(Guarded {
+        tape,
+        outputs,
+        guards,
+        undecidable,
+    })
+}
+
+/// The trace proper: the tape, its guards (operands as the tape's outputs after `f`'s, when
+/// `guarded`) and whether a decision was undecidable.
+fn record<E>(
+    names: &[String],
+    values: &[f64],
+    f: impl FnOnce(&[Traced]) -> Result<Vec<Traced>, E>,
+    guarded: bool,
+) -> Result<(Tape, Vec<Guard>, bool), TraceError<E>> {
     assert_eq!(names.len(), values.len(), "one value per traced input");
     let id = NEXT_ID.with(|n| {
         let id = n.get();
@@ -284,6 +397,8 @@ pub fn trace<E>(
             ops: Interned::default(),
             constants: HashMap::new(),
             non_finite: false,
+            guards: Vec::new(),
+            undecidable: false,
         })
     });
     let running = Running;
@@ -293,18 +408,36 @@ pub fn trace<E>(
         .map(|(i, &v)| Traced::input(i, v))
         .collect();
     let outputs = f(&inputs).map_err(TraceError::Computation)?;
-    let (ops, outputs, non_finite) = RECORDERS.with(|r| {
+    let recorded = RECORDERS.with(|r| {
         let mut r = r.borrow_mut();
         let rec = r.last_mut().expect("this trace's recorder");
-        let outputs: Vec<usize> = outputs.iter().map(|&x| rec.operand(x)).collect();
-        (std::mem::take(&mut rec.ops.ops), outputs, rec.non_finite)
+        let mut outputs: Vec<usize> = outputs.iter().map(|&x| rec.operand(x)).collect();
+        let mut guards = std::mem::take(&mut rec.guards);
+        if !guarded {
+            guards.clear();
+        }
+        // each guard's operands become outputs, and the guard indexes them
+        for g in &mut guards {
+            let at = outputs.len();
+            outputs.push(g.chosen);
+            outputs.extend(&g.others);
+            g.chosen = at;
+            g.others = (at + 1..at + 1 + g.others.len()).collect();
+        }
+        let ops = std::mem::take(&mut rec.ops.ops);
+        (ops, outputs, rec.non_finite, guards, rec.undecidable)
     });
+    let (ops, outputs, non_finite, guards, undecidable) = recorded;
     drop(running);
     if non_finite {
         return Err(TraceError::NonFinite);
     }
     let (ops, outputs) = live(ops, &outputs);
-    Ok(Tape::from_parts(names.to_vec(), ops, outputs))
+    Ok((
+        Tape::from_parts(names.to_vec(), ops, outputs),
+        guards,
+        undecidable,
+    ))
 }
 
 /// The instructions that the outputs need, renumbered in order.
@@ -380,6 +513,49 @@ mod tests {
         assert_eq!(positive.eval::<f64>(&[-3.0]).unwrap(), [-3.0]);
         let negative = trace(&names(1), &[-2.0], abs).unwrap();
         assert_eq!(negative.eval::<f64>(&[5.0]).unwrap(), [-5.0]);
+    }
+
+    #[test]
+    fn a_pivot_is_guarded_where_the_path_stays_valid() {
+        // [[x0, 1], [x1, 1]] y = [1, 2] by LU with partial pivoting, traced at x = (3, 1):
+        // row 0 is the pivot; the tape holds (exactly the same function) wherever
+        // |x0| > ½|x1|, and its guards say so.
+        let solve = |x: &[Traced]| -> Result<Vec<Traced>, ()> {
+            let one = Traced::constant(1.0);
+            let a = vec![vec![x[0], one], vec![x[1], one]];
+            let b = vec![one, Traced::constant(2.0)];
+            hamel_runtime::solve_system(a, b).ok_or(())
+        };
+        let g = trace_guarded(&names(2), &[3.0, 1.0], solve).unwrap();
+        assert!(!g.undecidable);
+        assert_eq!(g.outputs, 2);
+        // the first choice (|x0| > ½|x1|), the floor (|x0| > 0: an exact pivot), and the
+        // second pivot's (x0 − x1)/x0 ≠ 0
+        assert_eq!(g.guards.len(), 3, "{:?}", g.guards);
+        let exact = |x: [f64; 2]| {
+            let y0 = -1.0 / (x[0] - x[1]);
+            [y0, 1.0 - x[0] * y0]
+        };
+        for (x, inside) in [
+            ([3.0, 1.0], true),
+            ([2.0, -3.9], true),
+            ([2.0, 4.1], false),
+            ([0.0, 0.0], false),
+        ] {
+            let Ok(values) = g.tape.eval::<f64>(&x) else {
+                assert!(!inside, "at {x:?}"); // a quotient by a zero pivot
+                continue;
+            };
+            assert_eq!(g.holds(&values), inside, "at {x:?}");
+            if inside {
+                for (v, e) in values[..2].iter().zip(exact(x)) {
+                    assert!((v - e).abs() <= 1e-15 * e.abs().max(1.0), "{v} {e}");
+                }
+            }
+        }
+        // untraced decisions: the plain trace has no guard outputs
+        let plain = trace(&names(2), &[3.0, 1.0], solve).unwrap();
+        assert_eq!(plain.outputs().len(), 2);
     }
 
     #[test]

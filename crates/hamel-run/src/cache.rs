@@ -322,6 +322,10 @@ pub struct Meta {
     /// How it is compiled (the key says it too).
     #[serde(default)]
     pub build: Build,
+    /// The right-hand side traced at the scene's start that the core runs where its guards
+    /// hold: its size and how it was checked, or why there is none (None: not a scene's core).
+    #[serde(default)]
+    pub traced: Option<String>,
 }
 
 /// A cache entry: a generated crate, maybe built.
@@ -356,7 +360,7 @@ pub fn lookup(key: &Key) -> Result<Option<Entry>, CacheError> {
 /// eliminated) and store it; `ops_full` comes from the caller (the unspecialised full system).
 pub fn store(
     key: &Key,
-    d: &Derivation,
+    (d, traced): (&Derivation, Result<&hamel_codegen::TracedPath, String>),
     fixed: &IndexMap<String, f64>,
     dropped: &[hamel_model::Coord],
     ops_of: impl Fn(&Generated) -> Result<usize, CacheError>,
@@ -364,8 +368,9 @@ pub fn store(
     command: &str,
 ) -> Result<Entry, CacheError> {
     let special = d.specialise(fixed)?;
-    let mut generated =
-        hamel_codegen::with_simulator(hamel_codegen::generate(&special, dropped, command)?)?;
+    let generated =
+        hamel_codegen::generate_traced(&special, dropped, command, traced.as_ref().ok().copied());
+    let mut generated = hamel_codegen::with_simulator(generated?)?;
     let dir = root()?.join(key.hash());
     // The binary and the package are named after the entry ([`Artifact::crate_name`]).
     generated.edit_manifest(|doc| {
@@ -380,6 +385,15 @@ pub fn store(
         path: generated.solved.name.to_string(),
         binary_sha256: None,
         build: key.build.clone(),
+        traced: Some(match traced {
+            Ok(t) => format!(
+                "{} operations, {} guards: {}",
+                t.guarded.tape.operation_count(),
+                t.guarded.guards.len(),
+                t.note
+            ),
+            Err(why) => format!("none: {why}"),
+        }),
     };
     write_entry(key, &generated, meta)
 }
@@ -420,17 +434,33 @@ fn write_entry(key: &Key, generated: &Generated, meta: Meta) -> Result<Entry, Ca
     })
 }
 
+/// The right-hand side traced at a scene's start that its core may run
+/// ([`crate::traced`]): what identifies it (part of the key), and what checks it on a miss.
+pub struct CoreTrace<'a> {
+    /// SHA-256 of the tape and its guards ([`crate::traced::fingerprint`]).
+    pub fingerprint: String,
+    /// The trace checked for the core, or why it is not used.
+    pub make: Box<dyn FnOnce() -> Result<hamel_codegen::TracedPath, String> + 'a>,
+}
+
 /// The scene's core for `plan`: the cache entry of its code (the derivation `d` specialised for
-/// the `fixed` parameter values, the dropped coordinates eliminated), found in the cache or
-/// generated into it. Nothing is built here ([`binary`] builds on first use).
+/// the `fixed` parameter values, the dropped coordinates eliminated, with `trace` where there
+/// is one), found in the cache or generated into it. Nothing is built here ([`binary`] builds
+/// on first use).
 pub fn prepare(
     model: &Model,
     d: &Derivation,
     plan: &Plan,
     fixed: &IndexMap<String, f64>,
+    trace: Result<CoreTrace<'_>, String>,
 ) -> Result<Entry, CacheError> {
-    let key = Key::new(model, &d.eta_name, &plan.dropped, fixed, &Build::current()?);
+    let mut key = Key::new(model, &d.eta_name, &plan.dropped, fixed, &Build::current()?);
+    key.text += &match &trace {
+        Ok(t) => format!("\ntraced at the start: {}", t.fingerprint),
+        Err(_) => "\ntraced at the start: none".into(),
+    };
     cached(&key, || {
+        let traced = trace.and_then(|t| (t.make)());
         let full = hamel_codegen::generate(d, &[], "plan")?;
         let ops_full = ops_of(&full, d.sigma, &(0..d.ell).collect::<Vec<_>>())?;
         // The specialised crate's solved form has every coordinate's rate; the planned
@@ -439,7 +469,7 @@ pub fn prepare(
         let ops = |g: &Generated| ops_of(g, d.sigma, &state);
         store(
             &key,
-            d,
+            (d, traced.as_ref().map_err(Clone::clone)),
             fixed,
             &plan.dropped_ix,
             ops,
@@ -478,6 +508,7 @@ pub fn prepare_library(
             path: generated.solved.name.to_string(),
             binary_sha256: None,
             build: key.build.clone(),
+            traced: None,
         };
         write_entry(&key, &generated, meta)
     })

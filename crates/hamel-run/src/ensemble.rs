@@ -242,7 +242,9 @@ impl Loaded {
             .filter(|(k, _)| !varying.contains(k))
             .collect();
         let fail = |e: cache::CacheError| self.core_error(e, "the ensemble's compiled core");
-        let entry = cache::prepare(&self.model, &self.d, &self.plan, &fixed).map_err(fail)?;
+        let trace = crate::traced::for_core(self, &fixed);
+        let entry =
+            cache::prepare(&self.model, &self.d, &self.plan, &fixed, trace).map_err(fail)?;
         let exe = cache::binary(&entry).map_err(fail)?.path;
         let ok: Vec<usize> = (0..starts.len()).filter(|&i| starts[i].is_ok()).collect();
         let job = cache::Job {

@@ -43,6 +43,7 @@ pub mod plan;
 pub mod plot;
 pub mod simulate;
 pub mod system;
+pub mod traced;
 pub mod tradeoff;
 pub mod trajectory;
 

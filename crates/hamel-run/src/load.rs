@@ -346,7 +346,11 @@ impl Loaded {
     /// call ([`cache::prepare`]); built by [`cache::binary`] when first run.
     pub fn core(&self) -> Result<&cache::Entry, cache::CacheError> {
         self.core
-            .get_or_init(|| cache::prepare(&self.model, &self.d, &self.plan, &self.fixed()))
+            .get_or_init(|| {
+                let fixed = self.fixed();
+                let trace = crate::traced::for_core(self, &fixed);
+                cache::prepare(&self.model, &self.d, &self.plan, &fixed, trace)
+            })
             .as_ref()
             .map_err(Clone::clone)
     }

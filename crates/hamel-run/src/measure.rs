@@ -87,7 +87,16 @@ pub fn measure_plan(loaded: &Loaded) -> Result<Measured, ModelError> {
         model.file, d.eta_name
     );
     let entry = cache::cached(&key, || {
-        cache::store(&key, d, &none, &[], |_| Ok(ops.1), ops.1, &command)
+        let untraced = Err("the full system with its parameters as inputs".to_string());
+        cache::store(
+            &key,
+            (d, untraced),
+            &none,
+            &[],
+            |_| Ok(ops.1),
+            ops.1,
+            &command,
+        )
     })
     .map_err(fail)?;
     let exe = cache::binary(&entry).map_err(fail)?.path;

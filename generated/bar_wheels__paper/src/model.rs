@@ -1864,6 +1864,21 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 10]) -> Result<[S;
     Ok([t3, t33, t38])
 }
 
+/// Whether [`reduced_into_live`] runs code traced at a scene's start ([`traced_rates`]).
+pub const TRACED: bool = false;
+
+/// The reduced right-hand side along the path of the structured evaluation traced at a
+/// scene's start (the pivots taken there, the parameters folded in), as straight-line f64
+/// code: None where a guard fails (a pivot below half its column's largest candidate, or
+/// towards the floor at which the structured evaluation counts it zero) or a rate is not
+/// finite; the caller then evaluates the structured form. The trace:
+/// none: this core was not generated with one.
+#[allow(unused_variables, clippy::all)]
+fn traced_rates(x: &[f64]) -> Option<[f64; REDUCED_DIM]> {
+    let _ = x;
+    None
+}
+
 /// The reduced right-hand side in f64 into `dx`, checked, without allocation.
 pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(), EvalError> {
     reduced_into_live(x, dx, &prep.p, prep)
@@ -1872,6 +1887,12 @@ pub fn reduced_into_with(x: &[f64], dx: &mut [f64], prep: &Prepared) -> Result<(
 /// [`reduced_into_with`] at the [`LIVE`] parameters of `p` (see [`reduced_live`]).
 #[inline]
 pub fn reduced_into_live(x: &[f64], dx: &mut [f64], p: &Parameters, prep: &Prepared) -> Result<(), EvalError> {
+    if TRACED {
+        if let Some(v) = traced_rates(x) {
+            dx.copy_from_slice(&v);
+            return Ok(());
+        }
+    }
     dx.copy_from_slice(&reduced_live(x, p, prep)?);
     runtime::finite("the reduced right-hand side", dx)
 }

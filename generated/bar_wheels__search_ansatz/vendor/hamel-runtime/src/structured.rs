@@ -535,6 +535,10 @@ pub fn select<S: Scalar>(
     if d.dependent == 0 {
         return lu::factor(l, m, perm, pivot);
     }
+    if S::RECORDS_DECISIONS {
+        // which rows are used is decided by a floor relative to other rows' entries
+        S::undecidable();
+    }
     let scale = src.iter().fold(0.0_f64, |a, x| a.max(x.value().abs()));
     let kept_floor = match pivot {
         Pivot::Relative(r) if r > KEPT_ROWS_PIVOT => r,

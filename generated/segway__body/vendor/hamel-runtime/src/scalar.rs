@@ -105,6 +105,22 @@ pub trait Scalar:
     /// Whether an ill-conditioned evaluation in this type is repeated in double-double (f64
     /// only: dual numbers carry derivatives, double-double is the repeat).
     const CHECKED: bool = false;
+    /// Whether this type records the decisions a computation takes by value (a tracer such as
+    /// `hamel_expr::Traced`, whose straight-line record of the path taken holds only where
+    /// those decisions would be taken alike): then [`Scalar::decided`] and
+    /// [`Scalar::undecidable`] are called where they are taken (pivots).
+    const RECORDS_DECISIONS: bool = false;
+    /// A decision by value that the path taken stays valid (and as stable) wherever
+    /// |`chosen`| > `factor` · max |`others`| (the max of none is 0): a pivot against the
+    /// other candidates of its column, or against the matrix's entries for the floor below
+    /// which it counts as zero. Called only where [`Scalar::RECORDS_DECISIONS`].
+    fn decided(chosen: Self, factor: f64, others: &[Self]) {
+        let _ = (chosen, factor, others);
+    }
+    /// A decision by value was taken that no condition of [`Scalar::decided`]'s form states
+    /// (a fallback after a failed attempt): a tracer's record holds at its tracing point only.
+    /// Called only where [`Scalar::RECORDS_DECISIONS`].
+    fn undecidable() {}
 }
 
 impl Scalar for f64 {

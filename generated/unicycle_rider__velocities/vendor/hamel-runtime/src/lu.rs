@@ -58,6 +58,11 @@ pub fn factor_rows<S: Scalar>(
     for (i, p) in perm.iter_mut().enumerate() {
         *p = i;
     }
+    let entries: Vec<S> = if S::RECORDS_DECISIONS {
+        a.to_vec()
+    } else {
+        Vec::new()
+    };
     for k in 0..n {
         let mut p = k;
         for i in k + 1..rows {
@@ -66,7 +71,13 @@ pub fn factor_rows<S: Scalar>(
             }
         }
         if a[p * n + k].value().abs() <= floor {
+            if S::RECORDS_DECISIONS {
+                S::undecidable();
+            }
             return false;
+        }
+        if S::RECORDS_DECISIONS {
+            record_pivot(rows, n, a, k, p, pivot, &entries);
         }
         if p != k {
             for j in 0..n {
@@ -77,6 +88,36 @@ pub fn factor_rows<S: Scalar>(
         eliminate(n, a, k);
     }
     true
+}
+
+/// How far below the largest candidate of its column a pivot chosen at a tracing point may fall
+/// at another state before a tracer's record of the path is left for the pivoting evaluation:
+/// threshold pivoting's u (a growth of at most 1 + 1/u per step, where partial pivoting's is 2).
+pub const TRACED_PIVOT_THRESHOLD: f64 = 0.5;
+
+/// For a tracer ([`Scalar::RECORDS_DECISIONS`]): pivot (`p`, k) was chosen, so the path holds
+/// where it stays above [`TRACED_PIVOT_THRESHOLD`] of the other candidates of column k, and
+/// above the floor of `pivot` (of the largest of `entries`, the matrix as given).
+#[cold]
+fn record_pivot<S: Scalar>(
+    rows: usize,
+    n: usize,
+    a: &[S],
+    k: usize,
+    p: usize,
+    pivot: Pivot,
+    entries: &[S],
+) {
+    let chosen = a[p * n + k];
+    let others: Vec<S> = (k..rows)
+        .filter(|&i| i != p)
+        .map(|i| a[i * n + k])
+        .collect();
+    S::decided(chosen, TRACED_PIVOT_THRESHOLD, &others);
+    match pivot {
+        Pivot::Exact => S::decided(chosen, 0.0, &[]),
+        Pivot::Relative(r) => S::decided(chosen, r, entries),
+    }
 }
 
 /// One step of elimination below pivot (k, k).

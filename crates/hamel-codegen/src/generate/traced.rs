@@ -1,0 +1,96 @@
+//! The reduced right-hand side traced at a scene's start, written as straight-line f64 code
+//! with its guards (issue 63): what a core without a closed form (the Whipple bicycle) runs
+//! instead of the structured evaluation wherever the pivots taken at the start still stand.
+//!
+//! The trace (`hamel_expr::trace_guarded`, made by `hamel-run`) records the structured
+//! evaluation — ingredients, the LU of [Z; α] and A_Γ with the pivots chosen at the start, the
+//! contractions of (11) — as one tape of the reduced state, the parameters folded in. Each
+//! pivot decision is a guard |p| > f · max |others| on the tape's values; where one fails
+//! (a pivot below half its column's largest candidate, or towards the floor at which the
+//! structured evaluation counts it zero), or a value is not finite, the generated
+//! `traced_rates` returns None and the caller evaluates the structured form.
+
+use std::collections::HashMap;
+use std::fmt::Write;
+
+use hamel_expr::{Guarded, Tape};
+
+use super::emit::{Part, Slots, lets, lit};
+
+/// A scene's right-hand side traced at its start, for its core: the guarded tape (inputs the
+/// reduced state (kept coordinates, then η), outputs its rates, then the guards' values) and a
+/// sentence saying how its accuracy was measured.
+#[derive(Clone, Debug)]
+pub struct TracedPath {
+    /// The trace.
+    pub guarded: Guarded,
+    /// How it was checked (written into the core's documentation).
+    pub note: String,
+}
+
+/// The placeholders of the traced path: `traced` (whether there is one), `traced_doc`, and
+/// `traced_body`, the body of `traced_rates(x) -> Option<[f64; REDUCED_DIM]>`.
+pub(super) fn fields(traced: Option<&TracedPath>, n: usize) -> [(&'static str, String); 3] {
+    let Some(t) = traced else {
+        return [
+            ("traced", "false".into()),
+            (
+                "traced_doc",
+                crate::escape::doc_comment("///", "none: this core was not generated with one."),
+            ),
+            ("traced_body", "    let _ = x;\n    None\n".into()),
+        ];
+    };
+    let tape = &t.guarded.tape;
+    let doc = format!(
+        "{} operations and {} guards, {}.",
+        tape.operation_count(),
+        t.guarded.guards.len(),
+        t.note
+    );
+    [
+        ("traced", "true".into()),
+        ("traced_doc", crate::escape::doc_comment("///", &doc)),
+        ("traced_body", body(&t.guarded, n)),
+    ]
+}
+
+/// The body of `traced_rates`: the tape's lets in f64, the guards, then the rates.
+fn body(g: &Guarded, n: usize) -> String {
+    let tape: &Tape = &g.tape;
+    let slots = Slots {
+        coords: "x",
+        n: tape.inputs().len(),
+        params: &[],
+        live: &[],
+        eta: "x",
+        eta_at: 0,
+    };
+    let mut o = String::from("    type S = f64;\n");
+    o += &lets(tape, &slots, Part::All);
+    let value = |j: usize| format!("t{}", tape.outputs()[j]);
+    // one largest magnitude per set of compared values
+    let mut largest: HashMap<&[usize], usize> = HashMap::new();
+    let mut conditions = Vec::new();
+    for guard in &g.guards {
+        let chosen = format!("{}.abs()", value(guard.chosen));
+        if guard.others.is_empty() {
+            conditions.push(format!("{chosen} > 0.0"));
+            continue;
+        }
+        let next = largest.len();
+        let m = *largest.entry(&guard.others).or_insert_with(|| {
+            let max = (guard.others.iter())
+                .map(|&j| format!(".max({}.abs())", value(j)))
+                .collect::<String>();
+            let _ = writeln!(o, "    let m{next}: f64 = 0.0_f64{max};");
+            next
+        });
+        conditions.push(format!("{chosen} > {} * m{m}", lit(guard.factor)));
+    }
+    let rates: Vec<String> = (0..n).map(value).collect();
+    let _ = writeln!(o, "    let v = [{}];", rates.join(", "));
+    conditions.push("v.iter().all(|r| r.is_finite())".into());
+    let _ = writeln!(o, "    ({}).then_some(v)", conditions.join("\n        && "));
+    o
+}
