@@ -75,6 +75,31 @@ fn coordinate(loaded: &hamel_run::Loaded, name: &str) -> usize {
         .expect("a kept coordinate")
 }
 
+/// Along the scene's own run (the bicycle upright at 5 m/s, its weave dying out) the guards
+/// hold at every output state: the core never leaves its traced path there.
+#[test]
+fn the_bicycles_guards_hold_along_its_scenes_run() {
+    let loaded = hamel_run::load(&scene("whipple_bicycle.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let g = traced::for_scene(&loaded).unwrap_or_else(|e| panic!("{e}"));
+    let options = hamel_sim::Options {
+        rtol: 1e-10,
+        atol: 1e-10,
+        ..hamel_sim::Options::default()
+    };
+    let run = loaded
+        .integrate(hamel_sim::Method::Dop853, &options)
+        .unwrap();
+    let mut failed = Vec::new();
+    for (t, y) in run.solution.t.iter().zip(run.solution.y.iter()) {
+        let y = traced::in_trace_order(&loaded, y);
+        let held = g.tape.eval::<f64>(&y).is_ok_and(|v| g.holds(&v));
+        if !held {
+            failed.push(*t);
+        }
+    }
+    assert!(failed.is_empty(), "guards fail at t = {failed:?}");
+}
+
 #[test]
 fn a_model_with_a_closed_form_is_not_traced() {
     let loaded = hamel_run::load(&scene("knife.toml")).unwrap_or_else(|e| panic!("{e}"));
