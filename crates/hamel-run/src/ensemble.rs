@@ -242,7 +242,7 @@ impl Loaded {
             .filter(|(k, _)| !varying.contains(k))
             .collect();
         let fail = |e: cache::CacheError| self.core_error(e, "the ensemble's compiled core");
-        let trace = crate::traced::for_core(self, &fixed);
+        let trace = crate::traced::for_core(self.trace_start(&fixed));
         let entry =
             cache::prepare(&self.model, &self.d, &self.plan, &fixed, trace).map_err(fail)?;
         let exe = cache::binary(&entry).map_err(fail)?.path;

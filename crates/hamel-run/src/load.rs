@@ -348,11 +348,39 @@ impl Loaded {
         self.core
             .get_or_init(|| {
                 let fixed = self.fixed();
-                let trace = crate::traced::for_core(self, &fixed);
+                let trace = crate::traced::for_core(self.trace_start(&fixed));
                 cache::prepare(&self.model, &self.d, &self.plan, &fixed, trace)
             })
             .as_ref()
             .map_err(Clone::clone)
+    }
+
+    /// What the right-hand side traced at the start needs for a core specialised for `fixed`
+    /// ([`crate::traced`]).
+    pub fn trace_start(&self, fixed: &IndexMap<String, f64>) -> crate::traced::Start<'_> {
+        let mut kept = self.state.clone();
+        kept.sort_unstable();
+        crate::traced::Start {
+            compiled: &self.compiled,
+            d: &self.d,
+            kept,
+            params: &self.params,
+            all_fixed: fixed.len() == self.params.len(),
+            reference: self.reference,
+            y0: self.to_core(&self.y0),
+        }
+    }
+
+    /// [`Loaded::trace_start`] for the scene's own core (every parameter but the live ones
+    /// fixed).
+    pub fn scene_trace_start(&self) -> crate::traced::Start<'_> {
+        self.trace_start(&self.fixed())
+    }
+
+    /// A state in the plan's order (as [`Loaded::y0`]) in the core's: the kept coordinates by
+    /// model index, then η.
+    pub fn in_core_order(&self, y: &[f64]) -> Vec<f64> {
+        self.to_core(y)
     }
 
     /// The parameters a compiled core is specialised for: all but the live ones.

@@ -6,7 +6,8 @@
 //!
 //! **Job**: give the code generator straight-line code for the scene's equations where the
 //! derivation has no closed form (the Whipple bicycle), as `--export-python` gives numba.
-//! **Input**: a loaded scene whose parameters are all fixed (none live, none varied by an
+//! **Input**: a [`Start`] (`Loaded::trace_start`): a model without a closed form (the core
+//! solves one where there is), its parameters all fixed (none live, none varied by an
 //! ensemble: the trace folds their values in). **Output**: a [`hamel_codegen::TracedPath`],
 //! or the reason there is none.
 //! **Invariants**: the tape computes the structured evaluation's function wherever its guards
@@ -17,32 +18,44 @@
 //! core by it ([`fingerprint`]).
 
 use hamel_expr::{DD, Guarded, Scalar};
+use indexmap::IndexMap;
 
-use crate::load::Loaded;
+/// What the trace needs of a loaded scene ([`crate::Loaded::trace_start`]).
+pub struct Start<'a> {
+    /// The structured evaluator.
+    pub compiled: &'a hamel_derive::Compiled,
+    /// The derivation (its sizes, coordinates, whether it has a closed form).
+    pub d: &'a hamel_derive::Derivation,
+    /// The kept coordinates, by model index (the core's order).
+    pub kept: Vec<usize>,
+    /// The scene's parameter values.
+    pub params: &'a IndexMap<String, f64>,
+    /// Whether the core folds every parameter in (none live, none varied by members).
+    pub all_fixed: bool,
+    /// The value of the dropped coordinates.
+    pub reference: f64,
+    /// The initial state in the core's order (kept coordinates, then η).
+    pub y0: Vec<f64>,
+}
 
 /// Sample states around the start at which the trace is compared ([`accuracy`]).
 const SAMPLES: usize = 64;
 
-/// The scene's right-hand side traced at its start, guarded; None (with the reason) where a
-/// parameter is not fixed, the trace fails, a decision cannot be guarded, or the trace is less
-/// accurate than the structured evaluation.
-pub fn core_trace(
-    loaded: &Loaded,
-    fixed: &indexmap::IndexMap<String, f64>,
-) -> Result<Guarded, String> {
-    if loaded.d.closed().is_some() {
+/// The scene's right-hand side traced at its start, guarded; the reason where there is none: the
+/// model has a closed form, a parameter is not fixed, the trace fails, or a decision cannot be
+/// guarded.
+pub fn core_trace(s: &Start) -> Result<Guarded, String> {
+    if s.d.closed().is_some() {
         return Err("the model has a closed form (the core solves it)".into());
     }
-    if fixed.len() != loaded.params.len() {
+    if !s.all_fixed {
         return Err("parameters set in time or varied by members are not folded in".into());
     }
-    let kept = kept(loaded);
-    let names: Vec<String> = (kept.iter())
-        .map(|&k| loaded.d.coordinates[k].clone())
-        .chain((1..=loaded.d.sigma).map(|i| format!("eta{i}")))
+    let names: Vec<String> = (s.kept.iter())
+        .map(|&k| s.d.coordinates[k].clone())
+        .chain((1..=s.d.sigma).map(|i| format!("eta{i}")))
         .collect();
-    let y0 = loaded.to_core(&loaded.y0);
-    let guarded = hamel_expr::trace_guarded(&names, &y0, |y| rates(loaded, &kept, y))
+    let guarded = hamel_expr::trace_guarded(&names, &s.y0, |y| rates(s, y))
         .map_err(|e| format!("the trace failed: {e}"))?;
     if guarded.undecidable {
         return Err("a decision by value cannot be guarded (dependent constraint rows)".into());
@@ -50,28 +63,22 @@ pub fn core_trace(
     Ok(guarded)
 }
 
-/// The kept coordinates in the core's order (model index).
-fn kept(loaded: &Loaded) -> Vec<usize> {
-    let mut kept = loaded.state.clone();
-    kept.sort_unstable();
-    kept
-}
-
 /// The reduced rates at y (core order) over any scalar: the kept coordinates' rates, then η̇.
-fn rates<S: Scalar>(
-    loaded: &Loaded,
-    kept: &[usize],
-    y: &[S],
-) -> Result<Vec<S>, hamel_derive::NumericError> {
-    let (qs, eta) = y.split_at(kept.len());
-    let mut q = vec![S::constant(loaded.reference); loaded.d.ell];
-    for (i, &k) in kept.iter().enumerate() {
+fn rates<S: Scalar>(s: &Start, y: &[S]) -> Result<Vec<S>, hamel_derive::NumericError> {
+    let (qs, eta) = y.split_at(s.kept.len());
+    let mut q = vec![S::constant(s.reference); s.d.ell];
+    for (i, &k) in s.kept.iter().enumerate() {
         q[k] = qs[i];
     }
-    let r = loaded.compiled.rhs::<S>(&q, eta, &loaded.params)?;
-    Ok((kept.iter().map(|&k| r.q_dot[k]))
+    let r = s.compiled.rhs::<S>(&q, eta, s.params)?;
+    Ok((s.kept.iter().map(|&k| r.q_dot[k]))
         .chain(r.eta_dot.iter().copied())
         .collect())
+}
+
+/// The reduced rates at `y` (the core's order) by the structured evaluation, in f64.
+pub fn structured_rates(s: &Start, y: &[f64]) -> Result<Vec<f64>, String> {
+    rates::<f64>(s, y).map_err(|e| e.to_string())
 }
 
 /// How the trace compares at states around the start where its guards hold: its largest
@@ -79,9 +86,7 @@ fn rates<S: Scalar>(
 /// both against the structured evaluation in double-double, and the number of states used.
 /// States: each coordinate moved by up to ±0.1, each η component by up to ±10 % (at least
 /// ±0.1), a fixed pseudo-random sequence.
-pub fn accuracy(loaded: &Loaded, guarded: &Guarded) -> (f64, f64, usize) {
-    let kept = kept(loaded);
-    let y0 = loaded.to_core(&loaded.y0);
+pub fn accuracy(s: &Start, guarded: &Guarded) -> (f64, f64, usize) {
     let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
     let mut next = || {
         seed ^= seed << 13;
@@ -91,9 +96,9 @@ pub fn accuracy(loaded: &Loaded, guarded: &Guarded) -> (f64, f64, usize) {
     };
     let (mut worst, mut structured, mut used) = (0.0_f64, 0.0_f64, 0);
     for _ in 0..SAMPLES {
-        let y: Vec<f64> = (y0.iter().enumerate())
+        let y: Vec<f64> = (s.y0.iter().enumerate())
             .map(|(i, &v)| {
-                let spread = if i < kept.len() {
+                let spread = if i < s.kept.len() {
                     0.1
                 } else {
                     (0.1 * v.abs()).max(0.1)
@@ -107,8 +112,8 @@ pub fn accuracy(loaded: &Loaded, guarded: &Guarded) -> (f64, f64, usize) {
         let yd: Vec<DD> = y.iter().map(|&v| DD::constant(v)).collect();
         let (true, Ok(exact), Ok(plain)) = (
             guarded.holds(&values),
-            rates::<DD>(loaded, &kept, &yd),
-            rates::<f64>(loaded, &kept, &y),
+            rates::<DD>(s, &yd),
+            rates::<f64>(s, &y),
         ) else {
             continue;
         };
@@ -132,10 +137,10 @@ pub fn fingerprint(guarded: &Guarded) -> String {
     format!("{:x}", sha2::Sha256::digest(text.as_bytes()))
 }
 
-/// The trace `guarded` of `loaded` if the core should use it: with a sentence saying how it
-/// was measured, or the reason it is not used.
-pub fn checked(loaded: &Loaded, guarded: Guarded) -> Result<hamel_codegen::TracedPath, String> {
-    let (worst, structured, used) = accuracy(loaded, &guarded);
+/// The trace `guarded` of `s` if the core should use it: with a sentence saying how it was
+/// measured, or the reason it is not used.
+pub fn checked(s: &Start, guarded: Guarded) -> Result<hamel_codegen::TracedPath, String> {
+    let (worst, structured, used) = accuracy(s, &guarded);
     if used < SAMPLES / 4 || worst > structured.max(1e-12) {
         return Err(format!(
             "at {used} of {SAMPLES} states around the start where its guards hold, its relative error in f64 is {worst:.1e}, above max(1e-12, the structured evaluation's {structured:.1e}), or too few states"
@@ -147,31 +152,11 @@ pub fn checked(loaded: &Loaded, guarded: Guarded) -> Result<hamel_codegen::Trace
     Ok(hamel_codegen::TracedPath { guarded, note })
 }
 
-/// The trace of the scene's own core ([`core_trace`] for the parameters it fixes).
-pub fn for_scene(loaded: &Loaded) -> Result<Guarded, String> {
-    core_trace(loaded, &loaded.fixed())
-}
-
-/// The scene's state `y` (the plan's order, as [`Loaded::y0`]) in the trace's order: the kept
-/// coordinates by model index, then η.
-pub fn in_trace_order(loaded: &Loaded, y: &[f64]) -> Vec<f64> {
-    loaded.to_core(y)
-}
-
-/// The reduced rates at `y` (the trace's order) by the structured evaluation, in f64.
-pub fn structured_rates(loaded: &Loaded, y: &[f64]) -> Result<Vec<f64>, String> {
-    rates::<f64>(loaded, &kept(loaded), y).map_err(|e| e.to_string())
-}
-
-/// What the cache needs of the trace for `loaded`'s core specialised for `fixed`
-/// ([`crate::cache::CoreTrace`]), or why there is none.
-pub fn for_core<'a>(
-    loaded: &'a Loaded,
-    fixed: &indexmap::IndexMap<String, f64>,
-) -> Result<crate::cache::CoreTrace<'a>, String> {
-    let guarded = core_trace(loaded, fixed)?;
+/// What the cache needs of the trace of `s` ([`crate::cache::CoreTrace`]), or why there is none.
+pub fn for_core(s: Start<'_>) -> Result<crate::cache::CoreTrace<'_>, String> {
+    let guarded = core_trace(&s)?;
     Ok(crate::cache::CoreTrace {
         fingerprint: fingerprint(&guarded),
-        make: Box::new(move || checked(loaded, guarded)),
+        make: Box::new(move || checked(&s, guarded)),
     })
 }

@@ -27,16 +27,17 @@ fn relative(a: &[f64], b: &[f64]) -> f64 {
 #[test]
 fn the_bicycles_trace_is_its_structured_evaluation_where_its_guards_hold() {
     let loaded = hamel_run::load(&scene("whipple_bicycle.toml")).unwrap_or_else(|e| panic!("{e}"));
-    let g = traced::for_scene(&loaded).unwrap_or_else(|e| panic!("{e}"));
+    let start = loaded.scene_trace_start();
+    let g = traced::core_trace(&start).unwrap_or_else(|e| panic!("{e}"));
     assert!(!g.undecidable && !g.guards.is_empty());
-    let y0 = traced::in_trace_order(&loaded, &loaded.y0);
+    let y0 = loaded.in_core_order(&loaded.y0);
     let at = |y: &[f64]| g.tape.eval::<f64>(y).ok();
-    let start = at(&y0).expect("the trace at its own point");
-    assert!(g.holds(&start));
-    let exact = traced::structured_rates(&loaded, &y0).unwrap();
-    assert!(relative(&start[..g.outputs], &exact) < 1e-14);
+    let first = at(&y0).expect("the trace at its own point");
+    assert!(g.holds(&first));
+    let exact = traced::structured_rates(&start, &y0).unwrap();
+    assert!(relative(&first[..g.outputs], &exact) < 1e-14);
     // around the start, against double-double: as accurate as the structured evaluation
-    let (worst, structured, used) = traced::accuracy(&loaded, &g);
+    let (worst, structured, used) = traced::accuracy(&start, &g);
     assert!(used >= 16, "{used}");
     assert!(worst <= structured.max(1e-12), "{worst:e} {structured:e}");
     // Turning the heading and leaning far: where the guards hold the trace is the same
@@ -55,7 +56,7 @@ fn the_bicycles_trace_is_its_structured_evaluation_where_its_guards_hold() {
             failed += 1;
             continue;
         }
-        let exact = traced::structured_rates(&loaded, &y).unwrap();
+        let exact = traced::structured_rates(&start, &y).unwrap();
         let d = relative(&values[..g.outputs], &exact);
         assert!(d < 1e-12, "turned {turn}: {d:e}");
         held += 1;
@@ -80,7 +81,7 @@ fn coordinate(loaded: &hamel_run::Loaded, name: &str) -> usize {
 #[test]
 fn the_bicycles_guards_hold_along_its_scenes_run() {
     let loaded = hamel_run::load(&scene("whipple_bicycle.toml")).unwrap_or_else(|e| panic!("{e}"));
-    let g = traced::for_scene(&loaded).unwrap_or_else(|e| panic!("{e}"));
+    let g = traced::core_trace(&loaded.scene_trace_start()).unwrap_or_else(|e| panic!("{e}"));
     let options = hamel_sim::Options {
         rtol: 1e-10,
         atol: 1e-10,
@@ -91,7 +92,7 @@ fn the_bicycles_guards_hold_along_its_scenes_run() {
         .unwrap();
     let mut failed = Vec::new();
     for (t, y) in run.solution.t.iter().zip(run.solution.y.iter()) {
-        let y = traced::in_trace_order(&loaded, y);
+        let y = loaded.in_core_order(y);
         let held = g.tape.eval::<f64>(&y).is_ok_and(|v| g.holds(&v));
         if !held {
             failed.push(*t);
@@ -103,6 +104,6 @@ fn the_bicycles_guards_hold_along_its_scenes_run() {
 #[test]
 fn a_model_with_a_closed_form_is_not_traced() {
     let loaded = hamel_run::load(&scene("knife.toml")).unwrap_or_else(|e| panic!("{e}"));
-    let why = traced::for_scene(&loaded).unwrap_err();
+    let why = traced::core_trace(&loaded.scene_trace_start()).unwrap_err();
     assert!(why.contains("closed form"), "{why}");
 }
