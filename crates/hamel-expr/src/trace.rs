@@ -529,9 +529,12 @@ mod tests {
         let g = trace_guarded(&names(2), &[3.0, 1.0], solve).unwrap();
         assert!(!g.undecidable);
         assert_eq!(g.outputs, 2);
-        // the first choice (|x0| > ½|x1|), the floor (|x0| > 0: an exact pivot), and the
-        // second pivot's (x0 − x1)/x0 ≠ 0
-        assert_eq!(g.guards.len(), 3, "{:?}", g.guards);
+        // the first choice (|x0| > ½|x1|) and its floor (1e-14 of the largest entry, the
+        // evaluators' though this LU takes any nonzero pivot), the second pivot's floor
+        // ((x0 − x1)/x0 against the same entries) and choice (≠ 0: no other candidate)
+        assert_eq!(g.guards.len(), 4, "{:?}", g.guards);
+        let floors: Vec<f64> = (g.guards.iter()).map(|g| g.factor).collect();
+        assert_eq!(floors, [0.5, 1e-14, 0.0, 1e-14], "{:?}", g.guards);
         let exact = |x: [f64; 2]| {
             let y0 = -1.0 / (x[0] - x[1]);
             [y0, 1.0 - x[0] * y0]

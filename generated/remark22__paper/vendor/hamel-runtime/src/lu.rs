@@ -97,7 +97,9 @@ pub const TRACED_PIVOT_THRESHOLD: f64 = 0.5;
 
 /// For a tracer ([`Scalar::RECORDS_DECISIONS`]): pivot (`p`, k) was chosen, so the path holds
 /// where it stays above [`TRACED_PIVOT_THRESHOLD`] of the other candidates of column k, and
-/// above the floor of `pivot` (of the largest of `entries`, the matrix as given).
+/// above the floor of `pivot` but at least [`EVALUATOR_PIVOT`]'s (a multiple of the largest of
+/// `entries`, the matrix as given): a record of an exact-pivot computation is left where the
+/// evaluators would call the matrix numerically singular, as they then report it.
 #[cold]
 fn record_pivot<S: Scalar>(
     rows: usize,
@@ -114,10 +116,12 @@ fn record_pivot<S: Scalar>(
         .map(|i| a[i * n + k])
         .collect();
     S::decided(chosen, TRACED_PIVOT_THRESHOLD, &others);
-    match pivot {
-        Pivot::Exact => S::decided(chosen, 0.0, &[]),
-        Pivot::Relative(r) => S::decided(chosen, r, entries),
-    }
+    let floor = match (pivot, EVALUATOR_PIVOT) {
+        (Pivot::Relative(r), Pivot::Relative(e)) => r.max(e),
+        (_, Pivot::Relative(e)) => e,
+        (_, Pivot::Exact) => 0.0,
+    };
+    S::decided(chosen, floor, entries);
 }
 
 /// One step of elimination below pivot (k, k).
