@@ -71,10 +71,11 @@ pub struct Guarded {
 }
 
 impl Guard {
-    /// Whether it holds for these values of the tape's outputs (false where one is NaN).
+    /// Whether it holds for these values of the tape's outputs (false where the chosen one is
+    /// NaN; a NaN among the others is passed over by `f64::max`, as the generated code does).
     pub fn holds(&self, values: &[f64]) -> bool {
         let largest = (self.others.iter()).fold(0.0_f64, |m, &o| m.max(values[o].abs()));
-        values[self.chosen].abs() > self.factor * largest && !largest.is_nan()
+        values[self.chosen].abs() > self.factor * largest
     }
 }
 

@@ -3003,32 +3003,8 @@ pub const TRACED: bool = false;
 /// towards the floor at which the structured evaluation counts it zero) or a rate is not
 /// finite; the caller then evaluates the structured form. The trace:
 /// none: this core was not generated with one.
-///
-/// Where the CPU has AVX-512 it runs a copy compiled for it ([`traced_rates_avx512`]): the same
-/// operations in the same order, the same bits, with 32 registers where x86-64 has 16 (a long
-/// straight line spills less).
-fn traced_rates(x: &[f64]) -> Option<[f64; REDUCED_DIM]> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if TRACED && std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, the one feature the copy is compiled for.
-            return unsafe { traced_rates_avx512(x) };
-        }
-    }
-    traced_rates_plain(x)
-}
-
-/// [`traced_rates_plain`] compiled for AVX-512.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn traced_rates_avx512(x: &[f64]) -> Option<[f64; REDUCED_DIM]> {
-    traced_rates_plain(x)
-}
-
-/// The body of [`traced_rates`].
 #[inline(always)]
-#[allow(unused_variables, clippy::all)]
-fn traced_rates_plain(x: &[f64]) -> Option<[f64; REDUCED_DIM]> {
+fn traced_rates(x: &[f64]) -> Option<[f64; REDUCED_DIM]> {
     let _ = x;
     None
 }
