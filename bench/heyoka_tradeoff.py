@@ -67,7 +67,7 @@ def measure(path):
     y0 = np.array(system["y0"], dtype=np.float64)
     hamel = [r for r in system["hamel"] if r["complete"]]
     front = pareto(hamel)
-    compact = len(system["python"]) > 200_000
+    compact = len(system["python"]) > 50_000
     rows = []
     for k in range(4, 15):
         tol = 10.0 ** -k

@@ -32,7 +32,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use hamel_generated::{
-    fast, forces, runtime, reduced_with, DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM,
+    fast, forces, runtime, reduced_with, DIMS, constraint_forces, ELIMINATED, HAS_FORCES, HOLONOMIC, HOLONOMIC_USES, KEPT, LIVE, Parameters, Prepared, REDUCED_DIM, SERIES_DIM,
     REDUCED_STATE, energy, energy_many, power, project, reduced_into_live, reduced_jacobian_live,
     reduced_series, residual_max, residual_max_many,
 };
@@ -47,6 +47,8 @@ struct Reduced {
     reference: f64,
     energy: bool,
     residual: bool,
+    /// Series traced at run time, not compiled ([`hamel_sim::Stats::series_traced`]).
+    series_traced: AtomicUsize,
 }
 
 impl Reduced {
@@ -145,7 +147,8 @@ impl OdeSystem for Reduced {
         )
     }
     /// The solution's series for the Taylor method: by the recurrences compiled from the
-    /// closed form ([`reduced_series`], which checks the closed form's tests at the state); else
+    /// closed form or the scene's trace ([`reduced_series`], which checks the closed form's
+    /// tests or the trace's guards at the state); else
     /// the reduced right-hand side traced once and the recurrences run over it
     /// ([`runtime::taylor_by_trace`]), as for a state that carries the forces' work.
     /// Parameters that change with time give none.
@@ -153,13 +156,14 @@ impl OdeSystem for Reduced {
         if !LIVE.is_empty() {
             return Some(Err(SystemError::new("the Taylor method needs parameters constant in time; this scene sets some at every step")));
         }
-        if y.len() == REDUCED_DIM {
+        if y.len() == SERIES_DIM {
             // the closed form's definiteness tests at coefficient 0; whether the series is
             // finite, the driver checks
             if let Some(series) = reduced_series(y, &self.prep, order, out) {
                 return Some(series.map_err(|e| SystemError::new(format!("at t = {t}: {e}"))));
             }
         }
+        self.series_traced.fetch_add(1, Ordering::Relaxed);
         // with the forces' work W appended (does_work), its rate the power q̇ᵀF
         let series = runtime::taylor_by_trace(y, order, out, |x, dx| {
             dx[..REDUCED_DIM].copy_from_slice(&reduced_with::<Traced>(&x[..REDUCED_DIM], &self.prep)?);
@@ -282,10 +286,12 @@ fn single(job: &Job) -> Result<String, JobError> {
         reference: job.reference,
         energy: job.energy,
         residual: job.residual,
+        series_traced: AtomicUsize::new(0),
     };
     let mut seconds = Vec::new();
     let mut last = None;
     for _ in 0..job.repeat.max(1) {
+        system.series_traced.store(0, Ordering::Relaxed);
         let start = Instant::now();
         let result =
             hamel_sim::integrate(&system, job.method, job.t0, &job.y0, &job.times, &job.options);
@@ -293,7 +299,8 @@ fn single(job: &Job) -> Result<String, JobError> {
         last = Some(result);
     }
     seconds.sort_by(f64::total_cmp);
-    let (solution, stopped) = Stopped::split(last.expect("at least one run"));
+    let (mut solution, stopped) = Stopped::split(last.expect("at least one run"));
+    solution.stats.series_traced = system.series_traced.load(Ordering::Relaxed);
     let (constraint_forces, forces_failure) = if job.forces { constraint_forces_at(&system, &solution) } else { (Vec::new(), None) };
     let answer = Answer { solution, stopped, seconds: seconds[seconds.len() / 2], constraint_forces, forces_failure };
     Ok(serde_json::to_string(&answer).expect("an answer is serialisable"))
@@ -327,6 +334,7 @@ fn member_system(job: &Job, m: &Member) -> Result<(Reduced, Vec<f64>), JobError>
         reference: m.reference.unwrap_or(job.reference),
         energy: job.energy,
         residual: job.residual,
+        series_traced: AtomicUsize::new(0),
     };
     Ok((system, m.y0.clone()))
 }

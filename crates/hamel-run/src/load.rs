@@ -368,6 +368,7 @@ impl Loaded {
             all_fixed: fixed.len() == self.params.len(),
             reference: self.reference,
             y0: self.to_core(&self.y0),
+            work: self.request.energy && self.compiled.has_forces(),
         }
     }
 

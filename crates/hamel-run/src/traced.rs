@@ -36,6 +36,10 @@ pub struct Start<'a> {
     pub reference: f64,
     /// The initial state in the core's order (kept coordinates, then η).
     pub y0: Vec<f64>,
+    /// Whether the core's state carries the forces' work W (the energy requested of a model
+    /// with forces): its rate, the power q̇ᵀF, is then traced as one more output, so that the
+    /// core's compiled series covers the whole state.
+    pub work: bool,
 }
 
 /// Sample states around the start at which the trace is compared ([`accuracy`]).
@@ -63,7 +67,8 @@ pub fn core_trace(s: &Start) -> Result<Guarded, String> {
     Ok(guarded)
 }
 
-/// The reduced rates at y (core order) over any scalar: the kept coordinates' rates, then η̇.
+/// The reduced rates at y (core order) over any scalar: the kept coordinates' rates, then η̇;
+/// with [`Start::work`], then the power q̇ᵀF (W's rate, which W does not enter).
 fn rates<S: Scalar>(s: &Start, y: &[S]) -> Result<Vec<S>, hamel_derive::NumericError> {
     let (qs, eta) = y.split_at(s.kept.len());
     let mut q = vec![S::constant(s.reference); s.d.ell];
@@ -71,9 +76,15 @@ fn rates<S: Scalar>(s: &Start, y: &[S]) -> Result<Vec<S>, hamel_derive::NumericE
         q[k] = qs[i];
     }
     let r = s.compiled.rhs::<S>(&q, eta, s.params)?;
-    Ok((s.kept.iter().map(|&k| r.q_dot[k]))
+    let mut out: Vec<S> = (s.kept.iter().map(|&k| r.q_dot[k]))
         .chain(r.eta_dot.iter().copied())
-        .collect())
+        .collect();
+    if s.work {
+        let f = (s.compiled.forces_at(&q, &r.q_dot, s.params)?).unwrap_or_default();
+        let power = (f.iter().zip(&r.q_dot)).fold(S::constant(0.0), |w, (f, v)| w + *f * *v);
+        out.push(power);
+    }
+    Ok(out)
 }
 
 /// The reduced rates at `y` (the core's order) by the structured evaluation, in f64.

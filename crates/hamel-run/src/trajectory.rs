@@ -64,6 +64,10 @@ pub struct StatsOut {
     /// The Taylor method's series (each costs about its order's square in right-hand sides).
     #[serde(skip_serializing_if = "is_zero")]
     pub series_evals: usize,
+    /// Of those, the series a compiled core traced at run time instead of running its compiled
+    /// recurrences (`hamel_sim::Stats::series_traced`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub series_traced: usize,
     /// max |E − E(t0)| / |E(t0)| over the outputs: for a model whose forces do no work (None
     /// when they do: see `energy_balance_drift`).
     pub energy_drift: Option<f64>,
@@ -155,6 +159,7 @@ impl Loaded {
                 rejected: solution.stats.rejected,
                 rhs_evals: solution.stats.rhs_evals,
                 series_evals: solution.stats.series_evals,
+                series_traced: solution.stats.series_traced,
                 energy_drift: (solution.work.is_empty())
                     .then_some(solution.stats.energy_drift)
                     .flatten(),
@@ -208,7 +213,12 @@ impl Trajectory {
             self.method,
             s.steps,
             s.rejected,
-            if s.series_evals > 0 {
+            if s.series_traced > 0 {
+                format!(
+                    "{} Taylor series ({} traced at run time, not compiled)",
+                    s.series_evals, s.series_traced
+                )
+            } else if s.series_evals > 0 {
                 format!("{} Taylor series", s.series_evals)
             } else {
                 format!("{} RHS evaluations", s.rhs_evals)

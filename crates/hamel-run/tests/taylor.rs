@@ -77,9 +77,10 @@ fn the_taylor_methods_error_follows_its_tolerance_on_the_rolling_disk() {
     }
 }
 
-/// On the scenes' compiled cores (the series from the generated right-hand side traced at each
-/// step, the forces' work beside the state on the bicycle, whose loads make the energy a
-/// balance): the same solution as DOP853's on the same core, and as the interpreted Taylor run.
+/// On the scenes' compiled cores (the series by the recurrences compiled from the rolling
+/// disk's closed form and from the bicycle's trace, the forces' work beside the state on the
+/// bicycle, whose loads make the energy a balance): the same solution as DOP853's on the same
+/// core, and as the interpreted Taylor run (the series traced at every step).
 #[test]
 fn the_compiled_cores_give_the_same_series() {
     let cache = std::env::temp_dir().join(format!("hamel-taylor-test-{}", std::process::id()));
@@ -107,6 +108,12 @@ fn the_compiled_cores_give_the_same_series() {
             .unwrap()
             .solution;
         assert!(taylor.stats.series_evals > 0 && dop853.stats.series_evals == 0);
+        // every series by the compiled recurrences: the rolling disk's closed form, the
+        // bicycle's trace of its start with its loads' power (its guards hold along the run)
+        assert_eq!(
+            taylor.stats.series_traced, 0,
+            "{name}: series traced at run time"
+        );
         for other in [&dop853, &interpreted] {
             let worst = taylor
                 .y

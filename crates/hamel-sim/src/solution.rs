@@ -58,6 +58,12 @@ pub struct Stats {
     /// costing about order²/2 times an evaluation of f).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub series_evals: usize,
+    /// Of those, the series a compiled scene core computed by tracing its right-hand side at
+    /// the step's state (`runtime::taylor_by_trace`) instead of by its compiled recurrences:
+    /// where it has neither a closed form nor a trace of the scene's start, or that trace's
+    /// guards fail at the state. Set by the scene cores only (0 elsewhere).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub series_traced: usize,
     /// Jacobian evaluations, analytic or by finite differences.
     pub jacobian_evals: usize,
     /// Simplified-Newton iterations (implicit methods).

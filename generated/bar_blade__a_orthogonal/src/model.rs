@@ -1091,12 +1091,17 @@ pub fn reduced<S: Scalar>(x: &[S], p: &Parameters) -> Result<[S; REDUCED_DIM], E
 /// The solution's Taylor coefficients through the reduced state `x` to `order` (`out`: `order
 /// + 1` rows of [`REDUCED_DIM`], row k holding x⁽ᵏ⁾/k!), by the Taylor method's recurrences
 /// compiled from the reduced closed form (`runtime::recur`, one inlined recurrence per
-/// operation); None without a closed form or with parameters set in time (the scene core then
-/// traces [`reduced_with`]); an error where the state fails the closed form's definiteness
-/// tests (those of [`reduced_with`], checked at coefficient 0). Whether the coefficients are
+/// operation), or in a scene's core without one from the right-hand side traced at its start
+/// ([`traced_rates`]'s tape, its guards checked at coefficient 0); None without either, with
+/// parameters set in time, or where a guard fails (the scene core then traces
+/// [`reduced_with`] at the state); an error where the state fails the closed form's
+/// definiteness tests (those of [`reduced_with`], checked at coefficient 0). Whether the coefficients are
 /// finite, the caller checks. Its sums fuse their multiply–adds (`f64::mul_add`, rounded once):
 /// where the CPU has FMA the series written out runs compiled for it, one instruction each;
 /// elsewhere [`reduced_series_looped`], the same bits.
+///
+/// Its state is [`SERIES_DIM`] long: the reduced state, then in a scene's core whose trace
+/// gives the forces' power, their work W.
 pub fn reduced_series(x: &[f64], prep: &Prepared, order: usize, out: &mut Vec<f64>) -> Option<Result<(), EvalError>> {
     #[cfg(target_arch = "x86_64")]
     {
@@ -2566,6 +2571,10 @@ fn reduced_from<S: Scalar>(x: &[S], p: &Parameters, c: &[f64; 13]) -> Result<[S;
     }
     Ok([t113, t93, t94])
 }
+
+/// The length of [`reduced_series`]'s state: [`REDUCED_DIM`], or one more where a scene's
+/// trace gives the forces' power (the state then carries their work W).
+pub const SERIES_DIM: usize = 3;
 
 /// Whether [`reduced_into_live`] runs code traced at a scene's start ([`traced_rates`]).
 pub const TRACED: bool = false;

@@ -44,9 +44,10 @@ pub(super) fn fields(traced: Option<&TracedPath>, n: usize) -> [(&'static str, S
         t.note
     );
     let function = format!(
-        "{}{DISPATCH}{}}}\n",
+        "{}{DISPATCH}{}}}\n\n{}",
         crate::escape::doc_comment("///", &doc),
-        body(&t.guarded, n)
+        body(&t.guarded, n),
+        super::program::statics(&t.guarded.tape, t.guarded.outputs)
     );
     [("traced", "true".into()), ("traced_fn", function)]
 }
@@ -119,4 +120,24 @@ fn body(g: &Guarded, n: usize) -> String {
     conditions.push("v.iter().all(|r| r.is_finite())".into());
     let _ = writeln!(o, "    ({}).then_some(v)", conditions.join("\n        && "));
     o
+}
+
+/// The placeholders `series_written` and `series_looped` from the trace: where its guards hold
+/// at the state (and its rates are finite), the Taylor method's recurrences run over the trace
+/// held as data ([`super::program`], `runtime::taylor_by_program`, which chooses its copy for
+/// FMA itself); elsewhere None, and the scene core traces the structured evaluation there. The
+/// series' state is the trace's outputs: the reduced state, then the forces' work where the
+/// trace gives its rate (the power, which W does not enter).
+pub(super) fn series_fields() -> [(&'static str, String); 2] {
+    let body = "    let _ = prep;
+    traced_rates(x)?;
+    Some(
+        runtime::taylor_by_program(&TRACED_PROGRAM, &TRACED_OUTPUTS, &x[..SERIES_DIM], order, out)
+            .map_err(|_| runtime::cold_error(\"the Taylor series is not finite here\")),
+    )
+";
+    [
+        ("series_written", body.into()),
+        ("series_looped", body.into()),
+    ]
 }

@@ -46,7 +46,7 @@ pub use lanes::{LANES, LaneFn, Lanes, abs_max, max_abs, over_rows};
 pub use lu::{Lu, solve_system};
 pub use partials::{Partials, ingredients_by_partials};
 pub use scalar::{RationalParts, Scalar, widen};
-pub use series::{SeriesFailure, Traced, taylor_by_trace};
+pub use series::{Node as SeriesNode, SeriesFailure, Traced, taylor_by_program, taylor_by_trace};
 pub use structured::{
     DOUBLE_DOUBLE_ABOVE, Dims, Failure, KEPT_ROWS_PIVOT, Layout, Structured, select as select_rows,
 };

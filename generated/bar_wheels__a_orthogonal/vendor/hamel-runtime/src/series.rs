@@ -16,30 +16,39 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 use crate::recur;
 use crate::scalar::{RationalParts, Scalar};
 
-/// A node of the traced program; operands are earlier nodes.
-#[derive(Clone, Copy, Debug)]
-enum Node {
+/// A node of a traced program; operands are earlier nodes. Public so that a program can be
+/// written as data ([`taylor_by_program`]): a generated core's trace of its scene's start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Node {
     /// State variable i.
     Input(usize),
     /// A constant made a node (where a recurrence reads an operand's series).
-    Const,
+    Const(f64),
+    /// a + b.
     Add(u32, u32),
+    /// a − b.
     Sub(u32, u32),
+    /// −a.
     Neg(u32),
-    /// a + c, c a constant (in coefficient 0 only, which is the traced value).
-    AddConst(u32),
+    /// a + c, c a constant (in coefficient 0 only).
+    AddConst(u32, f64),
     /// c·a.
     Scale(u32, f64),
+    /// a · b.
     Mul(u32, u32),
+    /// a / b.
     Div(u32, u32),
     /// c / b, c a constant.
-    ConstDiv(u32),
+    ConstDiv(u32, f64),
+    /// √a.
     Sqrt(u32),
     /// sin a; cos a is the next node.
     Sin(u32),
     /// cos a, with the node of sin a.
     Cos(u32, u32),
+    /// exp a.
     Exp(u32),
+    /// ln a.
     Ln(u32),
     /// atan a, with the node of 1 + a².
     Atan(u32, u32),
@@ -70,7 +79,7 @@ pub struct Traced {
 }
 
 impl Traced {
-    fn constant_of(v: f64) -> Traced {
+    const fn constant_of(v: f64) -> Traced {
         Traced { node: CONSTANT, v }
     }
 
@@ -105,8 +114,8 @@ impl Add for Traced {
         let v = self.v + o.v;
         match (self.is_constant(), o.is_constant()) {
             (true, true) => Traced::constant_of(v),
-            (false, true) => Traced::push(Node::AddConst(self.node), v),
-            (true, false) => Traced::push(Node::AddConst(o.node), v),
+            (false, true) => Traced::push(Node::AddConst(self.node, o.v), v),
+            (true, false) => Traced::push(Node::AddConst(o.node, self.v), v),
             (false, false) => Traced::push(Node::Add(self.node, o.node), v),
         }
     }
@@ -117,10 +126,10 @@ impl Sub for Traced {
         let v = self.v - o.v;
         match (self.is_constant(), o.is_constant()) {
             (true, true) => Traced::constant_of(v),
-            (false, true) => Traced::push(Node::AddConst(self.node), v),
+            (false, true) => Traced::push(Node::AddConst(self.node, -o.v), v),
             (true, false) => {
                 let minus = Traced::push(Node::Neg(o.node), -o.v);
-                Traced::push(Node::AddConst(minus.node), v)
+                Traced::push(Node::AddConst(minus.node, self.v), v)
             }
             (false, false) => Traced::push(Node::Sub(self.node, o.node), v),
         }
@@ -151,7 +160,7 @@ impl Div for Traced {
         match (self.is_constant(), o.is_constant()) {
             (true, true) => Traced::constant_of(v),
             (false, true) => Traced::push(Node::Scale(self.node, 1.0 / o.v), v),
-            (true, false) => Traced::push(Node::ConstDiv(o.node), v),
+            (true, false) => Traced::push(Node::ConstDiv(o.node, self.v), v),
             (false, false) => Traced::push(Node::Div(self.node, o.node), v),
         }
     }
@@ -208,7 +217,7 @@ impl Scalar for Traced {
         // a constant operand as a node of its own: the recurrence reads both series
         let as_node = |a: Traced| {
             if a.is_constant() {
-                Traced::push(Node::Const, a.v)
+                Traced::push(Node::Const(a.v), a.v)
             } else {
                 a
             }
@@ -274,7 +283,12 @@ pub fn taylor_by_trace<E>(
     f(&x, &mut dx).map_err(SeriesFailure::System)?;
     out.clear();
     out.resize((order + 1) * n, 0.0);
-    PROGRAM.with_borrow(|p| run(p, &dx, order, out));
+    out[..n].copy_from_slice(y);
+    PROGRAM.with_borrow(|p| run(&p.nodes, &p.values, &dx, order, out));
+    finite(out)
+}
+
+fn finite<E>(out: &[f64]) -> Result<(), SeriesFailure<E>> {
     if out.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
@@ -282,41 +296,107 @@ pub fn taylor_by_trace<E>(
     }
 }
 
+impl Traced {
+    /// Output `node` of a program written as data ([`taylor_by_program`]).
+    pub const fn node(node: u32) -> Traced {
+        Traced { node, v: 0.0 }
+    }
+
+    /// A constant output of a program written as data.
+    pub const fn fixed(v: f64) -> Traced {
+        Traced::constant_of(v)
+    }
+}
+
+/// [`taylor_by_trace`] for a right-hand side already traced, held as data: a straight-line
+/// program (`nodes`, its first ones the state's inputs; no decision in it depends on the
+/// state), whose rates are `outputs` (nodes or constants; as many as `y` has components).
+/// Its values at `y` are computed node by node (what tracing records), then the recurrences
+/// run as for a trace. What a generated core does with the trace of its scene's start: no
+/// tracing at each step, and code as small as the program (data, not instructions).
+pub fn taylor_by_program(
+    nodes: &[Node],
+    outputs: &[Traced],
+    y: &[f64],
+    order: usize,
+    out: &mut Vec<f64>,
+) -> Result<(), SeriesFailure<std::convert::Infallible>> {
+    let n = outputs.len();
+    assert_eq!(
+        y.len(),
+        n,
+        "a state of {} for a program of {n} rates",
+        y.len()
+    );
+    let values = values_at(nodes, y);
+    out.clear();
+    out.resize((order + 1) * n, 0.0);
+    out[..n].copy_from_slice(y);
+    run(nodes, &values, outputs, order, out);
+    finite(out)
+}
+
+/// The values of a program's nodes at the state `y`: the f64 operations tracing records.
+fn values_at(nodes: &[Node], y: &[f64]) -> Vec<f64> {
+    let mut values: Vec<f64> = Vec::with_capacity(nodes.len());
+    for node in nodes {
+        let v = |a: u32| values[a as usize];
+        let x = match *node {
+            Node::Input(i) => y[i],
+            Node::Const(c) => c,
+            Node::Add(a, b) => v(a) + v(b),
+            Node::Sub(a, b) => v(a) - v(b),
+            Node::Neg(a) => -v(a),
+            Node::AddConst(a, c) => v(a) + c,
+            Node::Scale(a, m) => v(a) * m,
+            Node::Mul(a, b) => v(a) * v(b),
+            Node::Div(a, b) => v(a) / v(b),
+            Node::ConstDiv(b, c) => c / v(b),
+            Node::Sqrt(a) => v(a).sqrt(),
+            Node::Sin(a) => libm::sincos(v(a)).0,
+            Node::Cos(a, _) => libm::sincos(v(a)).1,
+            Node::Exp(a) => v(a).exp(),
+            Node::Ln(a) => v(a).ln(),
+            Node::Atan(a, _) => v(a).atan(),
+            Node::Atan2(y, x, _) => v(y).atan2(v(x)),
+        };
+        values.push(x);
+    }
+    values
+}
+
 /// The recurrences over the program: `out` holds y's coefficients row by row, its row 0 the
 /// state already (the inputs' values). Every node's coefficients are contiguous (`w` of them),
 /// so that the sums of the recurrences run over slices. Where the CPU has FMA, by a copy
 /// compiled for it (the recurrences' `mul_add`s one instruction each; the same bits, `recur`).
-fn run(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
+fn run(nodes: &[Node], values: &[f64], f: &[Traced], order: usize, out: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("fma") {
         // SAFETY: the CPU has FMA, the one feature `run_fma` is compiled for.
-        unsafe { run_fma(p, f, order, out) };
+        unsafe { run_fma(nodes, values, f, order, out) };
         return;
     }
-    run_in(p, f, order, out);
+    run_in(nodes, values, f, order, out);
 }
 
 /// [`run_in`] compiled for FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "fma")]
-fn run_fma(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
-    run_in(p, f, order, out);
+fn run_fma(nodes: &[Node], values: &[f64], f: &[Traced], order: usize, out: &mut [f64]) {
+    run_in(nodes, values, f, order, out);
 }
 
-/// The body of [`run`].
+/// The body of [`run`] (`values`: the nodes' values at the state, coefficient 0).
 #[inline(always)]
-fn run_in(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
+fn run_in(nodes: &[Node], values: &[f64], f: &[Traced], order: usize, out: &mut [f64]) {
     let (n, w) = (f.len(), order + 1);
-    let mut c = vec![0.0; p.nodes.len() * w];
-    for (i, &v) in p.values.iter().enumerate() {
+    let mut c = vec![0.0; nodes.len() * w];
+    for (i, &v) in values.iter().enumerate() {
         c[i * w] = v;
-    }
-    for (i, &v) in p.values.iter().take(n).enumerate() {
-        out[i] = v;
     }
     for k in 0..order {
         if k > 0 {
-            for (i, node) in p.nodes.iter().enumerate() {
+            for (i, node) in nodes.iter().enumerate() {
                 let (done, rest) = c.split_at_mut(i * w);
                 let operand = |a: u32| &done[a as usize * w..a as usize * w + k + 1];
                 rest[k] = match *node {
@@ -343,17 +423,17 @@ fn run_in(p: &Program, f: &[Traced], order: usize, out: &mut [f64]) {
 #[inline(always)]
 fn coefficient<'a>(node: Node, k: usize, s: impl Fn(u32) -> &'a [f64], own: &[f64]) -> f64 {
     match node {
-        Node::Input(_) | Node::Const => 0.0,
+        Node::Input(_) | Node::Const(_) => 0.0,
         Node::Add(a, b) => s(a)[k] + s(b)[k],
         Node::Sub(a, b) => s(a)[k] - s(b)[k],
         Node::Neg(a) => -s(a)[k],
-        Node::AddConst(a) => s(a)[k],
+        Node::AddConst(a, _) => s(a)[k],
         Node::Scale(a, m) => m * s(a)[k],
         Node::Mul(a, b) if a == b => recur::square(s(a), k),
         Node::Mul(a, b) => recur::product(s(a), s(b), k),
         Node::Div(a, b) => recur::quotient(s(a)[k], s(b), own, k),
         // c/b: the quotient of a series that is c at 0 and zero after
-        Node::ConstDiv(b) => recur::quotient(0.0, s(b), own, k),
+        Node::ConstDiv(b, _) => recur::quotient(0.0, s(b), own, k),
         Node::Sqrt(a) => recur::sqrt(s(a)[k], own, k),
         // sin a, whose cosine comes after it, is computed in `run`
         Node::Sin(..) => unreachable!("computed in run"),
@@ -398,6 +478,38 @@ mod tests {
                     (a - b).abs() <= 1e-13 * scale.max(1.0),
                     "order {order}, entry {k}: {a} against {b}"
                 );
+            }
+        }
+    }
+
+    /// A program traced once and held (as a generated core holds its scene's trace) gives at
+    /// another state the series a new trace there gives: f has no decision by value.
+    #[test]
+    fn a_held_program_gives_the_series_of_a_new_trace() {
+        let mut out = Vec::new();
+        taylor_by_trace(&[0.3, -0.7, 1.2], 3, &mut out, f::<Traced>).unwrap();
+        let mut outputs = vec![Traced::constant(0.0); 3];
+        PROGRAM.with_borrow_mut(|p| p.nodes.clear());
+        let x: Vec<Traced> = (0..3).map(|i| Traced::push(Node::Input(i), 0.1)).collect();
+        f(&x, &mut outputs).unwrap();
+        let nodes = PROGRAM.with_borrow(|p| p.nodes.clone());
+        let outputs: Vec<Traced> = (outputs.iter())
+            .map(|o| {
+                if o.is_constant() {
+                    Traced::fixed(o.v)
+                } else {
+                    Traced::node(o.node)
+                }
+            })
+            .collect();
+        for y in [[0.5, 0.4, -0.9], [-1.1, 2.0, 0.7]] {
+            for order in [1, 7, 20] {
+                let (mut held, mut traced) = (Vec::new(), Vec::new());
+                taylor_by_program(&nodes, &outputs, &y, order, &mut held).unwrap();
+                taylor_by_trace(&y, order, &mut traced, f::<Traced>).unwrap();
+                for (a, b) in held.iter().zip(&traced) {
+                    assert!((a - b).abs() <= 1e-15 * b.abs().max(1.0), "{a} against {b}");
+                }
             }
         }
     }
