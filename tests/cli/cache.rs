@@ -292,6 +292,9 @@ fn the_interpreted_engine_leaves_the_code_cache_alone() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|n| !["build.lock", "target", "derivations", "work"].contains(&n.as_str()))
         .collect();
+    // the scene's core and the vendored crates it shares with every other entry
+    let (shared, entries): (Vec<_>, Vec<_>) = entries.into_iter().partition(|n| n == "vendor");
+    assert_eq!(shared.len(), 1, "the vendored crates kept once");
     assert_eq!(entries.len(), 1, "one entry, the scene's core: {entries:?}");
     assert!(!cache.join("target").exists(), "plan builds nothing");
 }
@@ -352,4 +355,58 @@ fn a_core_built_for_this_cpu_is_an_entry_of_its_own() {
         let d = largest_difference(&a, &b, k);
         assert!(d < 1e-8, "{k}: portable and native differ by {d:e}");
     }
+}
+
+/// The times cargo last compiled the vendored crates in the cache's target directory.
+fn vendored_builds(cache: &Path) -> Vec<(String, std::time::SystemTime)> {
+    let fingerprints = cache.join("target/release/.fingerprint");
+    let mut found: Vec<_> = std::fs::read_dir(&fingerprints)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_string_lossy();
+            name.starts_with("hamel-sim-") || name.starts_with("hamel-runtime-")
+        })
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, modified(&p.join("invoked.timestamp")))
+        })
+        .collect();
+    found.sort();
+    found
+}
+
+/// Every entry's crate points at one copy of the vendored hamel-runtime and hamel-sim, so a
+/// new scene's core compiles its own code only, not them again.
+#[test]
+fn a_new_core_does_not_compile_the_vendored_crates_again() {
+    let cache = code_cache();
+    let simulate = |scene: &str| {
+        let out = scratch("shared_vendor").join("run.csv");
+        let args = ["simulate", scene, "--output", out.to_str().unwrap()];
+        let o = hamel(&args, None);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    simulate("scenes/knife.toml");
+    let before = vendored_builds(&cache);
+    assert!(!before.is_empty(), "the vendored crates were built");
+    let plan = ["plan", "scenes/vertical_knife.toml", "--format", "json"];
+    let code = PathBuf::from(
+        json_on_stdout(&hamel(&plan, None))["code"]
+            .as_str()
+            .unwrap(),
+    );
+    // Another test may have built this core: start without its entry.
+    std::fs::remove_dir_all(&code).unwrap();
+    let e = simulate("scenes/vertical_knife.toml");
+    assert!(e.contains("built into"), "{e}");
+    assert_eq!(
+        vendored_builds(&cache),
+        before,
+        "the new core rebuilt a vendored crate"
+    );
+    let manifest = std::fs::read_to_string(code.join("Cargo.toml")).unwrap();
+    assert!(manifest.contains("path = \"../vendor/"), "{manifest}");
+    assert!(!code.join("vendor").exists());
 }

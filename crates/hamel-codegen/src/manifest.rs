@@ -92,6 +92,29 @@ pub fn add_path_dependency(doc: &mut DocumentMut, name: &str, path: &str) {
     doc["dependencies"][name] = value(dep);
 }
 
+/// Point the dependencies on the crate's vendored copies (`path = "vendor/NAME"`) at `dir`
+/// instead (`dir/NAME`): what a code cache does, whose entries share one copy of them (built
+/// once in its target directory, not once an entry).
+pub fn relocate_vendored(doc: &mut DocumentMut, dir: &str) {
+    let Some(deps) = doc
+        .get_mut("dependencies")
+        .and_then(Item::as_table_like_mut)
+    else {
+        return;
+    };
+    for (_, dep) in deps.iter_mut() {
+        let Some(table) = dep.as_table_like_mut() else {
+            continue;
+        };
+        let vendored = (table.get("path").and_then(Item::as_str))
+            .and_then(|p| p.strip_prefix("vendor/"))
+            .map(|name| format!("{dir}/{name}"));
+        if let Some(path) = vendored {
+            table.insert("path", value(path));
+        }
+    }
+}
+
 /// Rename the package (to a valid package name, see [`crate::escape::package_name`]).
 pub fn rename_package(doc: &mut DocumentMut, name: &str) {
     doc["package"]["name"] = value(crate::escape::package_name(&[name]));
@@ -137,12 +160,17 @@ mod tests {
             add_path_dependency(doc, "hamel-sim", "hamel-sim");
             rename_package(doc, "hamel-scene-0123");
             add_binary(doc, "scene-0123", "src/scene_main.rs");
+            relocate_vendored(doc, "../vendor/0123");
         })
         .unwrap();
         let read: toml::Table = edited.parse().unwrap();
         assert_eq!(
             read["dependencies"]["hamel-sim"]["path"].as_str(),
             Some("hamel-sim")
+        );
+        assert_eq!(
+            read["dependencies"]["hamel-runtime"]["path"].as_str(),
+            Some("../vendor/0123/hamel-runtime")
         );
         assert_eq!(read["package"]["name"].as_str(), Some("hamel-scene-0123"));
         assert_eq!(read["bin"][0]["name"].as_str(), Some("scene-0123"));

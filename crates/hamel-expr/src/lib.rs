@@ -39,7 +39,7 @@ pub use diff::DiffError;
 pub use eval::{Env, EvalError, rational_parts};
 /// The numeric runtime's scalars and LU (`hamel-runtime`), re-exported: expressions evaluate
 /// over them.
-pub use hamel_runtime::{DD, Dual, Lu, Scalar, solve_system as solve};
+pub use hamel_runtime::{DD, Dual, Lu, Scalar, power_by_squaring, solve_system as solve};
 pub use latex::latex_name;
 pub use parse::{Occurrence, OccurrenceKind, ParseError, Parsed, parse};
 pub use specialise::rational_of_f64;

@@ -111,19 +111,9 @@ impl Rewrite {
         if n.unsigned_abs() > 64 {
             return self.push(Node::Pow(a, f64::from(n)));
         }
-        let (mut result, mut base, mut e) = (None, a, n.unsigned_abs());
-        while e > 0 {
-            if e & 1 == 1 {
-                result = Some(match result {
-                    None => base,
-                    Some(r) => self.push(Node::Mul(r, base)),
-                });
-            }
-            e >>= 1;
-            if e > 0 {
-                base = self.push(Node::Mul(base, base));
-            }
-        }
+        let result = hamel_runtime::power_by_squaring(a, n.unsigned_abs(), |x, y| {
+            self.push(Node::Mul(x, y))
+        });
         let positive = result.expect("n ≠ 0");
         if n < 0 {
             let one = self.constant(1.0);

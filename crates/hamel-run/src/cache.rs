@@ -14,7 +14,8 @@
 //! The cache lives in `$HAMEL_CACHE`, else `$XDG_CACHE_HOME/hamel`, else `~/.cache/hamel`;
 //! one directory per key (named by its 64-bit FNV-1a hash, the key's full text in
 //! `meta.json` decides), and one shared cargo target directory (`target/`), so the
-//! dependencies (nalgebra, serde) compile once. The key holds the hamel version and the size
+//! dependencies (nalgebra, serde) compile once; the crates every generated crate vendors
+//! (hamel-runtime, hamel-sim) are kept once too (`vendor/<hash>`, [`vendor`]). The key holds the hamel version and the size
 //! and modification time of the running `hamel` executable (a rebuilt hamel may generate other
 //! code), the model file's text, the choice, the dropped coordinates and the parameter values
 //! (exact f64 bits). Builds are serialised by a lock file; entries appear by rename, whole.
@@ -40,6 +41,8 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use crate::plan::Plan;
+
+mod vendor;
 
 /// Why the code cache could not give a scene's core, or the core could not run.
 #[derive(Clone, Debug, thiserror::Error)]
@@ -410,10 +413,22 @@ fn write_entry(key: &Key, generated: &Generated, meta: Meta) -> Result<Entry, Ca
         )
     };
     let _ = std::fs::remove_dir_all(&tmp);
+    let vendored = vendor::Vendored::of(&generated.files);
+    let mut manifest = None;
+    if !vendored.is_empty() {
+        let shared = vendored.shared(&root)?;
+        let text = (generated.files.iter())
+            .find_map(|(path, text)| (path == "Cargo.toml").then_some(text))
+            .expect("a generated crate has its manifest");
+        use hamel_codegen::manifest::{edit, relocate_vendored};
+        manifest = Some(edit(text, |doc| relocate_vendored(doc, &shared))?);
+    }
     for (path, text) in &generated.files {
-        let path = match path.as_str() {
-            "src/bin/scene.rs" => "src/scene_main.rs",
-            path => path,
+        let (path, text) = match path.as_str() {
+            p if p.starts_with("vendor/") => continue,
+            "src/bin/scene.rs" => ("src/scene_main.rs", text),
+            "Cargo.toml" => ("Cargo.toml", manifest.as_ref().unwrap_or(text)),
+            path => (path, text),
         };
         let file = tmp.join(path);
         std::fs::create_dir_all(file.parent().expect("a file in the crate")).map_err(io)?;

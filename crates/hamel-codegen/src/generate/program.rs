@@ -97,19 +97,7 @@ impl Builder {
         if let V::C(x) = a {
             return V::C(x.powi(e));
         }
-        let (mut result, mut base, mut rest) = (None, a, e.unsigned_abs());
-        while rest > 0 {
-            if rest & 1 == 1 {
-                result = Some(match result {
-                    None => base,
-                    Some(r) => self.mul(r, base),
-                });
-            }
-            rest >>= 1;
-            if rest > 0 {
-                base = self.mul(base, base);
-            }
-        }
+        let result = hamel_expr::power_by_squaring(a, e.unsigned_abs(), |x, y| self.mul(x, y));
         match result {
             None => V::C(1.0),
             Some(r) if e < 0 => self.div(V::C(1.0), r),

@@ -45,7 +45,7 @@ pub use jet::{JET_CAPACITY, Jet, JetFailure, taylor_by_jets};
 pub use lanes::{LANES, LaneFn, Lanes, abs_max, max_abs, over_rows};
 pub use lu::{Lu, solve_system};
 pub use partials::{Partials, ingredients_by_partials};
-pub use scalar::{RationalParts, Scalar, widen};
+pub use scalar::{RationalParts, Scalar, power_by_squaring, widen};
 pub use series::{Node as SeriesNode, SeriesFailure, Traced, taylor_by_program, taylor_by_trace};
 pub use structured::{
     DOUBLE_DOUBLE_ABOVE, Dims, Failure, KEPT_ROWS_PIVOT, Layout, Structured, select as select_rows,

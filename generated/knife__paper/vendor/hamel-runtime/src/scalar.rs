@@ -209,6 +209,26 @@ pub fn widen<S: Scalar, T: Scalar, const N: usize>(v: &[S]) -> [T; N] {
     std::array::from_fn(|i| T::constant(v[i].value()))
 }
 
+/// a^e for e ≥ 1 by squaring, `mul` making each product: the order of products every trace and
+/// series program of hamel uses for an integer power (so that they agree to the bit). None for
+/// e = 0.
+pub fn power_by_squaring<T: Copy>(a: T, e: u32, mut mul: impl FnMut(T, T) -> T) -> Option<T> {
+    let (mut result, mut base, mut rest) = (None, a, e);
+    while rest > 0 {
+        if rest & 1 == 1 {
+            result = Some(match result {
+                None => base,
+                Some(r) => mul(r, base),
+            });
+        }
+        rest >>= 1;
+        if rest > 0 {
+            base = mul(base, base);
+        }
+    }
+    result
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

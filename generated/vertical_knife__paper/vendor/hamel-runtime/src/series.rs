@@ -231,18 +231,7 @@ impl Scalar for Traced {
         if self.is_constant() {
             return Traced::constant_of(self.v.powi(n));
         }
-        let mut result: Option<Traced> = None;
-        let mut base = self;
-        let mut e = n.unsigned_abs();
-        while e > 0 {
-            if e & 1 == 1 {
-                result = Some(result.map_or(base, |r| r * base));
-            }
-            e >>= 1;
-            if e > 0 {
-                base = base * base;
-            }
-        }
+        let result = crate::power_by_squaring(self, n.unsigned_abs(), |a, b| a * b);
         match result {
             None => Traced::constant_of(1.0),
             Some(r) if n < 0 => Traced::constant(1.0) / r,
