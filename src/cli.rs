@@ -230,6 +230,10 @@ pub enum Command {
         /// interpreted evaluator.
         #[arg(long, value_enum, default_value = "compiled")]
         engine: EngineArg,
+        /// Time each setting for this many seconds: a shorter run is repeated and the median
+        /// taken (0: one run each, a quick table whose times are coarse).
+        #[arg(long, value_name = "SECONDS", default_value_t = 0.05, value_parser = parse_min_time)]
+        min_time: f64,
         /// Set a parameter or input (repeatable), on top of the scene's `[parameters]`;
         /// derived parameters are evaluated again from it.
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]

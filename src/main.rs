@@ -19,7 +19,7 @@ mod search;
 use indexmap::IndexMap;
 use std::path::Path;
 use std::process::ExitCode;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use clap::Parser;
 use hamel_model::{Model, ModelError};
@@ -138,6 +138,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             plot,
             export_python,
             engine,
+            min_time,
             set,
         } => {
             let set = set.into_iter().collect();
@@ -146,12 +147,16 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
                 ..Default::default()
             };
             let mut loaded = hamel_run::load_with_options(&scene, &set, options)?;
+            let timing = hamel_run::tradeoff::Timing {
+                min_time: Duration::from_secs_f64(min_time),
+            };
+            let engine = (engine.into(), timing);
             match export_python {
-                Some(file) => export_tradeoff(&mut loaded, Output::new(Some(file))?, engine.into()),
+                Some(file) => export_tradeoff(&mut loaded, Output::new(Some(file))?, engine),
                 None => {
                     let out = Output::new(output)?;
                     hamel_run::plot::check(plot.as_deref())?;
-                    tradeoff(&loaded, format, out, plot.as_deref(), engine.into())
+                    tradeoff(&loaded, format, out, plot.as_deref(), engine)
                 }
             }
         }
@@ -182,7 +187,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             max,
         } => {
             let model = Model::load(&model)?;
-            let budget = std::time::Duration::from_secs_f64(budget.max(0.0));
+            let budget = Duration::from_secs_f64(budget.max(0.0));
             hamel_reduce::supervised::work(&model, &eliminate, budget, max)
                 .map_err(|e| e.locate(&model))
         }
@@ -461,9 +466,10 @@ fn tradeoff(
     format: ReportFormat,
     out: Output,
     plot: Option<&Path>,
-    engine: hamel_run::Engine,
+    (engine, timing): (hamel_run::Engine, hamel_run::tradeoff::Timing),
 ) -> Result<(), ModelError> {
-    let table = hamel_run::tradeoff::table(loaded, hamel_run::tradeoff::Range::All, engine)?;
+    use hamel_run::tradeoff::{Range, table_timed};
+    let table = table_timed(loaded, Range::All, engine, timing)?;
     out.write(&match format {
         ReportFormat::Text => table.to_text(),
         ReportFormat::Json => json(&table),
@@ -477,9 +483,11 @@ fn tradeoff(
 fn export_tradeoff(
     loaded: &mut hamel_run::Loaded,
     out: Output,
-    engine: hamel_run::Engine,
+    (engine, timing): (hamel_run::Engine, hamel_run::tradeoff::Timing),
 ) -> Result<(), ModelError> {
-    out.write(&json(&hamel_run::tradeoff::export_python(loaded, engine)?))
+    out.write(&json(&hamel_run::tradeoff::export_python(
+        loaded, engine, timing,
+    )?))
 }
 
 fn codegen(

@@ -6,7 +6,8 @@
 //! proptest, nix) may turn on a feature the others lack, and then everything above that
 //! dependency is compiled again, Symbolica included. hamel-cas (target side) and hamel-codegen
 //! (host side: build scripts and proc-macros) ask for those features themselves; this test
-//! says which are missing when a new dependency changes them.
+//! says which are missing when a new dependency changes them. The fuzz crate, a workspace of
+//! its own, keeps a lock file that must follow those dependencies too.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::process::Command;
@@ -67,5 +68,29 @@ fn the_main_job_and_the_python_package_build_what_the_tests_build() {
              build scripts and proc-macros, hamel-codegen's [build-dependencies]):\n{}",
             differ.join("\n")
         );
+    }
+}
+
+/// The fuzz crate (fuzz/, its own workspace, built by `.ci/fuzz` with `--locked`) has a lock
+/// file of its own: a dependency added to a hamel crate it links must be written there too
+/// (`cd fuzz && cargo metadata --format-version 1 >/dev/null`), or CI's fuzz run stops before
+/// it starts. Resolved offline; when the registry cache lacks a fuzz-only crate (libfuzzer-sys
+/// on a machine that never fuzzed), the test says so and passes.
+#[test]
+fn the_fuzz_lock_file_is_up_to_date() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz");
+    let out = Command::new(env!("CARGO"))
+        .args(["metadata", "--offline", "--locked", "--format-version", "1"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("cannot update the lock file"),
+        "fuzz/Cargo.lock is out of date: run `cargo metadata --format-version 1` in fuzz/ and \
+         commit fuzz/Cargo.lock:\n{err}"
+    );
+    if !out.status.success() {
+        eprintln!("skipped: cargo metadata --offline in fuzz/ could not resolve: {err}");
     }
 }

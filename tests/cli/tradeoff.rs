@@ -74,6 +74,8 @@ fn tradeoff_exports_the_planned_system_for_scipy_timed_on_the_compiled_core() {
             "scenes/knife.toml",
             "--export-python",
             json.to_str().unwrap(),
+            "--min-time",
+            "0",
         ],
         None,
     );
@@ -189,6 +191,8 @@ fn tradeoff_exports_the_structured_bicycle_as_python_that_agrees_with_the_evalua
             scene.to_str().unwrap(),
             "--export-python",
             json.to_str().unwrap(),
+            "--min-time",
+            "0",
         ],
         None,
     );

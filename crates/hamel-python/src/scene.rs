@@ -101,16 +101,25 @@ impl Scene {
     /// curve (`"work-precision"`), each timed and its error measured against a tight
     /// reference. Returns the table's JSON as Python objects (`rows`: a list of dicts, a
     /// table for `pandas.DataFrame`; `recommended`: the index of the fastest row that meets
-    /// the scene's target) and the printed table as `text`.
-    #[pyo3(signature = (*, range = "all", engine = "compiled"))]
+    /// the scene's target) and the printed table as `text`. Each setting is timed for
+    /// `min_time` seconds (a shorter run repeated, the median taken; 0: one run each).
+    #[pyo3(signature = (*, range = "all", engine = "compiled", min_time = 0.05))]
     fn tradeoff<'py>(
         &self,
         py: Python<'py>,
         range: &str,
         engine: &str,
+        min_time: f64,
     ) -> PyResult<Bound<'py, PyAny>> {
-        use hamel_run::tradeoff::Range;
+        use hamel_run::tradeoff::{Range, Timing};
         let engine = engine_named(engine)?;
+        if !(0.0..=600.0).contains(&min_time) {
+            let msg = format!("min_time must be seconds from 0 to 600, not {min_time}");
+            return Err(pyo3::exceptions::PyValueError::new_err(msg));
+        }
+        let timing = Timing {
+            min_time: std::time::Duration::from_secs_f64(min_time),
+        };
         let range = match range {
             "all" => Range::All,
             "adaptive" => Range::Adaptive,
@@ -125,7 +134,7 @@ impl Scene {
         let (path, set) = (&self.path, &self.set);
         let table = crate::detached(py, || {
             let loaded = hamel_run::load_with_options(path, set, Default::default())?;
-            hamel_run::tradeoff::table(&loaded, range, engine)
+            hamel_run::tradeoff::table_timed(&loaded, range, engine, timing)
         })
         .map_err(|e| to_py(py, &e))?;
         let json = serde_json::to_string(&table).expect("serialisable");

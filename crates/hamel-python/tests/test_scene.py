@@ -80,3 +80,8 @@ def test_the_tradeoff_table_recommends_the_fastest_row_that_meets_the_target():
     assert "dop853" in t["text"]
     with pytest.raises(ValueError, match="range"):
         hamel.Scene.load(ROOT / "scenes" / "knife.toml").tradeoff(range="some")
+    # one run per setting: the same settings and errors, coarser times
+    quick = hamel.Scene.load(ROOT / "scenes" / "knife.toml").tradeoff(range="adaptive", min_time=0)
+    assert all(r["seconds"] > 0 for r in quick["rows"]) and quick["recommended"] is not None
+    with pytest.raises(ValueError, match="min_time"):
+        hamel.Scene.load(ROOT / "scenes" / "knife.toml").tradeoff(min_time=-1)

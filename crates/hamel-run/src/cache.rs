@@ -15,9 +15,9 @@
 //! one directory per key (named by its 64-bit FNV-1a hash, the key's full text in
 //! `meta.json` decides), and one shared cargo target directory (`target/`), so the
 //! dependencies (nalgebra, serde) compile once; the crates every generated crate vendors
-//! (hamel-runtime, hamel-sim) are kept once too (`vendor/<hash>`, [`vendor`]). The key holds the hamel version and the size
-//! and modification time of the running `hamel` executable (a rebuilt hamel may generate other
-//! code), the model file's text, the choice, the dropped coordinates and the parameter values
+//! (hamel-runtime, hamel-sim) are kept once too (`vendor/<hash>`, [`vendor`]). The key holds
+//! the hamel version and the size and modification time of the running `hamel` executable (a
+//! rebuilt hamel may generate other code), the model file's text, the choice, the dropped coordinates and the parameter values
 //! (exact f64 bits). Builds are serialised by a lock file; entries appear by rename, whole.
 //!
 //! **Builds for this machine** ([`Build`]): with `HAMEL_NATIVE=1` the cores are compiled for
@@ -413,26 +413,26 @@ fn write_entry(key: &Key, generated: &Generated, meta: Meta) -> Result<Entry, Ca
         )
     };
     let _ = std::fs::remove_dir_all(&tmp);
+    use std::borrow::Cow;
     let vendored = vendor::Vendored::of(&generated.files);
-    let mut manifest = None;
-    if !vendored.is_empty() {
-        let shared = vendored.shared(&root)?;
-        let text = (generated.files.iter())
-            .find_map(|(path, text)| (path == "Cargo.toml").then_some(text))
-            .expect("a generated crate has its manifest");
-        use hamel_codegen::manifest::{edit, relocate_vendored};
-        manifest = Some(edit(text, |doc| relocate_vendored(doc, &shared))?);
-    }
+    let shared = match vendored.is_empty() {
+        true => None,
+        false => Some(vendored.shared(&root)?),
+    };
     for (path, text) in &generated.files {
-        let (path, text) = match path.as_str() {
-            p if p.starts_with("vendor/") => continue,
-            "src/bin/scene.rs" => ("src/scene_main.rs", text),
-            "Cargo.toml" => ("Cargo.toml", manifest.as_ref().unwrap_or(text)),
-            path => (path, text),
+        let (path, text) = match (path.as_str(), &shared) {
+            (p, _) if p.starts_with("vendor/") => continue,
+            ("src/bin/scene.rs", _) => ("src/scene_main.rs", Cow::Borrowed(text)),
+            ("Cargo.toml", Some(shared)) => {
+                use hamel_codegen::manifest::{edit, relocate_vendored};
+                let relocated = edit(text, |doc| relocate_vendored(doc, shared))?;
+                ("Cargo.toml", Cow::Owned(relocated))
+            }
+            (path, _) => (path, Cow::Borrowed(text)),
         };
         let file = tmp.join(path);
         std::fs::create_dir_all(file.parent().expect("a file in the crate")).map_err(io)?;
-        std::fs::write(&file, text).map_err(io)?;
+        std::fs::write(&file, text.as_bytes()).map_err(io)?;
     }
     std::fs::write(
         tmp.join("meta.json"),
@@ -801,11 +801,12 @@ fn sha256(path: &Path) -> std::io::Result<String> {
     let mut file = std::fs::File::open(path)?;
     let mut hasher = Sha256::new();
     std::io::copy(&mut file, &mut hasher)?;
-    Ok(hasher
-        .finalize()
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect())
+    Ok(hex(&hasher.finalize()))
+}
+
+/// Bytes (a digest) in lowercase hexadecimal.
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Record the built binary's hash in the entry's `meta.json` (written whole, by rename).

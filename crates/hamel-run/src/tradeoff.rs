@@ -89,30 +89,55 @@ pub enum Range {
     WorkPrecision,
 }
 
-/// Run once, and time it. Interpreted: repeated while the total stays under ~50 ms (at most 20
-/// times), median of the runs. Compiled: one run on the scene's core, then, when it took under
-/// ~10 ms, a second call repeating it inside the core for about 50 ms (at most 1000 times);
-/// the median time measured inside the core (process start-up and JSON excluded).
+/// How long each setting of a table is timed. A run shorter than the time asked is repeated
+/// and the median taken, so that a fast setting's time is not its clock's resolution.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    /// The time to spend on one setting (the default 50 ms; zero: one run each).
+    pub min_time: Duration,
+}
+
+impl Default for Timing {
+    fn default() -> Timing {
+        Timing {
+            min_time: Duration::from_millis(50),
+        }
+    }
+}
+
+impl Timing {
+    /// One run per setting: what the reference runs take, and a quick table.
+    pub const ONE_RUN: Timing = Timing {
+        min_time: Duration::ZERO,
+    };
+}
+
+/// Run once, and time it. Interpreted: repeated while the total stays under the time asked
+/// (at most 20 times), median of the runs. Compiled: one run on the scene's core, then, when it
+/// took under a fifth of the time asked, a second call repeating it inside the core for about
+/// that time (at least 3, at most 1000 times); the median time measured inside the core
+/// (process start-up and JSON excluded).
 fn timed(
     loaded: &Loaded,
     engine: Engine,
-    method: Method,
-    options: &Options,
+    (method, options): (Method, &Options),
+    timing: Timing,
 ) -> Result<(Solution, bool, Duration), ModelError> {
+    let min_time = timing.min_time.as_secs_f64();
     if engine == Engine::Compiled {
         let fail = |e: crate::cache::CacheError| loaded.core_error(e, "the compiled core failed");
         let Timed {
             run,
             seconds: first,
         } = (loaded.integrate_compiled(method, options, 1)).map_err(fail)?;
-        if run.failure.is_some() || first > 0.01 {
+        if run.failure.is_some() || first >= min_time / 5.0 {
             return Ok((
                 run.solution,
                 run.failure.is_none(),
                 Duration::from_secs_f64(first),
             ));
         }
-        let repeat = ((0.05 / first.max(1e-7)) as usize).clamp(3, 1000);
+        let repeat = ((min_time / first.max(1e-7)) as usize).clamp(3, 1000);
         let Timed {
             run,
             seconds: median,
@@ -131,16 +156,26 @@ fn timed(
         let took = start.elapsed();
         times.push(took);
         total += took;
-        if run.failure.is_some() || total > Duration::from_millis(50) || times.len() >= 20 {
+        if run.failure.is_some() || total >= timing.min_time || times.len() >= 20 {
             times.sort();
             return Ok((run.solution, run.failure.is_none(), times[times.len() / 2]));
         }
     }
 }
 
-/// Measure the trade for a loaded scene.
+/// Measure the trade for a loaded scene, each setting timed as [`Timing::default`] says.
 pub fn table(loaded: &Loaded, range: Range, engine: Engine) -> Result<Table, ModelError> {
-    Ok(measure(loaded, range, engine, true)?.0)
+    table_timed(loaded, range, engine, Timing::default())
+}
+
+/// [`table`], each setting timed as `timing` says.
+pub fn table_timed(
+    loaded: &Loaded,
+    range: Range,
+    engine: Engine,
+    timing: Timing,
+) -> Result<Table, ModelError> {
+    Ok(measure(loaded, (range, timing), engine, true)?.0)
 }
 
 /// The adaptive settings of a range: the Runge–Kutta methods at rtol = atol = 1e-3 … 1e-14
@@ -175,15 +210,35 @@ fn reference_runs(
     engine: Engine,
     tight: &dyn Fn(f64) -> Options,
 ) -> Result<(Solution, Solution, &'static str), ModelError> {
-    let (reference, ok, _) = timed(loaded, engine, Method::Taylor, &tight(3e-16))?;
+    let (reference, ok, _) = timed(
+        loaded,
+        engine,
+        (Method::Taylor, &tight(3e-16)),
+        Timing::ONE_RUN,
+    )?;
     if ok {
-        let (check, ok, _) = timed(loaded, engine, Method::Taylor, &tight(3e-15))?;
+        let (check, ok, _) = timed(
+            loaded,
+            engine,
+            (Method::Taylor, &tight(3e-15)),
+            Timing::ONE_RUN,
+        )?;
         if ok {
             return Ok((reference, check, "the Taylor method at rtol = atol = 3e-16"));
         }
     }
-    let (reference, ok, _) = timed(loaded, engine, Method::Dop853, &tight(1e-14))?;
-    let (check, ok_check, _) = timed(loaded, engine, Method::Dop853, &tight(5e-15))?;
+    let (reference, ok, _) = timed(
+        loaded,
+        engine,
+        (Method::Dop853, &tight(1e-14)),
+        Timing::ONE_RUN,
+    )?;
+    let (check, ok_check, _) = timed(
+        loaded,
+        engine,
+        (Method::Dop853, &tight(5e-15)),
+        Timing::ONE_RUN,
+    )?;
     if !(ok && ok_check) {
         return Err(loaded.error(
             "integrator",
@@ -196,7 +251,7 @@ fn reference_runs(
 /// [`table`], with the energy among the compared outputs or not, and the reference's outputs.
 fn measure(
     loaded: &Loaded,
-    range: Range,
+    (range, timing): (Range, Timing),
     engine: Engine,
     energy: bool,
 ) -> Result<(Table, Vec<Vec<f64>>), ModelError> {
@@ -256,7 +311,7 @@ fn measure(
             max_steps: 2_000_000,
             ..Options::default()
         };
-        let (s, complete, took) = timed(loaded, engine, method, &options)?;
+        let (s, complete, took) = timed(loaded, engine, (method, &options), timing)?;
         let e = errors(&outputs(loaded, &s, energy), &reference_out, target);
         rows.push(Row {
             method: method.name(),
@@ -307,11 +362,15 @@ fn measure(
 /// hamel's runs compute what the Python integrators compute, the state at the output times:
 /// the energy and the constraint residual, which a scene requests by default, are switched
 /// off for them (and restored after).
-pub fn export_python(loaded: &mut Loaded, engine: Engine) -> Result<serde_json::Value, ModelError> {
+pub fn export_python(
+    loaded: &mut Loaded,
+    engine: Engine,
+    timing: Timing,
+) -> Result<serde_json::Value, ModelError> {
     refuse_live(loaded)?;
     let monitors = (loaded.request.energy, loaded.request.constraint_residual);
     (loaded.request.energy, loaded.request.constraint_residual) = (false, false);
-    let measured = measure(loaded, Range::WorkPrecision, engine, false);
+    let measured = measure(loaded, (Range::WorkPrecision, timing), engine, false);
     (loaded.request.energy, loaded.request.constraint_residual) = monitors;
     let (table, reference) = measured?;
     let (tape, inputs) = planned_tape(loaded)?;

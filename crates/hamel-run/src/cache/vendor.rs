@@ -41,7 +41,7 @@ impl<'g> Vendored<'g> {
                 h.update(part);
             }
         }
-        h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+        super::hex(&h.finalize())
     }
 
     /// The shared copy under `root` (written when missing or not these files): its directory
