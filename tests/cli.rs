@@ -201,8 +201,9 @@ fn json_on_stdout(o: &Output) -> serde_json::Value {
     serde_json::from_str(&out[start..]).expect("valid JSON")
 }
 
-/// Build a generated crate offline in its own target directory (no CAS involved) and check
-/// that its lock file names no symbolica.
+/// Build a generated crate offline (no CAS involved), check that its lock file names no
+/// symbolica, and copy its binaries `bins` into `into`. The generated crates of the tests share
+/// one target directory, so that their dependencies (nalgebra, serde) compile once.
 ///
 /// On the machine this was developed on `/dev/null` is a regular file: build scripts that send
 /// a feature probe's stderr there (E0554 "`#![feature]` may not be used on the stable release
@@ -211,9 +212,10 @@ fn json_on_stdout(o: &Output) -> serde_json::Value {
 /// The nested target directory therefore starts with the outer build's cache of those probes
 /// (`.rustc_info.json`: same rustc, same arguments; cargo re-probes if they differ). A failure
 /// fails the test, naming a broken /dev/null when that is the cause.
-fn build_generated(crate_dir: &Path, target: &Path) {
+fn build_generated(crate_dir: &Path, bins: &[&str], into: &Path) {
     static ONE_BUILD: Mutex<()> = Mutex::new(());
     let _guard = ONE_BUILD.lock().unwrap_or_else(|e| e.into_inner());
+    let target = &Path::new(env!("CARGO_TARGET_TMPDIR")).join("generated-target");
     seed_rustc_info(target);
     let build = Command::new(env!("CARGO"))
         .args(["build", "--release", "--offline", "--quiet"])
@@ -237,6 +239,9 @@ fn build_generated(crate_dir: &Path, target: &Path) {
     }
     let lock = std::fs::read_to_string(crate_dir.join("Cargo.lock")).unwrap();
     assert!(!lock.contains("symbolica"));
+    for bin in bins {
+        std::fs::copy(target.join("release").join(bin), into.join(bin)).unwrap();
+    }
 }
 
 /// The text of a knife scene with the given extra top-level lines (model path absolute).

@@ -30,8 +30,8 @@ fn codegen_writes_a_crate_that_builds_offline_and_evaluates_like_hamel_eval() {
     forced.push("--force");
     assert!(hamel(&forced, None).status.success());
 
-    // It builds offline, with its own target directory, and needs no computer algebra.
-    build_generated(&out, &dir.join("target"));
+    // It builds offline and needs no computer algebra.
+    build_generated(&out, &["eval"], &dir);
 
     let states = dir.join("states.json");
     std::fs::write(
@@ -40,7 +40,7 @@ fn codegen_writes_a_crate_that_builds_offline_and_evaluates_like_hamel_eval() {
             {"q": {"x": -1, "y": 2, "theta": 2.2}, "eta": [-0.7, 1.5], "params": {"m": 2.5}}]"#,
     )
     .unwrap();
-    let generated = Command::new(dir.join("target/release/eval"))
+    let generated = Command::new(dir.join("eval"))
         .args(["--state", states.to_str().unwrap()])
         .output()
         .unwrap();
@@ -84,7 +84,7 @@ fn codegen_writes_a_crate_that_builds_offline_and_evaluates_like_hamel_eval() {
 
     // A bad state: an error naming the state, nothing on stdout.
     std::fs::write(&states, r#"{"q": {"x": 0, "y": 0}, "eta": [1, 2]}"#).unwrap();
-    let bad = Command::new(dir.join("target/release/eval"))
+    let bad = Command::new(dir.join("eval"))
         .args(["--state", states.to_str().unwrap()])
         .output()
         .unwrap();
@@ -140,7 +140,7 @@ fn codegen_with_simulator_integrates_the_knife_without_the_cas() {
         None,
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    build_generated(&out, &dir.join("target"));
+    build_generated(&out, &["simulate"], &dir);
     let state = dir.join("state.json");
     std::fs::write(
         &state,
@@ -157,7 +157,7 @@ fn codegen_with_simulator_integrates_the_knife_without_the_cas() {
             "11",
         ];
         args.extend(extra);
-        let o = Command::new(dir.join("target/release/simulate"))
+        let o = Command::new(dir.join("simulate"))
             .args(&args)
             .output()
             .unwrap();
