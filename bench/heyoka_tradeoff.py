@@ -5,6 +5,8 @@ of times at equal error.
     hamel tradeoff SCENE.toml --export-python SYSTEM.json      (one per scene)
     python3 bench/heyoka_tradeoff.py SYSTEM.json [SYSTEM.json ...]
 
+Several exports of one scene are rounds of one measurement, best of each side kept (wp.scenes).
+
 heyoka (pip heyoka) builds its Taylor integrator from symbolic expressions and compiles the
 recurrences with LLVM: the strongest peer for smooth ODEs at tight tolerances. The exported
 right-hand side (`rhs`, the code generator's solved form, parameters as numbers) is evaluated
@@ -26,7 +28,6 @@ reference's difference from its check run) is shown but not ranked: the referenc
 which run is the more accurate there (the unicycle's below about 1.5e-12).
 """
 
-import json
 import math
 import sys
 import time
@@ -38,7 +39,7 @@ except ImportError:
     print("heyoka_tradeoff.py: heyoka is needed (pip install heyoka); skipped", file=sys.stderr)
     sys.exit(3)
 
-from wp import compare, error, pareto, print_summary, ratio_texts, resolved, timed  # noqa: E402
+from wp import compare, error, pareto, print_summary, ratio_texts, resolved, scenes, timed_rounds  # noqa: E402
 
 FUNCTIONS = ("sin", "cos", "tan", "sqrt", "exp", "log", "atan", "asin", "acos", "sinh", "cosh", "tanh")
 
@@ -56,9 +57,7 @@ def equations(system):
     return [(x, as_expression(v)) for x, v in zip(variables, rates)]
 
 
-def measure(path):
-    with open(path) as f:
-        system = json.load(f)
+def measure(system, rounds):
     eqs = equations(system)
     times = system["times"]
     t0 = system.get("t0", 0.0)
@@ -80,7 +79,7 @@ def measure(path):
             ta.state[:] = y0
             return ta.propagate_grid(grid, max_delta_t=math.inf)
 
-        result, seconds = timed(run)
+        result, seconds = timed_rounds(run, rounds)
         usol = result[-1]
         ok = str(result[0]).endswith("time_limit")
         err = error(usol, system, offset) if ok else math.inf
@@ -95,9 +94,10 @@ def main():
         sys.exit(2)
     print(f"heyoka {hy.__version__}")
     summary = []
-    for path in sys.argv[1:]:
-        system, rows, compact = measure(path)
+    for system, rounds in scenes(sys.argv[1:]):
+        system, rows, compact = measure(system, rounds)
         mode = ", compact mode" if compact else ""
+        mode += f", best of {rounds} rounds" if rounds > 1 else ""
         build = system.get("build", "portable")
         print(f"{system['model']}: heyoka's Taylor integrator{mode} against hamel (same equations, same reference; "
               f"hamel's core {build}{', HAMEL_NATIVE=1' if build == 'native' else ''})")

@@ -4,6 +4,8 @@
     hamel tradeoff SCENE.toml --export-python SYSTEM.json      (one per scene)
     python3 bench/numbalsoda_tradeoff.py SYSTEM.json [SYSTEM.json ...]
 
+Several exports of one scene are rounds of one measurement, best of each side kept (wp.scenes).
+
 What a performance-minded Python user runs instead of scipy's solve_ivp: the exported
 right-hand side (`rhs_into`, the code generator's solved form, parameters as numbers) compiled
 by numba (LLVM) into a C callback, integrated by numbalsoda's C++ port of Hairer's dop853.f.
@@ -30,7 +32,6 @@ reference's difference from its check run) is shown but not ranked: the referenc
 which run is the more accurate there (the unicycle's below about 1.5e-12).
 """
 
-import json
 import math
 import sys
 
@@ -43,16 +44,14 @@ except ImportError:
           "numbalsoda builds with gfortran and cmake); skipped", file=sys.stderr)
     sys.exit(3)
 
-from wp import compare, error, pareto, print_summary, ratio_texts, resolved, timed  # noqa: E402
+from wp import compare, error, pareto, print_summary, ratio_texts, resolved, scenes, timed_rounds  # noqa: E402
 
 MATH = ("sin", "cos", "tan", "sqrt", "exp", "log", "asin", "acos", "atan", "sinh", "cosh", "tanh")
 
 
-def load(path):
-    with open(path) as f:
-        system = json.load(f)
+def load(system):
     if "python_into" not in system:
-        sys.exit(f"{path}: no `python_into` (export it again with this hamel: hamel tradeoff SCENE --export-python FILE)")
+        sys.exit(f"{system['model']}: no `python_into` (export it again with this hamel: hamel tradeoff SCENE --export-python FILE)")
     namespace = {name: getattr(math, name) for name in MATH}
     exec(system["python_into"], namespace)
     return system, compile_rhs(namespace["rhs_into"], len(system["y0"]))
@@ -71,8 +70,8 @@ def compile_rhs(rhs_into, n):
     return f.address
 
 
-def measure(path):
-    system, funcptr = load(path)
+def measure(system, rounds):
+    system, funcptr = load(system)
     times = system["times"]
     t0 = system.get("t0", 0.0)
     # numbalsoda starts at t_eval[0]: t0 first, unless it is already the first output.
@@ -85,7 +84,7 @@ def measure(path):
     for k in range(4, 13):
         tol = 10.0 ** -k
         run = lambda: dop853(funcptr, y0, t_eval, rtol=tol, atol=tol, mxstep=10_000_000)
-        (usol, success), seconds = timed(run)
+        (usol, success), seconds = timed_rounds(run, rounds)
         err = error(usol, system, offset) if success else math.inf
         best, ratio, inter = compare(system, hamel, front, err, seconds)
         rows.append((tol, err, seconds, best, ratio, inter))
@@ -97,9 +96,10 @@ def main():
         print(__doc__, file=sys.stderr)
         sys.exit(2)
     summary = []
-    for path in sys.argv[1:]:
-        system, rows = measure(path)
-        print(f"{system['model']}: numbalsoda's DOP853 against hamel (same equations, same reference)")
+    for system, rounds in scenes(sys.argv[1:]):
+        system, rows = measure(system, rounds)
+        best = f", best of {rounds} rounds" if rounds > 1 else ""
+        print(f"{system['model']}: numbalsoda's DOP853 against hamel (same equations, same reference{best})")
         print()
         print("| numbalsoda DOP853 | error over span | time | hamel's fastest at ≤ that error | numbalsoda / hamel "
               "| numbalsoda / hamel, hamel interpolated at that error |")

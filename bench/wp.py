@@ -1,9 +1,11 @@
 """Shared by the work-precision comparisons in bench/ (numbalsoda_tradeoff.py,
-heyoka_tradeoff.py): the error of a run against the exported reference, a median timer, and
-hamel's work-precision front with interpolation on it."""
+heyoka_tradeoff.py): the exports grouped into rounds, the error of a run against the exported
+reference, a median timer, and hamel's work-precision front with interpolation on it."""
 
+import json
 import math
 import statistics
+import sys
 import time
 
 import numpy as np
@@ -19,6 +21,43 @@ def error(usol, system, offset):
         for value, i in zip(row, req):
             worst = max(worst, abs(usol[j + offset, i] - value) / max(1.0, abs(value)))
     return worst
+
+
+def scenes(paths):
+    """The exports of `paths`, one entry per scene in the order first given, as (system, rounds).
+    Several exports of one scene (the same model, initial state, output times and reference:
+    `hamel tradeoff SCENE --export-python` run again) are rounds of one measurement: hamel's
+    rows are merged, each setting at its fastest round, and the peer is timed as many rounds,
+    its fastest kept. On a machine whose speed wanders (a shared virtual machine: ±40 % between
+    runs minutes apart), the best of a few rounds on both sides is what compares the codes."""
+    groups = {}
+    for path in paths:
+        with open(path) as f:
+            system = json.load(f)
+        key = (system["model"], json.dumps(system["y0"]), json.dumps(system["times"]))
+        groups.setdefault(key, []).append((path, system))
+    out = []
+    for rounds in groups.values():
+        path, first = rounds[0]
+        fastest = {}
+        for other, system in rounds:
+            if system["reference"] != first["reference"]:
+                sys.exit(f"{other}: not the reference of {path} (export both with the same hamel)")
+            for r in system["hamel"]:
+                key = (r["method"], r["tol"])
+                if key not in fastest or r["seconds"] < fastest[key]["seconds"]:
+                    fastest[key] = r
+        out.append((dict(first, hamel=list(fastest.values())), len(rounds)))
+    return out
+
+
+def timed_rounds(fun, rounds):
+    """`timed` `rounds` times: the last output and the fastest median."""
+    best = math.inf
+    for _ in range(rounds):
+        out, seconds = timed(fun)
+        best = min(best, seconds)
+    return out, best
 
 
 def timed(fun):
