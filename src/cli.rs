@@ -232,8 +232,8 @@ pub enum Command {
         engine: EngineArg,
         /// Time each setting for this many seconds: a shorter run is repeated and the median
         /// taken (0: one run each, a quick table whose times are coarse).
-        #[arg(long, value_name = "SECONDS", default_value_t = 0.05, value_parser = parse_min_time)]
-        min_time: f64,
+        #[arg(long, value_name = "SECONDS", default_value = "0.05", value_parser = parse_timing)]
+        min_time: hamel_run::tradeoff::Timing,
         /// Set a parameter or input (repeatable), on top of the scene's `[parameters]`;
         /// derived parameters are evaluated again from it.
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
@@ -495,6 +495,16 @@ fn parse_min_time(s: &str) -> Result<f64, String> {
         Ok(_) => Err(format!("`{s}` is not between 0 and 600 seconds")),
         Err(_) => Err(format!("`{s}` is not a number of seconds")),
     }
+}
+
+/// `hamel tradeoff --min-time`: seconds per setting ([`hamel_run::tradeoff::Timing::from_secs`]).
+fn parse_timing(s: &str) -> Result<hamel_run::tradeoff::Timing, String> {
+    use hamel_run::tradeoff::Timing;
+    let seconds = s
+        .parse::<f64>()
+        .map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    Timing::from_secs(seconds)
+        .ok_or_else(|| format!("`{s}` is not between 0 and {} seconds", Timing::MAX_SECONDS))
 }
 
 fn parse_set(s: &str) -> Result<(String, f64), String> {

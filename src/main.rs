@@ -138,7 +138,7 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
             plot,
             export_python,
             engine,
-            min_time,
+            min_time: timing,
             set,
         } => {
             let set = set.into_iter().collect();
@@ -147,16 +147,17 @@ fn run(command: Command, no_store: bool) -> Result<(), ModelError> {
                 ..Default::default()
             };
             let mut loaded = hamel_run::load_with_options(&scene, &set, options)?;
-            let timing = hamel_run::tradeoff::Timing {
-                min_time: Duration::from_secs_f64(min_time),
-            };
-            let engine = (engine.into(), timing);
             match export_python {
-                Some(file) => export_tradeoff(&mut loaded, Output::new(Some(file))?, engine),
+                Some(file) => {
+                    let out = Output::new(Some(file))?;
+                    let export =
+                        hamel_run::tradeoff::export_python(&mut loaded, engine.into(), timing)?;
+                    out.write(&json(&export))
+                }
                 None => {
                     let out = Output::new(output)?;
                     hamel_run::plot::check(plot.as_deref())?;
-                    tradeoff(&loaded, format, out, plot.as_deref(), engine)
+                    tradeoff(&loaded, format, out, plot.as_deref(), engine.into(), timing)
                 }
             }
         }
@@ -466,7 +467,8 @@ fn tradeoff(
     format: ReportFormat,
     out: Output,
     plot: Option<&Path>,
-    (engine, timing): (hamel_run::Engine, hamel_run::tradeoff::Timing),
+    engine: hamel_run::Engine,
+    timing: hamel_run::tradeoff::Timing,
 ) -> Result<(), ModelError> {
     use hamel_run::tradeoff::{Range, table_timed};
     let table = table_timed(loaded, Range::All, engine, timing)?;
@@ -478,16 +480,6 @@ fn tradeoff(
         hamel_run::plot::write_tradeoff(p, &table)?;
     }
     Ok(())
-}
-
-fn export_tradeoff(
-    loaded: &mut hamel_run::Loaded,
-    out: Output,
-    (engine, timing): (hamel_run::Engine, hamel_run::tradeoff::Timing),
-) -> Result<(), ModelError> {
-    out.write(&json(&hamel_run::tradeoff::export_python(
-        loaded, engine, timing,
-    )?))
 }
 
 fn codegen(

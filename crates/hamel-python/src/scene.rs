@@ -113,12 +113,10 @@ impl Scene {
     ) -> PyResult<Bound<'py, PyAny>> {
         use hamel_run::tradeoff::{Range, Timing};
         let engine = engine_named(engine)?;
-        if !(0.0..=600.0).contains(&min_time) {
-            let msg = format!("min_time must be seconds from 0 to 600, not {min_time}");
+        let Some(timing) = Timing::from_secs(min_time) else {
+            let max = Timing::MAX_SECONDS;
+            let msg = format!("min_time must be seconds from 0 to {max}, not {min_time}");
             return Err(pyo3::exceptions::PyValueError::new_err(msg));
-        }
-        let timing = Timing {
-            min_time: std::time::Duration::from_secs_f64(min_time),
         };
         let range = match range {
             "all" => Range::All,

@@ -17,8 +17,9 @@
 //! dependencies (nalgebra, serde) compile once; the crates every generated crate vendors
 //! (hamel-runtime, hamel-sim) are kept once too (`vendor/<hash>`, [`vendor`]). The key holds
 //! the hamel version and the size and modification time of the running `hamel` executable (a
-//! rebuilt hamel may generate other code), the model file's text, the choice, the dropped coordinates and the parameter values
-//! (exact f64 bits). Builds are serialised by a lock file; entries appear by rename, whole.
+//! rebuilt hamel may generate other code), the model file's text, the choice, the dropped
+//! coordinates and the parameter values (exact f64 bits). Builds are serialised by a lock
+//! file; entries appear by rename, whole.
 //!
 //! **Builds for this machine** ([`Build`]): with `HAMEL_NATIVE=1` the cores are compiled for
 //! the CPU they run on (`-C target-cpu=native`, its vector units, and multiply–adds fused: what
@@ -27,6 +28,7 @@
 //! multiply–adds round once where a multiplication and an addition round twice, so such a core's
 //! results differ from the portable one's in the last bits; the default stays portable.
 
+use std::borrow::Cow;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -413,12 +415,10 @@ fn write_entry(key: &Key, generated: &Generated, meta: Meta) -> Result<Entry, Ca
         )
     };
     let _ = std::fs::remove_dir_all(&tmp);
-    use std::borrow::Cow;
     let vendored = vendor::Vendored::of(&generated.files);
-    let shared = match vendored.is_empty() {
-        true => None,
-        false => Some(vendored.shared(&root)?),
-    };
+    let shared = (!vendored.is_empty())
+        .then(|| vendored.shared(&root))
+        .transpose()?;
     for (path, text) in &generated.files {
         let (path, text) = match (path.as_str(), &shared) {
             (p, _) if p.starts_with("vendor/") => continue,

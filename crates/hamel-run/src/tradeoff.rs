@@ -110,6 +110,18 @@ impl Timing {
     pub const ONE_RUN: Timing = Timing {
         min_time: Duration::ZERO,
     };
+
+    /// The longest time one setting may be given (ten minutes).
+    pub const MAX_SECONDS: f64 = 600.0;
+
+    /// `seconds` per setting, from 0 to [`Timing::MAX_SECONDS`]; `None` outside (or NaN).
+    pub fn from_secs(seconds: f64) -> Option<Timing> {
+        (0.0..=Timing::MAX_SECONDS)
+            .contains(&seconds)
+            .then(|| Timing {
+                min_time: Duration::from_secs_f64(seconds),
+            })
+    }
 }
 
 /// Run once, and time it. Interpreted: repeated while the total stays under the time asked
